@@ -1,0 +1,1 @@
+"""Cam design library: lift laws, follower geometry, design checks, rocker synthesis."""

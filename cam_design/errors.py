@@ -1,0 +1,52 @@
+"""Errors for bad input: every message names the key, the value and what was expected."""
+from __future__ import annotations
+
+from typing import Any
+
+
+class InputError(ValueError):
+    """Invalid input value.
+
+    Raised by every parser, law constructor and solver entry point of cam-bench when
+    a parameter is out of its domain. The CLI turns it into a one-line error and a
+    non-zero exit code, never a traceback.
+
+    Attributes:
+        key: dotted path of the offending parameter, e.g. ``lobes[0].lift.alpha``.
+        value: the offending value (shortened in the message if long).
+        expected: what would have been valid, in words.
+    """
+
+    def __init__(self, key: str, value: Any, expected: str) -> None:
+        self.key = key
+        self.value = value
+        self.expected = expected
+        super().__init__(f'{key}: got {_short(value)}; expected {expected}')
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + '...'
+
+
+def require_finite(key: str, value: Any) -> float:
+    """Return ``value`` as float, or raise InputError if it is not a finite real number."""
+    import math
+
+    if isinstance(value, bool):
+        raise InputError(key, value, 'a finite real number')
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise InputError(key, value, 'a finite real number') from None
+    if not math.isfinite(out):
+        raise InputError(key, value, 'a finite real number')
+    return out
+
+
+def require_positive(key: str, value: Any, *, allow_zero: bool = False) -> float:
+    """Return ``value`` as float if it is finite and > 0 (>= 0 with ``allow_zero``)."""
+    out = require_finite(key, value)
+    if out < 0 or (out == 0 and not allow_zero):
+        raise InputError(key, value, 'a number >= 0' if allow_zero else 'a number > 0')
+    return out

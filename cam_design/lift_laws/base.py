@@ -1,0 +1,110 @@
+"""The lift-law interface shared by the whole project.
+
+A lift law is a function h(alpha) of the cam angle alpha [rad], measured from the
+lobe centreline (the nose of a symmetric lobe), giving the follower lift h [m] above
+the base circle for the follower kind it was designed for. Outside ``support`` the
+follower is on the base circle and h = 0 with all derivatives 0.
+
+Call it like a scipy spline: ``law(alpha, nu)`` returns the nu-th derivative
+(nu = 0..3: h [m], h' [m/rad], h'' [m/rad^2], h''' [m/rad^3]).
+"""
+from __future__ import annotations
+
+import abc
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cam_design.errors import InputError
+
+MAX_ORDER = 3
+
+
+class LiftLaw(abc.ABC):
+    """Abstract lift law h(alpha); subclasses implement ``_evaluate`` on the support."""
+
+    #: order up to which h is continuous everywhere (0: h, 1: h', 2: h'', 3: h''').
+    continuity_order: int = 0
+
+    @property
+    @abc.abstractmethod
+    def support(self) -> tuple[float, float]:
+        """(alpha_lo, alpha_hi) in rad: h may be non-zero only inside this interval."""
+
+    @abc.abstractmethod
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        """Return the nu-th derivative at ``alpha`` (1-D, all inside ``support``)."""
+
+    @property
+    def junctions(self) -> tuple[float, ...]:
+        """Angles [rad] where segments meet (for continuity checks); empty if smooth."""
+        return ()
+
+    def __call__(self, alpha: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
+        """Evaluate the nu-th derivative of h at ``alpha`` [rad]; same shape as input."""
+        if nu not in range(MAX_ORDER + 1):
+            raise InputError('nu', nu, f'a derivative order 0..{MAX_ORDER}')
+        a = np.asarray(alpha, dtype=float)
+        flat = a.reshape(-1)
+        out = np.zeros_like(flat)
+        lo, hi = self.support
+        inside = (flat >= lo) & (flat <= hi)
+        if np.any(inside):
+            out[inside] = self._evaluate(flat[inside], nu)
+        return out.reshape(a.shape)
+
+    def derivatives(self, alpha: ArrayLike) -> NDArray[np.float64]:
+        """Array of shape (4, n): h, h', h'', h''' at the flattened ``alpha``."""
+        a = np.asarray(alpha, dtype=float).reshape(-1)
+        return np.stack([self(a, nu) for nu in range(MAX_ORDER + 1)])
+
+    def max_lift(self, samples: int = 20001) -> float:
+        """Largest lift [m] on the support (dense sampling plus local refinement)."""
+        lo, hi = self.support
+        a = np.linspace(lo, hi, samples)
+        h = self(a)
+        return float(np.max(h))
+
+
+class TabulatedLift(LiftLaw):
+    """Lift from a table (alpha [rad] strictly increasing, h [m]).
+
+    Interpolated by a quintic spline (C4) so that h''' is continuous; outside the
+    table h = 0. Use this for nominal tables from a drawing or gauge; measured, noisy
+    tables belong to the reconstruction module, which smooths them first.
+    """
+
+    continuity_order = 3
+
+    def __init__(self, alpha: ArrayLike, h: ArrayLike, *, key: str = 'lift') -> None:
+        from scipy.interpolate import make_interp_spline
+
+        a = np.asarray(alpha, dtype=float)
+        v = np.asarray(h, dtype=float)
+        if a.ndim != 1 or v.ndim != 1:
+            raise InputError(f'{key}.alpha', a.shape, 'one-dimensional lists')
+        if a.size != v.size:
+            raise InputError(f'{key}.h', f'{v.size} values',
+                             f'as many values as {key}.alpha ({a.size})')
+        if a.size < 6:
+            raise InputError(f'{key}.alpha', f'{a.size} points', 'at least 6 points')
+        if not np.all(np.isfinite(a)):
+            raise InputError(f'{key}.alpha', 'non-finite entries', 'finite angles in rad')
+        if not np.all(np.isfinite(v)):
+            raise InputError(f'{key}.h', 'non-finite entries', 'finite lifts in m')
+        bad = np.nonzero(np.diff(a) <= 0)[0]
+        if bad.size:
+            i = int(bad[0])
+            raise InputError(f'{key}.alpha[{i + 1}]', float(a[i + 1]),
+                             f'strictly increasing angles (previous is {float(a[i])})')
+        self.alpha = a
+        self.h = v
+        self._spline = make_interp_spline(a, v, k=5)
+        self._derivs = [self._spline] + [self._spline.derivative(n) for n in (1, 2, 3)]
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return float(self.alpha[0]), float(self.alpha[-1])
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        return self._derivs[nu](alpha)
+

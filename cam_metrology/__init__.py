@@ -1,0 +1,1 @@
+"""cam-bench measurement side: scene, features, metrology, reconstruction, ROS adapters."""

@@ -1,0 +1,78 @@
+"""`cam-bench` entry point.
+
+One argparse parser; each subcommand group lives in its own module of this package
+and exposes ``register(subparsers)``, which adds its parsers and sets
+``func=<callable(args) -> int>``. Modules import their heavy dependencies (numpy
+solvers, rclpy) inside the handlers, so ``--help`` stays fast and numeric commands
+never load ROS.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from typing import Sequence
+
+# Order here is the order in `cam-bench --help`.
+COMMAND_MODULES = (
+    'cam_metrology.cli.ros_cmds',      # demo, record, replay, run
+    'cam_metrology.cli.analyze',       # analyze
+    'cam_metrology.cli.reconstruct',   # reconstruct
+    'cam_metrology.cli.dynamics',      # dynamics
+    'cam_metrology.cli.design',        # design law|profile|check|rocker
+    'cam_metrology.cli.scene_cmds',    # scene check, simulate
+)
+
+EPILOG = """\
+Units: SI in files and messages (m, rad, kg, N, s); reports add _deg, _um, _mm, _rpm
+fields. Bad input exits with code 2 and a message naming the key, the value and what
+was expected. See README.md for the topics, the scene file and the report schema."""
+
+
+class CliError(Exception):
+    """A user-facing error with a message (exit code 2)."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full parser with every available subcommand registered."""
+    parser = argparse.ArgumentParser(
+        prog='cam-bench',
+        description='Camshaft metrology, profile reconstruction and valve-train dynamics '
+                    'on ROS 2, with MCAP recording and replay.',
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest='command', metavar='COMMAND')
+    for name in COMMAND_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name != name:
+                raise
+            continue   # a command group that is not written yet is simply absent
+        module.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the process exit code."""
+    from cam_design.errors import InputError
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, 'func', None):
+        parser.print_help()
+        return 0 if args.command is None else 2
+    try:
+        return int(args.func(args) or 0)
+    except (InputError, CliError) as exc:
+        print(f'cam-bench {args.command}: error: {exc}', file=sys.stderr)
+        return 2
+    except FileNotFoundError as exc:
+        print(f'cam-bench {args.command}: error: {exc}', file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f'cam-bench {args.command}: interrupted', file=sys.stderr)
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,28 @@
+"""ament_python packaging of cam-bench (ROS package name: cam_metrology)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'cam_metrology'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*', 'benchmarks', 'benchmarks.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='cam-bench maintainers',
+    maintainer_email='maintainers@cam-bench.invalid',
+    description='Camshaft metrology, profile reconstruction and valve-train dynamics on ROS 2.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'cam-bench = cam_metrology.cli:main',
+        ],
+    },
+)
