@@ -1,0 +1,21 @@
+"""One line describing the machine and its load, for benchmark tables."""
+from __future__ import annotations
+
+import os
+import platform
+
+
+def describe() -> str:
+    """CPU model, core count, Python version and the 1-minute load average."""
+    model = platform.processor() or 'unknown CPU'
+    try:
+        with open('/proc/cpuinfo', encoding='utf-8') as f:
+            for line in f:
+                if line.startswith('model name'):
+                    model = line.split(':', 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    load = os.getloadavg()[0] if hasattr(os, 'getloadavg') else float('nan')
+    return (f'{model}, {os.cpu_count()} cores, Python {platform.python_version()}, '
+            f'load average {load:.2f} at start')
