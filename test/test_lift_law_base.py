@@ -1,0 +1,67 @@
+"""The shared LiftLaw interface and TabulatedLift (cam_design/lift_laws/base.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.lift_laws import TabulatedLift
+
+
+def cosine_bump(a: np.ndarray, nu: int = 0, width: float = 1.0, lift: float = 8e-3) -> np.ndarray:
+    """h = lift cos^4(pi a / (2 width)) and its derivatives (closed form), zero outside."""
+    w = np.pi / (2 * width)
+    c, s = np.cos(w * a), np.sin(w * a)
+    forms = [c**4, -4 * w * c**3 * s, w**2 * (12 * c**2 * s**2 - 4 * c**4),
+             w**3 * (-24 * c * s**3 + 40 * c**3 * s)]
+    return np.where(np.abs(a) <= width, lift * forms[nu], 0.0)
+
+
+def test_tabulated_reproduces_smooth_law_and_derivatives() -> None:
+    a = np.linspace(-1.0, 1.0, 721)
+    law = TabulatedLift(a, cosine_bump(a))
+    x = np.linspace(-0.95, 0.95, 333)
+    for nu, tol in [(0, 1e-12), (1, 1e-9), (2, 1e-6), (3, 1e-3)]:
+        err = np.max(np.abs(law(x, nu) - cosine_bump(x, nu)))
+        assert err < tol * np.max(np.abs(cosine_bump(x, nu))), (nu, err)
+
+
+def test_outside_support_is_base_circle_and_shape_kept() -> None:
+    a = np.linspace(-1.0, 1.0, 101)
+    law = TabulatedLift(a, cosine_bump(a))
+    assert law.support == (-1.0, 1.0)
+    assert law(np.array([-2.0, 1.5])).tolist() == [0.0, 0.0]
+    grid = np.zeros((3, 4))
+    assert law(grid).shape == (3, 4)
+    assert law.derivatives([0.0, 0.1]).shape == (4, 2)
+    assert law(0.0) == pytest.approx(8e-3, abs=1e-12)
+
+
+@pytest.mark.parametrize('alpha, h, match', [
+    ([0, 1, 1, 2, 3, 4], [0] * 6, r'lift.alpha\[2\].*strictly increasing'),
+    ([0, 1, 2, 3, 4, 5], [0] * 5, r'lift.h.*as many values'),
+    ([0, 1, 2], [0] * 3, 'at least 6'),
+    ([0, 1, 2, 3, 4, float('nan')], [0] * 6, 'lift.alpha.*finite'),
+    ([0, 1, 2, 3, 4, 5], [0, 0, float('inf'), 0, 0, 0], 'lift.h.*finite'),
+    ([5, 4, 3, 2, 1, 0], [0] * 6, 'strictly increasing'),
+])
+def test_bad_tables_are_rejected_with_key(alpha: list, h: list, match: str) -> None:
+    with pytest.raises(InputError, match=match):
+        TabulatedLift(alpha, h)
+
+
+def test_derivative_order_is_checked() -> None:
+    law = TabulatedLift(np.linspace(-1, 1, 11), np.zeros(11))
+    with pytest.raises(InputError, match='nu'):
+        law(0.0, 4)
+
+
+def test_require_helpers() -> None:
+    assert require_finite('k', '2.5') == 2.5
+    with pytest.raises(InputError, match='k: got True'):
+        require_finite('k', True)
+    with pytest.raises(InputError, match='> 0'):
+        require_positive('r', 0.0)
+    assert require_positive('r', 0.0, allow_zero=True) == 0.0
+    err = InputError('a.b', 'x' * 200, 'short')
+    assert len(str(err)) < 120 and err.key == 'a.b'
