@@ -1,0 +1,654 @@
+"""rosbag2 (MCAP) bags with rosbags: writing pre-serialized CDR, encoding, reading.
+
+No rclpy here (architecture.md): messages are encoded with the rosbags ROS2_JAZZY
+typestore (or, for ``sensor_msgs/JointState``, with an equivalent ``struct`` encoder
+checked byte for byte against it in the tests), and bags are written with
+``rosbags.rosbag2.Writer(version=9, storage_plugin=MCAP)`` so that they open with
+rosbags, with ``mcap`` + ``mcap_ros2`` and with ``ros2 bag`` (platform.md §4).
+
+Writing: ``BagWriter`` takes CDR bytes as received (the recorder path: nothing is
+re-encoded) and writes the rosbag2 QoS metadata of each topic (``/bench/scene``,
+``/bench/truth`` and ``/metrology/report`` as transient local, depth 1, so that a
+replay latches them). Reading: ``iter_messages`` decodes every message with
+rosbags' ``AnyReader`` in log-time order; ``read_joint_states`` is the fast path
+for ``/bench/joint_states``: it decodes the JointState CDR of the whole topic with
+numpy (no per-message objects), looking the joints up by name.
+
+Units: stamps in ns (int), angles rad, lifts m.
+"""
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable, Iterator, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam_design.errors import InputError
+from cam_metrology.outputs import (Output, StatusOutput, TableOutput, TextOutput,
+                                   msgtype_of)
+
+__all__ = [
+    'JOINT_STATES', 'CAMSHAFT_JOINT', 'PROBE_JOINT', 'TOPIC_TYPES', 'BagWriter',
+    'BagMessage', 'JointSamples', 'typestore', 'qos_yaml', 'default_qos_yaml',
+    'encode_joint_state', 'encode_string', 'encode_output', 'encode_table',
+    'encode_statuses', 'decode', 'table_from_msg', 'statuses_from_msg',
+    'iter_messages', 'read_joint_states', 'bag_topics', 'copy_bag',
+]
+
+JOINT_STATES = '/bench/joint_states'
+CAMSHAFT_JOINT = 'camshaft'
+PROBE_JOINT = 'probe'
+
+#: ROS type of every topic of architecture.md (outputs are recorded too).
+TOPIC_TYPES: dict[str, str] = {
+    '/bench/scene': 'std_msgs/msg/String',
+    '/bench/joint_states': 'sensor_msgs/msg/JointState',
+    '/bench/feature_done': 'std_msgs/msg/String',
+    '/bench/truth': 'std_msgs/msg/String',
+    '/metrology/result': 'diagnostic_msgs/msg/DiagnosticArray',
+    '/metrology/lift': 'std_msgs/msg/Float64MultiArray',
+    '/metrology/report': 'std_msgs/msg/String',
+    '/reconstruction/profile': 'std_msgs/msg/Float64MultiArray',
+    '/reconstruction/result': 'diagnostic_msgs/msg/DiagnosticArray',
+    '/dynamics/valve_motion': 'std_msgs/msg/Float64MultiArray',
+    '/dynamics/result': 'diagnostic_msgs/msg/DiagnosticArray',
+}
+
+#: topics published latched (reliable, transient local, depth 1) by architecture.md.
+LATCHED_TOPICS = frozenset({'/bench/scene', '/bench/truth', '/metrology/report'})
+#: depth of the keep-last history of the other topics (architecture.md table).
+TOPIC_DEPTH = {'/bench/joint_states': 1000, '/bench/feature_done': 10}
+
+_TYPESTORE: Any = None
+
+
+def typestore() -> Any:
+    """The rosbags ROS2_JAZZY typestore (created once)."""
+    global _TYPESTORE
+    if _TYPESTORE is None:
+        from rosbags.typesys import Stores, get_typestore
+
+        _TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+    return _TYPESTORE
+
+
+# ---------------------------------------------------------------------------- QoS
+
+def qos_yaml(*, transient_local: bool = False, depth: int = 10,
+             reliable: bool = True) -> str:
+    """rosbag2 v9 ``offered_qos_profiles`` YAML for one publisher with this QoS.
+
+    This is the text ``ros2 bag record`` stores per topic; ``ros2 bag play`` reads it
+    to offer the same durability (transient local topics are latched on replay).
+    """
+    from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness,
+                                    QosReliability, QosTime)
+
+    return _dump_qos([Qos(
+        history=QosHistory.KEEP_LAST, depth=int(depth),
+        reliability=QosReliability.RELIABLE if reliable else QosReliability.BEST_EFFORT,
+        durability=(QosDurability.TRANSIENT_LOCAL if transient_local
+                    else QosDurability.VOLATILE),
+        deadline=QosTime(0, 0), lifespan=QosTime(0, 0),
+        liveliness=QosLiveliness.AUTOMATIC, liveliness_lease_duration=QosTime(0, 0),
+        avoid_ros_namespace_conventions=False)])
+
+
+def default_qos_yaml(topic: str) -> str:
+    """The QoS YAML of ``topic`` per architecture.md (reliable; latched topics depth 1)."""
+    if topic in LATCHED_TOPICS:
+        return qos_yaml(transient_local=True, depth=1)
+    return qos_yaml(depth=TOPIC_DEPTH.get(topic, 100))
+
+
+def _dump_qos(profiles: list[Any]) -> str:
+    from io import StringIO
+
+    from rosbags.rosbag2.metadata import dump_qos_v9
+    from ruamel.yaml import YAML
+
+    stream = StringIO()
+    yaml = YAML(typ='safe')
+    yaml.default_flow_style = False
+    yaml.dump(dump_qos_v9(profiles), stream)
+    return stream.getvalue().strip()
+
+
+def _parse_qos(text: str) -> list[Any]:
+    from rosbags.rosbag2.metadata import parse_qos
+
+    try:
+        return list(parse_qos(text))
+    except Exception as exc:   # rosbags raises several types for malformed YAML
+        raise InputError('qos_yaml', text, f'rosbag2 offered_qos_profiles YAML ({exc})') \
+            from None
+
+
+# ------------------------------------------------------------------------- writer
+
+class BagWriter:
+    """A new rosbag2 directory (MCAP storage, format version 9) written from CDR bytes.
+
+    ``BagWriter(path, compression=False)``; ``compression=True`` turns on zstd chunk
+    compression (readable by rosbags, mcap and ros2 bag). Use it as a context manager
+    or call ``close()``: ``metadata.yaml`` is written on close only (platform.md §4).
+    An existing ``path`` is never overwritten (InputError).
+    """
+
+    def __init__(self, path: str | Path, compression: bool = False) -> None:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        self.path = Path(path)
+        if self.path.exists():
+            raise InputError('bag', str(self.path),
+                             'a path that does not exist yet (bags are never overwritten)')
+        self._writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
+        if compression:
+            from rosbags.rosbag2 import CompressionFormat, CompressionMode
+
+            self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        self._writer.open()
+        self._connections: dict[str, Any] = {}
+        self.counts: dict[str, int] = {}
+        self.closed = False
+
+    def add_topic(self, topic: str, msgtype: str, qos_yaml: str | None = None) -> None:
+        """Register ``topic`` of ROS type ``msgtype`` ('pkg/msg/Type').
+
+        ``qos_yaml``: rosbag2 ``offered_qos_profiles`` text; default from
+        ``default_qos_yaml(topic)``. Adding the same topic twice with the same type is a
+        no-op; with another type it is an InputError.
+        """
+        if topic in self._connections:
+            if self._connections[topic].msgtype != msgtype:
+                raise InputError(f'topic {topic}', msgtype,
+                                 f'its registered type {self._connections[topic].msgtype}')
+            return
+        store = typestore()
+        if msgtype not in store.types:
+            raise InputError(f'topic {topic}', msgtype, 'a ROS 2 Jazzy message type')
+        profiles = _parse_qos(qos_yaml if qos_yaml is not None else default_qos_yaml(topic))
+        self._connections[topic] = self._writer.add_connection(
+            topic, msgtype, typestore=store, offered_qos_profiles=profiles)
+        self.counts[topic] = 0
+
+    def has_topic(self, topic: str) -> bool:
+        """True if ``topic`` is registered."""
+        return topic in self._connections
+
+    def write(self, topic: str, stamp_ns: int, cdr: bytes | memoryview) -> None:
+        """Append CDR bytes (as received, not re-encoded) with log time ``stamp_ns``.
+
+        The topic must have been added (``add_topic``), unless it is one of the
+        project's topics (TOPIC_TYPES), which is added on first use.
+        """
+        conn = self._connections.get(topic)
+        if conn is None:
+            if topic not in TOPIC_TYPES:
+                raise InputError('topic', topic, 'a topic registered with add_topic')
+            self.add_topic(topic, TOPIC_TYPES[topic])
+            conn = self._connections[topic]
+        self._writer.write(conn, int(stamp_ns), cdr)
+        self.counts[topic] += 1
+
+    def write_output(self, output: Output, stamp_ns: int) -> None:
+        """Encode a neutral output (outputs.py) and append it on its topic."""
+        if output.topic not in self._connections:
+            self.add_topic(output.topic, msgtype_of(output))
+        self.write(output.topic, stamp_ns, encode_output(output, stamp_ns))
+
+    def close(self) -> None:
+        """Finish the MCAP file and write metadata.yaml (idempotent)."""
+        if not self.closed:
+            self.closed = True
+            self._writer.close()
+
+    def __enter__(self) -> BagWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+# ------------------------------------------------------------------------ encoders
+
+_U32 = struct.Struct('<I')
+
+
+def _cdr_string(out: bytearray, text: str) -> None:
+    """Append a CDR string (4-aligned length incl. NUL, bytes, NUL) to ``out``."""
+    pad = (-(len(out) - 4)) % 4
+    if pad:
+        out += b'\0' * pad
+    raw = text.encode('utf-8')
+    out += _U32.pack(len(raw) + 1)
+    out += raw
+    out += b'\0'
+
+
+def encode_joint_state(frame_id: str, stamp_ns: int, theta: float, s: float,
+                       names: Sequence[str] = (CAMSHAFT_JOINT, PROBE_JOINT)) -> bytes:
+    """CDR of a ``sensor_msgs/JointState`` sample: theta [rad], s [m] at ``stamp_ns``.
+
+    ``name`` = ``names`` (camshaft, probe), ``position`` = (theta, s), no velocity or
+    effort. Byte-identical to the rosbags typestore's ``serialize_cdr``.
+    """
+    return encode_joint_state_positions(frame_id, stamp_ns, names, (theta, s))
+
+
+def encode_joint_state_positions(frame_id: str, stamp_ns: int, names: Sequence[str],
+                                 positions: Sequence[float]) -> bytes:
+    """CDR of a JointState with arbitrary ``names`` and ``positions`` (same length or not:
+    used to build irregular test bags)."""
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    out = bytearray(b'\x00\x01\x00\x00')
+    out += struct.pack('<iI', sec, nanosec)
+    _cdr_string(out, frame_id)
+    out += b'\0' * ((-(len(out) - 4)) % 4)
+    out += _U32.pack(len(names))
+    for name in names:
+        _cdr_string(out, name)
+    out += b'\0' * ((-(len(out) - 4)) % 4)
+    out += _U32.pack(len(positions))
+    if len(positions):
+        out += b'\0' * ((-(len(out) - 4)) % 8)
+        out += struct.pack(f'<{len(positions)}d', *positions)
+    out += b'\0\0\0\0\0\0\0\0'   # empty velocity and effort sequences
+    return bytes(out)
+
+
+def encode_string(text: str) -> bytes:
+    """CDR of a ``std_msgs/String``."""
+    out = bytearray(b'\x00\x01\x00\x00')
+    _cdr_string(out, text)
+    return bytes(out)
+
+
+def encode_table(label: str, columns: Sequence[str], data: Any) -> bytes:
+    """CDR of a ``std_msgs/Float64MultiArray`` in the layout of architecture.md.
+
+    ``dim[0] = (label, rows, rows*cols)``, ``dim[1] = (','.join(columns), cols, cols)``,
+    ``data`` row-major float64 of shape (rows, len(columns)).
+    """
+    store = typestore()
+    arr = np.ascontiguousarray(data, dtype=np.float64)
+    cols = len(columns)
+    if arr.ndim != 2 or arr.shape[1] != cols:
+        raise InputError(f'table {label}.data', arr.shape, f'shape (rows, {cols})')
+    rows = arr.shape[0]
+    dim_t = store.types['std_msgs/msg/MultiArrayDimension']
+    layout = store.types['std_msgs/msg/MultiArrayLayout'](
+        dim=[dim_t(label=label, size=rows, stride=rows * cols),
+             dim_t(label=','.join(columns), size=cols, stride=cols)],
+        data_offset=0)
+    msg = store.types['std_msgs/msg/Float64MultiArray'](layout=layout, data=arr.reshape(-1))
+    return bytes(store.serialize_cdr(msg, 'std_msgs/msg/Float64MultiArray'))
+
+
+def encode_statuses(statuses: Iterable[Any], stamp_ns: int = 0) -> bytes:
+    """CDR of a ``diagnostic_msgs/DiagnosticArray`` of ``outputs.Status`` objects."""
+    store = typestore()
+    status_t = store.types['diagnostic_msgs/msg/DiagnosticStatus']
+    kv_t = store.types['diagnostic_msgs/msg/KeyValue']
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    header = store.types['std_msgs/msg/Header'](
+        stamp=store.types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
+        frame_id='')
+    msg = store.types['diagnostic_msgs/msg/DiagnosticArray'](header=header, status=[
+        status_t(level=int(st.level), name=st.name, message=st.message,
+                 hardware_id=st.hardware_id,
+                 values=[kv_t(key=str(k), value=str(v)) for k, v in st.values.items()])
+        for st in statuses])
+    return bytes(store.serialize_cdr(msg, 'diagnostic_msgs/msg/DiagnosticArray'))
+
+
+def encode_output(output: Output, stamp_ns: int | None = None) -> bytes:
+    """CDR of a neutral output (TableOutput, StatusOutput, TextOutput).
+
+    A StatusOutput's header stamp is its ``stamp_ns`` unless ``stamp_ns`` is given.
+    """
+    if isinstance(output, TableOutput):
+        return encode_table(output.label, output.columns, output.data)
+    if isinstance(output, StatusOutput):
+        stamp = output.stamp_ns if stamp_ns is None or output.stamp_ns else stamp_ns
+        return encode_statuses(output.statuses, stamp)
+    if isinstance(output, TextOutput):
+        return encode_string(output.text)
+    raise InputError('output', type(output).__name__,
+                     'TableOutput, StatusOutput or TextOutput')
+
+
+def decode(cdr: bytes | memoryview, msgtype: str) -> Any:
+    """Decode CDR bytes of ROS type ``msgtype`` into a rosbags message object."""
+    return typestore().deserialize_cdr(cdr, msgtype)
+
+
+def table_from_msg(msg: Any) -> tuple[str, tuple[str, ...], NDArray[np.float64]]:
+    """(label, columns, data (rows, cols)) of a Float64MultiArray in our layout."""
+    dims = msg.layout.dim
+    if len(dims) != 2:
+        raise InputError('layout.dim', len(dims), '2 dimensions (rows, columns)')
+    columns = tuple(dims[1].label.split(',')) if dims[1].label else ()
+    data = np.asarray(msg.data, dtype=np.float64)[msg.layout.data_offset:]
+    return dims[0].label, columns, data[: dims[0].size * dims[1].size].reshape(
+        dims[0].size, dims[1].size)
+
+
+def statuses_from_msg(msg: Any) -> list[dict[str, Any]]:
+    """The statuses of a DiagnosticArray as dicts (name, level, message, values)."""
+    return [{'name': st.name, 'level': int(st.level), 'message': st.message,
+             'hardware_id': st.hardware_id,
+             'values': {kv.key: kv.value for kv in st.values}} for st in msg.status]
+
+
+# ------------------------------------------------------------------------- readers
+
+@dataclass(frozen=True)
+class BagMessage:
+    """One decoded message: topic, ROS type, log time [ns], rosbags message object."""
+
+    topic: str
+    msgtype: str
+    stamp_ns: int
+    msg: Any
+
+    def __iter__(self) -> Iterator[Any]:   # unpacks as (topic, msgtype, stamp_ns, msg)
+        return iter((self.topic, self.msgtype, self.stamp_ns, self.msg))
+
+
+def _open_reader(path: str | Path) -> Any:
+    from rosbags.highlevel import AnyReader
+
+    bag = Path(path)
+    if not bag.exists():
+        raise InputError('bag', str(bag), 'an existing rosbag2 directory')
+    if bag.is_dir() and not (bag / 'metadata.yaml').exists():
+        raise InputError('bag', str(bag),
+                         'a closed rosbag2 directory with metadata.yaml (the recorder '
+                         'writes it on close; an interrupted recording has none)')
+    reader = AnyReader([bag], default_typestore=typestore())
+    try:
+        reader.open()
+    except Exception as exc:   # rosbags raises its own error types
+        raise InputError('bag', str(bag), f'a readable rosbag2 bag ({exc})') from None
+    return reader
+
+
+def bag_topics(path: str | Path) -> dict[str, tuple[str, int]]:
+    """topic -> (ROS type, message count) of a bag."""
+    reader = _open_reader(path)
+    try:
+        out: dict[str, tuple[str, int]] = {}
+        for conn in reader.connections:
+            _, count = out.get(conn.topic, (conn.msgtype, 0))
+            out[conn.topic] = (conn.msgtype, count + conn.msgcount)
+        return out
+    finally:
+        reader.close()
+
+
+def iter_messages(path: str | Path, topics: Iterable[str] | None = None,
+                  *, raw: bool = False) -> Iterator[BagMessage]:
+    """Yield ``BagMessage(topic, msgtype, stamp_ns, msg)`` in log-time order.
+
+    ``topics``: only these (None: all). ``stamp_ns`` is the bag's log time [ns].
+    ``raw=True`` yields the CDR bytes instead of decoded objects (for copying).
+    Topics whose type is unknown to ROS 2 Jazzy are decoded from the bag's own
+    message definitions (AnyReader registers them).
+    """
+    reader = _open_reader(path)
+    try:
+        wanted = None if topics is None else set(topics)
+        conns = [c for c in reader.connections if wanted is None or c.topic in wanted]
+        if not conns:
+            return
+        for conn, stamp, data in reader.messages(connections=conns):
+            msg = data if raw else reader.deserialize(data, conn.msgtype)
+            yield BagMessage(conn.topic, conn.msgtype, int(stamp), msg)
+    finally:
+        reader.close()
+
+
+@dataclass
+class JointSamples:
+    """The samples of a JointState topic as arrays (one entry per message).
+
+    ``frame_id`` (str array), ``stamp_ns`` header stamps [ns] (int64), ``log_ns`` bag
+    log times [ns], ``theta`` [rad] and ``s`` [m] found by joint name (NaN where a
+    message lacks the joint or its position); ``names``: the distinct joint-name lists
+    seen, in order of first appearance; ``features``: the distinct frame ids in order of
+    first appearance.
+    """
+
+    frame_id: NDArray[np.str_]
+    stamp_ns: NDArray[np.int64]
+    log_ns: NDArray[np.int64]
+    theta: NDArray[np.float64]
+    s: NDArray[np.float64]
+    names: tuple[tuple[str, ...], ...] = ()
+    features: tuple[str, ...] = field(default=())
+
+    def __len__(self) -> int:
+        return int(self.theta.size)
+
+
+def read_joint_states(path: str | Path, topic: str = JOINT_STATES) -> JointSamples:
+    """Fast decode of every ``sensor_msgs/JointState`` on ``topic`` (numpy, no objects).
+
+    Messages are taken in log-time order. Joints are looked up by name ('camshaft',
+    'probe') per message, so other joint orders and extra joints are fine. CDR in
+    either byte order is accepted. About 10x faster than ``AnyReader.deserialize``.
+    """
+    reader = _open_reader(path)
+    try:
+        conns = [c for c in reader.connections if c.topic == topic]
+        for conn in conns:
+            if conn.msgtype != 'sensor_msgs/msg/JointState':
+                raise InputError(f'topic {topic}', conn.msgtype, 'sensor_msgs/msg/JointState')
+        chunks: list[bytes] = []
+        logs: list[int] = []
+        if conns:
+            for _, stamp, data in reader.messages(connections=conns):
+                chunks.append(data)
+                logs.append(stamp)
+    finally:
+        reader.close()
+    return decode_joint_states(chunks, np.asarray(logs, dtype=np.int64))
+
+
+def decode_joint_states(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | None = None,
+                        ) -> JointSamples:
+    """Vectorised CDR decode of JointState messages (see ``read_joint_states``)."""
+    n = len(chunks)
+    if log_ns is None:
+        log_ns = np.zeros(n, dtype=np.int64)
+    if n == 0:
+        empty = np.zeros(0)
+        return JointSamples(np.zeros(0, dtype='<U1'), np.zeros(0, dtype=np.int64),
+                            log_ns, empty, empty.copy())
+    lengths = np.fromiter((len(c) for c in chunks), dtype=np.int64, count=n)
+    start = np.zeros(n, dtype=np.int64)
+    np.cumsum(lengths[:-1], out=start[1:])
+    buf = np.frombuffer(b''.join(chunks) + b'\0' * 16, dtype=np.uint8)
+    big = buf[start + 1] == 0   # encapsulation CDR_BE = 00 00, CDR_LE = 00 01
+    base = start + 4            # CDR alignment is relative to the payload start
+    end = start + lengths
+
+    def u32(off: NDArray[np.int64]) -> NDArray[np.int64]:
+        b = buf[off[:, None] + np.arange(4)].astype(np.int64)
+        le = b[:, 0] | (b[:, 1] << 8) | (b[:, 2] << 16) | (b[:, 3] << 24)
+        be = b[:, 3] | (b[:, 2] << 8) | (b[:, 1] << 16) | (b[:, 0] << 24)
+        return np.where(big, be, le) if np.any(big) else le
+
+    def f64(off: NDArray[np.int64], swap: NDArray[np.bool_]) -> NDArray[np.float64]:
+        b = buf[off[:, None] + np.arange(8)]
+        if np.any(swap):
+            b = np.where(swap[:, None], b[:, ::-1], b)
+        return np.ascontiguousarray(b).view('<f8').reshape(-1)
+
+    def align(off: NDArray[np.int64], k: int) -> NDArray[np.int64]:
+        return off + (-(off - base)) % k
+
+    def check(off: NDArray[np.int64]) -> None:
+        if np.any(off > end):
+            bad = int(np.argmax(off > end))
+            raise InputError(f'{JOINT_STATES}[{bad}]', f'{int(lengths[bad])} bytes',
+                             'a complete sensor_msgs/JointState CDR message')
+
+    sec = u32(base).astype(np.int64)
+    sec = np.where(sec >= 2**31, sec - 2**32, sec)
+    nsec = u32(base + 4)
+    stamp = sec * 1_000_000_000 + nsec
+    flen = u32(base + 8)
+    check(base + 12 + flen)
+    frame_ids, features = _strings(buf, base + 12, flen)
+    off = align(base + 12 + flen, 4)
+    check(off + 4)
+    count = u32(off)
+    off = off + 4
+    cam_idx = np.full(n, -1, dtype=np.int64)
+    probe_idx = np.full(n, -1, dtype=np.int64)
+    name_codes: list[NDArray[np.int64]] = []
+    name_texts: list[NDArray[np.str_]] = []
+    max_count = int(count.max()) if n else 0
+    if max_count > 64:
+        bad = int(np.argmax(count))
+        raise InputError(f'{JOINT_STATES}[{bad}].name', f'{max_count} names',
+                         'a JointState message (at most 64 joints)')
+    for j in range(max_count):
+        has = count > j
+        off = np.where(has, align(off, 4), off)
+        check(np.where(has, off + 4, 0))
+        nlen = np.where(has, u32(np.where(has, off, 0)), 0)
+        check(np.where(has, off + 4 + nlen, 0))
+        for target, idx in ((CAMSHAFT_JOINT, cam_idx), (PROBE_JOINT, probe_idx)):
+            raw = target.encode() + b'\0'
+            hit = has & (nlen == len(raw)) & (idx < 0)
+            if np.any(hit):
+                got = buf[off[hit, None] + 4 + np.arange(len(raw))]
+                eq = np.all(got == np.frombuffer(raw, dtype=np.uint8), axis=1)
+                rows = np.nonzero(hit)[0][eq]
+                idx[rows] = j
+        texts, codes = _string_codes(buf, off + 4, np.where(has, nlen, 0))
+        name_codes.append(np.where(has, codes, -1))
+        name_texts.append(texts)
+        off = np.where(has, off + 4 + nlen, off)
+    off = align(off, 4)
+    check(off + 4)
+    pcount = u32(off)
+    pos0 = np.where(pcount > 0, align(off + 4, 8), off + 4)
+    check(pos0 + 8 * pcount)
+
+    def pick(idx: NDArray[np.int64]) -> NDArray[np.float64]:
+        ok = (idx >= 0) & (idx < pcount)
+        out = np.full(n, np.nan)
+        if np.any(ok):
+            out[ok] = f64(pos0[ok] + 8 * idx[ok], big[ok])
+        return out
+
+    names = _distinct_name_lists(name_codes, name_texts, n)
+    return JointSamples(frame_id=frame_ids, stamp_ns=stamp.astype(np.int64),
+                        log_ns=np.asarray(log_ns, dtype=np.int64),
+                        theta=pick(cam_idx), s=pick(probe_idx), names=names,
+                        features=features)
+
+
+def _string_codes(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[np.int64],
+                  ) -> tuple[NDArray[np.str_], NDArray[np.int64]]:
+    """Per-message CDR strings at ``off`` (byte count ``nlen`` incl. the NUL) as
+    (distinct texts, code per message into them). Vectorised: the bytes are gathered
+    into a (n, maxlen) matrix and made unique as fixed-width byte strings."""
+    width = max(int(nlen.max()) - 1, 1) if off.size else 1
+    cols = np.arange(width)
+    mat = buf[off[:, None] + cols]
+    mat = np.where(cols[None, :] < (nlen[:, None] - 1), mat, 0).astype(np.uint8)
+    keys = np.ascontiguousarray(mat).view(f'S{width}').reshape(-1)
+    uniq, inverse = np.unique(keys, return_inverse=True)
+    texts = np.array([u.decode('utf-8', errors='replace') for u in uniq] or [''])
+    return texts, inverse.reshape(-1).astype(np.int64)
+
+
+def _strings(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[np.int64],
+             ) -> tuple[NDArray[np.str_], tuple[str, ...]]:
+    """Per-message strings as a numpy str array, and the distinct ones in order of
+    first appearance."""
+    texts, codes = _string_codes(buf, off, nlen)
+    first = np.unique(codes, return_index=True)[1]
+    order = tuple(str(texts[codes[i]]) for i in np.sort(first))
+    return texts[codes], order
+
+
+def _distinct_name_lists(codes: list[NDArray[np.int64]], texts: list[NDArray[np.str_]],
+                         n: int) -> tuple[tuple[str, ...], ...]:
+    """The distinct joint-name lists (in order of first appearance) from per-position
+    name codes (-1: the message has fewer names)."""
+    if not codes:
+        return ((),) if n else ()
+    mat = np.stack(codes, axis=1)
+    _, first = np.unique(mat, axis=0, return_index=True)
+    return tuple(tuple(str(texts[j][c]) for j, c in enumerate(mat[i]) if c >= 0)
+                 for i in np.sort(first))
+
+
+# -------------------------------------------------------------------------- copying
+
+def copy_bag(src: str | Path, dst: BagWriter, topics: Iterable[str] | None = None) -> int:
+    """Copy every message of ``src`` (optionally only ``topics``) into an open writer,
+    bytes unchanged, keeping types and QoS; returns the number of messages copied."""
+    reader = _open_reader(src)
+    copied = 0
+    try:
+        wanted = None if topics is None else set(topics)
+        conns = [c for c in reader.connections if wanted is None or c.topic in wanted]
+        for conn in conns:
+            profiles = getattr(conn.ext, 'offered_qos_profiles', None)
+            qos = _dump_qos(list(profiles)) if profiles else None
+            dst.add_topic(conn.topic, conn.msgtype, qos)
+        if conns:
+            for conn, stamp, data in reader.messages(connections=conns):
+                dst.write(conn.topic, stamp, data)
+                copied += 1
+    finally:
+        reader.close()
+    return copied
+
+
+def light_joint_states(samples: JointSamples) -> Iterator[Any]:
+    """JointState-like objects (header.frame_id, header.stamp.sec/nanosec, name,
+    position) for the samples, for cores without a bulk ``handle_samples`` path."""
+    for fid, stamp, theta, s in zip(samples.frame_id.tolist(), samples.stamp_ns.tolist(),
+                                    samples.theta.tolist(), samples.s.tolist()):
+        yield LightJointState(fid, stamp, theta, s)
+
+
+class _Stamp:
+    __slots__ = ('sec', 'nanosec')
+
+    def __init__(self, stamp_ns: int) -> None:
+        self.sec, self.nanosec = divmod(stamp_ns, 1_000_000_000)
+
+
+class _Header:
+    __slots__ = ('frame_id', 'stamp')
+
+    def __init__(self, frame_id: str, stamp_ns: int) -> None:
+        self.frame_id = frame_id
+        self.stamp = _Stamp(stamp_ns)
+
+
+class LightJointState:
+    """A minimal JointState look-alike: ``header.frame_id``, ``header.stamp.sec``/
+    ``nanosec``, ``name`` = (camshaft, probe), ``position`` = (theta, s), empty
+    ``velocity``/``effort``."""
+
+    __slots__ = ('header', 'position')
+    name = (CAMSHAFT_JOINT, PROBE_JOINT)
+    velocity = ()
+    effort = ()
+
+    def __init__(self, frame_id: str, stamp_ns: int, theta: float, s: float) -> None:
+        self.header = _Header(frame_id, stamp_ns)
+        self.position = (theta, s)
