@@ -1,0 +1,245 @@
+"""The bench simulator node: a camshaft measurement played live on ROS 2.
+
+From a scene file it runs ``simulate.simulate(scene, SimParams(...))`` and publishes:
+1. ``/bench/scene`` (the scene YAML) and ``/bench/truth`` (JSON of the run's truth),
+   both transient local depth 1;
+2. waits (deadline ``match_timeout``) until ``wait_subscribers`` subscriptions have
+   matched on /bench/joint_states and /bench/scene and have acknowledged the scene;
+3. ``/bench/joint_states``, one sample per message (name = camshaft, probe; position =
+   theta [rad], s [m]; header.stamp = the simulated acquisition time; header.frame_id
+   = feature id), paced at ``rate`` messages/s by a paced loop (it catches up in
+   small bursts when the OS sleeps late, never more than ``max_burst`` at once);
+   ``/bench/feature_done`` (feature id) after the last sample of each feature;
+4. waits until every subscriber acknowledged everything, then exits (or idles until
+   SIGINT if ``exit_when_done`` is false, keeping the latched scene available).
+
+ROS parameters: every field of ``simulate.SimParams`` plus those of ``PARAMETERS``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+from typing import Any, Iterator, Sequence
+
+import numpy as np
+from rclpy.duration import Duration
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+
+from cam_metrology.nodes.adapter import declare_parameters
+from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, SCENE, TOPICS, TRUTH)
+
+PARAMETERS: dict[str, tuple[Any, str]] = {
+    'scene_file': ('', 'scene YAML to simulate; empty: the embedded default scene'),
+    'rate': (2000.0, 'samples (messages) per second on /bench/joint_states; 0: unpaced '
+                     '(overruns Python subscribers: for benchmarks only)'),
+    'wait_subscribers': (1, 'subscriptions that must match /bench/joint_states and '
+                            '/bench/scene before the first sample'),
+    'match_timeout': (10.0, 's to wait for those subscriptions (then exit 4)'),
+    'ack_timeout': (10.0, 's to wait at the end until subscribers acknowledged everything'),
+    'max_burst': (200, 'most samples published back to back when catching up'),
+    'exit_when_done': (True, 'exit after the last feature; false: idle until SIGINT'),
+}
+RATE_FIELD = 'rate'
+
+
+def sim_param_table() -> dict[str, tuple[Any, str]]:
+    """{name: (default, description)} of the fields of ``simulate.SimParams``."""
+    from cam_metrology.simulate import SimParams
+
+    table: dict[str, tuple[Any, str]] = {}
+    for f in dataclasses.fields(SimParams):
+        if f.default is not dataclasses.MISSING:
+            default = f.default
+        elif f.default_factory is not dataclasses.MISSING:  # type: ignore[misc]
+            default = f.default_factory()  # type: ignore[misc]
+        else:
+            continue
+        if isinstance(default, np.generic):
+            default = default.item()
+        if default is None:
+            continue   # 'not set' fields keep the dataclass default (ROS has no None)
+        table[f.name] = (default, str(f.metadata.get('doc', f.metadata.get('help', ''))))
+    return table
+
+
+def make_sim_params(values: dict[str, Any]) -> Any:
+    """SimParams from ROS parameter values (lists back to tuples where needed)."""
+    from cam_metrology.simulate import SimParams
+
+    kwargs = {}
+    for f in dataclasses.fields(SimParams):
+        if f.name in values:
+            value = values[f.name]
+            if isinstance(value, list):
+                value = tuple(value)
+            kwargs[f.name] = value
+    return SimParams(**kwargs)
+
+
+def _field(obj: Any, name: str) -> Any:
+    return obj[name] if isinstance(obj, dict) else getattr(obj, name)
+
+
+def iter_samples(run: Any) -> Iterator[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
+    """(feature id, theta [rad], s [m], stamp_ns) arrays of each feature of a BenchRun."""
+    for feat in _field(run, 'features'):
+        yield (str(_field(feat, 'id')), np.asarray(_field(feat, 'theta'), dtype=float),
+               np.asarray(_field(feat, 's'), dtype=float),
+               np.asarray(_field(feat, 'stamp_ns'), dtype=np.int64))
+
+
+def truth_json(run: Any) -> str:
+    """The run's truth dict as JSON (numpy scalars and arrays converted)."""
+    def default(obj: Any) -> Any:
+        if isinstance(obj, np.ndarray):
+            return obj.tolist()
+        if isinstance(obj, np.generic):
+            return obj.item()
+        if dataclasses.is_dataclass(obj):
+            return dataclasses.asdict(obj)
+        return str(obj)
+    return json.dumps(_field(run, 'truth'), default=default, sort_keys=True)
+
+
+class BenchSimNode(Node):
+    """Publishes a simulated measurement; ``run()`` does the paced publishing."""
+
+    def __init__(self, *, context: Any = None, node_name: str = 'bench_sim',
+                 overrides: dict[str, Any] | None = None) -> None:
+        super().__init__(node_name, context=context)
+        table = dict(PARAMETERS)
+        sim_table = sim_param_table()
+        if RATE_FIELD in sim_table:
+            table.pop(RATE_FIELD)   # SimParams defines the sample rate itself
+        table.update(sim_table)
+        for name, value in (overrides or {}).items():
+            table[name] = (value, table.get(name, (None, ''))[1])
+        self.params = declare_parameters(self, table)
+        from cam_metrology.paths import default_scene_path
+        from cam_metrology.scene_parse import load_scene
+        from cam_metrology.simulate import simulate
+
+        scene_path = Path(self.params['scene_file'] or default_scene_path())
+        self.scene = load_scene(scene_path)
+        self.scene_text = self.scene.text or scene_path.read_text(encoding='utf-8')
+        self.run_data = simulate(self.scene, make_sim_params(self.params))
+        self.features = list(iter_samples(self.run_data))
+        self.pub = {topic: self.create_publisher(cls, topic, TOPICS[topic][1].profile())
+                    for topic, cls in ((SCENE, String), (TRUTH, String),
+                                       (JOINT_STATES, JointState), (FEATURE_DONE, String))}
+        self.sent = 0
+        self.publish_errors = 0
+
+    @property
+    def total_samples(self) -> int:
+        """Samples of all features."""
+        return sum(int(f[1].size) for f in self.features)
+
+    def publish_latched(self) -> None:
+        """Scene YAML then truth JSON (transient local: late joiners get them)."""
+        self.pub[SCENE].publish(String(data=self.scene_text))
+        self.pub[TRUTH].publish(String(data=truth_json(self.run_data)))
+
+    def matched(self) -> tuple[int, int]:
+        """Matched subscriptions on (/bench/joint_states, /bench/scene)."""
+        return (self.pub[JOINT_STATES].get_subscription_count(),
+                self.pub[SCENE].get_subscription_count())
+
+    def wait_for_subscribers(self, need: int, timeout: float) -> bool:
+        """Wait (deadline) for ``need`` matches on samples and scene, and for the scene to
+        be acknowledged by them, so every node knows the scene before the first sample."""
+        deadline = time.monotonic() + timeout
+        while min(self.matched()) < need:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.01)
+        left = max(0.1, deadline - time.monotonic())
+        return bool(self.pub[SCENE].wait_for_all_acked(Duration(seconds=left)))
+
+    def _publish(self, topic: str, msg: Any, deadline: float) -> None:
+        """Publish, retrying on RCLError (a blocked reliable writer) until ``deadline``."""
+        from rclpy._rclpy_pybind11 import RCLError
+        while True:
+            try:
+                self.pub[topic].publish(msg)
+                return
+            except RCLError:
+                self.publish_errors += 1
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.001)
+
+    def run(self, rate: float, max_burst: int = 200, should_stop: Any = None) -> int:
+        """Publish every sample at ``rate`` msgs/s (0: unpaced); returns samples sent."""
+        msg = JointState()
+        msg.name = ['camshaft', 'probe']
+        period = 1.0 / rate if rate > 0 else 0.0
+        t0 = time.monotonic()
+        k = 0
+        for fid, theta, s, stamp in self.features:
+            msg.header.frame_id = fid
+            secs, nsecs = np.divmod(stamp, 1_000_000_000)
+            for i in range(theta.size):
+                if period:
+                    due = t0 + k * period
+                    now = time.monotonic()
+                    if due > now:
+                        time.sleep(due - now)
+                    elif now - due > max_burst * period:
+                        t0 += now - due - max_burst * period   # too late: drop the backlog
+                msg.header.stamp.sec = int(secs[i])
+                msg.header.stamp.nanosec = int(nsecs[i])
+                msg.position = [float(theta[i]), float(s[i])]
+                self._publish(JOINT_STATES, msg, time.monotonic() + 5.0)
+                k += 1
+                if should_stop is not None and k % 256 == 0 and should_stop():
+                    self.sent = k
+                    return k
+            self._publish(FEATURE_DONE, String(data=fid), time.monotonic() + 5.0)
+            self.get_logger().info(f'feature {fid} done ({theta.size} samples)')
+        self.sent = k
+        return k
+
+    def wait_acked(self, timeout: float) -> bool:
+        """Wait (deadline) until all subscribers acknowledged everything published."""
+        deadline = time.monotonic() + timeout
+        ok = True
+        for pub in self.pub.values():
+            left = max(0.0, deadline - time.monotonic())
+            ok = pub.wait_for_all_acked(Duration(seconds=left)) and ok
+        return ok
+
+
+def run_bench_sim(args: Sequence[str] | None = None,
+                  overrides: dict[str, Any] | None = None) -> int:
+    """Run the simulator node. Exit 0 done, 4 if the subscribers never matched."""
+    from cam_metrology.nodes.runtime import RosProcess
+
+    proc = RosProcess(args)
+    try:
+        node = proc.add(BenchSimNode(context=proc.context, overrides=overrides))
+        p = node.params
+        rate = float(p.get(RATE_FIELD, 0.0))
+        log = node.get_logger()
+        log.info(f'{len(node.features)} features, {node.total_samples} samples at '
+                 f'{rate:g}/s; waiting for {p["wait_subscribers"]} subscriber(s)')
+        node.publish_latched()
+        if not node.wait_for_subscribers(int(p['wait_subscribers']), float(p['match_timeout'])):
+            log.error(f'only {node.matched()} of {p["wait_subscribers"]} subscriptions matched '
+                      f'(/bench/joint_states, /bench/scene) within {p["match_timeout"]} s')
+            return 4
+        t0 = time.monotonic()
+        sent = node.run(rate, int(p['max_burst']), lambda: proc.stopping)
+        dt = time.monotonic() - t0
+        acked = node.wait_acked(float(p['ack_timeout']))
+        log.info(f'sent {sent} samples in {dt:.2f} s ({sent / max(dt, 1e-9):.0f}/s); '
+                 f'acknowledged: {acked}; publish retries: {node.publish_errors}')
+        if not p['exit_when_done']:
+            proc.spin_until()
+        return 0 if sent == node.total_samples else 1
+    finally:
+        proc.close()

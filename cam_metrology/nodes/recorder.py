@@ -1,0 +1,176 @@
+"""The recorder node: raw CDR from the live graph into a rosbag2/MCAP bag.
+
+* One ``raw=True`` subscription per topic: the callback gets the bytes exactly as they
+  came off the wire and writes them unchanged with ``bagio.BagWriter`` (never
+  ``serialize_message``, platform.md §4).
+* Topics: the bench inputs (/bench/scene, /bench/truth, /bench/joint_states,
+  /bench/feature_done) and every output topic of architecture.md, plus extras
+  (``/topic`` or ``/topic:pkg/msg/Type``; without a type, the type and a compatible
+  QoS are taken from the graph once a publisher appears).
+* QoS per topic from ``topics.TOPICS``: transient local for /bench/scene,
+  /bench/truth and /metrology/report (so a late recorder still gets the latched
+  scene), reliable keep-last 1000 for samples, reliable depth 100 for outputs.
+* Log time = receive time: ``time.time_ns()`` when the callback runs (rosbag2 also logs
+  the receive time; the acquisition time stays in each message's header). rclpy
+  7.1.6 cannot hand MessageInfo to a raw subscription under SingleThreadedExecutor
+  (SystemError), so the callback clock is used with both executors.
+* Stop (SIGINT/SIGTERM or end of a run): drain what already arrived, then
+  ``writer.close()`` in ``finally`` so that metadata.yaml is always written.
+"""
+from __future__ import annotations
+
+import functools
+import sys
+import time
+from pathlib import Path
+from typing import Any, Sequence
+
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+from cam_metrology.bagio import BagWriter
+from cam_metrology.nodes.topics import (RESULTS, TOPICS, QosSpec, message_class, qos_of)
+
+PARAMETERS: dict[str, tuple[Any, str]] = {
+    'output': ('', 'bag directory to create (must not exist); empty: '
+                   'bags/rec_<UTC time> under the current directory'),
+    'topics': ('', 'extra topics, comma or space separated, each /topic or '
+                   '/topic:pkg/msg/Type'),
+    'record_defaults': (True, 'record the bench topics and every node output topic'),
+    'compression': (False, 'zstd chunk compression of the MCAP file'),
+    'events_executor': (False, 'spin with rclpy.experimental.EventsExecutor '
+                               '(5-7x cheaper per message; experimental)'),
+    'status_period': (0.0, 'log a line with the message counts every N s (0: never)'),
+}
+
+
+def parse_topic_specs(text: str | Sequence[str]) -> dict[str, str | None]:
+    """``'/a, /b:std_msgs/msg/String'`` -> {topic: type or None}."""
+    items = text.replace(',', ' ').split() if isinstance(text, str) else list(text)
+    out: dict[str, str | None] = {}
+    for item in items:
+        topic, _, type_name = item.partition(':')
+        if not topic.startswith('/'):
+            topic = '/' + topic
+        out[topic] = type_name or None
+    return out
+
+
+def default_output() -> Path:
+    """bags/rec_<UTC time> under the current directory."""
+    return Path('bags') / time.strftime('rec_%Y%m%dT%H%M%SZ', time.gmtime())
+
+
+class RecorderNode(Node):
+    """Subscribes raw to the configured topics and writes every message to a bag."""
+
+    def __init__(self, *, context: Any = None, output: str | Path | None = None,
+                 topics: Sequence[str] | None = None, node_name: str = 'recorder') -> None:
+        super().__init__(node_name, context=context)
+        params = {name: self.declare_parameter(name, default,).value
+                  for name, (default, _) in PARAMETERS.items()}
+        self.params = params
+        out = Path(output or params['output'] or default_output())
+        wanted: dict[str, str | None] = {}
+        if params['record_defaults']:
+            wanted.update({topic: type_name for topic, (type_name, _) in TOPICS.items()})
+        wanted.update(parse_topic_specs(params['topics']))
+        wanted.update(parse_topic_specs(topics or ()))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        self.writer = BagWriter(out, compression=bool(params['compression']))
+        self.path = out
+        self.counts: dict[str, int] = {}
+        self.callbacks_run = 0
+        self._subs: dict[str, Any] = {}
+        self._pending: list[str] = []
+        for topic, type_name in wanted.items():
+            if type_name:
+                self._subscribe(topic, type_name, qos_of(topic))
+            else:
+                self._pending.append(topic)
+        if self._pending:
+            self._resolver = self.create_timer(0.25, self._resolve_pending)
+        period = float(params['status_period'])
+        if period > 0:
+            self._status = self.create_timer(period, self._log_status)
+
+    def _subscribe(self, topic: str, type_name: str, qos: QosSpec) -> None:
+        self.writer.add_topic(topic, type_name, qos.bag_yaml())
+        self.counts[topic] = 0
+        self._subs[topic] = self.create_subscription(
+            message_class(type_name), topic, functools.partial(self._on_message, topic),
+            qos.profile(), raw=True)
+
+    def _on_message(self, topic: str, data: bytes) -> None:
+        self.writer.write(topic, time.time_ns(), data)
+        self.counts[topic] += 1
+        self.callbacks_run += 1
+
+    def _resolve_pending(self) -> None:
+        """Subscribe to untyped extra topics once a publisher shows type and QoS."""
+        for topic in list(self._pending):
+            infos = self.get_publishers_info_by_topic(topic)
+            if not infos:
+                continue
+            self._pending.remove(topic)
+            reliable = all(i.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+                           for i in infos)
+            latched = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+                          for i in infos)
+            self._subscribe(topic, infos[0].topic_type,
+                            QosSpec(reliable, latched, 1 if latched else RESULTS.depth))
+            self.get_logger().info(f'recording {topic} ({infos[0].topic_type})')
+
+    def _log_status(self) -> None:
+        self.get_logger().info(f'recorded {sum(self.counts.values())} messages: '
+                               f'{self.counts}')
+
+    def subscription_counts(self) -> dict[str, int]:
+        """topic -> matched publishers of each subscription."""
+        return {t: s.get_publisher_count() for t, s in self._subs.items()}
+
+    def close(self) -> None:
+        """Close the bag (metadata.yaml); idempotent."""
+        self.writer.close()
+
+
+def events_flag_from_params(params_file: str | None, node_name: str = 'recorder') -> bool:
+    """``events_executor`` from a ROS parameter YAML (the executor is chosen before the
+    node exists, so the file is read once here as well)."""
+    if not params_file:
+        return False
+    import yaml
+    with open(params_file, encoding='utf-8') as f:
+        doc = yaml.safe_load(f) or {}
+    for key in (node_name, '/' + node_name, '/**'):
+        params = (doc.get(key) or {}).get('ros__parameters') or {}
+        if 'events_executor' in params:
+            return bool(params['events_executor'])
+    return False
+
+
+def run_recorder(args: Sequence[str] | None = None, *, output: str | Path | None = None,
+                 topics: Sequence[str] | None = None, events_executor: bool = False,
+                 announce: bool = True) -> int:
+    """Record until SIGINT/SIGTERM; the bag is closed (metadata.yaml) in every case."""
+    from cam_metrology.nodes.runtime import RosProcess
+
+    proc = RosProcess(args, events_executor=events_executor)
+    node = None
+    try:
+        node = proc.add(RecorderNode(context=proc.context, output=output, topics=topics))
+        if announce:
+            print(f'recording {len(node.counts) + len(node._pending)} topics to '
+                  f'{node.path} (Ctrl-C to stop)', flush=True)
+        proc.spin_until()
+        proc.drain(lambda: node.callbacks_run)
+        return 0
+    finally:
+        if node is not None:
+            node.close()
+            if announce:
+                total = sum(node.counts.values())
+                print(f'bag closed: {node.path} ({total} messages: '
+                      + ', '.join(f'{t} {n}' for t, n in node.counts.items() if n)
+                      + ')', flush=True)
+        proc.close()

@@ -1,0 +1,121 @@
+"""Process plumbing shared by every node: context, executor, signals, waiting.
+
+* ``RosProcess`` owns one rclpy ``Context`` (domain from ``ROS_DOMAIN_ID`` unless
+  given), installs its own SIGINT/SIGTERM handlers (rclpy's would shut the context
+  down at once, and a node could then no longer publish its last outputs), and spins
+  an executor in short steps until a stop is requested or a condition holds.
+* ``drain`` spins until the subscriptions have been idle for a moment, so messages
+  that arrived before a stop are still handled (the demo stops nodes upstream first).
+* rclpy.init() is not a context manager on Jazzy: ``close()`` does the
+  ``destroy_node`` / ``try_shutdown`` of platform.md §6.8.
+"""
+from __future__ import annotations
+
+import signal
+import threading
+import time
+from typing import Any, Callable, Sequence
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.signals import SignalHandlerOptions
+
+
+class RosProcess:
+    """One rclpy context and executor; stop requested by SIGINT/SIGTERM or ``stop()``."""
+
+    def __init__(self, args: Sequence[str] | None = None, *, domain_id: int | None = None,
+                 events_executor: bool = False, handle_signals: bool = True) -> None:
+        self.context = Context()
+        rclpy.init(args=list(args) if args is not None else None, context=self.context,
+                   domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
+        if events_executor:
+            from rclpy.experimental import EventsExecutor
+            self.executor: Any = EventsExecutor(context=self.context)
+        else:
+            self.executor = SingleThreadedExecutor(context=self.context)
+        self.events_executor = events_executor
+        self.nodes: list[Any] = []
+        self.stop_reason = ''
+        self._stop = threading.Event()
+        self._old_handlers: dict[int, Any] = {}
+        if handle_signals and threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._old_handlers[sig] = signal.signal(sig, self._on_signal)
+
+    def _on_signal(self, signum: int, _frame: Any) -> None:
+        self.stop(signal.Signals(signum).name)
+
+    def stop(self, reason: str = 'stop requested') -> None:
+        """Ask ``spin_until`` to return (safe from signal handlers and other threads)."""
+        if not self._stop.is_set():
+            self.stop_reason = reason
+        self._stop.set()
+
+    @property
+    def stopping(self) -> bool:
+        """True once a stop was requested."""
+        return self._stop.is_set()
+
+    def add(self, node: Any) -> Any:
+        """Add a node to the executor; returns it."""
+        self.nodes.append(node)
+        self.executor.add_node(node)
+        return node
+
+    def spin_once(self, timeout: float = 0.05) -> None:
+        """Run at most one round of ready callbacks, waiting up to ``timeout`` s."""
+        self.executor.spin_once(timeout_sec=timeout)
+
+    def spin_until(self, condition: Callable[[], bool] | None = None,
+                   timeout: float | None = None, step: float = 0.05) -> bool:
+        """Spin until ``condition()`` is true (True), a stop, or ``timeout`` s (False)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            if condition is not None and condition():
+                return True
+            if self.stopping:
+                return False
+            if deadline is not None and time.monotonic() >= deadline:
+                return False
+            self.spin_once(step if deadline is None else
+                           max(0.0, min(step, deadline - time.monotonic())))
+
+    def drain(self, counter: Callable[[], int], idle: float = 0.2, limit: float = 5.0) -> None:
+        """Spin until ``counter()`` (callbacks run) stays unchanged for ``idle`` s, at most
+        ``limit`` s: handles what had already arrived when a stop was requested."""
+        end = time.monotonic() + limit
+        last, quiet_since = counter(), time.monotonic()
+        while time.monotonic() < end and time.monotonic() - quiet_since < idle:
+            self.spin_once(0.02)
+            now = counter()
+            if now != last:
+                last, quiet_since = now, time.monotonic()
+
+    def close(self) -> None:
+        """Destroy the nodes, shut the context down, restore the signal handlers."""
+        for node in self.nodes:
+            try:
+                self.executor.remove_node(node)
+            except Exception:  # noqa: BLE001 (tearing down: keep going)
+                pass
+            node.destroy_node()
+        self.nodes.clear()
+        if hasattr(self.executor, 'shutdown'):
+            self.executor.shutdown()
+        rclpy.try_shutdown(context=self.context)
+        for sig, old in self._old_handlers.items():
+            signal.signal(sig, old)
+        self._old_handlers.clear()
+
+
+def wait_for_matches(process: RosProcess, counts: Callable[[], Sequence[int]], need: int,
+                     timeout: float) -> bool:
+    """Spin until every value of ``counts()`` is >= ``need``; False at the deadline."""
+    return process.spin_until(lambda: all(c >= need for c in counts()), timeout)
+
+
+def ros_time_ns(node: Any) -> int:
+    """The node clock in ns (system time unless use_sim_time)."""
+    return int(node.get_clock().now().nanoseconds)

@@ -1,0 +1,96 @@
+"""Topics, message types and QoS of the ROS graph (architecture.md, interfaces.md).
+
+One table, used by every node, the recorder and replay, so that publishers and
+subscribers always agree. QoS is kept as a plain ``QosSpec`` (reliable or not,
+transient local or volatile, keep-last depth) that converts both to an rclpy
+``QoSProfile`` and to the rosbag2 ``offered_qos_profiles`` YAML stored in bags.
+The table agrees with ``bagio.TOPIC_TYPES`` / ``bagio.LATCHED_TOPICS`` (checked by
+test/test_ros_adapter.py).
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+
+@dataclass(frozen=True)
+class QosSpec:
+    """Reliability, durability and keep-last depth of a topic."""
+
+    reliable: bool = True
+    transient_local: bool = False
+    depth: int = 10
+
+    def profile(self) -> QoSProfile:
+        """The rclpy QoS profile (keep last ``depth``)."""
+        return QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=self.depth,
+            reliability=(ReliabilityPolicy.RELIABLE if self.reliable
+                         else ReliabilityPolicy.BEST_EFFORT),
+            durability=(DurabilityPolicy.TRANSIENT_LOCAL if self.transient_local
+                        else DurabilityPolicy.VOLATILE))
+
+    def bag_yaml(self) -> str:
+        """rosbag2 ``offered_qos_profiles`` YAML of this QoS (``bagio.qos_yaml``)."""
+        from cam_metrology.bagio import qos_yaml
+        return qos_yaml(transient_local=self.transient_local, depth=self.depth,
+                        reliable=self.reliable)
+
+
+LATCHED = QosSpec(reliable=True, transient_local=True, depth=1)
+SAMPLES = QosSpec(reliable=True, transient_local=False, depth=1000)
+EVENTS = QosSpec(reliable=True, transient_local=False, depth=10)
+RESULTS = QosSpec(reliable=True, transient_local=False, depth=100)
+
+STRING = 'std_msgs/msg/String'
+TABLE = 'std_msgs/msg/Float64MultiArray'
+STATUS = 'diagnostic_msgs/msg/DiagnosticArray'
+JOINT_STATE = 'sensor_msgs/msg/JointState'
+
+SCENE = '/bench/scene'
+JOINT_STATES = '/bench/joint_states'
+FEATURE_DONE = '/bench/feature_done'
+TRUTH = '/bench/truth'
+METROLOGY_REPORT = '/metrology/report'
+METROLOGY_RESULT = '/metrology/result'
+
+#: topic -> (ROS type name, QoS); the bench inputs first, then every node output.
+TOPICS: dict[str, tuple[str, QosSpec]] = {
+    SCENE: (STRING, LATCHED),
+    JOINT_STATES: (JOINT_STATE, SAMPLES),
+    FEATURE_DONE: (STRING, EVENTS),
+    TRUTH: (STRING, LATCHED),
+    METROLOGY_RESULT: (STATUS, RESULTS),
+    '/metrology/lift': (TABLE, RESULTS),
+    METROLOGY_REPORT: (STRING, LATCHED),
+    '/reconstruction/profile': (TABLE, RESULTS),
+    '/reconstruction/result': (STATUS, RESULTS),
+    '/dynamics/valve_motion': (TABLE, RESULTS),
+    '/dynamics/result': (STATUS, RESULTS),
+}
+
+BENCH_TOPICS = (SCENE, TRUTH, JOINT_STATES, FEATURE_DONE)
+OUTPUT_TOPICS = tuple(t for t in TOPICS if t not in BENCH_TOPICS)
+
+
+def qos_of(topic: str, default: QosSpec = RESULTS) -> QosSpec:
+    """QoS of a known topic, ``default`` for any other."""
+    return TOPICS[topic][1] if topic in TOPICS else default
+
+
+def message_class(type_name: str) -> Any:
+    """The rclpy message class of ``pkg/msg/Type`` (or ``pkg/Type``)."""
+    parts = type_name.split('/')
+    if len(parts) == 2:
+        parts = [parts[0], 'msg', parts[1]]
+    if len(parts) != 3 or not all(parts):
+        raise ValueError(f'bad ROS type name {type_name!r}; expected pkg/msg/Type')
+    return getattr(importlib.import_module(f'{parts[0]}.{parts[1]}'), parts[2])
+
+
+def type_name_of(cls: Any) -> str:
+    """``pkg/msg/Type`` of an rclpy message class."""
+    return f'{cls.__module__.split(".")[0]}/msg/{cls.__name__}'
