@@ -1,8 +1,9 @@
 """Lift laws of the seeds as composable segments (see base.LiftLaw for the interface).
 
 ``from_spec(spec, key)`` builds a law from a scene's ``lift_law`` mapping; it is
-implemented in ``registry`` by the lift-law module owner.
+implemented in ``registry`` (families and parameters: docs/lift_laws.md).
 """
 from cam_design.lift_laws.base import LiftLaw, TabulatedLift
+from cam_design.lift_laws.registry import FAMILIES, PRESETS, from_spec
 
-__all__ = ['LiftLaw', 'TabulatedLift']
+__all__ = ['FAMILIES', 'PRESETS', 'LiftLaw', 'TabulatedLift', 'from_spec']

@@ -1,0 +1,70 @@
+"""Spec builders of the polynomial, constant-acceleration and table families."""
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+from cam_design.errors import InputError
+from cam_design.lift_laws import params as P
+from cam_design.lift_laws.base import LiftLaw, TabulatedLift
+from cam_design.lift_laws.polynomial import polynomial_flank
+from cam_design.lift_laws.ramps import ramp_from_spec
+from cam_design.lift_laws.segments import PiecewiseLaw, assemble_lobe
+
+POLY_KEYS = ('ramp', 'rise', 'max_lift', 'half_angle', 'exponents', 'fall')
+
+
+def rise_from(spec: Mapping, key: str, ramp_height: float) -> float:
+    """Base-section rise [m] from exactly one of ``rise`` or ``max_lift`` (total lift)."""
+    has_rise, has_max = spec.get('rise') is not None, spec.get('max_lift') is not None
+    if has_rise == has_max:
+        raise InputError(f'{key}.rise', spec.get('rise'),
+                         'exactly one of rise (base-section rise) or max_lift (total lift)')
+    if has_rise:
+        return P.positive(spec, key, 'rise')
+    total = P.positive(spec, key, 'max_lift')
+    if total <= ramp_height:
+        raise InputError(f'{key}.max_lift', total,
+                         f'a total lift above the ramp height {ramp_height:.6g} m')
+    return total - ramp_height
+
+
+def fall_spec(spec: Mapping, key: str, allowed: tuple[str, ...]) -> dict[str, Any] | None:
+    """The fall-flank parameters with defaults from the rise flank, or None (mirror)."""
+    fall = spec.get('fall')
+    if fall is None:
+        return None
+    fall = P.mapping(fall, f'{key}.fall')
+    P.reject_unknown(fall, f'{key}.fall', allowed)
+    merged = {k: v for k, v in spec.items()
+              if k not in ('fall', 'rise', 'max_lift') and k in allowed}
+    merged.update(fall)
+    return merged
+
+
+def polynomial_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
+    """``family: polynomial`` (§1.4): ramp + 4-exponent polynomial base section."""
+    P.reject_unknown(spec, key, POLY_KEYS)
+    ramp = ramp_from_spec(spec.get('ramp'), f'{key}.ramp')
+    rise = rise_from(spec, key, ramp.height)
+    rise_flank = polynomial_flank(ramp, rise, P.positive(spec, key, 'half_angle'),
+                                  P.integers(spec, key, 'exponents', [2, 6, 10, 14]),
+                                  key=key)
+    fall = fall_spec(spec, key, ('ramp', 'half_angle', 'exponents'))
+    fall_flank = None
+    if fall is not None:
+        fk = f'{key}.fall'
+        framp = ramp_from_spec(fall.get('ramp'), f'{fk}.ramp')
+        frise = ramp.height + rise - framp.height
+        if frise <= 0:
+            raise InputError(f'{fk}.ramp.height', framp.height,
+                             'a fall ramp lower than the nose lift')
+        fall_flank = polynomial_flank(framp, frise, P.positive(fall, fk, 'half_angle'),
+                                      P.integers(fall, fk, 'exponents', [2, 6, 10, 14]),
+                                      key=fk)
+    return assemble_lobe(rise_flank, fall_flank, key=key, name='polynomial')
+
+
+def table_from_spec(spec: Mapping, key: str) -> LiftLaw:
+    """``family: table``: ``alpha`` [rad] and ``h`` [m] lists (TabulatedLift)."""
+    P.reject_unknown(spec, key, ('alpha', 'h'))
+    return TabulatedLift(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'), key=key)
