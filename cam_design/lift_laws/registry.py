@@ -18,7 +18,7 @@ from cam_design.lift_laws.base import LiftLaw
 #: family name -> 'module:function' taking (spec, key) and returning a LiftLaw
 FAMILIES: dict[str, str] = {
     'polynomial': 'cam_design.lift_laws.laws:polynomial_from_spec',
-    'constant_acceleration': 'cam_design.lift_laws.laws:constant_acceleration_from_spec',
+    'constant_acceleration': 'cam_design.lift_laws.composite:constant_acceleration_from_spec',
     'composite': 'cam_design.lift_laws.composite:composite_from_spec',
     'polydyne': 'cam_design.lift_laws.polydyne:polydyne_from_spec',
     'harmonic': 'cam_design.lift_laws.harmonic:harmonic_from_spec',
