@@ -1,0 +1,159 @@
+"""`cam-bench scene check FILE` and `cam-bench simulate OUT_BAG`: scenes and simulated benches.
+
+Both work offline (no ROS graph): ``scene check`` validates a scene file and prints a
+summary and its warnings; ``simulate`` writes a bag as the bench simulator would record
+it (/bench/scene, /bench/truth, /bench/joint_states, /bench/feature_done).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Any
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``scene`` group and the ``simulate`` command."""
+    scene = sub.add_parser(
+        'scene', help='validate a scene file',
+        description='Scene files (interfaces.md "Scene file"): validation and summary.')
+    scene_sub = scene.add_subparsers(dest='scene_command', metavar='WHAT')
+    check = scene_sub.add_parser(
+        'check', help='validate a scene file and print a summary',
+        description='Validate the whole scene (exit 2 with a message naming the key, the '
+                    'value and what was expected); print a summary and the warnings for '
+                    'unknown keys.')
+    check.add_argument('file', metavar='FILE', help='scene YAML file ("-" for stdin)')
+    check.set_defaults(func=cmd_scene_check)
+    scene.set_defaults(func=lambda args: scene.print_help() or 2)
+
+    sim = sub.add_parser(
+        'simulate', help='simulate a bench measurement into a new bag (offline)',
+        description='Simulate the measuring bench on a scene and write a rosbag2/MCAP bag '
+                    'with /bench/scene, /bench/truth, /bench/joint_states and '
+                    '/bench/feature_done, as the live bench-sim node would publish them. '
+                    'The truth (true nose and pin angles, probe zero, noise) is printed.')
+    sim.add_argument('out', metavar='OUT_BAG', help='new bag directory (must not exist)')
+    sim.add_argument('--scene', metavar='FILE',
+                     help='scene file (default: the embedded config/default_scene.yaml)')
+    sim.add_argument('--samples-per-rev', type=int, default=3600, metavar='N',
+                     help='encoder samples per camshaft revolution (default 3600)')
+    sim.add_argument('--revolutions', type=float, default=1.0, metavar='N',
+                     help='revolutions measured per feature (default 1)')
+    sim.add_argument('--noise-um', type=float, default=0.0, metavar='X',
+                     help='probe noise standard deviation in micrometres (default 0)')
+    sim.add_argument('--encoder-noise-deg', type=float, default=0.0, metavar='X',
+                     help='encoder noise standard deviation in degrees (default 0)')
+    sim.add_argument('--seed', type=int, default=0, metavar='N',
+                     help='random seed: true angles and noise (default 0)')
+    sim.add_argument('--direction', type=int, choices=(1, -1), default=None,
+                     help='override the scene\'s direction of rotation')
+    sim.add_argument('--wrapped', action='store_true',
+                     help='encoder angles wrapped to [0, 2 pi) instead of unwrapped')
+    sim.add_argument('--start-deg', type=float, default=0.0, metavar='DEG',
+                     help='encoder angle at the first sample, degrees (default 0)')
+    sim.add_argument('--compress', action='store_true', help='zstd chunk compression')
+    sim.add_argument('--quiet', action='store_true', help='no progress output')
+    sim.set_defaults(func=cmd_simulate)
+
+
+def _load(path: str) -> Any:
+    from cam_metrology.scene_parse import load_scene, parse_scene
+
+    if path == '-':
+        return parse_scene(sys.stdin.read(), source='<stdin>')
+    return load_scene(path)
+
+
+def scene_summary(scene: Any) -> list[str]:
+    """Human-readable lines describing a validated scene."""
+    deg = 180.0 / math.pi
+    probe = scene.probe
+    lines = [
+        f'camshaft_id: {scene.camshaft_id or "(none)"}',
+        f'direction: {scene.direction:+d}',
+        f'probe: {probe.kind}' + (f' r={probe.radius * 1e3:g} mm' if probe.radius else ''),
+        f'base circle radius: {scene.base_circle_radius * 1e3:g} mm',
+        f'lobes: {len(scene.lobes)}',
+    ]
+    for lobe in scene.lobes:
+        lo, hi = lobe.lift.support
+        source = (f'lift_law {lobe.lift_spec.get("family")}' if lobe.lift_spec
+                  else 'table')
+        phase = ('-' if lobe.nominal_phase is None
+                 else f'{lobe.nominal_phase * deg:.3f} deg')
+        follower = lobe.follower.kind + (f' r={lobe.follower.radius * 1e3:g} mm'
+                                         if lobe.follower.radius else '')
+        lines.append(f'  {lobe.id}: {source}, design follower {follower}, '
+                     f'max lift {lobe.lift.max_lift() * 1e3:.4f} mm, '
+                     f'support [{lo * deg:.2f}, {hi * deg:.2f}] deg, nominal phase {phase}')
+    pin = scene.dowel_pin
+    if pin is None:
+        lines.append('dowel_pin: none')
+    else:
+        lines.append(f'dowel_pin: pin r={pin.pin_radius * 1e3:g} mm, circle '
+                     f'r={pin.circle_radius * 1e3:g} mm, ball r={pin.probe_radius * 1e3:g} mm')
+    compute = 'all the data allows' if scene.compute is None else ', '.join(
+        sorted(scene.compute))
+    lines.append(f'compute: {compute}')
+    vt = scene.valve_train
+    if vt is None:
+        lines.append('valve_train: none')
+    else:
+        speeds = ', '.join(f'{v:g}' for v in vt.cam_speed_rpm)
+        lines.append(f'valve_train: {vt.model}, rocker ratio {vt.rocker_ratio:g}, '
+                     f'lash {vt.lash * 1e3:g} mm, cam speeds {speeds} rpm')
+    lines.append(f'idle_timeout: {scene.idle_timeout:g} s')
+    return lines
+
+
+def cmd_scene_check(args: argparse.Namespace) -> int:
+    """Validate a scene file; print the summary and the warnings."""
+    scene = _load(args.file)
+    print(f'{args.file}: valid scene')
+    for line in scene_summary(scene):
+        print(f'  {line}')
+    for warning in scene.warnings:
+        print(f'warning: {warning}')
+    return 0
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """Simulate the bench into a new bag and print the truth."""
+    import dataclasses
+    import json
+
+    from cam_design.errors import InputError
+    from cam_metrology.paths import default_scene_path
+    from cam_metrology.simulate import SimParams, write_sim_bag
+
+    scene = _load(args.scene or str(default_scene_path()))
+    if args.direction is not None:
+        scene = dataclasses.replace(scene, direction=args.direction)
+    if args.samples_per_rev < 8:
+        raise InputError('--samples-per-rev', args.samples_per_rev, 'at least 8')
+    params = SimParams(samples_per_rev=args.samples_per_rev, revolutions=args.revolutions,
+                       wrapped=args.wrapped, start_theta=math.radians(args.start_deg),
+                       probe_noise=args.noise_um * 1e-6,
+                       encoder_noise=math.radians(args.encoder_noise_deg), seed=args.seed)
+    progress = None if args.quiet else _progress_printer()
+    run = write_sim_bag(args.out, scene, params, compression=args.compress,
+                        progress=progress)
+    print(f'wrote {args.out}: {run.sample_count} samples in {len(run.features)} features')
+    print(json.dumps(run.truth, indent=2, sort_keys=True))
+    return 0
+
+
+def _progress_printer() -> Any:
+    """A progress callback (done, total) printing at most every 5 % to stderr."""
+    state = {'last': -1}
+
+    def progress(done: int, total: int) -> None:
+        if total < 50_000:
+            return
+        pct = int(100 * done / max(total, 1)) // 5 * 5
+        if pct != state['last']:
+            state['last'] = pct
+            print(f'  simulate: {done}/{total} samples ({pct} %)', file=sys.stderr,
+                  flush=True)
+    return progress

@@ -1,0 +1,427 @@
+"""Parse and validate a scene file (interfaces.md "Scene file") into ``scene.Scene``.
+
+``parse_scene(text, source)`` validates the whole document before it builds anything:
+a bad value raises ``InputError`` whose key is the full path of the offending entry
+(``lobes[1].lift.alpha[7]``), with the value and what was expected; nothing is
+half-applied. Keys that the schema does not know are allowed: each gives a warning
+(``Scene.warnings``, with its key path), never an error.
+
+Schema: interfaces.md plus the extra keys of architecture.md (``lobes[].follower_radius``,
+``idle_timeout``, ``valve_train.seat.restitution``, ``valve_train.mdof``). All values SI.
+Numbers written as strings that YAML 1.1 does not read as floats (``1e9``) are
+accepted when they parse as finite floats.
+"""
+from __future__ import annotations
+
+import importlib
+import math
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.lift_laws import LiftLaw, TabulatedLift
+from cam_metrology.scene import (COMPUTE_ITEMS, DowelPin, Follower, Lobe, Scene, Seat,
+                                 ValveTrain)
+
+__all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
+
+TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
+            'dowel_pin', 'compute', 'valve_train', 'idle_timeout')
+PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
+FOLLOWER_KINDS = ('flat', 'roller', 'knife')
+LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law')
+PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
+VALVE_MODELS = ('sdof', 'mdof')
+SEAT_KEYS = ('stiffness', 'damping', 'restitution')
+#: lift tables must end on the base circle within this [m] ("covering the whole lobe")
+TABLE_END_TOLERANCE = 1.0e-6
+#: a scene this large is surely not a scene file [characters]
+MAX_TEXT = 50_000_000
+
+# key -> (required, check) for valve_train; check(key, value) -> validated value
+_POS = require_positive
+
+
+def _nonneg(key: str, value: Any) -> float:
+    return require_positive(key, value, allow_zero=True)
+
+
+VALVE_KEYS: dict[str, tuple[bool, Callable[[str, Any], float]]] = {
+    'rocker_ratio': (True, _POS),
+    'lash': (True, _nonneg),
+    'mass': (True, _POS),
+    'stiffness': (True, _POS),
+    'damping': (True, _nonneg),
+    'spring_rate': (True, _nonneg),
+    'spring_preload': (True, _nonneg),
+    'valve_damping': (False, _nonneg),
+}
+
+
+class _Ctx:
+    """Collects warnings while a document is validated."""
+
+    def __init__(self) -> None:
+        self.warnings: list[str] = []
+
+    def mapping(self, key: str, value: Any, known: tuple[str, ...]) -> Mapping[str, Any]:
+        """``value`` as a mapping; unknown keys become warnings."""
+        if not isinstance(value, Mapping):
+            raise InputError(key, value, 'a mapping (key: value)')
+        for k in value:
+            if not isinstance(k, str):
+                raise InputError(f'{key}', k, 'string keys')
+            if k not in known:
+                path = f'{key}.{k}' if key else k
+                self.warnings.append(f'{path}: unknown key ignored (known: '
+                                     f'{", ".join(known)})')
+        return value
+
+
+def parse_scene(text: str, source: str = '<scene>') -> Scene:
+    """Validate a scene YAML document and return the Scene (InputError if invalid).
+
+    ``source`` names the document in YAML syntax errors (a file name).
+    """
+    import yaml
+
+    if not isinstance(text, str):
+        raise InputError('scene', type(text).__name__, 'YAML text (str)')
+    if len(text) > MAX_TEXT:
+        raise InputError('scene', f'{len(text)} characters',
+                         f'a scene file of at most {MAX_TEXT} characters')
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, 'problem_mark', None)
+        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
+        problem = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
+        raise InputError('scene', source, f'valid YAML ({problem}{where})') from None
+    if doc is None:
+        raise InputError('scene', source, 'a YAML mapping with the scene keys (file is empty)')
+    ctx = _Ctx()
+    top = ctx.mapping('', doc, TOP_KEYS) if isinstance(doc, Mapping) else None
+    if top is None:
+        raise InputError('scene', type(doc).__name__,
+                         'a YAML mapping with the keys of interfaces.md at the top level')
+    camshaft_id = _text('camshaft_id', top.get('camshaft_id', ''), allow_empty=True)
+    direction = _direction(top.get('direction', 1))
+    if 'probe' not in top:
+        raise InputError('probe', None, 'a probe mapping {kind, radius}')
+    probe = _probe(ctx, top['probe'])
+    if 'base_circle_radius' not in top:
+        raise InputError('base_circle_radius', None, 'the base circle radius in m (> 0)')
+    base = require_positive('base_circle_radius', top['base_circle_radius'])
+    lobes = _lobes(ctx, top.get('lobes', []), base)
+    pin = _dowel_pin(ctx, top['dowel_pin']) if top.get('dowel_pin') is not None else None
+    if not lobes and pin is None:
+        raise InputError('lobes', top.get('lobes', []),
+                         'at least one lobe (or a dowel_pin): nothing to measure')
+    compute = _compute(top.get('compute'))
+    valve = _valve_train(ctx, top['valve_train']) \
+        if top.get('valve_train') is not None else None
+    idle = require_positive('idle_timeout', top.get('idle_timeout', 1.0))
+    if pin is None and any(lobe.nominal_phase is not None for lobe in lobes):
+        ctx.warnings.append('lobes[].nominal_phase: given but the scene has no dowel_pin; '
+                            'phases cannot be measured')
+    return Scene(camshaft_id=camshaft_id, direction=direction, probe=probe,
+                 base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
+                 compute=compute, valve_train=valve, idle_timeout=idle, text=text,
+                 warnings=tuple(ctx.warnings))
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate the scene file at ``path`` (see ``parse_scene``)."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding='utf-8')
+    except FileNotFoundError:
+        raise InputError('scene', str(p), 'an existing scene file') from None
+    except IsADirectoryError:
+        raise InputError('scene', str(p), 'a scene file, not a directory') from None
+    except UnicodeDecodeError:
+        raise InputError('scene', str(p), 'a UTF-8 text file') from None
+    return parse_scene(text, source=str(p))
+
+
+# ------------------------------------------------------------------------- scalars
+
+def _text(key: str, value: Any, *, allow_empty: bool = False) -> str:
+    """A free-text scalar (numbers are accepted and turned into text)."""
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+        raise InputError(key, value, 'a text string')
+    out = str(value).strip()
+    if not out and not allow_empty:
+        raise InputError(key, value, 'a non-empty text string')
+    return out
+
+
+def _direction(value: Any) -> int:
+    if isinstance(value, bool) or value not in (1, -1, 1.0, -1.0):
+        raise InputError('direction', value, '+1 or -1')
+    return int(value)
+
+
+def _optional_angle(key: str, value: Any) -> float | None:
+    if value is None:
+        return None
+    angle = require_finite(key, value)
+    if abs(angle) > 2 * math.pi:
+        raise InputError(key, value, 'an angle in rad within [-2 pi, 2 pi] (degrees given?)')
+    return angle
+
+
+def _follower(kind_key: str, radius_key: str, kind: Any, radius: Any,
+              kinds: tuple[str, ...]) -> Follower:
+    """A Follower from a kind and a radius [m] (ball = roller; radius ignored if flat)."""
+    if kind not in kinds:
+        raise InputError(kind_key, kind, ' | '.join(kinds))
+    if kind == 'ball':
+        kind = 'roller'
+    r = require_positive(radius_key, radius if radius is not None else 0.0, allow_zero=True)
+    if kind == 'roller' and r == 0.0:
+        raise InputError(radius_key, radius,
+                         'a roller/ball radius > 0 in m (kind knife for a point)')
+    return Follower(kind, r if kind == 'roller' else 0.0)
+
+
+def _probe(ctx: _Ctx, value: Any) -> Follower:
+    probe = ctx.mapping('probe', value, ('kind', 'radius'))
+    if 'kind' not in probe:
+        raise InputError('probe.kind', None, ' | '.join(PROBE_KINDS))
+    return _follower('probe.kind', 'probe.radius', probe['kind'], probe.get('radius'),
+                     PROBE_KINDS)
+
+
+# -------------------------------------------------------------------------- lobes
+
+def _lobes(ctx: _Ctx, value: Any, base: float) -> list[Lobe]:
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        raise InputError('lobes', value, 'a list of lobe mappings')
+    lobes: list[Lobe] = []
+    seen: dict[str, int] = {}
+    for i, item in enumerate(value):
+        key = f'lobes[{i}]'
+        lobe = ctx.mapping(key, item, LOBE_KEYS)
+        if 'id' not in lobe:
+            raise InputError(f'{key}.id', None, 'a feature id such as lobe_1')
+        lobe_id = _text(f'{key}.id', lobe['id'])
+        if lobe_id == 'dowel_pin':
+            raise InputError(f'{key}.id', lobe_id, 'a lobe id other than dowel_pin '
+                             '(reserved for the dowel pin feature)')
+        if any(c.isspace() for c in lobe_id):
+            raise InputError(f'{key}.id', lobe_id, 'an id without white space')
+        if lobe_id in seen:
+            raise InputError(f'{key}.id', lobe_id,
+                             f'a unique id (lobes[{seen[lobe_id]}] has it already)')
+        seen[lobe_id] = i
+        follower = _lobe_follower(key, lobe)
+        phase = _optional_angle(f'{key}.nominal_phase', lobe.get('nominal_phase'))
+        has_table = lobe.get('lift') is not None
+        has_law = lobe.get('lift_law') is not None
+        if has_table == has_law:
+            raise InputError(f'{key}.lift', 'both' if has_table else None,
+                             'exactly one of lift (alpha/h table) or lift_law')
+        if has_table:
+            law: LiftLaw = _lift_table(ctx, f'{key}.lift', lobe['lift'])
+            spec = None
+        else:
+            if not isinstance(lobe['lift_law'], Mapping):
+                raise InputError(f'{key}.lift_law', lobe['lift_law'],
+                                 'a mapping {family: NAME, ...parameters}')
+            spec = dict(lobe['lift_law'])   # the registry rejects unknown parameters
+            law = lift_law_from_spec(spec, f'{key}.lift_law')
+        _check_law(f'{key}.lift_law' if spec is not None else f'{key}.lift', law)
+        lobes.append(Lobe(id=lobe_id, follower=follower, lift=law, nominal_phase=phase,
+                          lift_spec=spec))
+    return lobes
+
+
+def _lobe_follower(key: str, lobe: Mapping[str, Any]) -> Follower:
+    raw = lobe.get('follower', 'flat')
+    if isinstance(raw, Mapping):   # {kind: roller, radius: r} accepted too
+        return _follower(f'{key}.follower.kind', f'{key}.follower.radius', raw.get('kind'),
+                         raw.get('radius', lobe.get('follower_radius')), FOLLOWER_KINDS)
+    return _follower(f'{key}.follower', f'{key}.follower_radius', raw,
+                     lobe.get('follower_radius'), FOLLOWER_KINDS)
+
+
+def _number_list(key: str, value: Any) -> np.ndarray:
+    """A list of finite numbers as float array; the error names the first bad entry."""
+    if not isinstance(value, (list, tuple)):
+        raise InputError(key, value, 'a list of numbers')
+    for j, v in enumerate(value):
+        if isinstance(v, bool) or isinstance(v, (list, dict)):
+            raise InputError(f'{key}[{j}]', v, 'a finite number')
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or not np.all(np.isfinite(arr)):
+        for j, v in enumerate(value):
+            require_finite(f'{key}[{j}]', v)
+    return np.asarray(arr, dtype=float)
+
+
+def _lift_table(ctx: _Ctx, key: str, value: Any) -> LiftLaw:
+    table = ctx.mapping(key, value, ('alpha', 'h'))
+    for part in ('alpha', 'h'):
+        if part not in table:
+            raise InputError(f'{key}.{part}', None, 'a list of numbers (alpha rad, h m)')
+    alpha = _number_list(f'{key}.alpha', table['alpha'])
+    h = _number_list(f'{key}.h', table['h'])
+    if alpha.size != h.size:
+        raise InputError(f'{key}.h', f'{h.size} values',
+                         f'as many values as {key}.alpha ({alpha.size})')
+    if alpha.size < 6:
+        raise InputError(f'{key}.alpha', f'{alpha.size} points', 'at least 6 points')
+    bad = np.nonzero(np.diff(alpha) <= 0)[0]
+    if bad.size:
+        j = int(bad[0]) + 1
+        raise InputError(f'{key}.alpha[{j}]', float(alpha[j]),
+                         f'strictly increasing angles in rad (previous is {alpha[j - 1]:g})')
+    for j in (0, alpha.size - 1):
+        if abs(alpha[j]) > math.pi:
+            raise InputError(f'{key}.alpha[{j}]', float(alpha[j]),
+                             'an angle in rad within [-pi, pi] from the lobe centreline '
+                             '(degrees given?)')
+    neg = np.nonzero(h < -TABLE_END_TOLERANCE)[0]
+    if neg.size:
+        j = int(neg[0])
+        raise InputError(f'{key}.h[{j}]', float(h[j]), 'a lift >= 0 m above the base circle')
+    for j in (0, h.size - 1):
+        if abs(h[j]) > TABLE_END_TOLERANCE:
+            raise InputError(f'{key}.h[{j}]', float(h[j]),
+                             f'0 (within {TABLE_END_TOLERANCE:g} m) at both ends: the table '
+                             'must cover the whole lobe down to the base circle')
+    if float(np.max(h)) <= TABLE_END_TOLERANCE:
+        raise InputError(f'{key}.h', 'all zero', 'a lobe with a positive lift in m')
+    if float(np.max(h)) > 0.1:
+        raise InputError(f'{key}.h', float(np.max(h)), 'lifts in m (mm given?)')
+    return TabulatedLift(alpha, h, key=key)
+
+
+def _registry() -> Any:
+    """The lift-law registry module, or None while it is not written."""
+    name = 'cam_design.lift_laws.registry'
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        if exc.name != name:
+            raise
+        return None
+
+
+def lift_law_from_spec(spec: Mapping[str, Any], key: str) -> LiftLaw:
+    """Build a lift law from a scene ``lift_law`` mapping with the lift-law registry
+    (``cam_design.lift_laws.from_spec``); InputError naming ``key`` on bad input."""
+    registry = _registry()
+    if registry is None:
+        raise InputError(f'{key}.family', spec.get('family'),
+                         'a lift-law family; lift_law: family not available in this '
+                         'build (cam_design.lift_laws.registry missing); use a lift table')
+    try:
+        law = registry.from_spec(spec, key)
+    except InputError:
+        raise
+    except (TypeError, ValueError, KeyError, ArithmeticError) as exc:
+        raise InputError(key, dict(spec), f'valid lift-law parameters ({exc})') from None
+    if not isinstance(law, LiftLaw):
+        raise InputError(key, type(law).__name__, 'a LiftLaw from the registry')
+    return law
+
+
+def _check_law(key: str, law: LiftLaw) -> None:
+    """The law must be a lobe: finite support within (-pi, pi], finite positive lift."""
+    lo, hi = law.support
+    if not (math.isfinite(lo) and math.isfinite(hi) and -math.pi - 1e-9 <= lo < hi
+            and hi <= math.pi + 1e-9):
+        raise InputError(key, (lo, hi), 'a lobe whose support lies within [-pi, pi] rad')
+    grid = np.linspace(lo, hi, 2001)
+    h = law(grid)
+    if not np.all(np.isfinite(h)):
+        raise InputError(key, 'non-finite lift', 'a lift law with finite values')
+    if float(np.max(h)) <= 0.0:
+        raise InputError(key, float(np.max(h)), 'a lobe with a positive lift in m')
+
+
+# ----------------------------------------------------------------- pin, compute, valve
+
+def _dowel_pin(ctx: _Ctx, value: Any) -> DowelPin:
+    from cam_design.dowel_pin import DowelPinGeometry
+
+    pin = ctx.mapping('dowel_pin', value, PIN_KEYS)
+    for k in PIN_KEYS[:3]:
+        if k not in pin:
+            raise InputError(f'dowel_pin.{k}', None, 'a radius in m')
+    radii = {k: require_positive(f'dowel_pin.{k}', pin[k], allow_zero=k == 'probe_radius')
+             for k in PIN_KEYS[:3]}
+    DowelPinGeometry(**radii)   # raises InputError('dowel_pin.circle_radius', ...)
+    return DowelPin(nominal_angle=_optional_angle('dowel_pin.nominal_angle',
+                                                  pin.get('nominal_angle')), **radii)
+
+
+def _compute(value: Any) -> frozenset[str] | None:
+    if value is None:
+        return None
+    if isinstance(value, str):
+        value = [value]
+    if not isinstance(value, list):
+        raise InputError('compute', value, 'a list of ' + ', '.join(COMPUTE_ITEMS))
+    for j, item in enumerate(value):
+        if item not in COMPUTE_ITEMS:
+            raise InputError(f'compute[{j}]', item, 'one of ' + ', '.join(COMPUTE_ITEMS))
+    return frozenset(value)
+
+
+def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
+    known = ('model', 'seat', 'cam_speed_rpm', 'mdof') + tuple(VALVE_KEYS)
+    vt = ctx.mapping('valve_train', value, known)
+    model = vt.get('model', 'sdof')
+    if model not in VALVE_MODELS:
+        raise InputError('valve_train.model', model, ' | '.join(VALVE_MODELS))
+    params: dict[str, float] = {}
+    for k, (required, check) in VALVE_KEYS.items():
+        if k in vt:
+            params[k] = check(f'valve_train.{k}', vt[k])
+        elif required:
+            raise InputError(f'valve_train.{k}', None, 'a value (see interfaces.md)')
+    seat = _seat(ctx, vt.get('seat'))
+    speeds = _speeds(vt.get('cam_speed_rpm', [1500.0]))
+    mdof = vt.get('mdof')
+    if mdof is not None and not isinstance(mdof, Mapping):
+        raise InputError('valve_train.mdof', mdof, 'a mapping of the 4+N1+N2 model parameters')
+    if model == 'mdof' and mdof is None:
+        ctx.warnings.append('valve_train.mdof: model mdof without an mdof block; the '
+                            'dynamics node uses its defaults')
+    return ValveTrain(model=model, seat=seat, cam_speed_rpm=speeds,
+                      mdof=dict(mdof) if mdof is not None else None, **params)
+
+
+def _seat(ctx: _Ctx, value: Any) -> Seat:
+    if value is None:
+        return Seat()
+    seat = ctx.mapping('valve_train.seat', value, SEAT_KEYS)
+    stiffness = require_positive('valve_train.seat.stiffness', seat.get('stiffness', 1.0e9))
+    damping = require_positive('valve_train.seat.damping', seat.get('damping', 2000.0),
+                               allow_zero=True)
+    restitution = seat.get('restitution')
+    if restitution is not None:
+        restitution = require_finite('valve_train.seat.restitution', restitution)
+        if not 0.0 <= restitution <= 1.0:
+            raise InputError('valve_train.seat.restitution', restitution,
+                             'a coefficient of restitution in [0, 1]')
+    return Seat(stiffness=stiffness, damping=damping, restitution=restitution)
+
+
+def _speeds(value: Any) -> tuple[float, ...]:
+    if not isinstance(value, list):
+        value = [value]
+    if not value:
+        raise InputError('valve_train.cam_speed_rpm', value, 'at least one camshaft speed')
+    return tuple(require_positive(f'valve_train.cam_speed_rpm[{j}]', v)
+                 for j, v in enumerate(value))
