@@ -1,0 +1,338 @@
+"""Measurement of one feature (lobe or dowel pin) from its cleaned samples.
+
+Pipeline of a lobe: design lift as seen by the probe (``convert_lift`` when the
+design follower differs from the probe) -> coarse nose by circular correlation ->
+flank coverage check (a flank with too little data fails the feature with the
+reason) -> full-flank least squares (primary angle, std) -> sensitive-point method
+(secondary angle, validity) -> top point / false asymmetry -> lift error and
+base-circle run-out. The dowel pin is measured the same way with the seed-004
+geometry (absolute lift), excluding the samples near the tangent points and the
+probe-stop samples outside contact.
+
+Frames: ``x = wrap(direction * theta - x0)`` [rad] relative to the coarse nose x0;
+estimators return shifts ``d`` in this frame; the encoder angle of the nose is
+``direction * (x0 + d)`` wrapped to [0, 2 pi).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam_design.dowel_pin import DowelPinGeometry
+from cam_design.errors import InputError
+from cam_design.lift_laws.base import LiftLaw
+from cam_metrology.metrology.asymmetry import lift_spline, top_point
+from cam_metrology.metrology.features import FeatureSamples
+from cam_metrology.metrology.flank_fit import Lift, coarse_align, fit_shift, wrap_pi
+from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
+
+DEG = np.pi / 180.0
+UM = 1e6
+
+
+class FeatureFailed(Exception):
+    """A feature that cannot be measured; the message is the reason."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Numerical settings of the metrology node (see ``core.MetrologyCore.PARAMETERS``)."""
+
+    fit_runout: bool = False
+    min_flank_samples: int = 20
+    max_flank_gap_deg: float = 2.0
+    sp_half_window_deg: float = 1.0
+    sp_fit_order: int = 1
+    sp_pairs: int = 0
+    sp_pair_spacing_deg: float = 0.5
+    pin_edge_margin_deg: float = 0.5
+    validity_tol_um: float = 1.0
+    asymmetry_knot_deg: float = 0.5
+    max_shift_deg: float = 5.0
+
+    @classmethod
+    def from_params(cls, params: dict[str, Any]) -> Settings:
+        """Settings from a parameter dict (unknown keys ignored; types checked)."""
+        kwargs = {}
+        for name, default in cls.__dataclass_fields__.items():
+            if name in params:
+                kwargs[name] = _typed(name, params[name], type(getattr(cls, name)))
+        return cls(**kwargs)
+
+
+def _typed(name: str, value: Any, kind: type) -> Any:
+    """``value`` converted to ``kind`` (bool, int, float) or InputError."""
+    if kind is bool:
+        if isinstance(value, bool):
+            return value
+        raise InputError(f'metrology.{name}', value, 'true or false')
+    try:
+        out = kind(value)
+    except (TypeError, ValueError):
+        raise InputError(f'metrology.{name}', value, f'a {kind.__name__}') from None
+    if isinstance(value, bool) or not np.isfinite(out) or out < 0:
+        raise InputError(f'metrology.{name}', value, f'a finite {kind.__name__} >= 0')
+    return out
+
+
+@dataclass
+class FeatureResult:
+    """Report fields of one feature (JSON-ready), its lift table, and the internal
+    encoder angle [rad] used for phases."""
+
+    feature_id: str
+    kind: str
+    values: dict[str, Any]
+    table: NDArray[np.float64] | None = None
+    angle_rad: float | None = None
+    failed: str | None = None
+    skipped: list[tuple[str, str]] = field(default_factory=list)
+
+
+def same_follower(a: Any, b: Any) -> bool:
+    """True if two followers see the same lift (flat ignores the radius)."""
+    if a.kind != b.kind:
+        return False
+    return a.kind == 'flat' or abs(a.radius - b.radius) <= 1e-12
+
+
+def seen_lift(lobe: Any, probe: Any, base_radius: float) -> LiftLaw:
+    """The design lift of ``lobe`` as the probe sees it (``convert_lift`` if needed)."""
+    if same_follower(lobe.follower, probe):
+        return lobe.lift
+    try:
+        from cam_design.follower import convert_lift
+    except ImportError:
+        raise FeatureFailed(
+            f'design follower {lobe.follower.kind} differs from the probe {probe.kind} '
+            'and cam_design.follower.convert_lift is not available') from None
+    return convert_lift(lobe.lift, base_radius, lobe.follower, probe)
+
+
+def is_symmetric(law: Lift, lo: float, hi: float, tol: float = 1e-9) -> bool:
+    """True if law(a) == law(-a) within ``tol`` [m] over the support."""
+    a = np.linspace(0.0, max(-lo, hi), 2001)
+    return bool(np.max(np.abs(law(a, 0) - law(-a, 0))) <= tol)
+
+
+def _zone_check(x: NDArray[np.float64], zone: tuple[float, float], flank: str,
+                settings: Settings) -> None:
+    """Fail the feature when a flank's sensitive zone has too few samples or a gap."""
+    inside = np.sort(x[(x >= zone[0]) & (x <= zone[1])])
+    lo, hi = np.degrees(zone[0]), np.degrees(zone[1])
+    need = settings.min_flank_samples
+    if inside.size < need:
+        raise FeatureFailed(f'{flank} flank: {inside.size} samples in its sensitive zone '
+                            f'[{lo:.2f}, {hi:.2f}] deg (need >= {need})')
+    edges = np.concatenate(([zone[0]], inside, [zone[1]]))
+    gap = float(np.degrees(np.max(np.diff(edges))))
+    if gap > settings.max_flank_gap_deg:
+        raise FeatureFailed(f'{flank} flank: a gap of {gap:.2f} deg in its sensitive zone '
+                            f'[{lo:.2f}, {hi:.2f}] deg (max_flank_gap_deg '
+                            f'{settings.max_flank_gap_deg:g})')
+
+
+def _slope_zone(law: Lift, alpha: float, lo: float, hi: float) -> tuple[float, float]:
+    """Interval [rad] around ``alpha`` where |h'| >= half its value at ``alpha``."""
+    grid = np.linspace(lo, hi, 4001)
+    slope = np.abs(law(grid, 1))
+    peak = abs(float(law(np.array(alpha), 1)))
+    good = slope >= 0.5 * peak
+    k = int(np.argmin(np.abs(grid - alpha)))
+    a = k
+    while a > 0 and good[a - 1]:
+        a -= 1
+    b = k
+    while b < grid.size - 1 and good[b + 1]:
+        b += 1
+    return float(grid[a]), float(grid[b])
+
+
+def _common(fs: FeatureSamples) -> dict[str, Any]:
+    return {'samples_received': fs.received, 'samples_used': int(fs.theta.size),
+            'samples_nan_dropped': fs.nan_dropped,
+            'samples_duplicate_dropped': fs.duplicates_dropped,
+            'revolutions': round(fs.revolutions, 4)}
+
+
+def _encoder_deg(direction: int, x0: float, d: float) -> float:
+    return float(np.degrees(np.mod(direction * (x0 + d), 2 * np.pi)))
+
+
+def _sp_values(sp: Any, direction: int, x0: float, d_lsq: float) -> dict[str, Any]:
+    return {'sensitive_point_angle_deg': _encoder_deg(direction, x0, sp.d),
+            'sensitive_point_angle_std_deg': float(np.degrees(sp.d_std)),
+            'sensitive_point_minus_lsq_deg': float(np.degrees(direction * (sp.d - d_lsq))),
+            'sensitive_points_alpha_deg': [float(np.degrees(sp.alpha_m)),
+                                           float(np.degrees(sp.alpha_n))],
+            'sensitive_point_levels_mm': [sp.level_m * 1e3, sp.level_n * 1e3],
+            'validity': {'h_m_minus_design_um': sp.validity_dev_m * UM,
+                         'h_n_minus_design_um': sp.validity_dev_n * UM,
+                         'valid': sp.valid}}
+
+
+def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settings,
+                 *, asymmetry: bool = True) -> FeatureResult:
+    """Measure a lobe: ``law`` is the design lift as seen by the probe."""
+    if fs.theta.size < 4 * settings.min_flank_samples:
+        raise FeatureFailed(f'{fs.theta.size} valid samples (need >= '
+                            f'{4 * settings.min_flank_samples})')
+    lo, hi = law.support if hasattr(law, 'support') else (-np.pi, np.pi)
+    xraw = direction * fs.theta
+    x0 = coarse_align(xraw, fs.s, law)
+    x = wrap_pi(xraw - x0)
+    alpha_m, alpha_n = sensitive_points(law, lo, hi)
+    _zone_check(x, _slope_zone(law, alpha_m, lo, 0.0), 'rise', settings)
+    _zone_check(x, _slope_zone(law, alpha_n, 0.0, hi), 'fall', settings)
+    base = (x < lo - 2 * DEG) | (x > hi + 2 * DEG)
+    c_base = float(np.median(fs.s[base])) if np.count_nonzero(base) >= 5 else None
+    fit = fit_shift(x, fs.s, law, theta=fs.theta if settings.fit_runout else None,
+                    c0=c_base)
+    if abs(fit.d) > settings.max_shift_deg * DEG:
+        raise FeatureFailed(f'least squares moved the nose by {np.degrees(fit.d):.3f} deg '
+                            'from the coarse estimate (data do not match the design lift)')
+    ref = c_base if c_base is not None else fit.c
+    try:
+        sp = sensitive_point_shift(
+            x, fs.s - ref, law, alpha_m, alpha_n, half_window=settings.sp_half_window_deg * DEG,
+            pairs=settings.sp_pairs, spacing=settings.sp_pair_spacing_deg * DEG,
+            order=settings.sp_fit_order, validity_tol=settings.validity_tol_um / UM)
+    except InputError as exc:
+        raise FeatureFailed(f'sensitive-point method: {exc}') from None
+    values: dict[str, Any] = {'kind': 'lobe',
+                              'angle_deg': _encoder_deg(direction, x0, fit.d),
+                              'angle_std_deg': float(np.degrees(fit.d_std)),
+                              **_sp_values(sp, direction, x0, fit.d),
+                              'lift_offset_mm': fit.c * 1e3,
+                              'residual_rms_um': fit.sigma * UM,
+                              'iterations': fit.iterations}
+    alpha = x - fit.d
+    design = law(alpha, 0)
+    measured = fs.s - fit.c
+    if settings.fit_runout:
+        measured = measured - fit.runout[0] * np.cos(fs.theta) - fit.runout[1] * np.sin(fs.theta)
+    err = measured - design
+    lobe = design > 0
+    if np.any(lobe):
+        values['lift_error_um'] = {'max_plus': float(np.max(err[lobe])) * UM,
+                                   'max_minus': float(np.min(err[lobe])) * UM,
+                                   'rms': float(np.sqrt(np.mean(err[lobe] ** 2))) * UM}
+    values['base_circle_runout_um'] = _runout_um(fs.theta[base], (fs.s - fit.c)[base])
+    if settings.fit_runout:
+        values['fitted_runout_amplitude_um'] = float(np.hypot(*fit.runout)) * UM
+    skipped = []
+    if asymmetry:
+        if is_symmetric(law, lo, hi):
+            values.update(_asymmetry(alpha, measured, lo, hi, direction, settings))
+        else:
+            skipped.append(('asymmetry', 'design lift is asymmetric: no symmetry axis'))
+    order = np.argsort(alpha)
+    table = np.column_stack([alpha[order], measured[order], design[order]])
+    return FeatureResult(fs.feature_id, 'lobe', {**values, **_common(fs)}, table,
+                         float(np.radians(values['angle_deg'])), skipped=skipped)
+
+
+def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]) -> float | None:
+    """Total indicated run-out [um] of the base circle: 2 x first-harmonic amplitude."""
+    if theta.size < 10:
+        return None
+    jac = np.column_stack([np.ones_like(theta), np.cos(theta), np.sin(theta)])
+    coef, *_ = np.linalg.lstsq(jac, lift, rcond=None)
+    return float(2.0 * np.hypot(coef[1], coef[2]) * UM)
+
+
+def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64], lo: float,
+               hi: float, direction: int, settings: Settings) -> dict[str, Any]:
+    """Top point by the symmetry axis of the measured lift (frame: LSQ nose = 0)."""
+    sel = (alpha > lo) & (alpha < hi)
+    a, h = alpha[sel], measured[sel]
+    try:
+        spline = lift_spline(a, h, knot_spacing=settings.asymmetry_knot_deg * DEG)
+        tp = top_point(spline, float(a.min()), float(a.max()))
+    except (InputError, ValueError) as exc:
+        return {'asymmetry_error': str(exc)}
+    return {'asymmetry_deg': float(np.degrees(direction * tp.d)),
+            'asymmetry_flank_deg': float(np.degrees(direction * tp.d_flank)),
+            'flank_midpoint_scatter_deg': float(np.degrees(tp.flank_scatter)),
+            'residual_asymmetry_um': {'rms': tp.residual_rms * UM, 'max': tp.residual_max * UM},
+            'apparent_asymmetry_rms_um': tp.apparent_rms * UM}
+
+
+def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
+                settings: Settings) -> FeatureResult:
+    """Measure the dowel-pin centre angle (seed 004 geometry, absolute lift)."""
+    if fs.theta.size < 4 * settings.min_flank_samples:
+        raise FeatureFailed(f'{fs.theta.size} valid samples (need >= '
+                            f'{4 * settings.min_flank_samples})')
+    amax = pin.contact_half_angle
+    margin = settings.pin_edge_margin_deg * DEG
+    half = settings.sp_half_window_deg * DEG
+    inner = amax - margin
+    if inner <= 2 * half:
+        raise InputError('metrology.pin_edge_margin_deg', settings.pin_edge_margin_deg,
+                         f'a margin well below the contact half-angle {np.degrees(amax):.3f}')
+
+    def law(a: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
+        return pin.lift(a, nu)
+
+    xraw = direction * fs.theta
+    x0 = coarse_align(xraw, fs.s, law)
+    x = wrap_pi(xraw - x0)
+    for flank, zone in (('rise', (-inner, -inner + 2 * half)), ('fall', (inner - 2 * half, inner))):
+        _zone_check(x, zone, flank, settings)
+    top = np.abs(x) < 3 * DEG
+    if np.count_nonzero(top) < 3:
+        raise FeatureFailed('fewer than 3 samples within 3 deg of the pin top')
+    c0 = float(np.median(fs.s[top] - law(x[top])))
+    d = 0.0
+    fit = None
+    for _ in range(3):   # contact mask from the current estimate, then refit
+        used = np.abs(x - d) < inner
+        fit = fit_shift(x, fs.s, law, d0=d, c0=c0 if fit is None else fit.c, used=used)
+        if abs(fit.d - d) < 1e-13:
+            d = fit.d
+            break
+        d = fit.d
+    assert fit is not None
+    if abs(fit.d) > settings.max_shift_deg * DEG:
+        raise FeatureFailed(f'least squares moved the pin centre by {np.degrees(fit.d):.3f} '
+                            'deg from the coarse estimate')
+    sp = None
+    d_sp = 0.0
+    try:
+        for _ in range(3):   # top reference and crossings, re-centred on the SP result
+            near = np.abs(x - d_sp) < 3 * DEG
+            ref = float(np.median(fs.s[near] - law(x[near] - d_sp)))
+            sp = sensitive_point_shift(
+                x, fs.s - ref, law, -(inner - half), inner - half, half_window=half,
+                pairs=settings.sp_pairs, spacing=settings.sp_pair_spacing_deg * DEG,
+                limits=(-inner, inner), order=settings.sp_fit_order,
+                validity_tol=settings.validity_tol_um / UM)
+            if abs(sp.d - d_sp) < 1e-13:
+                break
+            d_sp = sp.d
+    except InputError as exc:
+        raise FeatureFailed(f'sensitive-point method: {exc}') from None
+    values: dict[str, Any] = {'kind': 'dowel_pin',
+                              'angle_deg': _encoder_deg(direction, x0, fit.d),
+                              'angle_std_deg': float(np.degrees(fit.d_std)),
+                              **_sp_values(sp, direction, x0, fit.d),
+                              'contact_half_angle_deg': float(np.degrees(amax)),
+                              'lift_offset_mm': fit.c * 1e3,
+                              'residual_rms_um': fit.sigma * UM,
+                              'iterations': fit.iterations}
+    used = fit.used
+    alpha = (x - fit.d)[used]
+    measured = (fs.s - fit.c)[used]
+    design = law(alpha)
+    err = measured - design
+    values['lift_error_um'] = {'max_plus': float(np.max(err)) * UM,
+                               'max_minus': float(np.min(err)) * UM,
+                               'rms': float(np.sqrt(np.mean(err ** 2))) * UM}
+    order = np.argsort(alpha)
+    table = np.column_stack([alpha[order], measured[order], design[order]])
+    return FeatureResult(fs.feature_id, 'dowel_pin', {**values, **_common(fs)}, table,
+                         float(np.radians(values['angle_deg'])))

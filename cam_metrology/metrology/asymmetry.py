@@ -1,0 +1,134 @@
+"""Top point and false asymmetry (methods.md §5.3, a reconstruction [RECON]).
+
+If the zero of a measured lift table is off the true nose by delta, a symmetric cam
+looks asymmetric: S(delta + a) != S(delta - a). Near the top h' ~ 0, so the maximum
+is a poorly conditioned top point. The symmetry axis d instead minimises
+
+    A(d) = sum_a w_a [S(d + a) - S(d - a)]^2,  w_a = |S'(d + a)| + |S'(d - a)|,
+
+solved by Gauss-Newton d <- d - sum w r J / sum w J^2 (r_a = S(d+a) - S(d-a),
+J_a = S'(d+a) + S'(d-a), the derivative of r with respect to d). The flank variant
+finds, for lift levels L, the angles alpha-(L) and alpha+(L) on the two flanks; the
+top is the mean of their midpoints and the scatter of the midpoints measures the
+real asymmetry. After re-zeroing at d, what is left of S(d+a) - S(d-a) is real
+asymmetry (reported as RMS and maximum, in m).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.interpolate import make_interp_spline, make_lsq_spline
+from scipy.optimize import brentq
+
+from cam_design.errors import InputError
+
+
+@dataclass(frozen=True)
+class TopPoint:
+    """Symmetry axis ``d`` [rad] of a lift table (same frame as its angles), the
+    flank-level top ``d_flank`` [rad] and the scatter of its midpoints [rad], the
+    residual asymmetry after re-zeroing (RMS and max |S(d+a)-S(d-a)| [m]) and the
+    apparent asymmetry RMS [m] at the frame's zero before re-zeroing."""
+
+    d: float
+    d_flank: float
+    flank_scatter: float
+    residual_rms: float
+    residual_max: float
+    apparent_rms: float
+    iterations: int
+
+
+def lift_spline(alpha: NDArray[np.float64], lift: NDArray[np.float64], *,
+                knot_spacing: float | None = None) -> Any:
+    """Quintic spline S(alpha) [m] of a lift table (alpha [rad]).
+
+    Without ``knot_spacing`` it interpolates the table (exact data); with it, it is a
+    least-squares regression spline with knots every ``knot_spacing`` [rad] (noisy
+    data, any number of samples; linear cost).
+    """
+    order = np.argsort(alpha, kind='stable')
+    a, h = alpha[order], lift[order]
+    keep = np.concatenate(([True], np.diff(a) > 0))
+    a, h = a[keep], h[keep]
+    if a.size < 8:
+        raise InputError('asymmetry.samples', int(a.size), 'at least 8 distinct angles')
+    if knot_spacing is None:
+        return make_interp_spline(a, h, k=5)
+    n_int = max(int((a[-1] - a[0]) / knot_spacing), 1)
+    inner = np.linspace(a[0], a[-1], n_int + 1)[1:-1]
+    knots = np.concatenate((np.full(6, a[0]), inner, np.full(6, a[-1])))
+    try:
+        return make_lsq_spline(a, h, knots, k=5)
+    except (ValueError, np.linalg.LinAlgError):
+        raise InputError('asymmetry.samples', 'gaps in the lobe data',
+                         f'samples in every {np.degrees(knot_spacing):.2f} deg interval') from None
+
+
+def top_point(spline: Any, lo: float, hi: float, *, d0: float = 0.0, levels: int = 9,
+              grid: int = 2001, max_iter: int = 50) -> TopPoint:
+    """Symmetry axis of the spline ``S`` known on [lo, hi] [rad] (the lobe region).
+
+    ``d0`` [rad] starting guess (e.g. the design-fit nose); ``levels`` flank levels
+    between 20 % and 80 % of the lift range for the flank variant.
+    """
+    deriv = spline.derivative()
+
+    def terms(d: float) -> tuple[NDArray[np.float64], ...]:
+        half = min(d - lo, hi - d)
+        if half <= 0:
+            raise InputError('asymmetry.nose', float(d), 'a top point inside the data range')
+        a = np.linspace(0.0, half, grid)[1:]
+        r = spline(d + a) - spline(d - a)
+        dp, dm = deriv(d + a), deriv(d - a)
+        return r, dp - dm, np.abs(dp) + np.abs(dm)
+
+    d = float(d0)
+    it = 0
+    for it in range(1, max_iter + 1):
+        r, jac, w = terms(d)
+        den = float(np.sum(w * jac * jac))
+        if den <= 0:
+            raise InputError('asymmetry.flanks', 'no slope', 'a lobe with flanks')
+        step = -float(np.sum(w * r * jac)) / den
+        d += step
+        if abs(step) < 1e-14:
+            break
+    r, _, _ = terms(d)
+    r0 = terms(0.0)[0] if lo < 0.0 < hi else r
+    d_flank, scatter = _flank_top(spline, lo, hi, d, levels)
+    return TopPoint(d, d_flank, scatter, float(np.sqrt(np.mean(r * r))),
+                    float(np.max(np.abs(r))), float(np.sqrt(np.mean(r0 * r0))), it)
+
+
+def _flank_top(spline: Any, lo: float, hi: float, d: float, levels: int,
+               ) -> tuple[float, float]:
+    """Mean and scatter [rad] of the midpoints of level crossings on the two flanks."""
+    top = float(spline(d))
+    base = min(float(spline(lo)), float(spline(hi)))
+    mids = []
+    for frac in np.linspace(0.2, 0.8, levels):
+        level = base + frac * (top - base)
+        left = _last_crossing(spline, lo, d, level, from_right=True)
+        right = _last_crossing(spline, d, hi, level, from_right=False)
+        if left is not None and right is not None:
+            mids.append(0.5 * (left + right))
+    if not mids:
+        raise InputError('asymmetry.flanks', 'no level crossings', 'two flanks in the data')
+    m = np.asarray(mids)
+    return float(m.mean()), float(m.std(ddof=1)) if m.size > 1 else 0.0
+
+
+def _last_crossing(spline: Any, a: float, b: float, level: float, *,
+                   from_right: bool, n: int = 4001) -> float | None:
+    """Crossing of ``level`` on [a, b] nearest to the top (b if from_right, else a)."""
+    grid = np.linspace(a, b, n)
+    f = spline(grid) - level
+    idx = np.flatnonzero(np.sign(f[1:]) != np.sign(f[:-1]))
+    if idx.size == 0:
+        return None
+    k = int(idx[-1] if from_right else idx[0])
+    return float(brentq(lambda t: float(spline(t)) - level, grid[k], grid[k + 1], xtol=1e-15))

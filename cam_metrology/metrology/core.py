@@ -1,0 +1,338 @@
+"""Metrology node core (pure Python; the ROS adapter and the offline replay drive it).
+
+Subscribes ``/bench/scene``, ``/bench/joint_states``, ``/bench/feature_done``.
+Publishes, per completed feature, a status on ``/metrology/result`` (name = feature
+id; ERROR with the reason for a failed feature; ``skipped/<what>`` statuses for what
+is not computed) and its aligned lift table on ``/metrology/lift``; the JSON report
+(interfaces.md) on ``/metrology/report`` when every expected feature is done, and
+again at ``finish``. A feature is analysed as soon as it ends (next frame_id,
+feature_done or idle timeout), so results follow the last sample within the
+analysis time of one feature (tens of ms).
+"""
+from __future__ import annotations
+
+import json
+from typing import Any, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from cam_design.dowel_pin import DowelPinGeometry
+from cam_design.errors import InputError
+from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
+                                              analyze_lobe, analyze_pin, seen_lift)
+from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
+                                              joint_positions, stamp_of)
+from cam_metrology.outputs import (ERROR, OK, WARN, Output, Status, StatusOutput,
+                                   TableOutput, TextOutput)
+
+RESULT, LIFT, REPORT = '/metrology/result', '/metrology/lift', '/metrology/report'
+SCENE, JOINTS, DONE = '/bench/scene', '/bench/joint_states', '/bench/feature_done'
+PIN_ID = 'dowel_pin'
+LIFT_COLUMNS = ('alpha_rad', 'lift_m', 'design_lift_m')
+
+
+def wrap_deg(angle: float) -> float:
+    """Angle [deg] wrapped to (-180, 180]."""
+    out = (angle + 180.0) % 360.0 - 180.0
+    return 180.0 if out == -180.0 else out
+
+
+def _flat(values: dict[str, Any], prefix: str = '') -> dict[str, str]:
+    """Nested report values as flat key/value strings for a DiagnosticStatus."""
+    out: dict[str, str] = {}
+    for key, val in values.items():
+        name = f'{prefix}{key}'
+        if isinstance(val, dict):
+            out.update(_flat(val, name + '.'))
+        elif isinstance(val, (list, tuple)):
+            out[name] = ','.join(repr(float(v)) if isinstance(v, float) else str(v) for v in val)
+        elif isinstance(val, float):
+            out[name] = repr(val)
+        else:
+            out[name] = str(val)
+    return out
+
+
+def _json_safe(obj: Any) -> Any:
+    """Plain JSON types (numpy scalars -> float/int, non-finite -> None)."""
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if np.isfinite(obj) else None
+    return obj
+
+
+class MetrologyCore:
+    """Nose angles, pin angle, phases, asymmetry and lift errors of a camshaft."""
+
+    name = 'metrology'
+    subscriptions = {SCENE: 'std_msgs/msg/String',
+                     JOINTS: 'sensor_msgs/msg/JointState',
+                     DONE: 'std_msgs/msg/String'}
+    publications = {RESULT: 'diagnostic_msgs/msg/DiagnosticArray',
+                    LIFT: 'std_msgs/msg/Float64MultiArray',
+                    REPORT: 'std_msgs/msg/String'}
+    PARAMETERS: dict[str, tuple[Any, str]] = {
+        'fit_runout': (False, 'also fit a first-harmonic base-circle run-out in the '
+                              'least-squares angle fit'),
+        'min_flank_samples': (20, 'minimum samples in each flank sensitive zone, else '
+                                  'the feature fails'),
+        'max_flank_gap_deg': (2.0, 'largest gap [deg] allowed in a flank sensitive zone'),
+        'sp_half_window_deg': (1.0, 'half width [deg] of the local fit at a sensitive point'),
+        'sp_fit_order': (1, 'polynomial order of the local deviation fit (0..3)'),
+        'sp_pairs': (0, 'extra level pairs on each side of the sensitive points '
+                        '(multi-pair variant; 0 = one pair)'),
+        'sp_pair_spacing_deg': (0.5, 'angular spacing [deg] of the extra level pairs'),
+        'pin_edge_margin_deg': (0.5, 'dowel pin: samples within this angle [deg] of the '
+                                     'contact tangent point are excluded'),
+        'validity_tol_um': (1.0, 'tolerance [um] of the h_m = h_n validity check '
+                                 '(at least 3 sigma of the check is allowed)'),
+        'asymmetry_knot_deg': (0.5, 'knot spacing [deg] of the regression spline used '
+                                    'for the symmetry axis'),
+        'max_shift_deg': (5.0, 'a fit moving the angle further than this [deg] from the '
+                               'coarse estimate fails the feature'),
+        'idle_timeout': (0.0, 'seconds without samples that end a feature (0: the '
+                              "scene's idle_timeout)"),
+    }
+
+    def __init__(self, params: dict[str, Any] | None = None) -> None:
+        params = dict(params or {})
+        unknown = sorted(set(params) - set(self.PARAMETERS))
+        if unknown:
+            raise InputError(f'metrology.{unknown[0]}', params[unknown[0]],
+                             'one of ' + ', '.join(sorted(self.PARAMETERS)))
+        self.settings = Settings.from_params(params)
+        self.idle_timeout_param = float(params.get('idle_timeout', 0.0))
+        self.scene: Any = None
+        self.assembler = FeatureAssembler()
+        self.pending: list[FeatureSamples] = []
+        self.results: dict[str, FeatureResult] = {}
+        self.report_sent = False
+        self._design: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ inputs
+    def set_scene(self, scene: Any) -> list[Output]:
+        """Use a parsed ``Scene``; analyses features that were waiting for it."""
+        if self.scene is not None and scene.text and scene.text == self.scene.text:
+            return []
+        self.scene = scene
+        self.results, self.report_sent, self._design = {}, False, {}
+        out: list[Output] = []
+        waiting, self.pending = self.pending, []
+        for fs in waiting:
+            out += self._complete(fs, 0)
+        return out
+
+    def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:
+        """Consume one message (scene, sample or feature_done)."""
+        if topic == JOINTS:
+            try:
+                theta, s = joint_positions(msg)
+            except InputError as exc:
+                return [self._status(Status('joint_states', ERROR, str(exc)), stamp_ns)]
+            done = self.assembler.add(msg.header.frame_id, stamp_of(msg, stamp_ns),
+                                      theta, s, stamp_ns)
+            return self._complete_all(done, stamp_ns)
+        if topic == DONE:
+            return self._complete_all(self.assembler.close(str(msg.data)), stamp_ns)
+        if topic == SCENE:
+            try:
+                from cam_metrology.scene_parse import parse_scene
+                scene = parse_scene(str(msg.data), source=SCENE)
+            except ImportError:
+                return [self._status(Status('scene', ERROR, 'scene parser not available'),
+                                     stamp_ns)]
+            except InputError as exc:
+                return [self._status(Status('scene', ERROR, f'invalid scene: {exc}'), stamp_ns)]
+            return self.set_scene(scene)
+        return []
+
+    def handle_samples(self, frame_ids: Sequence[str] | ArrayLike, stamp_ns: ArrayLike,
+                       theta: ArrayLike, s: ArrayLike, rx_ns: int | None = None,
+                       ) -> list[Output]:
+        """Bulk path of the offline replay: many JointState samples at once.
+
+        ``frame_ids`` feature ids, ``stamp_ns`` acquisition stamps [ns], ``theta``
+        [rad], ``s`` [m] (NaN where a message lacked the joint). ``rx_ns``: receive
+        time of the last sample (default: its stamp).
+        """
+        st = np.asarray(stamp_ns, dtype=np.int64)
+        rx = int(st[-1]) if rx_ns is None and st.size else int(rx_ns or 0)
+        return self._complete_all(self.assembler.add_bulk(frame_ids, st, theta, s, rx), rx)
+
+    def tick(self, now_ns: int) -> list[Output]:
+        """End the open feature after the idle timeout."""
+        if self.assembler.current is None:
+            return []
+        timeout = self.idle_timeout_param or (self.scene.idle_timeout if self.scene else 1.0)
+        if now_ns - self.assembler.last_rx_ns > timeout * 1e9:
+            return self._complete_all(self.assembler.close(), now_ns)
+        return []
+
+    def finish(self) -> list[Output]:
+        """End of stream: close the open feature; publish the final report."""
+        out = self._complete_all(self.assembler.close(), 0)
+        if self.scene is None:
+            return out + [self._status(Status('scene', ERROR, 'no scene received: nothing '
+                                              'measured'), 0)]
+        out.append(TextOutput(REPORT, json.dumps(self.report(final=True), indent=1)))
+        self.report_sent = True
+        return out
+
+    # --------------------------------------------------------------- analysis
+    def _complete_all(self, done: list[FeatureSamples], stamp_ns: int) -> list[Output]:
+        out: list[Output] = []
+        for fs in done:
+            out += self._complete(fs, stamp_ns)
+        return out
+
+    def _complete(self, fs: FeatureSamples, stamp_ns: int) -> list[Output]:
+        if self.scene is None:
+            self.pending.append(fs)
+            return []
+        result = self._analyze(fs)
+        self.results[fs.feature_id] = result
+        out: list[Output] = [self._feature_status(result, stamp_ns)]
+        if result.table is not None:
+            out.append(TableOutput(LIFT, fs.feature_id, LIFT_COLUMNS, result.table))
+        if not self.report_sent and not self._missing():
+            out.append(TextOutput(REPORT, json.dumps(self.report(final=False), indent=1)))
+            self.report_sent = True
+        return out
+
+    def _analyze(self, fs: FeatureSamples) -> FeatureResult:
+        scene = self.scene
+        kind = 'dowel_pin' if fs.feature_id == PIN_ID else 'lobe'
+        counts = {'samples_received': fs.received, 'samples_nan_dropped': fs.nan_dropped}
+        try:
+            if kind == 'dowel_pin':
+                if scene.dowel_pin is None:
+                    raise FeatureFailed('scene has no dowel_pin')
+                if not scene.wants('pin'):
+                    return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
+                                         skipped=[('pin', 'compute does not ask for pin')])
+                p = scene.dowel_pin
+                geo = DowelPinGeometry(p.pin_radius, p.circle_radius, p.probe_radius)
+                return analyze_pin(fs, geo, scene.direction, self.settings)
+            try:
+                lobe = scene.lobe(fs.feature_id)
+            except KeyError:
+                raise FeatureFailed(f'feature {fs.feature_id!r} is not in the scene') from None
+            if not scene.wants('nose'):
+                return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
+                                     skipped=[('nose', 'compute does not ask for nose')])
+            if lobe.id not in self._design:
+                self._design[lobe.id] = seen_lift(lobe, scene.probe, scene.base_circle_radius)
+            return analyze_lobe(fs, self._design[lobe.id], scene.direction, self.settings,
+                                asymmetry=scene.wants('asymmetry'))
+        except (FeatureFailed, InputError) as exc:
+            return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
+                                 failed=str(exc))
+
+    def _pin_angle(self) -> float | None:
+        pin = self.results.get(PIN_ID)
+        return pin.angle_rad if pin is not None and pin.failed is None else None
+
+    def _phase(self, result: FeatureResult) -> dict[str, Any]:
+        """phase_deg and phase_error_deg of a measured lobe (None when unavailable)."""
+        pin = self._pin_angle()
+        if result.angle_rad is None or pin is None:
+            return {'phase_deg': None, 'phase_error_deg': None}
+        phase = wrap_deg(np.degrees(result.angle_rad - pin))
+        nominal = self.scene.lobe(result.feature_id).nominal_phase
+        err = None if nominal is None else wrap_deg(phase - np.degrees(nominal))
+        return {'phase_deg': phase, 'phase_error_deg': err}
+
+    # ------------------------------------------------------------------ outputs
+    def _status(self, status: Status, stamp_ns: int) -> StatusOutput:
+        return StatusOutput(RESULT, (status,), stamp_ns)
+
+    def _feature_status(self, result: FeatureResult, stamp_ns: int) -> StatusOutput:
+        if result.failed is not None:
+            main = Status(result.feature_id, ERROR, result.failed,
+                          _flat(result.values), result.kind)
+        else:
+            values = dict(result.values)
+            if result.kind == 'lobe' and result.angle_rad is not None:
+                values.update({k: v for k, v in self._phase(result).items() if v is not None})
+            valid = values.get('validity', {}).get('valid', True)
+            level = OK if valid else WARN
+            msg = 'measured' if valid else 'measured; sensitive-point validity check failed'
+            main = Status(result.feature_id, level, msg, _flat(values), result.kind)
+        extra = tuple(Status(f'skipped/{what}/{result.feature_id}', OK, why)
+                      for what, why in result.skipped)
+        return StatusOutput(RESULT, (main,) + extra, stamp_ns)
+
+    def _expected(self) -> list[str]:
+        scene = self.scene
+        ids = [lobe.id for lobe in scene.lobes] if scene.wants('nose') else []
+        if scene.dowel_pin is not None and scene.wants('pin'):
+            ids.append(PIN_ID)
+        return ids
+
+    def _missing(self) -> list[str]:
+        return [i for i in self._expected() if i not in self.results]
+
+    def skipped(self) -> list[dict[str, str]]:
+        """What the scene or the data do not allow, with the reason."""
+        scene = self.scene
+        out: list[dict[str, str]] = []
+        if not scene.wants('nose'):
+            out.append({'what': 'nose', 'why': 'compute does not ask for nose'})
+        if scene.dowel_pin is None:
+            out.append({'what': 'pin', 'why': 'scene has no dowel_pin'})
+        elif not scene.wants('pin'):
+            out.append({'what': 'pin', 'why': 'compute does not ask for pin'})
+        elif PIN_ID not in self.results:
+            out.append({'what': 'pin', 'why': 'no dowel_pin samples in the data'})
+        elif self.results[PIN_ID].failed:
+            out.append({'what': 'pin', 'why': f'dowel_pin failed: {self.results[PIN_ID].failed}'})
+        if scene.wants('nose') and self._pin_angle() is None:
+            out.append({'what': 'phase', 'why': 'no dowel-pin angle (see pin)'})
+        if not scene.wants('asymmetry'):
+            out.append({'what': 'asymmetry', 'why': 'compute does not ask for asymmetry'})
+        for lobe in scene.lobes:
+            if scene.wants('nose') and lobe.id not in self.results:
+                out.append({'what': lobe.id, 'why': 'no samples for this lobe in the data'})
+            elif lobe.nominal_phase is None and self._pin_angle() is not None:
+                out.append({'what': f'phase_error/{lobe.id}', 'why': 'lobe has no nominal_phase'})
+        for res in self.results.values():
+            out += [{'what': f'{what}/{res.feature_id}', 'why': why} for what, why in res.skipped]
+        return out
+
+    def report(self, final: bool = True) -> dict[str, Any]:
+        """The JSON report of interfaces.md (plus extra keys)."""
+        scene = self.scene
+        features: dict[str, Any] = {}
+        for fid, res in self.results.items():
+            entry: dict[str, Any] = {'kind': res.kind, 'angle_deg': None, 'angle_std_deg': None}
+            if res.kind == 'lobe':
+                entry.update({'phase_deg': None, 'phase_error_deg': None, 'asymmetry_deg': None})
+            entry.update(res.values)
+            if res.failed is not None:
+                entry.update({'status': 'failed', 'reason': res.failed})
+            elif res.skipped and res.angle_rad is None:
+                entry['status'] = 'skipped'
+            else:
+                entry['status'] = 'ok'
+                if res.kind == 'lobe':
+                    entry.update(self._phase(res))
+            features[fid] = entry
+        pin = self._pin_angle()
+        return _json_safe({
+            'camshaft_id': scene.camshaft_id,
+            'direction': scene.direction,
+            'features': features,
+            'skipped': self.skipped(),
+            'complete': not self._missing(),
+            'final': final,
+            'dowel_pin_angle_deg': None if pin is None else float(np.degrees(pin)),
+            'units': {'angles': 'deg (encoder frame, [0, 360))', 'lift_error': 'um'},
+        })

@@ -1,0 +1,179 @@
+"""Assembly of features (lobes, dowel pin) from JointState samples (interfaces.md).
+
+Samples arrive one per message (``handle_joint_state``) or in bulk from the offline
+replay (``handle_samples``). Samples of one feature are contiguous: a new
+``header.frame_id`` starts a new feature; ``/bench/feature_done`` or an idle timeout
+ends one. ``finish_feature`` returns a cleaned ``FeatureSamples``: NaN samples dropped
+and counted, exact duplicates dropped and counted, samples sorted by acquisition
+stamp. Angles are kept as received (wrapped or unwrapped, either sense); the
+estimators work on ``theta mod 2*pi`` so several revolutions simply overlay.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cam_design.errors import InputError
+
+CAMSHAFT, PROBE = 'camshaft', 'probe'
+
+
+@dataclass(frozen=True)
+class FeatureSamples:
+    """The cleaned samples of one feature.
+
+    ``theta`` [rad] encoder angles, ``s`` [m] probe readings (arbitrary zero),
+    ``stamp_ns`` acquisition stamps, all sorted by stamp; counts of what was received
+    and dropped; ``revolutions`` = angular span / 2 pi of the stamp-ordered angles.
+    """
+
+    feature_id: str
+    theta: NDArray[np.float64]
+    s: NDArray[np.float64]
+    stamp_ns: NDArray[np.int64]
+    received: int
+    nan_dropped: int
+    duplicates_dropped: int
+    revolutions: float
+
+
+@dataclass
+class _OpenFeature:
+    """Chunks of one feature still being received."""
+
+    feature_id: str
+    stamps: list[NDArray[np.int64]] = field(default_factory=list)
+    theta: list[NDArray[np.float64]] = field(default_factory=list)
+    s: list[NDArray[np.float64]] = field(default_factory=list)
+    last_rx_ns: int = 0
+    # per-message samples are buffered in lists and turned into arrays in bulk
+    pending: list[tuple[int, float, float]] = field(default_factory=list)
+
+    def flush(self) -> None:
+        """Move per-message samples into the array chunks."""
+        if self.pending:
+            arr = np.asarray(self.pending, dtype=float)
+            self.stamps.append(arr[:, 0].astype(np.int64))
+            self.theta.append(arr[:, 1])
+            self.s.append(arr[:, 2])
+            self.pending = []
+
+
+def joint_positions(msg: Any) -> tuple[float, float]:
+    """(theta, s) of a JointState message, looked up by joint name.
+
+    Raises InputError when a joint is missing or the arrays do not match.
+    """
+    names = list(msg.name)
+    pos = msg.position
+    try:
+        i, j = names.index(CAMSHAFT), names.index(PROBE)
+    except ValueError:
+        raise InputError('joint_states.name', names,
+                         f'joint names containing {CAMSHAFT!r} and {PROBE!r}') from None
+    if len(pos) < len(names):
+        raise InputError('joint_states.position', f'{len(pos)} values',
+                         f'one position per name ({len(names)})')
+    return float(pos[i]), float(pos[j])
+
+
+def stamp_of(msg: Any, fallback_ns: int) -> int:
+    """Header stamp [ns] of a message, or ``fallback_ns`` when the stamp is zero."""
+    st = msg.header.stamp
+    ns = int(st.sec) * 1_000_000_000 + int(st.nanosec)
+    return ns if ns else int(fallback_ns)
+
+
+class FeatureAssembler:
+    """Splits a sample stream into features; returns finished ones as they end."""
+
+    def __init__(self) -> None:
+        self._open: _OpenFeature | None = None
+
+    @property
+    def current(self) -> str | None:
+        """Id of the feature being received, if any."""
+        return self._open.feature_id if self._open else None
+
+    @property
+    def last_rx_ns(self) -> int:
+        """Receive time [ns] of the last sample of the open feature (0 if none)."""
+        return self._open.last_rx_ns if self._open else 0
+
+    def add(self, feature_id: str, stamp_ns: int, theta: float, s: float,
+            rx_ns: int) -> list[FeatureSamples]:
+        """Add one sample; returns the feature it closed, if a new one started."""
+        done = []
+        if self._open is None or self._open.feature_id != feature_id:
+            done = self.close()
+            self._open = _OpenFeature(feature_id)
+        self._open.pending.append((stamp_ns, theta, s))
+        self._open.last_rx_ns = rx_ns
+        return done
+
+    def add_bulk(self, frame_ids: Sequence[str] | ArrayLike, stamp_ns: ArrayLike,
+                 theta: ArrayLike, s: ArrayLike, rx_ns: int) -> list[FeatureSamples]:
+        """Add many samples at once (fast path); returns the features they closed."""
+        ids = np.asarray(frame_ids)
+        st = np.asarray(stamp_ns, dtype=np.int64)
+        th = np.asarray(theta, dtype=float)
+        pr = np.asarray(s, dtype=float)
+        n = ids.size
+        if not (st.size == th.size == pr.size == n):
+            raise InputError('handle_samples', f'sizes {n}, {st.size}, {th.size}, {pr.size}',
+                             'frame_ids, stamp_ns, theta and s of equal length')
+        done: list[FeatureSamples] = []
+        if n == 0:
+            return done
+        cuts = np.flatnonzero(ids[1:] != ids[:-1]) + 1
+        bounds = np.concatenate(([0], cuts, [n]))
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            fid = str(ids[a])
+            if self._open is None or self._open.feature_id != fid:
+                done += self.close()
+                self._open = _OpenFeature(fid)
+            self._open.flush()
+            self._open.stamps.append(st[a:b])
+            self._open.theta.append(th[a:b])
+            self._open.s.append(pr[a:b])
+            self._open.last_rx_ns = rx_ns
+        return done
+
+    def close(self, feature_id: str | None = None) -> list[FeatureSamples]:
+        """End the open feature (only if its id is ``feature_id``, when given)."""
+        if self._open is None:
+            return []
+        if feature_id is not None and feature_id != self._open.feature_id:
+            return []
+        feat = self._open
+        self._open = None
+        feat.flush()
+        return [clean_feature(feat.feature_id, _cat(feat.stamps, np.int64),
+                              _cat(feat.theta, float), _cat(feat.s, float))]
+
+
+def _cat(chunks: list[NDArray[Any]], dtype: Any) -> NDArray[Any]:
+    return np.concatenate(chunks).astype(dtype) if chunks else np.zeros(0, dtype)
+
+
+def clean_feature(feature_id: str, stamp_ns: NDArray[np.int64], theta: NDArray[np.float64],
+                  s: NDArray[np.float64]) -> FeatureSamples:
+    """Drop NaN/inf samples and exact duplicates, sort by stamp; count what was dropped."""
+    received = int(theta.size)
+    ok = np.isfinite(theta) & np.isfinite(s)
+    nan_dropped = int(received - np.count_nonzero(ok))
+    st, th, pr = stamp_ns[ok], theta[ok], s[ok]
+    order = np.lexsort((pr, th, st))
+    st, th, pr = st[order], th[order], pr[order]
+    if st.size > 1:
+        same = (st[1:] == st[:-1]) & (th[1:] == th[:-1]) & (pr[1:] == pr[:-1])
+        keep = np.concatenate(([True], ~same))
+    else:
+        keep = np.ones(st.size, bool)
+    dup = int(st.size - np.count_nonzero(keep))
+    st, th, pr = st[keep], th[keep], pr[keep]
+    revs = float(np.ptp(np.unwrap(th)) / (2 * np.pi)) if th.size > 1 else 0.0
+    return FeatureSamples(feature_id, th, pr, st, received, nan_dropped, dup, revs)

@@ -1,0 +1,159 @@
+"""Full-flank least-squares estimate of a feature's angle (primary estimator).
+
+Model for a feature whose design lift (as seen by the probe) is ``g(alpha)``:
+
+    s_i = c + g(x_i - d) [+ a cos(theta_i) + b sin(theta_i)] + noise,
+
+with ``x_i = wrap(direction * theta_i - x0)`` the sample angle relative to a coarse
+nose ``x0`` [rad], ``d`` the angular shift [rad] (nose = direction * (x0 + d)), ``c``
+the lift offset (probe zero) [m] and optionally the first harmonic (a, b) [m] of a
+base-circle run-out. Gauss-Newton with the analytic Jacobian ``-g'(x - d)``
+(``law(alpha, 1)``); the linear parameters are exact after one step. The standard
+uncertainty comes from the residual variance and (J^T J)^-1; with the true noise
+instead of the residual variance the same formula is the Cramer-Rao bound
+(``crb_shift_std``), which the estimator reaches for Gaussian noise.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam_design.errors import InputError
+
+TWO_PI = 2.0 * np.pi
+Lift = Callable[[NDArray[np.float64], int], NDArray[np.float64]]
+
+
+def wrap_pi(x: NDArray[np.float64] | float) -> NDArray[np.float64]:
+    """Angles [rad] wrapped to (-pi, pi]."""
+    y = np.mod(np.asarray(x, dtype=float) + np.pi, TWO_PI) - np.pi
+    return np.where(y == -np.pi, np.pi, y)
+
+
+@dataclass(frozen=True)
+class ShiftFit:
+    """Result of ``fit_shift``: shift ``d`` [rad], offset ``c`` [m], run-out (a, b) [m]
+    (zeros when not fitted), standard uncertainties, residual RMS ``sigma`` [m],
+    residuals [m] of the used samples, their mask, and the iteration count."""
+
+    d: float
+    c: float
+    runout: tuple[float, float]
+    d_std: float
+    c_std: float
+    sigma: float
+    residuals: NDArray[np.float64]
+    used: NDArray[np.bool_]
+    iterations: int
+
+
+def _design_matrix(gp: NDArray[np.float64], theta: NDArray[np.float64] | None,
+                   ) -> NDArray[np.float64]:
+    """Jacobian of the model with respect to (d, c[, a, b]) (rows: samples)."""
+    cols = [-gp, np.ones_like(gp)]
+    if theta is not None:
+        cols += [np.cos(theta), np.sin(theta)]
+    return np.column_stack(cols)
+
+
+def fit_shift(x: NDArray[np.float64], s: NDArray[np.float64], lift: Lift, *,
+              theta: NDArray[np.float64] | None = None, d0: float = 0.0,
+              c0: float | None = None, used: NDArray[np.bool_] | None = None,
+              max_iter: int = 50, tol: float = 1e-13) -> ShiftFit:
+    """Gauss-Newton fit of ``s = c + lift(x - d) [+ a cos theta + b sin theta]``.
+
+    ``x`` [rad] sample angles relative to the coarse nose, ``s`` [m] readings,
+    ``lift(alpha, nu)`` the design lift and its derivatives; ``theta`` [rad] enables
+    the run-out harmonic. ``used`` selects the samples (default: all).
+    """
+    if used is None:
+        used = np.ones(x.size, bool)
+    xs, ss = x[used], s[used]
+    th = None if theta is None else theta[used]
+    npar = 2 if th is None else 4
+    if xs.size < npar + 2:
+        raise InputError('samples', xs.size, f'at least {npar + 2} samples for the fit')
+    d = float(d0)
+    c = float(np.median(ss - lift(xs - d, 0))) if c0 is None else float(c0)
+    extra = np.zeros(2)
+
+    def resid(d_: float, c_: float, ab: NDArray[np.float64]) -> NDArray[np.float64]:
+        r = ss - c_ - lift(xs - d_, 0)
+        if th is not None:
+            r = r - ab[0] * np.cos(th) - ab[1] * np.sin(th)
+        return r
+
+    r = resid(d, c, extra)
+    rss = float(r @ r)
+    it = 0
+    for it in range(1, max_iter + 1):
+        jac = _design_matrix(lift(xs - d, 1), th)
+        step, *_ = np.linalg.lstsq(jac, r, rcond=None)
+        lam = 1.0
+        while True:
+            d_new, c_new = d + lam * step[0], c + lam * step[1]
+            ab_new = extra + lam * step[2:4] if th is not None else extra
+            r_new = resid(d_new, c_new, ab_new)
+            rss_new = float(r_new @ r_new)
+            if rss_new <= rss * (1 + 1e-12) or lam < 1e-6:
+                break
+            lam *= 0.5
+        d, c, extra, r, rss = d_new, c_new, ab_new, r_new, rss_new
+        if abs(lam * step[0]) < tol:
+            break
+    jac = _design_matrix(lift(xs - d, 1), th)
+    dof = max(xs.size - npar, 1)
+    sigma2 = rss / dof
+    cov = sigma2 * _inv_normal(jac)
+    return ShiftFit(d, c, (float(extra[0]), float(extra[1])), float(np.sqrt(cov[0, 0])),
+                    float(np.sqrt(cov[1, 1])), float(np.sqrt(sigma2)), r, used, it)
+
+
+def _inv_normal(jac: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(J^T J)^-1 through the SVD (stable when a column is nearly degenerate)."""
+    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+    if sv[-1] <= sv[0] * 1e-13:
+        raise InputError('fit', 'a singular Jacobian',
+                         'samples on the flanks (the angle is not determined)')
+    return (vt.T / sv**2) @ vt
+
+
+def crb_shift_std(x_true: NDArray[np.float64], lift: Lift, sigma: float,
+                  theta: NDArray[np.float64] | None = None) -> float:
+    """Cramer-Rao bound [rad] of the shift for Gaussian noise ``sigma`` [m], samples at
+    true design angles ``x_true`` [rad], offset (and run-out if ``theta``) unknown."""
+    jac = _design_matrix(lift(x_true, 1), theta)
+    return float(sigma * np.sqrt(_inv_normal(jac)[0, 0]))
+
+
+def coarse_align(x: NDArray[np.float64], s: NDArray[np.float64], template: Lift,
+                 bins: int = 1440) -> float:
+    """Coarse position x0 [rad] such that s(x) ~ c + template(x - x0).
+
+    ``x`` [rad] any angles (taken mod 2 pi). Bin means of the samples are
+    circularly cross-correlated with the template by FFT (mean removed on both, so
+    the probe zero does not matter); empty bins are filled by circular
+    interpolation; the peak is refined by a parabola. Resolution ~ 360/bins deg.
+    """
+    xm = np.mod(x, TWO_PI)
+    idx = np.minimum((xm / TWO_PI * bins).astype(np.int64), bins - 1)
+    cnt = np.bincount(idx, minlength=bins)
+    tot = np.bincount(idx, weights=s, minlength=bins)
+    filled = cnt > 0
+    if np.count_nonzero(filled) < 8:
+        raise InputError('samples', int(np.count_nonzero(filled)),
+                         'samples spread over more than 8 angle bins')
+    centres = (np.arange(bins) + 0.5) * TWO_PI / bins
+    mean = np.interp(centres, centres[filled], tot[filled] / cnt[filled], period=TWO_PI)
+    tmpl = template(wrap_pi(centres), 0)
+    tmpl = np.where(np.isfinite(tmpl), tmpl, np.nanmin(tmpl))
+    corr = np.fft.irfft(np.fft.rfft(mean - mean.mean()) *
+                        np.conj(np.fft.rfft(tmpl - tmpl.mean())), n=bins)
+    k = int(np.argmax(corr))
+    y0, y1, y2 = corr[k - 1], corr[k], corr[(k + 1) % bins]
+    den = y0 - 2 * y1 + y2
+    frac = 0.5 * (y0 - y2) / den if den < 0 else 0.0
+    return float(wrap_pi((k + frac) * TWO_PI / bins))
