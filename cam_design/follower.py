@@ -7,9 +7,14 @@ circle (the profile itself, not the roller pitch circle).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
 from cam_design.errors import InputError, require_positive
+from cam_design.lift_laws.base import LiftLaw
 
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 
@@ -32,3 +37,405 @@ class Follower:
         if self.kind == 'roller' and self.radius == 0.0:
             raise InputError('follower.radius', self.radius,
                              'a roller radius > 0 (use kind: knife for a point follower)')
+
+
+# ---------------------------------------------------------------------------------------
+# Truncated Taylor arithmetic ("jets") of order 3, vectorised over points.
+#
+# A jet is an array of shape (4, n): the coefficients c0..c3 of c0 + c1 e + c2 e^2 + c3 e^3
+# for a small increment e of the curve parameter. Composing jets gives the exact
+# derivatives up to order 3 of any smooth expression, with no finite differences.
+# ---------------------------------------------------------------------------------------
+
+JET_ORDER = 3
+
+
+def _jet_const(value: ArrayLike, n: int) -> NDArray[np.float64]:
+    out = np.zeros((JET_ORDER + 1, n))
+    out[0] = value
+    return out
+
+
+def _jet_mul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    out = np.zeros(np.broadcast_shapes(a.shape, b.shape))
+    for k in range(JET_ORDER + 1):
+        for j in range(k + 1):
+            out[k] += a[j] * b[k - j]
+    return out
+
+
+def _jet_div(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    out = np.zeros(np.broadcast_shapes(a.shape, b.shape))
+    for k in range(JET_ORDER + 1):
+        acc = a[k].copy()
+        for j in range(1, k + 1):
+            acc -= b[j] * out[k - j]
+        out[k] = acc / b[0]
+    return out
+
+
+def _jet_sqrt(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    out = np.zeros(a.shape)
+    out[0] = np.sqrt(a[0])
+    for k in range(1, JET_ORDER + 1):
+        acc = a[k].copy()
+        for j in range(1, k):
+            acc -= out[j] * out[k - j]
+        out[k] = acc / (2.0 * out[0])
+    return out
+
+
+def _jet_deriv(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Jet of the derivative (the order-3 coefficient becomes 0: a cubic's derivative)."""
+    out = np.zeros(a.shape)
+    for k in range(JET_ORDER):
+        out[k] = (k + 1) * a[k + 1]
+    return out
+
+
+def _jet_atan2(y: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Jet of atan2(y, x): value from np.arctan2, higher terms from (y'x - yx')/(x^2+y^2)."""
+    rate = _jet_div(_jet_mul(_jet_deriv(y), x) - _jet_mul(y, _jet_deriv(x)),
+                    _jet_mul(x, x) + _jet_mul(y, y))
+    out = np.zeros(rate.shape)
+    out[0] = np.arctan2(y[0], x[0])
+    for k in range(1, JET_ORDER + 1):
+        out[k] = rate[k - 1] / k
+    return out
+
+
+def _jet_inverse_compose(angle: NDArray[np.float64],
+                         value: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Derivatives d^k value / d angle^k (k = 0..3), shape (4, n), by series reversion.
+
+    ``angle`` and ``value`` are jets in the same parameter; ``angle[1]`` must be non-zero.
+    """
+    a1, a2, a3 = angle[1], angle[2], angle[3]
+    b1 = 1.0 / a1
+    b2 = -a2 * b1 ** 3
+    b3 = (2.0 * a2 * a2 - a1 * a3) * b1 ** 5
+    q0, q1, q2, q3 = value
+    return np.stack([q0, q1 * b1, 2.0 * (q1 * b2 + q2 * b1 * b1),
+                     6.0 * (q1 * b3 + 2.0 * q2 * b1 * b2 + q3 * b1 ** 3)])
+
+
+def _wrap(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Angles wrapped to [-pi, pi)."""
+    return (alpha + np.pi) % (2.0 * np.pi) - np.pi
+
+
+# ---------------------------------------------------------------------------------------
+# Lift conversion between follower kinds through the cam profile (methods.md §2.6, §5.5)
+# ---------------------------------------------------------------------------------------
+
+#: table density of the contact-angle map (points on the full turn).
+TABLE_POINTS = 8192
+#: one-sided offset [rad] used to read the limits of h' at a breakpoint.
+SIDE_EPS = 1e-10
+#: velocity steps [m/rad] below this are smooth; above it a flat design has a flat.
+JUMP_TOL = 1e-9
+#: downward velocity steps [m/rad] of a flat design (or any step of a roller design)
+#: above this are rejected (a swallowtail / notch: no unique contact).
+STEP_REJECT = 1e-6
+#: largest allowed step of h itself at a breakpoint [m].
+POSITION_TOL = 1e-9
+NEWTON_TOL = 1e-14
+NEWTON_MAX_ITER = 40
+
+
+def _radius(f: Follower) -> float:
+    return 0.0 if f.kind == 'knife' else f.radius
+
+
+def _same_follower(a: Follower, b: Follower) -> bool:
+    if a.kind == 'flat' and b.kind == 'flat':
+        return True
+    return a.kind == b.kind and _radius(a) == _radius(b)
+
+
+class ConvertedLift(LiftLaw):
+    """The lift seen by follower ``target`` on the cam cut for ``law`` with ``source``.
+
+    Built by :func:`convert_lift`. The source follower defines the cam profile through
+    its envelope; the profile is described by its support function H(psi) (psi: normal
+    angle) and tangential coordinate T = dH/dpsi, both as exact jets in the source angle
+    s. The target's contact angle A(s) (psi for a flat target, the polar angle of the
+    roller centre psi + atan2(T, H + r) for a roller/knife) is inverted by bracketed
+    Newton from a dense monotone table, and the lift derivatives follow by series
+    reversion (no finite differences, no spline): exact to rounding.
+    A straight flat of a flat-tappet design (an upward step of h', as at the start of a
+    constant-velocity ramp) is handled in closed form: D = (R0 + h + r)/cos(alpha - b).
+    """
+
+    def __init__(self, law: LiftLaw, base_radius: float, source: Follower,
+                 target: Follower, *, key: str = 'lift') -> None:
+        self.law = law
+        self.base_radius = base_radius
+        self.source = source
+        self.target = target
+        self.key = key
+        lo, hi = law.support
+        self._src_support = (float(lo), float(hi))
+        self._edges: list[tuple[float, float]] = []    # (b, H_b) of straight flats
+        self._breaks = self._breakpoints()
+        self._build_table()
+        edges_set = bool(self._edges)
+        self.continuity_order = min(law.continuity_order, 1) if edges_set \
+            else law.continuity_order
+        self._cache: tuple[bytes, NDArray[np.float64]] | None = None
+
+    # --- profile description -----------------------------------------------------------
+    def _jets(self, s: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        """Jets (psi, H, T) of the profile at source angles ``s`` (unwrapped, rad)."""
+        n = s.size
+        sw = _wrap(s)
+        hj = np.stack([self.law(sw, k) / math.factorial(k) for k in range(JET_ORDER + 1)])
+        param = _jet_const(s, n)
+        param[1] = 1.0
+        r0 = self.base_radius
+        if self.source.kind == 'flat':
+            height = hj.copy()
+            height[0] += r0
+            return param, height, _jet_deriv(hj)
+        r1 = _radius(self.source)
+        g = hj.copy()
+        g[0] += r0 + r1
+        gp = _jet_deriv(g)
+        w = _jet_sqrt(_jet_mul(g, g) + _jet_mul(gp, gp))
+        psi = param - _jet_atan2(gp, g)
+        height = _jet_div(_jet_mul(g, g), w)
+        height[0] -= r1
+        return psi, height, _jet_div(_jet_mul(g, gp), w)
+
+    def _target_jets(self, s: NDArray[np.float64], check: bool = True
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Jets of the contact angle A and of the target lift at source angles ``s``."""
+        psi, height, tang = self._jets(s)
+        if check:
+            self._check(s, psi, height, tang)
+        r0 = self.base_radius
+        if self.target.kind == 'flat':
+            lift = height.copy()
+            lift[0] -= r0
+            return psi, lift
+        r2 = _radius(self.target)
+        hr = height.copy()
+        hr[0] += r2
+        angle = psi + _jet_atan2(tang, hr)
+        lift = _jet_sqrt(_jet_mul(hr, hr) + _jet_mul(tang, tang))
+        lift[0] -= r0 + r2
+        return angle, lift
+
+    def _check(self, s: NDArray[np.float64], psi: NDArray[np.float64],
+               height: NDArray[np.float64], tang: NDArray[np.float64]) -> None:
+        """Raise InputError where the profile is undercut or the contact is not unique."""
+        # P' = lam * t(psi): lam > 0 means the envelope advances (no cusp/undercut);
+        # rho = lam / psi' is the profile's signed radius of curvature.
+        lam = height[0] * psi[1] + tang[1]
+        bad = ~(lam > 0)
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise InputError(
+                self.key, f'undercut (cusp) of the {self.source.kind} design profile at '
+                f'alpha = {_wrap(s[i:i + 1])[0]:.6g} rad',
+                'a lift law whose cam profile is realisable (radius of curvature > 0 for a '
+                'flat design, pitch radius of curvature > roller radius for a roller)')
+        if self.target.kind == 'flat':
+            bad = ~(psi[1] > 0)
+            what = 'a convex cam profile for a flat target (the face bridges a concave flank)'
+        else:
+            bad = ~(lam + _radius(self.target) * psi[1] > 0)
+            what = (f'a profile whose concave parts fit the target roller of radius '
+                    f'{_radius(self.target)} m')
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            rho = lam[i] / psi[1][i] if psi[1][i] != 0 else math.inf
+            raise InputError(self.key, f'concave profile (radius of curvature {rho:.6g} m) '
+                             f'at alpha = {_wrap(s[i:i + 1])[0]:.6g} rad', what)
+
+    def _breakpoints(self) -> list[float]:
+        """Wrapped angles where h' may step: support ends and the law's junctions."""
+        lo, hi = self._src_support
+        if not (hi > lo and lo >= -math.pi - 1e-9 and hi <= math.pi + 1e-9):
+            raise InputError(f'{self.key}.support', (lo, hi),
+                             'an interval inside [-pi, pi] rad (alpha from the lobe centreline)')
+        cands = [lo, hi] + [float(j) for j in self.law.junctions if lo < j < hi]
+        wrapped = sorted(set(float(x) for x in _wrap(np.asarray(cands))))
+        out: list[float] = []
+        for b in wrapped:
+            if out and abs(b - out[-1]) < 1e-12:
+                continue
+            out.append(b)
+        if len(out) > 1 and abs(out[0] + 2 * math.pi - out[-1]) < 1e-12:
+            out.pop()
+        edges = []
+        for b in out:
+            side = _wrap(np.array([b - SIDE_EPS, b + SIDE_EPS]))
+            h = self.law(side, 0)
+            hp = self.law(side, 1)
+            if abs(h[1] - h[0]) > POSITION_TOL + 2 * SIDE_EPS * float(np.max(np.abs(hp))):
+                raise InputError(self.key, f'a step of {h[1] - h[0]:.3g} m in h at alpha = '
+                                 f'{b:.6g} rad', 'a continuous lift (h = 0 at the support ends)')
+            step = float(hp[1] - hp[0])
+            if self.source.kind == 'flat':
+                if step < -STEP_REJECT:
+                    raise InputError(self.key, f'h\' steps down by {-step:.3g} m/rad at alpha '
+                                     f'= {b:.6g} rad', 'a flat-tappet lift whose h\' only '
+                                     'steps up (a down step is an undercut)')
+                if step > JUMP_TOL:
+                    h_b = float(self.law(np.array([b]))[0])
+                    edges.append((b, self.base_radius + h_b))
+            elif abs(step) > STEP_REJECT:
+                raise InputError(self.key, f'h\' steps by {step:.3g} m/rad at alpha = {b:.6g} '
+                                 'rad', 'a roller-follower lift with continuous h\' (a step '
+                                 'is a corner of the pitch curve)')
+        if self.target.kind != 'flat':
+            self._edges = edges
+        return out
+
+    # --- contact-angle table ------------------------------------------------------------
+    def _build_table(self) -> None:
+        edges = [b for b, _ in self._edges]
+        start = edges[0] if edges else -math.pi
+        end = start + 2 * math.pi
+        grid = np.linspace(start, end, TABLE_POINTS + 1)
+        pts: list[ArrayLike] = []
+        gap_left: list[float] = []
+        if edges:
+            inner = [b if b >= start else b + 2 * math.pi for b in edges[1:]]
+            keep = (grid > start + 2 * SIDE_EPS) & (grid < end - 2 * SIDE_EPS)
+            for b in inner:
+                keep &= np.abs(grid - b) > 2 * SIDE_EPS
+                pts.append([b - SIDE_EPS, b + SIDE_EPS])
+                gap_left.append(b - SIDE_EPS)
+            grid = grid[keep]
+            # the last gap wraps: the point past the end repeats the first, one turn later
+            pts.append([start + SIDE_EPS, end - SIDE_EPS, end + SIDE_EPS])
+            gap_left.append(end - SIDE_EPS)
+        pts.append(grid)
+        s = np.unique(np.concatenate([np.asarray(p, dtype=float) for p in pts]))
+        angle, _ = self._target_jets(s)
+        a = angle[0]
+        if edges:
+            a[-1] = a[0] + 2 * math.pi
+        gap = np.zeros(s.size - 1, dtype=bool)
+        for g in gap_left:
+            gap[int(np.argmin(np.abs(s[:-1] - g)))] = True
+        if np.any(np.diff(a)[~gap] <= 0):
+            i = int(np.argmax((np.diff(a) <= 0) & ~gap))
+            raise InputError(self.key, f'non-monotone contact angle near alpha = '
+                             f'{_wrap(s[i:i + 1])[0]:.6g} rad',
+                             'a convex, undercut-free cam profile')
+        self._s = s
+        self._a = a
+        self._gap = gap
+        self._edge_b = np.array([b for b, _ in self._edges])
+        self._edge_h = np.array([hb for _, hb in self._edges])
+        lo, hi = self._src_support
+        ends, _ = self._target_jets(np.array([lo - SIDE_EPS, hi + SIDE_EPS]), check=False)
+        self._support = (float(min(ends[0][0], lo)), float(max(ends[0][1], hi)))
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return self._support
+
+    @property
+    def junctions(self) -> tuple[float, ...]:
+        return tuple(float(b) for b, _ in self._edges)
+
+    # --- evaluation ----------------------------------------------------------------------
+    def solve(self, alpha: ArrayLike) -> NDArray[np.float64]:
+        """(4, n): target h, h', h'', h''' at ``alpha`` [rad] (flattened); 0 on the base."""
+        a = np.asarray(alpha, dtype=float).reshape(-1)
+        if not np.all(np.isfinite(a)):
+            raise InputError('alpha', 'non-finite entries', 'finite angles in rad')
+        out = np.zeros((JET_ORDER + 1, a.size))
+        if a.size == 0:
+            return out
+        a0 = self._a[0]
+        aa = a0 + np.mod(a - a0, 2 * math.pi)
+        idx = np.clip(np.searchsorted(self._a, aa, side='right') - 1, 0, self._a.size - 2)
+        on_gap = self._gap[idx]
+        if np.any(on_gap):
+            out[:, on_gap] = self._flat_contact(aa[on_gap], idx[on_gap])
+        smooth = ~on_gap
+        if np.any(smooth):
+            out[:, smooth] = self._newton(aa[smooth], idx[smooth])
+        return out
+
+    def _flat_contact(self, aa: NDArray[np.float64], idx: NDArray[np.int64]
+                      ) -> NDArray[np.float64]:
+        """Roller/knife on a straight flat of normal angle b: D = c / cos(alpha - b)."""
+        b = 0.5 * (self._s[idx] + self._s[idx + 1])
+        which = np.argmin(np.abs(_wrap(b[:, None] - self._edge_b[None, :])), axis=1)
+        c = self._edge_h[which]
+        r2 = _radius(self.target)
+        c = c + r2
+        x = aa - b
+        sec = 1.0 / np.cos(x)
+        tan = np.tan(x)
+        return np.stack([c * sec - (self.base_radius + r2), c * sec * tan,
+                         c * (sec * tan * tan + sec ** 3),
+                         c * sec * tan * (tan * tan + 5.0 * sec * sec)])
+
+    def _newton(self, aa: NDArray[np.float64], idx: NDArray[np.int64]) -> NDArray[np.float64]:
+        s_lo = self._s[idx].copy()
+        s_hi = self._s[idx + 1].copy()
+        a_lo = self._a[idx]
+        a_hi = self._a[idx + 1]
+        s = s_lo + (aa - a_lo) / (a_hi - a_lo) * (s_hi - s_lo)
+        for _ in range(NEWTON_MAX_ITER):
+            angle, lift = self._target_jets(s)
+            f = angle[0] - aa
+            if np.max(np.abs(f)) < NEWTON_TOL:
+                break
+            s_hi = np.where(f > 0, s, s_hi)
+            s_lo = np.where(f <= 0, s, s_lo)
+            step = s - f / angle[1]
+            inside = (step >= s_lo) & (step <= s_hi)
+            s = np.where(np.abs(f) < NEWTON_TOL, s,
+                         np.where(inside, step, 0.5 * (s_lo + s_hi)))
+        derivs = _jet_inverse_compose(angle, lift)
+        for k in range(JET_ORDER):     # first-order correction for the residual angle
+            derivs[k] -= f * derivs[k + 1]
+        return derivs
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        tag = alpha.tobytes()
+        if self._cache is None or self._cache[0] != tag:
+            self._cache = (tag, self.solve(alpha))
+        return self._cache[1][nu]
+
+    def derivatives(self, alpha: ArrayLike) -> NDArray[np.float64]:
+        """(4, n): h, h', h'', h''' at the flattened ``alpha`` (one solve for all orders)."""
+        a = np.asarray(alpha, dtype=float).reshape(-1)
+        out = np.zeros((JET_ORDER + 1, a.size))
+        lo, hi = self.support
+        inside = (a >= lo) & (a <= hi)
+        if np.any(inside):
+            out[:, inside] = self.solve(a[inside])
+        return out
+
+
+def convert_lift(law: LiftLaw, base_radius: float, source: Follower, target: Follower,
+                 *, key: str = 'lift') -> LiftLaw:
+    """Lift [m] that the in-line translating follower ``target`` sees on the cam cut for
+    the design lift ``law`` with follower ``source``.
+
+    Same alpha convention as ``law`` (rad from the lobe centreline, h = 0 on the base
+    circle); ``base_radius`` [m] is the base-circle radius of the cam profile itself.
+    Returns ``law`` itself when the followers are the same (flat radii are ignored);
+    otherwise a :class:`ConvertedLift` with exact h, h', h'', h'''.
+    Raises InputError (naming ``key``) for an undercut design profile, a concave flank
+    under a flat target, a concave region too tight for a roller target, or a lift
+    that steps in h (or in h' for a roller design).
+    """
+    if not isinstance(law, LiftLaw):
+        raise InputError(key, type(law).__name__, 'a cam_design LiftLaw')
+    r0 = require_positive('base_radius', base_radius)
+    for name, f in (('source', source), ('target', target)):
+        if not isinstance(f, Follower):
+            raise InputError(f'{name}', f, 'a cam_design.follower.Follower')
+    if _same_follower(source, target):
+        return law
+    return ConvertedLift(law, r0, source, target, key=key)

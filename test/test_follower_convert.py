@@ -1,0 +1,241 @@
+"""convert_lift: exact eccentric-disc cases, a flat with a velocity step, round trips,
+undercut/concave rejection and bad input (methods.md §2.1, §2.2, §2.6, §5.5)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from cam_design.errors import InputError
+from cam_design.follower import ConvertedLift, Follower, convert_lift
+from cam_design.lift_laws.base import LiftLaw, TabulatedLift
+
+RC, E = 0.020, 0.005          # methods §7 #13: disc radius 20 mm, eccentricity 5 mm
+R0 = RC - E
+
+
+class DiscLift(LiftLaw):
+    """Exact lift of an eccentric disc (nose at alpha = 0) for a follower of radius r
+    (flat: h = e(1 + cos a); roller/knife: D = e cos a + sqrt((Rc + r)^2 - e^2 sin^2 a));
+    derivatives by complex-step-free closed forms of D through q = sqrt(...)."""
+
+    continuity_order = 3
+
+    def __init__(self, follower: Follower) -> None:
+        self.follower = follower
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return -math.pi, math.pi
+
+    def _evaluate(self, a: np.ndarray, nu: int) -> np.ndarray:
+        c, s = np.cos(a), np.sin(a)
+        if self.follower.kind == 'flat':
+            return [E * (1 + c), -E * s, -E * c, E * s][nu]
+        r = self.follower.radius if self.follower.kind == 'roller' else 0.0
+        big = (RC + r) ** 2
+        q = np.sqrt(big - E * E * s * s)
+        # u = sin^2 a: u' = sin 2a, u'' = 2 cos 2a, u''' = -4 sin 2a; q = sqrt(big - e^2 u)
+        u1, u2, u3 = np.sin(2 * a), 2 * np.cos(2 * a), -4 * np.sin(2 * a)
+        k = E * E
+        q1 = -k * u1 / (2 * q)
+        q2 = -k * u2 / (2 * q) - q1 * q1 / q
+        q3 = -k * u3 / (2 * q) - 3 * q1 * q2 / q
+        return [E * c + q - (R0 + r), -E * s + q1, -E * c + q2, E * s + q3][nu]
+
+
+FLAT, KNIFE = Follower('flat'), Follower('knife')
+ROLLER = Follower('roller', 0.008)
+ALPHA = np.linspace(-math.pi, math.pi, 3601)
+PAIRS = [(FLAT, ROLLER), (FLAT, KNIFE), (ROLLER, FLAT), (ROLLER, KNIFE), (KNIFE, ROLLER),
+         (KNIFE, FLAT), (ROLLER, Follower('roller', 0.0025)), (Follower('roller', 0.03), FLAT)]
+
+
+@pytest.mark.parametrize('source,target', PAIRS, ids=lambda f: f'{f.kind}{f.radius}')
+def test_eccentric_disc_conversion_is_exact(source: Follower, target: Follower) -> None:
+    law = convert_lift(DiscLift(source), R0, source, target)
+    got = law.derivatives(ALPHA)
+    want = DiscLift(target).derivatives(ALPHA)
+    assert np.max(np.abs(got[0] - want[0])) < 1e-12            # m (spec: < 1e-9)
+    for nu in (1, 2, 3):                                         # m/rad^nu
+        assert np.max(np.abs(got[nu] - want[nu])) < 1e-11
+        assert np.allclose(law(ALPHA, nu), got[nu], rtol=0, atol=1e-15)
+
+
+def test_identity_returns_the_law() -> None:
+    law = DiscLift(FLAT)
+    assert convert_lift(law, R0, FLAT, FLAT) is law
+    assert convert_lift(law, R0, Follower('flat', 0.01), FLAT) is law
+    assert convert_lift(law, R0, ROLLER, Follower('roller', 0.008)) is law
+
+
+def test_wrapped_and_shaped_input() -> None:
+    law = convert_lift(DiscLift(FLAT), R0, FLAT, ROLLER)
+    a = np.array([[0.3, -2.0], [1.0, 3.0]])
+    want = DiscLift(ROLLER)(a, 1)
+    assert law(a, 1).shape == (2, 2)
+    assert np.allclose(law(a, 1), want, atol=1e-14)
+    assert np.allclose(law.solve(a.ravel() + 2 * math.pi)[1], want.ravel(), atol=1e-14)
+
+
+class RampLobe(LiftLaw):
+    """Flat-tappet lobe with constant-velocity ramps (h' steps from 0 to v at the support
+    ends) of width w outside |a| <= m, and a main event H_r + H (1 + cos(pi x / m)) / 2 +
+    v (m^2 - x^2) / (2m) on x = |a| <= m (h, h' continuous at the junctions)."""
+
+    continuity_order = 0
+
+    def __init__(self, v: float = 0.0005, m: float = 1.4, lift: float = 0.006,
+                 vm: float | None = None) -> None:
+        self.v, self.m, self.lift = v, m, lift
+        self.vm = v if vm is None else vm      # main-event velocity at the junction
+        self.w = 0.15
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return -(self.m + self.w), self.m + self.w
+
+    @property
+    def junctions(self) -> tuple[float, ...]:
+        return (-self.m, self.m)
+
+    def _evaluate(self, a: np.ndarray, nu: int) -> np.ndarray:
+        x = np.abs(a)
+        sgn = np.where(a < 0, -1.0, 1.0) ** nu
+        hr = self.v * self.w
+        k = math.pi / self.m
+        ramp = [hr - self.v * (x - self.m), -self.v + 0 * x, 0 * x, 0 * x][nu]
+        cx, sx = np.cos(k * x), np.sin(k * x)
+        half = self.lift / 2
+        q = self.vm / (2 * self.m)     # + vm (m^2 - x^2) / (2m): velocity -vm at x = m
+        main = [hr + half * (1 + cx) + q * (self.m ** 2 - x * x), -half * k * sx - 2 * q * x,
+                -half * k * k * cx - 2 * q, half * k ** 3 * sx][nu]
+        return sgn * np.where(x > self.m, ramp, main)
+
+
+def brute_roller_lift(law: LiftLaw, r0: float, r: float, alpha: np.ndarray) -> np.ndarray:
+    """Independent reference (methods §2.6): dense flat-design profile points, including
+    the straight flats at velocity steps, then D = max [P.u + sqrt(r^2 - (P.u_perp)^2)]."""
+    s = np.linspace(-math.pi, math.pi, 400001)
+    p = r0 + law(s)
+    dp = law(s, 1)
+    pts = [np.stack([p * np.cos(s) - dp * np.sin(s), p * np.sin(s) + dp * np.cos(s)])]
+    lo, hi = law.support
+    for b in (lo, hi, *law.junctions):
+        h_b = r0 + float(law(np.array([b]))[0])
+        t_l, t_r = law(np.array([b - 1e-12, b + 1e-12]), 1)
+        t = np.linspace(min(t_l, t_r), max(t_l, t_r), 2001)
+        pts.append(np.stack([h_b * math.cos(b) - t * math.sin(b),
+                             h_b * math.sin(b) + t * math.cos(b)]))
+    x, y = np.concatenate(pts, axis=1)
+    out = []
+    for a in alpha:
+        along = x * math.cos(a) + y * math.sin(a)
+        across = -x * math.sin(a) + y * math.cos(a)
+        ok = np.abs(across) <= r
+        out.append(np.max(along[ok] + np.sqrt(r * r - across[ok] ** 2)) - (r0 + r))
+    return np.array(out)
+
+
+@pytest.mark.parametrize('vm,flats', [(None, 2), (0.0015, 4)])
+def test_flat_with_velocity_steps_to_roller_matches_brute_force(vm: float | None,
+                                                                flats: int) -> None:
+    lobe = RampLobe(vm=vm)      # steps of h' at the support ends (and at the junctions)
+    conv = convert_lift(lobe, 0.018, FLAT, Follower('roller', 0.01))
+    assert isinstance(conv, ConvertedLift)
+    assert len(conv.junctions) == flats
+    alpha = np.concatenate([np.linspace(-1.6, 1.6, 41), [-1.55 + 0.004, 1.55 - 0.004]])
+    ref = brute_roller_lift(lobe, 0.018, 0.01, alpha)
+    got = conv(alpha)
+    assert np.max(np.abs(got - ref)) < 2e-9
+    assert np.all(got[np.abs(alpha) > 1.55] == 0.0)
+
+
+def test_flat_face_start_closed_form() -> None:
+    # on the ramp flat, the roller centre runs on a straight line: D = (R0 + r)/cos(a - lo)
+    lobe = RampLobe()
+    r = 0.004
+    conv = convert_lift(lobe, 0.018, FLAT, Follower('roller', r))
+    lo = lobe.support[0]
+    a = lo + np.array([1e-4, 5e-3, 1e-2])
+    d = (0.018 + r) / np.cos(a - lo)
+    assert np.allclose(conv(a), d - (0.018 + r), rtol=0, atol=1e-15)
+    assert np.allclose(conv(a, 1), d * np.tan(a - lo), rtol=0, atol=1e-15)
+
+
+def smooth_bump(lift: float, half_width: float) -> TabulatedLift:
+    """A C4-ish smooth bump (cos^4 shape) tabulated on 401 points."""
+    a = np.linspace(-half_width, half_width, 401)
+    return TabulatedLift(a, lift * np.cos(0.5 * math.pi * a / half_width) ** 4)
+
+
+@settings(max_examples=25, deadline=None)
+@given(lift=st.floats(0.002, 0.006), half=st.floats(1.4, 2.6), r=st.floats(0.002, 0.03))
+def test_round_trip_flat_roller_flat(lift: float, half: float, r: float) -> None:
+    r0 = 0.03     # rho1 >= r0 + lift - lift pi^2 / half^2 > 5 mm: convex
+    law = smooth_bump(lift, half)
+    roller = Follower('roller', r)
+    there = convert_lift(law, r0, FLAT, roller)
+    back = convert_lift(there, r0, roller, FLAT)
+    a = np.linspace(-math.pi, math.pi, 1001)
+    assert np.max(np.abs(back(a) - law(a))) < 1e-9
+    assert np.max(np.abs(back(a, 1) - law(a, 1))) < 1e-8
+
+
+def test_undercut_flat_design_rejected() -> None:
+    law = smooth_bump(0.015, 0.4)      # rho1 = R0 + h + h'' < 0 near the nose
+    with pytest.raises(InputError, match='undercut') as err:
+        convert_lift(law, 0.01, FLAT, ROLLER, key='lobes[0].lift')
+    assert err.value.key == 'lobes[0].lift'
+
+
+def test_concave_roller_design_rejected_for_flat_target() -> None:
+    # a roller design with concave flanks (fine for its roller, not for a flat face);
+    # a knife still fits, a roller larger than the concave radius does not
+    law = smooth_bump(0.006, 0.8)
+    roller = Follower('roller', 0.002)
+    with pytest.raises(InputError, match='concave'):
+        convert_lift(law, 0.012, roller, FLAT)
+    knife = convert_lift(law, 0.012, roller, KNIFE)
+    assert np.all(np.isfinite(knife(np.linspace(-1, 1, 101))))
+
+
+@pytest.mark.parametrize('args,key', [
+    ((-0.01, FLAT, ROLLER), 'base_radius'),
+    ((float('nan'), FLAT, ROLLER), 'base_radius'),
+    ((0.01, 'flat', ROLLER), 'source'),
+])
+def test_bad_input(args: tuple, key: str) -> None:
+    with pytest.raises(InputError) as err:
+        convert_lift(DiscLift(FLAT), *args)
+    assert err.value.key == key
+
+
+def test_bad_follower_rejected() -> None:
+    with pytest.raises(InputError, match='follower.kind'):
+        Follower('mushroom')
+    with pytest.raises(InputError, match='follower.radius'):
+        Follower('roller', -0.001)
+    with pytest.raises(InputError, match='follower.radius'):
+        Follower('roller', 0.0)
+
+
+def test_step_in_lift_rejected() -> None:
+    law = TabulatedLift(np.linspace(-1, 1, 11), 0.001 + 0.0 * np.linspace(-1, 1, 11))
+    with pytest.raises(InputError, match='step'):
+        convert_lift(law, 0.02, FLAT, ROLLER)
+
+
+def test_huge_and_empty_queries() -> None:
+    law = convert_lift(DiscLift(FLAT), R0, FLAT, KNIFE)
+    assert law(np.array([])).shape == (0,)
+    a = np.linspace(-50, 50, 200001)     # solve() wraps; law() is 0 outside the support
+    assert np.max(np.abs(law.solve(a)[0] - DiscLift(KNIFE)(_wrap(a)))) < 1e-12
+    with pytest.raises(InputError, match='alpha'):
+        law.solve([0.1, float('nan')])
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return (a + math.pi) % (2 * math.pi) - math.pi
