@@ -34,7 +34,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     # Flat-tappet intake lobe for base_circle_radius 0.0165 m: S2 ramp (0.3 mm,
     # 0.015 mm/deg, 25 deg) + 2-10-18-26 polynomial, 8.2 mm base rise (8.5 mm total
     # lift), 65 deg half base section: 180 deg cam duration including the ramps,
-    # minimum flat-tappet radius of curvature 4.3 mm (nose), max |h'| 12.8 mm/rad
+    # minimum flat-tappet radius of curvature 4.32 mm (at +-27.9 deg), max |h'| 12.8 mm/rad
     # (tappet face radius > 13 mm). 2-6-10-14 would need a 70+ deg half base section
     # on this base circle (nose rho1 < 0 below ~66 deg).
     'flat_tappet_intake': {

@@ -1,0 +1,384 @@
+"""Design checks of the book §2.1 (seed 000, methods.md §3), SI units throughout.
+
+Formulas (S0 numbering): valve flow area (2.1), time-area (2.2), fullness (2.3),
+Hertz line-contact stress (2.4, 2.5, 2.11), spring force (2.8), inertia force (2.9),
+equivalent mass (2.10, with the valve mass M1 that the printed formula lacks:
+erratum 6), oil-film number and minimum film (2.12, with a reversal flag),
+valve-piston clearance (2.13) with the crank-slider (2.14 and the exact form), and
+the cam/crank angle mapping phi - phi0 = 2 (alpha - alpha0).
+
+Flat-tappet radius of curvature rho1 = R0 + h + h'' (2.6) is here; roller-follower
+curvature (2.7) belongs to ``cam_design.follower``.
+
+The Hertz constants are the book's printed 0.564 (= 1/sqrt(pi) = 0.56419 rounded)
+and 0.418 (= 0.564 * sqrt(1 / (2 (1 - 0.3^2))) rounded), so results agree with the
+book to its printing; they differ from the unrounded constants by < 0.05 %.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cam_design.errors import InputError, require_finite, require_positive
+
+HERTZ_GENERAL = 0.564     # (2.4)
+HERTZ_STEEL = 0.418       # (2.5), (2.11), mu = 0.3
+
+
+def _arr(key: str, value: ArrayLike) -> NDArray[np.float64]:
+    a = np.asarray(value, dtype=float)
+    if not np.all(np.isfinite(a)):
+        raise InputError(key, 'non-finite values', 'finite numbers')
+    return a
+
+
+# ---------------------------------------------------------------- flow (2.1-2.3)
+def valve_flow_area(y: ArrayLike, seat_diameter: float, seat_angle: float) -> NDArray:
+    """(2.1) F_p = pi d cos(g) y + pi cos^2(g) sin(g) y^2 [m^2].
+
+    ``y`` valve lift [m] (>= 0), ``seat_diameter`` d = inner seat diameter [m],
+    ``seat_angle`` gamma [rad] from the valve-head plane. Valid while
+    y < w / (sin g cos g) (see ``flow_area_validity``)."""
+    d = require_positive('seat_diameter', seat_diameter)
+    g = require_finite('seat_angle', seat_angle)
+    if not 0 <= g < math.pi / 2:
+        raise InputError('seat_angle', seat_angle, 'an angle in [0, pi/2) rad')
+    yy = _arr('y', y)
+    if np.any(yy < 0):
+        raise InputError('y', float(yy.min()), 'valve lifts >= 0 m')
+    return math.pi * d * math.cos(g) * yy + math.pi * math.cos(g) ** 2 * math.sin(g) * yy ** 2
+
+
+def flow_area_validity(seat_width: float, seat_angle: float) -> float:
+    """Largest lift [m] for which (2.1) holds: w / (sin g cos g) (inf for g = 0)."""
+    w = require_positive('seat_width', seat_width)
+    s = math.sin(seat_angle) * math.cos(seat_angle)
+    return math.inf if s == 0 else w / s
+
+
+def time_area(alpha: ArrayLike, flow_area: ArrayLike) -> NDArray:
+    """(2.2) cumulative integral of F_p over alpha [m^2 rad] (trapezoid, same grid).
+
+    Divide by omega [rad/s] for the time-area in m^2 s."""
+    from scipy.integrate import cumulative_trapezoid
+
+    a = _arr('alpha', alpha)
+    f = _arr('flow_area', flow_area)
+    if a.shape != f.shape or a.ndim != 1 or a.size < 2:
+        raise InputError('flow_area', f.shape, f'one value per alpha ({a.shape})')
+    if np.any(np.diff(a) <= 0):
+        raise InputError('alpha', 'not increasing', 'strictly increasing angles')
+    return cumulative_trapezoid(f, a, initial=0.0)
+
+
+def fullness(alpha: ArrayLike, y: ArrayLike) -> float:
+    """(2.3) xi = int_a^{alpha_a} y dalpha / (y_max (alpha_a - a)).
+
+    a and alpha_a are the first and last angles with y > 0 (linearly interpolated to
+    the zero crossings); integration by the trapezoid rule on the given grid."""
+    a = _arr('alpha', alpha)
+    yy = _arr('y', y)
+    if a.shape != yy.shape or a.ndim != 1:
+        raise InputError('y', yy.shape, f'one value per alpha ({a.shape})')
+    pos = np.nonzero(yy > 0)[0]
+    if pos.size == 0:
+        raise InputError('y', 'no positive lift', 'a valve lift that opens the valve')
+    i0, i1 = int(pos[0]), int(pos[-1])
+    lo = a[i0] if i0 == 0 else a[i0 - 1] + (a[i0] - a[i0 - 1]) * (-yy[i0 - 1]) / (
+        yy[i0] - yy[i0 - 1])
+    hi = a[i1] if i1 == a.size - 1 else a[i1] + (a[i1 + 1] - a[i1]) * yy[i1] / (
+        yy[i1] - yy[i1 + 1])
+    seg_a = np.concatenate([[lo], a[i0:i1 + 1], [hi]])
+    seg_y = np.concatenate([[0.0], yy[i0:i1 + 1], [0.0]])
+    integral = float(np.sum((seg_y[1:] + seg_y[:-1]) * np.diff(seg_a)) / 2)
+    return integral / (float(yy.max()) * (hi - lo))
+
+
+def rigid_valve_lift(h: ArrayLike, rocker_ratio: float, lash: float) -> NDArray:
+    """y = max(k h - x0, 0) [m] (methods §0; the seed prints it wrongly twice)."""
+    k = require_positive('rocker_ratio', rocker_ratio)
+    x0 = require_positive('lash', lash, allow_zero=True)
+    return np.maximum(k * _arr('h', h) - x0, 0.0)
+
+
+# ---------------------------------------------------------------- curvature and stress
+def flat_tappet_curvature(h: ArrayLike, h2: ArrayLike, base_radius: float) -> NDArray:
+    """(2.6) rho1 = R0 + h + h'' [m] (h'' in m/rad^2)."""
+    r0 = require_positive('base_radius', base_radius)
+    return r0 + _arr('h', h) + _arr('h2', h2)
+
+
+def hertz_stress(force: ArrayLike, width: float, rho1: ArrayLike, rho2: float = math.inf,
+                 e1: float = 2.06e11, e2: float | None = None, mu1: float = 0.3,
+                 mu2: float | None = None) -> NDArray:
+    """(2.4) sigma = 0.564 sqrt(F (1/rho1 + 1/rho2) / [((1-mu1^2)/E1 + (1-mu2^2)/E2) W]).
+
+    ``force`` [N], ``width`` W [m], radii [m] (|rho| used; rho2 = inf for a flat face;
+    a concave follower can pass a negative rho2, giving 1/|rho1| - 1/|rho2|), moduli [Pa].
+    Force <= 0 (separation) gives stress 0."""
+    w = require_positive('width', width)
+    e1 = require_positive('e1', e1)
+    e2 = e1 if e2 is None else require_positive('e2', e2)
+    mu2 = mu1 if mu2 is None else mu2
+    f = np.maximum(_arr('force', force), 0.0)
+    r1 = np.abs(_arr('rho1', rho1))
+    if np.any(r1 == 0):
+        raise InputError('rho1', 0.0, 'a non-zero radius of curvature')
+    curv = 1 / r1 + (0.0 if math.isinf(rho2) else math.copysign(1 / abs(rho2), rho2))
+    comp = (1 - mu1 ** 2) / e1 + (1 - mu2 ** 2) / e2
+    return HERTZ_GENERAL * np.sqrt(f * np.maximum(curv, 0.0) / (comp * w))
+
+
+def hertz_stress_steel(force: ArrayLike, width: float, rho1: ArrayLike,
+                       rho2: float = math.inf, e1: float = 2.06e11,
+                       e2: float | None = None) -> NDArray:
+    """(2.5) sigma = 0.418 sqrt(E_m F (1/rho1 + 1/rho2) / W), E_m = 2 E1 E2/(E1+E2),
+    mu = 0.3; with rho2 = inf this is the flat-tappet form (2.11)."""
+    w = require_positive('width', width)
+    e1 = require_positive('e1', e1)
+    e2 = e1 if e2 is None else require_positive('e2', e2)
+    em = 2 * e1 * e2 / (e1 + e2)
+    f = np.maximum(_arr('force', force), 0.0)
+    r1 = np.abs(_arr('rho1', rho1))
+    if np.any(r1 == 0):
+        raise InputError('rho1', 0.0, 'a non-zero radius of curvature')
+    curv = 1 / r1 + (0.0 if math.isinf(rho2) else math.copysign(1 / abs(rho2), rho2))
+    return HERTZ_STEEL * np.sqrt(em * f * np.maximum(curv, 0.0) / w)
+
+
+# ---------------------------------------------------------------- forces (2.8-2.10)
+def equivalent_mass(*, valve: float, spring: float, retainer: float, rocker_ratio: float,
+                    rocker_inertia: float = 0.0, rocker_arm: float | None = None,
+                    tappet: float = 0.0, push_rod: float = 0.0) -> float:
+    """(2.10) with erratum 6: M = (M1 + M2/3 + M3) k^2 + I0/l0^2 + m2 + m3 [kg], tappet side.
+
+    valve M1, spring M2, retainer + keepers M3, tappet m2, push rod m3 [kg]; rocker
+    inertia I0 [kg m^2] about its pivot, tappet-side arm l0 [m]."""
+    vals = {k: require_positive(k, v, allow_zero=True) for k, v in
+            (('valve', valve), ('spring', spring), ('retainer', retainer),
+             ('rocker_inertia', rocker_inertia), ('tappet', tappet), ('push_rod', push_rod))}
+    k = require_positive('rocker_ratio', rocker_ratio)
+    rot = 0.0
+    if vals['rocker_inertia'] > 0:
+        if rocker_arm is None:
+            raise InputError('rocker_arm', None, 'the tappet-side arm length l0 [m]')
+        rot = vals['rocker_inertia'] / require_positive('rocker_arm', rocker_arm) ** 2
+    return ((vals['valve'] + vals['spring'] / 3 + vals['retainer']) * k * k + rot
+            + vals['tappet'] + vals['push_rod'])
+
+
+def spring_force(h: ArrayLike, rocker_ratio: float, lash: float, preload: float,
+                 rate: float) -> NDArray:
+    """(2.8) F_c = k [F0 + c' x] at the tappet [N], x = max(k h - x0, 0)."""
+    f0 = require_positive('preload', preload, allow_zero=True)
+    c = require_positive('rate', rate, allow_zero=True)
+    return rocker_ratio * (f0 + c * rigid_valve_lift(h, rocker_ratio, lash))
+
+
+def inertia_force(h2: ArrayLike, mass: float, omega: float) -> NDArray:
+    """(2.9) F_N = M omega^2 h'' [N] (h'' in m/rad^2, omega [rad/s], M tappet side)."""
+    m = require_positive('mass', mass)
+    w = require_finite('omega', omega)
+    return m * w * w * _arr('h2', h2)
+
+
+def rpm_to_omega(rpm: float, key: str = 'cam_speed_rpm') -> float:
+    """Camshaft speed [rpm] -> omega [rad/s]."""
+    return require_positive(key, rpm) * 2 * math.pi / 60
+
+
+@dataclasses.dataclass(frozen=True)
+class SeparationCheck:
+    """Kinematic no-separation test F = F_c + F_N > 0 where the valve is open."""
+
+    min_force: float       # N
+    alpha_at_min: float    # rad
+    ok: bool
+
+
+def no_separation(alpha: ArrayLike, h: ArrayLike, h2: ArrayLike, *, rocker_ratio: float,
+                  lash: float, preload: float, rate: float, mass: float,
+                  omega: float) -> SeparationCheck:
+    """Minimum of F_c + F_N over the angles where the follower is lifted (h > 0)."""
+    a = _arr('alpha', alpha)
+    hh, acc = _arr('h', h), _arr('h2', h2)
+    f = spring_force(hh, rocker_ratio, lash, preload, rate) + inertia_force(acc, mass, omega)
+    m = hh > 0
+    if not np.any(m):
+        raise InputError('h', 'no lift', 'a lift law with h > 0 somewhere')
+    i = int(np.argmin(np.where(m, f, np.inf)))
+    return SeparationCheck(float(f[i]), float(a[i]), bool(f[i] > 0))
+
+
+# ---------------------------------------------------------------- lubrication (2.12)
+@dataclasses.dataclass(frozen=True)
+class OilFilm:
+    """Oil-film number gamma_L = rho/(R0 + h) and h_min = K (R0+h) sqrt|2 g^2 - g|."""
+
+    gamma: NDArray[np.float64]
+    h_min: NDArray[np.float64]         # m (K in m/m; speed and oil dependent)
+    reversal: NDArray[np.bool_]        # 0 < gamma < 0.5: entrainment reverses
+    dwell_near_half: float             # rad spent with |gamma - 0.5| <= band
+    nose_gamma: float                  # gamma at the largest lift (S0: 0.15-0.25 advised)
+
+
+def oil_film(alpha: ArrayLike, h: ArrayLike, rho: ArrayLike, base_radius: float,
+             k_film: float, band: float = 0.05) -> OilFilm:
+    """(2.12) with the sign handling of methods §3 (radicand negative for 0 < g < 0.5)."""
+    a = _arr('alpha', alpha)
+    hh, rr = _arr('h', h), _arr('rho', rho)
+    r0 = require_positive('base_radius', base_radius)
+    k = require_positive('k_film', k_film)
+    g = rr / (r0 + hh)
+    hmin = k * (r0 + hh) * np.sqrt(np.abs(2 * g * g - g))
+    near = np.abs(g - 0.5) <= band
+    da = np.gradient(a) if a.size > 1 else np.zeros_like(a)
+    return OilFilm(g, hmin, (g > 0) & (g < 0.5), float(np.sum(da[near])),
+                   float(g[int(np.argmax(hh))]))
+
+
+# ---------------------------------------------------------------- piston (2.13, 2.14)
+def piston_displacement(phi: ArrayLike, crank_radius: float, rod_length: float, *,
+                        exact: bool = False) -> NDArray:
+    """(2.14) s = r[(1 - cos phi) + (r/4l)(1 - cos 2 phi)] [m], phi crank angle from TDC
+    [rad]; ``exact``: s = r (1 - cos phi) + l (1 - sqrt(1 - lam^2 sin^2 phi))."""
+    r = require_positive('crank_radius', crank_radius)
+    ln = require_positive('rod_length', rod_length)
+    if r >= ln:
+        raise InputError('rod_length', rod_length, f'a rod longer than the crank ({r})')
+    p = _arr('phi', phi)
+    if exact:
+        lam = r / ln
+        return r * (1 - np.cos(p)) + ln * (1 - np.sqrt(1 - (lam * np.sin(p)) ** 2))
+    return r * ((1 - np.cos(p)) + r / (4 * ln) * (1 - np.cos(2 * p)))
+
+
+def crank_angle(alpha: ArrayLike, phi0: float, alpha0: float) -> NDArray:
+    """phi = phi0 + 2 (alpha - alpha0) [rad]: camshaft at half crank speed."""
+    return require_finite('phi0', phi0) + 2 * (_arr('alpha', alpha)
+                                               - require_finite('alpha0', alpha0))
+
+
+def cam_angle(phi: ArrayLike, phi0: float, alpha0: float) -> NDArray:
+    """Inverse of ``crank_angle``: alpha = alpha0 + (phi - phi0)/2 [rad]."""
+    return require_finite('alpha0', alpha0) + (_arr('phi', phi)
+                                               - require_finite('phi0', phi0)) / 2
+
+
+def valve_piston_clearance(piston: ArrayLike, valve: ArrayLike, clearance: float) -> NDArray:
+    """(2.13) D_s = s + y0 - y [m]; D_s <= 0 is a collision."""
+    return _arr('piston', piston) + require_finite('clearance', clearance) - _arr('valve',
+                                                                                   valve)
+
+
+# ---------------------------------------------------------------- all checks for a law
+def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict[str, Any]:
+    """All §2.1 checks of a flat-tappet lift law; ``cfg`` is the parsed check input
+    (see docs/lift_laws.md "design check"). Returns a JSON-ready dict."""
+    from cam_design.lift_laws import params as P
+
+    key = 'check'
+    r0 = P.positive(cfg, key, 'base_radius')
+    k = P.positive(cfg, key, 'rocker_ratio', 1.0)
+    x0 = P.positive(cfg, key, 'lash', 0.0, allow_zero=True)
+    lo, hi = law.support
+    a = np.linspace(lo, hi, samples)
+    h, h1, h2, _ = law.derivatives(a)
+    y = rigid_valve_lift(h, k, x0)
+    rho = flat_tappet_curvature(h, h2, r0)
+    i_rho = int(np.argmin(rho))
+    out: dict[str, Any] = {
+        'max_lift_mm': float(h.max()) * 1e3,
+        'max_valve_lift_mm': float(y.max()) * 1e3,
+        'support_deg': [math.degrees(lo), math.degrees(hi)],
+        'continuity_order': int(law.continuity_order),
+        'max_velocity_mm_per_rad': float(np.abs(h1).max()) * 1e3,
+        'max_acceleration_mm_per_rad2': float(h2.max()) * 1e3,
+        'min_acceleration_mm_per_rad2': float(h2.min()) * 1e3,
+        'min_rho1_mm': float(rho[i_rho]) * 1e3,
+        'min_rho1_alpha_deg': math.degrees(float(a[i_rho])),
+        'undercut': bool(rho[i_rho] <= 0),
+        'tappet_face_radius_min_mm': float(np.abs(h1).max()) * 1e3,
+    }
+    if y.max() > 0:
+        out['fullness'] = fullness(a, y)
+        open_ = np.nonzero(y > 0)[0]
+        out['valve_open_deg'] = math.degrees(float(a[open_[0]]))
+        out['valve_close_deg'] = math.degrees(float(a[open_[-1]]))
+    valve = cfg.get('valve')
+    if valve is not None:
+        vk = f'{key}.valve'
+        valve = P.mapping(valve, vk)
+        fp = valve_flow_area(y, P.positive(valve, vk, 'seat_diameter'),
+                             P.positive(valve, vk, 'seat_angle', allow_zero=True))
+        ta = time_area(a, fp)
+        out['max_flow_area_mm2'] = float(fp.max()) * 1e6
+        out['time_area_mm2_deg'] = float(ta[-1]) * 1e6 * 180 / math.pi
+        if 'seat_width' in valve:
+            lim = flow_area_validity(P.positive(valve, vk, 'seat_width'), valve['seat_angle'])
+            out['flow_area_formula_valid'] = bool(y.max() < lim)
+    rpm = cfg.get('cam_speed_rpm')
+    spring, masses = cfg.get('spring'), cfg.get('masses')
+    if rpm is not None and spring is not None and masses is not None:
+        omega = rpm_to_omega(P.positive(cfg, key, 'cam_speed_rpm'), f'{key}.cam_speed_rpm')
+        sk, mk = f'{key}.spring', f'{key}.masses'
+        spring, masses = P.mapping(spring, sk), P.mapping(masses, mk)
+        m = equivalent_mass(
+            valve=P.positive(masses, mk, 'valve', allow_zero=True),
+            spring=P.positive(masses, mk, 'spring', 0.0, allow_zero=True),
+            retainer=P.positive(masses, mk, 'retainer', 0.0, allow_zero=True),
+            rocker_ratio=k,
+            rocker_inertia=P.positive(masses, mk, 'rocker_inertia', 0.0, allow_zero=True),
+            rocker_arm=masses.get('rocker_arm'),
+            tappet=P.positive(masses, mk, 'tappet', 0.0, allow_zero=True),
+            push_rod=P.positive(masses, mk, 'push_rod', 0.0, allow_zero=True))
+        f0 = P.positive(spring, sk, 'preload', allow_zero=True)
+        rate = P.positive(spring, sk, 'rate', allow_zero=True)
+        sep = no_separation(a, h, h2, rocker_ratio=k, lash=x0, preload=f0, rate=rate,
+                            mass=m, omega=omega)
+        force = spring_force(h, k, x0, f0, rate) + inertia_force(h2, m, omega)
+        out['equivalent_mass_kg'] = m
+        out['min_contact_force_n'] = sep.min_force
+        out['min_contact_force_alpha_deg'] = math.degrees(sep.alpha_at_min)
+        out['no_separation'] = sep.ok
+        contact = cfg.get('contact')
+        if contact is not None:
+            ck = f'{key}.contact'
+            contact = P.mapping(contact, ck)
+            lifted = h > 0
+            sig = hertz_stress_steel(np.where(lifted, force, 0.0),
+                                     P.positive(contact, ck, 'width'), rho,
+                                     e1=P.positive(contact, ck, 'youngs_modulus', 2.06e11))
+            i = int(np.argmax(sig))
+            out['max_hertz_stress_mpa'] = float(sig[i]) / 1e6
+            out['max_hertz_stress_alpha_deg'] = math.degrees(float(a[i]))
+    lub = cfg.get('lubrication')
+    if lub is not None:
+        lk = f'{key}.lubrication'
+        lub = P.mapping(lub, lk)
+        lifted = h > 0
+        film = oil_film(a[lifted], h[lifted], rho[lifted], r0, P.positive(lub, lk, 'k_film'))
+        out['oil_film_nose_gamma'] = film.nose_gamma
+        out['oil_film_reversal_deg'] = math.degrees(
+            float(np.sum(np.gradient(a[lifted])[film.reversal])))
+        out['oil_film_dwell_near_half_deg'] = math.degrees(film.dwell_near_half)
+        out['min_oil_film_um'] = float(film.h_min.min()) * 1e6
+    piston = cfg.get('piston')
+    if piston is not None and y.max() > 0:
+        pk = f'{key}.piston'
+        piston = P.mapping(piston, pk)
+        open_alpha = float(a[np.nonzero(y > 0)[0][0]])
+        phi = crank_angle(a, P.finite(piston, pk, 'opening_crank_angle'), open_alpha)
+        exact = bool(piston.get('exact', True))
+        s = piston_displacement(phi, P.positive(piston, pk, 'crank_radius'),
+                                P.positive(piston, pk, 'rod_length'), exact=exact)
+        ds = valve_piston_clearance(s, y, P.positive(piston, pk, 'clearance', allow_zero=True))
+        i = int(np.argmin(ds))
+        out['min_valve_piston_clearance_mm'] = float(ds[i]) * 1e3
+        out['min_clearance_crank_deg'] = math.degrees(float(phi[i]))
+        out['valve_piston_collision'] = bool(ds[i] <= 0)
+    return out

@@ -1,0 +1,191 @@
+"""`cam-bench design law|check|rocker`: lift laws, §2.1 design checks, rocker synthesis.
+
+* ``design law FILE.yaml``: evaluate a lift law (``lift_law:`` mapping, or the file
+  is the mapping itself) -> table of alpha, h, h', h'', h''' (CSV/JSON/plot).
+* ``design check FILE.yaml``: all design checks of the book §2.1 (docs/lift_laws.md).
+* ``design rocker``: CG rocker optimum frame length (seed 001).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from typing import Any
+
+COLUMNS = ('alpha_deg', 'h_mm', 'h1_mm_per_rad', 'h2_mm_per_rad2', 'h3_mm_per_rad3')
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``law``, ``check`` and ``rocker`` to the ``design`` group."""
+    p = sub.add_parser('law', help='evaluate a lift law from a YAML file',
+                       description='Evaluate a lift law (YAML: a `lift_law:` mapping or the '
+                                   'mapping itself, see docs/lift_laws.md) and print a table '
+                                   'of alpha [deg], h [mm], h\' [mm/rad], h\'\' [mm/rad^2], '
+                                   'h\'\'\' [mm/rad^3].')
+    p.add_argument('file', help='YAML file with the lift law')
+    p.add_argument('--step-deg', type=float, default=1.0, help='angle step [deg] (default 1)')
+    p.add_argument('--csv', metavar='FILE|-', help='write the table as CSV')
+    p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
+    p.add_argument('--plot', metavar='PNG', help='plot h, h\', h\'\' and h\'\'\' to a PNG')
+    p.set_defaults(func=cmd_law)
+
+    p = sub.add_parser('check', help='run the design checks of the book §2.1',
+                       description='Design checks (S0 §2.1): flow area, time-area, fullness, '
+                                   'rho1, Hertz stress, equivalent mass, separation, oil film, '
+                                   'valve-piston clearance. Input format: docs/lift_laws.md.')
+    p.add_argument('file', help='YAML check input')
+    p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
+    p.set_defaults(func=cmd_check)
+
+    p = sub.add_parser('rocker', help='CG rocker optimum dimension synthesis (seed 001)',
+                       description='Optimum frame length L of a rocker follower cam (S1, '
+                                   'methods.md §6, erratum 1 applied). Lengths in m.')
+    p.add_argument('--arm-length', type=float, required=True, help='rocker length l [m]')
+    p.add_argument('--base-radius', type=float, required=True, help='base radius R_b [m]')
+    p.add_argument('--max-swing-deg', type=float, required=True, help='max swing [deg]')
+    p.add_argument('--eccentricity', type=float, help='eccentric adjustment e [m]')
+    p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
+    p.set_defaults(func=cmd_rocker)
+
+
+def _load_yaml(path: str) -> Any:
+    import yaml
+
+    from cam_design.errors import InputError
+
+    with open(path, encoding='utf-8') as f:
+        try:
+            return yaml.safe_load(f)
+        except yaml.YAMLError as exc:
+            raise InputError(path, 'invalid YAML', f'a YAML document ({exc})') from None
+
+
+def _write(target: str, text: str) -> None:
+    if target == '-':
+        sys.stdout.write(text)
+    else:
+        with open(target, 'w', encoding='utf-8') as f:
+            f.write(text)
+
+
+def _law_spec(doc: Any, path: str) -> tuple[Any, str]:
+    from cam_design.errors import InputError
+
+    if isinstance(doc, dict) and 'lift_law' in doc:
+        return doc['lift_law'], 'lift_law'
+    if isinstance(doc, dict) and 'family' in doc:
+        return doc, 'lift_law'
+    raise InputError(path, type(doc).__name__, 'a mapping with lift_law: {family: ...}')
+
+
+def cmd_law(args: argparse.Namespace) -> int:
+    """Evaluate the law on a grid."""
+    import numpy as np
+
+    from cam_design.errors import InputError
+    from cam_design.lift_laws import from_spec
+
+    spec, key = _law_spec(_load_yaml(args.file), args.file)
+    law = from_spec(spec, key)
+    step = args.step_deg
+    if not (math.isfinite(step) and 1e-4 <= step <= 90):
+        raise InputError('--step-deg', step, 'a step in [1e-4, 90] deg')
+    lo, hi = law.support
+    n = int(math.floor((hi - lo) / math.radians(step) + 1e-9)) + 1
+    alpha = lo + np.arange(n) * math.radians(step)
+    if alpha[-1] < hi - 1e-12:
+        alpha = np.append(alpha, hi)
+    d = law.derivatives(alpha)
+    table = np.column_stack([np.degrees(alpha), d.T * 1e3])
+    summary = {'family': spec.get('family'), 'support_deg': [math.degrees(lo), math.degrees(hi)],
+               'max_lift_mm': float(d[0].max()) * 1e3,
+               'continuity_order': int(law.continuity_order),
+               'junctions_deg': [math.degrees(j) for j in law.junctions]}
+    wrote = False
+    if args.csv:
+        lines = [','.join(COLUMNS)] + [','.join(f'{v:.12g}' for v in row) for row in table]
+        _write(args.csv, '\n'.join(lines) + '\n')
+        wrote = True
+    if args.json:
+        doc = dict(summary, columns=list(COLUMNS), rows=table.tolist())
+        _write(args.json, json.dumps(doc, indent=1) + '\n')
+        wrote = True
+    if args.plot:
+        _plot(args.plot, table, str(spec.get('family')))
+    if not wrote:
+        print(f"{summary['family']}: support {summary['support_deg'][0]:.4f} .. "
+              f"{summary['support_deg'][1]:.4f} deg, max lift {summary['max_lift_mm']:.6f} mm, "
+              f"continuous to order {summary['continuity_order']}")
+        print(' '.join(f'{c:>16}' for c in COLUMNS))
+        for row in table:
+            print(' '.join(f'{v:16.9g}' for v in row))
+    return 0
+
+
+def _plot(path: str, table: Any, title: str) -> None:
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(4, 1, sharex=True, figsize=(7, 9))
+    labels = ('h [mm]', "h' [mm/rad]", "h'' [mm/rad²]", "h''' [mm/rad³]")
+    for i, ax in enumerate(axes):
+        ax.plot(table[:, 0], table[:, i + 1], lw=1)
+        ax.set_ylabel(labels[i])
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel('alpha [deg] (rise flank < 0)')
+    axes[0].set_title(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    """Run the §2.1 checks."""
+    from cam_design.checks import run_checks
+    from cam_design.errors import InputError
+    from cam_design.lift_laws import from_spec
+
+    doc = _load_yaml(args.file)
+    if not isinstance(doc, dict):
+        raise InputError(args.file, type(doc).__name__, 'a mapping (see docs/lift_laws.md)')
+    if 'lift_law' not in doc:
+        raise InputError('lift_law', None, 'a lift_law mapping')
+    law = from_spec(doc['lift_law'], 'lift_law')
+    cfg = {k: v for k, v in doc.items() if k != 'lift_law'}
+    res = run_checks(law, cfg)
+    if args.json:
+        _write(args.json, json.dumps(res, indent=1) + '\n')
+    else:
+        for k, v in res.items():
+            print(f'{k:34s} {v:.6g}' if isinstance(v, float) else f'{k:34s} {v}')
+    return 0
+
+
+def cmd_rocker(args: argparse.Namespace) -> int:
+    """Rocker synthesis."""
+    from cam_design.errors import require_positive
+    from cam_design.rocker import sampled_deviation, synthesize
+
+    psi = math.radians(require_positive('--max-swing-deg', args.max_swing_deg))
+    arm = require_positive('--arm-length', args.arm_length)
+    base = require_positive('--base-radius', args.base_radius)
+    ecc = (None if args.eccentricity is None
+           else require_positive('--eccentricity', args.eccentricity, allow_zero=True))
+    r = synthesize(arm, base, psi, ecc)
+    lo, hi = sampled_deviation(r, 20001)
+    out = {'eta_deg': math.degrees(r.eta), 'delta_deg': math.degrees(r.delta),
+           'frame_length_m': r.frame_length,
+           'cam_centre_m': [r.geometry.x_o1, r.geometry.y_o1],
+           'sampled_delta_deg': [math.degrees(lo), math.degrees(hi)]}
+    if r.projected_frame_length is not None:
+        out['eccentricity_m'] = r.eccentricity
+        out['projected_frame_length_m'] = r.projected_frame_length
+    if args.json:
+        _write(args.json, json.dumps(out, indent=1) + '\n')
+    else:
+        for k, v in out.items():
+            print(f'{k:26s} {v}')
+    return 0

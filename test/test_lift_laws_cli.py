@@ -1,0 +1,100 @@
+"""`cam-bench design law|check|rocker` through cam_metrology.cli.main (no subprocess)."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from cam_metrology.cli import main
+
+CHECK = """\
+lift_law: {family: preset, name: flat_tappet_intake}
+base_radius: 0.0165
+rocker_ratio: 1.0
+lash: 0.0002
+cam_speed_rpm: 3000
+valve: {seat_diameter: 0.030, seat_angle: 0.7853981633974483, seat_width: 0.0015}
+spring: {preload: 250.0, rate: 30000.0}
+masses: {valve: 0.045, spring: 0.040, retainer: 0.012, tappet: 0.050}
+contact: {width: 0.012, youngs_modulus: 2.06e11}
+lubrication: {k_film: 1.0e-4}
+piston: {crank_radius: 0.040, rod_length: 0.140, clearance: 0.0012,
+         opening_crank_angle: -0.3141592653589793}
+"""
+
+
+def test_rocker_json(capsys: pytest.CaptureFixture) -> None:
+    """#1 through the CLI (lengths in m)."""
+    rc = main(['design', 'rocker', '--arm-length', '0.0458', '--base-radius', '0.0323',
+               '--max-swing-deg', '7.865', '--eccentricity', '0.0009', '--json', '-'])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out['eta_deg'] == pytest.approx(3.089302, abs=2e-6)
+    assert out['frame_length_m'] == pytest.approx(0.057501894, abs=2e-9)
+    assert out['projected_frame_length_m'] == pytest.approx(0.057494851, abs=2e-9)
+    assert out['delta_deg'] == pytest.approx(0.118066, abs=1e-6)
+
+
+def test_rocker_bad_input(capsys: pytest.CaptureFixture) -> None:
+    """Bad input -> exit 2 with the key in the message."""
+    rc = main(['design', 'rocker', '--arm-length', '-1', '--base-radius', '0.0323',
+               '--max-swing-deg', '7.865'])
+    assert rc == 2
+    assert '--arm-length' in capsys.readouterr().err
+
+
+def test_law_csv_json_plot(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """design law: CSV to a file, JSON to stdout, a PNG plot."""
+    spec = tmp_path / 'law.yaml'
+    spec.write_text('lift_law: {family: preset, name: methods_example}\n')
+    csv, png = tmp_path / 'law.csv', tmp_path / 'law.png'
+    rc = main(['design', 'law', str(spec), '--step-deg', '0.5', '--csv', str(csv),
+               '--json', '-', '--plot', str(png)])
+    assert rc == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc['support_deg'] == pytest.approx([-80, 80])
+    assert doc['max_lift_mm'] == pytest.approx(8.3)
+    rows = doc['rows']
+    assert len(rows) == 321
+    nose = rows[160]
+    assert nose[0] == pytest.approx(0.0, abs=1e-12)
+    assert nose[3] == pytest.approx(-44.65130, abs=1e-5)
+    lines = csv.read_text().splitlines()
+    assert lines[0] == 'alpha_deg,h_mm,h1_mm_per_rad,h2_mm_per_rad2,h3_mm_per_rad3'
+    assert len(lines) == 322
+    assert png.stat().st_size > 1000
+
+
+def test_law_table_stdout_and_errors(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """Plain table; bad family, bad YAML and a bad step exit 2."""
+    spec = tmp_path / 'law.yaml'
+    spec.write_text('family: preset\nname: flat_tappet_intake\n')
+    assert main(['design', 'law', str(spec), '--step-deg', '10']) == 0
+    assert 'max lift 8.500000 mm' in capsys.readouterr().out
+    assert main(['design', 'law', str(spec), '--step-deg', '0']) == 2
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('lift_law: {family: nope}\n')
+    assert main(['design', 'law', str(bad)]) == 2
+    assert 'lift_law.family' in capsys.readouterr().err
+    bad.write_text('lift_law: [unclosed\n')
+    assert main(['design', 'law', str(bad)]) == 2
+    assert main(['design', 'law', str(tmp_path / 'missing.yaml')]) == 2
+
+
+def test_check_json(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """design check: every section in the JSON."""
+    f = tmp_path / 'check.yaml'
+    f.write_text(CHECK)
+    assert main(['design', 'check', str(f), '--json', '-']) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ('fullness', 'min_rho1_mm', 'max_flow_area_mm2', 'time_area_mm2_deg',
+                'equivalent_mass_kg', 'no_separation', 'max_hertz_stress_mpa',
+                'oil_film_nose_gamma', 'min_valve_piston_clearance_mm'):
+        assert key in out
+    assert out['no_separation'] is True
+    assert math.isfinite(out['max_hertz_stress_mpa'])
+    f.write_text(CHECK.replace('rocker_ratio: 1.0', 'rocker_ratio: -1.0'))
+    assert main(['design', 'check', str(f)]) == 2
+    assert 'check.rocker_ratio' in capsys.readouterr().err
