@@ -1,0 +1,412 @@
+"""`cam-bench demo`: the whole live pipeline in an isolated ROS domain.
+
+Design (why subprocesses): every node runs as its own ``cam-bench run NODE`` process,
+exactly as it would on a bench PC. That gives each node its own GIL (the simulator's
+paced loop, the recorder and the metrology fits run on separate cores of this 2-core
+machine), exercises the same command a user runs, and lets the demo stop nodes one by
+one with SIGINT in data-flow order, which is what makes the shutdown lossless:
+
+1. claim a ROS domain (1..100, flock), ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``,
+   a temporary ``ROS_LOG_DIR``; children inherit them (``isolation.isolated_env``);
+2. start the recorder and the core nodes (missing cores are reported, never faked);
+   an in-process monitor node waits (deadline) until the graph shows them, then the
+   simulator starts and itself waits until the recorder and the sample consumers
+   matched before its first sample;
+3. progress: features done, per-feature metrology results, other nodes' statuses;
+4. completion: simulator exited 0 and the metrology report (transient local) arrived,
+   or the simulator finished and the report deadline passed;
+5. stop: SIGINT to metrology, reconstruction, dynamics in that order (each drains its
+   queue, calls ``finish`` and waits until its outputs are acknowledged before it
+   exits), then to the recorder (drains, closes the bag); SIGTERM then SIGKILL only
+   after deadlines;
+6. print the bag path, its topic counts and the per-feature report against
+   /bench/truth. Exit code 0, or 1 with the reason.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, TextIO
+
+from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, METROLOGY_REPORT, TOPICS,
+                                        TRUTH)
+
+CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
+STATUS_TOPICS = ('/metrology/result', '/reconstruction/result', '/dynamics/result')
+
+
+@dataclass
+class DemoOptions:
+    """What ``cam-bench demo`` was asked to do."""
+
+    scene: str | None = None
+    out: str | None = None
+    rate: float | None = None
+    timeout: float = 0.0            # s, 0: default (600 s)
+    json_out: str | None = None
+    events_executor: bool = False
+    keep_logs: bool = False
+    startup_timeout: float = 60.0   # s until every node is in the graph
+    report_timeout: float = 30.0    # s after the simulator finished
+    stream: TextIO = field(default_factory=lambda: sys.stdout)
+
+
+@dataclass
+class Child:
+    """A node subprocess with its log file."""
+
+    name: str
+    proc: subprocess.Popen[bytes]
+    log: Path
+
+    def tail(self, lines: int = 15) -> str:
+        """The last lines of its log."""
+        try:
+            text = self.log.read_text(encoding='utf-8', errors='replace').splitlines()
+        except OSError:
+            return ''
+        return '\n'.join('    ' + line for line in text[-lines:])
+
+
+class DemoFailure(RuntimeError):
+    """The demo could not complete; the message is the reason."""
+
+
+def start_child(name: str, argv: list[str], env: dict[str, str], log_dir: Path) -> Child:
+    """``cam-bench run NAME ...`` in its own session (a terminal Ctrl-C reaches only the
+    demo, which then stops the children in order)."""
+    log = log_dir / f'{name}.log'
+    with open(log, 'wb') as handle:
+        proc = subprocess.Popen([sys.executable, '-c', CLI, 'run', name, *argv], env=env,
+                                stdout=handle, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                start_new_session=True)
+    return Child(name, proc, log)
+
+
+def stop_child(child: Child, sigint_wait: float = 20.0, term_wait: float = 5.0) -> int:
+    """SIGINT, wait; SIGTERM, wait; SIGKILL. Returns the exit code."""
+    for sig, wait in ((signal.SIGINT, sigint_wait), (signal.SIGTERM, term_wait),
+                      (signal.SIGKILL, 5.0)):
+        if child.proc.poll() is not None:
+            break
+        child.proc.send_signal(sig)
+        try:
+            child.proc.wait(wait)
+        except subprocess.TimeoutExpired:
+            continue
+    return child.proc.wait()
+
+
+def truth_angle_deg(truth: dict[str, Any], fid: str) -> float | None:
+    """The true encoder angle [deg, 0..360) of feature ``fid`` in the /bench/truth JSON.
+
+    Accepts ``features.<id>.angle_deg``/``angle`` [rad], ``nose_angles.<id>`` [rad] and
+    ``pin_angle`` [rad] for the dowel pin.
+    """
+    feats = truth.get('features')
+    entry = feats.get(fid) if isinstance(feats, dict) else None
+    if isinstance(feats, list):
+        entry = next((f for f in feats if isinstance(f, dict) and f.get('id') == fid), None)
+    if isinstance(entry, dict):
+        for key, scale in (('angle_deg', 1.0), ('angle', 180 / math.pi),
+                           ('nose_angle', 180 / math.pi), ('center_angle', 180 / math.pi),
+                           ('centre_angle', 180 / math.pi)):
+            if isinstance(entry.get(key), (int, float)):
+                return float(entry[key]) * scale % 360.0
+    for key in ('nose_angles', 'nose_angle', 'angles'):
+        table = truth.get(key)
+        if isinstance(table, dict) and isinstance(table.get(fid), (int, float)):
+            return math.degrees(float(table[fid])) % 360.0
+    if fid == 'dowel_pin':
+        for key in ('pin_angle', 'dowel_pin_angle', 'pin_centre_angle', 'pin_center_angle'):
+            if isinstance(truth.get(key), (int, float)):
+                return math.degrees(float(truth[key])) % 360.0
+    return None
+
+
+def wrap180(deg: float) -> float:
+    """Wrap an angle difference to (-180, 180]."""
+    out = (deg + 180.0) % 360.0 - 180.0
+    return 180.0 if out == -180.0 else out
+
+
+def report_lines(report: dict[str, Any] | None, truth: dict[str, Any] | None) -> list[str]:
+    """The per-feature table: angle, std, phase error, error vs truth (degrees)."""
+    if not report:
+        return ['no metrology report']
+    lines = [f'camshaft {report.get("camshaft_id", "?")}',
+             f'{"feature":<12}{"angle_deg":>12}{"std_deg":>11}{"phase_err_deg":>15}'
+             f'{"truth_deg":>12}{"err_deg":>11}']
+
+    def num(value: Any, width: int, digits: int) -> str:
+        return (f'{value:>{width}.{digits}f}' if isinstance(value, (int, float))
+                else f'{"-":>{width}}')
+
+    for fid, feat in (report.get('features') or {}).items():
+        angle = feat.get('angle_deg') if isinstance(feat, dict) else None
+        true = truth_angle_deg(truth or {}, fid)
+        err = wrap180(angle - true) if isinstance(angle, (int, float)) and true is not None \
+            else None
+        row = (f'{fid:<12}{num(angle, 12, 4)}{num(feat.get("angle_std_deg"), 11, 5)}'
+               f'{num(feat.get("phase_error_deg"), 15, 4)}{num(true, 12, 4)}{num(err, 11, 5)}')
+        if feat.get('error') or feat.get('reason'):
+            row += f'  FAILED: {feat.get("error") or feat.get("reason")}'
+        lines.append(row)
+    for item in report.get('skipped') or []:
+        if isinstance(item, dict):
+            lines.append(f'skipped: {item.get("what")} ({item.get("why")})')
+    return lines
+
+
+class DemoMonitor:
+    """In-process rclpy node that watches progress and collects report and truth."""
+
+    def __init__(self, proc: Any, say: Callable[[str], None]) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.node import Node
+        from std_msgs.msg import String
+
+        self.node = proc.add(Node('demo_monitor', context=proc.context))
+        self.say = say
+        self.report: dict[str, Any] | None = None
+        self.truth: dict[str, Any] | None = None
+        self.features_done: list[str] = []
+        self.statuses: dict[str, int] = {t: 0 for t in STATUS_TOPICS}
+        self.callbacks_run = 0
+        sub = self.node.create_subscription
+        sub(String, FEATURE_DONE, self._on_done, TOPICS[FEATURE_DONE][1].profile())
+        sub(String, TRUTH, self._on_truth, TOPICS[TRUTH][1].profile())
+        sub(String, METROLOGY_REPORT, self._on_report, TOPICS[METROLOGY_REPORT][1].profile())
+        for topic in STATUS_TOPICS:
+            sub(DiagnosticArray, topic, lambda m, t=topic: self._on_status(t, m),
+                TOPICS[topic][1].profile())
+
+    def _on_done(self, msg: Any) -> None:
+        self.callbacks_run += 1
+        self.features_done.append(msg.data)
+        self.say(f'bench: feature {msg.data} done ({len(self.features_done)} so far)')
+
+    def _on_truth(self, msg: Any) -> None:
+        self.callbacks_run += 1
+        try:
+            self.truth = json.loads(msg.data)
+        except ValueError:
+            self.truth = {}
+
+    def _on_report(self, msg: Any) -> None:
+        self.callbacks_run += 1
+        try:
+            self.report = json.loads(msg.data)
+        except ValueError:
+            self.report = {'unparsed': msg.data}
+        self.say('metrology: report received')
+
+    def _on_status(self, topic: str, msg: Any) -> None:
+        self.callbacks_run += 1
+        self.statuses[topic] += 1
+        node = topic.split('/')[1]
+        for st in msg.status:
+            values = {kv.key: kv.value for kv in st.values}
+            level = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}.get(
+                st.level[0] if isinstance(st.level, bytes) else int(st.level), '?')
+            detail = ''
+            if 'angle_deg' in values:
+                detail = f' angle {values["angle_deg"]} deg'
+                if 'angle_std_deg' in values:
+                    detail += f' +- {values["angle_std_deg"]}'
+            self.say(f'{node}: {st.name} {level}{detail}'
+                     + (f' ({st.message})' if st.message and level != 'OK' else ''))
+
+    def graph_ready(self, nodes: list[str], need_samples: int) -> bool:
+        """Every node visible, the recorder subscribed to every topic, enough sample
+        subscriptions."""
+        n = self.node
+        if not set(nodes) <= set(n.get_node_names()):
+            return False
+        for topic in TOPICS:
+            if not any(i.node_name == 'recorder' for i in n.get_subscriptions_info_by_topic(topic)):
+                return False
+        return n.count_subscribers(JOINT_STATES) >= need_samples
+
+
+def run_demo(opts: DemoOptions) -> int:
+    """Run the demo; returns the exit code (0 ok, 1 failure with the reason printed)."""
+    from cam_metrology.isolation import claim_domain, isolated_env
+    from cam_metrology.nodes.adapter import CoreMissing, load_core
+    from cam_metrology.nodes.runtime import RosProcess
+    from cam_metrology.paths import default_scene_path
+
+    t_start = time.monotonic()
+    out = opts.stream
+
+    def say(text: str) -> None:
+        print(f'[{time.monotonic() - t_start:6.1f} s] {text}', file=out, flush=True)
+
+    scene = Path(opts.scene) if opts.scene else default_scene_path()
+    if not scene.is_file():
+        raise FileNotFoundError(f'scene file {scene} does not exist')
+    bag = Path(opts.out) if opts.out else Path('demo-out') / time.strftime(
+        'demo_%Y%m%dT%H%M%SZ', time.gmtime())
+    if bag.exists():
+        from cam_design.errors import InputError
+        raise InputError('--out', str(bag), 'a path that does not exist yet')
+    bag.parent.mkdir(parents=True, exist_ok=True)
+    domain = claim_domain()
+    log_dir = Path(tempfile.mkdtemp(prefix='cam_bench_demo_'))
+    env = isolated_env(domain, str(log_dir / 'ros'))
+    for key in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOG_DIR'):
+        os.environ[key] = env[key]
+    os.environ.pop('ROS_LOCALHOST_ONLY', None)
+    say(f'ROS domain {domain} (localhost only), node logs in {log_dir}')
+
+    cores: list[str] = []
+    need_samples = 1   # the recorder
+    for name in ('metrology', 'reconstruction', 'dynamics'):
+        try:
+            cls = load_core(name)
+        except CoreMissing as exc:
+            say(f'{name}: MISSING ({exc}); not started')
+            continue
+        cores.append(name)
+        need_samples += JOINT_STATES in getattr(cls, 'subscriptions', {})
+    children: dict[str, Child] = {}
+    code, reason = 0, ''
+    proc = RosProcess(domain_id=domain)
+    monitor: DemoMonitor | None = None
+    try:
+        monitor = DemoMonitor(proc, say)
+        rec_args = ['--ros-args', '-p', f'output:={bag.resolve()}']
+        if opts.events_executor:
+            rec_args = ['--events-executor'] + rec_args
+        children['recorder'] = start_child('recorder', rec_args, env, log_dir)
+        for name in cores:
+            children[name] = start_child(name, [], env, log_dir)
+        say(f'started recorder and {", ".join(cores) or "no core node"}; waiting for the graph')
+        ok = proc.spin_until(lambda: monitor.graph_ready(['recorder'] + cores, need_samples)
+                             or _any_exited(children), opts.startup_timeout)
+        _check_children(children, say)
+        if not ok:
+            raise DemoFailure('interrupted' if proc.stopping else
+                              f'nodes not in the graph after {opts.startup_timeout:.0f} s')
+        sim_args = ['--ros-args', '-p', f'scene_file:={scene.resolve()}',
+                    '-p', f'wait_subscribers:={need_samples}', '-p', 'match_timeout:=30.0']
+        if opts.rate is not None:
+            sim_args += ['-p', f'rate:={float(opts.rate)}']
+        children['bench-sim'] = start_child('bench-sim', sim_args, env, log_dir)
+        say(f'graph ready; bench-sim started ({scene.name})')
+        deadline = t_start + (opts.timeout or 600.0)
+        sim = children['bench-sim']
+        proc.spin_until(lambda: sim.proc.poll() is not None
+                        or _any_exited(children, skip=('bench-sim',)),
+                        max(0.0, deadline - time.monotonic()))
+        _check_children(children, say, skip=('bench-sim',))
+        if proc.stopping:
+            raise DemoFailure('interrupted')
+        if sim.proc.poll() is None:
+            raise DemoFailure(f'bench-sim still running at the deadline '
+                              f'({opts.timeout or 600.0:.0f} s)')
+        if sim.proc.returncode != 0:
+            raise DemoFailure(f'bench-sim exited with code {sim.proc.returncode}:\n'
+                              + sim.tail())
+        say(f'bench-sim finished: {len(monitor.features_done)} features')
+        if 'metrology' in cores:
+            left = min(opts.report_timeout, max(0.0, deadline - time.monotonic()))
+            if not proc.spin_until(lambda: monitor.report is not None, left):
+                say(f'no metrology report {left:.0f} s after the last sample; stopping the '
+                    'nodes (finish() flushes it)')
+    except DemoFailure as exc:
+        code, reason = 1, str(exc)
+    finally:
+        exits = _shutdown(children, proc, monitor, say)
+        proc.close()
+    report = monitor.report if monitor is not None else None
+    if code == 0 and 'metrology' in cores and report is None:
+        code, reason = 1, 'the metrology node published no report'
+    bad = {n: c for n, c in exits.items() if c not in (0, -signal.SIGINT)}
+    if code == 0 and bad:
+        code = 1
+        reason = 'nodes failed: ' + ', '.join(f'{n} exit {c}' for n, c in bad.items())
+        for name in bad:
+            reason += f'\n  {name} log ({children[name].log}):\n{children[name].tail()}'
+    counts = _bag_counts(bag)
+    if counts is None:
+        code, reason = 1, (reason + '\n' if reason else '') + f'bag {bag} is not readable'
+    _print_summary(out, bag, counts, monitor, cores, time.monotonic() - t_start)
+    if opts.json_out and report is not None:
+        text = json.dumps(report, indent=2)
+        if opts.json_out == '-':
+            print(text, file=out)
+        else:
+            Path(opts.json_out).write_text(text + '\n', encoding='utf-8')
+    if code:
+        print(f'cam-bench demo: FAILED: {reason}', file=sys.stderr, flush=True)
+        print(f'node logs kept in {log_dir}', file=sys.stderr, flush=True)
+    elif not opts.keep_logs:
+        shutil.rmtree(log_dir, ignore_errors=True)
+    return code
+
+
+def _any_exited(children: dict[str, Child], skip: tuple[str, ...] = ()) -> bool:
+    return any(c.proc.poll() is not None for n, c in children.items() if n not in skip)
+
+
+def _check_children(children: dict[str, Child], say: Callable[[str], None],
+                    skip: tuple[str, ...] = ()) -> None:
+    for name, child in children.items():
+        if name not in skip and child.proc.poll() is not None:
+            raise DemoFailure(f'{name} exited early with code {child.proc.returncode}:\n'
+                              + child.tail())
+
+
+def _shutdown(children: dict[str, Child], proc: Any, monitor: Any,
+              say: Callable[[str], None]) -> dict[str, int]:
+    """Stop in data-flow order: cores upstream first, then the recorder."""
+    exits: dict[str, int] = {}
+    order = [n for n in ('bench-sim', 'metrology', 'reconstruction', 'dynamics', 'recorder')
+             if n in children]
+    for name in order:
+        if name == 'recorder' and monitor is not None:
+            proc.drain(lambda: monitor.callbacks_run, idle=0.3, limit=3.0)
+        child = children[name]
+        already = child.proc.poll() is not None
+        exits[name] = stop_child(child)
+        if not already:
+            say(f'{name} stopped (exit {exits[name]})')
+    return exits
+
+
+def _bag_counts(bag: Path) -> dict[str, tuple[str, int]] | None:
+    from cam_metrology.bagio import bag_topics
+    try:
+        return bag_topics(bag)
+    except Exception:  # noqa: BLE001 (reported as an unreadable bag)
+        return None
+
+
+def _print_summary(out: TextIO, bag: Path, counts: dict[str, tuple[str, int]] | None,
+                   monitor: Any, cores: list[str], seconds: float) -> None:
+    print('', file=out)
+    if counts is not None:
+        total = sum(n for _, n in counts.values())
+        print(f'bag: {bag} ({total} messages)', file=out)
+        for topic, (_, n) in counts.items():
+            if n:
+                print(f'  {topic:<28}{n:>8}', file=out)
+    if monitor is not None:
+        for line in report_lines(monitor.report, monitor.truth):
+            print(line, file=out)
+    missing = [n for n in ('metrology', 'reconstruction', 'dynamics') if n not in cores]
+    if missing:
+        print(f'missing cores (not run): {", ".join(missing)}', file=out)
+    print(f'demo took {seconds:.1f} s', file=out, flush=True)
+
+
