@@ -120,16 +120,15 @@ def cmd_scene_check(args: argparse.Namespace) -> int:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate the bench into a new bag and print the truth."""
-    import dataclasses
     import json
 
     from cam_design.errors import InputError
     from cam_metrology.paths import default_scene_path
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.simulate import SimParams, scene_with_direction, write_sim_bag
 
     scene = _load(args.scene or str(default_scene_path()))
     if args.direction is not None:
-        scene = dataclasses.replace(scene, direction=args.direction)
+        scene = scene_with_direction(scene, args.direction)
     if args.samples_per_rev < 8:
         raise InputError('--samples-per-rev', args.samples_per_rev, 'at least 8')
     params = SimParams(samples_per_rev=args.samples_per_rev, revolutions=args.revolutions,

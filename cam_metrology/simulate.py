@@ -1,0 +1,339 @@
+"""A simulated camshaft measuring bench (pure numpy; no rclpy).
+
+``simulate(scene, params)`` measures every feature of a scene in turn (the lobes in
+scene order, then the dowel pin) the way the bench does: the shaft turns, the encoder
+gives ``theta`` [rad] and the probe gives ``s`` [m] with an arbitrary zero. The truth
+(true nose and pin angles, phases, probe zero, noise) comes with the samples so that
+the analysis can be scored. ``iter_joint_state_messages`` gives the sample stream the
+live ``bench-sim`` node publishes, and ``write_sim_bag`` records it into a bag exactly
+as the recorder would (``/bench/scene``, ``/bench/truth``, ``/bench/joint_states``,
+``/bench/feature_done``).
+
+Model (conventions of interfaces.md):
+
+* lobe: ``s = zero + h_probe(alpha) + runout + noise`` with
+  ``alpha = direction * (theta_true - nose)`` wrapped to (-pi, pi], where ``h_probe``
+  is the lobe's design lift converted through the cam profile to the scene's probe
+  (``cam_design.follower.convert_lift``; identity when the followers are the same);
+* dowel pin: ``s = zero + DowelPinGeometry.lift(alpha)`` (seed 004's absolute lift)
+  inside contact; outside it the probe rests on its stop ``pin_stop_depth`` below the
+  lowest contact lift;
+* ``theta`` reported = ``theta_true + encoder noise``; the shaft turns continuously
+  from ``start_theta`` through all features (unwrapped, or wrapped to [0, 2 pi));
+* ``runout``: base-circle run-out amplitude [m], ``runout * cos(theta_true)`` (a shaft
+  eccentric on its centres, first order).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam_design.errors import InputError, require_finite, require_positive
+from cam_metrology.scene import Scene
+
+__all__ = ['SimParams', 'SimFeature', 'BenchRun', 'simulate', 'probe_lift',
+           'iter_joint_state_messages', 'write_sim_bag', 'wrap_pi', 'DOWEL_PIN',
+           'scene_with_direction']
+
+DOWEL_PIN = 'dowel_pin'
+TWO_PI = 2.0 * math.pi
+#: bag/stream start when SimParams.start_ns is None: 2026-01-01T00:00:00Z [ns]
+DEFAULT_START_NS = 1_767_225_600 * 1_000_000_000
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """Simulation parameters (SI: m, rad, s).
+
+    ``true_angles``: feature id -> true nose / pin-centre encoder angle [rad]; None:
+    drawn from ``seed`` (pin within +-1 deg of its nominal angle, lobes at their
+    nominal phase from the pin +-0.5 deg, or uniform when no nominal phase). Features
+    missing from a given dict are drawn as well.
+    """
+
+    samples_per_rev: int = 3600        # encoder samples per revolution
+    revolutions: float = 1.0           # revolutions measured per feature
+    wrapped: bool = False              # theta wrapped to [0, 2 pi) instead of unwrapped
+    start_theta: float = 0.0           # rad, encoder angle of the first sample
+    probe_zero_offset: float = 5.0e-4  # m, probe reading on the base circle (arbitrary)
+    probe_noise: float = 0.0           # m, standard deviation of the probe noise
+    encoder_noise: float = 0.0         # rad, standard deviation of the encoder noise
+    seed: int = 0                      # random seed: true angles and noise
+    true_angles: dict[str, float] | None = None   # rad, see above
+    rate: float = 1000.0               # samples/s (stamps; the live node's rate)
+    pin_stop_depth: float = 5.0e-4     # m, probe stop below the pin's lowest contact lift
+    runout: float = 0.0                # m, base-circle run-out amplitude
+    feature_gap: float = 0.05          # s, pause between two features (stamps)
+    start_ns: int | None = None        # ns, stamp of the first sample
+
+    def validated(self) -> SimParams:
+        """Raise InputError for an impossible parameter; return self."""
+        if isinstance(self.samples_per_rev, bool) or not isinstance(
+                self.samples_per_rev, (int, np.integer)) or self.samples_per_rev < 8:
+            raise InputError('samples_per_rev', self.samples_per_rev, 'an integer >= 8')
+        revs = require_positive('revolutions', self.revolutions)
+        if revs * self.samples_per_rev > 50_000_000:
+            raise InputError('revolutions', self.revolutions,
+                             'at most 5e7 samples per feature')
+        require_finite('start_theta', self.start_theta)
+        require_finite('probe_zero_offset', self.probe_zero_offset)
+        require_positive('probe_noise', self.probe_noise, allow_zero=True)
+        require_positive('encoder_noise', self.encoder_noise, allow_zero=True)
+        require_positive('rate', self.rate)
+        require_positive('pin_stop_depth', self.pin_stop_depth, allow_zero=True)
+        require_positive('runout', self.runout, allow_zero=True)
+        require_positive('feature_gap', self.feature_gap, allow_zero=True)
+        if self.true_angles is not None:
+            if not isinstance(self.true_angles, dict):
+                raise InputError('true_angles', self.true_angles, 'a mapping id -> rad')
+            for k, v in self.true_angles.items():
+                require_finite(f'true_angles.{k}', v)
+        return self
+
+
+@dataclass
+class SimFeature:
+    """The samples of one feature: encoder ``theta`` [rad], probe ``s`` [m], stamps [ns]."""
+
+    id: str
+    kind: str                     # 'lobe' | 'dowel_pin'
+    true_angle: float             # rad, true nose / pin-centre encoder angle
+    theta: NDArray[np.float64]
+    s: NDArray[np.float64]
+    stamp_ns: NDArray[np.int64]
+
+
+@dataclass
+class BenchRun:
+    """A simulated measurement: features in measurement order and the JSON-able truth."""
+
+    scene: Scene
+    params: SimParams
+    features: list[SimFeature]
+    truth: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def sample_count(self) -> int:
+        """Total number of samples."""
+        return int(sum(f.theta.size for f in self.features))
+
+
+def wrap_pi(x: NDArray[np.float64] | float) -> Any:
+    """Wrap angles [rad] to (-pi, pi]."""
+    y = np.pi - np.mod(np.pi - np.asarray(x, dtype=float), TWO_PI)
+    return float(y) if np.ndim(y) == 0 else y
+
+
+def _wrap_deg_pm180(x: float) -> float:
+    return 180.0 - (180.0 - x) % 360.0
+
+
+def scene_with_direction(scene: Scene, direction: int) -> Scene:
+    """The scene with another ``direction`` (+1/-1), its YAML text edited to match
+    (comments kept), so that the /bench/scene a bag carries describes the data."""
+    import re
+
+    from cam_metrology.scene_parse import parse_scene
+
+    if direction not in (1, -1):
+        raise InputError('direction', direction, '+1 or -1')
+    line = f'direction: {direction:d}'
+    text, count = re.subn(r'^direction:[^\n#]*', line + '   ', scene.text, count=1,
+                          flags=re.MULTILINE)
+    if count == 0:
+        text = f'{line}\n{scene.text}'
+    return parse_scene(text)
+
+
+def probe_lift(scene: Scene, lobe_id: str) -> Any:
+    """The lift [m] the scene's probe sees on a lobe: the design lift converted through
+    the profile (``convert_lift``), or the design lift itself for the same follower."""
+    from cam_design import follower as fol
+
+    lobe = scene.lobe(lobe_id)
+    convert = getattr(fol, 'convert_lift', None)
+    if convert is None:   # the follower module without conversion: identity
+        return lobe.lift
+    return convert(lobe.lift, scene.base_circle_radius, lobe.follower, scene.probe,
+                   key=f'lobes[{scene.lobes.index(lobe)}].lift')
+
+
+def _true_angles(scene: Scene, params: SimParams) -> dict[str, float]:
+    """True encoder angles [rad, wrapped to [0, 2 pi)] of every feature."""
+    rng = np.random.default_rng(np.random.SeedSequence([int(params.seed), 1]))
+    given = dict(params.true_angles or {})
+    deg = math.pi / 180.0
+    # one draw per feature in a fixed order, whether used or not: the truth of a
+    # feature never depends on which others were given
+    pin_draw = rng.uniform(-1.0, 1.0) * deg
+    lobe_draws = [(rng.uniform(-0.5, 0.5) * deg, rng.uniform(0.0, TWO_PI))
+                  for _ in scene.lobes]
+    pin = scene.dowel_pin
+    pin_angle = given.get(DOWEL_PIN, ((pin.nominal_angle or 0.0) if pin else 0.0) + pin_draw)
+    out: dict[str, float] = {}
+    for lobe, (err, uniform) in zip(scene.lobes, lobe_draws):
+        if lobe.id in given:
+            angle = given[lobe.id]
+        elif lobe.nominal_phase is not None and pin is not None:
+            angle = pin_angle + lobe.nominal_phase + err
+        else:
+            angle = uniform
+        out[lobe.id] = float(np.mod(angle, TWO_PI))
+    if pin is not None:
+        out[DOWEL_PIN] = float(np.mod(pin_angle, TWO_PI))
+    unknown = set(given) - set(out)
+    if unknown:
+        raise InputError('true_angles', sorted(unknown),
+                         'ids of the scene\'s features: ' + ', '.join(out))
+    return out
+
+
+def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
+    """Simulate the bench measuring every feature of ``scene`` (see the module doc)."""
+    from cam_design.dowel_pin import DowelPinGeometry
+
+    params = (params or SimParams()).validated()
+    angles = _true_angles(scene, params)
+    seq = np.random.SeedSequence([int(params.seed), 2])
+    probe_rng, enc_rng = (np.random.default_rng(s) for s in seq.spawn(2))
+    n = int(round(params.revolutions * params.samples_per_rev))
+    step = TWO_PI / params.samples_per_rev
+    dt_ns = 1e9 / params.rate
+    start_ns = DEFAULT_START_NS if params.start_ns is None else int(params.start_ns)
+    gap_ns = int(round(params.feature_gap * 1e9))
+    zero = params.probe_zero_offset
+    order: list[tuple[str, str]] = [(lobe.id, 'lobe') for lobe in scene.lobes]
+    if scene.dowel_pin is not None:
+        order.append((DOWEL_PIN, 'dowel_pin'))
+    features: list[SimFeature] = []
+    k0 = 0
+    t0 = start_ns
+    conversions: dict[str, str] = {}
+    for fid, kind in order:
+        k = np.arange(k0, k0 + n, dtype=np.float64)
+        theta_true = params.start_theta + k * step
+        alpha = wrap_pi(scene.direction * (theta_true - angles[fid]))
+        if kind == 'lobe':
+            law = probe_lift(scene, fid)
+            lobe = scene.lobe(fid)
+            conversions[fid] = ('identity' if law is lobe.lift else
+                                f'{lobe.follower.kind} -> {scene.probe.kind}')
+            s = zero + law(alpha)
+        else:
+            pin = scene.dowel_pin
+            geo = DowelPinGeometry(pin.pin_radius, pin.circle_radius, pin.probe_radius)
+            # contact only for |alpha| <= alpha_max: the formula's radicand is also
+            # positive near |alpha| = pi (the pin behind the axis), which is no contact
+            contact = np.abs(alpha) <= geo.contact_half_angle
+            with np.errstate(invalid='ignore'):
+                h = geo.lift(np.where(contact, alpha, 0.0))
+            stop = geo.lift_min - params.pin_stop_depth
+            s = zero + np.where(contact & np.isfinite(h), h, stop)
+        if params.runout:
+            s = s + params.runout * np.cos(theta_true)
+        if params.probe_noise:
+            s = s + probe_rng.normal(0.0, params.probe_noise, n)
+        theta = theta_true
+        if params.encoder_noise:
+            theta = theta + enc_rng.normal(0.0, params.encoder_noise, n)
+        if params.wrapped:
+            theta = np.mod(theta, TWO_PI)
+        stamps = t0 + np.round(np.arange(n) * dt_ns).astype(np.int64)
+        features.append(SimFeature(fid, kind, angles[fid], theta, s, stamps))
+        k0 += n
+        t0 = int(stamps[-1]) + int(round(dt_ns)) + gap_ns
+    run = BenchRun(scene, params, features)
+    run.truth = _truth(scene, params, angles, conversions, n)
+    return run
+
+
+def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
+           conversions: dict[str, str], n: int) -> dict[str, Any]:
+    """The JSON-able truth of a run (angles in deg, wrapped like the report's)."""
+    deg = 180.0 / math.pi
+    feats: dict[str, Any] = {}
+    pin_angle = angles.get(DOWEL_PIN)
+    for lobe in scene.lobes:
+        a = angles[lobe.id]
+        entry: dict[str, Any] = {'kind': 'lobe', 'angle_deg': a * deg, 'angle_rad': a,
+                                 'samples': n, 'lift_conversion': conversions[lobe.id]}
+        if pin_angle is not None:
+            phase = _wrap_deg_pm180((a - pin_angle) * deg)
+            entry['phase_deg'] = phase
+            if lobe.nominal_phase is not None:
+                entry['nominal_phase_deg'] = lobe.nominal_phase * deg
+                entry['phase_error_deg'] = _wrap_deg_pm180(phase - lobe.nominal_phase * deg)
+        feats[lobe.id] = entry
+    if pin_angle is not None:
+        feats[DOWEL_PIN] = {'kind': 'dowel_pin', 'angle_deg': pin_angle * deg,
+                            'angle_rad': pin_angle, 'samples': n}
+    p = asdict(params)
+    return {
+        'camshaft_id': scene.camshaft_id,
+        'direction': scene.direction,
+        'features': feats,
+        'measurement_order': list(feats),
+        'probe_zero_offset_m': params.probe_zero_offset,
+        'probe_noise_m': params.probe_noise,
+        'encoder_noise_rad': params.encoder_noise,
+        'runout_m': params.runout,
+        'params': p,
+    }
+
+
+def iter_joint_state_messages(run: BenchRun) -> Iterator[tuple[int, str, float, float]]:
+    """Yield ``(stamp_ns, frame_id, theta, s)`` per sample in measurement order.
+
+    The live bench-sim node and ``write_sim_bag`` both publish this stream; each
+    feature's samples are contiguous and ``frame_id`` is the feature id.
+    """
+    for feat in run.features:
+        for stamp, theta, s in zip(feat.stamp_ns.tolist(), feat.theta.tolist(),
+                                   feat.s.tolist()):
+            yield stamp, feat.id, theta, s
+
+
+def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = None, *,
+                  compression: bool = False,
+                  progress: Callable[[int, int], None] | None = None) -> BenchRun:
+    """Simulate and record a bag as the bench + recorder would (returns the run).
+
+    Topics: ``/bench/scene`` (scene YAML) and ``/bench/truth`` (JSON) first, latched;
+    ``/bench/joint_states`` (one message per sample, log time = header stamp);
+    ``/bench/feature_done`` after each feature's last sample. ``progress(done, total)``
+    is called every 10 000 samples.
+    """
+    from cam_metrology import bagio
+
+    run = simulate(scene, params)
+    total = run.sample_count
+    first = int(run.features[0].stamp_ns[0]) if run.features else DEFAULT_START_NS
+    with bagio.BagWriter(path, compression=compression) as writer:
+        for topic in ('/bench/scene', '/bench/truth', bagio.JOINT_STATES,
+                      '/bench/feature_done'):
+            writer.add_topic(topic, bagio.TOPIC_TYPES[topic])
+        writer.write('/bench/scene', first - 2_000_000, bagio.encode_string(scene.text))
+        writer.write('/bench/truth', first - 1_000_000,
+                     bagio.encode_string(json.dumps(run.truth, sort_keys=True)))
+        done = 0
+        encode = bagio.encode_joint_state
+        write = writer.write
+        topic = bagio.JOINT_STATES
+        for feat in run.features:
+            stamps = feat.stamp_ns.tolist()
+            for stamp, theta, s in zip(stamps, feat.theta.tolist(), feat.s.tolist()):
+                write(topic, stamp, encode(feat.id, stamp, theta, s))
+                done += 1
+                if progress is not None and done % 10_000 == 0:
+                    progress(done, total)
+            writer.write('/bench/feature_done', stamps[-1] + 1000,
+                         bagio.encode_string(feat.id))
+    if progress is not None:
+        progress(total, total)
+    return run
