@@ -1,0 +1,83 @@
+"""The result of one reconstruction method on one feature (shared by spline/harmonic)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cam_design.errors import InputError, require_positive
+
+Evaluator = Callable[[NDArray[np.float64], int], NDArray[np.float64]]
+
+
+@dataclass
+class Reconstruction:
+    """Reconstructed lift of one feature by one method.
+
+    ``alpha`` [rad] is the uniform output grid; ``lift`` [m], ``velocity`` [m/rad],
+    ``acceleration`` [m/rad^2], ``jerk`` [m/rad^3] are on it. ``residual`` [m] is
+    data minus fit at the kept data points ``data_alpha`` (outliers excluded).
+    ``parameter`` holds the chosen order or smoothing level and ``why`` says how it
+    was chosen. ``evaluate(alpha, nu)`` gives the fit anywhere in its span.
+    """
+
+    method: str
+    alpha: NDArray[np.float64]
+    lift: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+    jerk: NDArray[np.float64]
+    data_alpha: NDArray[np.float64]
+    residual: NDArray[np.float64]
+    parameter: dict[str, Any]
+    why: str
+    sigma: float
+    evaluate: Evaluator
+    outliers_alpha: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    spectrum: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+
+    @property
+    def rms_residual(self) -> float:
+        """RMS of the residuals at the kept data points [m]."""
+        return float(np.sqrt(np.mean(self.residual ** 2))) if self.residual.size else 0.0
+
+    @property
+    def max_residual(self) -> float:
+        """Largest absolute residual at the kept data points [m]."""
+        return float(np.max(np.abs(self.residual))) if self.residual.size else 0.0
+
+    def derivatives(self) -> NDArray[np.float64]:
+        """(4, n): lift, velocity, acceleration, jerk on the grid (per rad)."""
+        return np.stack([self.lift, self.velocity, self.acceleration, self.jerk])
+
+    def check_finite(self) -> None:
+        """Raise InputError if any output is not finite (never publish silent NaN)."""
+        for name in ('lift', 'velocity', 'acceleration', 'jerk'):
+            if not np.all(np.isfinite(getattr(self, name))):
+                raise InputError(f'{self.method}.{name}', 'non-finite values',
+                                 'finite reconstructed values (numerical failure)')
+
+
+def output_grid(alpha_min: float, alpha_max: float, step: float) -> NDArray[np.float64]:
+    """Uniform grid k*step [rad] (integer k) covering [alpha_min, alpha_max]."""
+    step = require_positive('step', step)
+    k0 = int(np.ceil(alpha_min / step - 1e-9))
+    k1 = int(np.floor(alpha_max / step + 1e-9))
+    if k1 - k0 + 1 > 10_000_000:
+        raise InputError('step', step, 'a step giving at most 1e7 grid points')
+    if k1 < k0:
+        return np.array([0.5 * (alpha_min + alpha_max)])
+    return np.arange(k0, k1 + 1) * step
+
+
+def per_second(derivs: ArrayLike, rpm: float) -> dict[str, NDArray[np.float64]]:
+    """Velocity [m/s], acceleration [m/s^2], jerk [m/s^3] at cam speed ``rpm`` from
+    (4, n) derivatives per rad (v = w h', a = w^2 h'', j = w^3 h''')."""
+    omega = require_positive('rpm', rpm) * 2.0 * np.pi / 60.0
+    d = np.asarray(derivs, dtype=float)
+    return {'velocity_m_per_s': omega * d[1], 'acceleration_m_per_s2': omega ** 2 * d[2],
+            'jerk_m_per_s3': omega ** 3 * d[3]}

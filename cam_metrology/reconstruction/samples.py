@@ -1,0 +1,284 @@
+"""Measured lift tables: reading, unit handling and cleaning.
+
+Three inputs end up as one ``LiftTable`` (alpha [rad] from the lobe centreline, lift
+[m] above the base circle, optional design lift [m] for the same follower):
+
+* a CSV file with a header naming the columns; the unit is part of each name
+  (``alpha_rad`` | ``alpha_deg``; ``lift_m`` | ``lift_mm`` | ``lift_um``; optional
+  ``design_lift_<unit>``);
+* a nominal-profile file in the common gauge layout: line 1 the probe radius, line 2
+  the number of angle steps, then one row per step ``angle lift [marker]`` (fields
+  separated by blanks, commas, semicolons or tabs). Gauges write degrees and
+  millimetres: those are the defaults, overridable (``angle_unit``, ``length_unit``);
+* a /metrology/lift table (Float64MultiArray with columns
+  ``alpha_rad,lift_m,design_lift_m``).
+
+``clean_samples`` then drops non-finite rows (counted), wraps angles to (-pi, pi],
+sorts them and merges repeated angles (several turns of the shaft) into their mean.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cam_design.errors import InputError
+
+ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
+LENGTH_UNITS = {'m': 1.0, 'mm': 1.0e-3, 'um': 1.0e-6}
+_SPLIT = re.compile(r'[\s,;]+')
+
+
+@dataclass(frozen=True)
+class LiftTable:
+    """A measured (or nominal) lift table of one feature, SI units.
+
+    ``alpha`` [rad] from the lobe centreline, ``lift`` [m] above the base circle, as
+    seen by ``follower`` (kind, radius [m]) when known; ``design`` [m] the design lift
+    for the same follower at the same angles, or None.
+    """
+
+    feature: str
+    alpha: NDArray[np.float64]
+    lift: NDArray[np.float64]
+    design: NDArray[np.float64] | None = None
+    follower: tuple[str, float] | None = None
+    source: str = ''
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class CleanSamples:
+    """Samples ready for fitting: strictly increasing ``alpha`` [rad], ``lift`` [m]
+    (means over repeated angles), ``count`` samples merged into each point."""
+
+    alpha: NDArray[np.float64]
+    lift: NDArray[np.float64]
+    count: NDArray[np.int64]
+    dropped_nonfinite: int = 0
+    merged_repeats: int = 0
+    wrapped: int = 0
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def step(self) -> float:
+        """Median angular spacing [rad] of the samples."""
+        return float(np.median(np.diff(self.alpha)))
+
+
+def wrap_pi(alpha: ArrayLike) -> NDArray[np.float64]:
+    """Angles [rad] wrapped to (-pi, pi]."""
+    a = np.asarray(alpha, dtype=float)
+    out = np.pi - np.mod(np.pi - a, 2.0 * np.pi)
+    return out
+
+
+def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
+                  min_points: int = 8) -> CleanSamples:
+    """Drop non-finite rows, wrap to (-pi, pi], sort, merge repeated angles.
+
+    Angles closer than 1e-9 rad are treated as repeats and averaged. Raises
+    InputError if fewer than ``min_points`` distinct finite angles remain.
+    """
+    a = np.asarray(alpha, dtype=float).reshape(-1)
+    h = np.asarray(lift, dtype=float).reshape(-1)
+    if a.size != h.size:
+        raise InputError(f'{key}.lift', f'{h.size} values', f'as many as alpha ({a.size})')
+    finite = np.isfinite(a) & np.isfinite(h)
+    dropped = int(a.size - np.count_nonzero(finite))
+    a, h = a[finite], h[finite]
+    notes = []
+    if dropped:
+        notes.append(f'dropped {dropped} non-finite sample(s)')
+    outside = (a <= -np.pi) | (a > np.pi)
+    wrapped = int(np.count_nonzero(outside))
+    if wrapped:
+        a = wrap_pi(a)
+        notes.append(f'wrapped {wrapped} angle(s) to (-180, 180] deg')
+    order = np.argsort(a, kind='stable')
+    a, h = a[order], h[order]
+    if a.size:
+        new = np.concatenate([[True], np.diff(a) > 1e-9])
+        groups = np.cumsum(new) - 1
+        count = np.bincount(groups)
+        a_u = np.bincount(groups, weights=a) / count
+        h_u = np.bincount(groups, weights=h) / count
+    else:
+        count, a_u, h_u = np.zeros(0, dtype=np.int64), a, h
+    merged = int(a.size - a_u.size)
+    if merged:
+        notes.append(f'merged {merged} sample(s) at repeated angles into their mean')
+    if a_u.size < min_points:
+        raise InputError(f'{key}.alpha', f'{a_u.size} distinct finite angles',
+                         f'at least {min_points}')
+    return CleanSamples(a_u, h_u, count.astype(np.int64), dropped, merged, wrapped,
+                        tuple(notes))
+
+
+def _unit_scale(name: str, units: dict[str, float], key: str) -> float:
+    for unit, scale in units.items():
+        if name.endswith('_' + unit):
+            return scale
+    raise InputError(key, name, 'a column name ending in ' + ' | '.join('_' + u for u in units))
+
+
+def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable:
+    """Read a CSV lift table with header ``alpha_rad,lift_m[,design_lift_m]``.
+
+    Units come from the column names (``alpha_rad|alpha_deg``, ``lift_m|lift_mm|
+    lift_um``, ``design_lift_<same>``). Empty lines and ``#`` comments are skipped;
+    a malformed line raises InputError naming ``FILE:LINE``.
+    """
+    p = Path(path)
+    lines = p.read_text(encoding='utf-8').splitlines()
+    header: list[str] | None = None
+    rows: list[list[float]] = []
+    for number, raw in enumerate(lines, start=1):
+        line = raw.split('#', 1)[0].strip()
+        if not line:
+            continue
+        fields = [f.strip() for f in line.split(',')]
+        if header is None:
+            header = fields
+            continue
+        if len(fields) != len(header):
+            raise InputError(f'{p.name}:{number}', raw.strip(),
+                             f'{len(header)} comma-separated values ({",".join(header)})')
+        try:
+            rows.append([float(f) for f in fields])
+        except ValueError:
+            raise InputError(f'{p.name}:{number}', raw.strip(), 'numbers') from None
+    if header is None:
+        raise InputError(p.name, 'an empty file', 'a header alpha_rad,lift_m and rows')
+    names = {n: i for i, n in enumerate(header)}
+    a_col = [n for n in header if n.startswith('alpha_')]
+    h_col = [n for n in header if n.startswith('lift_')]
+    d_col = [n for n in header if n.startswith('design_lift_')]
+    if len(a_col) != 1 or len(h_col) != 1:
+        raise InputError(f'{p.name}:header', ','.join(header),
+                         'one alpha_<rad|deg> column and one lift_<m|mm|um> column')
+    data = np.asarray(rows, dtype=float).reshape(-1, len(header))
+    alpha = data[:, names[a_col[0]]] * _unit_scale(a_col[0], ANGLE_UNITS, f'{p.name}:header')
+    lift = data[:, names[h_col[0]]] * _unit_scale(h_col[0], LENGTH_UNITS, f'{p.name}:header')
+    design = None
+    if d_col:
+        design = data[:, names[d_col[0]]] * _unit_scale(d_col[0], LENGTH_UNITS,
+                                                        f'{p.name}:header')
+    return LiftTable(feature or p.stem, alpha, lift, design, None, str(p))
+
+
+def read_gauge_file(path: str | Path, *, angle_unit: str = 'deg', length_unit: str = 'mm',
+                    feature: str | None = None) -> LiftTable:
+    """Read a nominal-profile file in the common gauge layout.
+
+    Line 1: probe radius; line 2: number of angle steps N; then N (or N + 1, when the
+    closing angle is repeated) rows ``angle lift [marker]``. Angles in ``angle_unit``
+    (deg by default), lengths in ``length_unit`` (mm by default). Lines starting with
+    ``#`` and blank lines are ignored. Errors name ``FILE:LINE``.
+    """
+    if angle_unit not in ANGLE_UNITS:
+        raise InputError('angle_unit', angle_unit, ' | '.join(ANGLE_UNITS))
+    if length_unit not in LENGTH_UNITS:
+        raise InputError('length_unit', length_unit, ' | '.join(LENGTH_UNITS))
+    p = Path(path)
+    content = [(n, raw.strip()) for n, raw in
+               enumerate(p.read_text(encoding='utf-8').splitlines(), start=1)]
+    content = [(n, s) for n, s in content if s and not s.startswith('#')]
+    if len(content) < 2:
+        raise InputError(p.name, f'{len(content)} non-empty line(s)',
+                         'probe radius, number of steps, then the rows')
+    (n1, l1), (n2, l2) = content[0], content[1]
+    radius = _gauge_number(p.name, n1, l1, 'the probe radius (one number >= 0)')
+    if radius < 0:
+        raise InputError(f'{p.name}:{n1}', l1, 'the probe radius (one number >= 0)')
+    steps = _gauge_number(p.name, n2, l2, 'the number of angle steps (an integer > 0)')
+    if steps != int(steps) or steps <= 0:
+        raise InputError(f'{p.name}:{n2}', l2, 'the number of angle steps (an integer > 0)')
+    body = content[2:]
+    if len(body) not in (int(steps), int(steps) + 1):
+        where = body[-1][0] if body else n2
+        raise InputError(f'{p.name}:{where}', f'{len(body)} rows',
+                         f'{int(steps)} rows (or {int(steps) + 1} with the closing angle)')
+    alpha = np.empty(len(body))
+    lift = np.empty(len(body))
+    for i, (number, line) in enumerate(body):
+        fields = [f for f in _SPLIT.split(line) if f]
+        if len(fields) not in (2, 3):
+            raise InputError(f'{p.name}:{number}', line, 'angle, lift[, marker]')
+        try:
+            alpha[i] = float(fields[0])
+            lift[i] = float(fields[1])
+        except ValueError:
+            raise InputError(f'{p.name}:{number}', line,
+                             'two numbers (angle, lift) and an optional marker') from None
+        if not (math.isfinite(alpha[i]) and math.isfinite(lift[i])):
+            raise InputError(f'{p.name}:{number}', line, 'finite angle and lift')
+    alpha *= ANGLE_UNITS[angle_unit]
+    lift *= LENGTH_UNITS[length_unit]
+    r = radius * LENGTH_UNITS[length_unit]
+    follower = ('roller', r) if r > 0 else ('knife', 0.0)
+    note = (f'gauge file: angles in {angle_unit}, lengths in {length_unit}, '
+            f'probe radius {r:.6g} m')
+    return LiftTable(feature or p.stem, alpha, lift, None, follower, str(p), (note,))
+
+
+def _gauge_number(name: str, number: int, line: str, expected: str) -> float:
+    fields = [f for f in _SPLIT.split(line) if f]
+    try:
+        if len(fields) != 1:
+            raise ValueError
+        value = float(fields[0])
+    except ValueError:
+        raise InputError(f'{name}:{number}', line, expected) from None
+    if not math.isfinite(value):
+        raise InputError(f'{name}:{number}', line, expected)
+    return value
+
+
+def read_table_file(path: str | Path, *, angle_unit: str = 'deg',
+                    length_unit: str = 'mm') -> LiftTable:
+    """A CSV table (first line names an ``alpha_`` column) or a gauge file."""
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f'no such table file: {p}')
+    first = ''
+    for raw in p.read_text(encoding='utf-8').splitlines():
+        if raw.strip() and not raw.strip().startswith('#'):
+            first = raw.strip()
+            break
+    if first.startswith('alpha_') or ',alpha_' in first:
+        return read_csv_table(p)
+    return read_gauge_file(p, angle_unit=angle_unit, length_unit=length_unit)
+
+
+def table_from_message(msg: Any) -> tuple[str, tuple[str, ...], NDArray[np.float64]]:
+    """(label, columns, data rows x cols) of a duck-typed Float64MultiArray."""
+    dims = list(msg.layout.dim)
+    if len(dims) < 2:
+        raise InputError('layout.dim', len(dims), '2 dimensions (rows, columns)')
+    label = str(dims[0].label)
+    columns = tuple(c for c in str(dims[1].label).split(',') if c)
+    rows, cols = int(dims[0].size), int(dims[1].size)
+    data = np.asarray(msg.data, dtype=float)
+    offset = int(getattr(msg.layout, 'data_offset', 0) or 0)
+    if cols != len(columns) or data.size < offset + rows * cols:
+        raise InputError(f'{label}.data', f'{data.size} values, {len(columns)} names',
+                         f'{rows} x {cols} values with {cols} column names')
+    return label, columns, data[offset:offset + rows * cols].reshape(rows, cols)
+
+
+def lift_table_from_message(msg: Any) -> LiftTable:
+    """A /metrology/lift table as a LiftTable (feature = the label)."""
+    label, columns, data = table_from_message(msg)
+    index = {c: i for i, c in enumerate(columns)}
+    for need in ('alpha_rad', 'lift_m'):
+        if need not in index:
+            raise InputError(f'{label}.columns', ','.join(columns), 'alpha_rad,lift_m[,...]')
+    design = data[:, index['design_lift_m']].copy() if 'design_lift_m' in index else None
+    return LiftTable(label, data[:, index['alpha_rad']].copy(),
+                     data[:, index['lift_m']].copy(), design, None, '/metrology/lift')
