@@ -439,3 +439,302 @@ def convert_lift(law: LiftLaw, base_radius: float, source: Follower, target: Fol
     if _same_follower(source, target):
         return law
     return ConvertedLift(law, r0, source, target, key=key)
+
+
+# ---------------------------------------------------------------------------------------
+# Cam profile coordinates, radius of curvature, pressure angle, undercut (methods §2.1-2.5)
+# ---------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Profile:
+    """A sampled cam profile in the cam-fixed frame (all lengths m, angles rad).
+
+    ``alpha``: the cam angle of each sample; ``x, y``: the actual (working) profile;
+    ``pitch_x, pitch_y``: the roller-centre (pitch) curve, equal to x, y for a knife and
+    for a flat tappet the contact point as well; ``rho``: signed radius of curvature of
+    the actual profile (> 0 convex, < 0 concave); ``rho_pitch``: of the pitch curve (flat
+    tappet: equal to rho); ``pressure_angle``: angle between the contact normal and the
+    follower's direction of motion at the roller centre (0 for a flat face);
+    ``undercut``: bool per sample, True where the envelope reverses (cusp, rho in
+    (0, radius) of a roller, rho <= 0 of a flat face); ``face_offset``: the contact's
+    distance from the tappet axis (flat tappet: h', the face must be wider than its max).
+    """
+
+    kind: str
+    alpha: NDArray[np.float64]
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    pitch_x: NDArray[np.float64]
+    pitch_y: NDArray[np.float64]
+    rho: NDArray[np.float64]
+    rho_pitch: NDArray[np.float64]
+    pressure_angle: NDArray[np.float64]
+    undercut: NDArray[np.bool_]
+    face_offset: NDArray[np.float64]
+
+    def undercut_intervals(self) -> list[tuple[float, float]]:
+        """(alpha_first, alpha_last) [rad] of each run of undercut samples."""
+        flags = np.asarray(self.undercut, dtype=bool)
+        out = []
+        i = 0
+        while i < flags.size:
+            if flags[i]:
+                j = i
+                while j + 1 < flags.size and flags[j + 1]:
+                    j += 1
+                out.append((float(self.alpha[i]), float(self.alpha[j])))
+                i = j + 1
+            else:
+                i += 1
+        return out
+
+    def summary(self) -> dict[str, object]:
+        """Key numbers for a report: extreme radii, pressure angle, undercut intervals."""
+        return {
+            'kind': self.kind,
+            'points': int(self.alpha.size),
+            'rho_min_m': float(np.min(self.rho)),
+            'rho_min_alpha_rad': float(self.alpha[int(np.argmin(self.rho))]),
+            'rho_pitch_min_m': float(np.min(self.rho_pitch)),
+            'pressure_angle_max_deg': float(np.degrees(np.max(np.abs(self.pressure_angle)))),
+            'face_offset_max_m': float(np.max(np.abs(self.face_offset))),
+            'undercut': bool(np.any(self.undercut)),
+            'undercut_intervals_rad': self.undercut_intervals(),
+        }
+
+    def columns(self) -> dict[str, NDArray[np.float64]]:
+        """The per-sample arrays, in CSV column order (SI units in the names)."""
+        return {
+            'alpha_rad': self.alpha, 'x_m': self.x, 'y_m': self.y,
+            'pitch_x_m': self.pitch_x, 'pitch_y_m': self.pitch_y, 'rho_m': self.rho,
+            'rho_pitch_m': self.rho_pitch, 'pressure_angle_rad': self.pressure_angle,
+            'undercut': self.undercut.astype(float), 'face_offset_m': self.face_offset,
+        }
+
+
+def _alpha_grid(alpha: ArrayLike) -> NDArray[np.float64]:
+    a = np.asarray(alpha, dtype=float).reshape(-1)
+    if a.size == 0:
+        raise InputError('alpha', 'an empty list', 'at least one angle in rad')
+    if not np.all(np.isfinite(a)):
+        raise InputError('alpha', 'non-finite entries', 'finite angles in rad')
+    return a
+
+
+def _unit(angle: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.stack([np.cos(angle), np.sin(angle)])
+
+
+def _perp(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotate (2, n) vectors by +90 degrees."""
+    return np.stack([-v[1], v[0]])
+
+
+def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    return a[0] * b[1] - a[1] * b[0]
+
+
+def inner_envelope(pitch: NDArray[np.float64], d1: NDArray[np.float64],
+                   d2: NDArray[np.float64], radius: float) -> dict[str, NDArray[np.float64]]:
+    """Inner envelope of circles of ``radius`` [m] centred on a pitch curve (methods §2.5).
+
+    ``pitch``, ``d1``, ``d2``: (2, n) arrays of P, dP/dphi, d2P/dphi2 (analytic). The side
+    is picked numerically: the offset P + sign r n (n the left normal) with the smaller
+    mean distance from the cam centre is the inner one. Returns ``profile`` (2, n),
+    ``normal`` (2, n, unit, pointing from the profile to the roller centre),
+    ``rho_pitch`` and ``rho`` (signed radii, > 0 where the pitch curve bends towards the
+    cam: rho = rho_pitch - r), ``undercut`` (bool: dQ/dphi . dP/dphi <= 0).
+    """
+    speed = np.hypot(d1[0], d1[1])
+    if np.any(speed == 0):
+        raise InputError('pitch curve', 'a stationary point', 'a regular pitch curve')
+    left = _perp(d1) / speed
+    kappa = _cross(d1, d2) / speed ** 3      # signed curvature, + when turning left
+    candidates = [pitch + sign * radius * left for sign in (1.0, -1.0)]
+    means = [float(np.mean(np.hypot(c[0], c[1]))) for c in candidates]
+    sign = 1.0 if means[0] <= means[1] else -1.0
+    profile = candidates[0] if sign > 0 else candidates[1]
+    # centre of curvature at P + left / kappa; towards the inner side when sign*kappa > 0
+    with np.errstate(divide='ignore'):
+        rho_pitch = np.where(kappa != 0, sign / np.where(kappa != 0, kappa, 1.0), np.inf)
+    # Q' = P' (1 - sign r kappa): reversed where sign * r * kappa >= 1
+    factor = 1.0 - sign * radius * kappa
+    return {'profile': profile, 'normal': -sign * left, 'rho_pitch': rho_pitch,
+            'rho': rho_pitch - radius, 'undercut': factor <= 0}
+
+
+def flat_profile(law: LiftLaw, base_radius: float, alpha: ArrayLike) -> Profile:
+    """Flat-faced translating tappet profile, book eq. 2.15 (methods §2.1).
+
+    Cam frame: origin at the cam centre, nose on +Y; the tappet axis at cam angle alpha is
+    at theta = pi/2 + alpha. x = p cos(theta) - h' sin(theta), y = h' cos(theta) +
+    p sin(theta), p = R0 + h; rho1 = R0 + h + h'' (eq. 2.6); undercut where rho1 <= 0.
+    """
+    r0 = require_positive('base_radius', base_radius)
+    a = _alpha_grid(alpha)
+    h, h1, h2, _ = law.derivatives(a)
+    theta = a + 0.5 * math.pi
+    p = r0 + h
+    c, s = np.cos(theta), np.sin(theta)
+    x = p * c - h1 * s
+    y = h1 * c + p * s
+    rho = r0 + h + h2
+    return Profile('flat', a, x, y, x.copy(), y.copy(), rho, rho.copy(), np.zeros_like(a),
+                   rho <= 0, h1)
+
+
+def _pitch_profile(kind: str, a: NDArray[np.float64], pitch: NDArray[np.float64],
+                   d1: NDArray[np.float64], d2: NDArray[np.float64], radius: float,
+                   motion: NDArray[np.float64]) -> Profile:
+    """Shared tail of the roller profiles: envelope, curvature, pressure angle."""
+    env = inner_envelope(pitch, d1, d2, radius)
+    cos_p = np.abs(np.sum(env['normal'] * motion, axis=0))
+    pressure = np.arccos(np.clip(cos_p, 0.0, 1.0))
+    prof = env['profile']
+    return Profile(kind, a, prof[0], prof[1], pitch[0], pitch[1], env['rho'],
+                   env['rho_pitch'], pressure, env['undercut'], np.zeros_like(a))
+
+
+def roller_profile(law: LiftLaw, base_radius: float, radius: float,
+                   alpha: ArrayLike) -> Profile:
+    """In-line translating roller (or knife, radius 0) tappet profile, book eq. 2.16.
+
+    Same frame as :func:`flat_profile`. g = R0 + r + h is the pitch radius (R0 the base
+    radius of the profile, r the roller radius R00); the profile is the inner envelope,
+    rho_pitch = (g^2 + g'^2)^1.5 / (g^2 + 2g'^2 - g g''), rho1 = rho_pitch - r
+    (erratum 5: subtract the roller radius). Pressure angle atan(|g'| / g).
+    """
+    r0 = require_positive('base_radius', base_radius)
+    r = require_positive('radius', radius, allow_zero=True)
+    a = _alpha_grid(alpha)
+    h, h1, h2, _ = law.derivatives(a)
+    theta = a + 0.5 * math.pi
+    u, w = _unit(theta), _perp(_unit(theta))
+    g = r0 + r + h
+    pitch = g * u
+    d1 = h1 * u + g * w
+    d2 = (h2 - g) * u + 2.0 * h1 * w
+    return _pitch_profile('roller' if r > 0 else 'knife', a, pitch, d1, d2, r, u)
+
+
+def _rotation_apply(angle: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+
+def _sign_param(key: str, value: int, allowed: tuple[int, ...]) -> int:
+    if isinstance(value, bool) or value not in allowed:
+        raise InputError(key, value, ' or '.join(f'{v:+d}' for v in allowed))
+    return int(value)
+
+
+def offset_roller_profile(law: LiftLaw, base_radius: float, radius: float, offset: float,
+                          alpha: ArrayLike, *, eta: int = 1, delta: int = 1) -> Profile:
+    """Offset translating roller follower, thesis (S3) reverse-method form (methods §2.3).
+
+    Frame: x-axis along the follower's rise direction. phi = alpha is the cam angle, s =
+    h(phi) the lift; ``eta`` = +1 clockwise cam, -1 counter-clockwise; ``delta`` = +1/-1
+    for a guide line offset to the +y/-y side by ``offset`` e >= 0 [m]. The pitch base
+    radius is r0 = R0 + r (R0 = ``base_radius`` of the profile), s0 = sqrt(r0^2 - e^2):
+    x = (s0+s) cos(eta phi) - delta e sin(eta phi), y = (s0+s) sin(eta phi) + delta e cos(eta phi).
+    Pressure angle: tan = |s' - eta delta e| / (s0 + s) (equal to the pitch-normal angle).
+    """
+    r, e, eta, delta, s0 = _offset_params(base_radius, radius, offset, eta, delta)
+    a = _alpha_grid(alpha)
+    h, h1, h2, _ = law.derivatives(a)
+    turn = eta * a
+    v = np.stack([s0 + h, np.full_like(a, delta * e)])
+    pitch = _rotation_apply(turn, v)
+    d1 = _rotation_apply(turn, np.stack([h1 - eta * delta * e, eta * (s0 + h)]))
+    d2 = _rotation_apply(turn, np.stack([h2 - (s0 + h), 2.0 * eta * h1 - delta * e]))
+    kind = 'offset-roller' if r > 0 else 'offset-knife'
+    return _pitch_profile(kind, a, pitch, d1, d2, r, _unit(turn))
+
+
+def offset_pressure_angle(law: LiftLaw, base_radius: float, radius: float, offset: float,
+                          alpha: ArrayLike, *, eta: int = 1, delta: int = 1
+                          ) -> NDArray[np.float64]:
+    """Closed-form pressure angle [rad] of methods §2.3: atan(|s' - eta delta e| / (s0 + s))."""
+    _, e, eta, delta, s0 = _offset_params(base_radius, radius, offset, eta, delta)
+    a = _alpha_grid(alpha)
+    return np.arctan(np.abs(law(a, 1) - eta * delta * e) / (s0 + law(a)))
+
+
+def _offset_params(base_radius: float, radius: float, offset: float, eta: int, delta: int
+                   ) -> tuple[float, float, int, int, float]:
+    """Validated (r, e, eta, delta, s0) of the offset translating follower."""
+    r0 = require_positive('base_radius', base_radius)
+    r = require_positive('radius', radius, allow_zero=True)
+    e = require_positive('offset', offset, allow_zero=True)
+    eta = _sign_param('eta', eta, (1, -1))
+    delta = _sign_param('delta', delta, (1, -1, 0))
+    if delta == 0 and e > 0:
+        raise InputError('delta', delta, '+1 or -1 for an offset guide line (offset > 0)')
+    rp = r0 + r
+    if e >= rp:
+        raise InputError('offset', e, f'an offset smaller than the pitch base radius {rp} m')
+    return r, e, eta, delta, math.sqrt(rp * rp - e * e)
+
+
+def _rocker_check(base_radius: float, radius: float, centre_distance: float,
+                  arm_length: float) -> tuple[float, float, float, float]:
+    r0 = require_positive('base_radius', base_radius)
+    r = require_positive('radius', radius, allow_zero=True)
+    dist = require_positive('centre_distance', centre_distance)
+    arm = require_positive('arm_length', arm_length)
+    rp = r0 + r
+    if not abs(dist - arm) < rp < dist + arm:
+        raise InputError('centre_distance', dist, f'|a - l| < r0 < a + l with pitch base '
+                         f'radius r0 = {rp} m and arm length l = {arm} m')
+    psi0 = math.acos((dist * dist + arm * arm - rp * rp) / (2.0 * dist * arm))
+    return r, dist, arm, psi0
+
+
+def rocker_profile(law: LiftLaw, base_radius: float, radius: float, centre_distance: float,
+                   arm_length: float, alpha: ArrayLike, *, eta: int = 1, delta: int = 1
+                   ) -> Profile:
+    """Oscillating (rocker) roller follower, thesis form (methods §2.4).
+
+    Frame: x-axis along OA (cam centre O to pivot A, distance a = ``centre_distance``),
+    arm length l; the swing is psi = h(phi) / l [rad] (the law gives the roller centre's
+    arc lift, m); psi0 = arccos((a^2 + l^2 - r0^2) / (2al)) with r0 = R0 + r;
+    ``eta`` = +1 clockwise cam, ``delta`` = +1/-1 the swing direction during the rise:
+    x = a cos(eta phi) - l cos(eta phi - delta (psi0 + psi)), y likewise with sin.
+    Pressure angle: between the contact normal and the roller centre's velocity
+    (perpendicular to the arm).
+    """
+    r, dist, arm, psi0 = _rocker_check(base_radius, radius, centre_distance, arm_length)
+    eta = _sign_param('eta', eta, (1, -1))
+    delta = _sign_param('delta', delta, (1, -1))
+    a = _alpha_grid(alpha)
+    h, h1, h2, _ = law.derivatives(a)
+    turn = eta * a
+    big = turn - delta * (psi0 + h / arm)
+    big1 = eta - delta * h1 / arm
+    big2 = -delta * h2 / arm
+    pitch = dist * _unit(turn) - arm * _unit(big)
+    d1 = dist * eta * _perp(_unit(turn)) - arm * big1 * _perp(_unit(big))
+    d2 = -dist * _unit(turn) - arm * big2 * _perp(_unit(big)) + arm * big1 ** 2 * _unit(big)
+    kind = 'rocker' if r > 0 else 'rocker-knife'
+    return _pitch_profile(kind, a, pitch, d1, d2, r, _perp(_unit(big)))
+
+
+def rocker_polar(law: LiftLaw, base_radius: float, radius: float, frame_length: float,
+                 arm_length: float, alpha: ArrayLike, *, co_directional: bool = False
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Pitch curve of the rocker follower in the CG paper's polar form (S1 eqs 1-6).
+
+    rho = sqrt(L^2 + l^2 - 2 L l cos(psi0 + psi)); theta = phi + (beta0 - beta) for the
+    counter-directional type (逆向) and phi - (beta0 - beta) for the co-directional type
+    (同向), with beta = atan2(l sin(psi0 + psi), L - l cos(psi0 + psi)). Returns (rho [m],
+    theta [rad]). Same curve as :func:`rocker_profile` with eta = +1 and delta = -1
+    (counter) or +1 (co), rotated by -delta beta0.
+    """
+    _, dist, arm, psi0 = _rocker_check(base_radius, radius, frame_length, arm_length)
+    a = _alpha_grid(alpha)
+    big = psi0 + law(a) / arm
+    rho = np.sqrt(dist * dist + arm * arm - 2.0 * dist * arm * np.cos(big))
+    beta = np.arctan2(arm * np.sin(big), dist - arm * np.cos(big))
+    beta0 = math.atan2(arm * math.sin(psi0), dist - arm * math.cos(psi0))
+    sign = -1.0 if co_directional else 1.0
+    return rho, a + sign * (beta0 - beta)
