@@ -1,0 +1,254 @@
+"""`cam-bench analyze BAG`: replay a bag through the node cores, no ROS graph needed.
+
+The bag goes through the same cores as the live nodes (metrology, plus the
+reconstruction and dynamics cores when they exist in this tree), so live and
+offline results come from one code path. Prints a human report, or writes the JSON
+report of interfaces.md (``--json FILE`` or ``-`` for stdout); ``--plot DIR`` writes
+PNGs of measured vs design lift and the lift error per feature; ``--out-bag DIR``
+writes a copy of the bag plus every output the cores produced.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+REPORT_TOPIC = '/metrology/report'
+LIFT_TOPIC = '/metrology/lift'
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``analyze`` subcommand."""
+    p = subparsers.add_parser(
+        'analyze', help='replay a bag through the node cores and print the report',
+        description='Replay a rosbag2 (MCAP) bag in-process through the same node cores as '
+                    'the live nodes and print (or write) the metrology report.')
+    p.add_argument('bag', help='rosbag2 directory (metadata.yaml + MCAP)')
+    p.add_argument('--json', metavar='FILE|-', help='write the JSON report to FILE '
+                   '(- for stdout) instead of the human report')
+    p.add_argument('--plot', metavar='DIR', help='write lift and lift-error PNGs per feature')
+    p.add_argument('--out-bag', metavar='DIR', help='write the bag plus all outputs to DIR')
+    p.add_argument('--params', metavar='FILE', help='ROS parameter YAML for the cores '
+                   '(node_name: ros__parameters: ...)')
+    p.add_argument('--only-metrology', action='store_true',
+                   help='run only the metrology core')
+    p.set_defaults(func=run)
+
+
+def load_params(path: str | None) -> dict[str, dict[str, Any]]:
+    """node -> parameters from a ROS parameter file (empty when no file)."""
+    if path is None:
+        return {}
+    import yaml
+
+    from cam_design.errors import InputError
+
+    doc = yaml.safe_load(Path(path).read_text())
+    if doc is None:
+        return {}
+    if not isinstance(doc, dict):
+        raise InputError('params', path, 'a mapping node_name: {ros__parameters: {...}}')
+    out = {}
+    for node, body in doc.items():
+        params = (body or {}).get('ros__parameters', {}) if isinstance(body, dict) else None
+        if not isinstance(params, dict):
+            raise InputError(f'{node}.ros__parameters', params, 'a mapping of parameters')
+        out[str(node).lstrip('/')] = params
+    return out
+
+
+def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool) -> list[Any]:
+    """The metrology core first, then the other available cores."""
+    from cam_metrology.registry import available_cores
+
+    found = available_cores()
+    if 'metrology' not in found:
+        raise ModuleNotFoundError('cam_metrology.metrology.core')
+    names = ['metrology'] if only_metrology else list(found)
+    return [found[n](params.get(n)) for n in names]
+
+
+def replay(bag: str, cores: list[Any]) -> list[tuple[int, Any]]:
+    """Run the bag through the cores; (stamp_ns, output) in order of production."""
+    try:
+        from cam_metrology.replay import run_offline
+    except ModuleNotFoundError:   # INTERIM until replay.py is committed (then removed)
+        return _interim_run_offline(bag, cores)
+    result = run_offline(bag, cores)
+    outputs = getattr(result, 'outputs', result)
+    return [(int(st), out) for st, out in outputs]
+
+
+def _interim_run_offline(bag: str, cores: list[Any]) -> list[tuple[int, Any]]:
+    """Minimal in-process replay (no routing between cores): the non-sample messages
+    in log order, the JointState samples in bulk between them, idle gaps as ticks."""
+    import numpy as np
+
+    from cam_metrology import bagio
+
+    samples = bagio.read_joint_states(bag)
+    others = [m for m in bagio.iter_messages(bag) if m.topic != bagio.JOINT_STATES]
+    log = samples.log_ns
+    out: list[tuple[int, Any]] = []
+
+    def feed(a: int, b: int) -> None:
+        if b <= a:
+            return
+        for core in cores:
+            if bagio.JOINT_STATES not in core.subscriptions:
+                continue
+            if hasattr(core, 'handle_samples'):
+                res = core.handle_samples(samples.frame_id[a:b], samples.stamp_ns[a:b],
+                                          samples.theta[a:b], samples.s[a:b],
+                                          rx_ns=int(log[b - 1]))
+            else:
+                res = []
+                for k, msg in enumerate(bagio.light_joint_states(samples), 0):
+                    if a <= k < b:
+                        res += core.handle(bagio.JOINT_STATES, msg, int(log[k]))
+            out.extend((int(log[b - 1]), o) for o in res)
+
+    pos = 0
+    for m in others:
+        end = int(np.searchsorted(log, m.stamp_ns, side='right'))
+        feed(pos, end)
+        pos = end
+        for core in cores:
+            if m.topic in core.subscriptions:
+                out.extend((m.stamp_ns, o) for o in core.handle(m.topic, m.msg, m.stamp_ns))
+    feed(pos, len(log))
+    for core in cores:
+        out.extend((int(log[-1]) if len(log) else 0, o) for o in core.finish())
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``cam-bench analyze``."""
+    from cam_design.errors import InputError
+
+    if not Path(args.bag).exists():
+        raise InputError('bag', args.bag, 'an existing rosbag2 directory')
+    cores = make_cores(load_params(args.params), args.only_metrology)
+    outputs = replay(args.bag, cores)
+    report = final_report(outputs, cores[0])
+    report['skipped'] = report.get('skipped', []) + other_skips(outputs)
+    if args.json:
+        text = json.dumps(report, indent=1)
+        if args.json == '-':
+            print(text)
+        else:
+            Path(args.json).write_text(text + '\n')
+    else:
+        print(human_report(report))
+    if args.plot:
+        write_plots(outputs, Path(args.plot), report)
+    if args.out_bag:
+        write_out_bag(args.bag, args.out_bag, outputs)
+    return 0
+
+
+def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, Any]:
+    """The last report the metrology core published (its final one)."""
+    from cam_metrology.outputs import TextOutput
+
+    texts = [o.text for _, o in outputs if isinstance(o, TextOutput) and o.topic == REPORT_TOPIC]
+    if texts:
+        return json.loads(texts[-1])
+    if getattr(metrology, 'scene', None) is None:
+        from cam_metrology.cli import CliError
+        raise CliError('the bag has no /bench/scene message: nothing to analyse')
+    return metrology.report(final=True)
+
+
+def other_skips(outputs: list[tuple[int, Any]]) -> list[dict[str, str]]:
+    """``skipped/<what>`` statuses of the other cores' result topics."""
+    from cam_metrology.outputs import StatusOutput
+
+    out = []
+    for _, o in outputs:
+        if isinstance(o, StatusOutput) and not o.topic.startswith('/metrology/'):
+            for st in o.statuses:
+                if st.name.startswith('skipped/'):
+                    out.append({'what': st.name[len('skipped/'):], 'why': st.message,
+                                'node': o.topic.split('/')[1]})
+    return out
+
+
+def _fmt(value: Any, spec: str) -> str:
+    """``value`` formatted with ``spec``; a right-aligned '-' of the same width if None."""
+    width = int(spec.split('.')[0] or 0)
+    return '-'.rjust(width) if value is None else format(value, spec)
+
+
+def human_report(report: dict[str, Any]) -> str:
+    """A fixed-width text report of the JSON report."""
+    lines = [f"camshaft {report.get('camshaft_id', '')}  direction "
+             f"{report.get('direction', '')}"]
+    head = (f"{'feature':<12}{'angle deg':>13}{'std arcsec':>11}{'SP - LSQ as':>12}"
+            f"{'phase deg':>11}{'phase err':>11}{'asym deg':>10}{'lift rms um':>12}  status")
+    lines += [head, '-' * len(head)]
+    for fid, f in report.get('features', {}).items():
+        std = None if f.get('angle_std_deg') is None else f['angle_std_deg'] * 3600
+        dsp = f.get('sensitive_point_minus_lsq_deg')
+        dsp = None if dsp is None else dsp * 3600
+        rms = (f.get('lift_error_um') or {}).get('rms')
+        status = f.get('status', '')
+        if status == 'failed':
+            status += ': ' + f.get('reason', '')
+        elif not (f.get('validity') or {}).get('valid', True):
+            status += ' (sensitive-point validity check failed)'
+        lines.append(f"{fid:<12}{_fmt(f.get('angle_deg'), '13.5f')}{_fmt(std, '11.3f')}"
+                     f"{_fmt(dsp, '12.3f')}{_fmt(f.get('phase_deg'), '11.4f')}"
+                     f"{_fmt(f.get('phase_error_deg'), '11.4f')}"
+                     f"{_fmt(f.get('asymmetry_deg'), '10.5f')}{_fmt(rms, '12.3f')}  {status}")
+    for item in report.get('skipped', []):
+        lines.append(f"skipped {item['what']}: {item['why']}")
+    return '\n'.join(lines)
+
+
+def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, Any]) -> None:
+    """One PNG per lift table: measured and design lift, and the lift error [um]."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from cam_metrology.outputs import TableOutput
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for _, o in outputs:
+        if not (isinstance(o, TableOutput) and o.topic == LIFT_TOPIC):
+            continue
+        alpha = np.degrees(o.data[:, 0])
+        fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
+        ax1.plot(alpha, o.data[:, 1] * 1e3, '.', ms=1.5, label='measured')
+        ax1.plot(alpha, o.data[:, 2] * 1e3, '-', lw=0.8, label='design (as seen by the probe)')
+        ax1.set_ylabel('lift [mm]')
+        ax1.legend(loc='upper right')
+        angle = (report.get('features', {}).get(o.label) or {}).get('angle_deg')
+        ax1.set_title(f'{o.label}: angle {angle:.5f} deg' if angle is not None else o.label)
+        ax2.plot(alpha, (o.data[:, 1] - o.data[:, 2]) * 1e6, '.', ms=1.5)
+        ax2.set_ylabel('measured - design [um]')
+        ax2.set_xlabel('alpha from the fitted nose [deg]')
+        fig.tight_layout()
+        fig.savefig(folder / f'{o.label.replace("/", "_")}.png', dpi=110)
+        plt.close(fig)
+
+
+def write_out_bag(src: str, dst: str, outputs: list[tuple[int, Any]]) -> None:
+    """Copy the bag and append every output (its own topic, stamped when produced)."""
+    from cam_metrology import bagio
+
+    with bagio.BagWriter(dst) as writer:
+        produced = {o.topic for _, o in outputs}
+        bagio.copy_bag(src, writer, topics=[t for t in bagio.bag_topics(src)
+                                            if t not in produced])
+        for stamp, o in outputs:
+            writer.write_output(o, stamp)
+
+
+if __name__ == '__main__':   # pragma: no cover
+    from cam_metrology.cli import main
+    sys.exit(main(['analyze'] + sys.argv[1:]))
