@@ -70,58 +70,11 @@ def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool) -> list[
     return [found[n](params.get(n)) for n in names]
 
 
-def replay(bag: str, cores: list[Any]) -> list[tuple[int, Any]]:
-    """Run the bag through the cores; (stamp_ns, output) in order of production."""
-    try:
-        from cam_metrology.replay import run_offline
-    except ModuleNotFoundError:   # INTERIM until replay.py is committed (then removed)
-        return _interim_run_offline(bag, cores)
-    result = run_offline(bag, cores)
-    outputs = getattr(result, 'outputs', result)
-    return [(int(st), out) for st, out in outputs]
+def replay(bag: str, cores: list[Any]) -> Any:
+    """Run the bag through the cores with ``replay.run_offline`` (the live code path)."""
+    from cam_metrology.replay import run_offline
 
-
-def _interim_run_offline(bag: str, cores: list[Any]) -> list[tuple[int, Any]]:
-    """Minimal in-process replay (no routing between cores): the non-sample messages
-    in log order, the JointState samples in bulk between them, idle gaps as ticks."""
-    import numpy as np
-
-    from cam_metrology import bagio
-
-    samples = bagio.read_joint_states(bag)
-    others = [m for m in bagio.iter_messages(bag) if m.topic != bagio.JOINT_STATES]
-    log = samples.log_ns
-    out: list[tuple[int, Any]] = []
-
-    def feed(a: int, b: int) -> None:
-        if b <= a:
-            return
-        for core in cores:
-            if bagio.JOINT_STATES not in core.subscriptions:
-                continue
-            if hasattr(core, 'handle_samples'):
-                res = core.handle_samples(samples.frame_id[a:b], samples.stamp_ns[a:b],
-                                          samples.theta[a:b], samples.s[a:b],
-                                          rx_ns=int(log[b - 1]))
-            else:
-                res = []
-                for k, msg in enumerate(bagio.light_joint_states(samples), 0):
-                    if a <= k < b:
-                        res += core.handle(bagio.JOINT_STATES, msg, int(log[k]))
-            out.extend((int(log[b - 1]), o) for o in res)
-
-    pos = 0
-    for m in others:
-        end = int(np.searchsorted(log, m.stamp_ns, side='right'))
-        feed(pos, end)
-        pos = end
-        for core in cores:
-            if m.topic in core.subscriptions:
-                out.extend((m.stamp_ns, o) for o in core.handle(m.topic, m.msg, m.stamp_ns))
-    feed(pos, len(log))
-    for core in cores:
-        out.extend((int(log[-1]) if len(log) else 0, o) for o in core.finish())
-    return out
+    return run_offline(bag, cores)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -131,8 +84,10 @@ def run(args: argparse.Namespace) -> int:
     if not Path(args.bag).exists():
         raise InputError('bag', args.bag, 'an existing rosbag2 directory')
     cores = make_cores(load_params(args.params), args.only_metrology)
-    outputs = replay(args.bag, cores)
-    report = final_report(outputs, cores[0])
+    result = replay(args.bag, cores)
+    outputs = [(o.stamp_ns, o.output) for o in result.outputs]
+    metrology = next(c for c in cores if c.name == 'metrology')
+    report = final_report(outputs, metrology)
     report['skipped'] = report.get('skipped', []) + other_skips(outputs)
     if args.json:
         text = json.dumps(report, indent=1)
@@ -145,7 +100,8 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         write_plots(outputs, Path(args.plot), report)
     if args.out_bag:
-        write_out_bag(args.bag, args.out_bag, outputs)
+        from cam_metrology.replay import write_outputs
+        write_outputs(result, args.out_bag)
     return 0
 
 
@@ -235,18 +191,6 @@ def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, 
         fig.tight_layout()
         fig.savefig(folder / f'{o.label.replace("/", "_")}.png', dpi=110)
         plt.close(fig)
-
-
-def write_out_bag(src: str, dst: str, outputs: list[tuple[int, Any]]) -> None:
-    """Copy the bag and append every output (its own topic, stamped when produced)."""
-    from cam_metrology import bagio
-
-    with bagio.BagWriter(dst) as writer:
-        produced = {o.topic for _, o in outputs}
-        bagio.copy_bag(src, writer, topics=[t for t in bagio.bag_topics(src)
-                                            if t not in produced])
-        for stamp, o in outputs:
-            writer.write_output(o, stamp)
 
 
 if __name__ == '__main__':   # pragma: no cover

@@ -281,8 +281,8 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
     xraw = direction * fs.theta
     x0 = coarse_align(xraw, fs.s, law)
     x = wrap_pi(xraw - x0)
-    for flank, zone in (('rise', (-inner, -inner + 2 * half)), ('fall', (inner - 2 * half, inner))):
-        _zone_check(x, zone, flank, settings)
+    for flank, zone in (('rise', (-inner, -0.5 * inner)), ('fall', (0.5 * inner, inner))):
+        _zone_check(x, zone, flank, settings)   # the steep half of each contact flank
     top = np.abs(x) < 3 * DEG
     if np.count_nonzero(top) < 3:
         raise FeatureFailed('fewer than 3 samples within 3 deg of the pin top')

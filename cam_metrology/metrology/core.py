@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from cam_design.dowel_pin import DowelPinGeometry
-from cam_design.errors import InputError
+from cam_design.errors import InputError, require_positive
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_lobe, analyze_pin, seen_lift)
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
@@ -109,7 +109,9 @@ class MetrologyCore:
             raise InputError(f'metrology.{unknown[0]}', params[unknown[0]],
                              'one of ' + ', '.join(sorted(self.PARAMETERS)))
         self.settings = Settings.from_params(params)
-        self.idle_timeout_param = float(params.get('idle_timeout', 0.0))
+        self.idle_timeout_param = require_positive('metrology.idle_timeout',
+                                                   params.get('idle_timeout', 0.0),
+                                                   allow_zero=True)
         self.scene: Any = None
         self.assembler = FeatureAssembler()
         self.pending: list[FeatureSamples] = []
