@@ -1,0 +1,225 @@
+"""`cam-bench design profile FILE.yaml`: cam profile coordinates for a follower.
+
+The YAML file holds a lift law: a ``lift_law:`` mapping (or the mapping itself, see
+docs/lift_laws.md), or a table ``{alpha: [...], h: [...]}`` (also under ``lift:``), and
+optionally ``base_radius`` [m] (the base circle of the profile). Output: per-sample
+profile and pitch coordinates, radius of curvature, pressure angle and undercut flags
+(CSV/JSON, SI units in the column names), a summary with the undercut report, and a
+plot. See docs/follower.md.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+FOLLOWERS = ('flat', 'roller', 'knife', 'offset-roller', 'rocker')
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``profile`` to the ``design`` group."""
+    p = sub.add_parser(
+        'profile', help='cam profile coordinates, curvature, pressure angle, undercut',
+        description='Cam profile for a follower (methods.md §2): flat tappet (book eq. 2.15), '
+                    'in-line roller or knife (2.16), offset translating roller and oscillating '
+                    'roller (thesis reverse-method forms). Lengths in m, angles in rad in the '
+                    'files; the summary adds _deg fields.')
+    p.add_argument('file', help='YAML with a lift law (lift_law: {family: ...} or alpha/h table)')
+    p.add_argument('--follower', choices=FOLLOWERS, default='flat',
+                   help='follower the profile is cut for (default flat)')
+    p.add_argument('--radius', type=float, default=0.0, help='roller radius [m] (0: knife)')
+    p.add_argument('--base-radius', type=float,
+                   help='base-circle radius of the profile [m] (else base_radius in the file)')
+    p.add_argument('--offset', type=float, default=0.0, help='offset e of the guide line [m]')
+    p.add_argument('--eta', type=int, default=1, choices=(1, -1),
+                   help='+1 clockwise cam, -1 counter-clockwise (offset-roller, rocker)')
+    p.add_argument('--delta', type=int, default=1, choices=(1, -1, 0),
+                   help='offset side (offset-roller) or swing direction in the rise (rocker)')
+    p.add_argument('--centre-distance', type=float, help='rocker: cam centre to pivot a [m]')
+    p.add_argument('--arm-length', type=float,
+                   help='rocker: arm length l [m]; the swing is psi = h / l')
+    p.add_argument('--design-follower', choices=('flat', 'roller', 'knife'),
+                   help='the follower the lift law was written for, if not --follower: the '
+                        'lift is converted through the cam profile first (flat/roller/knife)')
+    p.add_argument('--design-radius', type=float, default=0.0,
+                   help='roller radius of --design-follower [m]')
+    p.add_argument('--step-deg', type=float, default=0.5, help='angle step [deg] (default 0.5)')
+    p.add_argument('--csv', metavar='FILE|-', help='write the per-sample table as CSV')
+    p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
+    p.add_argument('--plot', metavar='PNG', help='plot profile, curvature and pressure angle')
+    p.set_defaults(func=cmd_profile)
+
+
+def _load_law(doc: Any, path: str) -> Any:
+    """The lift law of the file: a table (TabulatedLift) or a lift_law spec (from_spec)."""
+    import numpy as np
+
+    from cam_design.errors import InputError
+    from cam_design.lift_laws import TabulatedLift
+
+    if isinstance(doc, dict):
+        table = doc.get('lift', doc)
+        if isinstance(table, dict) and 'alpha' in table and 'h' in table:
+            key = 'lift' if table is not doc else path
+            values = {}
+            for name in ('alpha', 'h'):
+                try:
+                    values[name] = np.asarray(table[name], dtype=float)
+                except (TypeError, ValueError):
+                    raise InputError(f'{key}.{name}', table[name],
+                                     'a list of numbers (rad for alpha, m for h)') from None
+            return TabulatedLift(values['alpha'], values['h'], key=key)
+    from cam_design.lift_laws import from_spec
+    from cam_metrology.cli.design_law import _law_spec
+
+    if not isinstance(doc, dict):
+        raise InputError(path, type(doc).__name__, 'a mapping with lift_law: or alpha/h')
+    spec, key = _law_spec(doc, path)
+    return from_spec(spec, key)
+
+
+def _base_radius(args: argparse.Namespace, doc: Any) -> float:
+    from cam_design.errors import InputError, require_positive
+
+    if args.base_radius is not None:
+        return require_positive('--base-radius', args.base_radius)
+    if isinstance(doc, dict) and 'base_radius' in doc:
+        return require_positive('base_radius', doc['base_radius'])
+    raise InputError('--base-radius', None, 'a base-circle radius [m] (or base_radius: in '
+                     'the file)')
+
+
+def _follower_radius(args: argparse.Namespace) -> float:
+    from cam_design.errors import InputError, require_positive
+
+    r = require_positive('--radius', args.radius, allow_zero=True)
+    if args.follower == 'knife' and r != 0:
+        raise InputError('--radius', r, '0 for a knife follower (or --follower roller)')
+    if args.follower == 'roller' and r == 0:
+        raise InputError('--radius', r, 'a roller radius > 0 (or --follower knife)')
+    return r
+
+
+def _design_law(args: argparse.Namespace, law: Any, base: float, radius: float) -> Any:
+    """Convert the file's lift to the profile's follower when --design-follower differs."""
+    from cam_design.errors import InputError
+    from cam_design.follower import Follower, convert_lift
+
+    if args.design_follower is None:
+        return law
+    if args.follower not in ('flat', 'roller', 'knife'):
+        raise InputError('--design-follower', args.design_follower,
+                         'no conversion for offset-roller/rocker (give their own lift)')
+    dr = 0.0 if args.design_follower != 'roller' else args.design_radius
+    source = Follower(args.design_follower, dr)
+    target = Follower(args.follower, radius if args.follower == 'roller' else 0.0)
+    return convert_lift(law, base, source, target, key=args.file)
+
+
+def compute(args: argparse.Namespace) -> Any:
+    """The Profile for the parsed arguments (shared by the handler and tests)."""
+    import numpy as np
+
+    from cam_design import follower as fl
+    from cam_design.errors import InputError
+    from cam_metrology.cli.design_law import _load_yaml
+
+    doc = _load_yaml(args.file)
+    law = _load_law(doc, args.file)
+    base = _base_radius(args, doc)
+    radius = _follower_radius(args) if args.follower != 'flat' else 0.0
+    step = args.step_deg
+    if not (math.isfinite(step) and 1e-3 <= step <= 10):
+        raise InputError('--step-deg', step, 'a step in [1e-3, 10] deg')
+    n = max(int(round(360.0 / step)), 8)
+    alpha = -math.pi + 2.0 * math.pi * np.arange(n) / n
+    law = _design_law(args, law, base, radius)
+    if args.follower == 'flat':
+        return fl.flat_profile(law, base, alpha)
+    if args.follower in ('roller', 'knife'):
+        return fl.roller_profile(law, base, radius, alpha)
+    if args.follower == 'offset-roller':
+        return fl.offset_roller_profile(law, base, radius, args.offset, alpha,
+                                        eta=args.eta, delta=args.delta)
+    for name in ('centre_distance', 'arm_length'):
+        if getattr(args, name) is None:
+            raise InputError('--' + name.replace('_', '-'), None, 'a length [m] for a rocker')
+    if args.delta == 0:
+        raise InputError('--delta', 0, '+1 or -1 (the swing direction during the rise)')
+    return fl.rocker_profile(law, base, radius, args.centre_distance, args.arm_length, alpha,
+                             eta=args.eta, delta=args.delta)
+
+
+def cmd_profile(args: argparse.Namespace) -> int:
+    """Compute the profile and write the requested outputs (text summary by default)."""
+    import numpy as np
+
+    from cam_metrology.cli.design_law import _write
+
+    prof = compute(args)
+    summary = prof.summary()
+    summary['rho_min_alpha_deg'] = math.degrees(summary['rho_min_alpha_rad'])
+    summary['undercut_intervals_deg'] = [[math.degrees(a), math.degrees(b)]
+                                         for a, b in summary['undercut_intervals_rad']]
+    cols = prof.columns()
+    names = list(cols)
+    table = np.column_stack([cols[k] for k in names])
+    wrote = False
+    if args.csv:
+        lines = [','.join(names)] + [','.join(f'{v:.12g}' for v in row) for row in table]
+        _write(args.csv, '\n'.join(lines) + '\n')
+        wrote = True
+    if args.json:
+        doc = dict(summary, columns=names, rows=table.tolist())
+        _write(args.json, json.dumps(doc, indent=1) + '\n')
+        wrote = True
+    if args.plot:
+        _plot(args.plot, prof)
+    if not wrote:
+        print(f"{prof.kind}: {summary['points']} points, min radius of curvature "
+              f"{summary['rho_min_m'] * 1e3:.6f} mm at {summary['rho_min_alpha_deg']:.3f} deg, "
+              f"max pressure angle {summary['pressure_angle_max_deg']:.4f} deg, "
+              f"max face offset {summary['face_offset_max_m'] * 1e3:.6f} mm")
+        if summary['undercut']:
+            spans = ', '.join(f'{a:.3f} .. {b:.3f} deg'
+                              for a, b in summary['undercut_intervals_deg'])
+            print(f'UNDERCUT (envelope cusp / rho <= 0): {spans}')
+        else:
+            print('no undercut')
+    return 0
+
+
+def _plot(path: str, prof: Any) -> None:
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    fig = plt.figure(figsize=(10, 5))
+    ax = fig.add_subplot(1, 2, 1)
+    ax.plot(prof.x * 1e3, prof.y * 1e3, lw=1.2, label='profile')
+    if prof.kind != 'flat':
+        ax.plot(prof.pitch_x * 1e3, prof.pitch_y * 1e3, '--', lw=0.8, label='pitch curve')
+    if np.any(prof.undercut):
+        ax.plot(prof.x[prof.undercut] * 1e3, prof.y[prof.undercut] * 1e3, 'r.', ms=2,
+                label='undercut')
+    ax.set_aspect('equal')
+    ax.set_xlabel('x [mm]')
+    ax.set_ylabel('y [mm]')
+    ax.legend(fontsize=8)
+    ax.set_title(prof.kind)
+    deg = np.degrees(prof.alpha)
+    ax2 = fig.add_subplot(2, 2, 2)
+    ax2.plot(deg, np.clip(prof.rho * 1e3, -200, 200), lw=1)
+    ax2.set_ylabel('rho [mm] (clipped)')
+    ax2.grid(True, alpha=0.3)
+    ax3 = fig.add_subplot(2, 2, 4, sharex=ax2)
+    ax3.plot(deg, np.degrees(prof.pressure_angle), lw=1)
+    ax3.set_ylabel('pressure angle [deg]')
+    ax3.set_xlabel('alpha [deg]')
+    ax3.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,121 @@
+"""`cam-bench design profile` through cam_metrology.cli.main (no ROS)."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cam_metrology.cli import main
+
+
+@pytest.fixture()
+def table_file(tmp_path: Path) -> Path:
+    a = np.linspace(-1.6, 1.6, 161)      # flat-design rho1 >= 5 mm: convex
+    h = 0.005 * np.cos(0.5 * math.pi * a / 1.6) ** 4
+    path = tmp_path / 'lobe.yaml'
+    path.write_text('base_radius: 0.02\nlift:\n  alpha: ' + json.dumps(a.tolist()) +
+                    '\n  h: ' + json.dumps(h.tolist()) + '\n')
+    return path
+
+
+def test_profile_csv_flat(table_file: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(['design', 'profile', str(table_file), '--csv', '-', '--step-deg', '1']) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[0].startswith('alpha_rad,x_m,y_m,pitch_x_m')
+    rows = np.array([[float(v) for v in ln.split(',')] for ln in lines[1:]])
+    assert rows.shape == (360, 10)
+    base = np.abs(rows[:, 0]) > 1.65
+    assert np.allclose(np.hypot(rows[base, 1], rows[base, 2]), 0.02, atol=1e-12)
+    assert np.allclose(rows[base, 5], 0.02, atol=1e-9)       # rho1 = R0 on the base circle
+
+
+def test_profile_json_roller_converted(table_file: Path, tmp_path: Path) -> None:
+    out = tmp_path / 'p.json'
+    png = tmp_path / 'p.png'
+    rc = main(['design', 'profile', str(table_file), '--follower', 'roller', '--radius',
+               '0.008', '--design-follower', 'flat', '--json', str(out), '--plot', str(png),
+               '--step-deg', '0.1'])
+    assert rc == 0
+    doc = json.loads(out.read_text())
+    assert doc['kind'] == 'roller' and doc['undercut'] is False
+    assert png.stat().st_size > 1000
+    cols = doc['columns']
+    rows = np.array(doc['rows'])
+    x, y = rows[:, cols.index('x_m')], rows[:, cols.index('y_m')]
+    # the same cam as the flat design: the flat profile's support function at every normal
+    flat = tmp_path / 'f.json'
+    assert main(['design', 'profile', str(table_file), '--json', str(flat)]) == 0
+    fr = np.array(json.loads(flat.read_text())['rows'])
+    theta = fr[:, 0] + math.pi / 2
+    support = np.max(np.outer(np.cos(theta), x) + np.outer(np.sin(theta), y), axis=1)
+    want = np.cos(theta) * fr[:, 1] + np.sin(theta) * fr[:, 2]
+    assert np.max(np.abs(support - want)) < 3e-8      # sampling error (0.1 deg) of the max
+
+
+def test_profile_text_reports_undercut(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    a = np.linspace(-0.5, 0.5, 101)
+    path = tmp_path / 'sharp.yaml'
+    path.write_text('alpha: ' + json.dumps(a.tolist()) + '\nh: ' +
+                    json.dumps((0.01 * np.cos(math.pi * a) ** 4).tolist()) + '\n')
+    rc = main(['design', 'profile', str(path), '--follower', 'roller', '--radius', '0.008',
+               '--base-radius', '0.015'])
+    assert rc == 0
+    assert 'UNDERCUT' in capsys.readouterr().out
+
+
+@pytest.mark.parametrize('extra', [['--follower', 'offset-roller', '--radius', '0.005',
+                                    '--offset', '0.004', '--eta', '-1'],
+                                   ['--follower', 'rocker', '--radius', '0.005',
+                                    '--centre-distance', '0.045', '--arm-length', '0.035']])
+def test_profile_offset_and_rocker(table_file: Path, extra: list[str],
+                                   capsys: pytest.CaptureFixture) -> None:
+    assert main(['design', 'profile', str(table_file), '--json', '-'] + extra) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert 0 < doc['pressure_angle_max_deg'] < 60
+
+
+@pytest.mark.parametrize('extra,key', [
+    (['--follower', 'roller', '--radius', '-0.001'], '--radius'),
+    (['--follower', 'roller'], '--radius'),
+    (['--follower', 'knife', '--radius', '0.002'], '--radius'),
+    (['--base-radius', '-1'], '--base-radius'),
+    (['--follower', 'rocker', '--radius', '0.005'], '--centre-distance'),
+    (['--step-deg', '0'], '--step-deg'),
+    (['--follower', 'offset-roller', '--offset', '0.5'], 'offset'),
+])
+def test_profile_bad_input(table_file: Path, extra: list[str], key: str,
+                           capsys: pytest.CaptureFixture) -> None:
+    assert main(['design', 'profile', str(table_file)] + extra) == 2
+    err = capsys.readouterr().err
+    assert f'error: {key}: got' in err
+
+
+def test_profile_unknown_follower_and_missing_base(tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit):
+        main(['design', 'profile', 'x.yaml', '--follower', 'mushroom'])
+    path = tmp_path / 'nobase.yaml'
+    path.write_text('alpha: [0, 1, 2, 3, 4, 5]\nh: [0, 0, 0, 0, 0, 0]\n')
+    assert main(['design', 'profile', str(path)]) == 2
+    assert '--base-radius' in capsys.readouterr().err
+
+
+def test_profile_bad_table(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    path = tmp_path / 'bad.yaml'
+    path.write_text('base_radius: 0.02\nlift: {alpha: [0, 1, x, 3, 4, 5], '
+                    'h: [0, 0, 0, 0, 0, 0]}\n')
+    assert main(['design', 'profile', str(path)]) == 2
+    assert 'error: lift.alpha: got' in capsys.readouterr().err
+
+
+def test_profile_from_spec(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    path = tmp_path / 'spec.yaml'
+    path.write_text('base_radius: 0.0165\n'
+                    'lift_law: {family: preset, name: flat_tappet_intake}\n')
+    assert main(['design', 'profile', str(path), '--json', '-']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc['undercut'] is False
+    assert doc['rho_min_m'] == pytest.approx(4.32e-3, abs=0.02e-3)   # registry comment
