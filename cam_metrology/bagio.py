@@ -35,7 +35,8 @@ __all__ = [
     'BagMessage', 'JointSamples', 'typestore', 'qos_yaml', 'default_qos_yaml',
     'encode_joint_state', 'encode_string', 'encode_output', 'encode_table',
     'encode_statuses', 'decode', 'table_from_msg', 'statuses_from_msg',
-    'iter_messages', 'read_joint_states', 'bag_topics', 'copy_bag',
+    'iter_messages', 'read_joint_states', 'bag_topics', 'copy_bag', 'topic_qos_yaml',
+    'decode_joint_states', 'light_joint_states', 'LightJointState', 'encode_joint_state_positions',
 ]
 
 JOINT_STATES = '/bench/joint_states'
@@ -595,24 +596,32 @@ def _distinct_name_lists(codes: list[NDArray[np.int64]], texts: list[NDArray[np.
 
 # -------------------------------------------------------------------------- copying
 
+def topic_qos_yaml(path: str | Path) -> dict[str, str]:
+    """topic -> offered QoS YAML recorded in a bag (topics without QoS are absent)."""
+    reader = _open_reader(path)
+    try:
+        out: dict[str, str] = {}
+        for conn in reader.connections:
+            profiles = getattr(conn.ext, 'offered_qos_profiles', None)
+            if profiles and conn.topic not in out:
+                out[conn.topic] = _dump_qos(list(profiles))
+        return out
+    finally:
+        reader.close()
+
+
 def copy_bag(src: str | Path, dst: BagWriter, topics: Iterable[str] | None = None) -> int:
     """Copy every message of ``src`` (optionally only ``topics``) into an open writer,
     bytes unchanged, keeping types and QoS; returns the number of messages copied."""
-    reader = _open_reader(src)
+    qos = topic_qos_yaml(src)
     copied = 0
-    try:
-        wanted = None if topics is None else set(topics)
-        conns = [c for c in reader.connections if wanted is None or c.topic in wanted]
-        for conn in conns:
-            profiles = getattr(conn.ext, 'offered_qos_profiles', None)
-            qos = _dump_qos(list(profiles)) if profiles else None
-            dst.add_topic(conn.topic, conn.msgtype, qos)
-        if conns:
-            for conn, stamp, data in reader.messages(connections=conns):
-                dst.write(conn.topic, stamp, data)
-                copied += 1
-    finally:
-        reader.close()
+    for topic, (msgtype, _) in bag_topics(src).items():
+        if topics is None or topic in set(topics):
+            dst.add_topic(topic, msgtype, qos.get(topic))
+    wanted = None if topics is None else list(topics)
+    for m in iter_messages(src, wanted, raw=True):
+        dst.write(m.topic, m.stamp_ns, m.msg)
+        copied += 1
     return copied
 
 

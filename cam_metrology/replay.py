@@ -1,0 +1,275 @@
+"""In-process replay of a bag through node cores (no ROS graph): ``cam-bench analyze``.
+
+``run_offline(bag, cores)`` feeds the bag's messages in log-time order to every core
+that subscribes to their topic, exactly as the live adapters would, and routes each
+output a core returns to the other cores that subscribe to its topic (metrology ->
+``/metrology/lift`` -> reconstruction -> ``/reconstruction/profile`` -> dynamics).
+Outputs are collected with the log time at which they were produced.
+
+Delivery rules (what a core sees):
+
+* ``handle(topic, msg, stamp_ns)``: ``msg`` decoded by rosbags (same fields as the
+  rclpy message), ``stamp_ns`` the bag's log time (receive time) [ns].
+* ``/bench/joint_states`` is decoded with the fast numpy path (``bagio``). A core
+  with a bulk method ``handle_samples(frame_ids, stamp_ns, theta, s[, rx_ns])`` gets
+  contiguous runs of samples as arrays (``stamp_ns`` header stamps, ``rx_ns`` the log
+  time of the run's last sample); otherwise it gets one ``handle`` call per sample
+  with a light JointState look-alike (``header.frame_id``, ``header.stamp.sec/
+  nanosec``, ``name`` = (camshaft, probe), ``position`` = (theta, s); NaN where the
+  message lacked the joint). Runs are cut at every other message and at log-time gaps
+  longer than ``tick_period``, so per-sample and bulk delivery see the same order.
+* ``tick(now_ns)`` is called on a grid of ``tick_period`` inside every log-time gap
+  (as the live timer would fire; at most ``MAX_TICKS_PER_GAP`` per gap, plus one just
+  before the next message), so idle timeouts end features as they would live.
+* Outputs are routed at once (FIFO) to the *other* cores subscribing to their topic,
+  as decoded messages. Topics that one of the cores publishes are not fed from the bag
+  (a recorded bag of a live run already holds outputs: they are regenerated, not
+  doubled).
+* At the end ``finish()`` is called on every core, upstream cores first (the order
+  follows the publish/subscribe graph), and their outputs are routed too.
+"""
+from __future__ import annotations
+
+import inspect
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable, Sequence
+
+import numpy as np
+
+from cam_design.errors import InputError
+from cam_metrology import bagio
+from cam_metrology.outputs import Output, TextOutput, msgtype_of
+
+__all__ = ['StampedOutput', 'OfflineResult', 'run_offline', 'write_outputs',
+           'order_cores', 'TICK_PERIOD_NS', 'MAX_TICKS_PER_GAP']
+
+#: default period of the emulated live timer [ns] (0.05 s)
+TICK_PERIOD_NS = 50_000_000
+#: at most this many grid ticks per log-time gap (then one tick just before the next)
+MAX_TICKS_PER_GAP = 200
+#: a chain of routed outputs longer than this is a routing loop
+MAX_ROUTED = 1_000_000
+
+
+@dataclass(frozen=True)
+class StampedOutput:
+    """An output, the core (``source`` = its name) that produced it and its log time."""
+
+    stamp_ns: int
+    source: str
+    output: Output
+
+
+@dataclass
+class OfflineResult:
+    """What a replay produced: every output in order, and message counts per topic."""
+
+    bag: Path
+    outputs: list[StampedOutput] = field(default_factory=list)
+    delivered: dict[str, int] = field(default_factory=dict)   # bag messages fed, per topic
+    samples: int = 0
+    elapsed_s: float = 0.0
+    regenerated_topics: tuple[str, ...] = ()
+
+    def by_topic(self, topic: str) -> list[Output]:
+        """The outputs published on ``topic``, in order."""
+        return [o.output for o in self.outputs if o.output.topic == topic]
+
+    def report(self, topic: str = '/metrology/report') -> dict[str, Any] | None:
+        """The last JSON report published on ``topic`` (None if there is none)."""
+        texts = [o for o in self.by_topic(topic) if isinstance(o, TextOutput)]
+        return json.loads(texts[-1].text) if texts else None
+
+
+def order_cores(cores: Sequence[Any]) -> list[Any]:
+    """Cores sorted upstream first (a core before those that subscribe to what it
+    publishes); stable for independent cores; cycles keep the given order."""
+    remaining = list(cores)
+    ordered: list[Any] = []
+    while remaining:
+        for core in remaining:
+            feeds_me = [c for c in remaining if c is not core and
+                        set(getattr(c, 'publications', {})) & set(core.subscriptions)]
+            if not feeds_me:
+                break
+        else:
+            core = remaining[0]
+        ordered.append(core)
+        remaining.remove(core)
+    return ordered
+
+
+class _Router:
+    """Delivers messages and routes outputs between cores; records the outputs."""
+
+    def __init__(self, cores: Sequence[Any], result: OfflineResult) -> None:
+        self.cores = list(cores)
+        self.result = result
+        self.subscribers: dict[str, list[Any]] = {}
+        for core in self.cores:
+            for topic in core.subscriptions:
+                self.subscribers.setdefault(topic, []).append(core)
+        self.routed = 0
+
+    def deliver(self, topic: str, msg: Any, stamp_ns: int) -> None:
+        """Give a bag message to every subscriber, then route what they return."""
+        for core in self.subscribers.get(topic, ()):
+            self.emit(core, core.handle(topic, msg, stamp_ns), stamp_ns)
+
+    def emit(self, source: Any, outputs: Iterable[Output] | None, stamp_ns: int) -> None:
+        """Record ``outputs`` of ``source`` and route them (FIFO) to other subscribers."""
+        queue = [(source, o) for o in (outputs or ())]
+        while queue:
+            src, out = queue.pop(0)
+            self.result.outputs.append(StampedOutput(stamp_ns, src.name, out))
+            targets = [c for c in self.subscribers.get(out.topic, ()) if c is not src]
+            if not targets:
+                continue
+            self.routed += 1
+            if self.routed > MAX_ROUTED:
+                raise InputError('cores', out.topic, 'cores whose outputs do not loop')
+            msg = bagio.decode(bagio.encode_output(out, stamp_ns), msgtype_of(out))
+            for core in targets:
+                queue += [(core, o) for o in (core.handle(out.topic, msg, stamp_ns) or ())]
+
+    def tick(self, now_ns: int) -> None:
+        for core in self.cores:
+            self.emit(core, core.tick(now_ns), now_ns)
+
+
+def _bulk_method(core: Any) -> tuple[Callable[..., Any] | None, bool]:
+    """(handle_samples or None, whether it accepts rx_ns)."""
+    method = getattr(core, 'handle_samples', None)
+    if method is None or not callable(method):
+        return None, False
+    try:
+        accepts_rx = 'rx_ns' in inspect.signature(method).parameters
+    except (TypeError, ValueError):
+        accepts_rx = False
+    return method, accepts_rx
+
+
+def run_offline(bag_path: str | Path, cores: Sequence[Any],
+                progress: Callable[[int, int], None] | None = None, *,
+                tick_period_ns: int = TICK_PERIOD_NS, bulk: bool = True) -> OfflineResult:
+    """Replay ``bag_path`` through ``cores`` in-process (see the module doc).
+
+    ``progress(done, total)`` is called as messages are fed (counting samples and
+    other messages). ``bulk=False`` forces per-sample ``handle`` calls even for cores
+    with ``handle_samples`` (to compare both paths).
+    """
+    if tick_period_ns <= 0:
+        raise InputError('tick_period_ns', tick_period_ns, 'a period > 0 ns')
+    t_start = time.perf_counter()
+    bag = Path(bag_path)
+    cores = order_cores(cores)
+    published = {t for c in cores for t in getattr(c, 'publications', {})}
+    wanted = {t for c in cores for t in c.subscriptions} - published
+    topics = bagio.bag_topics(bag)
+    result = OfflineResult(bag=bag, regenerated_topics=tuple(sorted(published & set(topics))))
+    router = _Router(cores, result)
+    joints = bagio.JOINT_STATES
+    samples = (bagio.read_joint_states(bag) if joints in wanted and joints in topics
+               else bagio.decode_joint_states([]))
+    others = list(bagio.iter_messages(bag, sorted(wanted - {joints}))) \
+        if wanted - {joints} else []
+    total = len(samples) + len(others)
+    result.samples = len(samples)
+    log = samples.log_ns
+    joint_cores = router.subscribers.get(joints, [])
+    done = 0
+    last_t: int | None = None
+
+    def ticks_until(t: int) -> None:
+        nonlocal last_t
+        if last_t is not None and t - last_t > tick_period_ns:
+            grid = last_t + tick_period_ns * np.arange(1, MAX_TICKS_PER_GAP + 1)
+            grid = grid[grid < t - 1]
+            for now in grid.tolist():
+                router.tick(int(now))
+            router.tick(t - 1)
+
+    def feed_samples(i0: int, i1: int) -> None:
+        """Samples [i0, i1) to the JointState subscribers, cut at log-time gaps."""
+        nonlocal last_t, done
+        if i1 <= i0:
+            return
+        cuts = np.nonzero(np.diff(log[i0:i1]) > tick_period_ns)[0] + 1 + i0
+        for a, b in zip([i0, *cuts.tolist()], [*cuts.tolist(), i1]):
+            ticks_until(int(log[a]))
+            for core in joint_cores:
+                method, accepts_rx = _bulk_method(core) if bulk else (None, False)
+                rx = int(log[b - 1])
+                if method is not None:
+                    args = (samples.frame_id[a:b], samples.stamp_ns[a:b],
+                            samples.theta[a:b], samples.s[a:b])
+                    outs = method(*args, rx_ns=rx) if accepts_rx else method(*args)
+                    router.emit(core, outs, rx)
+                else:
+                    chunk = bagio.JointSamples(
+                        samples.frame_id[a:b], samples.stamp_ns[a:b], log[a:b],
+                        samples.theta[a:b], samples.s[a:b])
+                    for msg, t in zip(bagio.light_joint_states(chunk), log[a:b].tolist()):
+                        router.emit(core, core.handle(joints, msg, t), t)
+            last_t = int(log[b - 1])
+            done += b - a
+            if progress is not None:
+                progress(done, total)
+
+    i = 0
+    for m in others:
+        j = int(np.searchsorted(log, m.stamp_ns, side='right'))
+        feed_samples(i, j)
+        i = j
+        ticks_until(m.stamp_ns)
+        router.deliver(m.topic, m.msg, m.stamp_ns)
+        result.delivered[m.topic] = result.delivered.get(m.topic, 0) + 1
+        last_t = m.stamp_ns if last_t is None else max(last_t, m.stamp_ns)
+        done += 1
+        if progress is not None and done % 1000 == 0:
+            progress(done, total)
+    feed_samples(i, len(samples))
+    if len(samples):
+        result.delivered[joints] = len(samples)
+    end = last_t if last_t is not None else 0
+    # the live timer keeps running after the stream: idle timeouts can fire first
+    for core in cores:
+        router.emit(core, core.tick(end + 10**12), end)
+    for core in cores:
+        router.emit(core, core.finish(), end)
+    if progress is not None:
+        progress(total, total)
+    result.elapsed_s = time.perf_counter() - t_start
+    return result
+
+
+def write_outputs(result: OfflineResult, out_bag: str | Path, *,
+                  compression: bool = False) -> int:
+    """A new bag with every message of the input bag (bytes unchanged, except topics
+    the cores regenerated) and every output, merged in log-time order (an output after
+    the input messages of the same log time); returns the number of outputs written."""
+    import heapq
+
+    with bagio.BagWriter(out_bag, compression=compression) as writer:
+        topics = {t: v for t, v in bagio.bag_topics(result.bag).items()
+                  if t not in result.regenerated_topics}
+        for topic, (msgtype, _) in topics.items():
+            writer.add_topic(topic, msgtype, _bag_qos(result.bag, topic))
+        inputs = ((m.stamp_ns, 0, i, m) for i, m in enumerate(
+            bagio.iter_messages(result.bag, list(topics), raw=True)))
+        outputs = ((o.stamp_ns, 1, i, o) for i, o in enumerate(result.outputs))
+        for stamp, kind, _, item in heapq.merge(inputs, outputs,
+                                                key=lambda x: (x[0], x[1], x[2])):
+            if kind == 0:
+                writer.write(item.topic, stamp, item.msg)
+            else:
+                writer.write_output(item.output, stamp)
+    return len(result.outputs)
+
+
+def _bag_qos(bag: Path, topic: str) -> str | None:
+    """The offered QoS YAML of ``topic`` in ``bag`` (None: the default for the topic)."""
+    return bagio.topic_qos_yaml(bag).get(topic)
