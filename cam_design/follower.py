@@ -141,6 +141,8 @@ STEP_REJECT = 1e-6
 POSITION_TOL = 1e-9
 NEWTON_TOL = 1e-14
 NEWTON_MAX_ITER = 40
+#: points per block in ConvertedLift.solve (keeps the jet temporaries in cache).
+SOLVE_BLOCK = 2048
 
 
 def _radius(f: Follower) -> float:
@@ -345,13 +347,21 @@ class ConvertedLift(LiftLaw):
 
     # --- evaluation ----------------------------------------------------------------------
     def solve(self, alpha: ArrayLike) -> NDArray[np.float64]:
-        """(4, n): target h, h', h'', h''' at ``alpha`` [rad] (flattened); 0 on the base."""
+        """(4, n): target h, h', h'', h''' at ``alpha`` [rad] (flattened); 0 on the base.
+
+        Any alpha is accepted (wrapped); work proceeds in cache-sized blocks.
+        """
         a = np.asarray(alpha, dtype=float).reshape(-1)
         if not np.all(np.isfinite(a)):
             raise InputError('alpha', 'non-finite entries', 'finite angles in rad')
         out = np.zeros((JET_ORDER + 1, a.size))
-        if a.size == 0:
-            return out
+        for start in range(0, a.size, SOLVE_BLOCK):
+            stop = start + SOLVE_BLOCK
+            out[:, start:stop] = self._solve_block(a[start:stop])
+        return out
+
+    def _solve_block(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = np.zeros((JET_ORDER + 1, a.size))
         a0 = self._a[0]
         aa = a0 + np.mod(a - a0, 2 * math.pi)
         idx = np.clip(np.searchsorted(self._a, aa, side='right') - 1, 0, self._a.size - 2)
@@ -738,3 +748,42 @@ def rocker_polar(law: LiftLaw, base_radius: float, radius: float, frame_length: 
     beta0 = math.atan2(arm * math.sin(psi0), dist - arm * math.cos(psi0))
     sign = -1.0 if co_directional else 1.0
     return rho, a + sign * (beta0 - beta)
+
+
+class EccentricDiscLift(LiftLaw):
+    """Exact lift of an eccentric disc (methods §2.1/§2.2, §7 #13) for a follower.
+
+    Disc radius ``disc_radius`` R_c [m], eccentricity e [m] (nose at alpha = 0, base
+    radius R0 = R_c - e). Flat: h = e (1 + cos a). Roller radius r (knife r = 0):
+    h = e cos a + sqrt((R_c + r)^2 - e^2 sin^2 a) - (R0 + r). The reference for
+    conversion tests and benchmarks; support is the full turn.
+    """
+
+    continuity_order = 3
+
+    def __init__(self, disc_radius: float, eccentricity: float, follower: Follower) -> None:
+        self.disc_radius = require_positive('disc_radius', disc_radius)
+        self.eccentricity = require_positive('eccentricity', eccentricity)
+        if self.eccentricity >= self.disc_radius:
+            raise InputError('eccentricity', eccentricity, 'a value below the disc radius')
+        self.follower = follower
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return -math.pi, math.pi
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        e = self.eccentricity
+        c, s = np.cos(alpha), np.sin(alpha)
+        flat = (e * (1.0 + c), -e * s, -e * c, e * s)
+        if self.follower.kind == 'flat':
+            return flat[nu]
+        r = _radius(self.follower)
+        # q = sqrt(K - e^2 sin^2 a): q q' = -w, w = e^2 sin a cos a (so w' = e^2 cos 2a)
+        q = np.sqrt((self.disc_radius + r) ** 2 - (e * s) ** 2)
+        w1, w2 = e * e * np.cos(2 * alpha), -2.0 * e * e * np.sin(2 * alpha)
+        q1 = -e * e * s * c / q
+        q2 = -(w1 + q1 * q1) / q
+        q3 = -(w2 + 3.0 * q1 * q2) / q
+        base = self.disc_radius - e + r
+        return (e * c + q - base, -e * s + q1, -e * c + q2, e * s + q3)[nu]

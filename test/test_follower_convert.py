@@ -239,3 +239,19 @@ def test_huge_and_empty_queries() -> None:
 
 def _wrap(a: np.ndarray) -> np.ndarray:
     return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+@pytest.mark.parametrize('follower', [FLAT, KNIFE, ROLLER])
+def test_library_disc_reference_matches_independent_closed_form(follower: Follower) -> None:
+    from cam_design.follower import EccentricDiscLift
+
+    lib = EccentricDiscLift(RC, E, follower).derivatives(ALPHA)
+    assert np.max(np.abs(lib - DiscLift(follower).derivatives(ALPHA))) < 1e-15
+    with pytest.raises(InputError, match='eccentricity'):
+        EccentricDiscLift(RC, RC, follower)
+
+
+def test_block_solve_matches_single_block() -> None:
+    law = convert_lift(DiscLift(FLAT), R0, FLAT, ROLLER)
+    a = np.linspace(-3, 3, 5000)                  # > SOLVE_BLOCK: several blocks
+    assert np.max(np.abs(law.solve(a) - DiscLift(ROLLER).derivatives(a))) < 1e-11
