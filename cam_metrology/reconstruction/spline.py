@@ -41,6 +41,7 @@ from scipy.interpolate import CubicSpline, make_interp_spline
 from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
+from cam_metrology.reconstruction.blas import single_thread_blas
 from cam_metrology.reconstruction.result import Reconstruction, output_grid
 from cam_metrology.reconstruction.samples import CleanSamples, clean_samples
 
@@ -354,7 +355,12 @@ def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None =
     ``alpha`` [rad], ``lift`` [m] (or a ``CleanSamples``). Returns a Reconstruction on
     a uniform grid of ``options.step`` (default: the data's median spacing).
     """
-    opt = options or SplineOptions()
+    with single_thread_blas():
+        return _reconstruct(alpha, lift, options or SplineOptions())
+
+
+def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
+                 opt: SplineOptions) -> Reconstruction:
     data = alpha if isinstance(alpha, CleanSamples) else clean_samples(alpha, lift)
     x, y0 = data.alpha, data.lift
     warnings: list[str] = []
