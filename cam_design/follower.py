@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cam_design.errors import InputError, require_positive
+from cam_design.errors import InputError, require_finite, require_positive
 from cam_design.lift_laws.base import LiftLaw
 
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
@@ -787,3 +787,35 @@ class EccentricDiscLift(LiftLaw):
         q3 = -(w2 + 3.0 * q1 * q2) / q
         base = self.disc_radius - e + r
         return (e * c + q - base, -e * s + q1, -e * c + q2, e * s + q3)[nu]
+
+
+def wheel_centre_lift(law: LiftLaw, base_radius: float, design: Follower,
+                      wheel_radius: float) -> LiftLaw:
+    """Grinding-wheel centre path as a roller lift (methods §5.5 step 1).
+
+    The wheel of radius R_w [m] acts as a roller follower on the work cam: its centre is
+    at D = R0 + R_w + h_w(alpha), with h_w = convert_lift(law, R0, design, roller R_w).
+    """
+    rw = require_positive('wheel_radius', wheel_radius)
+    return convert_lift(law, base_radius, design, Follower('roller', rw))
+
+
+def ground_lift(law: LiftLaw, base_radius: float, design: Follower, wheel_radius: float,
+                wheel_error: float, target: Follower | None = None) -> LiftLaw:
+    """Lift of the cam actually ground with a wheel of radius R_w + dR (methods §5.5).
+
+    The master is computed for ``wheel_radius`` R_w, the real wheel is R_w + dR
+    (``wheel_error`` dR [m], either sign) and the operator re-zeroes the base circle, so
+    the wheel centre runs on D + dR: the ground cam is the roller-design cam of
+    ``wheel_centre_lift`` for a roller of radius R_w + dR with the same base radius.
+    Returns the lift that ``target`` (default: the design follower) sees on it; the
+    error is ``ground_lift(...)(alpha) - law(alpha)``. InputError if the ground
+    profile is undercut (dR too negative for the path's curvature).
+    """
+    rw = require_positive('wheel_radius', wheel_radius)
+    dr = require_finite('wheel_error', wheel_error)
+    if rw + dr <= 0:
+        raise InputError('wheel_error', dr, f'a value above -wheel_radius ({-rw} m)')
+    path = wheel_centre_lift(law, base_radius, design, rw)
+    return convert_lift(path, base_radius, Follower('roller', rw + dr),
+                        design if target is None else target, key='ground lift')

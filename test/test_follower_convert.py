@@ -255,3 +255,44 @@ def test_block_solve_matches_single_block() -> None:
     law = convert_lift(DiscLift(FLAT), R0, FLAT, ROLLER)
     a = np.linspace(-3, 3, 5000)                  # > SOLVE_BLOCK: several blocks
     assert np.max(np.abs(law.solve(a) - DiscLift(ROLLER).derivatives(a))) < 1e-11
+
+
+def brute_flat_lift_of_ground_cam(centre: np.ndarray, theta: np.ndarray, wheel: float,
+                                  r0: float, alpha: np.ndarray) -> np.ndarray:
+    """Flat-tappet lift of the cam ground by circles of radius ``wheel`` centred at
+    centre(theta) (a convex pitch region): support of the pitch region minus the radius."""
+    x, y = centre * np.cos(theta), centre * np.sin(theta)
+    out = []
+    for a in alpha:
+        proj = x * math.cos(a) + y * math.sin(a)
+        i = int(np.argmax(proj))
+        # parabolic refinement of the max over the dense theta grid
+        j = np.clip([i - 1, i, i + 1], 0, theta.size - 1)
+        p = np.polyfit(theta[j] - theta[i], proj[j], 2)
+        out.append(p[2] - p[1] ** 2 / (4 * p[0]) - wheel - r0)
+    return np.array(out)
+
+
+@pytest.mark.parametrize('d_r', [0.0, 0.002, -0.003])
+def test_ground_lift_with_wheel_radius_error(d_r: float) -> None:
+    from cam_design.follower import ground_lift, wheel_centre_lift
+
+    wheel = 0.2
+    law = DiscLift(FLAT)
+    path = wheel_centre_lift(law, R0, FLAT, wheel)
+    a = np.linspace(-math.pi, math.pi, 721)
+    want_d = E * np.cos(a) + np.sqrt((RC + wheel) ** 2 - (E * np.sin(a)) ** 2)   # §5.5 check
+    assert np.max(np.abs(path(a) + R0 + wheel - want_d)) < 1e-12
+    ground = ground_lift(law, R0, FLAT, wheel, d_r)
+    theta = np.linspace(-math.pi, math.pi, 200001)
+    centre = E * np.cos(theta) + np.sqrt((RC + wheel) ** 2 - (E * np.sin(theta)) ** 2) + d_r
+    alpha = np.linspace(-3.1, 3.1, 63)
+    ref = brute_flat_lift_of_ground_cam(centre, theta, wheel + d_r, R0, alpha)
+    assert np.max(np.abs(ground(alpha) - ref)) < 1e-11
+    err = ground(alpha) - law(alpha)
+    if d_r == 0.0:
+        assert np.max(np.abs(err)) < 1e-12
+    else:   # the error grows with |h'| (zero at the nose and on the base circle)
+        assert abs(err[31]) < 1e-12 and np.max(np.abs(err)) > 1e-7
+    with pytest.raises(InputError, match='wheel_error'):
+        ground_lift(law, R0, FLAT, wheel, -wheel)
