@@ -176,3 +176,17 @@ def test_constant_velocity_ramp_lobe() -> None:
     assert law.continuity_order == 0
     assert law.support[0] == pytest.approx(-70 * DEG)
     assert law(-60 * DEG) == pytest.approx(V1 * 10 * DEG, rel=1e-12)
+
+
+def test_opening_angle_on_the_s2_ramp_case_18() -> None:
+    """#18 (geometric part): x0 = 0.25 mm, F0 = 250 N, c = 1.2e7 N/m, k = 1.5 open the
+    valve at h = (x0 + F0/c)/k = 0.180556 mm, i.e. 22.03704 deg from the start of the
+    §1.1 ramp; rigid seating speed k v_r omega = 0.2025 m/s at 1500 rpm cam."""
+    from scipy.optimize import brentq
+
+    law = from_spec(PRESETS['methods_example'], 'lobe')
+    h_open = (0.25 * MM + 250 / 1.2e7) / 1.5
+    a = brentq(lambda x: law(x) - h_open, law.support[0] + 1e-9, -50 * DEG, xtol=1e-15)
+    assert math.degrees(a - law.support[0]) == pytest.approx(22.03704, abs=1e-5)
+    omega = 2 * math.pi * 1500 / 60
+    assert 1.5 * law(a, 1) * omega == pytest.approx(0.2025, abs=1e-5)

@@ -37,10 +37,12 @@ def harmonic_coefficients(order: int, half_angle: float, max_lift: float, *,
     c = np.array(rows)
     d = np.zeros(len(rows))
     d[-1] = max_lift
+    norm = np.max(np.abs(c), axis=1)
+    c, d = c / norm[:, None], d / norm      # row scaling: j^4 reaches 1e6 and more
     if n + 1 < len(rows):
         raise InputError(f'{key}.order', order, f'N >= {len(rows) - 1} for end_order {end_order}')
     a_p, *_ = np.linalg.lstsq(c, d, rcond=None)
-    if np.max(np.abs(c @ a_p - d)) > 1e-12 * max_lift:
+    if np.max(np.abs(c @ a_p - d)) > 1e-12 * max(np.max(np.abs(d)), 1e-300):
         raise InputError(f'{key}.order', order, 'an order whose end conditions are solvable')
     z = null_space(c)
     if z.shape[1] == 0:
@@ -55,7 +57,10 @@ def harmonic_coefficients(order: int, half_angle: float, max_lift: float, *,
         if not np.all(np.isfinite(rhs)):
             raise InputError(f'{key}.target', 'non-finite values', 'a finite target law')
     y, *_ = np.linalg.lstsq(w @ z, rhs - w @ a_p, rcond=None)
-    return a_p + z @ y
+    a = a_p + z @ y
+    for _ in range(2):              # iterative refinement of the equalities
+        a = a + np.linalg.lstsq(c, d - c @ a, rcond=None)[0]
+    return a
 
 
 def harmonic_law(amplitudes: np.ndarray, half_angle: float, *,

@@ -68,7 +68,7 @@ def choice(spec: Mapping, key: str, name: str, options: Sequence[str],
     """One of ``options``."""
     raw = get(spec, key, name, default)
     if raw not in options:
-        raise InputError(f'{key}.{name}', raw, 'one of ' + ', '.join(options))
+        raise InputError(f'{key}.{name}', raw, 'one of ' + ', '.join(map(str, options)))
     return raw
 
 
