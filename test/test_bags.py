@@ -1,0 +1,144 @@
+"""The committed fixture bags: readable by rosbags and by mcap alone, truth as documented."""
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cam_metrology import bagio
+from cam_metrology.scene_parse import parse_scene
+
+BAGS = Path(__file__).resolve().parent.parent / 'bags'
+NAMES = ['default_clean', 'default_noisy_dirneg_wrapped', 'no_pin_no_valve_train',
+         'irregular']
+
+
+def _mcap_messages(bag: Path) -> list[tuple[str, int, object]]:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    (mcap_file,) = bag.glob('*.mcap')
+    with open(mcap_file, 'rb') as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        return [(ch.topic, m.log_time, d) for _, ch, m, d in reader.iter_decoded_messages()]
+
+
+def _truth(bag: Path) -> dict:
+    (m,) = list(bagio.iter_messages(bag, ['/bench/truth']))
+    return json.loads(m.msg.data)
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_bag_is_small_and_complete(name):
+    bag = BAGS / name
+    assert (bag / 'metadata.yaml').exists()
+    size = sum(p.stat().st_size for p in bag.iterdir())
+    assert size <= 2_000_000
+    topics = bagio.bag_topics(bag)
+    for topic in ('/bench/scene', '/bench/truth', '/bench/joint_states'):
+        assert topic in topics
+    assert 'transient_local' in bagio.topic_qos_yaml(bag)['/bench/scene']
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_mcap_alone_decodes_what_the_fast_path_reads(name):
+    bag = BAGS / name
+    fast = bagio.read_joint_states(bag)
+    js = [(t, m) for topic, t, m in _mcap_messages(bag) if topic == '/bench/joint_states']
+    assert len(js) == len(fast)
+    assert [t for t, _ in js] == fast.log_ns.tolist()
+    theta = np.array([m.position[list(m.name).index('camshaft')] for _, m in js])
+    s = np.array([m.position[list(m.name).index('probe')] for _, m in js])
+    np.testing.assert_array_equal(theta, fast.theta)
+    np.testing.assert_array_equal(s, fast.s)
+    assert [m.header.frame_id for _, m in js] == fast.frame_id.tolist()
+    assert [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m in js] == \
+        fast.stamp_ns.tolist()
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_fast_path_equals_anyreader(name):
+    bag = BAGS / name
+    fast = bagio.read_joint_states(bag)
+    slow = [m.msg for m in bagio.iter_messages(bag, ['/bench/joint_states'])]
+    names = [list(m.name) for m in slow]
+    theta = np.array([m.position[n.index('camshaft')] for m, n in zip(slow, names)])
+    s = np.array([m.position[n.index('probe')] for m, n in zip(slow, names)])
+    np.testing.assert_array_equal(theta, fast.theta)
+    np.testing.assert_array_equal(s, fast.s)
+    assert [m.header.frame_id for m in slow] == fast.frame_id.tolist()
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_scene_and_truth_match_the_readme(name):
+    bag = BAGS / name
+    (scene_msg,) = list(bagio.iter_messages(bag, ['/bench/scene']))
+    scene = parse_scene(scene_msg.msg.data)
+    assert scene.warnings == ()
+    truth = _truth(bag)
+    readme = (BAGS / 'README.md').read_text()
+    row = next(line for line in readme.splitlines() if line.startswith(f'| `{name}/`'))
+    cell = row.rstrip(' |').split('|')[-1]
+    documented = dict(re.findall(r'(lobe_\d|dowel_pin) (-?\d+\.\d+)', cell))
+    assert set(documented) == set(truth['features'])
+    for fid, value in documented.items():
+        assert truth['features'][fid]['angle_deg'] == pytest.approx(float(value), abs=1e-6)
+    fids = set(bagio.read_joint_states(bag).features)
+    assert fids == set(truth['features'])
+    assert [lobe.id for lobe in scene.lobes] + (['dowel_pin'] if scene.dowel_pin else []) \
+        == truth['measurement_order']
+
+
+def test_no_pin_bag_has_no_pin_and_no_valve_train():
+    (m,) = list(bagio.iter_messages(BAGS / 'no_pin_no_valve_train', ['/bench/scene']))
+    scene = parse_scene(m.msg.data)
+    assert scene.dowel_pin is None and scene.valve_train is None
+    assert scene.compute == frozenset({'nose', 'asymmetry', 'reconstruction'})
+
+
+def test_direction_and_wrapping_of_the_noisy_bag():
+    bag = BAGS / 'default_noisy_dirneg_wrapped'
+    (m,) = list(bagio.iter_messages(bag, ['/bench/scene']))
+    assert parse_scene(m.msg.data).direction == -1
+    fast = bagio.read_joint_states(bag)
+    assert np.all((fast.theta >= 0) & (fast.theta < 2 * math.pi))
+    assert np.sum(np.diff(fast.theta) < -math.pi) >= 9   # wraps: 2 rev x 5 features
+    truth = _truth(bag)
+    assert truth['probe_noise_m'] == 1e-6 and truth['direction'] == -1
+
+
+def test_irregular_bag_is_irregular():
+    bag = BAGS / 'irregular'
+    fast = bagio.read_joint_states(bag)
+    assert ('camshaft', 'probe', 'table_z') in fast.names
+    assert ('table_z', 'probe', 'camshaft') in fast.names
+    assert np.isnan(fast.s).sum() > 50 and np.isnan(fast.theta).sum() > 10
+    assert np.any(np.diff(fast.stamp_ns) < 0)            # header stamps out of order
+    assert np.all(np.diff(fast.log_ns) > 0)              # receive times in order
+    pairs = set()
+    dup = 0
+    for st, fid in zip(fast.stamp_ns.tolist(), fast.frame_id.tolist()):
+        dup += (st, fid) in pairs
+        pairs.add((st, fid))
+    assert dup > 50
+    assert 'other' not in fast.features
+    topics = bagio.bag_topics(bag)
+    assert '/bench/feature_done' not in topics and '/rosout_text' in topics
+
+
+def test_fixtures_are_deterministic(tmp_path):
+    spec = importlib.util.spec_from_file_location('make_bags', BAGS / 'make_bags.py')
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.main(['--out', str(tmp_path)]) == 0
+    for name in NAMES:
+        a = [(m.topic, m.stamp_ns, bytes(m.msg))
+             for m in bagio.iter_messages(BAGS / name, raw=True)]
+        b = [(m.topic, m.stamp_ns, bytes(m.msg))
+             for m in bagio.iter_messages(tmp_path / name, raw=True)]
+        assert a == b, name
