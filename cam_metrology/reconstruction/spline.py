@@ -164,7 +164,7 @@ class Fairing:
 
 def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5,
                     gain: float = 1.0, cap: float = 3.0, max_sweeps: int = 60,
-                    sigma: float | None = None, min_tolerance_rel: float = 1e-6) -> Fairing:
+                    sigma: float | None = None, min_tolerance_rel: float = 2e-5) -> Fairing:
     """Rebound method on strictly increasing ``alpha`` [rad], ``lift`` [m].
 
     ``threshold``: tolerance on |r| in robust standard deviations of r; ``gain`` the

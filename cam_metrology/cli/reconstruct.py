@@ -1,0 +1,237 @@
+"""`cam-bench reconstruct BAG|TABLE`: lift, velocity, acceleration and jerk of measured
+lobes by the smoothing spline with the rebound method and by the N-harmonic series
+(methods.md §5.1, §5.2; see docs/reconstruction.md).
+
+* BAG (a rosbag2 directory or .mcap): replayed in-process through the metrology core
+  and the reconstruction core (the live code path); the scene in the bag gives the
+  design lift, the probe and the design follower.
+* TABLE: a CSV with header ``alpha_rad,lift_m[,design_lift_m]`` (units from the
+  column names: ``alpha_deg``, ``lift_mm``, ``lift_um`` also work), or a gauge
+  nominal-profile file (probe radius, number of steps, rows ``angle lift [marker]``;
+  degrees and millimetres unless ``--angle-unit``/``--length-unit`` say otherwise).
+
+JSON (``--json FILE`` or ``-``): ``{"input", "kind", "follower", "features":
+{ID: {METHOD: {...}}}, "skipped"}``; each method has ``alpha_rad``, ``lift_m``,
+``velocity_m_per_rad``, ``acceleration_m_per_rad2``, ``jerk_m_per_rad3`` (arrays on the
+uniform grid), ``rms_residual_m``, ``order`` (harmonic) or ``smoothing`` (spline,
+lam [rad^5]) with ``why``, the per-second arrays with ``--rpm``, ``design_errors``
+when the design is known, ``spectrum`` (harmonic), ``warnings`` and ``notes``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``reconstruct`` subcommand."""
+    p = subparsers.add_parser(
+        'reconstruct', help='reconstruct lift and derivatives from measured lift tables',
+        description='Smoothing spline (rebound method, quintic) and N-harmonic '
+                    'reconstruction of measured cam lifts from a bag or a lift table.')
+    p.add_argument('input', metavar='BAG|TABLE',
+                   help='rosbag2 directory (or .mcap), CSV table or gauge profile file')
+    p.add_argument('--feature', metavar='ID', help='only this feature (default: all lobes)')
+    p.add_argument('--method', choices=('spline', 'harmonic', 'both'), default='both')
+    p.add_argument('--harmonics', type=int, metavar='N',
+                   help='harmonic order (default: automatic)')
+    p.add_argument('--basis', choices=('section', 'full'), default='section',
+                   help='harmonic basis: working-section cosines (default) or rFFT over '
+                        'the revolution')
+    p.add_argument('--smoothing', type=float, metavar='X',
+                   help='spline smoothing lam [rad^5] (default: automatic, GCV)')
+    p.add_argument('--criterion', choices=('gcv', 'risk'), default='gcv',
+                   help='automatic spline smoothing criterion')
+    p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
+                   help='step of the output grid [deg] (default 0.1)')
+    p.add_argument('--follower', choices=('flat', 'roller', 'knife'),
+                   help='TABLE: follower that measured the lift (default flat; a gauge '
+                        'file: roller with its probe radius)')
+    p.add_argument('--radius', type=float, metavar='M', help='TABLE: roller radius [m]')
+    p.add_argument('--rpm', type=float, metavar='R',
+                   help='cam speed [rpm] for per-second velocity, acceleration, jerk')
+    p.add_argument('--angle-unit', choices=('deg', 'rad'), default='deg',
+                   help='gauge file angle unit (default deg)')
+    p.add_argument('--length-unit', choices=('mm', 'um', 'm'), default='mm',
+                   help='gauge file length unit (default mm)')
+    p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
+    p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
+    p.set_defaults(func=run)
+
+
+def _params(args: argparse.Namespace) -> dict[str, Any]:
+    methods = 'spline,harmonic' if args.method == 'both' else args.method
+    params: dict[str, Any] = {'methods': methods, 'step_deg': args.step_deg,
+                              'harmonic_basis': args.basis,
+                              'smoothing_criterion': args.criterion}
+    if args.smoothing is not None:
+        params['smoothing'] = args.smoothing
+    if args.harmonics is not None:
+        from cam_design.errors import InputError
+        if args.harmonics < 0:
+            raise InputError('--harmonics', args.harmonics, 'an integer >= 0')
+        params['harmonics'] = args.harmonics
+    if args.rpm is not None:
+        from cam_design.errors import require_positive
+        params['cam_speed_rpm'] = require_positive('--rpm', args.rpm)
+    return params
+
+
+def _is_bag(path: Path) -> bool:
+    return path.is_dir() or path.suffix == '.mcap'
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``cam-bench reconstruct``."""
+    from cam_metrology.reconstruction.core import ReconstructionCore
+
+    path = Path(args.input)
+    if not path.exists():
+        raise FileNotFoundError(f'no such bag or table: {path}')
+    core = ReconstructionCore(_params(args))
+    if _is_bag(path):
+        kind, follower, skipped = 'bag', _bag(path, core, args.feature), []
+    else:
+        kind = 'table'
+        follower, skipped = _table(path, core, args)
+    skipped += _skips(core)
+    rpm = args.rpm or core._cam_speed()
+    from cam_metrology.reconstruction.profile import summary
+
+    features = {fid: {m: summary(o, rpm=rpm) for m, o in outcomes.items()}
+                for fid, outcomes in core.results.items()
+                if args.feature is None or fid == args.feature}
+    if args.feature is not None and args.feature not in features:
+        from cam_design.errors import InputError
+        raise InputError('--feature', args.feature,
+                         'one of ' + (', '.join(sorted(core.results)) or '(no feature)'))
+    result = {'input': str(path), 'kind': kind, 'follower': follower,
+              'features': features, 'skipped': skipped}
+    if args.json:
+        text = json.dumps(result, indent=1, allow_nan=False)
+        if args.json == '-':
+            print(text)
+        else:
+            Path(args.json).write_text(text + '\n')
+    else:
+        print(_human(result))
+    if args.plot:
+        _plots(core, Path(args.plot), args.feature)
+    ok = any(m.get('ok') for f in features.values() for m in f.values())
+    return 0 if ok or not features else 1
+
+
+def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, Any], list]:
+    from cam_metrology.reconstruction.samples import read_table_file
+
+    table = read_table_file(path, angle_unit=args.angle_unit, length_unit=args.length_unit)
+    if args.feature:
+        from dataclasses import replace
+        table = replace(table, feature=args.feature)
+    kind, radius = table.follower or ('flat', 0.0)
+    if args.follower:
+        kind = args.follower
+        radius = args.radius if args.radius is not None else (
+            radius if kind == 'roller' else 0.0)
+    elif args.radius is not None:
+        kind, radius = 'roller', args.radius
+    from cam_design.follower import Follower
+    Follower(kind, radius)   # validates
+    core.results.clear()
+    out = core._process(table, 0, note='table input: lift as seen by the measuring '
+                                      f'follower ({kind}); no scene, no conversion')
+    del out
+    return {'kind': kind, 'radius_m': radius,
+            'note': 'no scene: no design follower conversion'}, []
+
+
+def _bag(path: Path, core: Any, feature: str | None) -> dict[str, Any]:
+    from cam_metrology.metrology.core import MetrologyCore
+    from cam_metrology.replay import run_offline
+
+    run_offline(path, [MetrologyCore(), core])
+    scene = core.scene
+    if scene is None:
+        return {'note': 'the bag has no scene'}
+    follower = {'probe': {'kind': scene.probe.kind, 'radius_m': scene.probe.radius}}
+    follower['design'] = {lobe.id: lobe.follower.kind for lobe in scene.lobes}
+    return follower
+
+
+def _skips(core: Any) -> list[dict[str, str]]:
+    return [{'what': f'reconstruction/{name}', 'why': why}
+            for name, why in getattr(core, 'skipped', {}).items()]
+
+
+def _human(result: dict[str, Any]) -> str:
+    lines = [f"reconstruct {result['input']} ({result['kind']})"]
+    for fid, methods in result['features'].items():
+        for m, r in methods.items():
+            if not r.get('ok'):
+                lines.append(f'  {fid}/{m}: FAILED: {r["error"]}')
+                continue
+            key = 'order' if m == 'harmonic' else 'smoothing'
+            val = r[key]
+            val_s = f'{val}' if key == 'order' else f'{val:.4g} rad^5'
+            line = (f'  {fid}/{m}: {key} {val_s}; rms residual '
+                    f'{r["rms_residual_m"] * 1e6:.3f} um; max lift '
+                    f'{max(r["lift_m"]) * 1e3:.4f} mm')
+            err = r.get('design_errors')
+            if err:
+                line += (f'; vs design: lift {err["rms_error_lift_m"] * 1e6:.3f} um, '
+                         f'acc {err["rms_error_acceleration_m_per_rad2"] * 1e3:.4f} '
+                         'mm/rad^2 rms')
+            lines.append(line)
+            lines.append(f'    why: {r["why"]}')
+            for w in r['warnings']:
+                lines.append(f'    warning: {w}')
+    for s in result['skipped']:
+        lines.append(f"  skipped {s['what']}: {s['why']}")
+    return '\n'.join(lines)
+
+
+def _plots(core: Any, folder: Path, feature: str | None) -> None:
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    folder.mkdir(parents=True, exist_ok=True)
+    names = ('lift [mm]', 'velocity [mm/rad]', 'acceleration [mm/rad^2]', 'jerk [mm/rad^3]')
+    for fid, outcomes in core.results.items():
+        if feature is not None and fid != feature:
+            continue
+        fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True)
+        table = core.tables.get(fid)
+        if table is not None:
+            axes[0].plot(np.degrees(table.alpha), table.lift * 1e3, '.', ms=2, color='0.6',
+                         label='measured')
+        for m, o in outcomes.items():
+            rec = o.reconstruction
+            if rec is None:
+                continue
+            for ax, values in zip(axes, rec.derivatives()):
+                ax.plot(np.degrees(rec.alpha), values * 1e3, lw=1, label=m)
+            if rec.outliers_alpha.size:
+                axes[0].plot(np.degrees(rec.outliers_alpha),
+                             np.interp(rec.outliers_alpha, table.alpha, table.lift) * 1e3
+                             if table is not None else np.zeros(rec.outliers_alpha.size),
+                             'rx', label='outliers')
+        for ax, name in zip(axes, names):
+            ax.set_ylabel(name)
+            ax.grid(True, lw=0.3)
+        axes[0].legend(fontsize=8)
+        axes[-1].set_xlabel('cam angle from the lobe centre [deg]')
+        fig.suptitle(f'{fid}: reconstruction')
+        fig.tight_layout()
+        safe = fid.replace('/', '_')
+        fig.savefig(folder / f'{safe}.png', dpi=110)
+        plt.close(fig)
+
+
+if __name__ == '__main__':   # pragma: no cover
+    from cam_metrology.cli import main
+    sys.exit(main(['reconstruct', *sys.argv[1:]]))

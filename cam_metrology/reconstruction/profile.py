@@ -1,0 +1,205 @@
+"""Reconstruct one feature with the requested methods; errors against the design lift;
+conversion to the engine's follower; JSON-ready summaries.
+
+The design lift, when known, is compared *as seen by the probe*: either a LiftLaw
+already converted to the probe (``design``), or the metrology table's
+``design_lift_m`` column, interpolated by ``TabulatedLift`` (quintic, exact
+derivatives of the interpolant). When the scene's design follower differs from the
+probe, each reconstruction is also converted back to the design follower with
+``cam_design.follower.convert_lift`` applied to the reconstructed lift as a
+``TabulatedLift``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam_design.errors import InputError
+from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
+from cam_metrology.reconstruction.result import Reconstruction, per_second
+from cam_metrology.reconstruction.samples import LiftTable, clean_samples
+from cam_metrology.reconstruction.spline import (SplineOptions, rebound_fairing,
+                                                 reconstruct_spline)
+
+METHODS = ('spline', 'harmonic')
+Law = Callable[..., NDArray[np.float64]]
+
+
+@dataclass(frozen=True)
+class Conversion:
+    """Probe and design follower (``cam_design.follower.Follower``) and the cam's base
+    radius [m], for converting a reconstruction back to the design follower."""
+
+    probe: Any
+    design: Any
+    base_radius: float
+
+
+@dataclass
+class MethodOutcome:
+    """One method on one feature: the reconstruction (None if it failed, with
+    ``error``), its errors against the design, and the engine-follower version."""
+
+    method: str
+    reconstruction: Reconstruction | None = None
+    error: str = ''
+    design_errors: dict[str, float] = field(default_factory=dict)
+    engine: NDArray[np.float64] | None = None      # (4, n) for the design follower
+    engine_note: str = ''
+
+
+def design_from_table(table: LiftTable) -> Law | None:
+    """A LiftLaw-like callable from the table's design column (None if absent)."""
+    from cam_design.lift_laws import TabulatedLift
+
+    if table.design is None:
+        return None
+    ok = np.isfinite(table.alpha) & np.isfinite(table.design)
+    if np.count_nonzero(ok) < 6:
+        return None
+    data = clean_samples(table.alpha[ok], table.design[ok], key='design', min_points=6)
+    return TabulatedLift(data.alpha, data.lift, key=f'{table.feature}.design')
+
+
+def design_errors(rec: Reconstruction, design: Law) -> dict[str, float]:
+    """RMS and max |reconstruction - design| of lift [m], velocity [m/rad],
+    acceleration [m/rad^2] and jerk [m/rad^3] on the output grid."""
+    out: dict[str, float] = {}
+    names = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk_m_per_rad3')
+    for nu, (name, values) in enumerate(zip(names, rec.derivatives())):
+        diff = values - np.asarray(design(rec.alpha, nu), dtype=float)
+        out[f'rms_error_{name}'] = float(np.sqrt(np.mean(diff ** 2)))
+        out[f'max_error_{name}'] = float(np.max(np.abs(diff)))
+    return out
+
+
+def _engine(rec: Reconstruction, conv: Conversion) -> tuple[NDArray[np.float64] | None, str]:
+    from cam_design.lift_laws import TabulatedLift
+
+    try:
+        from cam_design.follower import convert_lift
+    except ImportError:
+        return None, ('convert_lift not available: the profile is for the probe, not for '
+                      f'the design follower ({conv.design.kind})')
+    lift = rec.lift
+    if lift.size >= 2:
+        # h = 0 on the base circle by definition: remove the (noise-level) end offsets so
+        # that the tabulated law does not step at the ends of its support
+        ramp = np.linspace(0.0, 1.0, lift.size)
+        lift = lift - (lift[0] * (1.0 - ramp) + lift[-1] * ramp)
+    try:
+        tab = TabulatedLift(rec.alpha, lift, key=f'{rec.method}.lift')
+        law = convert_lift(tab, conv.base_radius, conv.probe, conv.design,
+                           key=f'{rec.method}.lift')
+        derivs = law.derivatives(rec.alpha)
+    except InputError as exc:
+        return None, f'conversion to the design follower failed: {exc}'
+    if not np.all(np.isfinite(derivs)):
+        return None, 'conversion to the design follower gave non-finite values'
+    probe = f'{conv.probe.kind} r = {conv.probe.radius:.6g} m'
+    return derivs, f'converted from the probe ({probe}) to the design follower ' \
+                   f'({conv.design.kind})'
+
+
+def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
+                      spline: SplineOptions | None = None,
+                      harmonic: HarmonicOptions | None = None,
+                      design: Law | None = None,
+                      conversion: Conversion | None = None) -> dict[str, MethodOutcome]:
+    """Run ``methods`` on one table. A method that cannot run (bad data for it) is
+    reported with its error; bad *options* raise InputError."""
+    for m in methods:
+        if m not in METHODS:
+            raise InputError('method', m, ' | '.join(METHODS))
+    sopt = spline or SplineOptions()
+    check_options(sopt, harmonic)
+    data = clean_samples(table.alpha, table.lift, key=table.feature)
+    design = design or design_from_table(table)
+    outcomes: dict[str, MethodOutcome] = {}
+    fairing = None
+    for m in methods:
+        outcome = MethodOutcome(m)
+        try:
+            if m == 'spline':
+                rec = reconstruct_spline(data, None, sopt)
+            else:
+                if fairing is None:
+                    fairing = rebound_fairing(data.alpha, data.lift, threshold=sopt.threshold,
+                                              gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)
+                rec = reconstruct_harmonic(data, harmonic, fairing)
+        except InputError as exc:
+            outcome.error = str(exc)
+            outcomes[m] = outcome
+            continue
+        rec.notes = list(table.notes) + rec.notes
+        outcome.reconstruction = rec
+        if design is not None:
+            outcome.design_errors = design_errors(rec, design)
+        if conversion is not None:
+            outcome.engine, outcome.engine_note = _engine(rec, conversion)
+        outcomes[m] = outcome
+    return outcomes
+
+
+def check_options(spline: SplineOptions, harmonic: HarmonicOptions | None) -> None:
+    """Raise InputError for bad options before any data is touched."""
+    from cam_design.errors import require_positive
+    from cam_metrology.reconstruction.harmonic import _check
+    from cam_metrology.reconstruction.spline import CRITERIA
+
+    if spline.criterion not in CRITERIA:
+        raise InputError('smoothing_criterion', spline.criterion, ' | '.join(CRITERIA))
+    if spline.smoothing is not None:
+        require_positive('smoothing', spline.smoothing, allow_zero=True)
+    require_positive('threshold', spline.threshold)
+    require_positive('cap', spline.cap)
+    if not 0.0 < spline.gain <= 1.0:
+        raise InputError('gain', spline.gain, 'a fraction in (0, 1]')
+    if spline.step is not None:
+        require_positive('step', spline.step)
+    if harmonic is not None:
+        _check(harmonic)
+
+
+def summary(outcome: MethodOutcome, *, rpm: float | None = None,
+            arrays: bool = True) -> dict[str, Any]:
+    """JSON-ready dict of one method's outcome (arrays as lists when ``arrays``)."""
+    if outcome.reconstruction is None:
+        return {'ok': False, 'error': outcome.error}
+    rec = outcome.reconstruction
+    out: dict[str, Any] = {'ok': True, 'method': rec.method}
+    key = 'order' if rec.method == 'harmonic' else 'smoothing'
+    out[key] = rec.parameter[key]
+    out['why'] = rec.why
+    out['parameters'] = {k: v for k, v in rec.parameter.items() if k != key}
+    out['rms_residual_m'] = rec.rms_residual
+    out['max_residual_m'] = rec.max_residual
+    out['noise_sigma_m'] = rec.sigma
+    out['outliers_deg'] = [math.degrees(float(a)) for a in rec.outliers_alpha]
+    out['warnings'] = list(rec.warnings)
+    out['notes'] = list(rec.notes)
+    if outcome.design_errors:
+        out['design_errors'] = outcome.design_errors
+    if outcome.engine_note:
+        out['engine_follower'] = outcome.engine_note
+    if arrays:
+        out['alpha_rad'] = rec.alpha.tolist()
+        derivs = rec.derivatives()
+        for name, values in zip(('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
+                                 'jerk_m_per_rad3'), derivs):
+            out[name] = values.tolist()
+        if rpm:
+            out['cam_speed_rpm'] = rpm
+            out.update({k: v.tolist() for k, v in per_second(derivs, rpm).items()})
+        if outcome.engine is not None:
+            out['engine'] = {name: values.tolist() for name, values in zip(
+                ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
+                 'jerk_m_per_rad3'), outcome.engine)}
+        if rec.spectrum is not None:
+            out['spectrum'] = {'order': rec.spectrum[0].astype(int).tolist(),
+                               'amplitude_m': rec.spectrum[1].tolist()}
+    return out
