@@ -141,6 +141,10 @@ STEP_REJECT = 1e-6
 POSITION_TOL = 1e-9
 NEWTON_TOL = 1e-14
 NEWTON_MAX_ITER = 40
+#: |dA/ds| below this is a plateau (straight flank under a flat target) [rad/rad].
+PLATEAU_TOL = 1e-9
+#: one-sided step [rad] used to evaluate the target on a plateau.
+PLATEAU_SHIFT = 1e-9
 #: points per block in ConvertedLift.solve (keeps the jet temporaries in cache).
 SOLVE_BLOCK = 2048
 
@@ -243,7 +247,7 @@ class ConvertedLift(LiftLaw):
                 'a lift law whose cam profile is realisable (radius of curvature > 0 for a '
                 'flat design, pitch radius of curvature > roller radius for a roller)')
         if self.target.kind == 'flat':
-            bad = ~(psi[1] > 0)
+            bad = ~(psi[1] > -PLATEAU_TOL)
             what = 'a convex cam profile for a flat target (the face bridges a concave flank)'
         else:
             bad = ~(lam + _radius(self.target) * psi[1] > 0)
@@ -323,13 +327,15 @@ class ConvertedLift(LiftLaw):
         gap = np.zeros(s.size - 1, dtype=bool)
         for g in gap_left:
             gap[int(np.argmin(np.abs(s[:-1] - g)))] = True
-        if np.any(np.diff(a)[~gap] <= 0):
-            i = int(np.argmax((np.diff(a) <= 0) & ~gap))
+        # a straight pitch segment of a roller design gives a plateau of psi (flat target)
+        back = (np.diff(a) < -PLATEAU_TOL) if self.target.kind == 'flat' else np.diff(a) <= 0
+        if np.any(back & ~gap):
+            i = int(np.argmax(back & ~gap))
             raise InputError(self.key, f'non-monotone contact angle near alpha = '
                              f'{_wrap(s[i:i + 1])[0]:.6g} rad',
                              'a convex, undercut-free cam profile')
         self._s = s
-        self._a = a
+        self._a = np.maximum.accumulate(a)
         self._gap = gap
         self._edge_b = np.array([b for b, _ in self._edges])
         self._edge_h = np.array([hb for _, hb in self._edges])
@@ -370,7 +376,19 @@ class ConvertedLift(LiftLaw):
             out[:, on_gap] = self._flat_contact(aa[on_gap], idx[on_gap])
         smooth = ~on_gap
         if np.any(smooth):
-            out[:, smooth] = self._newton(aa[smooth], idx[smooth])
+            derivs, rate = self._newton(aa[smooth], idx[smooth])
+            # on a plateau of psi (a straight flank under a flat target) h' steps: take
+            # the limit from above, shifted back by a Taylor step
+            flat_on = np.abs(rate) < PLATEAU_TOL
+            if np.any(flat_on):
+                shifted = aa[smooth][flat_on] + PLATEAU_SHIFT
+                sub = np.clip(np.searchsorted(self._a, shifted, side='right') - 1, 0,
+                              self._a.size - 2)
+                right, _ = self._newton(shifted, sub)
+                for k in range(JET_ORDER):
+                    right[k] -= PLATEAU_SHIFT * right[k + 1]
+                derivs[:, flat_on] = right
+            out[:, smooth] = derivs
         return out
 
     def _flat_contact(self, aa: NDArray[np.float64], idx: NDArray[np.int64]
@@ -388,12 +406,16 @@ class ConvertedLift(LiftLaw):
                          c * (sec * tan * tan + sec ** 3),
                          c * sec * tan * (tan * tan + 5.0 * sec * sec)])
 
-    def _newton(self, aa: NDArray[np.float64], idx: NDArray[np.int64]) -> NDArray[np.float64]:
+    def _newton(self, aa: NDArray[np.float64], idx: NDArray[np.int64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Derivatives (4, n) at the target angles and dA/ds at the contact."""
         s_lo = self._s[idx].copy()
         s_hi = self._s[idx + 1].copy()
         a_lo = self._a[idx]
         a_hi = self._a[idx + 1]
-        s = s_lo + (aa - a_lo) / (a_hi - a_lo) * (s_hi - s_lo)
+        span = a_hi - a_lo
+        frac = np.where(span > 0, (aa - a_lo) / np.where(span > 0, span, 1.0), 0.5)
+        s = s_lo + np.clip(frac, 0.0, 1.0) * (s_hi - s_lo)
         for _ in range(NEWTON_MAX_ITER):
             angle, lift = self._target_jets(s)
             f = angle[0] - aa
@@ -401,14 +423,16 @@ class ConvertedLift(LiftLaw):
                 break
             s_hi = np.where(f > 0, s, s_hi)
             s_lo = np.where(f <= 0, s, s_lo)
-            step = s - f / angle[1]
+            with np.errstate(divide='ignore', invalid='ignore'):
+                step = s - f / angle[1]
             inside = (step >= s_lo) & (step <= s_hi)
             s = np.where(np.abs(f) < NEWTON_TOL, s,
                          np.where(inside, step, 0.5 * (s_lo + s_hi)))
-        derivs = _jet_inverse_compose(angle, lift)
-        for k in range(JET_ORDER):     # first-order correction for the residual angle
-            derivs[k] -= f * derivs[k + 1]
-        return derivs
+        with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+            derivs = _jet_inverse_compose(angle, lift)
+            for k in range(JET_ORDER):     # first-order correction for the residual angle
+                derivs[k] -= f * derivs[k + 1]
+        return derivs, angle[1]
 
     def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
         tag = alpha.tobytes()

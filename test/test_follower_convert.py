@@ -296,3 +296,43 @@ def test_ground_lift_with_wheel_radius_error(d_r: float) -> None:
         assert abs(err[31]) < 1e-12 and np.max(np.abs(err)) > 1e-7
     with pytest.raises(InputError, match='wheel_error'):
         ground_lift(law, R0, FLAT, wheel, -wheel)
+
+
+@pytest.mark.parametrize('vm', [None, 0.0015])
+def test_round_trip_through_straight_flanks(vm: float | None) -> None:
+    # flat design with flats -> roller (straight pitch segments) -> flat: the velocity
+    # steps come back (plateau of the normal angle under the flat target)
+    lobe = RampLobe(vm=vm)
+    roller = Follower('roller', 0.01)
+    back = convert_lift(convert_lift(lobe, 0.018, FLAT, roller), 0.018, roller, FLAT)
+    a = np.linspace(-math.pi, math.pi, 7201)
+    err = np.max(np.abs(back.derivatives(a) - lobe.derivatives(a)), axis=1)
+    assert np.all(err < [1e-15, 1e-15, 1e-15, 1e-14])
+    # exactly on a step: the one-sided limit from above, finite
+    edge = back.derivatives(np.array([-1.4, 1.4]))
+    assert np.all(np.isfinite(edge))
+    assert edge[1] == pytest.approx([0.0015 if vm else 0.0005, -0.0005], abs=1e-12)
+
+
+def test_stress_tiny_and_huge_geometry() -> None:
+    from cam_design.follower import EccentricDiscLift
+
+    a = np.linspace(math.pi, -math.pi, 3001)          # reversed order is fine
+    for e, r in ((1e-9, 0.008), (0.005, 1.0), (0.005, 1e-9)):
+        src = EccentricDiscLift(RC, e, FLAT)
+        tgt = Follower('roller', r)
+        got = convert_lift(src, RC - e, FLAT, tgt).derivatives(a)
+        want = EccentricDiscLift(RC, e, tgt).derivatives(a)
+        assert np.max(np.abs(got - want)) < 1e-14, (e, r)
+
+
+def test_noisy_table_round_trip() -> None:
+    rng = np.random.default_rng(7)
+    a = np.linspace(-1.6, 1.6, 641)
+    bump = np.cos(0.5 * math.pi * a / 1.6) ** 4
+    h = 0.005 * bump + 1e-8 * bump * rng.standard_normal(a.size)   # 10 nm noise, tapered
+    law = TabulatedLift(a, h)
+    roller = Follower('roller', 0.004)
+    back = convert_lift(convert_lift(law, 0.03, FLAT, roller), 0.03, roller, FLAT)
+    x = np.linspace(-math.pi, math.pi, 2001)
+    assert np.max(np.abs(back(x) - law(x))) < 1e-12
