@@ -95,6 +95,10 @@ def composite_flank(ramp: Ramp, rise: float, shapes: Sequence[tuple[str, float, 
     a = np.array(rows)
     b = np.array(rhs)
     keep = np.any(np.abs(a) > 1e-300, axis=1)
+    if np.any(np.abs(b[~keep]) > 0):
+        raise InputError(f'{key}.segments', 'h\'\' of the ramp end is not 0',
+                         'a first shape that can match the ramp-end acceleration '
+                         '(or continuity 1)')
     a, b = a[keep], b[keep]
     amp, _, rank, _ = np.linalg.lstsq(a, b, rcond=None)
     if rank < m:
