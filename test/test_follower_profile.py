@@ -179,3 +179,21 @@ def test_bad_input_names_the_key(call, key: str) -> None:
         call(smooth_bump(0.005, 1.0))
     assert err.value.key == key
     assert str(err.value).startswith(f'{key}: got ')
+
+
+def test_converted_roller_profile_has_the_flat_designs_curvature() -> None:
+    # one cam, two descriptions: the roller profile of the converted lift must have, at
+    # each contact, the flat design's rho1 = R0 + h + h'' at the contact normal angle
+    from cam_design.follower import convert_lift
+
+    law = smooth_bump(0.005, 1.6)
+    r0, r = 0.02, 0.007
+    seen = convert_lift(law, r0, Follower('flat'), Follower('roller', r))
+    alpha = np.linspace(-math.pi, math.pi, 1441)
+    prof = roller_profile(seen, r0, r, alpha)
+    n = np.stack([prof.pitch_x - prof.x, prof.pitch_y - prof.y]) / r
+    psi = (np.arctan2(n[1], n[0]) + math.pi / 2) % (2 * math.pi) - math.pi
+    rho1 = r0 + law(psi) + law(psi, 2)
+    assert np.max(np.abs(prof.rho - rho1)) < 1e-12
+    flat = flat_profile(law, r0, psi)      # and the same contact points
+    assert np.max(np.hypot(prof.x - flat.x, prof.y - flat.y)) < 1e-15
