@@ -41,15 +41,20 @@ def build_parser() -> argparse.ArgumentParser:
                     'on ROS 2, with MCAP recording and replay.',
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest='command', metavar='COMMAND')
-    for name in COMMAND_MODULES:
+    register_modules(sub, COMMAND_MODULES)
+    return parser
+
+
+def register_modules(sub: argparse._SubParsersAction, module_names: Sequence[str]) -> None:
+    """Call ``register(sub)`` of each module; a module not written yet is skipped."""
+    for name in module_names:
         try:
             module = importlib.import_module(name)
         except ModuleNotFoundError as exc:
             if exc.name != name:
                 raise
-            continue   # a command group that is not written yet is simply absent
+            continue
         module.register(sub)
-    return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -6,7 +6,8 @@ The group collects its subcommands from ``design_law`` (law, check, rocker) and
 from __future__ import annotations
 
 import argparse
-import importlib
+
+from cam_metrology.cli import register_modules
 
 SUBMODULES = ('cam_metrology.cli.design_law', 'cam_metrology.cli.design_profile')
 
@@ -19,12 +20,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                     'coordinates for flat/roller/rocker followers, the design checks of '
                     'the book §2.1, and the CG rocker optimum dimension synthesis.')
     design_sub = parser.add_subparsers(dest='design_command', metavar='WHAT')
-    for name in SUBMODULES:
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as exc:
-            if exc.name != name:
-                raise
-            continue
-        module.register(design_sub)
+    register_modules(design_sub, SUBMODULES)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)
