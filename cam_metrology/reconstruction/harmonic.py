@@ -139,7 +139,10 @@ def _full(x: NDArray[np.float64], y: NDArray[np.float64], y_raw: NDArray[np.floa
     wrapped = np.pi - np.mod(np.pi - grid, 2.0 * np.pi)
     covered = (x[-1] - x[0]) >= 2.0 * np.pi - 1.5 * step
     base_tol = _base_tolerance(y, sigma)
-    inside = (wrapped >= x[0]) & (wrapped <= x[-1])
+    slack = 1e-9 * step
+    inside = (wrapped >= x[0] - slack) & (wrapped <= x[-1] + slack)
+    if covered:
+        inside[:] = True          # the few nodes across +-pi: short extrapolation
     if not covered:
         ends = (abs(float(np.mean(y[:5]))) <= base_tol and abs(float(np.mean(y[-5:])))
                 <= base_tol)
