@@ -1,4 +1,4 @@
-"""Composite acceleration-segment engine (methods.md §1.3) and the constant-acceleration cam (§1.2).
+"""Composite acceleration-segment engine (methods.md §1.3); constant-acceleration cam (§1.2).
 
 The base section (ramp end t0 -> nose T) is a sequence of acceleration segments
 i = 1..m of width w_i with h'' = A_i s_i(u), u in [0, 1], s_i one of the shapes

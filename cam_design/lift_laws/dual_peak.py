@@ -63,7 +63,8 @@ def dual_peak_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
     ramp1 = ramp_from_spec(spec.get('ramp'), f'{key}.ramp',
                            default_kind='constant_acceleration_velocity')
     if ramp1.is_empty:
-        raise InputError(f'{key}.ramp', spec.get('ramp'), 'a main ramp (the connection starts on it)')
+        raise InputError(f'{key}.ramp', spec.get('ramp'),
+                         'a main ramp (the connection starts on it)')
     rise = P.positive(spec, key, 'rise')
     alpha0 = P.positive(spec, key, 'half_angle')
     exps = P.integers(spec, key, 'exponents', [2, 6, 10, 14])
