@@ -104,7 +104,9 @@ def reference_solve(law: LiftLaw, params: SdofParams, rpm: float,
     for _ in range(_MAX_RESTARTS):
         if t >= t_end:
             break
-        t_stop = next(b for b in breaks if b > t + 1e-15)
+        t_stop = next((b for b in breaks if b > t + 1e-15), t_end)
+        if t_stop <= t:
+            break
         if p.hard_seat and r & SEAT:
             def held(tt: float) -> float:
                 return rhs.inside(tt, np.zeros(2), SEAT)[1]
