@@ -13,6 +13,7 @@ import pytest
 from scipy.interpolate import CubicSpline, make_smoothing_spline
 
 from cam_design.errors import InputError
+from cam_metrology.reconstruction.blas import single_thread_blas
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
 from cam_metrology.reconstruction.samples import clean_samples
 from cam_metrology.reconstruction.spline import (REBOUND_NOISE_FACTOR, ReboundOperator,
@@ -80,13 +81,14 @@ def test_methods_5_1_outlier_at_20_deg_is_flagged_and_removed():
 
 
 def test_spline_accuracy_and_better_acceleration_than_scipy_gcv():
-    a, h = simulate(LOBE, 3600, 0.5e-6, seed=3, outliers=3)
+    a, h = simulate(LOBE, 1200, 0.5e-6, seed=3, outliers=3)
     rec = reconstruct_spline(a, h)
     e = rms_errors(rec, LOBE)
     assert e[0] < 0.2e-6 and e[1] < 8e-6 and e[2] < 4e-4
     assert rec.parameter['outliers'] == 3
     assert rec.parameter['edf'] > 20
-    ref = make_smoothing_spline(a, h)
+    with single_thread_blas():
+        ref = make_smoothing_spline(a, h)
     e_ref = float(np.sqrt(np.mean((ref(rec.alpha, 2) - LOBE(rec.alpha, 2)) ** 2)))
     assert e[2] < 0.9 * e_ref
 
