@@ -342,6 +342,13 @@ class ConvertedLift(LiftLaw):
         lo, hi = self._src_support
         ends, _ = self._target_jets(np.array([lo - SIDE_EPS, hi + SIDE_EPS]), check=False)
         self._support = (float(min(ends[0][0], lo)), float(max(ends[0][1], hi)))
+        # target angles where the target's derivatives may step: both ends of every flat
+        # and the images of the source's junctions
+        marks = [self._a[:-1][gap], self._a[1:][gap]]
+        inner = [j for j in self._breaks if all(abs(j - b) > 1e-12 for b in edges)]
+        if inner:
+            marks.append(self._target_jets(np.asarray(inner, dtype=float), check=False)[0][0])
+        self._junctions = tuple(sorted(set(float(x) for x in _wrap(np.concatenate(marks)))))
 
     @property
     def support(self) -> tuple[float, float]:
@@ -349,7 +356,7 @@ class ConvertedLift(LiftLaw):
 
     @property
     def junctions(self) -> tuple[float, ...]:
-        return tuple(float(b) for b, _ in self._edges)
+        return self._junctions
 
     # --- evaluation ----------------------------------------------------------------------
     def solve(self, alpha: ArrayLike) -> NDArray[np.float64]:

@@ -139,13 +139,16 @@ def brute_roller_lift(law: LiftLaw, r0: float, r: float, alpha: np.ndarray) -> n
     return np.array(out)
 
 
-@pytest.mark.parametrize('vm,flats', [(None, 2), (0.0015, 4)])
+@pytest.mark.parametrize('vm,marks', [(None, 6), (0.0015, 8)])
 def test_flat_with_velocity_steps_to_roller_matches_brute_force(vm: float | None,
-                                                                flats: int) -> None:
+                                                                marks: int) -> None:
     lobe = RampLobe(vm=vm)      # steps of h' at the support ends (and at the junctions)
     conv = convert_lift(lobe, 0.018, FLAT, Follower('roller', 0.01))
     assert isinstance(conv, ConvertedLift)
-    assert len(conv.junctions) == flats
+    # junctions: both ends of every flat, and the image of a plain h'' step: h'' steps there
+    j = np.array(conv.junctions)
+    assert j.size == marks
+    assert np.all(np.abs(conv(j - 1e-9, 2) - conv(j + 1e-9, 2)) > 5e-3)
     alpha = np.concatenate([np.linspace(-1.6, 1.6, 41), [-1.55 + 0.004, 1.55 - 0.004]])
     ref = brute_roller_lift(lobe, 0.018, 0.01, alpha)
     got = conv(alpha)
