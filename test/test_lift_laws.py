@@ -190,3 +190,18 @@ def test_opening_angle_on_the_s2_ramp_case_18() -> None:
     assert math.degrees(a - law.support[0]) == pytest.approx(22.03704, abs=1e-5)
     omega = 2 * math.pi * 1500 / 60
     assert 1.5 * law(a, 1) * omega == pytest.approx(0.2025, abs=1e-5)
+
+
+def test_every_docs_example_builds() -> None:
+    """Each ```yaml example with a lift_law in docs/lift_laws.md builds with from_spec."""
+    import re
+    from pathlib import Path
+
+    import yaml
+
+    text = (Path(__file__).resolve().parent.parent / 'docs' / 'lift_laws.md').read_text()
+    blocks = [b for b in re.findall(r'```yaml\n(.*?)```', text, re.S) if 'lift_law' in b]
+    assert len(blocks) >= 7
+    for block in blocks:
+        law = from_spec(yaml.safe_load(block)['lift_law'], 'docs')
+        assert law.max_lift() > 0
