@@ -119,3 +119,20 @@ def test_profile_from_spec(tmp_path: Path, capsys: pytest.CaptureFixture) -> Non
     doc = json.loads(capsys.readouterr().out)
     assert doc['undercut'] is False
     assert doc['rho_min_m'] == pytest.approx(4.32e-3, abs=0.02e-3)   # registry comment
+
+
+@pytest.mark.parametrize('delta', ['1', '-1'])
+def test_profile_rocker_polar_columns(table_file: Path, delta: str,
+                                      capsys: pytest.CaptureFixture) -> None:
+    args = ['design', 'profile', str(table_file), '--follower', 'rocker', '--radius', '0.005',
+            '--centre-distance', '0.045', '--arm-length', '0.035', '--delta', delta,
+            '--polar', '--json', '-', '--step-deg', '2']
+    assert main(args) == 0
+    doc = json.loads(capsys.readouterr().out)
+    rows = np.array(doc['rows'])
+    col = doc['columns'].index
+    rho = rows[:, col('polar_rho_m')]
+    assert np.allclose(rho, np.hypot(rows[:, col('pitch_x_m')], rows[:, col('pitch_y_m')]),
+                       rtol=0, atol=1e-15)
+    assert main(args[:-4] + ['--eta', '-1']) == 2
+    assert 'error: --polar: got' in capsys.readouterr().err

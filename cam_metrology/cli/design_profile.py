@@ -39,6 +39,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--centre-distance', type=float, help='rocker: cam centre to pivot a [m]')
     p.add_argument('--arm-length', type=float,
                    help='rocker: arm length l [m]; the swing is psi = h / l')
+    p.add_argument('--polar', action='store_true',
+                   help='rocker: add the CG paper polar form (rho, theta; counter-directional '
+                        'for --delta -1, co-directional for --delta 1; needs --eta 1)')
     p.add_argument('--design-follower', choices=('flat', 'roller', 'knife'),
                    help='the follower the lift law was written for, if not --follower: the '
                         'lift is converted through the cam profile first (flat/roller/knife)')
@@ -117,8 +120,8 @@ def _design_law(args: argparse.Namespace, law: Any, base: float, radius: float) 
     return convert_lift(law, base, source, target, key=args.file)
 
 
-def compute(args: argparse.Namespace) -> Any:
-    """The Profile for the parsed arguments (shared by the handler and tests)."""
+def compute(args: argparse.Namespace) -> tuple[Any, Any, float]:
+    """(Profile, the lift law used, base radius [m]) for the parsed arguments."""
     import numpy as np
 
     from cam_design import follower as fl
@@ -136,19 +139,19 @@ def compute(args: argparse.Namespace) -> Any:
     alpha = -math.pi + 2.0 * math.pi * np.arange(n) / n
     law = _design_law(args, law, base, radius)
     if args.follower == 'flat':
-        return fl.flat_profile(law, base, alpha)
+        return fl.flat_profile(law, base, alpha), law, base
     if args.follower in ('roller', 'knife'):
-        return fl.roller_profile(law, base, radius, alpha)
+        return fl.roller_profile(law, base, radius, alpha), law, base
     if args.follower == 'offset-roller':
-        return fl.offset_roller_profile(law, base, radius, args.offset, alpha,
-                                        eta=args.eta, delta=args.delta)
+        return fl.offset_roller_profile(law, base, radius, args.offset, alpha, eta=args.eta,
+                                        delta=args.delta), law, base
     for name in ('centre_distance', 'arm_length'):
         if getattr(args, name) is None:
             raise InputError('--' + name.replace('_', '-'), None, 'a length [m] for a rocker')
     if args.delta == 0:
         raise InputError('--delta', 0, '+1 or -1 (the swing direction during the rise)')
     return fl.rocker_profile(law, base, radius, args.centre_distance, args.arm_length, alpha,
-                             eta=args.eta, delta=args.delta)
+                             eta=args.eta, delta=args.delta), law, base
 
 
 def cmd_profile(args: argparse.Namespace) -> int:
@@ -157,12 +160,14 @@ def cmd_profile(args: argparse.Namespace) -> int:
 
     from cam_metrology.cli.design_law import _write
 
-    prof = compute(args)
+    prof, law, base = compute(args)
     summary = prof.summary()
     summary['rho_min_alpha_deg'] = math.degrees(summary['rho_min_alpha_rad'])
     summary['undercut_intervals_deg'] = [[math.degrees(a), math.degrees(b)]
                                          for a, b in summary['undercut_intervals_rad']]
     cols = prof.columns()
+    if args.polar:
+        cols.update(_polar_columns(args, prof, law, base))
     names = list(cols)
     table = np.column_stack([cols[k] for k in names])
     wrote = False
@@ -188,6 +193,19 @@ def cmd_profile(args: argparse.Namespace) -> int:
         else:
             print('no undercut')
     return 0
+
+
+def _polar_columns(args: argparse.Namespace, prof: Any, law: Any, base: float
+                   ) -> dict[str, Any]:
+    """S1 polar form of the rocker pitch curve (methods §2.4) for the same samples."""
+    from cam_design.errors import InputError
+    from cam_design.follower import rocker_polar
+
+    if args.follower != 'rocker' or args.eta != 1:
+        raise InputError('--polar', True, 'a rocker follower with --eta 1 (S1 polar form)')
+    rho, theta = rocker_polar(law, base, args.radius, args.centre_distance, args.arm_length,
+                              prof.alpha, co_directional=args.delta == 1)
+    return {'polar_rho_m': rho, 'polar_theta_rad': theta}
 
 
 def _plot(path: str, prof: Any) -> None:
