@@ -68,7 +68,8 @@ def _params(args: argparse.Namespace) -> dict[str, Any]:
                               'harmonic_basis': args.basis,
                               'smoothing_criterion': args.criterion}
     if args.smoothing is not None:
-        params['smoothing'] = args.smoothing
+        from cam_design.errors import require_positive
+        params['smoothing'] = require_positive('--smoothing', args.smoothing, allow_zero=True)
     if args.harmonics is not None:
         from cam_design.errors import InputError
         if args.harmonics < 0:

@@ -1,0 +1,203 @@
+"""Reconstruction inputs (CSV, gauge files, messages) and `cam-bench reconstruct`."""
+from __future__ import annotations
+
+import json
+import math
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cam_design.errors import InputError
+from cam_metrology.cli import main
+from cam_metrology.reconstruction.samples import (read_csv_table, read_gauge_file,
+                                                  read_table_file, table_from_message)
+from cam_metrology.reconstruction.synthetic import DEG, PolynomialLobe, simulate
+
+LOBE = PolynomialLobe()
+REPO = Path(__file__).resolve().parent.parent
+
+
+def write_csv(path: Path, header: str, rows: np.ndarray) -> Path:
+    np.savetxt(path, rows, delimiter=',', header=header, comments='')
+    return path
+
+
+def write_gauge(path: Path, radius: str = '12.5', steps: str | None = None,
+                rows: list[str] | None = None) -> Path:
+    if rows is None:
+        ad = np.arange(0.0, 360.0, 1.0)
+        hh = LOBE(np.where(ad > 180, ad - 360, ad) * DEG) * 1e3
+        rows = [f'{x:.1f}\t{y:.6f}' + ('  M1' if i % 30 == 0 else '')
+                for i, (x, y) in enumerate(zip(ad, hh))]
+    steps = str(len(rows)) if steps is None else steps
+    path.write_text('\n'.join([radius, steps, *rows]) + '\n')
+    return path
+
+
+def msg(label: str, columns: tuple[str, ...], data: np.ndarray) -> types.SimpleNamespace:
+    dims = [types.SimpleNamespace(label=label, size=data.shape[0], stride=data.size),
+            types.SimpleNamespace(label=','.join(columns), size=data.shape[1],
+                                  stride=data.shape[1])]
+    return types.SimpleNamespace(layout=types.SimpleNamespace(dim=dims, data_offset=0),
+                                 data=data.ravel().tolist())
+
+
+def test_csv_units_from_column_names(tmp_path):
+    a = np.arange(-180.0, 180.0, 1.0)
+    p = write_csv(tmp_path / 'x.csv', 'alpha_deg,lift_mm,design_lift_um',
+                  np.column_stack([a, LOBE(a * DEG) * 1e3, LOBE(a * DEG) * 1e6]))
+    t = read_csv_table(p)
+    assert np.allclose(t.alpha, a * DEG)
+    assert np.allclose(t.lift, LOBE(a * DEG), atol=1e-15)
+    assert np.allclose(t.design, t.lift, atol=1e-15)
+    assert t.feature == 'x'
+
+
+def test_csv_malformed_lines_name_the_line(tmp_path):
+    p = tmp_path / 'bad.csv'
+    p.write_text('alpha_rad,lift_m\n0.0,0.0\n0.1,abc\n')
+    with pytest.raises(InputError, match='bad.csv:3'):
+        read_csv_table(p)
+    p.write_text('alpha_rad,lift_m\n0.0,0.0\n0.1\n')
+    with pytest.raises(InputError, match='bad.csv:3'):
+        read_csv_table(p)
+    p.write_text('angle,lift_m\n0.0,0.0\n')
+    with pytest.raises(InputError, match='header'):
+        read_csv_table(p)
+    p.write_text('alpha_grad,lift_m\n0.0,0.0\n')
+    with pytest.raises(InputError, match='alpha_grad'):
+        read_csv_table(p)
+
+
+def test_gauge_file_default_units_and_markers(tmp_path):
+    t = read_gauge_file(write_gauge(tmp_path / 'g.txt'))
+    assert t.follower == ('roller', pytest.approx(0.0125))
+    assert t.alpha.size == 360
+    assert t.alpha[1] == pytest.approx(DEG)
+    assert t.lift.max() == pytest.approx(8.3e-3, rel=1e-6)
+    assert 'deg' in t.notes[0] and 'mm' in t.notes[0]
+
+
+def test_gauge_file_unit_override_and_closing_row(tmp_path):
+    rows = [f'{math.radians(d):.9f} {1000 * LOBE(math.radians(d if d <= 180 else d - 360)):.4f}'
+            for d in range(0, 361)]
+    p = write_gauge(tmp_path / 'g.txt', radius='0', steps='360', rows=rows)
+    t = read_gauge_file(p, angle_unit='rad', length_unit='um')
+    assert t.alpha.size == 361 and t.follower == ('knife', 0.0)
+    assert t.lift.max() == pytest.approx(8.3e-6, rel=1e-4)
+
+
+@pytest.mark.parametrize('kwargs, line', [
+    ({'radius': 'abc'}, 1),
+    ({'radius': '-1'}, 1),
+    ({'steps': '12.5'}, 2),
+    ({'steps': '100'}, 362),
+    ({'rows': ['0 0', '1 0.1', '2 x', '3 0.3']}, 5),
+    ({'rows': ['0 0', '1 0.1 M 7', '2 0.2']}, 4),
+    ({'rows': ['0 0', '1 nan', '2 0.2']}, 4),
+])
+def test_gauge_file_malformed_lines(tmp_path, kwargs, line):
+    p = write_gauge(tmp_path / 'g.txt', **kwargs)
+    with pytest.raises(InputError, match=f'g.txt:{line}'):
+        read_gauge_file(p)
+
+
+def test_gauge_bad_units_and_missing_file(tmp_path):
+    p = write_gauge(tmp_path / 'g.txt')
+    with pytest.raises(InputError, match='angle_unit'):
+        read_gauge_file(p, angle_unit='grad')
+    with pytest.raises(FileNotFoundError):
+        read_table_file(tmp_path / 'none.txt')
+    assert read_table_file(p).follower[0] == 'roller'
+
+
+def test_message_tables():
+    data = np.column_stack([np.arange(4.0), np.arange(4.0) * 2, np.zeros(4)])
+    label, cols, arr = table_from_message(msg('lobe_1', ('alpha_rad', 'lift_m', 'x'), data))
+    assert label == 'lobe_1' and cols == ('alpha_rad', 'lift_m', 'x')
+    assert np.array_equal(arr, data)
+    bad = msg('lobe_1', ('alpha_rad', 'lift_m', 'x'), data)
+    bad.data = bad.data[:-1]
+    with pytest.raises(InputError, match='lobe_1.data'):
+        table_from_message(bad)
+
+
+# --- CLI ---------------------------------------------------------------------------------
+
+def test_cli_table_json(tmp_path, capsys):
+    a, h = simulate(LOBE, 720, 0.5e-6, seed=1, outliers=2)
+    p = write_csv(tmp_path / 'm.csv', 'alpha_rad,lift_m,design_lift_m',
+                  np.column_stack([a, h, LOBE(a)]))
+    out = tmp_path / 'r.json'
+    assert main(['reconstruct', str(p), '--json', str(out), '--rpm', '3000',
+                 '--step-deg', '0.5']) == 0
+    doc = json.loads(out.read_text())
+    assert doc['kind'] == 'table' and doc['follower']['kind'] == 'flat'
+    spl, har = doc['features']['m']['spline'], doc['features']['m']['harmonic']
+    for r in (spl, har):
+        n = len(r['alpha_rad'])
+        assert n == 720
+        for key in ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
+                    'jerk_m_per_rad3', 'velocity_m_per_s', 'acceleration_m_per_s2'):
+            assert len(r[key]) == n
+        assert r['rms_residual_m'] < 1e-6 and r['why']
+        assert r['design_errors']['rms_error_lift_m'] < 0.5e-6
+        assert len(r['outliers_deg']) == 2
+    assert spl['smoothing'] > 0 and isinstance(har['order'], int)
+    assert har['spectrum']['order'][0] == 0
+    omega = 3000 * math.pi / 30
+    assert spl['acceleration_m_per_s2'][100] == pytest.approx(
+        omega ** 2 * spl['acceleration_m_per_rad2'][100])
+
+
+def test_cli_human_output_plot_and_caps(tmp_path, capsys):
+    a, h = simulate(LOBE, 360, 0.5e-6, seed=2)
+    p = write_csv(tmp_path / 't.csv', 'alpha_rad,lift_m', np.column_stack([a, h]))
+    assert main(['reconstruct', str(p), '--method', 'harmonic', '--harmonics', '100000',
+                 '--plot', str(tmp_path / 'plots')]) == 0
+    text = capsys.readouterr().out
+    assert 't/harmonic: order' in text and 'Nyquist' in text
+    assert (tmp_path / 'plots' / 't.png').stat().st_size > 10_000
+    assert main(['reconstruct', str(p), '--json', '-', '--method', 'spline',
+                 '--smoothing', '1e-9', '--feature', 'lobe_9']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert list(doc['features']) == ['lobe_9']
+    assert doc['features']['lobe_9']['spline']['smoothing'] == pytest.approx(1e-9)
+
+
+def test_cli_errors_exit_2(tmp_path, capsys):
+    g = write_gauge(tmp_path / 'g.txt', steps='7')
+    assert main(['reconstruct', str(g)]) == 2
+    assert 'g.txt:' in capsys.readouterr().err
+    assert main(['reconstruct', str(tmp_path / 'missing.csv')]) == 2
+    a, h = simulate(LOBE, 360, 0.5e-6, seed=2)
+    p = write_csv(tmp_path / 't.csv', 'alpha_rad,lift_m', np.column_stack([a, h]))
+    assert main(['reconstruct', str(p), '--smoothing', '-1']) == 2
+    assert main(['reconstruct', str(p), '--harmonics', '-3']) == 2
+    assert main(['reconstruct', str(p), '--rpm', '0']) == 2
+
+
+def test_cli_gauge_file(tmp_path, capsys):
+    g = write_gauge(tmp_path / 'g.txt')
+    assert main(['reconstruct', str(g), '--json', '-']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc['follower'] == {'kind': 'roller', 'radius_m': 0.0125,
+                               'note': 'no scene: no design follower conversion'}
+    spl = doc['features']['g']['spline']
+    assert max(spl['lift_m']) == pytest.approx(8.3e-3, abs=1e-7)
+    assert spl['parameters']['outliers'] == 0
+
+
+def test_cli_bag_goes_through_metrology_and_reconstruction(tmp_path, capsys):
+    bag = REPO / 'bags' / 'no_pin_no_valve_train'
+    if not bag.exists():
+        pytest.skip('fixture bag not present')
+    assert main(['reconstruct', str(bag), '--json', '-', '--feature', 'lobe_2',
+                 '--method', 'spline', '--step-deg', '0.5']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc['kind'] == 'bag' and list(doc['features']) == ['lobe_2']
+    spl = doc['features']['lobe_2']['spline']
+    assert spl['ok'] and spl['design_errors']['rms_error_lift_m'] < 1e-6
+    assert spl['noise_sigma_m'] == pytest.approx(0.5e-6, rel=0.3)
