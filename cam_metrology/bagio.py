@@ -186,6 +186,8 @@ class BagWriter:
         The topic must have been added (``add_topic``), unless it is one of the
         project's topics (TOPIC_TYPES), which is added on first use.
         """
+        if not 0 <= stamp_ns < 2**63:
+            raise InputError(f'{topic} log time', stamp_ns, 'a time in ns >= 0')
         conn = self._connections.get(topic)
         if conn is None:
             if topic not in TOPIC_TYPES:
@@ -436,12 +438,16 @@ class JointSamples:
         return int(self.theta.size)
 
 
-def read_joint_states(path: str | Path, topic: str = JOINT_STATES) -> JointSamples:
+def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
+                      direct: bool = True) -> JointSamples:
     """Fast decode of every ``sensor_msgs/JointState`` on ``topic`` (numpy, no objects).
 
-    Messages are taken in log-time order. Joints are looked up by name ('camshaft',
-    'probe') per message, so other joint orders and extra joints are fine. CDR in
-    either byte order is accepted. About 10x faster than ``AnyReader.deserialize``.
+    Messages are taken in log-time order (ties in recorded order, as AnyReader).
+    Joints are looked up by name ('camshaft', 'probe') per message, so other joint
+    orders and extra joints are fine. CDR in either byte order is accepted.
+    ``direct``: read the MCAP chunks directly (no per-message Python objects); bags it
+    cannot read that way (SQLite storage, file compression, unindexed MCAP) go through
+    AnyReader's raw iteration. Both give identical results.
     """
     reader = _open_reader(path)
     try:
@@ -449,15 +455,162 @@ def read_joint_states(path: str | Path, topic: str = JOINT_STATES) -> JointSampl
         for conn in conns:
             if conn.msgtype != 'sensor_msgs/msg/JointState':
                 raise InputError(f'topic {topic}', conn.msgtype, 'sensor_msgs/msg/JointState')
+        if not conns:
+            return decode_joint_states([])
+        raw = _read_mcap_direct(Path(path), topic) if direct else None
+        if raw is not None:
+            return _decode_joint_buffer(*raw)
         chunks: list[bytes] = []
         logs: list[int] = []
-        if conns:
-            for _, stamp, data in reader.messages(connections=conns):
-                chunks.append(data)
-                logs.append(stamp)
+        for _, stamp, data in reader.messages(connections=conns):
+            chunks.append(data)
+            logs.append(stamp)
     finally:
         reader.close()
     return decode_joint_states(chunks, np.asarray(logs, dtype=np.int64))
+
+
+_MSG_HEAD = struct.Struct('<BQHIQ')   # opcode, record length, channel, sequence, log_time
+
+
+def _read_mcap_direct(bag: Path, topic: str) -> tuple[bytes, NDArray[np.int64],
+                                                       NDArray[np.int64],
+                                                       NDArray[np.int64]] | None:
+    """(buffer, message starts, lengths, log times) of ``topic`` in log-time order, read
+    straight from the MCAP chunks of a rosbag2 directory; None if the bag is not an
+    indexed, chunked MCAP bag without file compression (the caller falls back)."""
+    import yaml
+    from mcap.reader import make_reader
+
+    try:
+        info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    except (OSError, KeyError, TypeError, yaml.YAMLError):
+        return None
+    if info.get('storage_identifier') != 'mcap' or info.get('compression_mode') not in (
+            '', None, 'none', 'NONE'):
+        return None
+    files = info.get('relative_file_paths') or [f.get('path') for f in info.get('files', [])]
+    parts: list[bytes] = []
+    starts: list[NDArray[np.int64]] = []
+    lengths: list[NDArray[np.int64]] = []
+    logs: list[NDArray[np.int64]] = []
+    base = 0
+    for name in files:
+        try:
+            f = open(bag / name, 'rb')
+        except OSError:
+            return None
+        with f:
+            try:
+                summary = make_reader(f).get_summary()
+            except Exception:   # noqa: BLE001 - any mcap error: let AnyReader decide
+                return None
+            if summary is None or not summary.chunk_indexes:
+                if summary is not None and not summary.channels:
+                    continue
+                return None
+            chans = {cid for cid, ch in summary.channels.items() if ch.topic == topic}
+            if not chans:
+                continue
+            for index in sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset):
+                indexed = index.message_index_offsets
+                wanted = sorted(c for c in chans if indexed.get(c))
+                if indexed and not wanted:
+                    continue   # no message of the topic in this chunk
+                f.seek(index.chunk_start_offset)
+                records = _chunk_records(f.read(index.chunk_length))
+                if records is None:
+                    return None
+                found = _indexed_messages(f, index, wanted, records) if wanted else None
+                if found is None:
+                    found = _walk_messages(records, chans)
+                for arr, out in zip(found, (starts, lengths, logs)):
+                    out.append(arr + base if out is starts else arr)
+                parts.append(records)
+                base += len(records)
+    if not starts:
+        return b'', *(np.zeros(0, dtype=np.int64) for _ in range(3))
+    start_arr = np.concatenate(starts)
+    log_arr = np.concatenate(logs)
+    order = np.lexsort((start_arr, log_arr))   # log time, then recorded order
+    return (b''.join(parts), start_arr[order], np.concatenate(lengths)[order],
+            log_arr[order])
+
+
+def _indexed_messages(f: Any, index: Any, chans: list[int], records: bytes,
+                      ) -> tuple[NDArray[np.int64], ...] | None:
+    """(starts, lengths, log times) of the channels' messages in one chunk's records,
+    from the chunk's MessageIndex records (vectorised); None if they are unusable."""
+    offs: list[NDArray[np.int64]] = []
+    logs: list[NDArray[np.int64]] = []
+    for chan in chans:
+        f.seek(index.message_index_offsets[chan])
+        head = f.read(9)
+        if len(head) < 9 or head[0] != 0x07:
+            return None
+        body = f.read(int.from_bytes(head[1:9], 'little'))
+        if len(body) < 6 or int.from_bytes(body[0:2], 'little') != chan:
+            return None
+        nbytes = int.from_bytes(body[2:6], 'little')
+        pairs = np.frombuffer(body, dtype='<u8', count=nbytes // 8, offset=6).reshape(-1, 2)
+        logs.append(pairs[:, 0].astype(np.int64))
+        offs.append(pairs[:, 1].astype(np.int64))
+    off = np.concatenate(offs)
+    buf = np.frombuffer(records, dtype=np.uint8)
+    if off.size and (off.max() + 31 > buf.size or np.any(buf[off] != 0x05)):
+        return None
+    length = np.zeros(off.size, dtype=np.int64)
+    for k in range(8):
+        length |= buf[off + 1 + k].astype(np.int64) << (8 * k)
+    if np.any(length < 22) or np.any(off + 9 + length > buf.size):
+        return None
+    return off + 31, length - 22, np.concatenate(logs)
+
+
+def _walk_messages(records: bytes, chans: set[int]) -> tuple[NDArray[np.int64], ...]:
+    """(starts, lengths, log times) of the channels' messages, walking every record."""
+    starts: list[int] = []
+    lengths: list[int] = []
+    logs: list[int] = []
+    view = memoryview(records)
+    off, end = 0, len(records)
+    unpack = _MSG_HEAD.unpack_from
+    while off + 9 <= end:
+        op, length = records[off], int.from_bytes(view[off + 1:off + 9], 'little')
+        if op == 0x05 and length >= 22 and off + 31 <= end:
+            _, _, chan, _, log = unpack(records, off)
+            if chan in chans:
+                starts.append(off + 31)
+                lengths.append(length - 22)
+                logs.append(log)
+        off += 9 + length
+    return (np.asarray(starts, dtype=np.int64), np.asarray(lengths, dtype=np.int64),
+            np.asarray(logs, dtype=np.int64))
+
+
+def _chunk_records(raw: bytes) -> bytes | None:
+    """The (decompressed) records of one MCAP Chunk record; None if unsupported."""
+    if len(raw) < 9 or raw[0] != 0x06:
+        return None
+    off = 9 + 8 + 8
+    size = int.from_bytes(raw[off:off + 8], 'little')
+    off += 8 + 4
+    clen = int.from_bytes(raw[off:off + 4], 'little')
+    compression = raw[off + 4:off + 4 + clen].decode('ascii', errors='replace')
+    off += 4 + clen
+    rlen = int.from_bytes(raw[off:off + 8], 'little')
+    data = raw[off + 8:off + 8 + rlen]
+    if compression == '':
+        return bytes(data)
+    if compression == 'zstd':
+        import zstandard
+
+        return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
+    if compression == 'lz4':
+        import lz4.frame
+
+        return lz4.frame.decompress(data)
+    return None
 
 
 def decode_joint_states(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | None = None,
@@ -469,26 +622,39 @@ def decode_joint_states(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | Non
     if n == 0:
         empty = np.zeros(0)
         return JointSamples(np.zeros(0, dtype='<U1'), np.zeros(0, dtype=np.int64),
-                            log_ns, empty, empty.copy())
+                            np.asarray(log_ns, dtype=np.int64), empty, empty.copy())
     lengths = np.fromiter((len(c) for c in chunks), dtype=np.int64, count=n)
     start = np.zeros(n, dtype=np.int64)
     np.cumsum(lengths[:-1], out=start[1:])
-    buf = np.frombuffer(b''.join(chunks) + b'\0' * 16, dtype=np.uint8)
+    return _decode_joint_buffer(b''.join(chunks), start, lengths,
+                                np.asarray(log_ns, dtype=np.int64))
+
+
+def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray[np.int64],
+                         log_ns: NDArray[np.int64]) -> JointSamples:
+    """Decode the JointState messages at ``data[start:start+lengths]`` (numpy)."""
+    n = int(start.size)
+    if n == 0:
+        return decode_joint_states([])
+    buf = np.frombuffer(data + b'\0' * 16, dtype=np.uint8)
     big = buf[start + 1] == 0   # encapsulation CDR_BE = 00 00, CDR_LE = 00 01
     base = start + 4            # CDR alignment is relative to the payload start
     end = start + lengths
 
+    # unaligned views with a 1-byte stride: element k is the value starting at byte k
+    any_big = bool(np.any(big))
+    u32_le = _byte_strided(buf, '<u4')
+    u32_be = _byte_strided(buf, '>u4') if any_big else u32_le
+    f64_le = _byte_strided(buf, '<f8')
+    f64_be = _byte_strided(buf, '>f8') if any_big else f64_le
+
     def u32(off: NDArray[np.int64]) -> NDArray[np.int64]:
-        b = buf[off[:, None] + np.arange(4)].astype(np.int64)
-        le = b[:, 0] | (b[:, 1] << 8) | (b[:, 2] << 16) | (b[:, 3] << 24)
-        be = b[:, 3] | (b[:, 2] << 8) | (b[:, 1] << 16) | (b[:, 0] << 24)
-        return np.where(big, be, le) if np.any(big) else le
+        le = u32_le[off].astype(np.int64)
+        return np.where(big, u32_be[off], le) if any_big else le
 
     def f64(off: NDArray[np.int64], swap: NDArray[np.bool_]) -> NDArray[np.float64]:
-        b = buf[off[:, None] + np.arange(8)]
-        if np.any(swap):
-            b = np.where(swap[:, None], b[:, ::-1], b)
-        return np.ascontiguousarray(b).view('<f8').reshape(-1)
+        le = f64_le[off]
+        return np.where(swap, f64_be[off], le) if any_big else le
 
     def align(off: NDArray[np.int64], k: int) -> NDArray[np.int64]:
         return off + (-(off - base)) % k
@@ -567,9 +733,21 @@ def _string_codes(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[
     mat = buf[off[:, None] + cols]
     mat = np.where(cols[None, :] < (nlen[:, None] - 1), mat, 0).astype(np.uint8)
     keys = np.ascontiguousarray(mat).view(f'S{width}').reshape(-1)
-    uniq, inverse = np.unique(keys, return_inverse=True)
+    # strings come in runs (one frame_id per feature, the same names in every
+    # message): make only the run heads unique
+    change = np.ones(keys.size, dtype=bool)
+    change[1:] = keys[1:] != keys[:-1]
+    uniq, inverse = np.unique(keys[change], return_inverse=True)
+    codes = inverse.reshape(-1)[np.cumsum(change) - 1]
     texts = np.array([u.decode('utf-8', errors='replace') for u in uniq] or [''])
-    return texts, inverse.reshape(-1).astype(np.int64)
+    return texts, codes.astype(np.int64)
+
+
+def _byte_strided(buf: NDArray[np.uint8], dtype: str) -> NDArray[Any]:
+    """A read-only view of ``buf`` whose element k is the ``dtype`` value at byte k."""
+    size = np.dtype(dtype).itemsize
+    return np.ndarray(shape=(max(buf.size - size + 1, 0),), dtype=dtype, buffer=buf,
+                      offset=0, strides=(1,))
 
 
 def _strings(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[np.int64],
