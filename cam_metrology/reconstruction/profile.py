@@ -86,7 +86,8 @@ def _engine(rec: Reconstruction, conv: Conversion) -> tuple[NDArray[np.float64] 
         return None, ('convert_lift not available: the profile is for the probe, not for '
                       f'the design follower ({conv.design.kind})')
     lift = rec.lift
-    if lift.size >= 2:
+    small = max(5.0 * rec.sigma, 1e-4 * float(np.max(np.abs(lift))))
+    if lift.size >= 2 and abs(lift[0]) <= small and abs(lift[-1]) <= small:
         # h = 0 on the base circle by definition: remove the (noise-level) end offsets so
         # that the tabulated law does not step at the ends of its support
         ramp = np.linspace(0.0, 1.0, lift.size)
