@@ -67,7 +67,8 @@ def test_topic_table_agrees_with_bagio() -> None:
     assert {t: ty for t, (ty, _) in TOPICS.items()} == bagio.TOPIC_TYPES
     assert {t for t, (_, q) in TOPICS.items() if q.transient_local} == bagio.LATCHED_TOPICS
     for topic, (_, qos) in TOPICS.items():
-        assert qos.bag_yaml() == bagio.default_qos_yaml(topic)
+        if topic != '/bench/joint_states':   # ours is deeper: 20 000 (topics.SAMPLES)
+            assert qos.bag_yaml() == bagio.default_qos_yaml(topic)
 
 
 def test_adapter_publishes_core_outputs(ros_domain: int) -> None:

@@ -4,9 +4,17 @@
   the core from their values (so ``--params-file config/<node>.yaml`` sets them);
 * subscribes to ``core.subscriptions`` with the QoS of ``topics.TOPICS``
   (/bench/scene transient local depth 1, created first; /bench/joint_states reliable
-  keep-last 1000); every callback calls ``core.handle(topic, msg, receive_time_ns)``;
+  keep-last 20 000, see ``topics.SAMPLES``); every callback calls
+  ``core.handle(topic, msg, receive_time_ns)``;
 * publishes the returned outputs on their topics with the documented QoS (reports
   transient local), converted by ``convert.to_message``;
+* cross-topic order: ROS keeps order within a topic only, so a /bench/feature_done
+  can overtake the last samples of its feature (seen live: the feature was split in
+  two). When the core consumes /bench/joint_states, every other message is held and
+  released in publication order (DDS ``source_timestamp`` from MessageInfo): just
+  before the first sample published after it, or once the sample subscription is
+  empty and has been idle for ``order_hold`` s. Samples already waiting in the reader
+  are taken at once (``take_message``) so nothing overtakes them;
 * a timer calls ``core.tick(now_ns)`` (idle timeouts);
 * on shutdown, after draining what already arrived, calls ``core.finish()``,
   publishes that, and waits (deadline) until every subscriber acknowledged.
@@ -16,6 +24,8 @@ keeps running: one bad message must not take the live graph down.
 from __future__ import annotations
 
 import functools
+import heapq
+import time
 import traceback
 from typing import Any, Sequence
 
@@ -24,7 +34,7 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 
 from cam_metrology.nodes import convert
-from cam_metrology.nodes.topics import SCENE, message_class, qos_of
+from cam_metrology.nodes.topics import JOINT_STATES, SCENE, message_class, qos_of
 from cam_metrology.outputs import Output, msgtype_of
 
 
@@ -51,18 +61,32 @@ def load_core(name: str) -> Any:
 
 
 def descriptor(name: str, default: Any, description: str) -> ParameterDescriptor:
-    """ParameterDescriptor; dynamic typing when the default says nothing about the type."""
+    """ParameterDescriptor; dynamic typing when the default says nothing about the type,
+    and for floats (so that ``-p rate:=5000``, parsed as an integer, is accepted and
+    converted by ``declare_parameters``)."""
     untyped = default is None or (isinstance(default, (list, tuple)) and not default)
-    return ParameterDescriptor(name=name, description=description, dynamic_typing=untyped)
+    return ParameterDescriptor(name=name, description=description,
+                               dynamic_typing=untyped or isinstance(default, float))
 
 
 def declare_parameters(node: Node, table: dict[str, tuple[Any, str]]) -> dict[str, Any]:
-    """Declare ``{name: (default, description)}`` on ``node``; returns the values in force."""
+    """Declare ``{name: (default, description)}`` on ``node``; returns the values in force.
+
+    Float parameters given as integers are converted; anything else of the wrong type
+    raises InputError naming the parameter.
+    """
+    from cam_design.errors import InputError
+
     values: dict[str, Any] = {}
     for name, (default, description) in table.items():
         value = list(default) if isinstance(default, tuple) else default
         param = node.declare_parameter(name, value, descriptor(name, default, description))
-        values[name] = param.value
+        got = param.value
+        if isinstance(default, float) and not isinstance(default, bool):
+            if isinstance(got, bool) or not isinstance(got, (int, float)):
+                raise InputError(f'{node.get_name()}.{name}', got, 'a number')
+            got = float(got)
+        values[name] = got
     return values
 
 
@@ -70,7 +94,7 @@ class CoreNode(Node):
     """A ROS node that feeds a node core and publishes its outputs."""
 
     def __init__(self, core_cls: Any, *, context: Any = None, node_name: str | None = None,
-                 tick_period: float = 0.1) -> None:
+                 tick_period: float = 0.1, order_hold: float = 0.25) -> None:
         super().__init__(node_name or core_cls.name, context=context)
         self.params = declare_parameters(self, dict(getattr(core_cls, 'PARAMETERS', {})))
         self.core = core_cls(self.params)
@@ -80,15 +104,27 @@ class CoreNode(Node):
         self._pubs: dict[str, Any] = {}
         for topic, type_name in self.core.publications.items():
             self._publisher(topic, type_name)
-        self._subs = []
+        self._subs: dict[str, Any] = {}
+        self._held: list[tuple[int, int, str, Any]] = []   # (source ns, seq, topic, msg)
+        self._seq = 0
+        self._order_hold = order_hold
+        self._last_sample = 0.0        # monotonic s of the last sample handled
         # the scene first: with several ready subscriptions, rclpy's executor takes
         # them in creation order, so the scene is handled before samples.
         topics = sorted(self.core.subscriptions.items(), key=lambda item: item[0] != SCENE)
+        self._ordered = JOINT_STATES in self.core.subscriptions
         for topic, type_name in topics:
-            self._subs.append(self.create_subscription(
-                message_class(type_name), topic, functools.partial(self._on_message, topic),
-                qos_of(topic).profile()))
+            if topic == JOINT_STATES:
+                callback: Any = self._on_sample
+            elif self._ordered:
+                callback = functools.partial(self._on_held, topic)
+            else:
+                callback = functools.partial(self._on_message, topic)
+            self._subs[topic] = self.create_subscription(
+                message_class(type_name), topic, callback, qos_of(topic).profile())
         self._timer = self.create_timer(tick_period, self._on_tick)
+        if self._ordered:
+            self._order_timer = self.create_timer(min(0.05, order_hold), self._on_order_timer)
 
     # -- publishing -----------------------------------------------------------------
     def _publisher(self, topic: str, type_name: str) -> Any:
@@ -127,11 +163,63 @@ class CoreNode(Node):
         self.callbacks_run += 1
         self._guarded(f'handle({topic})', self.core.handle, topic, msg, self.now_ns())
 
+    # -- cross-topic ordering (only when the core consumes /bench/joint_states) -------
+    def _on_held(self, topic: str, msg: Any, info: Any) -> None:
+        self.callbacks_run += 1
+        self._seq += 1
+        heapq.heappush(self._held, (_source_ns(info), self._seq, topic, msg))
+        self._take_waiting_samples()
+
+    def _on_sample(self, msg: Any, info: Any) -> None:
+        self.callbacks_run += 1
+        self._deliver_sample(msg, _source_ns(info))
+
+    def _deliver_sample(self, msg: Any, source_ns: int) -> None:
+        while self._held and self._held[0][0] <= source_ns:
+            self._release_one()
+        self._last_sample = time.monotonic()
+        self._guarded(f'handle({JOINT_STATES})', self.core.handle, JOINT_STATES, msg,
+                      self.now_ns())
+
+    def _release_one(self) -> None:
+        _, _, topic, msg = heapq.heappop(self._held)
+        self._guarded(f'handle({topic})', self.core.handle, topic, msg, self.now_ns())
+
+    def _take_waiting_samples(self) -> None:
+        """Handle the samples already in the reader (in order) while messages are held."""
+        sub = self._subs.get(JOINT_STATES)
+        while self._held and sub is not None:
+            try:
+                with sub.handle:
+                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+            except Exception:  # noqa: BLE001 (destroyed handle at shutdown)
+                return
+            if taken is None:
+                return
+            self.callbacks_run += 1
+            self._deliver_sample(taken[0], _source_ns(taken[1]))
+
+    def _on_order_timer(self) -> None:
+        if not self._held:
+            return
+        self._take_waiting_samples()
+        if self._held and time.monotonic() - self._last_sample >= self._order_hold:
+            while self._held:
+                self._release_one()
+
+    def release_held(self) -> None:
+        """Hand every held message to the core (shutdown)."""
+        self._take_waiting_samples()
+        while self._held:
+            self._release_one()
+
     def _on_tick(self) -> None:
         self._guarded('tick', self.core.tick, self.now_ns())
 
     def finish(self, ack_timeout: float = 5.0) -> bool:
-        """Call ``core.finish()``, publish its outputs, wait until they are acknowledged."""
+        """Release held messages, call ``core.finish()``, publish its outputs, and wait
+        (deadline) until they are acknowledged."""
+        self.release_held()
         self._guarded('finish', self.core.finish)
         return self.wait_acked(ack_timeout)
 
@@ -141,6 +229,14 @@ class CoreNode(Node):
         for pub in self._pubs.values():
             ok = pub.wait_for_all_acked(Duration(seconds=timeout)) and ok
         return ok
+
+
+def _source_ns(info: Any) -> int:
+    """Publication time [ns] of a received message (MessageInfo dict; 0 if absent)."""
+    try:
+        return int(info['source_timestamp'])
+    except (TypeError, KeyError):
+        return 0
 
 
 def run_core_node(name: str, args: Sequence[str] | None = None, *,

@@ -4,11 +4,14 @@ From a scene file it runs ``simulate.simulate(scene, SimParams(...))`` and publi
 1. ``/bench/scene`` (the scene YAML) and ``/bench/truth`` (JSON of the run's truth),
    both transient local depth 1;
 2. waits (deadline ``match_timeout``) until ``wait_subscribers`` subscriptions have
-   matched on /bench/joint_states and /bench/scene and have acknowledged the scene;
+   matched on /bench/joint_states, /bench/scene and /bench/feature_done, and have
+   acknowledged the scene (Fast DDS acknowledges on its heartbeat: up to 3 s);
 3. ``/bench/joint_states``, one sample per message (name = camshaft, probe; position =
    theta [rad], s [m]; header.stamp = the simulated acquisition time; header.frame_id
-   = feature id), paced at ``rate`` messages/s by a paced loop (it catches up in
-   small bursts when the OS sleeps late, never more than ``max_burst`` at once);
+   = feature id), paced by a loop on the simulated stamps (``rate`` samples/s of
+   SimParams, with its ``feature_gap`` between features): each sample goes out when
+   its stamp is due on the wall clock; when the OS sleeps late the loop catches up in
+   small bursts, never more than ``max_burst`` back to back;
    ``/bench/feature_done`` (feature id) after the last sample of each feature;
 4. waits until every subscriber acknowledged everything, then exits (or idles until
    SIGINT if ``exit_when_done`` is false, keeping the latched scene available).
@@ -34,16 +37,13 @@ from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, SCENE, TOPIC
 
 PARAMETERS: dict[str, tuple[Any, str]] = {
     'scene_file': ('', 'scene YAML to simulate; empty: the embedded default scene'),
-    'rate': (2000.0, 'samples (messages) per second on /bench/joint_states; 0: unpaced '
-                     '(overruns Python subscribers: for benchmarks only)'),
-    'wait_subscribers': (1, 'subscriptions that must match /bench/joint_states and '
-                            '/bench/scene before the first sample'),
+    'wait_subscribers': (1, 'subscriptions that must match /bench/joint_states, '
+                            '/bench/scene and /bench/feature_done before the first sample'),
     'match_timeout': (10.0, 's to wait for those subscriptions (then exit 4)'),
     'ack_timeout': (10.0, 's to wait at the end until subscribers acknowledged everything'),
     'max_burst': (200, 'most samples published back to back when catching up'),
     'exit_when_done': (True, 'exit after the last feature; false: idle until SIGINT'),
 }
-RATE_FIELD = 'rate'
 
 
 def sim_param_table() -> dict[str, tuple[Any, str]]:
@@ -112,10 +112,7 @@ class BenchSimNode(Node):
                  overrides: dict[str, Any] | None = None) -> None:
         super().__init__(node_name, context=context)
         table = dict(PARAMETERS)
-        sim_table = sim_param_table()
-        if RATE_FIELD in sim_table:
-            table.pop(RATE_FIELD)   # SimParams defines the sample rate itself
-        table.update(sim_table)
+        table.update(sim_param_table())
         for name, value in (overrides or {}).items():
             table[name] = (value, table.get(name, (None, ''))[1])
         self.params = declare_parameters(self, table)
@@ -144,10 +141,10 @@ class BenchSimNode(Node):
         self.pub[SCENE].publish(String(data=self.scene_text))
         self.pub[TRUTH].publish(String(data=truth_json(self.run_data)))
 
-    def matched(self) -> tuple[int, int]:
-        """Matched subscriptions on (/bench/joint_states, /bench/scene)."""
-        return (self.pub[JOINT_STATES].get_subscription_count(),
-                self.pub[SCENE].get_subscription_count())
+    def matched(self) -> tuple[int, int, int]:
+        """Matched subscriptions on /bench/joint_states, /bench/scene, /bench/feature_done."""
+        return tuple(self.pub[t].get_subscription_count()  # type: ignore[return-value]
+                     for t in (JOINT_STATES, SCENE, FEATURE_DONE))
 
     def wait_for_subscribers(self, need: int, timeout: float) -> bool:
         """Wait (deadline) for ``need`` matches on samples and scene, and for the scene to
@@ -173,24 +170,27 @@ class BenchSimNode(Node):
                     raise
                 time.sleep(0.001)
 
-    def run(self, rate: float, max_burst: int = 200, should_stop: Any = None) -> int:
-        """Publish every sample at ``rate`` msgs/s (0: unpaced); returns samples sent."""
+    def run(self, max_burst: int = 200, should_stop: Any = None) -> int:
+        """Publish every sample when its stamp is due; returns the samples sent."""
         msg = JointState()
         msg.name = ['camshaft', 'probe']
-        period = 1.0 / rate if rate > 0 else 0.0
+        if not self.features:
+            return 0
+        stamp0 = int(self.features[0][3][0]) if self.features[0][3].size else 0
         t0 = time.monotonic()
+        burst = max(1, max_burst) * 1e9 / float(self.params.get('rate', 1000.0))
         k = 0
         for fid, theta, s, stamp in self.features:
             msg.header.frame_id = fid
             secs, nsecs = np.divmod(stamp, 1_000_000_000)
+            due_s = (stamp - stamp0) * 1e-9
             for i in range(theta.size):
-                if period:
-                    due = t0 + k * period
-                    now = time.monotonic()
-                    if due > now:
-                        time.sleep(due - now)
-                    elif now - due > max_burst * period:
-                        t0 += now - due - max_burst * period   # too late: drop the backlog
+                now = time.monotonic()
+                late = now - (t0 + due_s[i])
+                if late < 0:
+                    time.sleep(-late)
+                elif late * 1e9 > burst:
+                    t0 += late - burst * 1e-9   # too late: never burst more than max_burst
                 msg.header.stamp.sec = int(secs[i])
                 msg.header.stamp.nanosec = int(nsecs[i])
                 msg.position = [float(theta[i]), float(s[i])]
@@ -223,17 +223,18 @@ def run_bench_sim(args: Sequence[str] | None = None,
     try:
         node = proc.add(BenchSimNode(context=proc.context, overrides=overrides))
         p = node.params
-        rate = float(p.get(RATE_FIELD, 0.0))
+        rate = float(p.get('rate', 0.0))
         log = node.get_logger()
         log.info(f'{len(node.features)} features, {node.total_samples} samples at '
                  f'{rate:g}/s; waiting for {p["wait_subscribers"]} subscriber(s)')
         node.publish_latched()
         if not node.wait_for_subscribers(int(p['wait_subscribers']), float(p['match_timeout'])):
             log.error(f'only {node.matched()} of {p["wait_subscribers"]} subscriptions matched '
-                      f'(/bench/joint_states, /bench/scene) within {p["match_timeout"]} s')
+                      f'(/bench/joint_states, /bench/scene, /bench/feature_done) within '
+                      f'{p["match_timeout"]} s')
             return 4
         t0 = time.monotonic()
-        sent = node.run(rate, int(p['max_burst']), lambda: proc.stopping)
+        sent = node.run(int(p['max_burst']), lambda: proc.stopping)
         dt = time.monotonic() - t0
         acked = node.wait_acked(float(p['ack_timeout']))
         log.info(f'sent {sent} samples in {dt:.2f} s ({sent / max(dt, 1e-9):.0f}/s); '

@@ -53,8 +53,9 @@ class DemoOptions:
     rate: float | None = None
     timeout: float = 0.0            # s, 0: default (600 s)
     json_out: str | None = None
-    events_executor: bool = False
+    events_executor: bool = True    # recorder executor (see cli/ros_cmds.py --help)
     keep_logs: bool = False
+    sim_params: list[str] = field(default_factory=list)   # 'name:=value' for bench-sim
     startup_timeout: float = 60.0   # s until every node is in the graph
     report_timeout: float = 30.0    # s after the simulator finished
     stream: TextIO = field(default_factory=lambda: sys.stdout)
@@ -301,6 +302,8 @@ def run_demo(opts: DemoOptions) -> int:
                     '-p', f'wait_subscribers:={need_samples}', '-p', 'match_timeout:=30.0']
         if opts.rate is not None:
             sim_args += ['-p', f'rate:={float(opts.rate)}']
+        for item in opts.sim_params:
+            sim_args += ['-p', item]
         children['bench-sim'] = start_child('bench-sim', sim_args, env, log_dir)
         say(f'graph ready; bench-sim started ({scene.name})')
         deadline = t_start + (opts.timeout or 600.0)

@@ -9,11 +9,22 @@
   QoS are taken from the graph once a publisher appears).
 * QoS per topic from ``topics.TOPICS``: transient local for /bench/scene,
   /bench/truth and /metrology/report (so a late recorder still gets the latched
-  scene), reliable keep-last 1000 for samples, reliable depth 100 for outputs.
-* Log time = receive time: ``time.time_ns()`` when the callback runs (rosbag2 also logs
-  the receive time; the acquisition time stays in each message's header). rclpy
-  7.1.6 cannot hand MessageInfo to a raw subscription under SingleThreadedExecutor
-  (SystemError), so the callback clock is used with both executors.
+  scene), reliable keep-last 20 000 for samples (``topics.SAMPLES``: a busy machine
+  must not overrun it), reliable depth 100 for outputs.
+* Log time = publication time: the DDS ``source_timestamp`` of the sample (MessageInfo,
+  the publisher's clock; same host), falling back to the receive time when absent.
+  rosbag2 logs the receive time instead, but ROS orders messages only within a topic,
+  and SingleThreadedExecutor takes one message per ready subscription in turn: with
+  receive times a /bench/feature_done can land in the bag before the last samples of
+  its feature, and an offline analysis would then split that feature. Publication
+  times keep the bag in the order the bench produced it (a latched scene delivered
+  late keeps its original, earlier stamp). The acquisition time stays in each
+  message's header.
+* With ``events_executor`` the log time is the receive time (``time.time_ns()`` in the
+  callback): rclpy 7.1.6's EventsExecutor raises ``SystemError: null argument to
+  internal routine`` for every raw message whose callback takes MessageInfo (20 000 of
+  20 000 in a probe). Its callbacks run in event-arrival order across topics, which
+  keeps the publish order of one publisher in practice, but not by contract.
 * Stop (SIGINT/SIGTERM or end of a run): drain what already arrived, then
   ``writer.close()`` in ``finally`` so that metadata.yaml is always written.
 """
@@ -33,7 +44,7 @@ from cam_metrology.nodes.topics import (RESULTS, TOPICS, QosSpec, message_class,
 
 PARAMETERS: dict[str, tuple[Any, str]] = {
     'output': ('', 'bag directory to create (must not exist); empty: '
-                   'bags/rec_<UTC time> under the current directory'),
+                   'out/rec_<UTC time> under the current directory'),
     'topics': ('', 'extra topics, comma or space separated, each /topic or '
                    '/topic:pkg/msg/Type'),
     'record_defaults': (True, 'record the bench topics and every node output topic'),
@@ -57,16 +68,18 @@ def parse_topic_specs(text: str | Sequence[str]) -> dict[str, str | None]:
 
 
 def default_output() -> Path:
-    """bags/rec_<UTC time> under the current directory."""
-    return Path('bags') / time.strftime('rec_%Y%m%dT%H%M%SZ', time.gmtime())
+    """out/rec_<UTC time> under the current directory (git-ignored)."""
+    return Path('out') / time.strftime('rec_%Y%m%dT%H%M%SZ', time.gmtime())
 
 
 class RecorderNode(Node):
     """Subscribes raw to the configured topics and writes every message to a bag."""
 
     def __init__(self, *, context: Any = None, output: str | Path | None = None,
-                 topics: Sequence[str] | None = None, node_name: str = 'recorder') -> None:
+                 topics: Sequence[str] | None = None, node_name: str = 'recorder',
+                 with_info: bool = True) -> None:
         super().__init__(node_name, context=context)
+        self._with_info = with_info
         params = {name: self.declare_parameter(name, default,).value
                   for name, (default, _) in PARAMETERS.items()}
         self.params = params
@@ -94,14 +107,27 @@ class RecorderNode(Node):
         if period > 0:
             self._status = self.create_timer(period, self._log_status)
 
-    def _subscribe(self, topic: str, type_name: str, qos: QosSpec) -> None:
+    def _subscribe(self, topic: str, type_name: str, qos: QosSpec,
+                   reader: QosSpec | None = None) -> None:
+        """Record ``topic``: ``qos`` goes into the bag, ``reader`` (default ``qos``) is
+        the subscription's QoS."""
         self.writer.add_topic(topic, type_name, qos.bag_yaml())
         self.counts[topic] = 0
+        callback = self._on_message if self._with_info else self._on_message_no_info
         self._subs[topic] = self.create_subscription(
-            message_class(type_name), topic, functools.partial(self._on_message, topic),
-            qos.profile(), raw=True)
+            message_class(type_name), topic, functools.partial(callback, topic),
+            (reader or qos).profile(), raw=True)
 
-    def _on_message(self, topic: str, data: bytes) -> None:
+    def _on_message(self, topic: str, data: bytes, info: Any) -> None:
+        try:
+            stamp = int(info['source_timestamp']) or time.time_ns()
+        except (TypeError, KeyError):
+            stamp = time.time_ns()
+        self.writer.write(topic, stamp, data)
+        self.counts[topic] += 1
+        self.callbacks_run += 1
+
+    def _on_message_no_info(self, topic: str, data: bytes) -> None:
         self.writer.write(topic, time.time_ns(), data)
         self.counts[topic] += 1
         self.callbacks_run += 1
@@ -158,7 +184,8 @@ def run_recorder(args: Sequence[str] | None = None, *, output: str | Path | None
     proc = RosProcess(args, events_executor=events_executor)
     node = None
     try:
-        node = proc.add(RecorderNode(context=proc.context, output=output, topics=topics))
+        node = proc.add(RecorderNode(context=proc.context, output=output, topics=topics,
+                                     with_info=not events_executor))
         if announce:
             print(f'recording {len(node.counts) + len(node._pending)} topics to '
                   f'{node.path} (Ctrl-C to stop)', flush=True)
