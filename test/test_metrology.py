@@ -254,3 +254,28 @@ def test_huge_sample_count_is_fast_enough_and_exact():
     v = analyze_lobe(_feature(smp), CAM, 1, Settings()).values
     assert abs(_err_arcsec(v['angle_deg'], nose)) < 0.01
     assert v['samples_used'] == 108000
+
+
+def test_hermite_tabulation_matches_law():
+    from cam_metrology.metrology.flank_fit import HermiteLift
+    lo, hi = CAM.support
+    tab = HermiteLift(CAM, (lo, hi), np.radians(0.01))
+    a = np.random.default_rng(2).uniform(lo - 0.1, hi + 0.1, 5000)
+    assert np.max(np.abs(tab(a) - CAM(a))) < 1e-11
+    # h'' jumps at the ramp junction (60 deg): h' is still within 1e-5 relative there
+    assert np.max(np.abs(tab(a, 1) - CAM(a, 1))) < 1e-5 * np.max(np.abs(CAM(a, 1)))
+    assert tab(np.array([lo - 0.2, hi + 0.2])).tolist() == [0.0, 0.0]
+
+
+def test_pin_direction_minus_one_and_multi_pair():
+    centre = np.radians(271.5)
+    smp = sample_pin(PIN, centre, n_per_rev=3600, turn=-1, zero=0.02)
+    v = analyze_pin(_feature(smp, 'dowel_pin'), PIN, -1, Settings(sp_pairs=1)).values
+    assert abs(_err_arcsec(v['angle_deg'], centre)) < 0.01
+    assert abs(_err_arcsec(v['sensitive_point_angle_deg'], centre)) < 0.01
+
+
+def test_pin_with_too_few_samples_fails():
+    smp = sample_pin(PIN, 0.0, n_per_rev=90)
+    with pytest.raises(FeatureFailed):
+        analyze_pin(_feature(smp, 'dowel_pin'), PIN, 1, Settings())
