@@ -1,0 +1,162 @@
+"""One dynamics run as report data: arrays on the output grid, events, stress, epsilon.
+
+``run_sdof`` / ``run_model`` return a ``Run`` whose ``as_dict()`` is the JSON object of
+``cam-bench dynamics`` (``features.<id>.runs[]``) and whose ``table()`` is the
+/dynamics/valve_motion table. Angles of events are on the lobe's alpha axis [deg].
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam_design.errors import InputError, require_positive
+from cam_design.lift_laws.base import LiftLaw
+from cam_design.valve_train.epsilon import assess
+from cam_design.valve_train.params import SdofParams
+from cam_design.valve_train.sdof import SdofResult, simulate
+
+COLUMNS = ('alpha_rad', 'valve_lift_m', 'valve_velocity_m_per_s', 'contact_force_n',
+           'contact_stress_pa')
+
+
+@dataclass(frozen=True)
+class ContactGeometry:
+    """Cam-follower contact for the Hertz stress (methods.md §4.5, checks 2.5/2.11).
+
+    follower: 'flat' | 'roller' | 'knife'; radius [m] of a roller; base_radius R0 [m];
+    width W [m] of the contact line; youngs_modulus E [Pa] of both bodies (mu = 0.3).
+    """
+
+    base_radius: float
+    follower: str = 'flat'
+    radius: float = 0.0
+    width: float = 0.012
+    youngs_modulus: float = 2.06e11
+
+    def __post_init__(self) -> None:
+        require_positive('base_circle_radius', self.base_radius)
+        require_positive('cam_width', self.width)
+        require_positive('youngs_modulus', self.youngs_modulus)
+        if self.follower not in ('flat', 'roller', 'knife'):
+            raise InputError('follower', self.follower, 'flat | roller | knife')
+
+
+def contact_stress(law: LiftLaw, alpha: NDArray[np.float64], force: NDArray[np.float64],
+                   geom: ContactGeometry) -> NDArray[np.float64]:
+    """Hertz line-contact stress [Pa] at the cam for the cam-side force ``force`` [N]."""
+    from cam_design import checks
+
+    if geom.follower == 'flat':
+        rho1 = checks.flat_tappet_curvature(law(alpha), law(alpha, 2), geom.base_radius)
+        rho2 = math.inf
+    else:
+        from cam_design.follower import roller_profile
+        prof = roller_profile(law, geom.base_radius, geom.radius, alpha)
+        rho1 = prof.rho
+        rho2 = geom.radius if geom.radius > 0 else math.inf
+    # rho1 <= 0 is an undercut profile (flagged by the caller): |rho1| >= 0.1 mm there
+    rho1 = np.where(np.abs(rho1) < 1e-4, 1e-4, np.abs(rho1))
+    return checks.hertz_stress_steel(force, geom.width, rho1, rho2, e1=geom.youngs_modulus)
+
+
+@dataclass
+class Run:
+    """A run at one speed on the uniform output grid (SI arrays)."""
+
+    rpm: float
+    model: str
+    alpha: NDArray[np.float64]
+    lift: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    force: NDArray[np.float64]          # cam-follower contact force [N]
+    stress: NDArray[np.float64]
+    events: dict[str, Any] = field(default_factory=dict)
+
+    def table(self) -> NDArray[np.float64]:
+        """(rows, 5) in COLUMNS order."""
+        return np.column_stack([self.alpha, self.lift, self.velocity, self.force,
+                                self.stress])
+
+    def as_dict(self, arrays: bool = True) -> dict[str, Any]:
+        """JSON-ready dict: speed, arrays (deg / SI), then the events."""
+        out: dict[str, Any] = {'cam_speed_rpm': self.rpm, 'model': self.model}
+        if arrays:
+            out.update({
+                'alpha_deg': np.round(np.degrees(self.alpha), 10).tolist(),
+                'valve_lift_m': self.lift.tolist(),
+                'valve_velocity_m_s': self.velocity.tolist(),
+                'contact_force_n': self.force.tolist(),
+                'contact_stress_pa': self.stress.tolist(),
+            })
+        out.update(self.events)
+        return out
+
+
+def _deg(x: float | None) -> float | None:
+    return None if x is None else math.degrees(x)
+
+
+def sdof_events(res: SdofResult) -> dict[str, Any]:
+    """Event fields of a run (angles in deg on the lobe's alpha axis)."""
+    ev = res.events
+    return {
+        'opening_deg': _deg(ev.opening),
+        'closing_deg': _deg(ev.closing),
+        'separations': [[math.degrees(a), math.degrees(b)] for a, b in ev.separations],
+        'recontact_velocities_m_s': list(ev.recontact_velocities),
+        'jump': bool(ev.separations),
+        'seating_velocity_m_s': ev.seating_velocity,
+        'bounce_count': int(ev.bounce_count),
+        'bounce_height_m': float(ev.bounce_height),
+        'revolutions': int(res.revolutions),
+        'periodic_residual_m': float(res.periodic_residual),
+        'switches': int(ev.count),
+    }
+
+
+def run_sdof(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 0.1,
+             geometry: ContactGeometry | None = None, max_revolutions: int = 4) -> Run:
+    """SDOF run at ``rpm`` with arrays every ``step_deg`` and all report fields."""
+    res = simulate(law, params, rpm, step_deg=step_deg, max_revolutions=max_revolutions)
+    sel = res.uniform
+    alpha = res.alpha[sel]
+    force = res.cam_force[sel]
+    events = sdof_events(res)
+    return finish_run(law, params, rpm, 'sdof', alpha, res.y[sel], res.v[sel], force,
+                      events, geometry)
+
+
+def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
+               alpha: NDArray, lift: NDArray, velocity: NDArray, force: NDArray,
+               events: dict[str, Any], geometry: ContactGeometry | None) -> Run:
+    """Add stress, maxima and epsilon to a run."""
+    undercut = False
+    if geometry is not None:
+        stress = contact_stress(law, alpha, force, geometry)
+        if geometry.follower == 'flat':
+            undercut = bool(np.any(geometry.base_radius + law(alpha) + law(alpha, 2) <= 0))
+    else:
+        stress = np.zeros_like(force)
+    i_s = int(np.argmax(stress))
+    i_f = int(np.argmax(force))
+    eps = assess(law, params, rpm)
+    events = dict(events)
+    events.update({
+        'max_contact_force_n': float(force[i_f]),
+        'max_contact_force_deg': math.degrees(float(alpha[i_f])),
+        'max_contact_stress_pa': float(stress[i_s]) if geometry is not None else None,
+        'max_contact_stress_deg': math.degrees(float(alpha[i_s]))
+        if geometry is not None else None,
+        'profile_undercut': undercut,
+        'max_valve_lift_m': float(np.max(lift)),
+        'epsilon': eps.eps,
+        'epsilon_c': eps.eps_book_c,
+        'epsilon_predicted_amplitude_m': eps.predicted_amplitude_m,
+        'epsilon_recommendation': eps.recommendation,
+    })
+    return Run(rpm=float(rpm), model=model, alpha=alpha, lift=lift, velocity=velocity,
+               force=force, stress=stress, events=events)
