@@ -850,3 +850,88 @@ def ground_lift(law: LiftLaw, base_radius: float, design: Follower, wheel_radius
     path = wheel_centre_lift(law, base_radius, design, rw)
     return convert_lift(path, base_radius, Follower('roller', rw + dr),
                         design if target is None else target, key='ground lift')
+
+
+#: target angles per block in lift_from_profile (memory: block x points doubles).
+POINTS_BLOCK = 128
+
+
+def lift_from_profile(x: ArrayLike, y: ArrayLike, alpha: ArrayLike, follower: Follower,
+                      base_radius: float | None = None) -> NDArray[np.float64]:
+    """Lift [m] of a translating follower on a cam given by dense profile points (§2.6).
+
+    ``x, y`` [m]: profile points in the cam frame of :func:`flat_profile` (nose on +Y,
+    the follower axis at alpha is at theta = pi/2 + alpha), ordered along the closed
+    profile and roughly evenly spaced. Flat: h = max_i P_i.u - R0; roller/knife of
+    radius r: D = max over |P_i.u_perp| <= r of [P_i.u + sqrt(r^2 - (P_i.u_perp)^2)],
+    h = D - (R0 + r). The discrete max is refined by a parabola through the best point
+    and its two neighbours (error well below the raw ds^2/(8 rho)). ``base_radius`` R0
+    defaults to the smallest support/centre distance found (h >= 0). For exact
+    conversions of a design lift use :func:`convert_lift`; this is for measured or
+    drawn coordinates (and as an independent reference).
+    """
+    px = np.asarray(x, dtype=float).reshape(-1)
+    py = np.asarray(y, dtype=float).reshape(-1)
+    if px.size != py.size or px.size < 8:
+        raise InputError('profile', f'{px.size} x and {py.size} y values',
+                         'as many x as y values, at least 8 points')
+    if not (np.all(np.isfinite(px)) and np.all(np.isfinite(py))):
+        raise InputError('profile', 'non-finite coordinates', 'finite x, y in m')
+    if not isinstance(follower, Follower):
+        raise InputError('follower', follower, 'a cam_design.follower.Follower')
+    a = _alpha_grid(alpha)
+    r = _radius(follower)
+    if follower.kind == 'knife':
+        out = _radial_function(px, py, a + 0.5 * math.pi)
+    else:
+        out = _support_max(px, py, a, follower.kind == 'flat', r)
+    if base_radius is None:
+        base = float(np.min(out)) - r
+    else:
+        base = require_positive('base_radius', base_radius)
+    return out - base - r
+
+
+def _radial_function(px: NDArray[np.float64], py: NDArray[np.float64],
+                     theta: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance from the centre to a star-shaped closed curve in the directions theta
+    (periodic cubic spline of radius against polar angle)."""
+    from scipy.interpolate import CubicSpline
+
+    ang = np.arctan2(py, px)
+    order = np.argsort(ang)
+    ang, rad = ang[order], np.hypot(px, py)[order]
+    if np.any(np.diff(ang) <= 0):
+        raise InputError('profile', 'repeated polar angles',
+                         'a profile seen once from the cam centre (star-shaped)')
+    spline = CubicSpline(np.append(ang, ang[0] + 2 * math.pi), np.append(rad, rad[0]),
+                         bc_type='periodic')
+    return spline(ang[0] + np.mod(theta - ang[0], 2 * math.pi))
+
+
+def _support_max(px: NDArray[np.float64], py: NDArray[np.float64], a: NDArray[np.float64],
+                 flat: bool, r: float) -> NDArray[np.float64]:
+    """Refined discrete max of the flat support / roller centre distance (§2.6)."""
+    out = np.empty(a.size)
+    n = px.size
+    for start in range(0, a.size, POINTS_BLOCK):
+        theta = a[start:start + POINTS_BLOCK, None] + 0.5 * math.pi
+        c, s = np.cos(theta), np.sin(theta)
+        along = px * c + py * s
+        if flat:
+            val = along
+        else:
+            across = -px * s + py * c
+            val = along + np.sqrt(np.clip(r * r - across * across, 0.0, None))
+            val = np.where(np.abs(across) <= r, val, -np.inf)
+        i = np.argmax(val, axis=1)
+        rows = np.arange(val.shape[0])
+        f0 = val[rows, (i - 1) % n]
+        f1 = val[rows, i]
+        f2 = val[rows, (i + 1) % n]
+        with np.errstate(divide='ignore', invalid='ignore'):
+            curv = f0 - 2.0 * f1 + f2
+            ok = np.isfinite(f0) & np.isfinite(f2) & (curv < 0)
+            peak = f1 - np.where(ok, (f2 - f0) ** 2 / (8.0 * curv), 0.0)
+        out[start:start + POINTS_BLOCK] = peak
+    return out

@@ -197,3 +197,42 @@ def test_converted_roller_profile_has_the_flat_designs_curvature() -> None:
     assert np.max(np.abs(prof.rho - rho1)) < 1e-12
     flat = flat_profile(law, r0, psi)      # and the same contact points
     assert np.max(np.hypot(prof.x - flat.x, prof.y - flat.y)) < 1e-15
+
+
+@pytest.mark.parametrize('follower,tol', [(Follower('flat'), 1e-12),
+                                          (Follower('roller', 0.008), 1e-9),
+                                          (Follower('knife'), 1e-13)])
+def test_lift_from_profile_points_on_the_disc(follower: Follower, tol: float) -> None:
+    from cam_design.follower import lift_from_profile
+
+    s = np.linspace(-math.pi, math.pi, 2000, endpoint=False)
+    prof = flat_profile(DiscLift(Follower('flat')), R0, s)
+    a = np.linspace(-math.pi, math.pi, 721)
+    want = DiscLift(follower)(a)
+    assert np.max(np.abs(lift_from_profile(prof.x, prof.y, a, follower, R0) - want)) < tol
+    assert np.max(np.abs(lift_from_profile(prof.x, prof.y, a, follower) - want)) < tol
+
+
+def test_lift_from_profile_agrees_with_convert_lift_on_a_real_lobe() -> None:
+    from cam_design.follower import convert_lift, lift_from_profile
+    from cam_design.lift_laws import from_spec
+
+    law = from_spec({'family': 'preset', 'name': 'flat_tappet_intake'}, 'test')
+    s = np.linspace(-math.pi, math.pi, 20000, endpoint=False)
+    prof = flat_profile(law, 0.0165, s)
+    ball = Follower('roller', 0.002)
+    a = np.linspace(-math.pi, math.pi, 361)
+    ref = lift_from_profile(prof.x, prof.y, a, ball, 0.0165)
+    exact = convert_lift(law, 0.0165, Follower('flat'), ball)(a)
+    assert np.max(np.abs(ref - exact)) < 1e-9
+
+
+def test_lift_from_profile_bad_input() -> None:
+    from cam_design.follower import lift_from_profile
+
+    with pytest.raises(InputError, match='profile'):
+        lift_from_profile([0.0, 1.0], [0.0, 1.0], [0.0], Follower('flat'))
+    with pytest.raises(InputError, match='profile'):
+        lift_from_profile(np.r_[np.ones(9), np.nan], np.ones(10), [0.0], Follower('flat'))
+    with pytest.raises(InputError, match='follower'):
+        lift_from_profile(np.ones(10), np.ones(10), [0.0], 'flat')
