@@ -185,9 +185,14 @@ class ConvertedLift(LiftLaw):
         self._edges: list[tuple[float, float]] = []    # (b, H_b) of straight flats
         self._breaks = self._breakpoints()
         self._build_table()
-        edges_set = bool(self._edges)
-        self.continuity_order = min(law.continuity_order, 1) if edges_set \
-            else law.continuity_order
+        # h' of the target steps on a plateau (straight flank under a flat target); h''
+        # steps at the ends of a flat (roller/knife target on a flat of a flat design)
+        if self._plateau:
+            self.continuity_order = 0
+        elif self._edges:
+            self.continuity_order = 1
+        else:
+            self.continuity_order = law.continuity_order
         self._cache: tuple[bytes, NDArray[np.float64]] | None = None
 
     # --- profile description -----------------------------------------------------------
@@ -321,6 +326,7 @@ class ConvertedLift(LiftLaw):
         pts.append(grid)
         s = np.unique(np.concatenate([np.asarray(p, dtype=float) for p in pts]))
         angle, _ = self._target_jets(s)
+        self._plateau = bool(np.any(np.abs(angle[1]) < PLATEAU_TOL))
         a = angle[0]
         if edges:
             a[-1] = a[0] + 2 * math.pi

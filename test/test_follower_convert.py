@@ -339,3 +339,12 @@ def test_noisy_table_round_trip() -> None:
     back = convert_lift(convert_lift(law, 0.03, FLAT, roller), 0.03, roller, FLAT)
     x = np.linspace(-math.pi, math.pi, 2001)
     assert np.max(np.abs(back(x) - law(x))) < 1e-12
+
+
+def test_continuity_order_reports_steps() -> None:
+    lobe = RampLobe()                       # h' steps: continuity 0
+    roller = Follower('roller', 0.01)
+    there = convert_lift(lobe, 0.018, FLAT, roller)
+    assert there.continuity_order == 1      # the roller's h' is continuous, h'' steps
+    assert convert_lift(there, 0.018, roller, FLAT).continuity_order == 0
+    assert convert_lift(smooth_bump(0.004, 1.5), 0.03, FLAT, roller).continuity_order == 3
