@@ -1,0 +1,68 @@
+"""`cam-bench demo` end to end on a short scene at a high rate (subprocess).
+
+The demo claims its own domain (flock) and runs every node as a subprocess; the bag
+it leaves must open with rosbags and with mcap (no part of this package) and hold
+/bench/scene, /bench/joint_states (every sample) and the output topics of every core
+that exists; the printed report scores each feature against /bench/truth.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from test_ros_sim_record import short_scene
+
+pytestmark = pytest.mark.ros
+
+CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
+
+
+def test_demo_end_to_end(ros_domain: int, tmp_path: Path, config_dir: Path) -> None:
+    from rosbags.highlevel import AnyReader
+
+    from cam_metrology.registry import available_cores
+
+    scene = short_scene(config_dir, tmp_path / 'scene.yaml')
+    bag = tmp_path / 'demo_bag'
+    env = dict(os.environ)
+    env.pop('ROS_DOMAIN_ID', None)   # the demo claims a domain of its own
+    out = subprocess.run([sys.executable, '-c', CLI, 'demo', '--scene', str(scene), '--out',
+                          str(bag), '--rate', '6000', '--timeout', '120'], env=env,
+                         capture_output=True, text=True, timeout=180)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert f'bag: {bag}' in out.stdout
+    assert 'demo took' in out.stdout
+    cores = available_cores()
+    with AnyReader([bag]) as reader:
+        counts: dict[str, int] = {}
+        for conn in reader.connections:
+            counts[conn.topic] = counts.get(conn.topic, 0) + conn.msgcount
+        scene_msgs = [reader.deserialize(raw, c.msgtype).data for c, _, raw in
+                      reader.messages([c for c in reader.connections
+                                       if c.topic == '/bench/scene'])]
+    assert scene_msgs == [scene.read_text(encoding='utf-8')]
+    assert counts['/bench/joint_states'] == 2 * 3600
+    assert counts['/bench/feature_done'] == 2 and counts['/bench/truth'] == 1
+    for name, cls in cores.items():
+        for topic in cls.publications:
+            assert topic in counts, f'{name}: {topic} not in the bag'
+        result = f'/{name}/result'
+        if result in cls.publications:
+            assert counts[result] >= 1, f'{name} published no result'
+    if 'metrology' in cores:
+        assert counts['/metrology/report'] >= 1
+        for fid in ('lobe_1', 'dowel_pin'):
+            line = next(ln for ln in out.stdout.splitlines() if ln.startswith(fid))
+            assert 'FAILED' not in line, line
+    # the mcap library reads the same bag with no part of this package
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    with open(next(bag.glob('*.mcap')), 'rb') as f:
+        topics = [c.topic for _, c, _, _ in make_reader(
+            f, decoder_factories=[DecoderFactory()]).iter_decoded_messages()]
+    assert topics.count('/bench/joint_states') == 2 * 3600
+    assert '/bench/scene' in topics
