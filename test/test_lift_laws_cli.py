@@ -98,3 +98,16 @@ def test_check_json(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     f.write_text(CHECK.replace('rocker_ratio: 1.0', 'rocker_ratio: -1.0'))
     assert main(['design', 'check', str(f)]) == 2
     assert 'check.rocker_ratio' in capsys.readouterr().err
+
+
+def test_law_from_scene_lobe(capsys: pytest.CaptureFixture) -> None:
+    """design law on a scene file selects a lobe by id (default scene, lobe_2)."""
+    from pathlib import Path
+
+    scene = Path(__file__).resolve().parent.parent / 'config' / 'default_scene.yaml'
+    assert main(['design', 'law', str(scene), '--lobe', 'lobe_2', '--step-deg', '30',
+                 '--json', '-']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc['max_lift_mm'] == pytest.approx(7.9, abs=1e-9)
+    assert main(['design', 'law', str(scene), '--lobe', 'nope']) == 2
+    assert '--lobe' in capsys.readouterr().err

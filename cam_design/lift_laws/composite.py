@@ -27,9 +27,9 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_design.lift_laws import params as P
-from cam_design.lift_laws.ramps import Ramp, ramp_from_spec
+from cam_design.lift_laws.ramps import Ramp
 from cam_design.lift_laws.segments import (SHAPES, Flank, PiecewiseLaw, Segment, ShapeSegment,
-                                           assemble_lobe, shape_integral)
+                                           shape_integral)
 
 
 def _s(shape: str, poly: Sequence[float], u: float, order: int) -> float:
@@ -125,19 +125,9 @@ def composite_flank(ramp: Ramp, rise: float, shapes: Sequence[tuple[str, float, 
 
 def composite_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
     """``family: composite``: see docs/lift_laws.md."""
-    from cam_design.lift_laws.laws import fall_spec, rise_from
+    from cam_design.lift_laws.laws import flanked_lobe
 
-    allowed = ('ramp', 'rise', 'max_lift', 'segments', 'continuity', 'ratios', 'fall')
-    P.reject_unknown(spec, key, allowed)
-    ramp = ramp_from_spec(spec.get('ramp'), f'{key}.ramp')
-    rise = rise_from(spec, key, ramp.height)
-    rise_flank = _flank(spec, key, ramp, rise)
-    fall = fall_spec(spec, key, ('ramp', 'segments', 'continuity', 'ratios'))
-    fall_flank = None
-    if fall is not None:
-        framp = ramp_from_spec(fall.get('ramp'), f'{key}.fall.ramp')
-        fall_flank = _flank(fall, f'{key}.fall', framp, ramp.height + rise - framp.height)
-    return assemble_lobe(rise_flank, fall_flank, key=key, name='composite')
+    return flanked_lobe(spec, key, ('segments', 'continuity', 'ratios'), _flank, 'composite')
 
 
 def _flank(spec: Mapping, key: str, ramp: Ramp, rise: float) -> Flank:
@@ -179,19 +169,10 @@ def constant_acceleration_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
     optional nose_width (phi3) and nose_ratio r = a3/a2 in (0, 1] for the 3-segment
     variant; optional fall {ramp, half_angle, positive_width, nose_width, nose_ratio}.
     """
-    from cam_design.lift_laws.laws import fall_spec, rise_from
+    from cam_design.lift_laws.laws import flanked_lobe
 
     names = ('half_angle', 'positive_width', 'nose_width', 'nose_ratio')
-    P.reject_unknown(spec, key, ('ramp', 'rise', 'max_lift', 'fall') + names)
-    ramp = ramp_from_spec(spec.get('ramp'), f'{key}.ramp')
-    rise = rise_from(spec, key, ramp.height)
-    rise_flank = _ca_flank(spec, key, ramp, rise)
-    fall = fall_spec(spec, key, ('ramp',) + names)
-    fall_flank = None
-    if fall is not None:
-        framp = ramp_from_spec(fall.get('ramp'), f'{key}.fall.ramp')
-        fall_flank = _ca_flank(fall, f'{key}.fall', framp, ramp.height + rise - framp.height)
-    return assemble_lobe(rise_flank, fall_flank, key=key, name='constant_acceleration')
+    return flanked_lobe(spec, key, names, _ca_flank, 'constant_acceleration')
 
 
 def _ca_flank(spec: Mapping, key: str, ramp: Ramp, rise: float) -> Flank:

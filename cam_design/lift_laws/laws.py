@@ -1,16 +1,14 @@
-"""Spec builders of the polynomial, constant-acceleration and table families."""
+"""Spec handling shared by the flank families; the polynomial and table families."""
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 from cam_design.errors import InputError
 from cam_design.lift_laws import params as P
 from cam_design.lift_laws.base import LiftLaw, TabulatedLift
 from cam_design.lift_laws.polynomial import polynomial_flank
-from cam_design.lift_laws.ramps import ramp_from_spec
-from cam_design.lift_laws.segments import PiecewiseLaw, assemble_lobe
-
-POLY_KEYS = ('ramp', 'rise', 'max_lift', 'half_angle', 'exponents', 'fall')
+from cam_design.lift_laws.ramps import Ramp, ramp_from_spec
+from cam_design.lift_laws.segments import Flank, PiecewiseLaw, assemble_lobe
 
 
 def rise_from(spec: Mapping, key: str, ramp_height: float) -> float:
@@ -41,15 +39,22 @@ def fall_spec(spec: Mapping, key: str, allowed: tuple[str, ...]) -> dict[str, An
     return merged
 
 
-def polynomial_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
-    """``family: polynomial`` (§1.4): ramp + 4-exponent polynomial base section."""
-    P.reject_unknown(spec, key, POLY_KEYS)
+FlankBuilder = Callable[[Mapping, str, Ramp, float], Flank]
+
+
+def flanked_lobe(spec: Mapping, key: str, names: tuple[str, ...], build: FlankBuilder,
+                 name: str) -> PiecewiseLaw:
+    """Spec handling shared by the ramp + base-section families.
+
+    ``names``: the family's own parameters (besides ramp, rise|max_lift, fall);
+    ``build(spec, key, ramp, rise)`` makes one flank. The optional ``fall`` mapping
+    takes the same parameters (defaults from the rise flank); its rise follows from
+    the nose lift."""
+    P.reject_unknown(spec, key, ('ramp', 'rise', 'max_lift', 'fall') + names)
     ramp = ramp_from_spec(spec.get('ramp'), f'{key}.ramp')
     rise = rise_from(spec, key, ramp.height)
-    rise_flank = polynomial_flank(ramp, rise, P.positive(spec, key, 'half_angle'),
-                                  P.integers(spec, key, 'exponents', [2, 6, 10, 14]),
-                                  key=key)
-    fall = fall_spec(spec, key, ('ramp', 'half_angle', 'exponents'))
+    rise_flank = build(spec, key, ramp, rise)
+    fall = fall_spec(spec, key, ('ramp',) + names)
     fall_flank = None
     if fall is not None:
         fk = f'{key}.fall'
@@ -58,10 +63,19 @@ def polynomial_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
         if frise <= 0:
             raise InputError(f'{fk}.ramp.height', framp.height,
                              'a fall ramp lower than the nose lift')
-        fall_flank = polynomial_flank(framp, frise, P.positive(fall, fk, 'half_angle'),
-                                      P.integers(fall, fk, 'exponents', [2, 6, 10, 14]),
-                                      key=fk)
-    return assemble_lobe(rise_flank, fall_flank, key=key, name='polynomial')
+        fall_flank = build(fall, fk, framp, frise)
+    return assemble_lobe(rise_flank, fall_flank, key=key, name=name)
+
+
+def _polynomial_flank(spec: Mapping, key: str, ramp: Ramp, rise: float) -> Flank:
+    return polynomial_flank(ramp, rise, P.positive(spec, key, 'half_angle'),
+                            P.integers(spec, key, 'exponents', [2, 6, 10, 14]), key=key)
+
+
+def polynomial_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
+    """``family: polynomial`` (§1.4): ramp + polynomial base section."""
+    return flanked_lobe(spec, key, ('half_angle', 'exponents'), _polynomial_flank,
+                        'polynomial')
 
 
 def table_from_spec(spec: Mapping, key: str) -> LiftLaw:

@@ -29,6 +29,10 @@ FAMILIES: dict[str, str] = {
 
 DEG = math.pi / 180.0
 
+#: the §1.1 example ramp with a 25 deg angle (0.3 mm, 0.015 mm/deg)
+_RAMP_25 = {'kind': 'constant_acceleration_velocity', 'height': 3.0e-4,
+            'velocity': 0.015e-3 / DEG, 'angle': 25 * DEG}
+
 #: Named lobes usable in a scene as ``{family: preset, name: NAME}``.
 PRESETS: dict[str, dict[str, Any]] = {
     # Flat-tappet intake lobe for base_circle_radius 0.0165 m: S2 ramp (0.3 mm,
@@ -39,8 +43,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     # on this base circle (nose rho1 < 0 below ~66 deg).
     'flat_tappet_intake': {
         'family': 'polynomial',
-        'ramp': {'kind': 'constant_acceleration_velocity', 'height': 3.0e-4,
-                 'velocity': 0.015e-3 / DEG, 'angle': 25 * DEG},
+        'ramp': _RAMP_25,
         'rise': 8.2e-3,
         'half_angle': 65 * DEG,
         'exponents': [2, 10, 18, 26],
@@ -48,8 +51,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     # The worked example of methods.md §1.4 (H = 8 mm, alpha2 = 100 deg) on the §1.1 ramp.
     'methods_example': {
         'family': 'polynomial',
-        'ramp': {'kind': 'constant_acceleration_velocity', 'height': 3.0e-4,
-                 'velocity': 0.015e-3 / DEG, 'angle': 30 * DEG},
+        'ramp': dict(_RAMP_25, angle=30 * DEG),
         'rise': 8.0e-3,
         'half_angle': 50 * DEG,
         'exponents': [2, 6, 10, 14],

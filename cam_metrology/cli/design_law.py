@@ -23,7 +23,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    'mapping itself, see docs/lift_laws.md) and print a table '
                                    'of alpha [deg], h [mm], h\' [mm/rad], h\'\' [mm/rad^2], '
                                    'h\'\'\' [mm/rad^3].')
-    p.add_argument('file', help='YAML file with the lift law')
+    p.add_argument('file', help='YAML file with the lift law (or a scene file)')
+    p.add_argument('--lobe', metavar='ID', help='with a scene file: the lobe id (default '
+                                                'the first lobe)')
     p.add_argument('--step-deg', type=float, default=1.0, help='angle step [deg] (default 1)')
     p.add_argument('--csv', metavar='FILE|-', help='write the table as CSV')
     p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
@@ -49,7 +51,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_rocker)
 
 
-def _load_yaml(path: str) -> Any:
+def load_yaml(path: str) -> Any:
+    """Parse a YAML file; InputError naming the file if it is not valid YAML."""
     import yaml
 
     from cam_design.errors import InputError
@@ -61,7 +64,8 @@ def _load_yaml(path: str) -> Any:
             raise InputError(path, 'invalid YAML', f'a YAML document ({exc})') from None
 
 
-def _write(target: str, text: str) -> None:
+def write_text(target: str, text: str) -> None:
+    """Write ``text`` to the file ``target``, or to stdout for '-'."""
     if target == '-':
         sys.stdout.write(text)
     else:
@@ -69,14 +73,49 @@ def _write(target: str, text: str) -> None:
             f.write(text)
 
 
-def _law_spec(doc: Any, path: str) -> tuple[Any, str]:
+def law_spec(doc: Any, path: str, lobe: str | None = None) -> tuple[Any, str]:
+    """(lift_law mapping, key) from a YAML document: ``lift_law: {...}``, the mapping
+    itself, or a scene (``lobes: [...]``; ``lobe`` selects one by id, default the first)."""
     from cam_design.errors import InputError
 
+    if isinstance(doc, dict) and isinstance(doc.get('lobes'), list) and doc['lobes']:
+        ids = [lb.get('id') if isinstance(lb, dict) else None for lb in doc['lobes']]
+        i = ids.index(lobe) if lobe in ids else 0
+        if lobe is not None and lobe not in ids:
+            raise InputError('--lobe', lobe, 'one of ' + ', '.join(map(str, ids)))
+        item = doc['lobes'][i]
+        if isinstance(item, dict) and 'lift_law' in item:
+            return item['lift_law'], f'lobes[{i}].lift_law'
+        raise InputError(f'lobes[{i}]', ids[i], 'a lobe with a lift_law mapping')
     if isinstance(doc, dict) and 'lift_law' in doc:
         return doc['lift_law'], 'lift_law'
     if isinstance(doc, dict) and 'family' in doc:
         return doc, 'lift_law'
     raise InputError(path, type(doc).__name__, 'a mapping with lift_law: {family: ...}')
+
+
+def write_table(args: argparse.Namespace, columns: list[str], table: Any,
+                summary: dict[str, Any]) -> bool:
+    """Write ``table`` (rows x columns) to ``args.csv`` and/or ``args.json`` (with
+    ``summary``); returns True if anything was written."""
+    wrote = False
+    if getattr(args, 'csv', None):
+        lines = [','.join(columns)] + [','.join(f'{v:.12g}' for v in row) for row in table]
+        write_text(args.csv, '\n'.join(lines) + '\n')
+        wrote = True
+    if getattr(args, 'json', None):
+        doc = dict(summary, columns=list(columns), rows=table.tolist())
+        write_text(args.json, json.dumps(doc, indent=1) + '\n')
+        wrote = True
+    return wrote
+
+
+# kept for callers of the former private names (cli/design_profile.py)
+_load_yaml, _write = load_yaml, write_text
+
+
+def _law_spec(doc: Any, path: str) -> tuple[Any, str]:
+    return law_spec(doc, path)
 
 
 def cmd_law(args: argparse.Namespace) -> int:
@@ -86,7 +125,7 @@ def cmd_law(args: argparse.Namespace) -> int:
     from cam_design.errors import InputError
     from cam_design.lift_laws import from_spec
 
-    spec, key = _law_spec(_load_yaml(args.file), args.file)
+    spec, key = law_spec(load_yaml(args.file), args.file, args.lobe)
     law = from_spec(spec, key)
     step = args.step_deg
     if not (math.isfinite(step) and 1e-4 <= step <= 90):
@@ -99,18 +138,10 @@ def cmd_law(args: argparse.Namespace) -> int:
     d = law.derivatives(alpha)
     table = np.column_stack([np.degrees(alpha), d.T * 1e3])
     summary = {'family': spec.get('family'), 'support_deg': [math.degrees(lo), math.degrees(hi)],
-               'max_lift_mm': float(d[0].max()) * 1e3,
+               'max_lift_mm': max(float(d[0].max()), law.max_lift()) * 1e3,
                'continuity_order': int(law.continuity_order),
                'junctions_deg': [math.degrees(j) for j in law.junctions]}
-    wrote = False
-    if args.csv:
-        lines = [','.join(COLUMNS)] + [','.join(f'{v:.12g}' for v in row) for row in table]
-        _write(args.csv, '\n'.join(lines) + '\n')
-        wrote = True
-    if args.json:
-        doc = dict(summary, columns=list(COLUMNS), rows=table.tolist())
-        _write(args.json, json.dumps(doc, indent=1) + '\n')
-        wrote = True
+    wrote = write_table(args, list(COLUMNS), table, summary)
     if args.plot:
         _plot(args.plot, table, str(spec.get('family')))
     if not wrote:
@@ -148,7 +179,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     from cam_design.errors import InputError
     from cam_design.lift_laws import from_spec
 
-    doc = _load_yaml(args.file)
+    doc = load_yaml(args.file)
     if not isinstance(doc, dict):
         raise InputError(args.file, type(doc).__name__, 'a mapping (see docs/lift_laws.md)')
     if 'lift_law' not in doc:
@@ -157,7 +188,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     cfg = {k: v for k, v in doc.items() if k != 'lift_law'}
     res = run_checks(law, cfg)
     if args.json:
-        _write(args.json, json.dumps(res, indent=1) + '\n')
+        write_text(args.json, json.dumps(res, indent=1) + '\n')
     else:
         for k, v in res.items():
             print(f'{k:34s} {v:.6g}' if isinstance(v, float) else f'{k:34s} {v}')
@@ -184,7 +215,7 @@ def cmd_rocker(args: argparse.Namespace) -> int:
         out['eccentricity_m'] = r.eccentricity
         out['projected_frame_length_m'] = r.projected_frame_length
     if args.json:
-        _write(args.json, json.dumps(out, indent=1) + '\n')
+        write_text(args.json, json.dumps(out, indent=1) + '\n')
     else:
         for k, v in out.items():
             print(f'{k:26s} {v}')
