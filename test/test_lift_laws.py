@@ -152,7 +152,7 @@ def test_asymmetric_polynomial() -> None:
     ({'family': 'polynomial', 'ramp': RAMP, 'rise': 8e-3, 'half_angle': 1.0,
       'exponents': [2, 6, 6, 14]}, 'L.exponents'),
     ({'family': 'polynomial', 'ramp': RAMP, 'rise': 8e-3, 'half_angle': 1.0,
-      'exponents': [2, 6, 10]}, 'L.exponents'),
+      'exponents': [2, 4, 6, 8, 10, 12, 14, 16, 18]}, 'L.exponents'),
     ({'family': 'polynomial', 'ramp': dict(RAMP, height=0), 'rise': 8e-3,
       'half_angle': 1.0}, 'L.ramp.height'),
     ({'family': 'polynomial', 'ramp': {'kind': 'bogus'}, 'rise': 8e-3,
@@ -205,3 +205,17 @@ def test_every_docs_example_builds() -> None:
     for block in blocks:
         law = from_spec(yaml.safe_load(block)['lift_law'], 'docs')
         assert law.max_lift() > 0
+
+
+@pytest.mark.parametrize('exps,order', [([2, 4], 1), ([2, 6, 10], 2), ([2, 6, 10, 14, 18], 3),
+                                        ([2, 10, 20, 30, 40, 50], 3)])
+def test_other_exponent_counts(exps: list[int], order: int) -> None:
+    """n exponents fix h..h^(n-1) at the ramp end (CV ramp end: h'' = h''' = 0)."""
+    law = from_spec({'family': 'polynomial', 'ramp': RAMP, 'rise': 8 * MM,
+                     'half_angle': 50 * DEG, 'exponents': exps}, 'lobe')
+    ramp_end = [j for j in law.junction_report if abs(j.alpha + 50 * DEG) < 1e-12][0]
+    assert ramp_end.achieved == order
+    assert law(0.0) == pytest.approx(8.3 * MM, rel=1e-13)
+    with pytest.raises(InputError, match=r'^lobe\.exponents'):
+        from_spec({'family': 'polynomial', 'ramp': RAMP, 'rise': 8 * MM,
+                   'half_angle': 50 * DEG, 'exponents': [2]}, 'lobe')

@@ -1,5 +1,10 @@
 """High-order polynomial (高次方) cam, methods.md §1.4 (S2 eqs 2, 18-32 corrected).
 
+Any 2..8 exponents are accepted: n exponents fix h, h', ..., h^(n-1) at the ramp end
+(zero beyond h'), so 4 give C3 (the patent's five-term form), 3 give C2, 5 and more
+also zero h^(4).. there. Four exponents use the closed form below, other counts the
+exact rational solution of the moment system.
+
 Base section from the ramp end to the nose, x = 1 - (t - alpha_r)/alpha0 (x = 1 at the
 ramp end, 0 at the nose; alpha0 = half base-section angle = alpha2/2 of the patent):
 h = H_r + H + sum_i c_i x^i. Conditions at x = 1: h = H_r, h' = v_r, h'' = h''' = 0;
@@ -22,11 +27,14 @@ from cam_design.lift_laws.segments import Flank, PowerSegment, Segment, solve_mo
 MAX_EXPONENT = 60
 
 
-def check_exponents(exponents: Sequence[int], count: int, key: str) -> list[int]:
-    """``count`` distinct increasing integer exponents in 2..MAX_EXPONENT."""
+def check_exponents(exponents: Sequence[int], count: int | tuple[int, int],
+                    key: str) -> list[int]:
+    """``count`` (or a (min, max) range of) distinct increasing exponents in 2..60."""
     exps = [int(e) for e in exponents]
-    if len(exps) != count:
-        raise InputError(key, list(exponents), f'exactly {count} exponents')
+    lo, hi = (count, count) if isinstance(count, int) else count
+    if not lo <= len(exps) <= hi:
+        raise InputError(key, list(exponents), f'{lo} exponents' if lo == hi
+                         else f'{lo} to {hi} exponents')
     if any(e < 2 or e > MAX_EXPONENT for e in exps):
         raise InputError(key, list(exponents), f'exponents in 2..{MAX_EXPONENT}')
     if any(b <= a for a, b in zip(exps, exps[1:])):
@@ -82,11 +90,15 @@ def polynomial_flank(ramp: Ramp, rise: float, half_angle: float, exponents: Sequ
         raise InputError(f'{key}.rise', rise, 'a base-section rise > 0 m')
     if half_angle <= 0:
         raise InputError(f'{key}.half_angle', half_angle, 'a half base-section angle > 0 rad')
-    coeffs = polynomial_coefficients(exponents, rise, ramp.velocity, half_angle,
-                                     key=f'{key}.exponents')
+    exps = check_exponents(exponents, (2, 8), f'{key}.exponents')
+    if len(exps) == 4:
+        coeffs = polynomial_coefficients(exps, rise, ramp.velocity, half_angle,
+                                         key=f'{key}.exponents')
+    else:
+        coeffs = polynomial_coefficients_exact(exps, rise, ramp.velocity, half_angle)
     segs: list[Segment] = list(ramp.segments)
     segs.append(base_section(ramp.angle, ramp.height, rise, half_angle, coeffs))
-    end = 3 if ramp.end_acceleration == 0.0 else 1
+    end = min(3, len(exps) - 1) if ramp.end_acceleration == 0.0 else 1
     required = list(ramp.required) + [end] if not ramp.is_empty else [3]
     required.append(nose_order(exponents))
     return Flank(tuple(segs), tuple(required), nose_order=nose_order(exponents))
