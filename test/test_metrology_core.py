@@ -29,7 +29,8 @@ def scene_text(pin: bool = True, compute: str | None = None, direction: int = 1)
     table = {'alpha': a.tolist(), 'h': np.clip(CAM(a), 0.0, None).tolist()}
     lobes = []
     for i, fid in enumerate(NOSES, 1):
-        nominal = f'    nominal_phase: {float(np.radians(37.0 + 110 * (i - 1)))!r}\n' if i < 3 else ''
+        phase = float(np.radians(37.0 + 110 * (i - 1)))
+        nominal = f'    nominal_phase: {phase!r}\n' if i < 3 else ''
         lobes.append(f'  - id: {fid}\n{nominal}    follower: flat\n'
                      f'    lift: {json.dumps(table)}\n')
     text = (f'camshaft_id: test-cam-7\ndirection: {direction}\n'
