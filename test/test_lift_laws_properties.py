@@ -125,7 +125,7 @@ def test_composite_properties(r: dict, rise: float, w1: float, w2: float,
                          'segments': [{'shape': 'half_sine', 'width': w1},
                                       {'shape': second, 'width': w2}]}, 'L')
     except InputError as exc:     # ramp ending with acceleration (no CV part): not C2
-        assert exc.key == 'L.segments' and r['fraction'] == 1.0
+        assert exc.key == 'L.segments' and r['fraction'] > 1 - 1e-9
         return
     assert [j.achieved for j in law.junction_report][2] >= 2
     check_continuity(law)
