@@ -271,3 +271,57 @@ def test_invalid_family_parameters(spec: dict, key: str) -> None:
     with pytest.raises(InputError) as info:
         from_spec(spec, 'L')
     assert info.value.key == key, str(info.value)
+
+
+@pytest.mark.parametrize('spec,key', [
+    ({'family': 'polynomial', 'ramp': dict(S2_RAMP, velocity=float('nan')), 'rise': 8e-3,
+      'half_angle': 0.9}, 'L.ramp.velocity'),
+    ({'family': 'polynomial', 'ramp': S2_RAMP, 'max_lift': float('inf'),
+      'half_angle': 0.9}, 'L.max_lift'),
+    ({'family': 'constant_acceleration', 'ramp': CV_RAMP, 'rise': 8e-3, 'half_angle': 0.9,
+      'positive_width': float('nan')}, 'L.positive_width'),
+    ({'family': 'composite', 'ramp': CV_RAMP, 'rise': 8e-3,
+      'segments': [{'shape': 'half_sine', 'width': float('inf')}]}, 'L.segments[0].width'),
+    ({'family': 'composite', 'ramp': CV_RAMP, 'rise': 8e-3,
+      'segments': [{'shape': 'polynomial', 'width': 0.5, 'coefficients': [1, 'x']}]},
+     'L.segments[0].coefficients[1]'),
+    (dict(TRAIN, family='polydyne', valve_lift=8e-3, half_angle=0.9,
+          design_cam_speed_rpm=float('nan')), 'L.design_cam_speed_rpm'),
+    ({'family': 'harmonic', 'order': 5, 'half_angle': 1.0, 'max_lift': float('nan')},
+     'L.max_lift'),
+    ({'family': 'harmonic', 'order': 2.5, 'half_angle': 1.0, 'max_lift': 8e-3}, 'L.order'),
+    (dict(DUAL, rise=float('nan')), 'L.rise'),
+    ({'family': 'polynomial', 'ramp': S2_RAMP, 'rise': 8e-3, 'half_angle': 0.9,
+      'fall': {'half_angle': -1.0}}, 'L.fall.half_angle'),
+    ({'family': 'polynomial', 'ramp': S2_RAMP, 'rise': 8e-3, 'half_angle': 0.9,
+      'fall': {'ramp': dict(S2_RAMP, height=0.02)}}, 'L.fall.ramp.velocity'),
+    ({'family': 'table', 'alpha': [0, 1, 2], 'h': [0, 1, 0]}, 'L.alpha'),
+])
+def test_non_finite_and_nested_parameters(spec: dict, key: str) -> None:
+    """NaN/inf and nested bad values are rejected with the full dotted key (no NaN out)."""
+    with pytest.raises(InputError) as info:
+        from_spec(spec, 'L')
+    assert info.value.key == key, str(info.value)
+
+
+def test_asymmetric_constant_acceleration_and_composite() -> None:
+    """Explicit fall flanks: nose lift shared, h' = 0 on both sides of the nose,
+    different durations; the fall can use its own ramp."""
+    ca = from_spec({'family': 'constant_acceleration', 'ramp': CV_RAMP, 'rise': 8 * MM,
+                    'half_angle': 50 * DEG, 'positive_width': 15 * DEG,
+                    'fall': {'half_angle': 60 * DEG, 'positive_width': 20 * DEG,
+                             'ramp': S2_RAMP}}, 'L')
+    assert math.degrees(ca.support[0]) == pytest.approx(-70)
+    assert math.degrees(ca.support[1]) == pytest.approx(90)
+    assert ca(-1e-15) == pytest.approx(ca(1e-15), rel=1e-13)
+    assert ca.flank_is_monotone()
+    comp = from_spec({'family': 'composite', 'ramp': S2_RAMP, 'rise': 8 * MM,
+                      'segments': [{'shape': 'half_sine', 'width': 15 * DEG},
+                                   {'shape': 'quarter_sine', 'width': 35 * DEG}],
+                      'fall': {'segments': [{'shape': 'half_sine', 'width': 20 * DEG},
+                                            {'shape': 'quarter_sine', 'width': 40 * DEG}]}},
+                     'L')
+    assert math.degrees(comp.support[1]) == pytest.approx(90)
+    assert abs(comp(1e-15, 1)) < 1e-15 and abs(comp(-1e-15, 1)) < 1e-15
+    nose = [j for j in comp.junction_report if abs(j.alpha) < 1e-12][0]
+    assert nose.achieved >= 1
