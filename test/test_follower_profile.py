@@ -236,3 +236,16 @@ def test_lift_from_profile_bad_input() -> None:
         lift_from_profile(np.r_[np.ones(9), np.nan], np.ones(10), [0.0], Follower('flat'))
     with pytest.raises(InputError, match='follower'):
         lift_from_profile(np.ones(10), np.ones(10), [0.0], 'flat')
+
+
+def test_roller_rho_matches_book_formula_on_a_lobe() -> None:
+    # methods §2.2 (eq. 2.7 with erratum 5) written out, on a lobe with concave flanks
+    law = smooth_bump(0.006, 0.8)
+    r0, r = 0.012, 0.002
+    a = np.linspace(-math.pi, math.pi, 3001)
+    prof = roller_profile(law, r0, r, a)
+    g, g1, g2 = r0 + r + law(a), law(a, 1), law(a, 2)
+    rho_pitch = (g * g + g1 * g1) ** 1.5 / (g * g + 2 * g1 * g1 - g * g2)
+    assert np.max(np.abs(prof.rho_pitch - rho_pitch) / np.abs(rho_pitch)) < 1e-12
+    assert np.max(np.abs(prof.rho - (rho_pitch - r)) / np.abs(rho_pitch)) < 1e-12
+    assert np.any(rho_pitch < 0) and not prof.undercut.any()
