@@ -249,3 +249,20 @@ def test_roller_rho_matches_book_formula_on_a_lobe() -> None:
     assert np.max(np.abs(prof.rho_pitch - rho_pitch) / np.abs(rho_pitch)) < 1e-12
     assert np.max(np.abs(prof.rho - (rho_pitch - r)) / np.abs(rho_pitch)) < 1e-12
     assert np.any(rho_pitch < 0) and not prof.undercut.any()
+
+
+@pytest.mark.parametrize('target', [Follower('knife'), Follower('roller', 0.001),
+                                    Follower('roller', 0.004)])
+def test_concave_roller_design_converted_to_smaller_followers(target: Follower) -> None:
+    # a roller design with concave flanks: knives and rollers that fit the hollow are
+    # converted exactly (checked against the brute-force max over profile points)
+    from cam_design.follower import convert_lift, lift_from_profile
+
+    law = smooth_bump(0.006, 0.8)
+    r0, r = 0.012, 0.002
+    prof = roller_profile(law, r0, r, np.linspace(-math.pi, math.pi, 40000, endpoint=False))
+    assert np.min(prof.rho) < -0.005          # concave radius >= 5 mm somewhere
+    a = np.linspace(-math.pi, math.pi, 241)
+    conv = convert_lift(law, r0, Follower('roller', r), target)
+    ref = lift_from_profile(prof.x, prof.y, a, target, r0)
+    assert np.max(np.abs(conv(a) - ref)) < 1e-9
