@@ -66,13 +66,32 @@ def realistic() -> list[str]:
             f'{err[0]:.1e} | {err[1]:.1e} | {err[2]:.1e} | {err[3]:.1e} |']
 
 
+def brute_force() -> list[str]:
+    """Baseline of methods §2.6: max over sampled profile points (lift_from_profile)."""
+    from cam_design.follower import flat_profile, lift_from_profile
+
+    law = EccentricDiscLift(RC, E, Follower('flat'))
+    alpha = np.linspace(-math.pi, math.pi, 3600, endpoint=False)
+    rows = []
+    for target in (Follower('roller', R), Follower('knife')):
+        exact = EccentricDiscLift(RC, E, target)(alpha)
+        for points in (2000, 20000):
+            s = np.linspace(-math.pi, math.pi, points, endpoint=False)
+            prof = flat_profile(law, RC - E, s)
+            t, got = _best(lambda: lift_from_profile(prof.x, prof.y, alpha, target, RC - E), 2)
+            err = np.max(np.abs(got - exact))
+            rows.append(f'| baseline lift_from_profile ({points} profile points): flat -> '
+                        f'{target.kind} | 3600 | - | {t * 1e3:.1f} | {err:.1e} | - | - | - |')
+    return rows
+
+
 def main() -> None:
     """Run, print and write benchmarks/results/follower.md."""
     machine = describe()
     head = ['| conversion | points | build [ms] | evaluate h..h\'\'\' [ms] | max err h [m] | '
             'h\' [m/rad] | h\'\' [m/rad²] | h\'\'\' [m/rad³] |',
             '|---|---|---|---|---|---|---|---|']
-    rows = run() + realistic()
+    rows = run() + realistic() + brute_force()
     text = '\n'.join(['# convert_lift benchmark', '',
                       'Eccentric disc R_c = 20 mm, e = 5 mm, roller 8 mm (methods §7 #13); '
                       'errors against the closed forms of methods §2.1/§2.2. Build = '
