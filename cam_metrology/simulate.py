@@ -47,6 +47,12 @@ TWO_PI = 2.0 * math.pi
 DEFAULT_START_NS = 1_767_225_600 * 1_000_000_000
 
 
+def _doc(default: Any, doc: str) -> Any:
+    """A dataclass field with a description (``metadata['doc']``, used as the ROS
+    parameter description by the bench-sim node)."""
+    return field(default=default, metadata={'doc': doc})
+
+
 @dataclass(frozen=True)
 class SimParams:
     """Simulation parameters (SI: m, rad, s).
@@ -57,20 +63,23 @@ class SimParams:
     missing from a given dict are drawn as well.
     """
 
-    samples_per_rev: int = 3600        # encoder samples per revolution
-    revolutions: float = 1.0           # revolutions measured per feature
-    wrapped: bool = False              # theta wrapped to [0, 2 pi) instead of unwrapped
-    start_theta: float = 0.0           # rad, encoder angle of the first sample
-    probe_zero_offset: float = 5.0e-4  # m, probe reading on the base circle (arbitrary)
-    probe_noise: float = 0.0           # m, standard deviation of the probe noise
-    encoder_noise: float = 0.0         # rad, standard deviation of the encoder noise
-    seed: int = 0                      # random seed: true angles and noise
-    true_angles: dict[str, float] | None = None   # rad, see above
-    rate: float = 1000.0               # samples/s (stamps; the live node's rate)
-    pin_stop_depth: float = 5.0e-4     # m, probe stop below the pin's lowest contact lift
-    runout: float = 0.0                # m, base-circle run-out amplitude
-    feature_gap: float = 0.05          # s, pause between two features (stamps)
-    start_ns: int | None = None        # ns, stamp of the first sample
+    samples_per_rev: int = _doc(3600, 'encoder samples per camshaft revolution')
+    revolutions: float = _doc(1.0, 'revolutions measured per feature')
+    wrapped: bool = _doc(False, 'encoder angle wrapped to [0, 2 pi) instead of unwrapped')
+    start_theta: float = _doc(0.0, 'rad, encoder angle of the first sample')
+    probe_zero_offset: float = _doc(5.0e-4, 'm, probe reading on the base circle '
+                                    '(the probe zero is arbitrary)')
+    probe_noise: float = _doc(0.0, 'm, standard deviation of the probe noise')
+    encoder_noise: float = _doc(0.0, 'rad, standard deviation of the encoder noise')
+    seed: int = _doc(0, 'random seed of the true angles and of the noise')
+    true_angles: dict[str, float] | None = _doc(
+        None, 'feature id -> true nose / pin-centre encoder angle [rad]; None: from seed')
+    rate: float = _doc(1000.0, 'samples/s (stamps; publishing rate of the live node)')
+    pin_stop_depth: float = _doc(5.0e-4, 'm, the probe stop below the lowest pin-contact '
+                                 'lift (outside the pin contact)')
+    runout: float = _doc(0.0, 'm, base-circle run-out amplitude (once per revolution)')
+    feature_gap: float = _doc(0.05, 's, pause between two features (stamps)')
+    start_ns: int | None = _doc(None, 'ns, stamp of the first sample (None: 2026-01-01)')
 
     def validated(self) -> SimParams:
         """Raise InputError for an impossible parameter; return self."""
