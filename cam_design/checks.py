@@ -112,7 +112,20 @@ def flat_tappet_curvature(h: ArrayLike, h2: ArrayLike, base_radius: float) -> ND
     return r0 + _arr('h', h) + _arr('h2', h2)
 
 
-def hertz_stress(force: ArrayLike, width: float, rho1: ArrayLike, rho2: float = math.inf,
+def _curvature_sum(rho1: ArrayLike, rho2: ArrayLike) -> NDArray:
+    """1/|rho1| + 1/rho2 (rho2 signed: inf = flat, < 0 = concave), clipped at 0."""
+    r1 = np.abs(_arr('rho1', rho1))
+    if np.any(r1 == 0):
+        raise InputError('rho1', 0.0, 'a non-zero radius of curvature')
+    r2 = np.asarray(rho2, dtype=float)
+    if np.any(np.isnan(r2)) or np.any(r2 == 0):
+        raise InputError('rho2', 'nan or 0', 'a non-zero radius of curvature (inf: flat)')
+    with np.errstate(divide='ignore'):
+        inv2 = np.where(np.isinf(r2), 0.0, 1.0 / r2)
+    return np.maximum(1.0 / r1 + inv2, 0.0)
+
+
+def hertz_stress(force: ArrayLike, width: float, rho1: ArrayLike, rho2: ArrayLike = math.inf,
                  e1: float = 2.06e11, e2: float | None = None, mu1: float = 0.3,
                  mu2: float | None = None) -> NDArray:
     """(2.4) sigma = 0.564 sqrt(F (1/rho1 + 1/rho2) / [((1-mu1^2)/E1 + (1-mu2^2)/E2) W]).
@@ -125,16 +138,13 @@ def hertz_stress(force: ArrayLike, width: float, rho1: ArrayLike, rho2: float = 
     e2 = e1 if e2 is None else require_positive('e2', e2)
     mu2 = mu1 if mu2 is None else mu2
     f = np.maximum(_arr('force', force), 0.0)
-    r1 = np.abs(_arr('rho1', rho1))
-    if np.any(r1 == 0):
-        raise InputError('rho1', 0.0, 'a non-zero radius of curvature')
-    curv = 1 / r1 + (0.0 if math.isinf(rho2) else math.copysign(1 / abs(rho2), rho2))
+    curv = _curvature_sum(rho1, rho2)
     comp = (1 - mu1 ** 2) / e1 + (1 - mu2 ** 2) / e2
-    return HERTZ_GENERAL * np.sqrt(f * np.maximum(curv, 0.0) / (comp * w))
+    return HERTZ_GENERAL * np.sqrt(f * curv / (comp * w))
 
 
 def hertz_stress_steel(force: ArrayLike, width: float, rho1: ArrayLike,
-                       rho2: float = math.inf, e1: float = 2.06e11,
+                       rho2: ArrayLike = math.inf, e1: float = 2.06e11,
                        e2: float | None = None) -> NDArray:
     """(2.5) sigma = 0.418 sqrt(E_m F (1/rho1 + 1/rho2) / W), E_m = 2 E1 E2/(E1+E2),
     mu = 0.3; with rho2 = inf this is the flat-tappet form (2.11)."""
@@ -143,11 +153,8 @@ def hertz_stress_steel(force: ArrayLike, width: float, rho1: ArrayLike,
     e2 = e1 if e2 is None else require_positive('e2', e2)
     em = 2 * e1 * e2 / (e1 + e2)
     f = np.maximum(_arr('force', force), 0.0)
-    r1 = np.abs(_arr('rho1', rho1))
-    if np.any(r1 == 0):
-        raise InputError('rho1', 0.0, 'a non-zero radius of curvature')
-    curv = 1 / r1 + (0.0 if math.isinf(rho2) else math.copysign(1 / abs(rho2), rho2))
-    return HERTZ_STEEL * np.sqrt(em * f * np.maximum(curv, 0.0) / w)
+    curv = _curvature_sum(rho1, rho2)
+    return HERTZ_STEEL * np.sqrt(em * f * curv / w)
 
 
 # ---------------------------------------------------------------- forces (2.8-2.10)
@@ -276,9 +283,28 @@ def valve_piston_clearance(piston: ArrayLike, valve: ArrayLike, clearance: float
 
 
 # ---------------------------------------------------------------- all checks for a law
+def _follower(cfg: Mapping[str, Any], key: str) -> tuple[str, float]:
+    """(kind, roller radius) from the optional ``follower: {kind, radius}`` (flat)."""
+    from cam_design.lift_laws import params as P
+
+    raw = cfg.get('follower')
+    if raw is None:
+        return 'flat', 0.0
+    fk = f'{key}.follower'
+    raw = P.mapping(raw, fk)
+    kind = P.choice(raw, fk, 'kind', ('flat', 'roller', 'knife'))
+    if kind == 'roller':
+        return kind, P.positive(raw, fk, 'radius')
+    return kind, 0.0
+
+
 def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict[str, Any]:
-    """All §2.1 checks of a flat-tappet lift law; ``cfg`` is the parsed check input
-    (see docs/lift_laws.md "design check"). Returns a JSON-ready dict."""
+    """All §2.1 checks of a lift law; ``cfg`` is the parsed check input (see
+    docs/lift_laws.md "design check"). Flat tappet by default; with
+    ``follower: {kind: roller|knife, radius}`` the radius of curvature and pressure
+    angle come from ``cam_design.follower.roller_profile``, the contact force is divided
+    by cos(pressure angle), Hertz uses the roller radius, and the oil-film number (a
+    flat-tappet formula) is skipped. Returns a JSON-ready dict."""
     from cam_design.lift_laws import params as P
 
     key = 'check'
@@ -289,8 +315,17 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
     a = np.linspace(lo, hi, samples)
     h, h1, h2, _ = law.derivatives(a)
     y = rigid_valve_lift(h, k, x0)
-    rho = flat_tappet_curvature(h, h2, r0)
-    i_rho = int(np.argmin(rho))
+    kind, roller = _follower(cfg, key)
+    if kind == 'flat':
+        rho = flat_tappet_curvature(h, h2, r0)
+        cos_p = np.ones_like(a)
+    else:   # roller/knife geometry belongs to cam_design.follower (eq. 2.7, erratum 5)
+        from cam_design.follower import roller_profile
+
+        prof = roller_profile(law, r0, roller, a)
+        rho, cos_p = prof.rho, np.cos(prof.pressure_angle)
+    convex = rho > 0 if kind != 'flat' else np.ones(rho.shape, dtype=bool)
+    i_rho = int(np.argmin(np.where(convex, rho, np.inf))) if np.any(convex) else 0
     out: dict[str, Any] = {
         'max_lift_mm': float(h.max()) * 1e3,
         'max_valve_lift_mm': float(y.max()) * 1e3,
@@ -301,11 +336,19 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
         'min_acceleration_mm_per_rad2': float(h2.min()) * 1e3,
         'min_rho1_mm': float(rho[i_rho]) * 1e3,
         'min_rho1_alpha_deg': math.degrees(float(a[i_rho])),
-        'undercut': bool(rho[i_rho] <= 0),
-        'tappet_face_radius_min_mm': float(np.abs(h1).max()) * 1e3,
+        'follower': kind,
+        'undercut': bool(rho[i_rho] <= 0) if kind == 'flat' else bool(np.any(prof.undercut)),
     }
+    if kind == 'flat':
+        out['tappet_face_radius_min_mm'] = float(np.abs(h1).max()) * 1e3
+    else:
+        out['pressure_angle_max_deg'] = math.degrees(float(np.arccos(cos_p.min())))
+        if np.any(~convex):   # concave flank: its radius must exceed the roller radius
+            j = int(np.argmax(np.where(convex, -np.inf, rho)))
+            out['min_concave_radius_mm'] = float(-rho[j]) * 1e3
+            out['min_concave_radius_alpha_deg'] = math.degrees(float(a[j]))
     if y.max() > 0:
-        out['fullness'] = fullness(a, y)
+        out['fullness'] = float(fullness(a, y))
         open_ = np.nonzero(y > 0)[0]
         out['valve_open_deg'] = math.degrees(float(a[open_[0]]))
         out['valve_close_deg'] = math.degrees(float(a[open_[-1]]))
@@ -346,18 +389,19 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
         out['min_contact_force_alpha_deg'] = math.degrees(sep.alpha_at_min)
         out['no_separation'] = sep.ok
         contact = cfg.get('contact')
-        if contact is not None:
+        if contact is not None and kind != 'knife':   # no line contact for a knife edge
             ck = f'{key}.contact'
             contact = P.mapping(contact, ck)
             lifted = h > 0
-            sig = hertz_stress_steel(np.where(lifted, force, 0.0),
-                                     P.positive(contact, ck, 'width'), rho,
+            normal = np.where(lifted, force / cos_p, 0.0)
+            sig = hertz_stress_steel(normal, P.positive(contact, ck, 'width'), rho,
+                                     math.inf if kind == 'flat' else roller,
                                      e1=P.positive(contact, ck, 'youngs_modulus', 2.06e11))
             i = int(np.argmax(sig))
             out['max_hertz_stress_mpa'] = float(sig[i]) / 1e6
             out['max_hertz_stress_alpha_deg'] = math.degrees(float(a[i]))
     lub = cfg.get('lubrication')
-    if lub is not None:
+    if lub is not None and kind == 'flat':
         lk = f'{key}.lubrication'
         lub = P.mapping(lub, lk)
         lifted = h > 0

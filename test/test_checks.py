@@ -171,3 +171,41 @@ def test_run_checks_all_sections() -> None:
     assert out['min_valve_piston_clearance_mm'] > 0
     with pytest.raises(InputError, match='check.valve.seat_diameter'):
         C.run_checks(law, dict(cfg, valve={'seat_angle': 0.5}))
+
+
+@pytest.mark.parametrize('kind,radius', [('flat', 0.0), ('roller', 8 * MM), ('knife', 0.0)])
+def test_run_checks_eccentric_disc_case_13(kind: str, radius: float) -> None:
+    """#13 through run_checks: an eccentric disc (R_c = 20, e = 5 mm) has rho1 = 20 mm
+    for every follower (roller curvature comes from cam_design.follower, eq. 2.7 with
+    erratum 5: the roller radius is subtracted)."""
+    from cam_design.follower import EccentricDiscLift, Follower
+
+    law = EccentricDiscLift(20 * MM, 5 * MM, Follower(kind, radius))
+    cfg = {'base_radius': 15 * MM, 'follower': {'kind': kind, 'radius': radius}}
+    if kind == 'flat':
+        cfg.pop('follower')
+    out = C.run_checks(law, cfg, samples=721)
+    assert out['min_rho1_mm'] == pytest.approx(20.0, abs=1e-6)
+    assert out['follower'] == kind and not out['undercut']
+
+
+def test_run_checks_roller_hertz_and_pressure_angle() -> None:
+    """Roller follower: Hertz with 1/rho1 + 1/r on the normal force F/cos(phi); the
+    oil-film number (flat-tappet formula) is skipped; knife: no line contact."""
+    law = from_spec(PRESETS['flat_tappet_intake'], 'l')
+    cfg = {'base_radius': 16.5 * MM, 'cam_speed_rpm': 1000, 'lash': 0.0,
+           'spring': {'preload': 250.0, 'rate': 3e4},
+           'masses': {'valve': 0.05, 'spring': 0.03, 'retainer': 0.01},
+           'contact': {'width': 0.01}, 'lubrication': {'k_film': 1e-4},
+           'follower': {'kind': 'roller', 'radius': 12 * MM}}
+    out = C.run_checks(law, cfg)
+    assert 0 < out['pressure_angle_max_deg'] < 45
+    assert 'oil_film_nose_gamma' not in out
+    assert out['max_hertz_stress_mpa'] > 0
+    knife = C.run_checks(law, dict(cfg, follower={'kind': 'knife'}))
+    assert 'max_hertz_stress_mpa' not in knife
+    with pytest.raises(InputError, match='check.follower.radius'):
+        C.run_checks(law, dict(cfg, follower={'kind': 'roller'}))
+    # array rho2 (signed): concave cam against a roller
+    s = C.hertz_stress_steel([1000.0, 1000.0], 0.01, [8 * MM, 8 * MM], [-20 * MM, np.inf])
+    assert s[0] < s[1]
