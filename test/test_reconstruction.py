@@ -288,3 +288,37 @@ def test_exact_nominal_table_is_left_alone():
     assert rec.parameter['outliers'] == 0
     assert rec.max_residual < 1e-9
     assert rms_errors(rec, LOBE)[0] < 0.2e-6
+
+
+def test_smooth_grid_is_the_exact_weighted_penalised_fit():
+    from cam_metrology.reconstruction.spline import _neumann_cube_banded, smooth_grid
+
+    n = 60
+    main = np.full(n, 2.0)
+    main[0] = main[-1] = 1.0
+    lap = np.diag(main) - np.eye(n, k=1) - np.eye(n, k=-1)
+    cube = lap @ lap @ lap
+    ab = _neumann_cube_banded(n)
+    for k in range(4):
+        assert np.allclose(ab[3 - k, k:], np.diag(cube, k))
+    rng = np.random.default_rng(0)
+    y = np.sin(np.linspace(0, 3, n)) + rng.normal(0, 0.01, n)
+    missing = np.zeros(n, dtype=bool)
+    missing[20:27] = True
+    for lam in (1.0, 1e3, 1e6):
+        w = np.diag((~missing).astype(float))
+        ref = np.linalg.solve(w + lam * cube, w @ y)
+        assert np.allclose(smooth_grid(y, missing, lam), ref, atol=1e-10)
+        ref = np.linalg.solve(np.eye(n) + lam * cube, y)
+        assert np.allclose(smooth_grid(y, np.zeros(n, dtype=bool), lam), ref, atol=1e-10)
+
+
+def test_uneven_sampling_has_no_false_outliers():
+    """Per-point rebound noise factors: jitter changes std(r_i) by up to 5x."""
+    for seed in (4, 5):
+        a, h = simulate(LOBE, 3600, 0.5e-6, seed=seed, jitter=0.45)
+        assert rebound_fairing(a, h).outlier.sum() == 0
+        _, spiky = simulate(LOBE, 3600, 0.5e-6, seed=seed, jitter=0.45, outliers=10)
+        flagged = rebound_fairing(a, spiky).outlier
+        spikes = np.abs(spiky - h) > 1e-6
+        assert np.all(flagged[spikes]) and flagged.sum() <= 11

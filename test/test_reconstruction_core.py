@@ -172,3 +172,10 @@ def test_table_that_ends_on_a_flank_fails_full_basis_only(measured):
     assert st['lobe_1/spline'].level == WARN
     assert 'conversion to the design follower failed' in st['lobe_1/spline'].message
     assert set(tables(out)) == {'lobe_1/spline'}
+
+
+def test_config_file_holds_the_defaults():
+    doc = yaml.safe_load((REPO / 'config' / 'reconstruction.yaml').read_text())
+    params = doc['reconstruction']['ros__parameters']
+    assert params == {k: v[0] for k, v in ReconstructionCore.PARAMETERS.items()}
+    ReconstructionCore(params)
