@@ -26,7 +26,7 @@ def test_profile_csv_flat(table_file: Path, capsys: pytest.CaptureFixture) -> No
     lines = capsys.readouterr().out.strip().splitlines()
     assert lines[0].startswith('alpha_rad,x_m,y_m,pitch_x_m')
     rows = np.array([[float(v) for v in ln.split(',')] for ln in lines[1:]])
-    assert rows.shape == (360, 10)
+    assert rows.shape == (360, 14)
     base = np.abs(rows[:, 0]) > 1.65
     assert np.allclose(np.hypot(rows[base, 1], rows[base, 2]), 0.02, atol=1e-12)
     assert np.allclose(rows[base, 5], 0.02, atol=1e-9)       # rho1 = R0 on the base circle
@@ -136,3 +136,23 @@ def test_profile_rocker_polar_columns(table_file: Path, delta: str,
                        rtol=0, atol=1e-15)
     assert main(args[:-4] + ['--eta', '-1']) == 2
     assert 'error: --polar: got' in capsys.readouterr().err
+
+
+def test_profile_csv_carries_the_converted_lift(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture) -> None:
+    # the CLI as a conversion tool: an eccentric disc written for a flat tappet, seen by
+    # a 8 mm roller: D = e cos a + sqrt((Rc + r)^2 - e^2 sin^2 a) (methods §2.2)
+    rc, e, r = 0.02, 0.005, 0.008
+    a = np.linspace(-math.pi, math.pi, 721)
+    path = tmp_path / 'disc.yaml'
+    path.write_text(f'base_radius: {rc - e}\nalpha: {json.dumps(a.tolist())}\n'
+                    f'h: {json.dumps((e * (1 + np.cos(a))).tolist())}\n')
+    assert main(['design', 'profile', str(path), '--follower', 'roller', '--radius', str(r),
+                 '--design-follower', 'flat', '--csv', '-', '--step-deg', '1']) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    names = lines[0].split(',')
+    rows = np.array([[float(v) for v in ln.split(',')] for ln in lines[1:]])
+    x = rows[:, names.index('alpha_rad')]
+    want = e * np.cos(x) + np.sqrt((rc + r) ** 2 - (e * np.sin(x)) ** 2) - (rc - e + r)
+    assert np.max(np.abs(rows[:, names.index('lift_m')] - want)) < 1e-10   # table spline
+    assert 'jerk_m_per_rad3' in names

@@ -15,6 +15,8 @@ import math
 from typing import Any
 
 FOLLOWERS = ('flat', 'roller', 'knife', 'offset-roller', 'rocker')
+#: the lift used for the profile (converted with --design-follower) and its derivatives
+LIFT_COLUMNS = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk_m_per_rad3')
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -166,6 +168,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
     summary['undercut_intervals_deg'] = [[math.degrees(a), math.degrees(b)]
                                          for a, b in summary['undercut_intervals_rad']]
     cols = prof.columns()
+    cols.update(zip(LIFT_COLUMNS, law.derivatives(prof.alpha)))
     if args.polar:
         cols.update(_polar_columns(args, prof, law, base))
     names = list(cols)
