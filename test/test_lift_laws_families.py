@@ -325,3 +325,24 @@ def test_asymmetric_constant_acceleration_and_composite() -> None:
     assert abs(comp(1e-15, 1)) < 1e-15 and abs(comp(-1e-15, 1)) < 1e-15
     nose = [j for j in comp.junction_report if abs(j.alpha) < 1e-12][0]
     assert nose.achieved >= 1
+
+
+@pytest.mark.parametrize('start_deg,point_mm', [(2.0, 0.12), (5.0, 0.10), (9.0, 0.12),
+                                                (12.0, 0.15), (18.0, 0.10)])
+def test_dual_peak_connection_start_anywhere_on_the_ramp(start_deg: float,
+                                                         point_mm: float) -> None:
+    """The connection starts on the constant-velocity part (h3'' = 0) or on the
+    constant-acceleration part (h3'' = 2 C_B) of the main descending ramp: C2 either
+    way, or a clear rejection of the interior point (never a silent negative lift)."""
+    spec = dict(DUAL, connection=dict(DUAL['connection'], start=start_deg * DEG,
+                                      point_lift=point_mm * MM))
+    try:
+        law = from_spec(spec, 'L')
+    except InputError as exc:
+        assert exc.key == 'L.connection.point_lift'
+        return
+    cut = (50 + start_deg) * DEG
+    j = [j for j in law.junction_report if abs(j.alpha - cut) < 1e-12][0]
+    assert j.achieved >= 2
+    a = np.linspace(cut, cut + 40 * DEG, 2001)
+    assert law(a).min() >= 0
