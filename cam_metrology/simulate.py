@@ -139,6 +139,12 @@ def wrap_pi(x: NDArray[np.float64] | float) -> Any:
     return float(y) if np.ndim(y) == 0 else y
 
 
+def _wrap_2pi(x: float) -> float:
+    """Wrap an angle [rad] to [0, 2 pi) (np.mod can round up to 2 pi itself)."""
+    y = float(np.mod(x, TWO_PI))
+    return 0.0 if y >= TWO_PI else y
+
+
 def _wrap_deg_pm180(x: float) -> float:
     return 180.0 - (180.0 - x) % 360.0
 
@@ -193,9 +199,9 @@ def _true_angles(scene: Scene, params: SimParams) -> dict[str, float]:
             angle = pin_angle + lobe.nominal_phase + err
         else:
             angle = uniform
-        out[lobe.id] = float(np.mod(angle, TWO_PI))
+        out[lobe.id] = _wrap_2pi(angle)
     if pin is not None:
-        out[DOWEL_PIN] = float(np.mod(pin_angle, TWO_PI))
+        out[DOWEL_PIN] = _wrap_2pi(pin_angle)
     unknown = set(given) - set(out)
     if unknown:
         raise InputError('true_angles', sorted(unknown),

@@ -272,3 +272,46 @@ def test_scene_with_direction_rewrites_the_text():
     assert scene_with_direction(parse_scene(text), -1).direction == -1
     with pytest.raises(InputError):
         scene_with_direction(scene, 0)
+
+
+def test_true_angle_just_below_zero_wraps_into_range():
+    run = simulate(_scene(), SimParams(true_angles={'lobe_1': -1e-17, DOWEL_PIN: 2 * np.pi}))
+    assert run.truth['features']['lobe_1']['angle_deg'] == 0.0
+    assert run.truth['features'][DOWEL_PIN]['angle_deg'] == 0.0
+
+
+CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
+
+
+def _cli(*args):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, '-c', CLI, *args], capture_output=True,
+                          text=True, timeout=120)
+
+
+def test_cli_simulate_writes_a_bag_and_prints_the_truth(tmp_path):
+    out = tmp_path / 'sim'
+    res = _cli('simulate', str(out), '--samples-per-rev', '360', '--noise-um', '1',
+               '--seed', '7', '--direction', '-1', '--wrapped', '--quiet')
+    assert res.returncode == 0, res.stderr
+    assert 'wrote' in res.stdout and '"dowel_pin"' in res.stdout
+    truth = json.loads(res.stdout[res.stdout.index('{'):])
+    assert truth['direction'] == -1 and truth['probe_noise_m'] == 1e-6
+    (m,) = list(bagio.iter_messages(out, ['/bench/scene']))
+    assert parse_scene(m.msg.data).direction == -1
+    js = bagio.read_joint_states(out)
+    assert len(js) == 5 * 360 and np.all(js.theta < 2 * np.pi)
+    again = _cli('simulate', str(out), '--samples-per-rev', '360', '--quiet')
+    assert again.returncode == 2 and 'never overwritten' in again.stderr
+
+
+def test_cli_simulate_bad_input_exits_2(tmp_path):
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('probe: {kind: laser}\nbase_circle_radius: 0.01\n')
+    res = _cli('simulate', str(tmp_path / 'x'), '--scene', str(bad))
+    assert res.returncode == 2 and 'probe.kind' in res.stderr
+    res = _cli('simulate', str(tmp_path / 'y'), '--samples-per-rev', '3')
+    assert res.returncode == 2 and '--samples-per-rev' in res.stderr
+    assert not (tmp_path / 'x').exists() and not (tmp_path / 'y').exists()
