@@ -110,7 +110,10 @@ def _yd(u: np.ndarray, nu: int) -> np.ndarray:
 
 
 def test_polydyne_inversion_identity() -> None:
-    """§1.5 / #20 precondition: k h = x0 + F0/c + (1 + c'/c) y_d + eps_c y_d'' exactly."""
+    """§1.5 / #20 precondition: k h = x0 + F0/c + (1 + c'/c) y_d + eps_c y_d'' exactly.
+
+    Erratum 7: S0 prints eps = M omega^3 / c (units 1/s); the dimensionless
+    eps_c = M omega^2 / c (alpha in rad) is used: 2.467401e-4 at 1500 rpm cam."""
     law = from_spec(dict(TRAIN, family='polydyne',
                          valve_motion={'angle': 60 * DEG, 'coefficients': Y7}), 'L')
     w = 2 * math.pi * 1500 / 60
@@ -136,6 +139,12 @@ def test_polydyne_infeasible_at_3000_rpm() -> None:
                        valve_motion={'angle': 60 * DEG, 'coefficients': Y7}), 'L')
     assert info.value.key == 'L.design_cam_speed_rpm'
     assert 'infeasible' in str(info.value)
+    # the magnitudes quoted in methods §1.5: F0/c = 2.1e-5 m against eps y_d'' = -5.4e-5 m
+    w = 2 * math.pi * 3000 / 60
+    u = np.linspace(0, 1, 100001)
+    worst = 0.12 * w * w / 1.2e7 * np.min(_yd(u, 2)) / (60 * DEG) ** 2
+    assert 250 / 1.2e7 == pytest.approx(2.1e-5, rel=0.01)
+    assert worst == pytest.approx(-5.4e-5, rel=0.02)
 
 
 def test_polydyne_practical_ramp_junction() -> None:
