@@ -348,3 +348,21 @@ def test_continuity_order_reports_steps() -> None:
     assert there.continuity_order == 1      # the roller's h' is continuous, h'' steps
     assert convert_lift(there, 0.018, roller, FLAT).continuity_order == 0
     assert convert_lift(smooth_bump(0.004, 1.5), 0.03, FLAT, roller).continuity_order == 3
+
+
+@settings(max_examples=20, deadline=None)
+@given(lift=st.floats(0.002, 0.006), half=st.floats(1.4, 2.6), r1=st.floats(0.0, 0.03),
+       r2=st.floats(0.0, 0.03))
+def test_conversions_compose(lift: float, half: float, r1: float, r2: float) -> None:
+    # flat -> follower 1 -> follower 2 equals flat -> follower 2 (one cam, any path)
+    def follower(r: float) -> Follower:
+        return Follower('roller', r) if r > 0 else Follower('knife')
+
+    r0 = 0.03
+    law = smooth_bump(lift, half)
+    f1, f2 = follower(r1), follower(r2)
+    via = convert_lift(convert_lift(law, r0, FLAT, f1), r0, f1, f2)
+    direct = convert_lift(law, r0, FLAT, f2)
+    a = np.linspace(-math.pi, math.pi, 721)
+    err = np.max(np.abs(via.derivatives(a) - direct.derivatives(a)), axis=1)
+    assert np.all(err < [1e-15, 1e-15, 1e-14, 1e-12])      # m, m/rad, m/rad^2, m/rad^3
