@@ -279,3 +279,21 @@ def test_pin_with_too_few_samples_fails():
     smp = sample_pin(PIN, 0.0, n_per_rev=90)
     with pytest.raises(FeatureFailed):
         analyze_pin(_feature(smp, 'dowel_pin'), PIN, 1, Settings())
+
+
+def test_asymmetric_design_lobe_exact_and_asymmetry_skipped():
+    """Rise flank 10 % shorter than the fall flank: both estimators still exact (the
+    sensitive points differ per flank), the symmetry axis is not meaningful."""
+    from cam_design.lift_laws.base import TabulatedLift
+    a = np.radians(np.arange(-80.0 / 1.1, 80.0001, 0.1))
+    law = TabulatedLift(a, np.where(a < 0, CAM(a * 1.1), CAM(a)))
+    nose = np.radians(15.0)
+    smp = sample_lobe(law, nose, 1, n_per_rev=3600, zero=0.003)
+    res = analyze_lobe(_feature(smp), law, 1, Settings())
+    v = res.values
+    assert abs(_err_arcsec(v['angle_deg'], nose)) < 0.01
+    assert abs(_err_arcsec(v['sensitive_point_angle_deg'], nose)) < 0.01
+    am, an = v['sensitive_points_alpha_deg']
+    assert am == pytest.approx(-an / 1.1, abs=0.01)
+    assert 'asymmetry_deg' not in v
+    assert res.skipped == [('asymmetry', 'design lift is asymmetric: no symmetry axis')]
