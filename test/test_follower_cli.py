@@ -85,6 +85,10 @@ def test_profile_offset_and_rocker(table_file: Path, extra: list[str],
     (['--follower', 'rocker', '--radius', '0.005'], '--centre-distance'),
     (['--step-deg', '0'], '--step-deg'),
     (['--follower', 'offset-roller', '--offset', '0.5'], 'offset'),
+    (['--design-follower', 'roller'], '--design-radius'),
+    (['--design-follower', 'knife', '--design-radius', '0.01'], '--design-radius'),
+    (['--follower', 'rocker', '--radius', '0.005', '--centre-distance', '0.045',
+      '--arm-length', '0.035', '--design-follower', 'flat'], '--design-follower'),
 ])
 def test_profile_bad_input(table_file: Path, extra: list[str], key: str,
                            capsys: pytest.CaptureFixture) -> None:

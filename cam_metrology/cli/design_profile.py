@@ -108,7 +108,7 @@ def _follower_radius(args: argparse.Namespace) -> float:
 
 def _design_law(args: argparse.Namespace, law: Any, base: float, radius: float) -> Any:
     """Convert the file's lift to the profile's follower when --design-follower differs."""
-    from cam_design.errors import InputError
+    from cam_design.errors import InputError, require_positive
     from cam_design.follower import Follower, convert_lift
 
     if args.design_follower is None:
@@ -116,7 +116,10 @@ def _design_law(args: argparse.Namespace, law: Any, base: float, radius: float) 
     if args.follower not in ('flat', 'roller', 'knife'):
         raise InputError('--design-follower', args.design_follower,
                          'no conversion for offset-roller/rocker (give their own lift)')
-    dr = 0.0 if args.design_follower != 'roller' else args.design_radius
+    dr = require_positive('--design-radius', args.design_radius, allow_zero=True)
+    if (args.design_follower == 'roller') != (dr > 0):
+        raise InputError('--design-radius', dr, 'a radius > 0 for --design-follower roller '
+                         'and none (0) for flat or knife')
     source = Follower(args.design_follower, dr)
     target = Follower(args.follower, radius if args.follower == 'roller' else 0.0)
     return convert_lift(law, base, source, target, key=args.file)
