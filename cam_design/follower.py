@@ -377,6 +377,10 @@ class ConvertedLift(LiftLaw):
         for start in range(0, a.size, SOLVE_BLOCK):
             stop = start + SOLVE_BLOCK
             out[:, start:stop] = self._solve_block(a[start:stop])
+        bad = ~np.all(np.isfinite(out), axis=0)
+        if np.any(bad):     # defensive: never hand back NaN silently
+            raise InputError(self.key, f'no unique contact at alpha = {a[bad][0]:.6g} rad',
+                             'a lift law whose cam profile gives the target one contact')
         return out
 
     def _solve_block(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
