@@ -36,7 +36,7 @@ __all__ = [
     'encode_joint_state', 'encode_string', 'encode_output', 'encode_table',
     'encode_statuses', 'decode', 'table_from_msg', 'statuses_from_msg',
     'iter_messages', 'read_joint_states', 'bag_topics', 'copy_bag', 'topic_qos_yaml',
-    'decode_joint_states', 'light_joint_states', 'LightJointState', 'encode_joint_state_positions',
+    'decode_joint_states', 'light_joint_states', 'recover_bag', 'LightJointState', 'encode_joint_state_positions',
 ]
 
 JOINT_STATES = '/bench/joint_states'
@@ -801,6 +801,48 @@ def copy_bag(src: str | Path, dst: BagWriter, topics: Iterable[str] | None = Non
         dst.write(m.topic, m.stamp_ns, m.msg)
         copied += 1
     return copied
+
+
+def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
+                ) -> dict[str, int]:
+    """Copy what is readable of an interrupted recording into a new, closed bag.
+
+    ``src``: a rosbag2 directory (or a single ``.mcap`` file) whose writer never
+    closed (no metadata.yaml, no MCAP footer: platform.md §4). Every message of the
+    complete chunks is kept, bytes unchanged, with its topic, type and QoS; the
+    truncated tail is dropped. Returns messages per topic. Types must be ROS 2 Jazzy
+    types (the writer takes definitions from the typestore).
+    """
+    from mcap.exceptions import McapError
+    from mcap.records import Channel, Message, Schema
+    from mcap.stream_reader import StreamReader
+
+    source = Path(src)
+    files = sorted(source.glob('*.mcap')) if source.is_dir() else [source]
+    if not files or not all(f.is_file() for f in files):
+        raise InputError('bag', str(source), 'a rosbag2 directory with .mcap files')
+    counts: dict[str, int] = {}
+    with BagWriter(dst, compression=compression) as writer:
+        for path in files:
+            schemas: dict[int, str] = {}
+            channels: dict[int, str] = {}
+            with open(path, 'rb') as f:
+                try:
+                    for record in StreamReader(f).records:
+                        if isinstance(record, Schema):
+                            schemas[record.id] = record.name
+                        elif isinstance(record, Channel):
+                            channels[record.id] = record.topic
+                            qos = record.metadata.get('offered_qos_profiles') or None
+                            writer.add_topic(record.topic, schemas.get(record.schema_id, ''),
+                                             qos)
+                        elif isinstance(record, Message) and record.channel_id in channels:
+                            topic = channels[record.channel_id]
+                            writer.write(topic, record.log_time, record.data)
+                            counts[topic] = counts.get(topic, 0) + 1
+                except (McapError, EOFError, ValueError, struct.error):
+                    pass   # the truncated tail of an interrupted recording
+    return counts
 
 
 def light_joint_states(samples: JointSamples) -> Iterator[Any]:

@@ -439,3 +439,35 @@ def test_negative_log_time_is_an_input_error(tmp_path):
     with bagio.BagWriter(tmp_path / 'bag') as w:
         with pytest.raises(InputError, match='log time'):
             w.write('/bench/scene', -1, bagio.encode_string('x'))
+
+
+def test_recover_an_interrupted_recording(tmp_path):
+    bag = tmp_path / 'full'
+    with bagio.BagWriter(bag) as w:
+        w.write('/bench/scene', 1, bagio.encode_string('scene text'))
+        for i in range(30000):
+            w.write('/bench/joint_states', 10 + i, bagio.encode_joint_state('lobe_1', i, i, -i))
+    (mcap_file,) = bag.glob('*.mcap')
+    crashed = tmp_path / 'crashed'
+    crashed.mkdir()
+    data = mcap_file.read_bytes()
+    (crashed / 'crashed_0.mcap').write_bytes(data[: int(len(data) * 0.7)])
+    with pytest.raises(InputError, match='metadata.yaml'):
+        bagio.read_joint_states(crashed)
+    counts = bagio.recover_bag(crashed, tmp_path / 'fixed')
+    assert counts['/bench/scene'] == 1
+    assert 10000 < counts['/bench/joint_states'] < 30000
+    js = bagio.read_joint_states(tmp_path / 'fixed')
+    np.testing.assert_array_equal(js.theta, np.arange(len(js)))
+    assert 'transient_local' in bagio.topic_qos_yaml(tmp_path / 'fixed')['/bench/scene']
+    with pytest.raises(InputError):
+        bagio.recover_bag(tmp_path / 'nothing', tmp_path / 'x')
+    import subprocess
+    import sys
+
+    code = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
+    res = subprocess.run([sys.executable, '-c', code, 'bag', 'recover', str(crashed),
+                          str(tmp_path / 'fixed2')], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert f"/bench/joint_states: {counts['/bench/joint_states']}" in res.stdout

@@ -142,3 +142,19 @@ def test_fixtures_are_deterministic(tmp_path):
         b = [(m.topic, m.stamp_ns, bytes(m.msg))
              for m in bagio.iter_messages(tmp_path / name, raw=True)]
         assert a == b, name
+
+
+def test_cli_bag_info_on_a_fixture():
+    import subprocess
+    import sys
+
+    code = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
+    res = subprocess.run([sys.executable, '-c', code, 'bag', 'info',
+                          str(BAGS / 'no_pin_no_valve_train')],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert '/bench/scene' in res.stdout and 'latched' in res.stdout
+    assert 'lobe_1: 3600 samples' in res.stdout and 'no dowel pin' in res.stdout
+    res = subprocess.run([sys.executable, '-c', code, 'bag', 'info', str(BAGS / 'nope')],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 2 and 'existing rosbag2' in res.stderr
