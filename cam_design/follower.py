@@ -525,19 +525,10 @@ class Profile:
 
     def undercut_intervals(self) -> list[tuple[float, float]]:
         """(alpha_first, alpha_last) [rad] of each run of undercut samples."""
-        flags = np.asarray(self.undercut, dtype=bool)
-        out = []
-        i = 0
-        while i < flags.size:
-            if flags[i]:
-                j = i
-                while j + 1 < flags.size and flags[j + 1]:
-                    j += 1
-                out.append((float(self.alpha[i]), float(self.alpha[j])))
-                i = j + 1
-            else:
-                i += 1
-        return out
+        edges = np.diff(np.concatenate([[0], np.asarray(self.undercut, dtype=int), [0]]))
+        first = np.flatnonzero(edges == 1)
+        last = np.flatnonzero(edges == -1) - 1
+        return [(float(self.alpha[i]), float(self.alpha[j])) for i, j in zip(first, last)]
 
     def summary(self) -> dict[str, object]:
         """Key numbers for a report: extreme radii, pressure angle, undercut intervals."""

@@ -97,22 +97,23 @@ def test_profile_bad_input(table_file: Path, extra: list[str], key: str,
     assert f'error: {key}: got' in err
 
 
-def test_profile_unknown_follower_and_missing_base(tmp_path: Path,
-                                                   capsys: pytest.CaptureFixture) -> None:
+def test_profile_unknown_follower(capsys: pytest.CaptureFixture) -> None:
     with pytest.raises(SystemExit):
         main(['design', 'profile', 'x.yaml', '--follower', 'mushroom'])
-    path = tmp_path / 'nobase.yaml'
-    path.write_text('alpha: [0, 1, 2, 3, 4, 5]\nh: [0, 0, 0, 0, 0, 0]\n')
-    assert main(['design', 'profile', str(path)]) == 2
-    assert '--base-radius' in capsys.readouterr().err
+    assert 'mushroom' in capsys.readouterr().err
 
 
-def test_profile_bad_table(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+@pytest.mark.parametrize('text,message', [
+    ('alpha: [0, 1, 2, 3, 4, 5]\nh: [0, 0, 0, 0, 0, 0]\n', 'error: --base-radius: got'),
+    ('base_radius: 0.02\nlift: {alpha: [0, 1, x, 3, 4, 5], h: [0, 0, 0, 0, 0, 0]}\n',
+     'error: lift.alpha: got'),
+])
+def test_profile_bad_file(tmp_path: Path, text: str, message: str,
+                          capsys: pytest.CaptureFixture) -> None:
     path = tmp_path / 'bad.yaml'
-    path.write_text('base_radius: 0.02\nlift: {alpha: [0, 1, x, 3, 4, 5], '
-                    'h: [0, 0, 0, 0, 0, 0]}\n')
+    path.write_text(text)
     assert main(['design', 'profile', str(path)]) == 2
-    assert 'error: lift.alpha: got' in capsys.readouterr().err
+    assert message in capsys.readouterr().err
 
 
 def test_profile_from_spec(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
