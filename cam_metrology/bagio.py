@@ -188,6 +188,8 @@ class BagWriter:
         """
         if not 0 <= stamp_ns < 2**63:
             raise InputError(f'{topic} log time', stamp_ns, 'a time in ns >= 0')
+        if self.closed:
+            raise InputError('bag', str(self.path), 'an open bag (this one is closed)')
         conn = self._connections.get(topic)
         if conn is None:
             if topic not in TOPIC_TYPES:

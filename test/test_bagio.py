@@ -471,3 +471,34 @@ def test_recover_an_interrupted_recording(tmp_path):
                          timeout=120)
     assert res.returncode == 0, res.stderr
     assert f"/bench/joint_states: {counts['/bench/joint_states']}" in res.stdout
+
+
+def test_write_after_close_is_an_input_error(tmp_path):
+    w = bagio.BagWriter(tmp_path / 'bag')
+    w.close()
+    w.close()   # idempotent
+    with pytest.raises(InputError, match='closed'):
+        w.write('/bench/scene', 1, bagio.encode_string('x'))
+
+
+def test_fast_path_tolerates_trailing_bytes():
+    """rclpy's serialize_message adds 4 (uninitialised) trailing bytes (platform.md)."""
+    cdrs = [bagio.encode_joint_state('lobe_1', i, 0.5 * i, 1e-3 * i) + b'\xaa\xbb\xcc\xdd'
+            for i in range(5)]
+    got = bagio.decode_joint_states(cdrs)
+    np.testing.assert_array_equal(got.theta, 0.5 * np.arange(5))
+    np.testing.assert_array_equal(got.s, 1e-3 * np.arange(5))
+
+
+def test_sqlite3_bag_goes_through_the_fallback(tmp_path):
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    bag = tmp_path / 'sqlite'
+    ts = bagio.typestore()
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.SQLITE3) as w:
+        conn = w.add_connection('/bench/joint_states', JS, typestore=ts)
+        for i in range(20):
+            w.write(conn, 100 + i, bagio.encode_joint_state('lobe_1', i, float(i), -float(i)))
+    got = bagio.read_joint_states(bag)
+    np.testing.assert_array_equal(got.theta, np.arange(20.0))
+    assert got.log_ns.tolist() == list(range(100, 120))
