@@ -44,6 +44,8 @@ def test_outside_support_is_base_circle_and_shape_kept() -> None:
     ([0, 1, 2, 3, 4, float('nan')], [0] * 6, 'lift.alpha.*finite'),
     ([0, 1, 2, 3, 4, 5], [0, 0, float('inf'), 0, 0, 0], 'lift.h.*finite'),
     ([5, 4, 3, 2, 1, 0], [0] * 6, 'strictly increasing'),
+    ([0, 1, 2, 'x', 4, 5], [0] * 6, r'lift.alpha: .*list of numbers'),
+    ([0, 1, 2, 3, 4, 5], [0, [1, 2], 0, 0, 0, 0], r'lift.h: .*list of numbers'),
 ])
 def test_bad_tables_are_rejected_with_key(alpha: list, h: list, match: str) -> None:
     with pytest.raises(InputError, match=match):

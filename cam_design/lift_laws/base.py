@@ -78,8 +78,8 @@ class TabulatedLift(LiftLaw):
     def __init__(self, alpha: ArrayLike, h: ArrayLike, *, key: str = 'lift') -> None:
         from scipy.interpolate import make_interp_spline
 
-        a = np.asarray(alpha, dtype=float)
-        v = np.asarray(h, dtype=float)
+        a = _float_array(alpha, f'{key}.alpha', 'angles in rad')
+        v = _float_array(h, f'{key}.h', 'lifts in m')
         if a.ndim != 1 or v.ndim != 1:
             raise InputError(f'{key}.alpha', a.shape, 'one-dimensional lists')
         if a.size != v.size:
@@ -108,3 +108,11 @@ class TabulatedLift(LiftLaw):
     def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
         return self._derivs[nu](alpha)
 
+
+
+def _float_array(values: ArrayLike, key: str, what: str) -> NDArray[np.float64]:
+    """``values`` as a float array, or InputError naming ``key`` if not numeric."""
+    try:
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(key, values, f'a list of numbers ({what})') from None
