@@ -158,3 +158,22 @@ def test_cli_bag_info_on_a_fixture():
     res = subprocess.run([sys.executable, '-c', code, 'bag', 'info', str(BAGS / 'nope')],
                          capture_output=True, text=True, timeout=120)
     assert res.returncode == 2 and 'existing rosbag2' in res.stderr
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_metrology_core_recovers_the_documented_truth(name):
+    """End to end through replay.run_offline: the fixtures are consistent with their truth."""
+    core_module = pytest.importorskip('cam_metrology.metrology.core')
+    from cam_metrology.replay import run_offline
+
+    bag = BAGS / name
+    truth = _truth(bag)
+    result = run_offline(bag, [core_module.MetrologyCore()])
+    report = result.report()
+    assert report is not None
+    assert set(report['features']) == set(truth['features'])
+    for fid, exp in truth['features'].items():
+        got = report['features'][fid]
+        err = (got['angle_deg'] - exp['angle_deg'] + 180.0) % 360.0 - 180.0
+        tol = 1e-5 if truth['probe_noise_m'] == 0 else max(6 * got['angle_std_deg'], 1e-4)
+        assert abs(err) < tol, (fid, got['angle_deg'], exp['angle_deg'])
