@@ -297,3 +297,33 @@ def test_asymmetric_design_lobe_exact_and_asymmetry_skipped():
     assert am == pytest.approx(-an / 1.1, abs=0.01)
     assert 'asymmetry_deg' not in v
     assert res.skipped == [('asymmetry', 'design lift is asymmetric: no symmetry axis')]
+
+
+def test_spikes_are_rejected_and_counted():
+    """Dirt on the probe: 12 spikes of +-20..80 um on a lobe and on the pin."""
+    rng = np.random.default_rng(9)
+    nose = np.radians(140.0)
+    smp = sample_lobe(CAM, nose, 1, n_per_rev=3600, noise=0.3e-6, seed=2)
+    s = smp.s.copy()
+    idx = rng.choice(s.size, 12, replace=False)
+    s[idx] += rng.choice([-1, 1], 12) * rng.uniform(20e-6, 80e-6, 12)
+    fs = clean_feature('lobe_1', smp.stamp_ns, smp.theta, s)
+    v = analyze_lobe(fs, CAM, 1, Settings()).values
+    assert v['samples_outliers_rejected'] == 12
+    assert abs(_err_arcsec(v['angle_deg'], nose)) < 4 * v['angle_std_deg'] * 3600
+    assert abs(_err_arcsec(v['sensitive_point_angle_deg'], nose)) < \
+        4 * v['sensitive_point_angle_std_deg'] * 3600
+    assert v['lift_error_um']['max_plus'] < 3.0
+    keep_all = analyze_lobe(fs, CAM, 1, Settings(outlier_sigma=0.0)).values
+    assert keep_all['samples_outliers_rejected'] == 0
+    assert keep_all['residual_rms_um'] > 3 * v['residual_rms_um']
+    centre = np.radians(5.0)
+    smp = sample_pin(PIN, centre, n_per_rev=3600)
+    s = smp.s.copy()
+    alpha = np.angle(np.exp(1j * (smp.theta - centre)))
+    s[np.flatnonzero(np.abs(alpha) < 0.3)[::40]] += 50e-6   # spikes on the contact part
+    fs = clean_feature('dowel_pin', smp.stamp_ns, smp.theta, s)
+    v = analyze_pin(fs, PIN, 1, Settings()).values
+    assert v['samples_outliers_rejected'] > 0
+    assert abs(_err_arcsec(v['angle_deg'], centre)) < 0.01
+    assert abs(_err_arcsec(v['sensitive_point_angle_deg'], centre)) < 0.01

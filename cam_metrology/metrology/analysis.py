@@ -52,6 +52,7 @@ class Settings:
     validity_tol_um: float = 1.0
     asymmetry_knot_deg: float = 0.5
     max_shift_deg: float = 5.0
+    outlier_sigma: float = 5.0
 
     @classmethod
     def from_params(cls, params: dict[str, Any]) -> Settings:
@@ -182,6 +183,37 @@ def _sp_values(sp: Any, direction: int, x0: float, d_lsq: float) -> dict[str, An
                          'valid': sp.valid}}
 
 
+#: floor [m] of the robust noise scale (noise-free data: keep round-off residuals)
+OUTLIER_SCALE_FLOOR = 1e-9
+
+
+def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
+               settings: Settings, *, theta: NDArray[np.float64] | None = None,
+               used: NDArray[np.bool_] | None = None, d0: float = 0.0,
+               c0: float | None = None) -> tuple[Any, NDArray[np.bool_]]:
+    """``fit_shift`` with rejection of outliers (spikes, dirt on the probe).
+
+    Samples whose residual exceeds ``outlier_sigma`` times the robust scale
+    (1.4826 MAD, floored at 1 nm) are dropped and the fit repeated (at most 3
+    times). Returns the fit and the mask of rejected samples (among ``used``).
+    """
+    cand = np.ones(x.size, bool) if used is None else used
+    fit = fit_shift(x, s, law, theta=theta, d0=d0, c0=c0, used=cand)
+    k = settings.outlier_sigma
+    for _ in range(3 if k > 0 else 0):
+        r = s[cand] - fit.c - law(x[cand] - fit.d, 0)
+        if theta is not None:
+            r = r - fit.runout[0] * np.cos(theta[cand]) - fit.runout[1] * np.sin(theta[cand])
+        dev = np.abs(r - np.median(r))   # a biased first fit shifts all residuals
+        scale = max(1.4826 * float(np.median(dev)), OUTLIER_SCALE_FLOOR)
+        keep = cand.copy()
+        keep[cand] = dev <= k * scale
+        if np.array_equal(keep, fit.used):
+            break
+        fit = fit_shift(x, s, law, theta=theta, d0=fit.d, c0=fit.c, used=keep)
+    return fit, cand & ~fit.used
+
+
 def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settings,
                  *, asymmetry: bool = True) -> FeatureResult:
     """Measure a lobe: ``law`` is the design lift as seen by the probe."""
@@ -197,15 +229,17 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     _zone_check(x, _slope_zone(law, alpha_n, 0.0, hi), 'fall', settings)
     base = (x < lo - 2 * DEG) | (x > hi + 2 * DEG)
     c_base = float(np.median(fs.s[base])) if np.count_nonzero(base) >= 5 else None
-    fit = fit_shift(x, fs.s, law, theta=fs.theta if settings.fit_runout else None,
-                    c0=c_base)
+    fit, outliers = robust_fit(x, fs.s, law, settings, c0=c_base,
+                               theta=fs.theta if settings.fit_runout else None)
+    good = ~outliers
     if abs(fit.d) > settings.max_shift_deg * DEG:
         raise FeatureFailed(f'least squares moved the nose by {np.degrees(fit.d):.3f} deg '
                             'from the coarse estimate (data do not match the design lift)')
     ref = c_base if c_base is not None else fit.c
     try:
         sp = sensitive_point_shift(
-            x, fs.s - ref, law, alpha_m, alpha_n, half_window=settings.sp_half_window_deg * DEG,
+            x[good], fs.s[good] - ref, law, alpha_m, alpha_n,
+            half_window=settings.sp_half_window_deg * DEG,
             pairs=settings.sp_pairs, spacing=settings.sp_pair_spacing_deg * DEG,
             order=settings.sp_fit_order, validity_tol=settings.validity_tol_um / UM)
     except InputError as exc:
@@ -216,6 +250,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                               **_sp_values(sp, direction, x0, fit.d),
                               'lift_offset_mm': fit.c * 1e3,
                               'residual_rms_um': fit.sigma * UM,
+                              'samples_outliers_rejected': int(np.count_nonzero(outliers)),
                               'iterations': fit.iterations}
     alpha = x - fit.d
     design = law(alpha, 0)
@@ -223,18 +258,19 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     if settings.fit_runout:
         measured = measured - fit.runout[0] * np.cos(fs.theta) - fit.runout[1] * np.sin(fs.theta)
     err = measured - design
-    lobe = design > 0
+    lobe = (design > 0) & good
     if np.any(lobe):
         values['lift_error_um'] = {'max_plus': float(np.max(err[lobe])) * UM,
                                    'max_minus': float(np.min(err[lobe])) * UM,
                                    'rms': float(np.sqrt(np.mean(err[lobe] ** 2))) * UM}
-    values['base_circle_runout_um'] = _runout_um(fs.theta[base], (fs.s - fit.c)[base])
+    values['base_circle_runout_um'] = _runout_um(fs.theta[base & good],
+                                                 (fs.s - fit.c)[base & good])
     if settings.fit_runout:
         values['fitted_runout_amplitude_um'] = float(np.hypot(*fit.runout)) * UM
     skipped = []
     if asymmetry:
         if is_symmetric(law, lo, hi):
-            values.update(_asymmetry(alpha, measured, lo, hi, direction, settings))
+            values.update(_asymmetry(alpha[good], measured[good], lo, hi, direction, settings))
         else:
             skipped.append(('asymmetry', 'design lift is asymmetric: no symmetry axis'))
     order = np.argsort(alpha)
@@ -297,13 +333,16 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
     c0 = float(np.median(fs.s[top] - law(x[top])))
     d = 0.0
     fit = None
+    outliers = np.zeros(x.size, bool)
     for _ in range(3):   # contact mask from the current estimate, then refit
         used = np.abs(x - d) < inner
-        fit = fit_shift(x, fs.s, law, d0=d, c0=c0 if fit is None else fit.c, used=used)
+        fit, outliers = robust_fit(x, fs.s, law, settings, d0=d, used=used,
+                                   c0=c0 if fit is None else fit.c)
         if abs(fit.d - d) < 1e-13:
             d = fit.d
             break
         d = fit.d
+    good = ~outliers
     assert fit is not None
     if abs(fit.d) > settings.max_shift_deg * DEG:
         raise FeatureFailed(f'least squares moved the pin centre by {np.degrees(fit.d):.3f} '
@@ -312,10 +351,10 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
     d_sp = 0.0
     try:
         for _ in range(3):   # top reference and crossings, re-centred on the SP result
-            near = np.abs(x - d_sp) < 3 * DEG
+            near = (np.abs(x - d_sp) < 3 * DEG) & good
             ref = float(np.median(fs.s[near] - law(x[near] - d_sp)))
             sp = sensitive_point_shift(
-                x, fs.s - ref, law, -(inner - half), inner - half, half_window=half,
+                x[good], fs.s[good] - ref, law, -(inner - half), inner - half, half_window=half,
                 pairs=settings.sp_pairs, spacing=settings.sp_pair_spacing_deg * DEG,
                 limits=(-inner, inner), order=settings.sp_fit_order,
                 validity_tol=settings.validity_tol_um / UM)
@@ -331,6 +370,7 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
                               'contact_half_angle_deg': float(np.degrees(amax)),
                               'lift_offset_mm': fit.c * 1e3,
                               'residual_rms_um': fit.sigma * UM,
+                              'samples_outliers_rejected': int(np.count_nonzero(outliers)),
                               'iterations': fit.iterations}
     used = fit.used
     alpha = (x - fit.d)[used]
