@@ -355,3 +355,36 @@ def test_dual_peak_connection_start_anywhere_on_the_ramp(start_deg: float,
     assert j.achieved >= 2
     a = np.linspace(cut, cut + 40 * DEG, 2001)
     assert law(a).min() >= 0
+
+
+def test_composite_free_widths_recover_known_widths() -> None:
+    """Free widths (methods §1.3 step 3): with the amplitude ratio of a known solution
+    imposed, least squares on the widths recovers them from a wrong start."""
+    a1, a2 = constant_acceleration_amplitudes(V, 50 * DEG, 8 * MM, 15 * DEG)
+    law = from_spec({'family': 'composite', 'ramp': CV_RAMP, 'rise': 8 * MM,
+                     'continuity': 1, 'free_widths': True, 'half_angle': 50 * DEG,
+                     'ratios': [[0, 1, a2 / a1]],
+                     'segments': [{'shape': 'constant', 'width': 0.3},
+                                  {'shape': 'constant', 'width': 0.5}]}, 'L')
+    widths = [math.degrees(s.hi - s.lo) for s in law.segments]
+    assert widths[1] == pytest.approx(15.0, abs=1e-8)
+    assert widths[2] == pytest.approx(35.0, abs=1e-8)
+    fixed = from_spec({'family': 'composite', 'ramp': S2_RAMP, 'rise': 8 * MM,
+                       'segments': [{'shape': 'half_sine', 'width': 12 * DEG},
+                                    {'shape': 'quarter_sine', 'width': 38 * DEG}]}, 'L')
+    r = fixed(-20 * DEG, 2) / fixed(-44 * DEG, 2) / math.sin(math.pi * 0.5 * 18 / 38) \
+        * math.sin(math.pi * 6 / 12)
+    free = from_spec({'family': 'composite', 'ramp': S2_RAMP, 'rise': 8 * MM,
+                      'free_widths': True, 'half_angle': 50 * DEG, 'ratios': [[0, 1, r]],
+                      'segments': [{'shape': 'half_sine', 'width': 0.2},
+                                   {'shape': 'quarter_sine', 'width': 0.7}]}, 'L')
+    assert math.degrees(free.segments[2].hi - free.segments[2].lo) == pytest.approx(12, abs=1e-6)
+    with pytest.raises(InputError, match=r'^L\.segments'):
+        from_spec({'family': 'composite', 'ramp': S2_RAMP, 'rise': 8 * MM,
+                   'free_widths': True, 'half_angle': 50 * DEG, 'ratios': [[0, 1, 1.0]],
+                   'segments': [{'shape': 'half_sine', 'width': 0.2},
+                                {'shape': 'quarter_sine', 'width': 0.7}]}, 'L')
+    with pytest.raises(InputError, match=r'^L\.half_angle'):
+        from_spec({'family': 'composite', 'ramp': S2_RAMP, 'rise': 8 * MM,
+                   'half_angle': 50 * DEG,
+                   'segments': [{'shape': 'half_sine', 'width': 0.2}]}, 'L')

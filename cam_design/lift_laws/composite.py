@@ -33,28 +33,18 @@ from cam_design.lift_laws.segments import (SHAPES, Flank, PiecewiseLaw, Segment,
 
 
 def _s(shape: str, poly: Sequence[float], u: float, order: int) -> float:
-    return float(shape_integral(shape, poly, np.array([u]), order)[0])
+    """Shape integral/value/derivative at one u; rounding noise (sin(pi) = 1.2e-16) -> 0,
+    so that an end value that is zero in exact arithmetic gives an exactly zero row."""
+    v = float(shape_integral(shape, poly, np.array([u]), order)[0])
+    return 0.0 if abs(v) < 1e-14 else v
 
 
-def composite_flank(ramp: Ramp, rise: float, shapes: Sequence[tuple[str, float, tuple]],
-                    *, continuity: int = 2, ratios: Sequence[tuple[int, int, float]] = (),
-                    key: str = 'lift_law') -> Flank:
-    """Ramp + acceleration segments ``(shape, width [rad], poly coefficients)``."""
+def _system(ramp: Ramp, rise: float, shapes: Sequence[tuple[str, float, tuple]],
+            continuity: int, ratios: Sequence[tuple[int, int, float]]
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and right-hand side of the amplitude conditions for given widths."""
     m = len(shapes)
-    if m == 0:
-        raise InputError(f'{key}.segments', [], 'at least one acceleration segment')
-    if continuity not in (1, 2, 3):
-        raise InputError(f'{key}.continuity', continuity, '1, 2 or 3')
-    if rise <= 0:
-        raise InputError(f'{key}.rise', rise, 'a rise > 0 m')
-    t0 = ramp.angle
-    starts = [t0]
-    for i, (shape, w, _) in enumerate(shapes):
-        if shape not in SHAPES:
-            raise InputError(f'{key}.segments[{i}].shape', shape, 'one of ' + ', '.join(SHAPES))
-        if not (w > 0 and math.isfinite(w)):
-            raise InputError(f'{key}.segments[{i}].width', w, 'a width > 0 rad')
-        starts.append(starts[-1] + w)
+    starts = np.concatenate([[ramp.angle], ramp.angle + np.cumsum([w for _, w, _ in shapes])])
     end = starts[-1]
     rows: list[list[float]] = []
     rhs: list[float] = []
@@ -63,7 +53,7 @@ def composite_flank(ramp: Ramp, rise: float, shapes: Sequence[tuple[str, float, 
     rhs.append(-ramp.velocity)
     rows.append([w * w * _s(sh, po, 1.0, 2) + i1[i] * (end - starts[i + 1])
                  for i, (sh, w, po) in enumerate(shapes)])
-    rhs.append(rise - ramp.velocity * (end - t0))
+    rhs.append(rise - ramp.velocity * (end - ramp.angle))
     if continuity >= 2:
         sh, w, po = shapes[0]
         rows.append([_s(sh, po, 0.0, 0)] + [0.0] * (m - 1))
@@ -85,30 +75,100 @@ def composite_flank(ramp: Ramp, rise: float, shapes: Sequence[tuple[str, float, 
         row[-1] = _s(shapes[-1][0], shapes[-1][2], 1.0, -1)
         rows.append(row)
         rhs.append(0.0)
-    for k, (i, j, r) in enumerate(ratios):
-        if not (0 <= i < m and 0 <= j < m and i != j):
-            raise InputError(f'{key}.ratios[{k}]', [i, j, r], f'segment indices in 0..{m - 1}')
+    for i, j, r in ratios:
         row = [0.0] * m
         row[j], row[i] = 1.0, -r
         rows.append(row)
         rhs.append(0.0)
-    a = np.array(rows)
-    b = np.array(rhs)
-    keep = np.any(np.abs(a) > 1e-300, axis=1)
+    return np.array(rows), np.array(rhs)
+
+
+def _solve(a: np.ndarray, b: np.ndarray, m: int, key: str) -> np.ndarray:
+    """Amplitudes by least squares; InputError if the system is rank-deficient or
+    inconsistent (rows are scaled to unit max first)."""
+    keep = np.any(np.abs(a) > 0, axis=1)
     if np.any(np.abs(b[~keep]) > 0):
         raise InputError(f'{key}.segments', 'h\'\' of the ramp end is not 0',
                          'a first shape that can match the ramp-end acceleration '
                          '(or continuity 1)')
     a, b = a[keep], b[keep]
+    norm = np.maximum(np.max(np.abs(a), axis=1), 1e-300)
+    a, b = a / norm[:, None], b / norm
     amp, _, rank, _ = np.linalg.lstsq(a, b, rcond=None)
+    resid = float(np.max(np.abs(a @ amp - b))) / max(float(np.max(np.abs(b))), 1e-300)
     if rank < m:
         raise InputError(f'{key}.segments', f'{len(b)} conditions of rank {rank}',
                          f'a shape sequence and ratios that determine all {m} amplitudes')
-    resid = a @ amp - b
-    if np.max(np.abs(resid)) > 1e-9 * max(np.max(np.abs(b)), 1e-12):
+    if resid > 1e-9:
         raise InputError(f'{key}.segments', f'{len(b)} conditions for {m} amplitudes',
-                         'a consistent system (fewer continuity conditions or more '
-                         'segments)')
+                         'a consistent system (fewer continuity conditions, more '
+                         'segments, or free_widths)')
+    return amp
+
+
+def _fit_widths(ramp: Ramp, rise: float, shapes: list[tuple[str, float, tuple]],
+                continuity: int, ratios: Sequence[tuple[int, int, float]],
+                half_angle: float, key: str) -> list[tuple[str, float, tuple]]:
+    """Widths w_i = half_angle * softmax(z) making the system consistent (least_squares)."""
+    from scipy.optimize import least_squares
+
+    m = len(shapes)
+    if m < 2:
+        raise InputError(f'{key}.free_widths', True, 'at least two segments')
+    frac = np.array([w for _, w, _ in shapes])
+    z0 = np.log(frac / frac.sum())[1:] - np.log(frac[0] / frac.sum())
+
+    def with_widths(z: np.ndarray) -> list[tuple[str, float, tuple]]:
+        e = np.exp(np.concatenate([[0.0], z]))
+        w = half_angle * e / e.sum()
+        return [(sh, float(wi), po) for (sh, _, po), wi in zip(shapes, w)]
+
+    def residual(z: np.ndarray) -> np.ndarray:
+        a, b = _system(ramp, rise, with_widths(z), continuity, ratios)
+        keep = np.any(np.abs(a) > 0, axis=1)
+        a, b = a[keep], b[keep]
+        norm = np.maximum(np.max(np.abs(a), axis=1), 1e-300)
+        a, b = a / norm[:, None], b / norm
+        amp = np.linalg.lstsq(a, b, rcond=None)[0]
+        return (a @ amp - b) / max(float(np.max(np.abs(b))), 1e-300)
+
+    sol = least_squares(residual, z0, xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000)
+    best = with_widths(sol.x)
+    if float(np.max(np.abs(residual(sol.x)))) > 1e-9:
+        raise InputError(f'{key}.segments', 'no consistent widths found (residual '
+                         f'{float(np.max(np.abs(residual(sol.x)))):.3g})',
+                         'shapes, ratios and continuity that some widths can satisfy')
+    return best
+
+
+def composite_flank(ramp: Ramp, rise: float, shapes: Sequence[tuple[str, float, tuple]],
+                    *, continuity: int = 2, ratios: Sequence[tuple[int, int, float]] = (),
+                    half_angle: float | None = None, key: str = 'lift_law') -> Flank:
+    """Ramp + acceleration segments ``(shape, width [rad], poly coefficients)``.
+
+    With ``half_angle`` the widths are free (their given values are the start): they
+    are scaled to sum to ``half_angle`` and adjusted by least squares until all the
+    conditions hold (methods §1.3 step 3)."""
+    m = len(shapes)
+    if m == 0:
+        raise InputError(f'{key}.segments', [], 'at least one acceleration segment')
+    if continuity not in (1, 2, 3):
+        raise InputError(f'{key}.continuity', continuity, '1, 2 or 3')
+    if rise <= 0:
+        raise InputError(f'{key}.rise', rise, 'a rise > 0 m')
+    for i, (shape, w, _) in enumerate(shapes):
+        if shape not in SHAPES:
+            raise InputError(f'{key}.segments[{i}].shape', shape, 'one of ' + ', '.join(SHAPES))
+        if not (w > 0 and math.isfinite(w)):
+            raise InputError(f'{key}.segments[{i}].width', w, 'a width > 0 rad')
+    for k, (i, j, r) in enumerate(ratios):
+        if not (0 <= i < m and 0 <= j < m and i != j and math.isfinite(r)):
+            raise InputError(f'{key}.ratios[{k}]', [i, j, r], f'segment indices in 0..{m - 1}')
+    shapes = list(shapes)
+    if half_angle is not None:
+        shapes = _fit_widths(ramp, rise, shapes, continuity, ratios, half_angle, key)
+    amp = _solve(*_system(ramp, rise, shapes, continuity, ratios), m, key)
+    starts = list(ramp.angle + np.concatenate([[0.0], np.cumsum([w for _, w, _ in shapes])]))
     segs: list[Segment] = list(ramp.segments)
     h, v = ramp.height, ramp.velocity
     for (sh, w, po), s0, amp_i in zip(shapes, starts, amp):
@@ -127,10 +187,12 @@ def composite_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
     """``family: composite``: see docs/lift_laws.md."""
     from cam_design.lift_laws.laws import flanked_lobe
 
-    return flanked_lobe(spec, key, ('segments', 'continuity', 'ratios'), _flank, 'composite')
+    return flanked_lobe(spec, key, ('segments', 'continuity', 'ratios', 'free_widths',
+                                    'half_angle'), _flank, 'composite')
 
 
 def _flank(spec: Mapping, key: str, ramp: Ramp, rise: float) -> Flank:
+    """One composite flank from its spec (segments, continuity, ratios, free_widths)."""
     raw = P.get(spec, key, 'segments')
     if isinstance(raw, (str, bytes, Mapping)) or not isinstance(raw, Sequence):
         raise InputError(f'{key}.segments', raw, 'a list of {shape, width} mappings')
@@ -148,7 +210,14 @@ def _flank(spec: Mapping, key: str, ramp: Ramp, rise: float) -> Flank:
             raise InputError(f'{key}.ratios[{i}]', r, '[i, j, r]: amplitude j = r * amplitude i')
         ratios.append((int(r[0]), int(r[1]), float(r[2])))
     cont = int(P.finite(spec, key, 'continuity', 2))
-    return composite_flank(ramp, rise, shapes, continuity=cont, ratios=ratios, key=key)
+    half = None
+    if P.get(spec, key, 'free_widths', False) is True:
+        half = P.positive(spec, key, 'half_angle')
+    elif spec.get('half_angle') is not None:
+        raise InputError(f'{key}.half_angle', spec['half_angle'],
+                         'no half_angle unless free_widths: true (the widths sum to it)')
+    return composite_flank(ramp, rise, shapes, continuity=cont, ratios=ratios,
+                           half_angle=half, key=key)
 
 
 def constant_acceleration_amplitudes(v0: float, alpha0: float, rise: float,
