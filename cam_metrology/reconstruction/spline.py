@@ -19,11 +19,11 @@ Pipeline (``reconstruct_spline``):
    discrete quintic smoothing spline (penalty on third differences, the discrete
    form of the integral of h'''^2; reflective ends), which the DCT-II diagonalises:
    eigenvalues mu_k^3 with mu_k = 2 - 2 cos(pi k / n). The smoothing level is chosen
-   automatically: by default by minimising an unbiased estimate of the *acceleration*
-   error (SURE with the noise estimated from the upper half of the spectrum), or by
-   GCV; or set by the caller. Missing grid nodes (gaps, outliers) get zero weight in
-   an exact banded solve (``smooth_grid``). A quintic (k = 5) interpolating spline through the smoothed values
-   gives h..h''' with h''' continuous.
+   automatically by GCV (default) or by minimising an unbiased estimate of the
+   *acceleration* error (SURE, noise from the upper half of the spectrum), or set by
+   the caller. Missing grid nodes (gaps, outliers) get zero weight in an exact banded
+   solve (``smooth_grid``). A quintic (k = 5) interpolating spline through the
+   smoothed values gives h..h''' with h''' continuous.
 4. **Sign pattern** of h'' (methods §5.1 step 3): significant sign changes above
    the expected count (2 for a single lobe) raise the smoothing (x4, at most 5 times);
    if that does not help, a warning says so.
