@@ -15,10 +15,8 @@ from typing import Any
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``scene`` group and the ``simulate`` command."""
-    scene = sub.add_parser(
-        'scene', help='validate a scene file',
-        description='Scene files (interfaces.md "Scene file"): validation and summary.')
-    scene_sub = scene.add_subparsers(dest='scene_command', metavar='WHAT')
+    scene_sub = _group(sub, 'scene', 'validate a scene file',
+                       'Scene files (interfaces.md "Scene file"): validation and summary.')
     check = scene_sub.add_parser(
         'check', help='validate a scene file and print a summary',
         description='Validate the whole scene (exit 2 with a message naming the key, the '
@@ -26,7 +24,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                     'unknown keys.')
     check.add_argument('file', metavar='FILE', help='scene YAML file ("-" for stdin)')
     check.set_defaults(func=cmd_scene_check)
-    scene.set_defaults(func=lambda args: scene.print_help() or 2)
 
     sim = sub.add_parser(
         'simulate', help='simulate a bench measurement into a new bag (offline)',
@@ -57,10 +54,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     sim.add_argument('--quiet', action='store_true', help='no progress output')
     sim.set_defaults(func=cmd_simulate)
 
-    bag = sub.add_parser(
-        'bag', help='inspect a bag, recover an interrupted recording',
-        description='Offline bag utilities (rosbags/mcap; no ROS graph).')
-    bag_sub = bag.add_subparsers(dest='bag_command', metavar='WHAT')
+    bag_sub = _group(sub, 'bag', 'inspect a bag, recover an interrupted recording',
+                     'Offline bag utilities (rosbags/mcap; no ROS graph).')
     info = bag_sub.add_parser(
         'info', help='topics, types, counts, QoS and the features of a bag',
         description='Print every topic with its type, message count and durability, '
@@ -74,7 +69,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     rec.add_argument('src', metavar='SRC', help='bag directory or .mcap file')
     rec.add_argument('dst', metavar='DST', help='new bag directory (must not exist)')
     rec.set_defaults(func=cmd_bag_recover)
-    bag.set_defaults(func=lambda args: bag.print_help() or 2)
+
+
+def _group(sub: argparse._SubParsersAction, name: str, help_text: str,
+           description: str) -> argparse._SubParsersAction:
+    """A command group ``name WHAT``; without WHAT it prints its help (exit 2)."""
+    parser = sub.add_parser(name, help=help_text, description=description)
+    parser.set_defaults(func=lambda args: parser.print_help() or 2)
+    return parser.add_subparsers(dest=f'{name}_command', metavar='WHAT')
 
 
 def _load(path: str) -> Any:
