@@ -327,3 +327,16 @@ def test_spikes_are_rejected_and_counted():
     assert v['samples_outliers_rejected'] > 0
     assert abs(_err_arcsec(v['angle_deg'], centre)) < 0.01
     assert abs(_err_arcsec(v['sensitive_point_angle_deg'], centre)) < 0.01
+
+
+def test_real_form_error_is_not_rejected_as_outliers():
+    """A smooth 8 um bump over 4 deg of the fall flank is a real lift error: kept and
+    reported, not removed as outliers."""
+    nose = np.radians(200.0)
+    smp = sample_lobe(CAM, nose, 1, n_per_rev=3600, noise=0.3e-6, seed=4)
+    alpha = np.angle(np.exp(1j * (smp.theta - nose)))
+    bump = 8e-6 * np.exp(-0.5 * ((alpha - np.radians(30)) / np.radians(1.0)) ** 2)
+    fs = clean_feature('lobe_1', smp.stamp_ns, smp.theta, smp.s + bump)
+    v = analyze_lobe(fs, CAM, 1, Settings()).values
+    assert v['samples_outliers_rejected'] <= 2
+    assert v['lift_error_um']['max_plus'] > 6.5

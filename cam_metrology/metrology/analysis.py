@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.ndimage import median_filter
 
 from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.errors import InputError
@@ -193,9 +194,11 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
                c0: float | None = None) -> tuple[Any, NDArray[np.bool_]]:
     """``fit_shift`` with rejection of outliers (spikes, dirt on the probe).
 
-    Samples whose residual exceeds ``outlier_sigma`` times the robust scale
-    (1.4826 MAD, floored at 1 nm) are dropped and the fit repeated (at most 3
-    times). Returns the fit and the mask of rejected samples (among ``used``).
+    Samples whose residual deviates from the running median (9 samples in angle
+    order) of the residuals by more than ``outlier_sigma`` times the robust scale
+    (1.4826 x the median of those deviations, floored at 1 nm) are dropped and the
+    fit repeated (at most 3 times). Isolated spikes are removed; a smooth real form
+    error is not (it stays visible in the lift error). Returns the fit and the mask of rejected samples (among ``used``).
     """
     cand = np.ones(x.size, bool) if used is None else used
     fit = fit_shift(x, s, law, theta=theta, d0=d0, c0=c0, used=cand)
@@ -204,7 +207,11 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
         r = s[cand] - fit.c - law(x[cand] - fit.d, 0)
         if theta is not None:
             r = r - fit.runout[0] * np.cos(theta[cand]) - fit.runout[1] * np.sin(theta[cand])
-        dev = np.abs(r - np.median(r))   # a biased first fit shifts all residuals
+        # deviation from a running median of the residuals in angle order: isolated
+        # spikes stand out, a smooth real form error (or a biased first fit) does not
+        order = np.argsort(x[cand], kind='stable')
+        dev = np.empty_like(r)
+        dev[order] = np.abs(r[order] - median_filter(r[order], size=9, mode='nearest'))
         scale = max(1.4826 * float(np.median(dev)), OUTLIER_SCALE_FLOOR)
         keep = cand.copy()
         keep[cand] = dev <= k * scale
