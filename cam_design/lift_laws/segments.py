@@ -23,7 +23,7 @@ from fractions import Fraction
 from typing import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import MAX_ORDER, LiftLaw
@@ -204,6 +204,24 @@ class PiecewiseLaw(LiftLaw):
         for k in np.unique(idx):
             m = idx == k
             out[m] = self.segments[k](alpha[m], nu)
+        return out
+
+    def derivatives(self, alpha: ArrayLike) -> NDArray[np.float64]:
+        """(4, n): the derivatives 0..3 at the flattened ``alpha`` (segments located once)."""
+        a = np.asarray(alpha, dtype=float).reshape(-1)
+        out = np.zeros((MAX_ORDER + 1, a.size))
+        lo, hi = self._support
+        inside = np.nonzero((a >= lo) & (a <= hi))[0]
+        if inside.size == 0:
+            return out
+        ai = a[inside]
+        idx = np.clip(np.searchsorted(self._los, ai, side='right') - 1,
+                      0, len(self.segments) - 1)
+        for k in np.unique(idx):
+            m = inside[idx == k]
+            seg = self.segments[k]
+            for nu in range(MAX_ORDER + 1):
+                out[nu, m] = seg(a[m], nu)
         return out
 
     def _scales(self) -> NDArray[np.float64]:
