@@ -214,6 +214,14 @@ def test_connection_conditioning_limit() -> None:
     h_deg = np.polynomial.polynomial.polyval(s, b_deg)
     h_si = np.polynomial.polynomial.polyval(s * DEG, b_si) / MM
     assert np.allclose(h_deg, h_si, rtol=1e-12, atol=1e-15)
+    # methods §1.7: cond ~1.4e4 in u = s/alpha4 against ~4e9 in raw degrees
+    from cam_design.lift_laws.dual_peak import connection_matrix
+
+    assert np.linalg.cond(connection_matrix(40.0, 20.0, 40.0)) == pytest.approx(1.4e4, rel=0.02)
+    assert np.linalg.cond(connection_matrix(40.0, 20.0, 1.0)) == pytest.approx(4.1e9, rel=0.03)
+    # the scaled matrix does not depend on the units: the same for alpha4 = 0.698 rad
+    assert np.allclose(connection_matrix(40 * DEG, 20 * DEG, 40 * DEG),
+                       connection_matrix(40.0, 20.0, 40.0), rtol=1e-13, atol=0)
     # a very short connection (alpha4 = 0.5 deg) still satisfies its end conditions
     b = connection_coefficients(0.225, -0.015, 0.0, 0.25, 0.0125, 0.5, 0.25, 0.2)
     p = np.polynomial.Polynomial(b)

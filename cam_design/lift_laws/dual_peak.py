@@ -31,23 +31,29 @@ from cam_design.lift_laws.ramps import ramp_from_spec
 from cam_design.lift_laws.segments import PiecewiseLaw, PowerSegment, Segment
 
 
+def connection_matrix(alpha4: float, alpha_a: float, scale: float) -> np.ndarray:
+    """The 7x7 matrix of S2 eqs 41-47 for the unknowns B_k scale^k, i.e. in the
+    variable u = s/scale (scale = alpha4: the scaled solve; scale = 1: raw units)."""
+    k = np.arange(7)
+    end, pt = alpha4 / scale, alpha_a / scale
+    rows = np.zeros((7, 7))
+    rows[0, 0] = 1.0                                    # h(0)
+    rows[1] = end ** k                                  # h(alpha4)
+    rows[2, 1] = 1.0                                    # h'(0) (times scale)
+    rows[3, 1:] = k[1:] * end ** (k[1:] - 1)            # h'(alpha4)
+    rows[4, 2] = 2.0                                    # h''(0) (times scale^2)
+    rows[5, 2:] = k[2:] * (k[2:] - 1) * end ** (k[2:] - 2)   # h''(alpha4)
+    rows[6] = pt ** k                                   # interior point
+    return rows
+
+
 def connection_coefficients(h3: float, h3p: float, h3pp: float, h6: float, v5: float,
                             alpha4: float, alpha_a: float, h_a: float) -> np.ndarray:
-    """B_0..B_6 of h4(s) = sum B_k s^k (any consistent units), solved in u = s/alpha4.
-
-    The patent's A_k = (-1)^k B_k."""
-    u_a = alpha_a / alpha4
+    """B_0..B_6 of h4(s) = sum B_k s^k (any consistent units), solved in u = s/alpha4
+    (cond ~1.4e4 instead of ~4e9 in raw degrees). The patent's A_k = (-1)^k B_k."""
     k = np.arange(7)
-    rows = np.zeros((7, 7))
     rhs = np.array([h3, h6, h3p * alpha4, v5 * alpha4, h3pp * alpha4 ** 2, 0.0, h_a])
-    rows[0, 0] = 1.0
-    rows[1] = 1.0
-    rows[2, 1] = 1.0
-    rows[3] = k
-    rows[4, 2] = 2.0
-    rows[5] = k * (k - 1)
-    rows[6] = u_a ** k
-    beta = np.linalg.solve(rows, rhs)
+    beta = np.linalg.solve(connection_matrix(alpha4, alpha_a, alpha4), rhs)
     return beta / alpha4 ** k
 
 
