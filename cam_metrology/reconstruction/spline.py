@@ -384,6 +384,30 @@ def smooth_grid(values: NDArray[np.float64], missing: NDArray[np.bool_],
     return z0 + d
 
 
+def _pad_flank_ends(grid: NDArray[np.float64], values: NDArray[np.float64],
+                    missing: NDArray[np.bool_], x: NDArray[np.float64],
+                    y: NDArray[np.float64], kept: NDArray[np.bool_], sigma: float
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], int]:
+    """Extend a table that does not cover the revolution and ends off the base circle
+    by free (zero-weight) nodes, so that the reflective ends of the DCT smoother do
+    not force h' = 0 at the data ends. Returns (grid, values, missing, pad)."""
+    step = float(grid[1] - grid[0])
+    covered = float(x[-1] - x[0]) >= 2.0 * np.pi - 1.5 * step
+    tol = max(5.0 * sigma, 2e-4 * float(np.ptp(y)))
+    yk = y[kept]
+    if covered or (abs(float(np.mean(yk[:5]))) <= tol and abs(float(np.mean(yk[-5:]))) <= tol):
+        return grid, values, missing, 0
+    pad = int(min(max(grid.size // 2, 16), 400))
+    k = min(20, grid.size)
+    t = np.arange(1, pad + 1) * step
+    head = np.polyfit(grid[:k] - grid[0], values[:k], 1)
+    tail = np.polyfit(grid[-k:] - grid[-1], values[-k:], 1)
+    grid = np.concatenate([grid[0] - t[::-1], grid, grid[-1] + t])
+    values = np.concatenate([np.polyval(head, -t[::-1]), values, np.polyval(tail, t)])
+    missing = np.concatenate([np.ones(pad, dtype=bool), missing, np.ones(pad, dtype=bool)])
+    return grid, values, missing, pad
+
+
 def _sign_changes(acc: NDArray[np.float64], frac: float = 0.05) -> int:
     """Sign changes of ``acc`` among samples with |acc| > frac * max|acc|."""
     big = np.abs(acc) > frac * float(np.max(np.abs(acc)) if acc.size else 0.0)
@@ -450,6 +474,11 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         missing = near > 0.75 * step
         notes.append(f'uneven sampling: resampled to {n_grid} uniform nodes '
                      f'({np.count_nonzero(missing)} in gaps)')
+    grid, values, missing, pad = _pad_flank_ends(grid, values, missing, x, y0, kept,
+                                                 fair.sigma)
+    if pad:
+        notes.append(f'table ends on a flank: {pad} free nodes added at each end '
+                     '(natural instead of reflective ends)')
     gaps = np.diff(x[kept])
     if gaps.size and float(gaps.max()) > 3.0 * step:
         g = int(np.argmax(gaps))
