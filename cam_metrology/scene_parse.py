@@ -123,6 +123,7 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
     valve = _valve_train(ctx, top['valve_train']) \
         if top.get('valve_train') is not None else None
     idle = require_positive('idle_timeout', top.get('idle_timeout', 1.0))
+    _check_conversions(ctx, lobes, base, probe)
     if pin is None and any(lobe.nominal_phase is not None for lobe in lobes):
         ctx.warnings.append('lobes[].nominal_phase: given but the scene has no dowel_pin; '
                             'phases cannot be measured')
@@ -347,6 +348,26 @@ def _check_law(key: str, law: LiftLaw) -> None:
         raise InputError(key, 'non-finite lift', 'a lift law with finite values')
     if float(np.max(h)) <= 0.0:
         raise InputError(key, float(np.max(h)), 'a lobe with a positive lift in m')
+
+
+def _check_conversions(ctx: _Ctx, lobes: list[Lobe], base: float, probe: Follower) -> None:
+    """Warn when a lobe's design lift cannot be converted to the probe (undercut design
+    profile, concave flank under a flat probe, roller probe too large): the analysis
+    will then report the lobe as failed with the same reason."""
+    from cam_design import follower as fol
+
+    convert = getattr(fol, 'convert_lift', None)
+    if convert is None:
+        return
+    for i, lobe in enumerate(lobes):
+        key = f'lobes[{i}].lift_law' if lobe.lift_spec is not None else f'lobes[{i}].lift'
+        try:
+            law = convert(lobe.lift, base, lobe.follower, probe, key=key)
+            lo, hi = law.support
+            law(np.linspace(lo, hi, 721))
+        except InputError as exc:
+            ctx.warnings.append(f'{key}: the design lift cannot be seen by the '
+                                f'{probe.kind} probe: {exc}')
 
 
 # ----------------------------------------------------------------- pin, compute, valve

@@ -14,10 +14,11 @@ from cam_design.errors import InputError
 from cam_metrology.scene_parse import load_scene, parse_scene
 
 
-def _table(n: int = 41, lift: float = 8e-3, half: float = 1.2) -> dict:
-    """A smooth symmetric lobe table: h = lift * cos^2 (pi a / (2 half))^3 (C5 at ends)."""
+def _table(n: int = 41, lift: float = 4e-3, half: float = 1.5) -> dict:
+    """A smooth symmetric lobe table: h = lift cos^4(pi a / (2 half)) (C3 at the ends);
+    flat-tappet radius of curvature 16.5 + 4 - 17.5 = 3 mm at the nose (no undercut)."""
     a = np.linspace(-half, half, n)
-    h = lift * np.cos(0.5 * np.pi * a / half) ** 6
+    h = lift * np.cos(0.5 * np.pi * a / half) ** 4
     h[0] = h[-1] = 0.0
     return {'alpha': a.tolist(), 'h': h.tolist()}
 
@@ -74,7 +75,7 @@ def test_valid_scene_round_trip():
     assert lobe.follower.kind == 'flat' and lobe.nominal_phase == 0.5
     a = np.array(doc['lobes'][0]['lift']['alpha'])
     np.testing.assert_allclose(lobe.lift(a), doc['lobes'][0]['lift']['h'], atol=1e-15)
-    assert lobe.lift(0.0) == pytest.approx(8e-3)
+    assert lobe.lift(0.0) == pytest.approx(4e-3)
     assert lobe.lift(2.0) == 0.0 and lobe.lift_spec is None
     assert scene.dowel_pin.circle_radius == 0.0115 and scene.dowel_pin.nominal_angle == 0.0
     assert scene.compute == frozenset(doc['compute'])
@@ -473,3 +474,19 @@ def test_cli_scene_check_invalid_exits_2(tmp_path):
     assert res.returncode == 2
     assert 'lobes[1].lift.alpha[7]' in res.stderr and 'Traceback' not in res.stderr
     assert len(res.stderr.strip().splitlines()) == 1
+
+
+def test_design_lift_that_the_probe_cannot_follow_warns():
+    pytest.importorskip('cam_design.follower').convert_lift
+    doc = _base()
+    # a sharp lobe: flat-tappet radius of curvature R0 + h + h'' < 0 at the nose
+    doc['lobes'][0]['lift'] = _table(n=41, lift=8e-3, half=0.6)
+    scene = _parse(doc)
+    assert any(w.startswith('lobes[0].lift: the design lift cannot be seen by the roller')
+               for w in scene.warnings), scene.warnings
+    assert not any(w.startswith('lobes[1]') for w in scene.warnings)
+
+
+def test_scene_check_reads_stdin():
+    res = _cli('scene', 'check', '-', stdin=yaml.safe_dump(_base()))
+    assert res.returncode == 0 and '<stdin>' not in res.stderr and 'lobe_1' in res.stdout
