@@ -105,6 +105,8 @@ def test_lobe_profiles_converted_to_the_design_follower(measured):
     assert float(s.values['cam_speed_rpm']) == 1500.0
     h = st['lobe_1/harmonic']
     assert int(h.values['order']) >= 10 and 'BIC' in h.values['why']
+    amps = [float(v) for v in h.values['spectrum_amplitude_m'].split(',')]
+    assert len(amps) == int(h.values['order']) + 1 and max(amps) > 1e-3
 
 
 def test_table_before_scene_is_processed_when_the_scene_arrives(measured):

@@ -201,3 +201,24 @@ def test_cli_bag_goes_through_metrology_and_reconstruction(tmp_path, capsys):
     spl = doc['features']['lobe_2']['spline']
     assert spl['ok'] and spl['design_errors']['rms_error_lift_m'] < 1e-6
     assert spl['noise_sigma_m'] == pytest.approx(0.5e-6, rel=0.3)
+
+
+def test_centre_on_nose_and_cli_option(tmp_path, capsys):
+    from cam_metrology.reconstruction.samples import LiftTable, centre_on_nose
+
+    ad = np.arange(0.0, 360.0, 1.0)
+    for offset in (0.0, 37.37, 180.0, -120.5):
+        rel = (ad - offset + 180.0) % 360.0 - 180.0
+        table, shift = centre_on_nose(LiftTable('g', ad * DEG, LOBE(rel * DEG)))
+        assert math.degrees(shift) == pytest.approx(offset, abs=1e-3)
+        assert 'shifted' in table.notes[-1]
+    with pytest.raises(InputError, match='constant'):
+        centre_on_nose(LiftTable('g', ad * DEG, np.zeros(ad.size)))
+    rows = [f'{d:.1f} {1e3 * LOBE(math.radians((d - 90 + 180) % 360 - 180)):.6f}'
+            for d in ad]
+    g = write_gauge(tmp_path / 'g.txt', rows=rows)
+    assert main(['reconstruct', str(g), '--center-nose', '--method', 'harmonic',
+                 '--json', '-']) == 0
+    har = json.loads(capsys.readouterr().out)['features']['g']['harmonic']
+    assert any('re-centred' in n for n in har['notes'])
+    assert har['parameters']['half_angle_rad'] == pytest.approx(math.radians(82), abs=0.05)

@@ -57,6 +57,9 @@ def register(subparsers: Any) -> None:
                    help='gauge file angle unit (default deg)')
     p.add_argument('--length-unit', choices=('mm', 'um', 'm'), default='mm',
                    help='gauge file length unit (default mm)')
+    p.add_argument('--center-nose', action='store_true',
+                   help='TABLE: re-centre the angles on the lobe axis (gauge files whose '
+                        'zero is not the nose)')
     p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
     p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
     p.set_defaults(func=run)
@@ -132,6 +135,9 @@ def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, A
     if args.feature:
         from dataclasses import replace
         table = replace(table, feature=args.feature)
+    if args.center_nose:
+        from cam_metrology.reconstruction.samples import centre_on_nose
+        table, _ = centre_on_nose(table)
     kind, radius = table.follower or ('flat', 0.0)
     if args.follower:
         kind = args.follower

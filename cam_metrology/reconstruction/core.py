@@ -268,6 +268,10 @@ class ReconstructionCore:
             values['max_velocity_m_per_s'] = repr(omega * float(np.max(np.abs(rec.velocity))))
             values['max_acceleration_m_per_s2'] = repr(
                 omega ** 2 * float(np.max(np.abs(rec.acceleration))))
+        if rec.spectrum is not None:
+            orders, amps = rec.spectrum
+            upto = min(int(rec.parameter.get('order', 0)), 60) + 1
+            values['spectrum_amplitude_m'] = ','.join(repr(float(v)) for v in amps[:upto])
         follower = outcome.engine_note or note
         if follower:
             values['follower'] = follower

@@ -240,6 +240,47 @@ def _gauge_number(name: str, number: int, line: str, expected: str) -> float:
     return value
 
 
+def centre_on_nose(table: LiftTable) -> tuple[LiftTable, float]:
+    """Shift the table's angles so that alpha = 0 is the lobe's symmetry axis.
+
+    The axis is the mean midpoint of the rise/fall crossings of lift levels at 20..80 %
+    of the maximum (the flank form of methods.md §5.3; linear interpolation, adequate
+    because |h'| is large there). Returns the shifted table and the shift [rad] that
+    was subtracted. Raises InputError if the lift has no clear single maximum.
+    """
+    data = clean_samples(table.alpha, table.lift, key=table.feature)
+    a, h = data.alpha, data.lift
+    top = int(np.argmax(h))
+    peak = float(h[top])
+    base = float(np.percentile(h, 5))
+    rng = peak - base
+    if not rng > 0:
+        raise InputError(f'{table.feature}.lift', 'a constant table', 'a lobe to centre')
+    # put the maximum in the middle so that both flanks are contiguous
+    a = wrap_pi(a - a[top])
+    order = np.argsort(a)
+    a, h = a[order], h[order]
+    i0 = int(np.argmin(np.abs(a)))
+    mids = []
+    for level in base + rng * np.linspace(0.2, 0.8, 13):
+        left = np.nonzero(h[:i0 + 1] <= level)[0]
+        right = np.nonzero(h[i0:] <= level)[0]
+        if left.size == 0 or right.size == 0:
+            continue
+        j, k = int(left[-1]), i0 + int(right[0])
+        al = a[j] + (level - h[j]) * (a[j + 1] - a[j]) / (h[j + 1] - h[j])
+        ar = a[k - 1] + (level - h[k - 1]) * (a[k] - a[k - 1]) / (h[k] - h[k - 1])
+        mids.append(0.5 * (al + ar))
+    if not mids:
+        raise InputError(f'{table.feature}.lift', 'no flank crossings',
+                         'a single lobe rising from and returning to the base circle')
+    shift = float(wrap_pi(data.alpha[top] + np.mean(mids)))
+    note = f'angles re-centred on the lobe axis: shifted by {math.degrees(shift):.4f} deg'
+    design = table.design
+    return (LiftTable(table.feature, wrap_pi(table.alpha - shift), table.lift, design,
+                      table.follower, table.source, table.notes + (note,)), shift)
+
+
 def read_table_file(path: str | Path, *, angle_unit: str = 'deg',
                     length_unit: str = 'mm') -> LiftTable:
     """A CSV table (first line names an ``alpha_`` column) or a gauge file."""
