@@ -119,6 +119,23 @@ def _jet_inverse_compose(angle: NDArray[np.float64],
                      6.0 * (q1 * b3 + 2.0 * q2 * b1 * b2 + q3 * b1 ** 3)])
 
 
+def _circle_ray(c: ArrayLike, radius: ArrayLike, x: NDArray[np.float64], sign: float
+                ) -> NDArray[np.float64]:
+    """(4, n): D and dD/dx^k (k = 1..3) of D = c cos x + sign sqrt(radius^2 - c^2 sin^2 x),
+    the distance along the ray at angle x to a circle of ``radius`` whose centre is at
+    distance c on the ray x = 0 (sign +1: far intersection, -1: near)."""
+    c = np.asarray(c, dtype=float)
+    co, si = np.cos(x), np.sin(x)
+    k = c * c
+    q = np.sqrt(np.asarray(radius, dtype=float) ** 2 - k * si * si)
+    # q q' = -w with w = c^2 sin x cos x, w' = c^2 cos 2x, w'' = -2 c^2 sin 2x
+    q1 = -k * si * co / q
+    q2 = -(k * np.cos(2 * x) + q1 * q1) / q
+    q3 = -(-2.0 * k * np.sin(2 * x) + 3.0 * q1 * q2) / q
+    return np.stack([c * co + sign * q, -c * si + sign * q1, -c * co + sign * q2,
+                     c * si + sign * q3])
+
+
 def _wrap(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
     """Angles wrapped to [-pi, pi)."""
     return (alpha + np.pi) % (2.0 * np.pi) - np.pi
@@ -182,7 +199,10 @@ class ConvertedLift(LiftLaw):
         self.key = key
         lo, hi = law.support
         self._src_support = (float(lo), float(hi))
-        self._edges: list[tuple[float, float]] = []    # (b, H_b) of straight flats
+        # (b, kind, value) of the pieces at h' steps: 'flat' (straight flat of a flat
+        # design, value H_b = R0 + h(b)) or 'arc' (concave arc of radius r1 of a roller
+        # design around the pitch corner C = g_b u(b), value g_b = R0 + r1 + h(b))
+        self._edges: list[tuple[float, str, float]] = []
         self._breaks = self._breakpoints()
         self._build_table()
         # h' of the target steps on a plateau (straight flank under a flat target); h''
@@ -288,25 +308,36 @@ class ConvertedLift(LiftLaw):
                 raise InputError(self.key, f'a step of {h[1] - h[0]:.3g} m in h at alpha = '
                                  f'{b:.6g} rad', 'a continuous lift (h = 0 at the support ends)')
             step = float(hp[1] - hp[0])
-            if self.source.kind == 'flat':
-                if step < -STEP_REJECT:
-                    raise InputError(self.key, f'h\' steps down by {-step:.3g} m/rad at alpha '
-                                     f'= {b:.6g} rad', 'a flat-tappet lift whose h\' only '
-                                     'steps up (a down step is an undercut)')
-                if step > JUMP_TOL:
-                    h_b = float(self.law(np.array([b]))[0])
-                    edges.append((b, self.base_radius + h_b))
-            elif abs(step) > STEP_REJECT:
-                raise InputError(self.key, f'h\' steps by {step:.3g} m/rad at alpha = {b:.6g} '
-                                 'rad', 'a roller-follower lift with continuous h\' (a step '
-                                 'is a corner of the pitch curve)')
+            if step < -STEP_REJECT:
+                raise InputError(self.key, f'h\' steps down by {-step:.3g} m/rad at alpha = '
+                                 f'{b:.6g} rad', 'a lift whose h\' only steps up (a down '
+                                 'step cuts a convex corner: undercut)')
+            if step > JUMP_TOL:
+                edge = self._step_piece(b, step)
+                if edge is not None:
+                    edges.append(edge)
         if self.target.kind != 'flat':
             self._edges = edges
         return out
 
+    def _step_piece(self, b: float, step: float) -> tuple[float, str, float] | None:
+        """The profile piece at an upward step of h' at ``b`` (see ``_edges``)."""
+        h_b = float(self.law(np.array([b]))[0])
+        if self.source.kind == 'flat':
+            return b, 'flat', self.base_radius + h_b
+        r1, r2 = _radius(self.source), _radius(self.target)
+        if step <= STEP_REJECT:
+            return None          # too small to matter (< 1e-16 m)
+        if self.target.kind == 'flat' or r2 > r1:
+            raise InputError(self.key, f'h\' steps up by {step:.3g} m/rad at alpha = {b:.6g} '
+                             f'rad (a concave arc of radius {r1} m on the cam)',
+                             'a target that fits the arc: a knife or a roller of radius <= '
+                             f'{r1} m (a flat face or a larger roller bridges it)')
+        return b, 'arc', self.base_radius + r1 + h_b
+
     # --- contact-angle table ------------------------------------------------------------
     def _build_table(self) -> None:
-        edges = [b for b, _ in self._edges]
+        edges = [b for b, _, _ in self._edges]
         start = edges[0] if edges else -math.pi
         end = start + 2 * math.pi
         grid = np.linspace(start, end, TABLE_POINTS + 1)
@@ -343,8 +374,9 @@ class ConvertedLift(LiftLaw):
         self._s = s
         self._a = np.maximum.accumulate(a)
         self._gap = gap
-        self._edge_b = np.array([b for b, _ in self._edges])
-        self._edge_h = np.array([hb for _, hb in self._edges])
+        self._edge_b = np.array([b for b, _, _ in self._edges])
+        self._edge_arc = np.array([kind == 'arc' for _, kind, _ in self._edges], dtype=bool)
+        self._edge_v = np.array([v for _, _, v in self._edges])
         lo, hi = self._src_support
         ends, _ = self._target_jets(np.array([lo - SIDE_EPS, hi + SIDE_EPS]), check=False)
         self._support = (float(min(ends[0][0], lo)), float(max(ends[0][1], hi)))
@@ -390,7 +422,7 @@ class ConvertedLift(LiftLaw):
         idx = np.clip(np.searchsorted(self._a, aa, side='right') - 1, 0, self._a.size - 2)
         on_gap = self._gap[idx]
         if np.any(on_gap):
-            out[:, on_gap] = self._flat_contact(aa[on_gap], idx[on_gap])
+            out[:, on_gap] = self._piece_contact(aa[on_gap], idx[on_gap])
         smooth = ~on_gap
         if np.any(smooth):
             derivs, rate = self._newton(aa[smooth], idx[smooth])
@@ -408,20 +440,32 @@ class ConvertedLift(LiftLaw):
             out[:, smooth] = derivs
         return out
 
-    def _flat_contact(self, aa: NDArray[np.float64], idx: NDArray[np.int64]
-                      ) -> NDArray[np.float64]:
-        """Roller/knife on a straight flat of normal angle b: D = c / cos(alpha - b)."""
+    def _piece_contact(self, aa: NDArray[np.float64], idx: NDArray[np.int64]
+                       ) -> NDArray[np.float64]:
+        """Target on the piece at an h' step b (alpha between A(b-) and A(b+)).
+
+        Flat of a flat design: D = c / cos(alpha - b), c = R0 + h(b) + r2. Concave arc of a
+        roller design (radius r1 around C = g_b u(b)): the target centre is on the circle
+        of radius r1 - r2 around C, D = g_b cos x - sqrt((r1 - r2)^2 - g_b^2 sin^2 x),
+        x = alpha - b.
+        """
         b = 0.5 * (self._s[idx] + self._s[idx + 1])
         which = np.argmin(np.abs(_wrap(b[:, None] - self._edge_b[None, :])), axis=1)
-        c = self._edge_h[which]
+        value = self._edge_v[which]
+        arc = self._edge_arc[which]
         r2 = _radius(self.target)
-        c = c + r2
         x = aa - b
-        sec = 1.0 / np.cos(x)
-        tan = np.tan(x)
-        return np.stack([c * sec - (self.base_radius + r2), c * sec * tan,
-                         c * (sec * tan * tan + sec ** 3),
-                         c * sec * tan * (tan * tan + 5.0 * sec * sec)])
+        out = np.empty((JET_ORDER + 1, aa.size))
+        flat = ~arc
+        if np.any(flat):
+            c, xf = value[flat] + r2, x[flat]
+            sec, tan = 1.0 / np.cos(xf), np.tan(xf)
+            out[:, flat] = np.stack([c * sec, c * sec * tan, c * (sec * tan * tan + sec ** 3),
+                                     c * sec * tan * (tan * tan + 5.0 * sec * sec)])
+        if np.any(arc):
+            out[:, arc] = _circle_ray(value[arc], _radius(self.source) - r2, x[arc], -1.0)
+        out[0] -= self.base_radius + r2
+        return out
 
     def _newton(self, aa: NDArray[np.float64], idx: NDArray[np.int64]
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -806,19 +850,12 @@ class EccentricDiscLift(LiftLaw):
 
     def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
         e = self.eccentricity
-        c, s = np.cos(alpha), np.sin(alpha)
-        flat = (e * (1.0 + c), -e * s, -e * c, e * s)
         if self.follower.kind == 'flat':
-            return flat[nu]
+            c, s = np.cos(alpha), np.sin(alpha)
+            return (e * (1.0 + c), -e * s, -e * c, e * s)[nu]
         r = _radius(self.follower)
-        # q = sqrt(K - e^2 sin^2 a): q q' = -w, w = e^2 sin a cos a (so w' = e^2 cos 2a)
-        q = np.sqrt((self.disc_radius + r) ** 2 - (e * s) ** 2)
-        w1, w2 = e * e * np.cos(2 * alpha), -2.0 * e * e * np.sin(2 * alpha)
-        q1 = -e * e * s * c / q
-        q2 = -(w1 + q1 * q1) / q
-        q3 = -(w2 + 3.0 * q1 * q2) / q
-        base = self.disc_radius - e + r
-        return (e * c + q - base, -e * s + q1, -e * c + q2, e * s + q3)[nu]
+        out = _circle_ray(e, self.disc_radius + r, alpha, 1.0)[nu]
+        return out - (self.disc_radius - e + r) if nu == 0 else out
 
 
 def wheel_centre_lift(law: LiftLaw, base_radius: float, design: Follower,

@@ -366,3 +366,45 @@ def test_conversions_compose(lift: float, half: float, r1: float, r2: float) -> 
     a = np.linspace(-math.pi, math.pi, 721)
     err = np.max(np.abs(via.derivatives(a) - direct.derivatives(a)), axis=1)
     assert np.all(err < [1e-15, 1e-15, 1e-14, 1e-12])      # m, m/rad, m/rad^2, m/rad^3
+
+
+def roller_design_profile_points(law: LiftLaw, r0: float, r1: float) -> np.ndarray:
+    """Profile of a roller design, independent of the library: inner offset of the pitch
+    curve g u(s) by r1 (eq. 2.16), plus the concave arcs of radius r1 that the roller
+    cuts around each pitch-curve corner (h' steps up at the support ends/junctions)."""
+    s = np.linspace(-math.pi, math.pi, 40001)
+    g, g1 = r0 + r1 + law(s), law(s, 1)
+    w = np.hypot(g, g1)
+    th = s + math.pi / 2
+    pts = [np.stack([g * np.cos(th) - r1 * (g * np.cos(th) + g1 * np.sin(th)) / w,
+                     g * np.sin(th) - r1 * (g * np.sin(th) - g1 * np.cos(th)) / w])]
+    lo, hi = law.support
+    for b in (lo, hi, *law.junctions):
+        gb = r0 + r1 + float(law(np.array([b]))[0])
+        t_l, t_r = law(np.array([b - 1e-12, b + 1e-12]), 1)
+        psi = b + math.pi / 2 - np.linspace(np.arctan(t_l / gb), np.arctan(t_r / gb), 201)
+        centre = gb * np.array([[math.cos(b + math.pi / 2)], [math.sin(b + math.pi / 2)]])
+        pts.append(centre - r1 * np.stack([np.cos(psi), np.sin(psi)]))
+    out = np.concatenate(pts, axis=1)
+    return out[:, np.argsort(np.arctan2(out[1], out[0]))]   # ordered along the profile
+
+
+@pytest.mark.parametrize('target', [Follower('knife'), Follower('roller', 0.004),
+                                    Follower('roller', 0.01 - 1e-6)])
+def test_roller_design_with_velocity_steps(target: Follower) -> None:
+    from cam_design.follower import lift_from_profile
+
+    lobe = RampLobe(vm=0.0015)          # used as a roller design: h' steps up 4 times
+    r0, r1 = 0.018, 0.01
+    conv = convert_lift(lobe, r0, Follower('roller', r1), target)
+    x, y = roller_design_profile_points(lobe, r0, r1)
+    alpha = np.concatenate([np.linspace(-1.6, 1.6, 81), np.array(conv.junctions) + 1e-4])
+    ref = lift_from_profile(x, y, alpha, target, r0)
+    assert np.max(np.abs(conv(alpha) - ref)) < 1e-9
+    assert conv.continuity_order == 1 and len(conv.junctions) == 8
+
+
+@pytest.mark.parametrize('target', [FLAT, Follower('roller', 0.012)])
+def test_roller_design_steps_refused_for_bridging_targets(target: Follower) -> None:
+    with pytest.raises(InputError, match='concave arc'):
+        convert_lift(RampLobe(), 0.018, Follower('roller', 0.01), target)
