@@ -186,8 +186,9 @@ class ConvertedLift(LiftLaw):
     roller centre psi + atan2(T, H + r) for a roller/knife) is inverted by bracketed
     Newton from a dense monotone table, and the lift derivatives follow by series
     reversion (no finite differences, no spline): exact to rounding.
-    A straight flat of a flat-tappet design (an upward step of h', as at the start of a
-    constant-velocity ramp) is handled in closed form: D = (R0 + h + r)/cos(alpha - b).
+    At an upward step of h' at b (the start of a constant-velocity ramp) the profile has
+    a straight flat (flat design) or a concave arc of radius r1 around the pitch corner
+    (roller design); the target's contact there is in closed form (``_piece_contact``).
     """
 
     def __init__(self, law: LiftLaw, base_radius: float, source: Follower,
