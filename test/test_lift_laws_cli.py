@@ -111,3 +111,17 @@ def test_law_from_scene_lobe(capsys: pytest.CaptureFixture) -> None:
     assert doc['max_lift_mm'] == pytest.approx(7.9, abs=1e-9)
     assert main(['design', 'law', str(scene), '--lobe', 'nope']) == 2
     assert '--lobe' in capsys.readouterr().err
+
+
+def test_check_roller_follower(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """design check with a roller follower: pressure angle reported, no oil film."""
+    f = tmp_path / 'check.yaml'
+    f.write_text(CHECK + 'follower: {kind: roller, radius: 0.012}\n')
+    assert main(['design', 'check', str(f), '--json', '-']) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out['follower'] == 'roller'
+    assert 0 < out['pressure_angle_max_deg'] < 45
+    assert 'oil_film_nose_gamma' not in out
+    f.write_text(CHECK + 'follower: {kind: wheel}\n')
+    assert main(['design', 'check', str(f)]) == 2
+    assert 'check.follower.kind' in capsys.readouterr().err

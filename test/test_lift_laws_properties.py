@@ -204,3 +204,33 @@ def test_huge_sample_counts_and_shapes() -> None:
     a = np.linspace(-2, 2, 1_000_000).reshape(1000, 1000)
     out = law(a, 2)
     assert out.shape == (1000, 1000) and np.all(np.isfinite(out))
+
+
+@SETTINGS
+@given(start=st.floats(1 * DEG, 25 * DEG), alpha4=st.floats(25 * DEG, 60 * DEG),
+       frac=st.floats(0.3, 0.7), h_a=st.floats(0.05 * MM, 0.25 * MM),
+       h5=st.floats(0.5 * MM, 3 * MM), a5=st.floats(10 * DEG, 30 * DEG))
+def test_dual_peak_properties(start: float, alpha4: float, frac: float, h_a: float,
+                              h5: float, a5: float) -> None:
+    """Random dual-peak cams: either a clear rejection (negative or overshooting
+    connection) or C2 at both connection ends, h >= 0 everywhere, stated continuity."""
+    spec = {'family': 'dual_peak',
+            'ramp': {'height': 0.3 * MM, 'velocity': 0.015 * MM / DEG, 'angle': 30 * DEG},
+            'rise': 8 * MM, 'half_angle': 50 * DEG,
+            'connection': {'start': start, 'angle': alpha4, 'point_angle': frac * alpha4,
+                           'point_lift': h_a},
+            'secondary': {'rise': h5, 'half_angle': a5,
+                          'ramp': {'height': 0.25 * MM, 'velocity': 0.0125 * MM / DEG,
+                                   'angle': 30 * DEG}}}
+    try:
+        law = from_spec(spec, 'L')
+    except InputError as exc:
+        assert exc.key == 'L.connection.point_lift'
+        return
+    check_continuity(law)
+    a = np.linspace(*law.support, 8001)
+    assert np.all(law(a) >= -1e-15)
+    cut = 50 * DEG + start
+    ends = [j for j in law.junction_report
+            if min(abs(j.alpha - cut), abs(j.alpha - cut - alpha4)) < 1e-12]
+    assert len(ends) == 2 and all(j.achieved >= 2 for j in ends)

@@ -112,7 +112,7 @@ def check_feasible(valve: Sequence[PowerSegment], train: Train, *,
 
 def polydyne_law(valve: Sequence[PowerSegment], train: Train, *, key: str = 'lift_law',
                  ramp: Sequence[Segment] = (), ramp_required: Sequence[int] = (),
-                 symmetric: bool = True, nose_required: int | None = None) -> PiecewiseLaw:
+                 nose_required: int | None = None) -> PiecewiseLaw:
     """Lobe from valve-motion segments in flank coordinate (t = 0 at the base circle).
 
     ``valve`` covers the open part of the rise flank up to the nose (flank end);
@@ -128,7 +128,7 @@ def polydyne_law(valve: Sequence[PowerSegment], train: Train, *, key: str = 'lif
     nose = nose_order(exps) if nose_required is None else nose_required
     required.append(nose)
     flank = Flank(tuple(ramp) + tuple(cam), tuple(required), nose_order=nose)
-    law = assemble_lobe(flank, None if symmetric else flank, key=key, name='polydyne')
+    law = assemble_lobe(flank, None, key=key, name='polydyne')
     law.train = train          # type: ignore[attr-defined]
     law.valve_motion = tuple(s.mapped(+1, flank.length) for s in valve)  # type: ignore
     return law
