@@ -32,11 +32,12 @@ from cam_metrology.outputs import (Output, StatusOutput, TableOutput, TextOutput
 
 __all__ = [
     'JOINT_STATES', 'CAMSHAFT_JOINT', 'PROBE_JOINT', 'TOPIC_TYPES', 'BagWriter',
-    'BagMessage', 'JointSamples', 'typestore', 'qos_yaml', 'default_qos_yaml',
-    'encode_joint_state', 'encode_string', 'encode_output', 'encode_table',
-    'encode_statuses', 'decode', 'table_from_msg', 'statuses_from_msg',
-    'iter_messages', 'read_joint_states', 'bag_topics', 'copy_bag', 'topic_qos_yaml',
-    'decode_joint_states', 'light_joint_states', 'recover_bag', 'LightJointState', 'encode_joint_state_positions',
+    'BagMessage', 'JointSamples', 'LightJointState', 'typestore', 'qos_yaml',
+    'default_qos_yaml', 'encode_joint_state', 'encode_joint_states',
+    'encode_joint_state_positions', 'encode_string', 'encode_output', 'encode_table',
+    'encode_statuses', 'decode', 'table_from_msg', 'statuses_from_msg', 'iter_messages',
+    'read_joint_states', 'decode_joint_states', 'light_joint_states', 'bag_topics',
+    'topic_qos_yaml', 'copy_bag', 'recover_bag',
 ]
 
 JOINT_STATES = '/bench/joint_states'
@@ -242,6 +243,30 @@ def encode_joint_state(frame_id: str, stamp_ns: int, theta: float, s: float,
     effort. Byte-identical to the rosbags typestore's ``serialize_cdr``.
     """
     return encode_joint_state_positions(frame_id, stamp_ns, names, (theta, s))
+
+
+def encode_joint_states(frame_id: str, stamp_ns: Any, theta: Any, s: Any) -> list[bytes]:
+    """CDR of many JointState samples of one feature at once (vectorised).
+
+    Same bytes as ``encode_joint_state(frame_id, stamp_ns[k], theta[k], s[k])`` for
+    every k; stamps [ns] as int64, theta [rad], s [m] as float64 arrays of one length.
+    """
+    st = np.asarray(stamp_ns, dtype=np.int64).reshape(-1)
+    th = np.asarray(theta, dtype='<f8').reshape(-1)
+    sv = np.asarray(s, dtype='<f8').reshape(-1)
+    if not st.size == th.size == sv.size:
+        raise InputError('encode_joint_states', (st.size, th.size, sv.size),
+                         'stamps, theta and s of the same length')
+    template = np.frombuffer(encode_joint_state(frame_id, 0, 0.0, 0.0), dtype=np.uint8)
+    size = template.size
+    mat = np.empty((st.size, size), dtype=np.uint8)
+    mat[:] = template
+    sec, nsec = np.divmod(st, 1_000_000_000)
+    mat[:, 4:8] = sec.astype('<i4').view(np.uint8).reshape(-1, 4)
+    mat[:, 8:12] = nsec.astype('<u4').view(np.uint8).reshape(-1, 4)
+    mat[:, size - 24:size - 16] = th.view(np.uint8).reshape(-1, 8)
+    mat[:, size - 16:size - 8] = sv.view(np.uint8).reshape(-1, 8)
+    return [row.tobytes() for row in mat]
 
 
 def encode_joint_state_positions(frame_id: str, stamp_ns: int, names: Sequence[str],

@@ -337,13 +337,13 @@ def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = Non
         writer.write('/bench/truth', first - 1_000_000,
                      bagio.encode_string(json.dumps(run.truth, sort_keys=True)))
         done = 0
-        encode = bagio.encode_joint_state
         write = writer.write
         topic = bagio.JOINT_STATES
         for feat in run.features:
             stamps = feat.stamp_ns.tolist()
-            for stamp, theta, s in zip(stamps, feat.theta.tolist(), feat.s.tolist()):
-                write(topic, stamp, encode(feat.id, stamp, theta, s))
+            cdrs = bagio.encode_joint_states(feat.id, feat.stamp_ns, feat.theta, feat.s)
+            for stamp, cdr in zip(stamps, cdrs):
+                write(topic, stamp, cdr)
                 done += 1
                 if progress is not None and done % 10_000 == 0:
                     progress(done, total)

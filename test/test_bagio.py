@@ -502,3 +502,18 @@ def test_sqlite3_bag_goes_through_the_fallback(tmp_path):
     got = bagio.read_joint_states(bag)
     np.testing.assert_array_equal(got.theta, np.arange(20.0))
     assert got.log_ns.tolist() == list(range(100, 120))
+
+
+@pytest.mark.parametrize('frame_id', ['lobe_1', 'dowel_pin', '', 'x' * 13])
+def test_vectorised_encoder_equals_the_scalar_one(frame_id):
+    rng = np.random.default_rng(1)
+    stamps = np.sort(rng.integers(0, 2**31 * 10**9 - 1, 50))
+    theta = rng.normal(size=50) * 100
+    s = rng.normal(size=50) * 1e-3
+    theta[3] = np.nan
+    got = bagio.encode_joint_states(frame_id, stamps, theta, s)
+    exp = [bagio.encode_joint_state(frame_id, int(st), float(th), float(v))
+           for st, th, v in zip(stamps, theta, s)]
+    assert got == exp
+    with pytest.raises(InputError, match='same length'):
+        bagio.encode_joint_states('a', stamps, theta[:3], s)
