@@ -116,7 +116,7 @@ def _decode_all(bag: Path) -> int:
 def speed() -> list[str]:
     """Markdown rows: decode vs analyze of a 200k-sample bag."""
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.registry import available_cores
+    from cam_metrology.cli.analyze import make_cores
     from cam_metrology.replay import run_offline
     from cam_metrology.simulate import SimParams, write_sim_bag
 
@@ -140,7 +140,7 @@ def speed() -> list[str]:
             t0 = time.perf_counter()
             res = run_offline(bag, [MetrologyCore()])
             analyze.append(time.perf_counter() - t0)
-            cores = [cls(None) for cls in available_cores().values()]
+            cores, _ = make_cores({}, only_metrology=False)
             t0 = time.perf_counter()
             run_offline(bag, cores)
             analyze_all.append(time.perf_counter() - t0)
@@ -150,7 +150,7 @@ def speed() -> list[str]:
         td, ta, tall = min(decode), min(analyze), min(analyze_all)
         rows.append(f'| {run.sample_count} samples, {n_msgs} messages (bag written in '
                     f'{t_write:.1f} s) | {td:.2f} | {ta:.2f} | {td / ta:.2f} | '
-                    f'{tall:.2f} ({", ".join(available_cores())}) | {td / tall:.2f} | '
+                    f'{tall:.2f} ({", ".join(c.name for c in cores)}) | {td / tall:.2f} | '
                     f'{max(errs):.3f} |')
         print(rows[-1], flush=True)
     return rows

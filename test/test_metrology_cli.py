@@ -129,3 +129,39 @@ def test_analyze_noisy_bag_with_runout_and_encoder_noise(tmp_path):
         assert f['status'] == 'ok', f
         err = (f['angle_deg'] - t['angle_deg'] + 180) % 360 - 180
         assert abs(err) < 4 * f['angle_std_deg'] + 1e-7, (fid, err, f['angle_std_deg'])
+
+
+BAGS = Path(__file__).resolve().parent.parent / 'bags'
+
+
+def _report(bag: Path, tmp_path: Path, *extra: str) -> dict:
+    out = tmp_path / f'{bag.name}.json'
+    assert main(['analyze', str(bag), '--json', str(out), *extra]) == 0
+    return json.loads(out.read_text())
+
+
+def test_fixture_irregular_bag_counts(tmp_path):
+    bag = BAGS / 'irregular'
+    if not (bag / 'metadata.yaml').exists():
+        pytest.skip('fixture bag irregular not committed')
+    rep = _report(bag, tmp_path, '--only-metrology')
+    for fid in ('lobe_1', 'lobe_2', 'lobe_3', 'lobe_4', 'dowel_pin'):
+        f = rep['features'][fid]
+        assert f['status'] == 'ok'
+        # 1800 samples: s NaN every 97th, theta NaN every 503rd, every 89th twice
+        assert f['samples_nan_dropped'] >= 1800 // 97
+        assert f['samples_duplicate_dropped'] >= 1800 // 89 - 1
+        assert f['samples_used'] <= 1800
+    assert rep['complete'] is True   # no feature_done: ended by frame change and timeout
+
+
+def test_fixture_no_pin_bag_skips(tmp_path):
+    bag = BAGS / 'no_pin_no_valve_train'
+    if not (bag / 'metadata.yaml').exists():
+        pytest.skip('fixture bag no_pin_no_valve_train not committed')
+    rep = _report(bag, tmp_path)
+    whats = {s['what'] for s in rep['skipped']}
+    assert {'pin', 'phase'} <= whats
+    for fid in ('lobe_1', 'lobe_2'):
+        assert rep['features'][fid]['phase_deg'] is None
+        assert rep['features'][fid]['asymmetry_deg'] is not None
