@@ -88,6 +88,14 @@ def run(samples: int, repeat: int) -> str:
                                         for st, fid, th, v in msgs], repeat)
         rows.append(('encode JointState, bagio struct encoder', n / t_struct, t_struct,
                      'byte-identical to typestore (test_bagio)'))
+        def vectorised() -> list[bytes]:
+            out: list[bytes] = []
+            for f in run_.features:
+                out += bagio.encode_joint_states(f.id, f.stamp_ns, f.theta, f.s)
+            return out
+        t_vec, vec = _best(vectorised, repeat)
+        rows.append(('encode JointState, bagio vectorised encoder (per feature)', n / t_vec,
+                     t_vec, 'same bytes' if vec == cdrs else 'DIFFERENT BYTES!'))
         ts = bagio.typestore()
         sub = msgs[: max(1, n // 10)]
 
