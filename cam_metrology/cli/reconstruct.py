@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         kind = 'table'
         follower, skipped = _table(path, core, args)
     skipped += _skips(core)
-    rpm = args.rpm or core._cam_speed()
+    rpm = args.rpm or core.cam_speed()
     from cam_metrology.reconstruction.profile import summary
 
     features = {fid: {m: summary(o, rpm=rpm) for m, o in outcomes.items()}
@@ -148,7 +148,7 @@ def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, A
     from cam_design.follower import Follower
     Follower(kind, radius)   # validates
     core.results.clear()
-    out = core._process(table, 0, note='table input: lift as seen by the measuring '
+    out = core.process_table(table, 0, note='table input: lift as seen by the measuring '
                                       f'follower ({kind}); no scene, no conversion')
     del out
     return {'kind': kind, 'radius_m': radius,

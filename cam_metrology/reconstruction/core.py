@@ -139,7 +139,7 @@ class ReconstructionCore:
             if self.scene is None:
                 self.pending.append(table)
                 return []
-            return self._process(table, stamp_ns)
+            return self.process_table(table, stamp_ns)
         return []
 
     def tick(self, now_ns: int) -> list[Output]:
@@ -151,7 +151,7 @@ class ReconstructionCore:
         out: list[Output] = []
         pending, self.pending = self.pending, []
         for table in pending:
-            out += self._process(table, 0, note='no scene received: no design comparison')
+            out += self.process_table(table, 0, note='no scene received: no design comparison')
         return out
 
     # -- internals -----------------------------------------------------------------------
@@ -165,7 +165,7 @@ class ReconstructionCore:
         out: list[Output] = []
         pending, self.pending = self.pending, []
         for table in pending:
-            out += self._process(table, stamp_ns)
+            out += self.process_table(table, stamp_ns)
         return out
 
     def _skip(self, feature: str, why: str, stamp_ns: int) -> list[Output]:
@@ -173,7 +173,9 @@ class ReconstructionCore:
         return [StatusOutput(RESULT, (Status(f'skipped/reconstruction/{feature}', OK, why),),
                              stamp_ns)]
 
-    def _cam_speed(self) -> float | None:
+    def cam_speed(self) -> float | None:
+        """Cam speed [rpm] for per-second values: the parameter, else the scene's first
+        valve-train speed, else None."""
         if self.rpm > 0:
             return self.rpm
         vt = getattr(self.scene, 'valve_train', None)
@@ -198,7 +200,9 @@ class ReconstructionCore:
                                'design_lift_m column is used'
         return law, conv, ''
 
-    def _process(self, table: LiftTable, stamp_ns: int, note: str = '') -> list[Output]:
+    def process_table(self, table: LiftTable, stamp_ns: int, note: str = '') -> list[Output]:
+        """Reconstruct one lift table (skips and failures become statuses); the
+        outcomes are kept in ``results[feature]`` and the table in ``tables``."""
         feature = table.feature
         design = conv = None
         extra = note
@@ -261,7 +265,7 @@ class ReconstructionCore:
         values['max_lift_m'] = repr(float(np.max(rec.lift)))
         for k, v in outcome.design_errors.items():
             values[k] = repr(v)
-        rpm = self._cam_speed()
+        rpm = self.cam_speed()
         if rpm:
             omega = rpm * math.pi / 30.0
             values['cam_speed_rpm'] = repr(rpm)
