@@ -113,3 +113,50 @@ def build_cam_input(law: LiftLaw, rocker_ratio: float, lash: float, step: float,
     coeffs[:, 0] -= lash
     return CamInput(nodes=nodes, lengths=lengths, coeffs=coeffs, uniform=uniform,
                     rocker_ratio=float(rocker_ratio), lash=float(lash))
+
+
+class JetTableLift(LiftLaw):
+    """A lift from tables of h, h', h'', h''' on a grid (e.g. /reconstruction/profile):
+    the degree-7 Hermite interpolant of the four columns (C3, exact at the nodes).
+
+    The support is trimmed to where h exceeds ``trim`` times its maximum (plus two grid
+    steps), so that a table covering the whole revolution still has a base circle.
+    """
+
+    continuity_order = 3
+
+    def __init__(self, alpha: NDArray[np.float64], jets: NDArray[np.float64], *,
+                 key: str = 'profile', trim: float = 1e-6) -> None:
+        from scipy.interpolate import PPoly
+
+        a = np.asarray(alpha, dtype=float)
+        j = np.asarray(jets, dtype=float)
+        if a.ndim != 1 or a.size < 4 or j.shape != (4, a.size):
+            raise InputError(f'{key}.alpha_rad', a.shape, 'a 1-D grid and 4 columns of '
+                             'h, h\', h\'\', h\'\'\' of the same length (>= 4)')
+        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(j))):
+            raise InputError(key, 'non-finite values', 'finite numbers')
+        if np.any(np.diff(a) <= 0):
+            raise InputError(f'{key}.alpha_rad', 'not increasing', 'increasing angles')
+        hmax = float(np.max(j[0]))
+        if hmax <= 0:
+            raise InputError(f'{key}.lift_m', hmax, 'a lobe with positive lift')
+        above = np.nonzero(j[0] > trim * hmax)[0]
+        i0 = max(int(above[0]) - 2, 0)
+        i1 = min(int(above[-1]) + 2, a.size - 1)
+        self.alpha = a[i0:i1 + 1]
+        self.jets = j[:, i0:i1 + 1]
+        lengths = np.diff(self.alpha)
+        scale = np.stack([lengths ** d for d in range(4)])
+        ends = np.concatenate([self.jets[:, :-1] * scale, self.jets[:, 1:] * scale])
+        sig = HERMITE_INV @ ends                                  # (8, n) in sigma
+        local = sig / lengths[None, :] ** np.arange(DEGREE + 1)[:, None]
+        self._poly = PPoly(local[::-1], self.alpha, extrapolate=False)
+        self._derivs = [self._poly] + [self._poly.derivative(n) for n in (1, 2, 3)]
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return float(self.alpha[0]), float(self.alpha[-1])
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        return self._derivs[nu](alpha)

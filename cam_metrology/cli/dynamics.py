@@ -1,0 +1,189 @@
+"""`cam-bench dynamics SCENE|BAG`: valve motion, contact force and stress, events and
+jump speed of the scene's valve train (methods.md §4; see docs/dynamics.md).
+
+* SCENE (YAML, interfaces.md): the design lift of every lobe (``lift`` table or
+  ``lift_law``) drives the scene's ``valve_train`` model.
+* BAG (rosbag2 directory or .mcap): replayed in-process through the metrology,
+  reconstruction and dynamics cores (the live code path); the reconstructed profile of
+  each lobe drives the model (the design law when a lobe has no profile).
+
+JSON (``--json FILE`` or ``-``): ``{"input", "kind", "model", "features": {ID:
+{"source", "runs": [...], "jump_speed_rpm", "bounce_onset_rpm", "sweep"}},
+"skipped"}``. Each run has ``cam_speed_rpm``, ``alpha_deg``, ``valve_lift_m``,
+``valve_velocity_m_s``, ``contact_force_n``, ``contact_stress_pa`` (arrays on the
+uniform ``--step-deg`` grid), ``opening_deg``, ``closing_deg``, ``separations``
+([start_deg, end_deg] pairs), ``seating_velocity_m_s``, ``bounce_count``,
+``bounce_height_m``, ``max_contact_stress_pa``, ``epsilon`` and more.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``dynamics`` subcommand."""
+    p = subparsers.add_parser(
+        'dynamics', help='valve-train dynamics: valve motion, contact force, jump speed',
+        description='Single-DOF (exact piecewise-linear solver, penalty or hard seat) or '
+                    '4+N1+N2 valve-train dynamics of a scene\'s lobes, from the design '
+                    'lift (SCENE) or the reconstructed measured profile (BAG).')
+    p.add_argument('input', metavar='SCENE|BAG', help='scene YAML, or rosbag2 directory/.mcap')
+    p.add_argument('--feature', metavar='ID', help='only this lobe (default: all lobes)')
+    p.add_argument('--model', choices=('sdof', 'mdof'),
+                   help="model (default: the scene's valve_train.model)")
+    p.add_argument('--rpm', type=float, action='append', metavar='R',
+                   help="camshaft speed [rpm]; repeat for several (default: the scene's "
+                        'valve_train.cam_speed_rpm)')
+    p.add_argument('--sweep', metavar='LO:HI:STEP',
+                   help='also sweep these speeds [rpm] (SDOF) and report jump_speed_rpm '
+                        'and bounce_onset_rpm')
+    p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
+                   help='step of the output grid [deg] (default 0.1)')
+    p.add_argument('--cam-width', type=float, default=0.012, metavar='M',
+                   help='contact width [m] for the Hertz stress (default 0.012)')
+    p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
+    p.add_argument('--plot', metavar='DIR',
+                   help='write <feature>.png (valve lift and contact force) to DIR')
+    p.set_defaults(func=run)
+
+
+def _is_bag(path: Path) -> bool:
+    return path.is_dir() or path.suffix == '.mcap'
+
+
+def _core_params(args: argparse.Namespace, source: str) -> dict[str, Any]:
+    from cam_design.errors import InputError, require_positive
+
+    params: dict[str, Any] = {'source': source,
+                              'step_deg': require_positive('--step-deg', args.step_deg),
+                              'cam_width': require_positive('--cam-width', args.cam_width)}
+    if args.rpm:
+        for i, r in enumerate(args.rpm):
+            require_positive(f'--rpm[{i}]', r)
+        params['cam_speeds_rpm'] = ','.join(repr(float(r)) for r in args.rpm)
+    if args.model:
+        params['model'] = args.model
+    if args.step_deg > 5:
+        raise InputError('--step-deg', args.step_deg, 'a step <= 5 deg')
+    return params
+
+
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``cam-bench dynamics``."""
+    from cam_design.errors import InputError
+    from cam_metrology.dynamics.core import DynamicsCore
+
+    path = Path(args.input)
+    if not path.exists():
+        raise FileNotFoundError(f'no such scene or bag: {path}')
+    sweep_speeds = None
+    if args.sweep:
+        from cam_design.valve_train.sweep import parse_range
+        sweep_speeds = parse_range(args.sweep)
+    if _is_bag(path):
+        core = DynamicsCore(_core_params(args, 'auto'))
+        _replay(path, core)
+        kind = 'bag'
+        if core.scene is None:
+            raise InputError('input', str(path), 'a bag with a /bench/scene message')
+    else:
+        from types import SimpleNamespace
+
+        from cam_metrology.scene_parse import load_scene
+
+        scene = load_scene(path)
+        if args.feature is not None and args.feature not in [lb.id for lb in scene.lobes]:
+            raise InputError('--feature', args.feature,
+                             'one of ' + ', '.join(lb.id for lb in scene.lobes))
+        core = DynamicsCore(_core_params(args, 'design'))
+        if scene.valve_train is None:
+            raise InputError('valve_train', None, 'a valve_train block in the scene')
+        core.handle('/bench/scene', SimpleNamespace(data=_scene_text(scene, args.feature)), 0)
+        kind = 'scene'
+    result = _result(core, args, kind, sweep_speeds)
+    _write(result, args)
+    if args.plot:
+        from cam_design.valve_train.sweep import plot_runs
+        for feature, runs in core.runs.items():
+            if args.feature and feature != args.feature:
+                continue
+            plot_runs(runs, Path(args.plot) / f'{feature}.png', title=feature)
+    return 0
+
+
+def _scene_text(scene: Any, feature: str | None) -> str:
+    """The scene YAML, restricted to one lobe when ``--feature`` is given."""
+    if feature is None:
+        return scene.text
+    import yaml
+
+    doc = yaml.safe_load(scene.text)
+    doc['lobes'] = [lb for lb in doc['lobes'] if lb.get('id') == feature]
+    return yaml.safe_dump(doc, sort_keys=False)
+
+
+def _replay(path: Path, core: Any) -> None:
+    """Feed the bag through metrology -> reconstruction -> dynamics (what exists)."""
+    from cam_metrology.registry import available_cores
+    from cam_metrology.replay import run_offline
+
+    cores = [cls() for name, cls in available_cores().items() if name != 'dynamics']
+    run_offline(path, [*cores, core])
+
+
+def _result(core: Any, args: argparse.Namespace, kind: str,
+            sweep_speeds: Any) -> dict[str, Any]:
+    from cam_metrology.metrology.core import _json_safe
+
+    scene = core.scene
+    out: dict[str, Any] = {'input': str(args.input), 'kind': kind,
+                           'camshaft_id': getattr(scene, 'camshaft_id', None),
+                           'model': args.model or getattr(scene.valve_train, 'model', None)
+                           if scene is not None and scene.valve_train is not None else None,
+                           'features': {}, 'skipped': []}
+    if scene is not None and scene.valve_train is None:
+        out['skipped'].append({'what': 'dynamics', 'why': 'scene has no valve_train'})
+    elif scene is not None and not scene.wants('dynamics'):
+        out['skipped'].append({'what': 'dynamics', 'why': 'dynamics not in compute'})
+    for feature, (law, source) in core.laws.items():
+        if args.feature and feature != args.feature:
+            continue
+        entry: dict[str, Any] = {'source': source,
+                                 'runs': [r.as_dict() for r in core.runs.get(feature, [])]}
+        failed = {k: v for k, v in core.failures.items() if k.startswith(feature + '/')}
+        if failed:
+            entry['failures'] = failed
+        if sweep_speeds is not None:
+            from cam_design.valve_train.params import SdofParams
+            from cam_design.valve_train.sweep import sweep
+
+            res = sweep(law, SdofParams.from_valve_train(scene.valve_train), sweep_speeds,
+                        step_deg=max(args.step_deg, 0.5))
+            entry['jump_speed_rpm'] = res.jump_speed_rpm
+            entry['bounce_onset_rpm'] = res.bounce_onset_rpm
+            entry['sweep'] = res.as_dict()
+        out['features'][feature] = entry
+    return _json_safe(out)
+
+
+def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
+    text = json.dumps(result, indent=1)
+    if args.json == '-':
+        sys.stdout.write(text + '\n')
+    elif args.json:
+        Path(args.json).write_text(text + '\n', encoding='utf-8')
+    if args.json != '-':
+        for feature, entry in result['features'].items():
+            for r in entry['runs']:
+                print(f"{feature} {r['cam_speed_rpm']:g} rpm: opening {r['opening_deg']} deg, "
+                      f"closing {r['closing_deg']} deg, separations {len(r['separations'])}, "
+                      f"seating {r['seating_velocity_m_s']} m/s, bounces {r['bounce_count']}")
+            if 'jump_speed_rpm' in entry:
+                print(f"{feature}: jump speed {entry['jump_speed_rpm']} rpm, bounce onset "
+                      f"{entry['bounce_onset_rpm']} rpm")
+        for s in result['skipped']:
+            print(f"skipped {s['what']}: {s['why']}")

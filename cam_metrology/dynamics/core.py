@@ -1,0 +1,285 @@
+"""Dynamics node core (pure Python; no rclpy): valve motion of every lobe per cam speed.
+
+Subscribes ``/bench/scene`` (std_msgs/String, scene YAML) and
+``/reconstruction/profile`` (Float64MultiArray, label ``<feature>/<method>``, columns
+``alpha_rad,lift_m,velocity_m_per_rad,acceleration_m_per_rad2,jerk_m_per_rad3``, the
+lift for the lobe's design follower). For each lobe and each speed of the scene's
+``valve_train.cam_speed_rpm`` it runs the scene's model (``sdof``: methods.md §4.1 with
+the penalty or hard seat; ``mdof``: §4.2) and publishes
+
+* ``/dynamics/valve_motion``: one table per lobe and speed, label
+  ``<feature>/<rpm>rpm``, columns ``alpha_rad,valve_lift_m,valve_velocity_m_per_s,
+  contact_force_n,contact_stress_pa`` (cam-follower force k F_t and Hertz stress);
+* ``/dynamics/result``: one DiagnosticStatus per lobe and speed (name
+  ``<feature>/<rpm>rpm``, values: source, opening/closing angles, separations,
+  seating velocity, bounce count/height, max force/stress, epsilon ...; WARN when the
+  valve separates or bounces, ERROR with the reason when a run fails), and
+  ``skipped/dynamics`` when the scene has no ``valve_train`` or ``compute`` omits
+  ``dynamics``.
+
+Lift source (parameter ``source``): ``auto`` uses the reconstructed profile of a lobe
+when one arrives and the design law for lobes without one at ``finish``; ``profile``
+only profiles; ``design`` the scene's design laws as soon as the scene arrives.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from cam_design.errors import InputError, require_positive
+from cam_design.valve_train.cam_input import JetTableLift
+from cam_design.valve_train.params import SdofParams
+from cam_design.valve_train.report import (COLUMNS, ContactGeometry, Run, finish_run,
+                                           run_sdof)
+from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
+
+SCENE, PROFILE = '/bench/scene', '/reconstruction/profile'
+MOTION, RESULT = '/dynamics/valve_motion', '/dynamics/result'
+PROFILE_COLUMNS = ('alpha_rad', 'lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
+                   'jerk_m_per_rad3')
+SOURCES = ('auto', 'profile', 'design')
+
+
+def rpm_label(rpm: float) -> str:
+    """'1500' for 1500.0, '1234.5' otherwise."""
+    return f'{rpm:g}'
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return str(bool(value))
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, list):
+        return repr([[round(x, 6) for x in v] if isinstance(v, list) else v for v in value])
+    return str(value)
+
+
+def table_of(msg: Any) -> tuple[str, tuple[str, ...], np.ndarray]:
+    """(label, columns, data rows x cols) of a Float64MultiArray (duck-typed)."""
+    dims = msg.layout.dim
+    if len(dims) < 2:
+        raise InputError('layout.dim', len(dims), 'two dimensions (rows, columns)')
+    label = dims[0].label
+    cols = tuple(c.strip() for c in dims[1].label.split(','))
+    rows, ncol = int(dims[0].size), int(dims[1].size)
+    data = np.asarray(msg.data, dtype=float)
+    if data.size != rows * ncol or ncol != len(cols):
+        raise InputError(f'{label}.data', data.size, f'{rows} x {ncol} values')
+    return label, cols, data.reshape(rows, ncol)
+
+
+def law_from_profile(cols: tuple[str, ...], data: np.ndarray, key: str) -> JetTableLift:
+    """The reconstructed lift as a law (Hermite on h, h', h'', h''')."""
+    missing = [c for c in PROFILE_COLUMNS if c not in cols]
+    if missing:
+        raise InputError(f'{key}.columns', ','.join(cols), ','.join(PROFILE_COLUMNS))
+    idx = [cols.index(c) for c in PROFILE_COLUMNS]
+    a = data[:, idx[0]]
+    return JetTableLift(a, data[:, idx[1:]].T, key=key)
+
+
+class DynamicsCore:
+    """Valve-train dynamics of the scene's lobes (methods.md §4)."""
+
+    name = 'dynamics'
+    subscriptions = {SCENE: 'std_msgs/msg/String',
+                     PROFILE: 'std_msgs/msg/Float64MultiArray'}
+    publications = {MOTION: 'std_msgs/msg/Float64MultiArray',
+                    RESULT: 'diagnostic_msgs/msg/DiagnosticArray'}
+    PARAMETERS: dict[str, tuple[Any, str]] = {
+        'source': ('auto', 'lift source: auto (reconstructed profile, else design law at '
+                           'finish) | profile | design'),
+        'profile_method': ('', 'reconstruction method to use (label suffix, e.g. spline); '
+                               'empty: the first profile received per lobe'),
+        'step_deg': (0.1, 'output grid step [deg] of /dynamics/valve_motion'),
+        'cam_speeds_rpm': ('', 'comma-separated camshaft speeds [rpm] overriding the '
+                               "scene's valve_train.cam_speed_rpm; empty: the scene's"),
+        'cam_width': (0.012, 'contact line width W [m] for the Hertz stress'),
+        'youngs_modulus': (2.06e11, 'Young modulus E [Pa] of cam and follower (mu = 0.3)'),
+        'max_revolutions': (4, 'at most this many revolutions to reach the periodic state'),
+        'model': ('', "sdof | mdof; empty: the scene's valve_train.model"),
+    }
+
+    def __init__(self, params: dict[str, Any] | None = None) -> None:
+        params = dict(params or {})
+        unknown = sorted(set(params) - set(self.PARAMETERS))
+        if unknown:
+            raise InputError(f'dynamics.{unknown[0]}', params[unknown[0]],
+                             'one of ' + ', '.join(sorted(self.PARAMETERS)))
+        p = {k: params.get(k, v[0]) for k, v in self.PARAMETERS.items()}
+        if p['source'] not in SOURCES:
+            raise InputError('dynamics.source', p['source'], ' | '.join(SOURCES))
+        self.source = str(p['source'])
+        self.profile_method = str(p['profile_method'] or '')
+        self.step_deg = require_positive('dynamics.step_deg', p['step_deg'])
+        if self.step_deg > 5:
+            raise InputError('dynamics.step_deg', self.step_deg, 'a step <= 5 deg')
+        self.speeds = parse_speeds(p['cam_speeds_rpm'], 'dynamics.cam_speeds_rpm')
+        self.cam_width = require_positive('dynamics.cam_width', p['cam_width'])
+        self.youngs = require_positive('dynamics.youngs_modulus', p['youngs_modulus'])
+        self.max_revolutions = int(require_positive('dynamics.max_revolutions',
+                                                    p['max_revolutions']))
+        if p['model'] not in ('', 'sdof', 'mdof'):
+            raise InputError('dynamics.model', p['model'], "sdof | mdof (or '' for the scene's)")
+        self.model = str(p['model'])
+        self.scene: Any = None
+        self.laws: dict[str, tuple[Any, str]] = {}
+        self.active = False
+        self.done: set[str] = set()
+        self.runs: dict[str, list[Run]] = {}
+        self.failures: dict[str, str] = {}
+
+    # -- protocol ------------------------------------------------------------------
+    def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:
+        """Scene: set up (and, with source=design, compute); profile: compute a lobe."""
+        if topic == SCENE:
+            return self._scene(str(msg.data), stamp_ns)
+        if topic == PROFILE:
+            return self._profile(msg, stamp_ns)
+        return []
+
+    def tick(self, now_ns: int) -> list[Output]:
+        """Nothing is time-driven."""
+        return []
+
+    def finish(self) -> list[Output]:
+        """source=auto: lobes without a profile use their design law."""
+        if not self.active or self.source != 'auto':
+            return []
+        out: list[Output] = []
+        for lobe in self.scene.lobes:
+            if lobe.id not in self.done:
+                out += self._compute(lobe.id, lobe.lift, 'design', 0)
+        return out
+
+    # -- work --------------------------------------------------------------------
+    def _scene(self, text: str, stamp_ns: int) -> list[Output]:
+        from cam_metrology.scene_parse import parse_scene
+
+        self.done.clear()
+        self.laws.clear()
+        self.runs.clear()
+        self.failures.clear()
+        self.active = False
+        try:
+            scene = parse_scene(text, '/bench/scene')
+        except InputError as exc:
+            return [self._status(Status('skipped/dynamics', ERROR,
+                                        f'invalid scene: {exc}'), stamp_ns)]
+        self.scene = scene
+        if scene.valve_train is None:
+            return [self._skip('scene has no valve_train', stamp_ns)]
+        if not scene.wants('dynamics'):
+            return [self._skip('dynamics not in compute', stamp_ns)]
+        self.active = True
+        if self.source != 'design':
+            return []
+        out: list[Output] = []
+        for lobe in scene.lobes:
+            out += self._compute(lobe.id, lobe.lift, 'design', stamp_ns)
+        return out
+
+    def _profile(self, msg: Any, stamp_ns: int) -> list[Output]:
+        if not self.active or self.source == 'design':
+            return []
+        try:
+            label, cols, data = table_of(msg)
+        except InputError as exc:
+            return [self._status(Status('dynamics/profile', ERROR, str(exc)), stamp_ns)]
+        parts = label.split('/')
+        if len(parts) != 2:          # '<feature>/<method>/probe' and others: not ours
+            return []
+        feature, method = parts
+        if self.profile_method and method != self.profile_method:
+            return []
+        if feature in self.done:
+            return []
+        try:
+            self.scene.lobe(feature)
+        except KeyError:
+            return []
+        try:
+            law = law_from_profile(cols, data, label)
+        except InputError as exc:
+            self.done.add(feature)
+            return [self._status(Status(f'{feature}', ERROR, f'profile {label}: {exc}'),
+                                 stamp_ns)]
+        return self._compute(feature, law, f'profile:{method}', stamp_ns)
+
+    def _compute(self, feature: str, law: Any, source: str, stamp_ns: int) -> list[Output]:
+        self.done.add(feature)
+        self.laws[feature] = (law, source)
+        vt = self.scene.valve_train
+        if self.model:
+            from dataclasses import replace
+            vt = replace(vt, model=self.model)
+        lobe = self.scene.lobe(feature)
+        speeds = self.speeds or tuple(vt.cam_speed_rpm)
+        geom = ContactGeometry(base_radius=self.scene.base_circle_radius,
+                               follower=lobe.follower.kind, radius=lobe.follower.radius,
+                               width=self.cam_width, youngs_modulus=self.youngs)
+        out: list[Output] = []
+        statuses = []
+        for rpm in speeds:
+            name = f'{feature}/{rpm_label(rpm)}rpm'
+            try:
+                run = compute_run(law, vt, rpm, self.step_deg, geom, self.max_revolutions)
+            except (InputError, RuntimeError, ValueError) as exc:
+                self.failures[name] = str(exc)
+                statuses.append(Status(name, ERROR, f'dynamics failed: {exc}',
+                                       {'source': source}))
+                continue
+            self.runs.setdefault(feature, []).append(run)
+            out.append(TableOutput(MOTION, name, COLUMNS, run.table()))
+            ev = run.events
+            level = WARN if ev.get('jump') or ev.get('bounce_count') else OK
+            msg = ('separation' if ev.get('jump') else
+                   'bounce' if ev.get('bounce_count') else 'ok')
+            values = {'source': source, 'model': run.model}
+            values.update({k: _fmt(v) for k, v in ev.items()})
+            statuses.append(Status(name, level, msg, values))
+        out.append(StatusOutput(RESULT, tuple(statuses), stamp_ns))
+        return out
+
+    def _skip(self, why: str, stamp_ns: int) -> StatusOutput:
+        return self._status(Status('skipped/dynamics', OK, why, {'why': why}), stamp_ns)
+
+    @staticmethod
+    def _status(status: Status, stamp_ns: int) -> StatusOutput:
+        return StatusOutput(RESULT, (status,), stamp_ns)
+
+
+def parse_speeds(value: Any, key: str) -> tuple[float, ...]:
+    """'1500, 3000' or [1500, 3000] -> (1500.0, 3000.0); '' -> ()."""
+    if value is None or value == '' or value == []:
+        return ()
+    items = value.split(',') if isinstance(value, str) else list(value)
+    out = []
+    for i, item in enumerate(items):
+        try:
+            out.append(require_positive(f'{key}[{i}]', float(item)))
+        except (TypeError, ValueError):
+            raise InputError(f'{key}[{i}]', item, 'a speed > 0 in rpm') from None
+    return tuple(out)
+
+
+def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
+                geom: ContactGeometry | None, max_revolutions: int = 4) -> Run:
+    """One run of the scene's valve-train model (``vt``: scene ValveTrain)."""
+    params = SdofParams.from_valve_train(vt)
+    if getattr(vt, 'model', 'sdof') == 'mdof':
+        from cam_design.valve_train.mdof import mdof_from_mapping, simulate_mdof
+
+        mp = mdof_from_mapping(vt.mdof, params)
+        res = simulate_mdof(law, mp, rpm, step_deg=step_deg)
+        events = dict(res.events)
+        events['natural_frequencies_hz'] = [float(f) for f in res.natural_frequencies_hz[:6]]
+        events['spring_surge_hz'] = [float(s[0]) for s in res.surge_hz]
+        return finish_run(law, params, rpm, 'mdof', res.alpha, res.y, res.v, res.cam_force,
+                          events, geom)
+    return run_sdof(law, params, rpm, step_deg=step_deg, geometry=geom,
+                    max_revolutions=max_revolutions)
+
+

@@ -1,0 +1,171 @@
+"""Dynamics node core and CLI (no rclpy): topics, labels, skips, profile input."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from types import SimpleNamespace as NS
+
+import numpy as np
+import pytest
+import yaml
+
+from cam_design.errors import InputError
+from cam_metrology.dynamics.core import (MOTION, PROFILE, RESULT, DynamicsCore,
+                                         law_from_profile)
+from cam_metrology.outputs import StatusOutput, TableOutput
+
+REPO = Path(__file__).resolve().parent.parent
+SCENE = (REPO / 'config' / 'default_scene.yaml').read_text()
+
+
+def scene_text(**changes) -> str:
+    doc = yaml.safe_load(SCENE)
+    doc['lobes'] = doc['lobes'][:1]
+    doc['valve_train']['cam_speed_rpm'] = [1500.0]
+    doc.update(changes)
+    return yaml.safe_dump(doc, sort_keys=False)
+
+
+def profile_msg(label: str, alpha: np.ndarray, jets: np.ndarray) -> NS:
+    cols = 'alpha_rad,lift_m,velocity_m_per_rad,acceleration_m_per_rad2,jerk_m_per_rad3'
+    data = np.column_stack([alpha, *jets])
+    dims = [NS(label=label, size=data.shape[0], stride=data.size),
+            NS(label=cols, size=5, stride=5)]
+    return NS(layout=NS(dim=dims, data_offset=0), data=data.ravel().tolist())
+
+
+def test_parameters_declared_and_config_matches() -> None:
+    cfg = yaml.safe_load((REPO / 'config' / 'dynamics.yaml').read_text())
+    assert set(cfg['dynamics']['ros__parameters']) == set(DynamicsCore.PARAMETERS)
+    core = DynamicsCore(cfg['dynamics']['ros__parameters'])
+    assert core.subscriptions == {'/bench/scene': 'std_msgs/msg/String',
+                                  PROFILE: 'std_msgs/msg/Float64MultiArray'}
+    with pytest.raises(InputError, match='dynamics.bogus'):
+        DynamicsCore({'bogus': 1})
+    with pytest.raises(InputError, match='dynamics.source'):
+        DynamicsCore({'source': 'x'})
+    with pytest.raises(InputError, match=r'dynamics.cam_speeds_rpm\[1\]'):
+        DynamicsCore({'cam_speeds_rpm': '1500,-3'})
+
+
+def test_design_source_publishes_tables_and_statuses() -> None:
+    core = DynamicsCore({'source': 'design', 'step_deg': 0.5})
+    outs = core.handle('/bench/scene', NS(data=scene_text()), 7)
+    tables = [o for o in outs if isinstance(o, TableOutput)]
+    assert [t.label for t in tables] == ['lobe_1/1500rpm']
+    t = tables[0]
+    assert t.topic == MOTION and t.columns == ('alpha_rad', 'valve_lift_m',
+                                               'valve_velocity_m_per_s', 'contact_force_n',
+                                               'contact_stress_pa')
+    assert t.data.shape == (721, 5) and np.all(np.isfinite(t.data))
+    assert np.allclose(np.diff(t.data[:, 0]), math.radians(0.5))
+    st = [o for o in outs if isinstance(o, StatusOutput)][0]
+    assert st.topic == RESULT and st.statuses[0].name == 'lobe_1/1500rpm'
+    vals = st.statuses[0].values
+    assert vals['source'] == 'design' and float(vals['epsilon']) > 0
+    assert float(vals['seating_velocity_m_s']) > 0
+    assert core.finish() == []
+
+
+@pytest.mark.parametrize('changes, why', [
+    ({'valve_train': None}, 'scene has no valve_train'),
+    ({'compute': ['nose', 'pin']}, 'dynamics not in compute'),
+])
+def test_skipped_with_reason(changes: dict, why: str) -> None:
+    core = DynamicsCore()
+    outs = core.handle('/bench/scene', NS(data=scene_text(**changes)), 0)
+    assert len(outs) == 1 and outs[0].statuses[0].name == 'skipped/dynamics'
+    assert outs[0].statuses[0].message == why
+    assert core.finish() == []
+
+
+def test_profile_source_and_design_fallback() -> None:
+    """A reconstructed profile (design law sampled with its jets) gives the same motion
+    as the design law; lobes without a profile fall back to the design at finish."""
+    doc = yaml.safe_load(SCENE)
+    doc['lobes'] = doc['lobes'][:2]
+    doc['valve_train']['cam_speed_rpm'] = [2000.0]
+    text = yaml.safe_dump(doc, sort_keys=False)
+    ref = DynamicsCore({'source': 'design', 'step_deg': 0.5})
+    ref_out = [o for o in ref.handle('/bench/scene', NS(data=text), 0)
+               if isinstance(o, TableOutput)]
+    core = DynamicsCore({'step_deg': 0.5, 'profile_method': 'spline'})
+    assert core.handle('/bench/scene', NS(data=text), 0) == []
+    law = ref.scene.lobe('lobe_1').lift
+    a = np.linspace(-math.pi, math.pi, 3601)
+    assert core.handle(PROFILE, profile_msg('lobe_1/harmonic', a, law.derivatives(a)), 1) == []
+    assert core.handle(PROFILE, profile_msg('lobe_1/spline/probe', a, law.derivatives(a)),
+                       1) == []
+    outs = core.handle(PROFILE, profile_msg('lobe_1/spline', a, law.derivatives(a)), 2)
+    tab = [o for o in outs if isinstance(o, TableOutput)][0]
+    assert np.max(np.abs(tab.data[:, 1] - ref_out[0].data[:, 1])) < 1e-9
+    status = [o for o in outs if isinstance(o, StatusOutput)][0].statuses[0]
+    assert status.values['source'] == 'profile:spline'
+    rest = core.finish()
+    assert [o.label for o in rest if isinstance(o, TableOutput)] == ['lobe_2/2000rpm']
+
+
+def test_bad_profile_reported_not_raised() -> None:
+    core = DynamicsCore({'step_deg': 0.5})
+    core.handle('/bench/scene', NS(data=scene_text()), 0)
+    a = np.linspace(-1, 1, 50)
+    outs = core.handle(PROFILE, profile_msg('lobe_1/spline', a, np.full((4, 50), np.nan)), 1)
+    assert outs[0].statuses[0].level == 2 and 'non-finite' in outs[0].statuses[0].message
+    with pytest.raises(InputError):
+        law_from_profile(('alpha_rad', 'lift_m'), np.zeros((5, 2)), 'x')
+
+
+def test_cli_scene_json_and_sweep(tmp_path: Path, capsys) -> None:
+    from cam_metrology.cli import main
+
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(scene_text())
+    out = tmp_path / 'out.json'
+    rc = main(['dynamics', str(scene), '--rpm', '1500', '--rpm', '2500', '--step-deg', '0.5',
+               '--sweep', '1500:2500:250', '--json', str(out), '--plot', str(tmp_path / 'p')])
+    assert rc == 0
+    res = json.loads(out.read_text())
+    feat = res['features']['lobe_1']
+    assert [r['cam_speed_rpm'] for r in feat['runs']] == [1500.0, 2500.0]
+    run = feat['runs'][0]
+    for key in ('alpha_deg', 'valve_lift_m', 'contact_force_n', 'separations',
+                'seating_velocity_m_s', 'bounce_count', 'max_contact_stress_pa', 'epsilon'):
+        assert key in run
+    assert len(run['alpha_deg']) == len(run['valve_lift_m']) == 721
+    assert 1500 < feat['jump_speed_rpm'] <= 2500
+    assert feat['runs'][1]['separations']
+    assert (tmp_path / 'p' / 'lobe_1.png').exists()
+
+
+def test_cli_errors_exit_2(tmp_path: Path, capsys) -> None:
+    from cam_metrology.cli import main
+
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(scene_text())
+    assert main(['dynamics', str(scene), '--rpm', '-5', '--json', '-']) == 2
+    assert '--rpm[0]' in capsys.readouterr().err
+    assert main(['dynamics', str(scene), '--feature', 'nope']) == 2
+    assert main(['dynamics', str(scene), '--sweep', '5:1:1']) == 2
+    assert main(['dynamics', str(tmp_path / 'missing.yaml')]) == 2
+    novt = tmp_path / 'novt.yaml'
+    novt.write_text(scene_text(valve_train=None))
+    assert main(['dynamics', str(novt)]) == 2
+    assert 'valve_train' in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_cli_bag_uses_reconstructed_profiles(tmp_path: Path) -> None:
+    from cam_metrology.cli import main
+
+    bag = REPO / 'bags' / 'default_clean'
+    if not bag.exists():
+        pytest.skip('fixture bag missing')
+    out = tmp_path / 'bag.json'
+    assert main(['dynamics', str(bag), '--rpm', '1500', '--step-deg', '0.5',
+                 '--json', str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert res['kind'] == 'bag' and res['features']
+    for feat in res['features'].values():
+        assert feat['source'].startswith(('profile:', 'design'))
+        assert feat['runs'][0]['opening_deg'] is not None
