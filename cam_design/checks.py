@@ -282,6 +282,33 @@ def valve_piston_clearance(piston: ArrayLike, valve: ArrayLike, clearance: float
                                                                                    valve)
 
 
+# ---------------------------------------------------------------- flank shape (§1.4)
+@dataclasses.dataclass(frozen=True)
+class FlankShape:
+    """Shape checks of methods §1.4 for one flank."""
+
+    monotone: bool                  # h' of one sign (to 1e-9 of max |h'|)
+    acceleration_sign_changes: int  # sign changes of h'' (zeros skipped); 1 expected
+    positive_width: float           # rad: longest run with h'' > 0 (the main pulse)
+
+
+def flank_shape(alpha: ArrayLike, h1: ArrayLike, h2: ArrayLike, rise: bool) -> FlankShape:
+    """Monotonicity, h'' sign pattern and positive-acceleration width of the rise
+    (``rise``: h' >= 0 expected) or fall flank sampled on ``alpha`` (increasing)."""
+    a, v, acc = _arr('alpha', alpha), _arr('h1', h1), _arr('h2', h2)
+    if not rise:       # look at the fall flank from the base circle towards the nose
+        a, v, acc = -a[::-1], -v[::-1], acc[::-1]
+    vt = 1e-9 * max(float(np.max(np.abs(v))), 1e-300)
+    at = 1e-9 * max(float(np.max(np.abs(acc))), 1e-300)
+    signs = np.sign(acc[np.abs(acc) > at])
+    changes = int(np.count_nonzero(np.diff(signs)))
+    best = run = 0.0
+    for i in range(1, a.size):
+        run = run + (a[i] - a[i - 1]) if (acc[i] > at and acc[i - 1] > at) else 0.0
+        best = max(best, run)
+    return FlankShape(bool(np.all(v >= -vt)), changes, best)
+
+
 # ---------------------------------------------------------------- all checks for a law
 def _follower(cfg: Mapping[str, Any], key: str) -> tuple[str, float]:
     """(kind, roller radius) from the optional ``follower: {kind, radius}`` (flat)."""
@@ -347,6 +374,13 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
             j = int(np.argmax(np.where(convex, -np.inf, rho)))
             out['min_concave_radius_mm'] = float(-rho[j]) * 1e3
             out['min_concave_radius_alpha_deg'] = math.degrees(float(a[j]))
+    rise_shape = flank_shape(a[a < 0], h1[a < 0], h2[a < 0], rise=True)
+    fall_shape = flank_shape(a[a > 0], h1[a > 0], h2[a > 0], rise=False)
+    out['monotone_flanks'] = rise_shape.monotone and fall_shape.monotone
+    out['acceleration_sign_changes'] = [rise_shape.acceleration_sign_changes,
+                                        fall_shape.acceleration_sign_changes]
+    out['positive_acceleration_width_deg'] = [math.degrees(rise_shape.positive_width),
+                                              math.degrees(fall_shape.positive_width)]
     if y.max() > 0:
         out['fullness'] = float(fullness(a, y))
         open_ = np.nonzero(y > 0)[0]
@@ -385,6 +419,11 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
                             mass=m, omega=omega)
         force = spring_force(h, k, x0, f0, rate) + inertia_force(h2, m, omega)
         out['equivalent_mass_kg'] = m
+        if cfg.get('stiffness') is not None:   # train stiffness at the tappet [N/m]
+            period = omega * 2 * math.pi * math.sqrt(m / P.positive(cfg, key, 'stiffness'))
+            out['natural_period_cam_deg'] = math.degrees(period)
+            out['positive_width_over_period'] = float(
+                min(rise_shape.positive_width, fall_shape.positive_width) / period)
         out['min_contact_force_n'] = sep.min_force
         out['min_contact_force_alpha_deg'] = math.degrees(sep.alpha_at_min)
         out['no_separation'] = sep.ok

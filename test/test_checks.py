@@ -209,3 +209,44 @@ def test_run_checks_roller_hertz_and_pressure_angle() -> None:
     # array rho2 (signed): concave cam against a roller
     s = C.hertz_stress_steel([1000.0, 1000.0], 0.01, [8 * MM, 8 * MM], [-20 * MM, np.inf])
     assert s[0] < s[1]
+
+
+def test_flank_shape_constant_acceleration() -> None:
+    """§1.4 shape checks: the §1.2 cam has one h'' sign change per flank and a positive
+    acceleration width of phi1 = 15 deg; the natural period in cam angle is
+    omega 2 pi sqrt(M/c)."""
+    law = from_spec({'family': 'constant_acceleration',
+                     'ramp': {'kind': 'constant_velocity', 'height': 0.3 * MM,
+                              'velocity': 0.015 * MM / D},
+                     'rise': 8 * MM, 'half_angle': 50 * D, 'positive_width': 15 * D}, 'l')
+    a = np.linspace(*law.support, 14001)
+    shape = C.flank_shape(a[a < 0], law(a[a < 0], 1), law(a[a < 0], 2), rise=True)
+    assert shape.monotone and shape.acceleration_sign_changes == 1
+    assert math.degrees(shape.positive_width) == pytest.approx(15.0, abs=0.02)
+    cfg = {'base_radius': 40 * MM, 'cam_speed_rpm': 1500, 'stiffness': 1.2e7,
+           'spring': {'preload': 250.0, 'rate': 3e4},
+           'masses': {'valve': 0.12, 'spring': 0.0, 'retainer': 0.0}}
+    out = C.run_checks(law, cfg)
+    assert out['acceleration_sign_changes'] == [1, 1]
+    # methods §4.3: M = 0.12 kg, c = 1.2e7 N/m, 1500 rpm -> natural period 5.65 deg
+    assert out['natural_period_cam_deg'] == pytest.approx(5.65, abs=0.01)
+    assert out['positive_width_over_period'] == pytest.approx(15 / 5.652, rel=3e-3)
+
+
+def test_flank_shape_flags_dual_peak() -> None:
+    """The dual-peak cam's fall side is not a single +/- pattern (more sign changes)
+    and is not monotone: the check reports it rather than failing."""
+    law = from_spec({'family': 'dual_peak',
+                     'ramp': {'height': 0.3 * MM, 'velocity': 0.015 * MM / D,
+                              'angle': 30 * D},
+                     'rise': 8 * MM, 'half_angle': 50 * D,
+                     'connection': {'start': 5 * D, 'angle': 40 * D, 'point_angle': 20 * D,
+                                    'point_lift': 0.1 * MM},
+                     'secondary': {'rise': 1.5 * MM, 'half_angle': 20 * D,
+                                   'ramp': {'height': 0.25 * MM,
+                                            'velocity': 0.0125 * MM / D,
+                                            'angle': 30 * D}}}, 'l')
+    out = C.run_checks(law, {'base_radius': 40 * MM})
+    assert not out['monotone_flanks']
+    assert out['acceleration_sign_changes'][0] == 1
+    assert out['acceleration_sign_changes'][1] > 1
