@@ -102,6 +102,8 @@ def test_lobe_profiles_converted_to_the_design_follower(measured):
     assert float(s.values['noise_sigma_m']) == pytest.approx(0.5e-6, rel=0.2)
     assert len(s.values['outliers_deg'].split(',')) == 2
     assert 'flat' in s.values['follower']
+    assert float(s.values['engine_rms_error_lift_m']) < 0.5e-6
+    assert float(s.values['engine_rms_error_acceleration_m_per_rad2']) < 1.5e-3
     assert float(s.values['cam_speed_rpm']) == 1500.0
     h = st['lobe_1/harmonic']
     assert int(h.values['order']) >= 10 and 'BIC' in h.values['why']

@@ -190,7 +190,7 @@ class ReconstructionCore:
         probe = scene.probe
         if _same_follower(lobe.follower, probe):
             return lobe.lift, None, ''
-        conv = Conversion(probe, lobe.follower, scene.base_circle_radius)
+        conv = Conversion(probe, lobe.follower, scene.base_circle_radius, lobe.lift)
         try:
             from cam_design.follower import convert_lift
             law = convert_lift(lobe.lift, scene.base_circle_radius, lobe.follower, probe,
@@ -265,6 +265,8 @@ class ReconstructionCore:
         values['max_lift_m'] = repr(float(np.max(rec.lift)))
         for k, v in outcome.design_errors.items():
             values[k] = repr(v)
+        for k, v in outcome.engine_errors.items():
+            values[f'engine_{k}'] = repr(v)
         rpm = self.cam_speed()
         if rpm:
             omega = rpm * math.pi / 30.0

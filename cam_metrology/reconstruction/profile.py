@@ -37,6 +37,7 @@ class Conversion:
     probe: Any
     design: Any
     base_radius: float
+    design_law: Any = None          # the design lift for ``design`` (for engine errors)
 
 
 @dataclass
@@ -50,6 +51,7 @@ class MethodOutcome:
     design_errors: dict[str, float] = field(default_factory=dict)
     engine: NDArray[np.float64] | None = None      # (4, n) for the design follower
     engine_note: str = ''
+    engine_errors: dict[str, float] = field(default_factory=dict)
 
 
 def design_from_table(table: LiftTable) -> Law | None:
@@ -65,12 +67,15 @@ def design_from_table(table: LiftTable) -> Law | None:
     return TabulatedLift(data.alpha, data.lift, key=f'{table.feature}.design')
 
 
-def design_errors(rec: Reconstruction, design: Law) -> dict[str, float]:
+def design_errors(rec: Reconstruction, design: Law,
+                  derivs: NDArray[np.float64] | None = None) -> dict[str, float]:
     """RMS and max |reconstruction - design| of lift [m], velocity [m/rad],
-    acceleration [m/rad^2] and jerk [m/rad^3] on the output grid."""
+    acceleration [m/rad^2] and jerk [m/rad^3] on the output grid (``derivs``: other
+    (4, n) values on the same grid, e.g. the engine-follower version)."""
     out: dict[str, float] = {}
     names = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk_m_per_rad3')
-    for nu, (name, values) in enumerate(zip(names, rec.derivatives())):
+    values_all = rec.derivatives() if derivs is None else derivs
+    for nu, (name, values) in enumerate(zip(names, values_all)):
         diff = values - np.asarray(design(rec.alpha, nu), dtype=float)
         out[f'rms_error_{name}'] = float(np.sqrt(np.mean(diff ** 2)))
         out[f'max_error_{name}'] = float(np.max(np.abs(diff)))
@@ -142,6 +147,9 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
             outcome.design_errors = design_errors(rec, design)
         if conversion is not None:
             outcome.engine, outcome.engine_note = _engine(rec, conversion)
+            if outcome.engine is not None and conversion.design_law is not None:
+                outcome.engine_errors = design_errors(rec, conversion.design_law,
+                                                      outcome.engine)
         outcomes[m] = outcome
     return outcomes
 
@@ -187,6 +195,8 @@ def summary(outcome: MethodOutcome, *, rpm: float | None = None,
         out['design_errors'] = outcome.design_errors
     if outcome.engine_note:
         out['engine_follower'] = outcome.engine_note
+    if outcome.engine_errors:
+        out['engine_design_errors'] = outcome.engine_errors
     if arrays:
         out['alpha_rad'] = rec.alpha.tolist()
         derivs = rec.derivatives()
