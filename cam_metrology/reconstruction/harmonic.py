@@ -169,7 +169,7 @@ def _full(x: NDArray[np.float64], y: NDArray[np.float64], y_raw: NDArray[np.floa
         why = f'set by the caller: N = {order}'
     else:
         order, why = _choose_full(coef[:search + 1], j[:search + 1], var, x, y_raw,
-                                  opt)
+                                  opt, max(n_meas, 2))
     _gap_warning(x, step, 2.0 * np.pi / max(order, 1), warnings)
     c = coef[:order + 1]
     jj = j[:order + 1]
@@ -200,7 +200,7 @@ def _full(x: NDArray[np.float64], y: NDArray[np.float64], y_raw: NDArray[np.floa
 
 def _choose_full(coef: NDArray[np.complex128], j: NDArray[np.float64], var: float,
                  x: NDArray[np.float64], y: NDArray[np.float64],
-                 opt: HarmonicOptions) -> tuple[int, str]:
+                 opt: HarmonicOptions, n_meas: int) -> tuple[int, str]:
     """Order N of the truncated rFFT series by the option's criterion."""
     p2 = np.abs(coef) ** 2
     if opt.criterion == 'residual':
@@ -214,9 +214,11 @@ def _choose_full(coef: NDArray[np.complex128], j: NDArray[np.float64], var: floa
     weight = j ** 4 if opt.criterion == 'risk' else np.ones_like(j)
     if opt.criterion == 'bic':
         # lift residual energy ~ sum of dropped |c_j|^2 / 2; 2 parameters per order
+        # residual energy of order N: the dropped |c_j|^2 / 2 per sample (Parseval) plus
+        # the noise beyond the search limit; 2 parameters per order; n measured samples
         tail = np.concatenate([np.cumsum((p2 / 2)[::-1])[::-1][1:], [0.0]])
-        n_pts = 2.0 * j[-1]
-        score = n_pts * np.log(np.maximum(tail, 1e-300)) + 2.0 * j * np.log(n_pts)
+        tail = tail + 0.5 * var * max(n_meas / 2.0 - j[-1], 1.0)
+        score = n_meas * np.log(np.maximum(tail, 1e-300)) + 2.0 * j * np.log(n_meas)
         n = int(np.argmin(score))
         return n, f'BIC minimum at N = {n}'
     gain = weight * (p2 - 2.0 * var)       # risk reduction of including order j
