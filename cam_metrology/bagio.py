@@ -395,6 +395,8 @@ def _open_reader(path: str | Path) -> Any:
     bag = Path(path)
     if not bag.exists():
         raise InputError('bag', str(bag), 'an existing rosbag2 directory')
+    if bag.is_file() and bag.suffix == '.mcap':
+        return _BareMcapReader(bag)
     if bag.is_dir() and not (bag / 'metadata.yaml').exists():
         raise InputError('bag', str(bag),
                          'a closed rosbag2 directory with metadata.yaml (the recorder '
@@ -405,6 +407,66 @@ def _open_reader(path: str | Path) -> Any:
     except Exception as exc:   # rosbags raises its own error types
         raise InputError('bag', str(bag), f'a readable rosbag2 bag ({exc})') from None
     return reader
+
+
+class _BareMcapReader:
+    """The subset of AnyReader used here, for a single ``.mcap`` file with ROS 2 CDR
+    channels but no rosbag2 directory (written by other MCAP tools). Messages come in
+    log-time order; types are decoded with the ROS 2 Jazzy typestore."""
+
+    def __init__(self, path: Path) -> None:
+        from types import SimpleNamespace
+
+        from mcap.reader import make_reader
+
+        self.path = path
+        self._file = open(path, 'rb')
+        try:
+            self._reader = make_reader(self._file)
+            summary = self._reader.get_summary()
+        except Exception as exc:   # noqa: BLE001 - any mcap error is a bad file
+            self._file.close()
+            raise InputError('bag', str(path), f'a readable MCAP file ({exc}); an '
+                             'interrupted recording: cam-bench bag recover') from None
+        if summary is None:
+            self._file.close()
+            raise InputError('bag', str(path), 'an MCAP file with a summary (indexed); '
+                             'an interrupted recording: cam-bench bag recover')
+        counts = summary.statistics.channel_message_counts if summary.statistics else {}
+        self.connections = []
+        self._by_channel: dict[int, Any] = {}
+        for cid, ch in sorted(summary.channels.items()):
+            schema = summary.schemas.get(ch.schema_id)
+            if schema is None or ch.message_encoding != 'cdr':
+                continue
+            qos = ch.metadata.get('offered_qos_profiles')
+            try:
+                profiles = _parse_qos(qos) if qos else []
+            except InputError:
+                profiles = []
+            conn = SimpleNamespace(id=cid, topic=ch.topic, msgtype=schema.name,
+                                   msgcount=int(counts.get(cid, 0)),
+                                   ext=SimpleNamespace(offered_qos_profiles=profiles))
+            self.connections.append(conn)
+            self._by_channel[cid] = conn
+
+    def messages(self, connections: Sequence[Any] = ()) -> Iterator[tuple[Any, int, bytes]]:
+        topics = sorted({c.topic for c in connections}) if connections else None
+        for _, channel, message in self._reader.iter_messages(topics=topics,
+                                                              log_time_order=True):
+            conn = self._by_channel.get(channel.id)
+            if conn is not None:
+                yield conn, message.log_time, message.data
+
+    def deserialize(self, data: bytes, msgtype: str) -> Any:
+        try:
+            return decode(data, msgtype)
+        except KeyError:
+            raise InputError('bag', str(self.path),
+                             f'ROS 2 Jazzy message types (unknown type {msgtype})') from None
+
+    def close(self) -> None:
+        self._file.close()
 
 
 def bag_topics(path: str | Path) -> dict[str, tuple[str, int]]:
@@ -509,14 +571,20 @@ def _read_mcap_direct(bag: Path, topic: str) -> tuple[bytes, NDArray[np.int64],
     import yaml
     from mcap.reader import make_reader
 
-    try:
-        info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
-    except (OSError, KeyError, TypeError, yaml.YAMLError):
-        return None
-    if info.get('storage_identifier') != 'mcap' or info.get('compression_mode') not in (
-            '', None, 'none', 'NONE'):
-        return None
-    files = info.get('relative_file_paths') or [f.get('path') for f in info.get('files', [])]
+    if bag.is_file():
+        files = [bag.name]
+        bag = bag.parent
+    else:
+        try:
+            info = yaml.safe_load((bag / 'metadata.yaml').read_text())[
+                'rosbag2_bagfile_information']
+        except (OSError, KeyError, TypeError, yaml.YAMLError):
+            return None
+        if info.get('storage_identifier') != 'mcap' or info.get('compression_mode') not in (
+                '', None, 'none', 'NONE'):
+            return None
+        files = info.get('relative_file_paths') or [f.get('path')
+                                                    for f in info.get('files', [])]
     parts: list[bytes] = []
     starts: list[NDArray[np.int64]] = []
     lengths: list[NDArray[np.int64]] = []

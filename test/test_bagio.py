@@ -422,8 +422,11 @@ def test_direct_mcap_read_equals_anyreader_path_across_chunks(tmp_path):
                     w.write('/bench/feature_done', log, bagio.encode_string('x'))
         direct = bagio.read_joint_states(bag)
         fallback = bagio.read_joint_states(bag, direct=False)
-        for k in ('frame_id', 'stamp_ns', 'log_ns', 'theta', 's'):
-            np.testing.assert_array_equal(getattr(direct, k), getattr(fallback, k))
+        (bare,) = bag.glob('*.mcap')   # the same file read as a bare MCAP file
+        for other in (fallback, bagio.read_joint_states(bare),
+                      bagio.read_joint_states(bare, direct=False)):
+            for k in ('frame_id', 'stamp_ns', 'log_ns', 'theta', 's'):
+                np.testing.assert_array_equal(getattr(direct, k), getattr(other, k))
         assert direct.features == fallback.features == ('lobe_1', 'lobe_2', 'lobe_3')
         assert np.all(np.diff(direct.log_ns) >= 0)
         slow = [m.msg for m in bagio.iter_messages(bag, ['/bench/joint_states'])]
@@ -517,3 +520,22 @@ def test_vectorised_encoder_equals_the_scalar_one(frame_id):
     assert got == exp
     with pytest.raises(InputError, match='same length'):
         bagio.encode_joint_states('a', stamps, theta[:3], s)
+
+
+def test_bare_mcap_file_reads_like_its_directory(tmp_path):
+    bag = tmp_path / 'bag'
+    _write_small_bag(bag)
+    (bare,) = bag.glob('*.mcap')
+    assert bagio.bag_topics(bare) == bagio.bag_topics(bag)
+    assert bagio.topic_qos_yaml(bare) == bagio.topic_qos_yaml(bag)
+    a = [(m.topic, m.msgtype, m.stamp_ns, bytes(m.msg))
+         for m in bagio.iter_messages(bag, raw=True)]
+    b = [(m.topic, m.msgtype, m.stamp_ns, bytes(m.msg))
+         for m in bagio.iter_messages(bare, raw=True)]
+    assert a == b
+    decoded = list(bagio.iter_messages(bare, ['/bench/scene']))
+    assert decoded[0].msg.data == 'camshaft_id: x'
+    bad = tmp_path / 'bad.mcap'
+    bad.write_bytes(b'not an mcap file at all')
+    with pytest.raises(InputError, match='MCAP'):
+        bagio.bag_topics(bad)

@@ -264,3 +264,13 @@ def test_write_outputs_merges_in_log_time(tmp_path):
     assert a == b
     qos = bagio.topic_qos_yaml(out)
     assert 'transient_local' in qos['/bench/scene']
+
+
+def test_replay_of_a_bare_mcap_file(tmp_path):
+    bag = tmp_path / 'bag'
+    _bag(bag)
+    (bare,) = bag.glob('*.mcap')
+    a, b = [], []
+    run_offline(bag, [Source(a), Mid(a), Sink(a)])
+    run_offline(bare, [Source(b), Mid(b), Sink(b)])
+    assert a == b
