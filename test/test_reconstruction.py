@@ -337,3 +337,11 @@ def test_table_cut_on_the_flanks_has_unbiased_ends():
     for nu, tol in ((0, 0.2e-6), (1, 8e-6), (2, 6e-4)):
         err = rec.derivatives()[nu][ends] - LOBE(rec.alpha[ends], nu)
         assert np.sqrt(np.mean(err ** 2)) < tol
+
+
+def test_underfit_series_is_reported():
+    a, h = simulate(LOBE, 720, 0.5e-6, seed=3)
+    rec = reconstruct_harmonic(clean_samples(a, h), HarmonicOptions(order=8))
+    assert any('max residual' in w for w in rec.warnings)
+    auto = reconstruct_harmonic(clean_samples(a, h))
+    assert not any('max residual' in w for w in auto.warnings)

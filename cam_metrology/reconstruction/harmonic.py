@@ -108,6 +108,7 @@ def _reconstruct(data: CleanSamples, opt: HarmonicOptions,
     rec.notes = list(data.notes) + rec.notes
     if np.count_nonzero(fair.outlier):
         rec.notes.append(f'rebound: {int(np.count_nonzero(fair.outlier))} outlier(s) removed')
+    rec.check_residuals(tol=opt.tol or 0.0)
     rec.check_finite()
     return rec
 

@@ -54,6 +54,17 @@ class Reconstruction:
         """(4, n): lift, velocity, acceleration, jerk on the grid (per rad)."""
         return np.stack([self.lift, self.velocity, self.acceleration, self.jerk])
 
+    def check_residuals(self, limit: float = 7.0, tol: float = 0.0) -> None:
+        """Warn when a residual exceeds ``limit`` noise standard deviations (and
+        ``tol`` [m]): the fit misses a feature of the data (truncation ripple,
+        under-smoothing of a sharp feature, or an undetected outlier)."""
+        bound = max(limit * self.sigma, tol)
+        worst = self.max_residual
+        if self.residual.size and bound > 0 and worst > bound:
+            where = float(self.data_alpha[int(np.argmax(np.abs(self.residual)))])
+            self.warnings.append(f'max residual {worst:.3g} m at {np.degrees(where):.2f} deg '
+                                 f'exceeds {limit:g} noise sigma ({bound:.3g} m)')
+
     def check_finite(self) -> None:
         """Raise InputError if any output is not finite (never publish silent NaN)."""
         for name in ('lift', 'velocity', 'acceleration', 'jerk'):

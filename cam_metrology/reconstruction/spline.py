@@ -539,5 +539,6 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         residual=y0[kept] - fit, parameter=parameter, why=why, sigma=fair.sigma,
         evaluate=lambda a, nu=0: spline(np.asarray(a, dtype=float), nu),
         outliers_alpha=x[fair.outlier], warnings=warnings, notes=notes)
+    rec.check_residuals()
     rec.check_finite()
     return rec
