@@ -145,6 +145,7 @@ def test_cli_table_json(tmp_path, capsys):
         assert r['rms_residual_m'] < 1e-6 and r['why']
         assert r['design_errors']['rms_error_lift_m'] < 0.5e-6
         assert len(r['outliers_deg']) == 2
+        assert len(r['residual_m']) == len(r['residual_alpha_rad']) == 718
     assert spl['smoothing'] > 0 and isinstance(har['order'], int)
     assert har['spectrum']['order'][0] == 0
     omega = 3000 * math.pi / 30

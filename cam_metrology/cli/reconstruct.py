@@ -13,9 +13,10 @@ lobes by the smoothing spline with the rebound method and by the N-harmonic seri
 JSON (``--json FILE`` or ``-``): ``{"input", "kind", "follower", "features":
 {ID: {METHOD: {...}}}, "skipped"}``; each method has ``alpha_rad``, ``lift_m``,
 ``velocity_m_per_rad``, ``acceleration_m_per_rad2``, ``jerk_m_per_rad3`` (arrays on the
-uniform grid), ``rms_residual_m``, ``order`` (harmonic) or ``smoothing`` (spline,
-lam [rad^5]) with ``why``, the per-second arrays with ``--rpm``, ``design_errors``
-when the design is known, ``spectrum`` (harmonic), ``warnings`` and ``notes``.
+uniform grid), ``rms_residual_m``, ``residual_m`` at ``residual_alpha_rad`` (the kept
+samples), ``order`` (harmonic) or ``smoothing`` (spline, lam [rad^5]) with ``why``, the
+per-second arrays with ``--rpm``, ``design_errors`` when the design is known,
+``spectrum`` (harmonic), ``warnings`` and ``notes``.
 """
 from __future__ import annotations
 

@@ -203,6 +203,8 @@ def summary(outcome: MethodOutcome, *, rpm: float | None = None,
         for name, values in zip(('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
                                  'jerk_m_per_rad3'), derivs):
             out[name] = values.tolist()
+        out['residual_alpha_rad'] = rec.data_alpha.tolist()
+        out['residual_m'] = rec.residual.tolist()
         if rpm:
             out['cam_speed_rpm'] = rpm
             out.update({k: v.tolist() for k, v in per_second(derivs, rpm).items()})
