@@ -14,7 +14,10 @@
   released in publication order (DDS ``source_timestamp`` from MessageInfo): just
   before the first sample published after it, or once the sample subscription is
   empty and has been idle for ``order_hold`` s. Samples already waiting in the reader
-  are taken at once (``take_message``) so nothing overtakes them;
+  are taken at once (``take_message``) so nothing overtakes them. Under the
+  EventsExecutor (``with_info=False``) this is off: rclpy 7.1.6's EventsExecutor
+  raises SystemError for any callback taking MessageInfo, and it runs callbacks in
+  event-arrival order anyway;
 * a timer calls ``core.tick(now_ns)`` (idle timeouts);
 * on shutdown, after draining what already arrived, calls ``core.finish()``,
   publishes that, and waits (deadline) until every subscriber acknowledged.
@@ -94,7 +97,8 @@ class CoreNode(Node):
     """A ROS node that feeds a node core and publishes its outputs."""
 
     def __init__(self, core_cls: Any, *, context: Any = None, node_name: str | None = None,
-                 tick_period: float = 0.1, order_hold: float = 0.25) -> None:
+                 tick_period: float = 0.1, order_hold: float = 0.25,
+                 with_info: bool = True) -> None:
         super().__init__(node_name or core_cls.name, context=context)
         self.params = declare_parameters(self, dict(getattr(core_cls, 'PARAMETERS', {})))
         self.core = core_cls(self.params)
@@ -112,9 +116,9 @@ class CoreNode(Node):
         # the scene first: with several ready subscriptions, rclpy's executor takes
         # them in creation order, so the scene is handled before samples.
         topics = sorted(self.core.subscriptions.items(), key=lambda item: item[0] != SCENE)
-        self._ordered = JOINT_STATES in self.core.subscriptions
+        self._ordered = with_info and JOINT_STATES in self.core.subscriptions
         for topic, type_name in topics:
-            if topic == JOINT_STATES:
+            if topic == JOINT_STATES and self._ordered:
                 callback: Any = self._on_sample
             elif self._ordered:
                 callback = functools.partial(self._on_held, topic)
@@ -256,7 +260,8 @@ def run_core_node(name: str, args: Sequence[str] | None = None, *,
     proc = RosProcess(args, events_executor=events_executor)
     node = None
     try:
-        node = proc.add(CoreNode(core_cls, context=proc.context))
+        node = proc.add(CoreNode(core_cls, context=proc.context,
+                                 with_info=not events_executor))
         node.get_logger().info(f'{name} node up: subscribes {sorted(node.core.subscriptions)}'
                                f', publishes {sorted(node.core.publications)}')
         proc.spin_until()

@@ -8,12 +8,22 @@
   that arrived before a stop are still handled (the demo stops nodes upstream first).
 * rclpy.init() is not a context manager on Jazzy: ``close()`` does the
   ``destroy_node`` / ``try_shutdown`` of platform.md §6.8.
+* Fast DDS caps every history at its default resource limit ``max_samples = 5000``
+  whatever the keep-last depth rclpy asks for (measured: depth 20 000, 15 000 samples
+  published before spinning -> 5000 received). ``use_fastdds_profile`` points
+  ``FASTRTPS_DEFAULT_PROFILES_FILE`` (unless the user set it) at a profile raising the
+  limits to ``HISTORY_LIMIT`` so that the 20 000-deep /bench/joint_states QoS is real
+  (-> 15 000 of 15 000; RSS unchanged, histories allocate on demand).
 """
 from __future__ import annotations
 
+import hashlib
+import os
 import signal
+import tempfile
 import threading
 import time
+from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import rclpy
@@ -22,11 +32,52 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
 
+HISTORY_LIMIT = 25000
+FASTDDS_PROFILE = f'''<?xml version="1.0" encoding="UTF-8" ?>
+<!-- cam-bench: raise Fast DDS's default history limit (5000) above the 20 000-deep
+     /bench/joint_states QoS; written by cam_metrology.nodes.runtime -->
+<profiles xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <data_writer profile_name="cam_bench_writer" is_default_profile="true">
+    <topic><resourceLimitsQos>
+      <max_samples>{HISTORY_LIMIT}</max_samples><max_instances>1</max_instances>
+      <max_samples_per_instance>{HISTORY_LIMIT}</max_samples_per_instance>
+    </resourceLimitsQos></topic>
+  </data_writer>
+  <data_reader profile_name="cam_bench_reader" is_default_profile="true">
+    <topic><resourceLimitsQos>
+      <max_samples>{HISTORY_LIMIT}</max_samples><max_instances>1</max_instances>
+      <max_samples_per_instance>{HISTORY_LIMIT}</max_samples_per_instance>
+    </resourceLimitsQos></topic>
+  </data_reader>
+</profiles>
+'''
+
+
+def use_fastdds_profile() -> str:
+    """Set FASTRTPS_DEFAULT_PROFILES_FILE to our profile unless already set; returns it.
+
+    Must run before the first participant of the process exists (before rclpy.init);
+    child processes inherit it.
+    """
+    current = os.environ.get('FASTRTPS_DEFAULT_PROFILES_FILE')
+    if current:
+        return current
+    digest = hashlib.sha256(FASTDDS_PROFILE.encode()).hexdigest()[:12]
+    path = Path(tempfile.gettempdir()) / f'cam_bench_fastdds_{digest}.xml'
+    if not path.is_file():
+        tmp = path.with_suffix(f'.{os.getpid()}.tmp')
+        tmp.write_text(FASTDDS_PROFILE, encoding='utf-8')
+        os.replace(tmp, path)   # atomic: concurrent processes never read half a file
+    os.environ['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(path)
+    return str(path)
+
+
 class RosProcess:
     """One rclpy context and executor; stop requested by SIGINT/SIGTERM or ``stop()``."""
 
     def __init__(self, args: Sequence[str] | None = None, *, domain_id: int | None = None,
                  events_executor: bool = False, handle_signals: bool = True) -> None:
+        use_fastdds_profile()
         self.context = Context()
         rclpy.init(args=list(args) if args is not None else None, context=self.context,
                    domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
