@@ -204,11 +204,12 @@ class ConvertedLift(LiftLaw):
         # design, value H_b = R0 + h(b)) or 'arc' (concave arc of radius r1 of a roller
         # design around the pitch corner C = g_b u(b), value g_b = R0 + r1 + h(b))
         self._edges: list[tuple[float, str, float]] = []
+        self._splits: list[float] = []       # other h' steps (table points on both sides)
         self._breaks = self._breakpoints()
         self._build_table()
         # h' of the target steps on a plateau (straight flank under a flat target); h''
         # steps at the ends of a flat (roller/knife target on a flat of a flat design)
-        if self._plateau:
+        if self._plateau or len(self._runs) > 1:
             self.continuity_order = 0
         elif self._edges:
             self.continuity_order = 1
@@ -260,7 +261,7 @@ class ConvertedLift(LiftLaw):
 
     def _check(self, s: NDArray[np.float64], psi: NDArray[np.float64],
                height: NDArray[np.float64], tang: NDArray[np.float64]) -> None:
-        """Raise InputError where the profile is undercut or the contact is not unique."""
+        """Raise InputError where the design profile is undercut (envelope cusp)."""
         # P' = lam * t(psi): lam > 0 means the envelope advances (no cusp/undercut);
         # rho = lam / psi' is the profile's signed radius of curvature.
         lam = height[0] * psi[1] + tang[1]
@@ -272,18 +273,6 @@ class ConvertedLift(LiftLaw):
                 f'alpha = {_wrap(s[i:i + 1])[0]:.6g} rad',
                 'a lift law whose cam profile is realisable (radius of curvature > 0 for a '
                 'flat design, pitch radius of curvature > roller radius for a roller)')
-        if self.target.kind == 'flat':
-            bad = ~(psi[1] > -PLATEAU_TOL)
-            what = 'a convex cam profile for a flat target (the face bridges a concave flank)'
-        else:
-            bad = ~(lam + _radius(self.target) * psi[1] > 0)
-            what = (f'a profile whose concave parts fit the target roller of radius '
-                    f'{_radius(self.target)} m')
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            rho = lam[i] / psi[1][i] if psi[1][i] != 0 else math.inf
-            raise InputError(self.key, f'concave profile (radius of curvature {rho:.6g} m) '
-                             f'at alpha = {_wrap(s[i:i + 1])[0]:.6g} rad', what)
 
     def _breakpoints(self) -> list[float]:
         """Wrapped angles where h' may step: support ends and the law's junctions."""
@@ -317,6 +306,8 @@ class ConvertedLift(LiftLaw):
                 edge = self._step_piece(b, step)
                 if edge is not None:
                     edges.append(edge)
+                else:
+                    self._splits.append(b)
         if self.target.kind != 'flat':
             self._edges = edges
         return out
@@ -330,10 +321,7 @@ class ConvertedLift(LiftLaw):
         if step <= STEP_REJECT:
             return None          # too small to matter (< 1e-16 m)
         if self.target.kind == 'flat' or r2 > r1:
-            raise InputError(self.key, f'h\' steps up by {step:.3g} m/rad at alpha = {b:.6g} '
-                             f'rad (a concave arc of radius {r1} m on the cam)',
-                             'a target that fits the arc: a knife or a roller of radius <= '
-                             f'{r1} m (a flat face or a larger roller bridges it)')
+            return None          # the target bridges the arc: max over the two flanks
         return b, 'arc', self.base_radius + r1 + h_b
 
     # --- contact-angle table ------------------------------------------------------------
@@ -344,43 +332,58 @@ class ConvertedLift(LiftLaw):
         grid = np.linspace(start, end, TABLE_POINTS + 1)
         pts: list[ArrayLike] = []
         gap_left: list[float] = []
+        keep = np.ones(grid.size, dtype=bool)
+        for b in self._splits:
+            b = b if b >= start else b + 2 * math.pi
+            keep &= np.abs(grid - b) > 2 * SIDE_EPS
+            pts.append([b - SIDE_EPS, b + SIDE_EPS])
         if edges:
             inner = [b if b >= start else b + 2 * math.pi for b in edges[1:]]
-            keep = (grid > start + 2 * SIDE_EPS) & (grid < end - 2 * SIDE_EPS)
+            keep &= (grid > start + 2 * SIDE_EPS) & (grid < end - 2 * SIDE_EPS)
             for b in inner:
                 keep &= np.abs(grid - b) > 2 * SIDE_EPS
                 pts.append([b - SIDE_EPS, b + SIDE_EPS])
                 gap_left.append(b - SIDE_EPS)
-            grid = grid[keep]
             # the last gap wraps: the point past the end repeats the first, one turn later
             pts.append([start + SIDE_EPS, end - SIDE_EPS, end + SIDE_EPS])
             gap_left.append(end - SIDE_EPS)
-        pts.append(grid)
+        pts.append(grid[keep])
         s = np.unique(np.concatenate([np.asarray(p, dtype=float) for p in pts]))
         angle, _ = self._target_jets(s)
         self._plateau = bool(np.any(np.abs(angle[1]) < PLATEAU_TOL))
         a = angle[0]
+        raw = a.copy()
         if edges:
             a[-1] = a[0] + 2 * math.pi
         gap = np.zeros(s.size - 1, dtype=bool)
         for g in gap_left:
             gap[int(np.argmin(np.abs(s[:-1] - g)))] = True
-        # a straight pitch segment of a roller design gives a plateau of psi (flat target)
-        back = (np.diff(a) < -PLATEAU_TOL) if self.target.kind == 'flat' else np.diff(a) <= 0
-        if np.any(back & ~gap):
-            i = int(np.argmax(back & ~gap))
-            raise InputError(self.key, f'non-monotone contact angle near alpha = '
-                             f'{_wrap(s[i:i + 1])[0]:.6g} rad',
-                             'a convex, undercut-free cam profile')
+        # runs of increasing contact angle: one for a convex profile; a concave flank the
+        # target cannot follow (bridged) splits it, and the lift is the max over the runs
+        # (a straight pitch segment gives a plateau of psi under a flat target: kept)
+        tol = PLATEAU_TOL if self.target.kind == 'flat' else 0.0
+        up = (np.diff(a) > -tol) | gap
+        cuts = np.flatnonzero(~up)
+        first = np.concatenate([[0], cuts + 1])
+        last = np.concatenate([cuts, [s.size - 1]])
+        self._runs = [(int(i), int(j)) for i, j in zip(first, last) if j > i]
+        for i, j in self._runs:
+            a[i:j + 1] = np.maximum.accumulate(a[i:j + 1])
         self._s = s
-        self._a = np.maximum.accumulate(a)
+        self._a = a
         self._gap = gap
         self._edge_b = np.array([b for b, _, _ in self._edges])
         self._edge_arc = np.array([kind == 'arc' for _, kind, _ in self._edges], dtype=bool)
         self._edge_v = np.array([v for _, _, v in self._edges])
+        # support: the contact angles of every flank point (wider than the source's when
+        # the target bridges a concave flank next to the base circle)
         lo, hi = self._src_support
         ends, _ = self._target_jets(np.array([lo - SIDE_EPS, hi + SIDE_EPS]), check=False)
-        self._support = (float(min(ends[0][0], lo)), float(max(ends[0][1], hi)))
+        wrapped = _wrap(s)
+        flank = (wrapped >= lo) & (wrapped <= hi)
+        seen = raw[flank] - (s[flank] - wrapped[flank])
+        self._support = (float(min(ends[0][0], lo, np.min(seen, initial=lo))),
+                         float(max(ends[0][1], hi, np.max(seen, initial=hi))))
         # target angles where the target's derivatives may step: both ends of every flat
         # and the images of the source's junctions
         marks = [self._a[:-1][gap], self._a[1:][gap]]
@@ -418,9 +421,29 @@ class ConvertedLift(LiftLaw):
 
     def _solve_block(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
         out = np.zeros((JET_ORDER + 1, a.size))
-        a0 = self._a[0]
-        aa = a0 + np.mod(a - a0, 2 * math.pi)
-        idx = np.clip(np.searchsorted(self._a, aa, side='right') - 1, 0, self._a.size - 2)
+        best = np.full(a.size, -np.inf)
+        for i0, i1 in self._runs:
+            run = self._a[i0:i1 + 1]
+            aa = run[0] + np.mod(a - run[0], 2 * math.pi)
+            sel = np.flatnonzero(aa <= run[-1])
+            if sel.size == 0:
+                continue
+            idx = i0 + np.clip(np.searchsorted(run, aa[sel], side='right') - 1, 0,
+                               run.size - 2)
+            got = self._run_contact(aa[sel], idx)
+            better = got[0] > best[sel]
+            best[sel[better]] = got[0][better]
+            out[:, sel[better]] = got[:, better]
+        if np.any(np.isinf(best)):
+            i = int(np.argmax(np.isinf(best)))
+            raise InputError(self.key, f'no contact found at alpha = {a[i]:.6g} rad',
+                             'a closed, undercut-free cam profile')
+        return out
+
+    def _run_contact(self, aa: NDArray[np.float64], idx: NDArray[np.int64]
+                     ) -> NDArray[np.float64]:
+        """Target derivatives at unwrapped angles ``aa`` in table intervals ``idx``."""
+        out = np.zeros((JET_ORDER + 1, aa.size))
         on_gap = self._gap[idx]
         if np.any(on_gap):
             out[:, on_gap] = self._piece_contact(aa[on_gap], idx[on_gap])
@@ -432,8 +455,8 @@ class ConvertedLift(LiftLaw):
             flat_on = np.abs(rate) < PLATEAU_TOL
             if np.any(flat_on):
                 shifted = aa[smooth][flat_on] + PLATEAU_SHIFT
-                sub = np.clip(np.searchsorted(self._a, shifted, side='right') - 1, 0,
-                              self._a.size - 2)
+                sub = np.minimum(idx[smooth][flat_on] + (shifted > self._a[
+                    idx[smooth][flat_on] + 1]), self._a.size - 2)
                 right, _ = self._newton(shifted, sub)
                 for k in range(JET_ORDER):
                     right[k] -= PLATEAU_SHIFT * right[k + 1]

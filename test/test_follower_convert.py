@@ -194,15 +194,20 @@ def test_undercut_flat_design_rejected() -> None:
     assert err.value.key == 'lobes[0].lift'
 
 
-def test_concave_roller_design_rejected_for_flat_target() -> None:
-    # a roller design with concave flanks (fine for its roller, not for a flat face);
-    # a knife still fits, a roller larger than the concave radius does not
+@pytest.mark.parametrize('target', [FLAT, Follower('roller', 0.03)])
+def test_concave_roller_design_bridged_by_flat_and_large_roller(target: Follower) -> None:
+    # a roller design with concave flanks: a flat face (or a roller larger than the
+    # hollow) bridges them; the lift is the max over the convex runs (methods §2.6)
+    from cam_design.follower import lift_from_profile, roller_profile
+
     law = smooth_bump(0.006, 0.8)
-    roller = Follower('roller', 0.002)
-    with pytest.raises(InputError, match='concave'):
-        convert_lift(law, 0.012, roller, FLAT)
-    knife = convert_lift(law, 0.012, roller, KNIFE)
-    assert np.all(np.isfinite(knife(np.linspace(-1, 1, 101))))
+    r0, r = 0.012, 0.002
+    conv = convert_lift(law, r0, Follower('roller', r), target)
+    assert conv.continuity_order == 0           # h' steps where the contact jumps
+    prof = roller_profile(law, r0, r, np.linspace(-math.pi, math.pi, 40000, endpoint=False))
+    a = np.linspace(-math.pi, math.pi, 361)
+    ref = lift_from_profile(prof.x, prof.y, a, target, r0)
+    assert np.max(np.abs(conv(a) - ref)) < 1e-9
 
 
 @pytest.mark.parametrize('args,key', [
@@ -405,6 +410,13 @@ def test_roller_design_with_velocity_steps(target: Follower) -> None:
 
 
 @pytest.mark.parametrize('target', [FLAT, Follower('roller', 0.012)])
-def test_roller_design_steps_refused_for_bridging_targets(target: Follower) -> None:
-    with pytest.raises(InputError, match='concave arc'):
-        convert_lift(RampLobe(), 0.018, Follower('roller', 0.01), target)
+def test_roller_design_steps_bridged(target: Follower) -> None:
+    # a flat face or a larger roller bridges the concave arcs at the h' steps
+    from cam_design.follower import lift_from_profile
+
+    lobe = RampLobe(vm=0.0015)
+    r0, r1 = 0.018, 0.01
+    conv = convert_lift(lobe, r0, Follower('roller', r1), target)
+    x, y = roller_design_profile_points(lobe, r0, r1)
+    alpha = np.linspace(-1.6, 1.6, 161)
+    assert np.max(np.abs(conv(alpha) - lift_from_profile(x, y, alpha, target, r0))) < 1e-9
