@@ -189,6 +189,8 @@ class ConvertedLift(LiftLaw):
     At an upward step of h' at b (the start of a constant-velocity ramp) the profile has
     a straight flat (flat design) or a concave arc of radius r1 around the pitch corner
     (roller design); the target's contact there is in closed form (``_piece_contact``).
+    Where A(s) is not monotone (a concave flank the target bridges) the table is split
+    into increasing runs and the lift is the max over the runs' contacts.
     """
 
     def __init__(self, law: LiftLaw, base_radius: float, source: Follower,
@@ -545,9 +547,10 @@ def convert_lift(law: LiftLaw, base_radius: float, source: Follower, target: Fol
     circle); ``base_radius`` [m] is the base-circle radius of the cam profile itself.
     Returns ``law`` itself when the followers are the same (flat radii are ignored);
     otherwise a :class:`ConvertedLift` with exact h, h', h'', h'''.
-    Raises InputError (naming ``key``) for an undercut design profile, a concave flank
-    under a flat target, a concave region too tight for a roller target, or a lift
-    that steps in h (or in h' for a roller design).
+    A concave flank that the target cannot follow (flat face, larger roller) is bridged:
+    the lift is the max over the contacts (methods §2.6), with a step of h' where the
+    contact jumps. Raises InputError (naming ``key``) for an undercut design profile
+    (envelope cusp), a step in h, or a downward step of h' (a convex corner).
     """
     if not isinstance(law, LiftLaw):
         raise InputError(key, type(law).__name__, 'a cam_design LiftLaw')
