@@ -396,3 +396,34 @@ def test_composite_free_widths_recover_known_widths() -> None:
         from_spec({'family': 'composite', 'ramp': S2_RAMP, 'rise': 8 * MM,
                    'half_angle': 50 * DEG,
                    'segments': [{'shape': 'half_sine', 'width': 0.2}]}, 'L')
+
+
+@pytest.mark.parametrize('order,end_order', [(4, 2), (5, 3), (12, 3), (40, 3), (200, 2)])
+def test_harmonic_with_explicit_ramps(order: int, end_order: int) -> None:
+    """Explicit-ramp form (basis cos(j pi a/(2 Phi)), methods §1.6): h(Phi) = H_r,
+    h'(Phi) = -v_r, h''(Phi) = 0 (and h''' with end_order 3): the junction to the S2
+    ramp is C2/C3, h(0) = max_lift, flanks monotone, even with the nearly dependent
+    basis of large N."""
+    law = from_spec({'family': 'harmonic', 'order': order, 'half_angle': 50 * DEG,
+                     'max_lift': 8.3 * MM, 'end_order': end_order, 'ramp': S2_RAMP}, 'L')
+    assert np.degrees(law.support) == pytest.approx([-80, 80])
+    ramp_end = [j for j in law.junction_report if abs(j.alpha + 50 * DEG) < 1e-12][0]
+    assert ramp_end.achieved >= end_order
+    assert law(0.0) == pytest.approx(8.3 * MM, rel=1e-11)
+    assert law.flank_is_monotone()
+
+
+def test_harmonic_explicit_ramps_fit_target() -> None:
+    """Fitted to the §1.4 cam on the same ramp, N = 15 is within 1e-5 mm."""
+    law = from_spec({'family': 'harmonic', 'order': 15, 'half_angle': 50 * DEG,
+                     'max_lift': 8.3 * MM, 'ramp': S2_RAMP,
+                     'target': PRESETS['methods_example']}, 'L')
+    tgt = from_spec(PRESETS['methods_example'], 't')
+    a = np.linspace(-80 * DEG, 80 * DEG, 2001)
+    assert np.max(np.abs(law(a) - tgt(a))) < 1e-5 * MM
+    with pytest.raises(InputError, match=r'^L\.max_lift'):
+        from_spec({'family': 'harmonic', 'order': 15, 'half_angle': 50 * DEG,
+                   'max_lift': 0.2 * MM, 'ramp': S2_RAMP}, 'L')
+    with pytest.raises(InputError, match=r'^L\.end_order'):
+        from_spec({'family': 'harmonic', 'order': 15, 'half_angle': 50 * DEG,
+                   'max_lift': 8.3 * MM, 'ramp': S2_RAMP, 'end_order': 4}, 'L')
