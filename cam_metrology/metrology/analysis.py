@@ -191,14 +191,16 @@ OUTLIER_SCALE_FLOOR = 1e-9
 def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
                settings: Settings, *, theta: NDArray[np.float64] | None = None,
                used: NDArray[np.bool_] | None = None, d0: float = 0.0,
-               c0: float | None = None) -> tuple[Any, NDArray[np.bool_]]:
+               c0: float | None = None) -> tuple[Any, NDArray[np.bool_], dict[str, float]]:
     """``fit_shift`` with rejection of outliers (spikes, dirt on the probe).
 
     Samples whose residual deviates from the running median (9 samples in angle
     order) of the residuals by more than ``outlier_sigma`` times the robust scale
     (1.4826 x the median of those deviations, floored at 1 nm) are dropped and the
     fit repeated (at most 3 times). Isolated spikes are removed; a smooth real form
-    error is not (it stays visible in the lift error). Returns the fit and the mask of rejected samples (among ``used``).
+    error is not (it stays visible in the lift error). Then the residual variance
+    model of ``_angle_noise_weighting``. Returns the fit, the mask of rejected
+    samples (among ``used``) and the noise estimates.
     """
     cand = np.ones(x.size, bool) if used is None else used
     fit = fit_shift(x, s, law, theta=theta, d0=d0, c0=c0, used=cand)
@@ -218,7 +220,35 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
         if np.array_equal(keep, fit.used):
             break
         fit = fit_shift(x, s, law, theta=theta, d0=fit.d, c0=fit.c, used=keep)
-    return fit, cand & ~fit.used
+    fit, noise = _angle_noise_weighting(x, s, law, fit, theta)
+    return fit, cand & ~fit.used, noise
+
+
+def _angle_noise_weighting(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
+                           fit: Any, theta: NDArray[np.float64] | None,
+                           ) -> tuple[Any, dict[str, float]]:
+    """Residual variance model r^2 ~ sigma_s^2 + h'^2 sigma_theta^2 (probe noise plus
+    encoder/angle noise, which matters on the steep flanks). When the angle term is
+    significant (> 3 standard errors and > 20 % of the variance at the steepest
+    point), refit by weighted least squares with weights 1/(sigma_s^2 + h'^2
+    sigma_theta^2), so the estimate stays efficient and its std honest."""
+    used = fit.used
+    gp2 = law(x[used] - fit.d, 1) ** 2
+    r2 = fit.residuals ** 2
+    design = np.column_stack([np.ones_like(gp2), gp2])
+    coef, *_ = np.linalg.lstsq(design, r2, rcond=None)
+    a, b = float(coef[0]), float(coef[1])
+    res = r2 - design @ coef
+    cov = float(res @ res) / max(r2.size - 2, 1) * np.linalg.pinv(design.T @ design)
+    b_se = float(np.sqrt(max(cov[1, 1], 0.0)))
+    noise = {'probe_noise_estimate_um': float(np.sqrt(max(a, 0.0))) * UM,
+             'angle_noise_estimate_arcsec': float(np.degrees(np.sqrt(max(b, 0.0)))) * 3600}
+    if a <= 0 or b <= 3 * b_se or b * float(np.max(gp2)) <= 0.2 * a:
+        return fit, noise
+    weights = np.ones(x.size)
+    weights[used] = 1.0 / (a + b * gp2)
+    return fit_shift(x, s, law, theta=theta, d0=fit.d, c0=fit.c, used=used,
+                     weights=weights), noise
 
 
 def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settings,
@@ -236,8 +266,8 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     _zone_check(x, _slope_zone(law, alpha_n, 0.0, hi), 'fall', settings)
     base = (x < lo - 2 * DEG) | (x > hi + 2 * DEG)
     c_base = float(np.median(fs.s[base])) if np.count_nonzero(base) >= 5 else None
-    fit, outliers = robust_fit(x, fs.s, law, settings, c0=c_base,
-                               theta=fs.theta if settings.fit_runout else None)
+    fit, outliers, noise = robust_fit(x, fs.s, law, settings, c0=c_base,
+                                      theta=fs.theta if settings.fit_runout else None)
     good = ~outliers
     if abs(fit.d) > settings.max_shift_deg * DEG:
         raise FeatureFailed(f'least squares moved the nose by {np.degrees(fit.d):.3f} deg '
@@ -258,6 +288,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                               'lift_offset_mm': fit.c * 1e3,
                               'residual_rms_um': fit.sigma * UM,
                               'samples_outliers_rejected': int(np.count_nonzero(outliers)),
+                              **noise,
                               'iterations': fit.iterations}
     alpha = x - fit.d
     design = law(alpha, 0)
@@ -346,8 +377,8 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
     outliers = np.zeros(x.size, bool)
     for _ in range(3):   # contact mask from the current estimate, then refit
         used = np.abs(x - d) < inner
-        fit, outliers = robust_fit(x, fs.s, law, settings, d0=d, used=used,
-                                   c0=c0 if fit is None else fit.c)
+        fit, outliers, noise = robust_fit(x, fs.s, law, settings, d0=d, used=used,
+                                          c0=c0 if fit is None else fit.c)
         if abs(fit.d - d) < 1e-13:
             d = fit.d
             break
@@ -381,6 +412,7 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
                               'lift_offset_mm': fit.c * 1e3,
                               'residual_rms_um': fit.sigma * UM,
                               'samples_outliers_rejected': int(np.count_nonzero(outliers)),
+                              **noise,
                               'iterations': fit.iterations}
     used = fit.used
     alpha = (x - fit.d)[used]

@@ -62,17 +62,24 @@ def _design_matrix(gp: NDArray[np.float64], theta: NDArray[np.float64] | None,
 def fit_shift(x: NDArray[np.float64], s: NDArray[np.float64], lift: Lift, *,
               theta: NDArray[np.float64] | None = None, d0: float = 0.0,
               c0: float | None = None, used: NDArray[np.bool_] | None = None,
+              weights: NDArray[np.float64] | None = None,
               max_iter: int = 50, tol: float = 1e-13) -> ShiftFit:
     """Gauss-Newton fit of ``s = c + lift(x - d) [+ a cos theta + b sin theta]``.
 
     ``x`` [rad] sample angles relative to the coarse nose, ``s`` [m] readings,
     ``lift(alpha, nu)`` the design lift and its derivatives; ``theta`` [rad] enables
-    the run-out harmonic. ``used`` selects the samples (default: all).
+    the run-out harmonic. ``used`` selects the samples (default: all). ``weights``:
+    relative inverse variances per sample (weighted least squares; normalised to a
+    mean of 1, so ``sigma`` stays a typical residual [m]).
     """
     if used is None:
         used = np.ones(x.size, bool)
     xs, ss = x[used], s[used]
     th = None if theta is None else theta[used]
+    sw = None
+    if weights is not None:
+        w = np.asarray(weights, dtype=float)[used]
+        sw = np.sqrt(w / np.mean(w))
     npar = 2 if th is None else 4
     if xs.size < npar + 2:
         raise InputError('samples', xs.size, f'at least {npar + 2} samples for the fit')
@@ -86,25 +93,32 @@ def fit_shift(x: NDArray[np.float64], s: NDArray[np.float64], lift: Lift, *,
             r = r - ab[0] * np.cos(th) - ab[1] * np.sin(th)
         return r
 
+    def wss(r_: NDArray[np.float64]) -> float:
+        rw = r_ if sw is None else r_ * sw
+        return float(rw @ rw)
+
+    def wjac(d_: float) -> NDArray[np.float64]:
+        jac_ = _design_matrix(lift(xs - d_, 1), th)
+        return jac_ if sw is None else jac_ * sw[:, None]
+
     r = resid(d, c, extra)
-    rss = float(r @ r)
+    rss = wss(r)
     it = 0
     for it in range(1, max_iter + 1):
-        jac = _design_matrix(lift(xs - d, 1), th)
-        step, *_ = np.linalg.lstsq(jac, r, rcond=None)
+        step, *_ = np.linalg.lstsq(wjac(d), r if sw is None else r * sw, rcond=None)
         lam = 1.0
         while True:
             d_new, c_new = d + lam * step[0], c + lam * step[1]
             ab_new = extra + lam * step[2:4] if th is not None else extra
             r_new = resid(d_new, c_new, ab_new)
-            rss_new = float(r_new @ r_new)
+            rss_new = wss(r_new)
             if rss_new <= rss * (1 + 1e-12) or lam < 1e-6:
                 break
             lam *= 0.5
         d, c, extra, r, rss = d_new, c_new, ab_new, r_new, rss_new
         if abs(lam * step[0]) < tol:
             break
-    jac = _design_matrix(lift(xs - d, 1), th)
+    jac = wjac(d)
     dof = max(xs.size - npar, 1)
     sigma2 = rss / dof
     cov = sigma2 * _inv_normal(jac)
