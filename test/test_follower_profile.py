@@ -266,3 +266,23 @@ def test_concave_roller_design_converted_to_smaller_followers(target: Follower) 
     conv = convert_lift(law, r0, Follower('roller', r), target)
     ref = lift_from_profile(prof.x, prof.y, a, target, r0)
     assert np.max(np.abs(conv(a) - ref)) < 1e-9
+
+
+def test_noisy_roller_lift_to_flat_bridges_the_noise() -> None:
+    # a ball-probe lift with 0.1 um noise (a tabulated measurement): its profile has many
+    # tiny hollows, which a flat face bridges (max over runs) - checked by brute force
+    from cam_design.follower import convert_lift, lift_from_profile
+    from cam_design.lift_laws import TabulatedLift
+
+    rng = np.random.default_rng(3)
+    a = np.linspace(-1.6, 1.6, 1281)
+    bump = np.cos(0.5 * math.pi * a / 1.6) ** 4
+    law = TabulatedLift(a, 0.005 * bump + 1e-7 * bump * rng.standard_normal(a.size))
+    ball = Follower('roller', 0.002)
+    conv = convert_lift(law, 0.02, ball, Follower('flat'))
+    assert conv.continuity_order == 0
+    prof = roller_profile(law, 0.02, 0.002, np.linspace(-math.pi, math.pi, 40000,
+                                                        endpoint=False))
+    x = np.linspace(-math.pi, math.pi, 721)
+    ref = lift_from_profile(prof.x, prof.y, x, Follower('flat'), 0.02)
+    assert np.max(np.abs(conv(x) - ref)) < 1e-9
