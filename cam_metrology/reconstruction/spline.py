@@ -384,6 +384,79 @@ def smooth_grid(values: NDArray[np.float64], missing: NDArray[np.bool_],
     return z0 + d
 
 
+def _knot_grid(x: NDArray[np.float64], span: float) -> NDArray[np.float64]:
+    """Uniform knots over [x0, x0 + span]: the finest step (from span / (n - 1) up to
+    4 times it) at which at least 90 % of the nodes have a sample nearby, so that
+    interleaved turns or near-duplicate angles do not leave every other bin empty."""
+    base = span / max(x.size - 1, 1)
+    grid = np.array([x[0], x[0] + span])
+    for factor in (1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0):
+        n = max(int(round(span / (base * factor))) + 1, 8)
+        grid = np.linspace(x[0], x[0] + span, n)
+        idx = np.clip(np.rint((x - grid[0]) / (grid[1] - grid[0])).astype(int), 0, n - 1)
+        if np.unique(idx).size >= 0.9 * n:
+            break
+    return grid
+
+
+def _bin_means(x: NDArray[np.float64], y: NDArray[np.float64], count: NDArray[np.int64],
+               grid: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Count-weighted means of the samples nearest to each uniform grid node; empty
+    nodes are missing and filled by linear interpolation."""
+    step = float(grid[1] - grid[0])
+    idx = np.clip(np.rint((x - grid[0]) / step).astype(int), 0, grid.size - 1)
+    w = np.bincount(idx, weights=count, minlength=grid.size)
+    missing = w <= 0
+
+    def means(shifted: NDArray[np.float64]) -> NDArray[np.float64]:
+        sums = np.bincount(idx, weights=count * shifted, minlength=grid.size)
+        out = np.zeros(grid.size)
+        out[~missing] = sums[~missing] / w[~missing]
+        if np.any(missing):
+            out[missing] = np.interp(grid[missing], grid[~missing], out[~missing])
+        return out
+
+    # first-order binning bias: move each sample to its node along the slope of the
+    # (lightly smoothed) first-pass bin means
+    first = means(y)
+    slope = np.gradient(np.convolve(first, np.ones(5) / 5, mode='same'), grid)
+    values = means(y + slope[idx] * (grid[idx] - x))
+    return values, missing
+
+
+def _third_difference_banded(m: int) -> NDArray[np.float64]:
+    """D3^T D3 (free ends) for m coefficients in upper banded storage (6 x m)."""
+    c = np.array([-1.0, 3.0, -3.0, 1.0])
+    ab = np.zeros((6, m))
+    for o in range(4):
+        prod = c[:4 - o] * c[o:]
+        diag = np.convolve(np.ones(m - 3), prod)        # length m - o
+        ab[5 - o, o:] = diag[:m - o]
+    return ab
+
+
+def _pspline(x: NDArray[np.float64], y: NDArray[np.float64], count: NDArray[np.int64],
+             grid: NDArray[np.float64], lam: float) -> Any:
+    """Quintic penalised regression spline on uniform knots ``grid`` (extended by five
+    steps each side): min sum count (y - f)^2 + lam |D3 c|^2, banded O(n)."""
+    from scipy.interpolate import BSpline
+    from scipy.linalg import solveh_banded
+
+    step = float(grid[1] - grid[0])
+    knots = grid[0] + step * np.arange(-5, grid.size + 5)
+    basis = BSpline.design_matrix(np.clip(x, knots[5], knots[-6]), knots, 5)
+    m = basis.shape[1]
+    weighted = basis.multiply(count.astype(float)[:, None]).tocsr()
+    gram = (basis.T @ weighted).todia()
+    ab = lam * _third_difference_banded(m)
+    for offset, data in zip(gram.offsets, gram.data):
+        if 0 <= offset <= 5:
+            ab[5 - offset, offset:] += data[offset:]
+    rhs = weighted.T @ y
+    coef = solveh_banded(ab, rhs, check_finite=False)
+    return BSpline(knots, coef, 5, extrapolate=True)
+
+
 def _pad_flank_ends(grid: NDArray[np.float64], values: NDArray[np.float64],
                     missing: NDArray[np.bool_], x: NDArray[np.float64],
                     y: NDArray[np.float64], kept: NDArray[np.bool_], sigma: float
@@ -461,24 +534,25 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     n_grid = int(round(span / step)) + 1
     uniform = (n_grid == x.size and
                float(np.max(np.abs(x - (x[0] + step * np.arange(x.size))))) < 1e-6 * step)
+    density = 1.0
     if uniform:
         grid, values, missing = x, fair.lift.copy(), fair.outlier.copy()
+        grid, values, missing, pad = _pad_flank_ends(grid, values, missing, x, y0, kept,
+                                                     fair.sigma)
+        if pad:
+            notes.append(f'table ends on a flank: {pad} free nodes added at each end '
+                         '(natural instead of reflective ends)')
     else:
-        grid = np.linspace(x[0], x[-1], n_grid)
+        # uneven, interleaved or gappy samples: a quintic P-spline on uniform knots fits
+        # the samples themselves (weights = merged counts); bin means on the knot grid
+        # only serve to choose the smoothing level
+        grid = _knot_grid(x[kept], span)
+        n_grid = grid.size
         step = float(grid[1] - grid[0])
-        fill = CubicSpline(x[kept], fair.lift[kept], bc_type='natural')
-        values = fill(grid)
-        pos = np.searchsorted(x[kept], grid).clip(1, np.count_nonzero(kept) - 1)
-        xk = x[kept]
-        near = np.minimum(np.abs(grid - xk[pos - 1]), np.abs(grid - xk[pos]))
-        missing = near > 0.75 * step
-        notes.append(f'uneven sampling: resampled to {n_grid} uniform nodes '
-                     f'({np.count_nonzero(missing)} in gaps)')
-    grid, values, missing, pad = _pad_flank_ends(grid, values, missing, x, y0, kept,
-                                                 fair.sigma)
-    if pad:
-        notes.append(f'table ends on a flank: {pad} free nodes added at each end '
-                     '(natural instead of reflective ends)')
+        values, missing = _bin_means(x[kept], fair.lift[kept], data.count[kept], grid)
+        density = float(np.sum(data.count[kept])) / n_grid
+        notes.append(f'uneven sampling: quintic P-spline on {n_grid} uniform knots '
+                     f'({np.count_nonzero(missing)} without samples)')
     gaps = np.diff(x[kept])
     if gaps.size and float(gaps.max()) > 3.0 * step:
         g = int(np.argmax(gaps))
@@ -488,7 +562,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     if opt.smoothing is None:
         choice = choose_smoothing(values, step, criterion=opt.criterion)
         gap_nodes = bool(np.any(missing[:-2] & missing[1:-1] & missing[2:]))
-        for _ in range(3 if gap_nodes else 0):
+        for _ in range(3 if gap_nodes or not uniform else 0):
             # filled nodes are not data: refill them with the weighted solution and
             # choose again, so that the fill looks like the smooth fit, not like an
             # interpolant through the noisy samples at the gap ends
@@ -500,10 +574,15 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         mu = _spectrum(grid.size)
         choice = SmoothingChoice(lam_d, lam, float(np.sum(1.0 / (1.0 + lam_d * mu ** 3))),
                                  fair.sigma, f'set by the caller: lam = {lam:.4g} rad^5')
-    z = smooth_grid(values, missing, choice.lam_d)
     why = choice.why
     lam_d = choice.lam_d
-    spline = make_interp_spline(grid, z, k=5)
+
+    def fit_spline(lam: float) -> Any:
+        if uniform:
+            return make_interp_spline(grid, smooth_grid(values, missing, lam), k=5)
+        return _pspline(x[kept], fair.lift[kept], data.count[kept], grid, lam * density)
+
+    spline = fit_spline(lam_d)
     out_step = opt.step or step
     out = output_grid(x[0], x[-1], out_step)
     acc = spline(out, 2)
@@ -513,8 +592,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         while _sign_changes(acc) > expected and raised < 5:
             lam_d *= 4.0
             raised += 1
-            z = smooth_grid(values, missing, lam_d)
-            spline = make_interp_spline(grid, z, k=5)
+            spline = fit_spline(lam_d)
             acc = spline(out, 2)
         if raised:
             why += (f'; raised x{4 ** raised} to lam_d = {lam_d:.4g} for the sign '
