@@ -401,7 +401,8 @@ class _Run:
         return clean, out
 
     # -- one step with events --------------------------------------------------------
-    def event_step(self, k: int, z: tuple[float, float], r: int) -> tuple[tuple[float, float], int]:
+    def event_step(self, k: int, z: tuple[float, float],
+                   r: int) -> tuple[tuple[float, float], int]:
         """Integrate step k from node k to node k+1, handling every switch inside."""
         model, cam = self.model, self.cam
         p = model.p
@@ -426,7 +427,7 @@ class _Run:
             m = min(max(2, int(math.ceil(model.rho(r) * lt / _SUB))), 4096)
             ds = lt / m
             fco = model.forcing(r, uco, la)
-            if m <= 8:       # short: chain the local Taylor series, no new propagator
+            if m <= 2 and s0 > 0:   # short rest after a switch: chain the Taylor series
                 j0, zs = 0, None
             else:
                 phis, gams = model.propagator(r, lt, m)
@@ -615,7 +616,8 @@ class _Run:
                 self.sep_open = None
 
     # -- driver ------------------------------------------------------------------
-    def revolution(self, z: tuple[float, float], r: int) -> tuple[NDArray, NDArray, NDArray, tuple[float, float], int]:
+    def revolution(self, z: tuple[float, float],
+                   r: int) -> tuple[NDArray, NDArray, NDArray, tuple[float, float], int]:
         """One revolution from node 0; returns node arrays y, v, regime and end state."""
         n = self.cam.lengths.size
         ys = np.empty(n + 1)
@@ -635,7 +637,7 @@ class _Run:
                 z = states[-1]
                 k += clean
             if clean == want:
-                chunk = min(chunk * 2, 4096)
+                chunk = min(chunk * 2, 256)
                 continue
             z, r = self.event_step(k, z, r)
             k += 1
