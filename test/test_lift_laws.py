@@ -53,7 +53,13 @@ def test_patent_ramp_upper_limit_is_allowed() -> None:
 def test_polynomial_coefficients_case_9() -> None:
     """§7 #9 with erratum 3: S2 eqs (24)-(25) are misprinted; the corrected closed form
     gives c2, c6, c10, c14 = -17.001953125, 16.544921875, -9.896484375, 2.353515625 mm
-    (H2 = 8 mm, v2 = 0.015 mm/deg, alpha2 = 100 deg)."""
+    (H2 = 8 mm, v2 = 0.015 mm/deg, alpha2 = 100 deg). As printed, (24) has the
+    denominator 2(s-q)(r-q)(p-q) and gives c_p = +51.005859375 mm; (25) has the
+    numerator term rq for rp and the denominator 2(s-q)(r-q)(q-q) = 0 (undefined)."""
+    p, q, r, s = 2, 6, 10, 14
+    printed_cp = (-2 * 8 * s * r * q + 0.015 * 100 * (s * r + s * q + r * q - s - r - q + 1)) \
+        / (2 * (s - q) * (r - q) * (p - q))
+    assert printed_cp == pytest.approx(51.005859375, abs=1e-12)
     c = polynomial_coefficients([2, 6, 10, 14], 8 * MM, V1, 50 * DEG)
     expected = {2: -17.001953125, 6: 16.544921875, 10: -9.896484375, 14: 2.353515625}
     for i, v in expected.items():

@@ -15,7 +15,8 @@ L_ARM, RB = 45.8, 32.3      # mm (the synthesis is unit-agnostic)
 
 def test_cg125_case_1() -> None:
     """#1 (erratum 1: S1 eq (10) drops y_K^2 from c; only the corrected c gives the
-    paper's L_o = 57.494851 mm)."""
+    paper's L_o = 57.494851 mm. The printed c gives eta* = 3.089746 deg,
+    L = 57.559115 and L_o = 57.552078 mm, 57 um off the paper's own result)."""
     r = synthesize(L_ARM, RB, 7.865 * D, 0.9)
     assert math.degrees(r.eta) == pytest.approx(3.089302, abs=2e-6)
     assert r.frame_length == pytest.approx(57.501894, abs=2e-6)
