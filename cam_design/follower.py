@@ -422,24 +422,32 @@ class ConvertedLift(LiftLaw):
         return out
 
     def _solve_block(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
-        out = np.zeros((JET_ORDER + 1, a.size))
-        best = np.full(a.size, -np.inf)
+        # every (angle, run) pair whose run reaches the angle is a candidate contact; all
+        # candidates are solved in one vectorised pass and the largest lift wins
+        which, where, cells = [], [], []
         for i0, i1 in self._runs:
             run = self._a[i0:i1 + 1]
             aa = run[0] + np.mod(a - run[0], 2 * math.pi)
             sel = np.flatnonzero(aa <= run[-1])
-            if sel.size == 0:
-                continue
-            idx = i0 + np.clip(np.searchsorted(run, aa[sel], side='right') - 1, 0,
-                               run.size - 2)
-            got = self._run_contact(aa[sel], idx)
-            better = got[0] > best[sel]
-            best[sel[better]] = got[0][better]
-            out[:, sel[better]] = got[:, better]
-        if np.any(np.isinf(best)):
-            i = int(np.argmax(np.isinf(best)))
+            if sel.size:
+                which.append(sel)
+                where.append(aa[sel])
+                cells.append(i0 + np.clip(np.searchsorted(run, aa[sel], side='right') - 1,
+                                          0, run.size - 2))
+        q = np.concatenate(which) if which else np.zeros(0, dtype=int)
+        if np.unique(q).size < a.size:
+            i = int(np.setdiff1d(np.arange(a.size), q)[0])
             raise InputError(self.key, f'no contact found at alpha = {a[i]:.6g} rad',
                              'a closed, undercut-free cam profile')
+        got = self._run_contact(np.concatenate(where), np.concatenate(cells))
+        if q.size == a.size:          # one candidate each (a convex profile)
+            out = np.empty_like(got)
+            out[:, q] = got
+            return out
+        order = np.lexsort((-got[0], q))              # per angle, the largest lift first
+        first = order[np.concatenate([[True], np.diff(q[order]) != 0])]
+        out = np.empty((JET_ORDER + 1, a.size))
+        out[:, q[first]] = got[:, first]
         return out
 
     def _run_contact(self, aa: NDArray[np.float64], idx: NDArray[np.int64]

@@ -37,7 +37,7 @@ def test_profile_json_roller_converted(table_file: Path, tmp_path: Path) -> None
     png = tmp_path / 'p.png'
     rc = main(['design', 'profile', str(table_file), '--follower', 'roller', '--radius',
                '0.008', '--design-follower', 'flat', '--json', str(out), '--plot', str(png),
-               '--step-deg', '0.1'])
+               '--step-deg', '0.25'])
     assert rc == 0
     doc = json.loads(out.read_text())
     assert doc['kind'] == 'roller' and doc['undercut'] is False
@@ -52,7 +52,7 @@ def test_profile_json_roller_converted(table_file: Path, tmp_path: Path) -> None
     theta = fr[:, 0] + math.pi / 2
     support = np.max(np.outer(np.cos(theta), x) + np.outer(np.sin(theta), y), axis=1)
     want = np.cos(theta) * fr[:, 1] + np.sin(theta) * fr[:, 2]
-    assert np.max(np.abs(support - want)) < 3e-8      # sampling error (0.1 deg) of the max
+    assert np.max(np.abs(support - want)) < 1e-7      # sampling error (0.25 deg) of the max
 
 
 def test_profile_text_reports_undercut(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
