@@ -246,6 +246,10 @@ def test_settings_validate_types():
         Settings.from_params({'fit_runout': 'yes'})
     with pytest.raises(InputError, match='metrology.max_shift_deg'):
         Settings.from_params({'max_shift_deg': float('nan')})
+    with pytest.raises(InputError, match='metrology.sp_fit_order'):
+        Settings.from_params({'sp_fit_order': 7})
+    with pytest.raises(InputError, match='metrology.sp_half_window_deg'):
+        Settings.from_params({'sp_half_window_deg': 0})
 
 
 def test_huge_sample_count_is_fast_enough_and_exact():

@@ -231,13 +231,17 @@ def test_bad_parameters_raise_input_error():
         MetrologyCore({'min_flank_samples': -3})
 
 
-def test_bad_joint_state_is_reported_not_raised():
+def test_joint_state_without_the_joints_counts_as_nan_sample():
+    text = scene_text(pin=False)
     core = MetrologyCore()
+    core.handle('/bench/scene', string(text), 0)
     msg = SimpleNamespace(name=['a', 'b'], position=[0.0, 0.0],
                           header=SimpleNamespace(frame_id='lobe_1',
-                                                 stamp=SimpleNamespace(sec=0, nanosec=0)))
-    out = collect(core.handle('/bench/joint_states', msg, 0))
-    assert out['status'][0].level == ERROR and 'camshaft' in out['status'][0].message
+                                                 stamp=SimpleNamespace(sec=0, nanosec=5)))
+    assert core.handle('/bench/joint_states', msg, 0) == []
+    rep = collect(core.finish())['report'][-1]['features']['lobe_1']
+    assert rep['status'] == 'failed' and rep['samples_nan_dropped'] == 1
+    assert '0 valid samples' in rep['reason']
 
 
 def test_invalid_scene_is_reported():

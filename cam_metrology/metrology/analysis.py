@@ -55,6 +55,14 @@ class Settings:
     max_shift_deg: float = 5.0
     outlier_sigma: float = 5.0
 
+    def __post_init__(self) -> None:
+        if not 0 <= self.sp_fit_order <= 3:
+            raise InputError('metrology.sp_fit_order', self.sp_fit_order, 'an order 0..3')
+        for name in ('sp_half_window_deg', 'max_flank_gap_deg', 'asymmetry_knot_deg',
+                     'max_shift_deg', 'min_flank_samples'):
+            if not getattr(self, name) > 0:
+                raise InputError(f'metrology.{name}', getattr(self, name), 'a value > 0')
+
     @classmethod
     def from_params(cls, params: dict[str, Any]) -> Settings:
         """Settings from a parameter dict (unknown keys ignored; types checked)."""

@@ -139,8 +139,8 @@ class MetrologyCore:
         if topic == JOINTS:
             try:
                 theta, s = joint_positions(msg)
-            except InputError as exc:
-                return [self._status(Status('joint_states', ERROR, str(exc)), stamp_ns)]
+            except InputError:   # a message without the joints: a NaN sample, counted
+                theta, s = float('nan'), float('nan')
             done = self.assembler.add(msg.header.frame_id, stamp_of(msg, stamp_ns),
                                       theta, s, stamp_ns)
             return self._complete_all(done, stamp_ns)
