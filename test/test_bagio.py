@@ -444,7 +444,7 @@ def test_negative_log_time_is_an_input_error(tmp_path):
             w.write('/bench/scene', -1, bagio.encode_string('x'))
 
 
-def test_recover_an_interrupted_recording(tmp_path):
+def test_recover_an_interrupted_recording(tmp_path, capsys):
     bag = tmp_path / 'full'
     with bagio.BagWriter(bag) as w:
         w.write('/bench/scene', 1, bagio.encode_string('scene text'))
@@ -465,15 +465,11 @@ def test_recover_an_interrupted_recording(tmp_path):
     assert 'transient_local' in bagio.topic_qos_yaml(tmp_path / 'fixed')['/bench/scene']
     with pytest.raises(InputError):
         bagio.recover_bag(tmp_path / 'nothing', tmp_path / 'x')
-    import subprocess
-    import sys
+    from cam_metrology.cli import main
 
-    code = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
-    res = subprocess.run([sys.executable, '-c', code, 'bag', 'recover', str(crashed),
-                          str(tmp_path / 'fixed2')], capture_output=True, text=True,
-                         timeout=120)
-    assert res.returncode == 0, res.stderr
-    assert f"/bench/joint_states: {counts['/bench/joint_states']}" in res.stdout
+    assert main(['bag', 'recover', str(crashed), str(tmp_path / 'fixed2')]) == 0
+    out = capsys.readouterr().out
+    assert f"/bench/joint_states: {counts['/bench/joint_states']}" in out
 
 
 def test_write_after_close_is_an_input_error(tmp_path):

@@ -144,20 +144,15 @@ def test_fixtures_are_deterministic(tmp_path):
         assert a == b, name
 
 
-def test_cli_bag_info_on_a_fixture():
-    import subprocess
-    import sys
+def test_cli_bag_info_on_a_fixture(capsys):
+    from cam_metrology.cli import main
 
-    code = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
-    res = subprocess.run([sys.executable, '-c', code, 'bag', 'info',
-                          str(BAGS / 'no_pin_no_valve_train')],
-                         capture_output=True, text=True, timeout=120)
-    assert res.returncode == 0, res.stderr
-    assert '/bench/scene' in res.stdout and 'latched' in res.stdout
-    assert 'lobe_1: 3600 samples' in res.stdout and 'no dowel pin' in res.stdout
-    res = subprocess.run([sys.executable, '-c', code, 'bag', 'info', str(BAGS / 'nope')],
-                         capture_output=True, text=True, timeout=120)
-    assert res.returncode == 2 and 'existing rosbag2' in res.stderr
+    assert main(['bag', 'info', str(BAGS / 'no_pin_no_valve_train')]) == 0
+    out = capsys.readouterr().out
+    assert '/bench/scene' in out and 'latched' in out
+    assert 'lobe_1: 3600 samples' in out and 'no dowel pin' in out
+    assert main(['bag', 'info', str(BAGS / 'nope')]) == 2
+    assert 'existing rosbag2' in capsys.readouterr().err
 
 
 @pytest.mark.parametrize('name', NAMES)

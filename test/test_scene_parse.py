@@ -450,19 +450,28 @@ CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:
 
 
 def _cli(*args: str, stdin: str | None = None) -> subprocess.CompletedProcess:
+    """The real command in a new process (exit code, no traceback)."""
     return subprocess.run([sys.executable, '-c', CLI, *args], input=stdin,
                           capture_output=True, text=True, timeout=120)
 
 
-def test_cli_scene_check_valid_and_warnings(tmp_path):
+def _run(capsys, *args: str) -> tuple[int, str, str]:
+    """The command in-process (fast): (exit code, stdout, stderr)."""
+    from cam_metrology.cli import main
+    code = main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_cli_scene_check_valid_and_warnings(tmp_path, capsys):
     doc = _base()
     doc['operator'] = 'ann'
     p = tmp_path / 's.yaml'
     p.write_text(yaml.safe_dump(doc))
-    res = _cli('scene', 'check', str(p))
-    assert res.returncode == 0, res.stderr
-    assert 'valid scene' in res.stdout and 'lobe_2' in res.stdout
-    assert 'warning: operator: unknown key' in res.stdout
+    code, out, err = _run(capsys, 'scene', 'check', str(p))
+    assert code == 0, err
+    assert 'valid scene' in out and 'lobe_2' in out
+    assert 'warning: operator: unknown key' in out
 
 
 def test_cli_scene_check_invalid_exits_2(tmp_path):
@@ -487,6 +496,9 @@ def test_design_lift_that_the_probe_cannot_follow_warns():
     assert not any(w.startswith('lobes[1]') for w in scene.warnings)
 
 
-def test_scene_check_reads_stdin():
-    res = _cli('scene', 'check', '-', stdin=yaml.safe_dump(_base()))
-    assert res.returncode == 0 and '<stdin>' not in res.stderr and 'lobe_1' in res.stdout
+def test_scene_check_reads_stdin(capsys, monkeypatch):
+    import io
+
+    monkeypatch.setattr('sys.stdin', io.StringIO(yaml.safe_dump(_base())))
+    code, out, _ = _run(capsys, 'scene', 'check', '-')
+    assert code == 0 and 'lobe_1' in out

@@ -280,38 +280,43 @@ def test_true_angle_just_below_zero_wraps_into_range():
     assert run.truth['features'][DOWEL_PIN]['angle_deg'] == 0.0
 
 
-CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
+def _run(capsys, *args: str):
+    """The command in-process: (exit code, stdout, stderr)."""
+    from cam_metrology.cli import main
+    code = main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
 
 
-def _cli(*args):
-    import subprocess
-    import sys
-
-    return subprocess.run([sys.executable, '-c', CLI, *args], capture_output=True,
-                          text=True, timeout=120)
-
-
-def test_cli_simulate_writes_a_bag_and_prints_the_truth(tmp_path):
+def test_cli_simulate_writes_a_bag_and_prints_the_truth(tmp_path, capsys):
     out = tmp_path / 'sim'
-    res = _cli('simulate', str(out), '--samples-per-rev', '360', '--noise-um', '1',
-               '--seed', '7', '--direction', '-1', '--wrapped', '--quiet')
-    assert res.returncode == 0, res.stderr
-    assert 'wrote' in res.stdout and '"dowel_pin"' in res.stdout
-    truth = json.loads(res.stdout[res.stdout.index('{'):])
+    code, stdout, err = _run(capsys, 'simulate', str(out), '--samples-per-rev', '360',
+                             '--noise-um', '1', '--seed', '7', '--direction', '-1',
+                             '--wrapped', '--quiet')
+    assert code == 0, err
+    assert 'wrote' in stdout and '"dowel_pin"' in stdout
+    truth = json.loads(stdout[stdout.index('{'):])
     assert truth['direction'] == -1 and truth['probe_noise_m'] == 1e-6
     (m,) = list(bagio.iter_messages(out, ['/bench/scene']))
     assert parse_scene(m.msg.data).direction == -1
     js = bagio.read_joint_states(out)
     assert len(js) == 5 * 360 and np.all(js.theta < 2 * np.pi)
-    again = _cli('simulate', str(out), '--samples-per-rev', '360', '--quiet')
-    assert again.returncode == 2 and 'never overwritten' in again.stderr
+    code, _, err = _run(capsys, 'simulate', str(out), '--samples-per-rev', '360', '--quiet')
+    assert code == 2 and 'never overwritten' in err
 
 
-def test_cli_simulate_bad_input_exits_2(tmp_path):
+def test_cli_simulate_progress_for_large_runs(tmp_path, capsys):
+    code, _, err = _run(capsys, 'simulate', str(tmp_path / 'big'), '--samples-per-rev',
+                        '12000')
+    assert code == 0
+    assert 'simulate: 60000/60000 samples (100 %)' in err and '(50 %)' in err
+
+
+def test_cli_simulate_bad_input_exits_2(tmp_path, capsys):
     bad = tmp_path / 'bad.yaml'
     bad.write_text('probe: {kind: laser}\nbase_circle_radius: 0.01\n')
-    res = _cli('simulate', str(tmp_path / 'x'), '--scene', str(bad))
-    assert res.returncode == 2 and 'probe.kind' in res.stderr
-    res = _cli('simulate', str(tmp_path / 'y'), '--samples-per-rev', '3')
-    assert res.returncode == 2 and '--samples-per-rev' in res.stderr
+    code, _, err = _run(capsys, 'simulate', str(tmp_path / 'x'), '--scene', str(bad))
+    assert code == 2 and 'probe.kind' in err
+    code, _, err = _run(capsys, 'simulate', str(tmp_path / 'y'), '--samples-per-rev', '3')
+    assert code == 2 and '--samples-per-rev' in err
     assert not (tmp_path / 'x').exists() and not (tmp_path / 'y').exists()
