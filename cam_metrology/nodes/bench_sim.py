@@ -4,8 +4,9 @@ From a scene file it runs ``simulate.simulate(scene, SimParams(...))`` and publi
 1. ``/bench/scene`` (the scene YAML) and ``/bench/truth`` (JSON of the run's truth),
    both transient local depth 1;
 2. waits (deadline ``match_timeout``) until ``wait_subscribers`` subscriptions have
-   matched on /bench/joint_states, /bench/scene and /bench/feature_done, and have
-   acknowledged the scene (Fast DDS acknowledges on its heartbeat: up to 3 s);
+   matched on /bench/joint_states, /bench/scene and /bench/feature_done and the graph
+   shows the ``wait_graph`` subscriptions on other topics, then until the scene is
+   acknowledged (Fast DDS acknowledges on its heartbeat: up to 3 s);
 3. ``/bench/joint_states``, one sample per message (name = camshaft, probe; position =
    theta [rad], s [m]; header.stamp = the simulated acquisition time; header.frame_id
    = feature id), paced by a loop on the simulated stamps (``rate`` samples/s of
@@ -39,6 +40,9 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     'scene_file': ('', 'scene YAML to simulate; empty: the embedded default scene'),
     'wait_subscribers': (1, 'subscriptions that must match /bench/joint_states, '
                             '/bench/scene and /bench/feature_done before the first sample'),
+    'wait_graph': ('', 'also wait until the graph shows this many subscriptions on other '
+                       'topics, e.g. "/metrology/lift=2,/metrology/result=2" (downstream '
+                       'nodes that must be up before results flow)'),
     'match_timeout': (10.0, 's to wait for those subscriptions (then exit 4)'),
     'ack_timeout': (10.0, 's to wait at the end until subscribers acknowledged everything'),
     'max_burst': (200, 'most samples published back to back when catching up'),
@@ -90,6 +94,20 @@ def iter_samples(run: Any) -> Iterator[tuple[str, np.ndarray, np.ndarray, np.nda
         yield (str(_field(feat, 'id')), np.asarray(_field(feat, 'theta'), dtype=float),
                np.asarray(_field(feat, 's'), dtype=float),
                np.asarray(_field(feat, 'stamp_ns'), dtype=np.int64))
+
+
+def parse_graph_counts(text: str) -> dict[str, int]:
+    """``'/a=2, /b=1'`` -> {'/a': 2, '/b': 1} (InputError on a malformed item)."""
+    from cam_design.errors import InputError
+    out: dict[str, int] = {}
+    for item in text.replace(' ', '').split(','):
+        if not item:
+            continue
+        topic, sep, count = item.partition('=')
+        if not sep or not topic.startswith('/') or not count.isdigit():
+            raise InputError('bench_sim.wait_graph', item, '/topic=COUNT')
+        out[topic] = int(count)
+    return out
 
 
 def truth_json(run: Any) -> str:
@@ -150,7 +168,9 @@ class BenchSimNode(Node):
         """Wait (deadline) for ``need`` matches on samples and scene, and for the scene to
         be acknowledged by them, so every node knows the scene before the first sample."""
         deadline = time.monotonic() + timeout
-        while min(self.matched()) < need:
+        graph = parse_graph_counts(str(self.params.get('wait_graph', '')))
+        while min(self.matched()) < need or any(
+                self.count_subscribers(t) < n for t, n in graph.items()):
             if time.monotonic() >= deadline:
                 return False
             time.sleep(0.01)
@@ -229,7 +249,10 @@ def run_bench_sim(args: Sequence[str] | None = None,
                  f'{rate:g}/s; waiting for {p["wait_subscribers"]} subscriber(s)')
         node.publish_latched()
         if not node.wait_for_subscribers(int(p['wait_subscribers']), float(p['match_timeout'])):
-            log.error(f'only {node.matched()} of {p["wait_subscribers"]} subscriptions matched '
+            graph = {t: node.count_subscribers(t)
+                     for t in parse_graph_counts(str(p['wait_graph']))}
+            log.error(f'graph subscriptions {graph} (wanted {p["wait_graph"]}); '
+                      f'only {node.matched()} of {p["wait_subscribers"]} subscriptions matched '
                       f'(/bench/joint_states, /bench/scene, /bench/feature_done) within '
                       f'{p["match_timeout"]} s')
             return 4

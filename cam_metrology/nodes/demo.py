@@ -8,10 +8,11 @@ one with SIGINT in data-flow order, which is what makes the shutdown lossless:
 
 1. claim a ROS domain (1..100, flock), ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``,
    a temporary ``ROS_LOG_DIR``; children inherit them (``isolation.isolated_env``);
-2. start the recorder and the core nodes (missing cores are reported, never faked);
-   an in-process monitor node waits (deadline) until the graph shows them, then the
-   simulator starts and itself waits until the recorder and the sample consumers
-   matched before its first sample;
+2. start the recorder, the core nodes (missing cores are reported, never faked) and
+   the simulator at once (Python start-up and the simulation overlap); the simulator
+   waits (deadline) until the recorder and the sample consumers matched its topics
+   and the graph shows every downstream subscription (``wait_graph``: recorder,
+   monitor, reconstruction on /metrology/lift, ...) before its first sample;
 3. progress: features done, per-feature metrology results, other nodes' statuses;
 4. completion: simulator exited 0 and the metrology report (transient local) arrived,
    or the simulator finished and the report deadline passed;
@@ -37,8 +38,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, TextIO
 
-from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, METROLOGY_REPORT, TOPICS,
-                                        TRUTH)
+from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, METROLOGY_REPORT,
+                                        OUTPUT_TOPICS, TOPICS, TRUTH)
 
 CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
 STATUS_TOPICS = ('/metrology/result', '/reconstruction/result', '/dynamics/result')
@@ -56,7 +57,7 @@ class DemoOptions:
     events_executor: bool = True    # recorder executor (see cli/ros_cmds.py --help)
     keep_logs: bool = False
     sim_params: list[str] = field(default_factory=list)   # 'name:=value' for bench-sim
-    startup_timeout: float = 60.0   # s until every node is in the graph
+    startup_timeout: float = 60.0   # s until every node is connected (bench-sim waits)
     report_timeout: float = 30.0    # s after the simulator finished
     stream: TextIO = field(default_factory=lambda: sys.stdout)
 
@@ -168,6 +169,14 @@ def report_lines(report: dict[str, Any] | None, truth: dict[str, Any] | None) ->
     return lines
 
 
+def _fmt(text: str, digits: int) -> str:
+    """A number given as text, with ``digits`` decimals (unchanged if not a number)."""
+    try:
+        return f'{float(text):.{digits}f}'
+    except ValueError:
+        return text
+
+
 class DemoMonitor:
     """In-process rclpy node that watches progress and collects report and truth."""
 
@@ -205,11 +214,13 @@ class DemoMonitor:
 
     def _on_report(self, msg: Any) -> None:
         self.callbacks_run += 1
+        first = self.report is None
         try:
             self.report = json.loads(msg.data)
         except ValueError:
             self.report = {'unparsed': msg.data}
-        self.say('metrology: report received')
+        if first:
+            self.say('metrology: report received')
 
     def _on_status(self, topic: str, msg: Any) -> None:
         self.callbacks_run += 1
@@ -221,22 +232,25 @@ class DemoMonitor:
                 st.level[0] if isinstance(st.level, bytes) else int(st.level), '?')
             detail = ''
             if 'angle_deg' in values:
-                detail = f' angle {values["angle_deg"]} deg'
+                detail = f' angle {_fmt(values["angle_deg"], 4)} deg'
                 if 'angle_std_deg' in values:
-                    detail += f' +- {values["angle_std_deg"]}'
+                    detail += f' +- {_fmt(values["angle_std_deg"], 5)}'
             self.say(f'{node}: {st.name} {level}{detail}'
                      + (f' ({st.message})' if st.message and level != 'OK' else ''))
 
-    def graph_ready(self, nodes: list[str], need_samples: int) -> bool:
-        """Every node visible, the recorder subscribed to every topic, enough sample
-        subscriptions."""
-        n = self.node
-        if not set(nodes) <= set(n.get_node_names()):
-            return False
-        for topic in TOPICS:
-            if not any(i.node_name == 'recorder' for i in n.get_subscriptions_info_by_topic(topic)):
-                return False
-        return n.count_subscribers(JOINT_STATES) >= need_samples
+
+def downstream_subscriptions(core_classes: list[Any]) -> dict[str, int]:
+    """Subscriptions the graph must show on each output topic before the first sample:
+    the recorder (every topic), this monitor (statuses, report) and every core that
+    consumes another core's output (e.g. reconstruction on /metrology/lift)."""
+    need = {topic: 1 for topic in OUTPUT_TOPICS}
+    for topic in STATUS_TOPICS + (METROLOGY_REPORT,):
+        need[topic] += 1
+    for cls in core_classes:
+        for topic in getattr(cls, 'subscriptions', {}):
+            if topic in need:
+                need[topic] += 1
+    return need
 
 
 def run_demo(opts: DemoOptions) -> int:
@@ -270,6 +284,7 @@ def run_demo(opts: DemoOptions) -> int:
     say(f'ROS domain {domain} (localhost only), node logs in {log_dir}')
 
     cores: list[str] = []
+    core_classes: list[Any] = []
     need_samples = 1   # the recorder
     for name in ('metrology', 'reconstruction', 'dynamics'):
         try:
@@ -278,6 +293,7 @@ def run_demo(opts: DemoOptions) -> int:
             say(f'{name}: MISSING ({exc}); not started')
             continue
         cores.append(name)
+        core_classes.append(cls)
         need_samples += JOINT_STATES in getattr(cls, 'subscriptions', {})
     children: dict[str, Child] = {}
     code, reason = 0, ''
@@ -291,21 +307,17 @@ def run_demo(opts: DemoOptions) -> int:
         children['recorder'] = start_child('recorder', rec_args, env, log_dir)
         for name in cores:
             children[name] = start_child(name, [], env, log_dir)
-        say(f'started recorder and {", ".join(cores) or "no core node"}; waiting for the graph')
-        ok = proc.spin_until(lambda: monitor.graph_ready(['recorder'] + cores, need_samples)
-                             or _any_exited(children), opts.startup_timeout)
-        _check_children(children, say)
-        if not ok:
-            raise DemoFailure('interrupted' if proc.stopping else
-                              f'nodes not in the graph after {opts.startup_timeout:.0f} s')
+        graph = ','.join(f'{t}={n}' for t, n in downstream_subscriptions(core_classes).items())
         sim_args = ['--ros-args', '-p', f'scene_file:={scene.resolve()}',
-                    '-p', f'wait_subscribers:={need_samples}', '-p', 'match_timeout:=30.0']
+                    '-p', f'wait_subscribers:={need_samples}', '-p', f'wait_graph:={graph}',
+                    '-p', f'match_timeout:={opts.startup_timeout}']
         if opts.rate is not None:
             sim_args += ['-p', f'rate:={float(opts.rate)}']
         for item in opts.sim_params:
             sim_args += ['-p', item]
         children['bench-sim'] = start_child('bench-sim', sim_args, env, log_dir)
-        say(f'graph ready; bench-sim started ({scene.name})')
+        say(f'started recorder, {", ".join(cores) or "no core node"} and bench-sim '
+            f'({scene.name}); bench-sim waits until they are all connected')
         deadline = t_start + (opts.timeout or 600.0)
         sim = children['bench-sim']
         proc.spin_until(lambda: sim.proc.poll() is not None
