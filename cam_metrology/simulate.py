@@ -87,6 +87,10 @@ class SimParams:
                 self.samples_per_rev, (int, np.integer)) or self.samples_per_rev < 8:
             raise InputError('samples_per_rev', self.samples_per_rev, 'an integer >= 8')
         revs = require_positive('revolutions', self.revolutions)
+        if round(revs * self.samples_per_rev) < 8:
+            raise InputError('revolutions', self.revolutions,
+                             f'at least 8 samples per feature ({self.samples_per_rev} '
+                             'samples per revolution)')
         if revs * self.samples_per_rev > 50_000_000:
             raise InputError('revolutions', self.revolutions,
                              'at most 5e7 samples per feature')

@@ -207,6 +207,7 @@ def test_scene_without_pin_and_without_nominal_phase():
     ({'samples_per_rev': 4}, 'samples_per_rev'),
     ({'samples_per_rev': 10.5}, 'samples_per_rev'),
     ({'revolutions': 0}, 'revolutions'),
+    ({'revolutions': 1e-4}, 'revolutions'),
     ({'probe_noise': -1e-6}, 'probe_noise'),
     ({'encoder_noise': float('nan')}, 'encoder_noise'),
     ({'rate': 0}, 'rate'),
