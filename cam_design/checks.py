@@ -400,11 +400,16 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
             out['flow_area_formula_valid'] = bool(y.max() < lim)
     rpm = cfg.get('cam_speed_rpm')
     spring, masses = cfg.get('spring'), cfg.get('masses')
+    if masses is not None and cfg.get('equivalent_mass') is not None:
+        raise InputError(f'{key}.equivalent_mass', cfg['equivalent_mass'],
+                         'either masses or equivalent_mass, not both')
+    if rpm is not None and spring is not None and cfg.get('equivalent_mass') is not None:
+        masses = {}
     if rpm is not None and spring is not None and masses is not None:
         omega = rpm_to_omega(P.positive(cfg, key, 'cam_speed_rpm'), f'{key}.cam_speed_rpm')
         sk, mk = f'{key}.spring', f'{key}.masses'
         spring, masses = P.mapping(spring, sk), P.mapping(masses, mk)
-        m = equivalent_mass(
+        m = P.positive(cfg, key, 'equivalent_mass') if not masses else equivalent_mass(
             valve=P.positive(masses, mk, 'valve', allow_zero=True),
             spring=P.positive(masses, mk, 'spring', 0.0, allow_zero=True),
             retainer=P.positive(masses, mk, 'retainer', 0.0, allow_zero=True),

@@ -125,3 +125,22 @@ def test_check_roller_follower(tmp_path: Path, capsys: pytest.CaptureFixture) ->
     f.write_text(CHECK + 'follower: {kind: wheel}\n')
     assert main(['design', 'check', str(f)]) == 2
     assert 'check.follower.kind' in capsys.readouterr().err
+
+
+def test_check_scene_lobe(capsys: pytest.CaptureFixture) -> None:
+    """design check on the default scene: base circle, design follower and valve train
+    from the scene (tappet-side mass = M k^2), speed override with --rpm."""
+    from pathlib import Path
+
+    import yaml
+
+    scene = Path(__file__).resolve().parent.parent / 'config' / 'default_scene.yaml'
+    vt = yaml.safe_load(scene.read_text())['valve_train']
+    assert main(['design', 'check', str(scene), '--lobe', 'lobe_1', '--rpm', '1000',
+                 '--json', '-']) == 0
+    out = json.loads(capsys.readouterr().out)
+    k = vt['rocker_ratio']
+    assert out['equivalent_mass_kg'] == pytest.approx(vt['mass'] * k * k)
+    assert out['natural_period_cam_deg'] == pytest.approx(
+        math.degrees(1000 * math.pi / 30 * 2 * math.pi * math.sqrt(vt['mass'] / vt['stiffness'])))
+    assert out['no_separation'] is True

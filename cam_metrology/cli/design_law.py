@@ -36,7 +36,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description='Design checks (S0 §2.1): flow area, time-area, fullness, '
                                    'rho1, Hertz stress, equivalent mass, separation, oil film, '
                                    'valve-piston clearance. Input format: docs/lift_laws.md.')
-    p.add_argument('file', help='YAML check input')
+    p.add_argument('file', help='YAML check input, or a scene file')
+    p.add_argument('--lobe', metavar='ID', help='with a scene file: the lobe id (default '
+                                                'the first lobe)')
+    p.add_argument('--rpm', type=float, help='camshaft speed [rpm] (overrides the file)')
     p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
     p.set_defaults(func=cmd_check)
 
@@ -182,17 +185,52 @@ def cmd_check(args: argparse.Namespace) -> int:
     doc = load_yaml(args.file)
     if not isinstance(doc, dict):
         raise InputError(args.file, type(doc).__name__, 'a mapping (see docs/lift_laws.md)')
-    if 'lift_law' not in doc:
-        raise InputError('lift_law', None, 'a lift_law mapping')
-    law = from_spec(doc['lift_law'], 'lift_law')
-    cfg = {k: v for k, v in doc.items() if k != 'lift_law'}
-    res = run_checks(law, cfg)
+    if isinstance(doc.get('lobes'), list):
+        spec, key = law_spec(doc, args.file, args.lobe)
+        cfg = check_config_from_scene(doc, key)
+    else:
+        if 'lift_law' not in doc:
+            raise InputError('lift_law', None, 'a lift_law mapping')
+        spec, key = doc['lift_law'], 'lift_law'
+        cfg = {k: v for k, v in doc.items() if k != 'lift_law'}
+    if args.rpm is not None:
+        cfg['cam_speed_rpm'] = args.rpm
+    res = run_checks(from_spec(spec, key), cfg)
     if args.json:
         write_text(args.json, json.dumps(res, indent=1) + '\n')
     else:
         for k, v in res.items():
             print(f'{k:34s} {v:.6g}' if isinstance(v, float) else f'{k:34s} {v}')
     return 0
+
+
+def check_config_from_scene(scene: dict[str, Any], law_key: str) -> dict[str, Any]:
+    """The check input of a scene lobe: base circle, its design follower, and the
+    valve_train (valve-side mass and stiffness times k^2 give the tappet side; the
+    highest of cam_speed_rpm is used)."""
+    from cam_design.errors import InputError
+
+    i = int(law_key.split('[')[1].split(']')[0])
+    lobe = scene['lobes'][i]
+    cfg: dict[str, Any] = {'base_radius': scene.get('base_circle_radius')}
+    kind = lobe.get('follower', 'flat')
+    cfg['follower'] = {'kind': kind}
+    if kind == 'roller':
+        cfg['follower']['radius'] = lobe.get('follower_radius')
+    vt = scene.get('valve_train')
+    if isinstance(vt, dict):
+        k = vt.get('rocker_ratio', 1.0)
+        cfg.update(rocker_ratio=k, lash=vt.get('lash', 0.0),
+                   spring={'preload': vt.get('spring_preload'), 'rate': vt.get('spring_rate')})
+        try:
+            cfg['equivalent_mass'] = float(vt['mass']) * float(k) ** 2
+            cfg['stiffness'] = float(vt['stiffness']) * float(k) ** 2
+            rpm = vt.get('cam_speed_rpm', [])
+            cfg['cam_speed_rpm'] = max(rpm) if isinstance(rpm, list) and rpm else rpm
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError('valve_train', vt, f'mass, stiffness, cam_speed_rpm ({exc})') \
+                from None
+    return cfg
 
 
 def cmd_rocker(args: argparse.Namespace) -> int:
