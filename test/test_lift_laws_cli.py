@@ -135,7 +135,9 @@ def test_check_scene_lobe(capsys: pytest.CaptureFixture) -> None:
     import yaml
 
     scene = Path(__file__).resolve().parent.parent / 'config' / 'default_scene.yaml'
-    vt = yaml.safe_load(scene.read_text())['valve_train']
+    vt = {k: v if isinstance(v, list) else float(v)      # PyYAML reads 1.2e7 as a string
+          for k, v in yaml.safe_load(scene.read_text())['valve_train'].items()
+          if k in ('rocker_ratio', 'mass', 'stiffness')}
     assert main(['design', 'check', str(scene), '--lobe', 'lobe_1', '--rpm', '1000',
                  '--json', '-']) == 0
     out = json.loads(capsys.readouterr().out)
