@@ -232,6 +232,9 @@ class PiecewiseLaw(LiftLaw):
 
     def _check(self, required: list[int]) -> tuple[Junction, ...]:
         scales = self._scales()
+        if not np.all(np.isfinite(scales)):
+            raise InputError(self.key, 'non-finite lift or derivatives',
+                             'parameters giving a finite law')
         tol = JUNCTION_RTOL * np.maximum(scales, 1e-300)
         out = []
         pieces: list[Segment | None] = [None, *self.segments, None]
@@ -245,7 +248,7 @@ class PiecewiseLaw(LiftLaw):
                 jumps.append(abs(lv - rv))
             achieved = -1
             for nu in range(MAX_ORDER + 1):
-                if jumps[nu] > tol[nu]:
+                if not jumps[nu] <= tol[nu]:      # also catches NaN
                     break
                 achieved = nu
             if achieved < req:
