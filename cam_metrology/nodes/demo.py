@@ -83,14 +83,24 @@ class DemoFailure(RuntimeError):
     """The demo could not complete; the message is the reason."""
 
 
+def _die_with_parent() -> None:
+    """In the child before exec: SIGTERM when the demo process dies (Linux prctl
+    PR_SET_PDEATHSIG), so a killed demo never leaves nodes behind."""
+    try:
+        import ctypes
+        ctypes.CDLL('libc.so.6', use_errno=True).prctl(1, int(signal.SIGTERM), 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+
+
 def start_child(name: str, argv: list[str], env: dict[str, str], log_dir: Path) -> Child:
     """``cam-bench run NAME ...`` in its own session (a terminal Ctrl-C reaches only the
-    demo, which then stops the children in order)."""
+    demo, which then stops the children in order); SIGTERM if the demo dies."""
     log = log_dir / f'{name}.log'
     with open(log, 'wb') as handle:
         proc = subprocess.Popen([sys.executable, '-c', CLI, 'run', name, *argv], env=env,
                                 stdout=handle, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                start_new_session=True)
+                                start_new_session=True, preexec_fn=_die_with_parent)
     return Child(name, proc, log)
 
 
@@ -264,7 +274,10 @@ def run_demo(opts: DemoOptions) -> int:
     out = opts.stream
 
     def say(text: str) -> None:
-        print(f'[{time.monotonic() - t_start:6.1f} s] {text}', file=out, flush=True)
+        try:
+            print(f'[{time.monotonic() - t_start:6.1f} s] {text}', file=out, flush=True)
+        except OSError:   # a closed pipe (`| head`) must not skip stopping the nodes
+            pass
 
     scene = Path(opts.scene) if opts.scene else default_scene_path()
     if not scene.is_file():
@@ -389,11 +402,13 @@ def _shutdown(children: dict[str, Child], proc: Any, monitor: Any,
     order = [n for n in ('bench-sim', 'metrology', 'reconstruction', 'dynamics', 'recorder')
              if n in children]
     for name in order:
-        if name == 'recorder' and monitor is not None:
-            proc.drain(lambda: monitor.callbacks_run, idle=0.3, limit=3.0)
         child = children[name]
-        already = child.proc.poll() is not None
-        exits[name] = stop_child(child)
+        try:
+            if name == 'recorder' and monitor is not None:
+                proc.drain(lambda: monitor.callbacks_run, idle=0.3, limit=3.0)
+        finally:   # whatever happens, every child is stopped
+            already = child.proc.poll() is not None
+            exits[name] = stop_child(child)
         if not already:
             say(f'{name} stopped (exit {exits[name]})')
     return exits
