@@ -304,6 +304,14 @@ def test_cli_simulate_writes_a_bag_and_prints_the_truth(tmp_path, capsys):
     assert len(js) == 5 * 360 and np.all(js.theta < 2 * np.pi)
     code, _, err = _run(capsys, 'simulate', str(out), '--samples-per-rev', '360', '--quiet')
     assert code == 2 and 'never overwritten' in err
+    code, stdout, _ = _run(capsys, 'simulate', str(tmp_path / 'z'), '--samples-per-rev',
+                           '360', '--zero-mm', '-2', '--runout-um', '3', '--rate', '500',
+                           '--quiet')
+    truth = json.loads(stdout[stdout.index('{'):])
+    assert (truth['probe_zero_offset_m'], truth['runout_m']) == (-2e-3, 3e-6)
+    assert truth['params']['rate'] == 500.0
+    js = bagio.read_joint_states(tmp_path / 'z')
+    assert js.stamp_ns[1] - js.stamp_ns[0] == 2_000_000
 
 
 def test_cli_simulate_progress_for_large_runs(tmp_path, capsys):

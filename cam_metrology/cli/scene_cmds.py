@@ -50,6 +50,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help='encoder angles wrapped to [0, 2 pi) instead of unwrapped')
     sim.add_argument('--start-deg', type=float, default=0.0, metavar='DEG',
                      help='encoder angle at the first sample, degrees (default 0)')
+    sim.add_argument('--zero-mm', type=float, default=0.5, metavar='MM',
+                     help='probe reading on the base circle, mm (arbitrary zero; default 0.5)')
+    sim.add_argument('--runout-um', type=float, default=0.0, metavar='X',
+                     help='base-circle run-out amplitude, micrometres (default 0)')
+    sim.add_argument('--rate', type=float, default=1000.0, metavar='HZ',
+                     help='sample rate for the stamps, samples/s (default 1000)')
     sim.add_argument('--compress', action='store_true', help='zstd chunk compression')
     sim.add_argument('--quiet', action='store_true', help='no progress output')
     sim.set_defaults(func=cmd_simulate)
@@ -156,6 +162,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     params = SimParams(samples_per_rev=args.samples_per_rev, revolutions=args.revolutions,
                        wrapped=args.wrapped, start_theta=math.radians(args.start_deg),
                        probe_noise=args.noise_um * 1e-6,
+                       probe_zero_offset=args.zero_mm * 1e-3,
+                       runout=args.runout_um * 1e-6, rate=args.rate,
                        encoder_noise=math.radians(args.encoder_noise_deg), seed=args.seed)
     progress = None if args.quiet else _progress_printer()
     run = write_sim_bag(args.out, scene, params, compression=args.compress,
