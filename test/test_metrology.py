@@ -344,6 +344,8 @@ def test_real_form_error_is_not_rejected_as_outliers():
     v = analyze_lobe(fs, CAM, 1, Settings()).values
     assert v['samples_outliers_rejected'] <= 2
     assert v['lift_error_um']['max_plus'] > 6.5
+    assert v['angle_noise_estimate_arcsec'] < 1.0   # the bump is not taken for noise
+    assert v['probe_noise_estimate_um'] == pytest.approx(0.3, rel=0.1)
 
 
 def test_encoder_noise_is_estimated_and_weighted():
