@@ -225,3 +225,11 @@ def test_other_exponent_counts(exps: list[int], order: int) -> None:
     with pytest.raises(InputError, match=r'^lobe\.exponents'):
         from_spec({'family': 'polynomial', 'ramp': RAMP, 'rise': 8 * MM,
                    'half_angle': 50 * DEG, 'exponents': [2]}, 'lobe')
+
+
+def test_support_must_fit_one_turn() -> None:
+    """alpha is wrapped to (-pi, pi]: a lobe wider than that is rejected."""
+    with pytest.raises(InputError, match='support'):
+        from_spec({'family': 'polynomial', 'ramp': {'kind': 'constant_velocity',
+                                                    'height': 3e-4, 'velocity': 1e-5},
+                   'rise': 8e-3, 'half_angle': 1.0}, 'lobe')

@@ -224,8 +224,9 @@ def test_dual_peak_properties(start: float, alpha4: float, frac: float, h_a: flo
                                    'angle': 30 * DEG}}}
     try:
         law = from_spec(spec, 'L')
-    except InputError as exc:
-        assert exc.key == 'L.connection.point_lift'
+    except InputError as exc:    # negative/overshooting connection, or wider than 360 deg
+        assert exc.key == 'L.connection.point_lift' or (exc.key == 'L'
+                                                        and 'support' in str(exc))
         return
     check_continuity(law)
     a = np.linspace(*law.support, 8001)

@@ -176,6 +176,10 @@ class PiecewiseLaw(LiftLaw):
         for s in segs:
             if not (s.hi > s.lo):
                 raise InputError(key, (s.lo, s.hi), 'segments of positive width')
+        if segs[0].lo < -math.pi - 1e-12 or segs[-1].hi > math.pi + 1e-12:
+            raise InputError(key, f'support {math.degrees(segs[0].lo):.6g} .. '
+                             f'{math.degrees(segs[-1].hi):.6g} deg',
+                             'a lobe within -180 .. 180 deg (alpha is wrapped to (-pi, pi])')
         self.segments = tuple(segs)
         self.name = name
         self.key = key
