@@ -309,6 +309,44 @@ def flank_shape(alpha: ArrayLike, h1: ArrayLike, h2: ArrayLike, rise: bool) -> F
     return FlankShape(bool(np.all(v >= -vt)), changes, best)
 
 
+# ---------------------------------------------------------------- ramp (§1.1c)
+@dataclasses.dataclass(frozen=True)
+class RampEvents:
+    """Quasi-static valve opening and seating on the ramps (methods §1.1c, §4.1)."""
+
+    opening_alpha: float       # rad, first k h = x0 + F0/c on the rise flank
+    closing_alpha: float       # rad, last one on the fall flank
+    opening_velocity: float    # k h' omega at the opening [m/s]
+    seating_velocity: float    # k |h'| omega at the closing [m/s]
+    on_constant_velocity: bool  # h'' = 0 at both events (opening/seating on the CV part)
+
+
+def ramp_events(law: Any, rocker_ratio: float, lash: float, preload: float,
+                stiffness: float, omega: float) -> RampEvents:
+    """Where the train force c (k h - x0) reaches the preload F0 (c, x0 at the valve):
+    h = (x0 + F0/c)/k, found by brentq on each flank; velocities k h' omega."""
+    from scipy.optimize import brentq
+
+    k = require_positive('rocker_ratio', rocker_ratio)
+    level = (require_positive('lash', lash, allow_zero=True)
+             + require_positive('preload', preload, allow_zero=True)
+             / require_positive('stiffness', stiffness)) / k
+    lo, hi = law.support
+    grid = np.linspace(lo, hi, 20001)
+    above = np.nonzero(law(grid) > level)[0]
+    if above.size == 0 or above[0] == 0 or above[-1] == grid.size - 1:
+        raise InputError('lash', lash, 'a lift law that rises above the opening level '
+                         f'(x0 + F0/c)/k = {level:.4g} m inside its support')
+    i, j = int(above[0]), int(above[-1])
+    a_open = brentq(lambda x: float(law(x)) - level, grid[i - 1], grid[i], xtol=1e-15)
+    a_close = brentq(lambda x: float(law(x)) - level, grid[j], grid[j + 1], xtol=1e-15)
+    w = require_finite('omega', omega)
+    acc_tol = 1e-9 * float(np.max(np.abs(law(grid, 2))))
+    cv = bool(abs(float(law(a_open, 2))) <= acc_tol and abs(float(law(a_close, 2))) <= acc_tol)
+    return RampEvents(a_open, a_close, k * float(law(a_open, 1)) * w,
+                      k * abs(float(law(a_close, 1))) * w, cv)
+
+
 # ---------------------------------------------------------------- all checks for a law
 def _follower(cfg: Mapping[str, Any], key: str) -> tuple[str, float]:
     """(kind, roller radius) from the optional ``follower: {kind, radius}`` (flat)."""
@@ -425,10 +463,17 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
         force = spring_force(h, k, x0, f0, rate) + inertia_force(h2, m, omega)
         out['equivalent_mass_kg'] = m
         if cfg.get('stiffness') is not None:   # train stiffness at the tappet [N/m]
-            period = omega * 2 * math.pi * math.sqrt(m / P.positive(cfg, key, 'stiffness'))
+            c_t = P.positive(cfg, key, 'stiffness')
+            period = omega * 2 * math.pi * math.sqrt(m / c_t)
             out['natural_period_cam_deg'] = math.degrees(period)
             out['positive_width_over_period'] = float(
                 min(rise_shape.positive_width, fall_shape.positive_width) / period)
+            ev = ramp_events(law, k, x0, f0, c_t / (k * k), omega)
+            out['quasi_static_opening_deg'] = math.degrees(ev.opening_alpha)
+            out['quasi_static_closing_deg'] = math.degrees(ev.closing_alpha)
+            out['opening_velocity_m_per_s'] = ev.opening_velocity
+            out['seating_velocity_m_per_s'] = ev.seating_velocity
+            out['opening_and_seating_on_constant_velocity'] = ev.on_constant_velocity
         out['min_contact_force_n'] = sep.min_force
         out['min_contact_force_alpha_deg'] = math.degrees(sep.alpha_at_min)
         out['no_separation'] = sep.ok

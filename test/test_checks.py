@@ -250,3 +250,30 @@ def test_flank_shape_flags_dual_peak() -> None:
     assert not out['monotone_flanks']
     assert out['acceleration_sign_changes'][0] == 1
     assert out['acceleration_sign_changes'][1] > 1
+
+
+def test_ramp_events_case_18() -> None:
+    """#18 / methods §1.1c, §4.1 (i): x0 = 0.25 mm, F0 = 250 N, c = 1.2e7 N/m, k = 1.5
+    on the §1.1 ramp: opening at 22.03704 deg from the ramp start (h = 0.180556 mm),
+    rigid seating speed k v_r omega = 0.2025 m/s at 1500 rpm cam, both on the
+    constant-velocity part."""
+    law = from_spec(PRESETS['methods_example'], 'l')
+    ev = C.ramp_events(law, 1.5, 0.25 * MM, 250.0, 1.2e7, C.rpm_to_omega(1500))
+    assert math.degrees(ev.opening_alpha - law.support[0]) == pytest.approx(22.03704,
+                                                                            abs=1e-5)
+    assert ev.closing_alpha == pytest.approx(-ev.opening_alpha, abs=1e-12)
+    assert ev.seating_velocity == pytest.approx(0.2025, abs=1e-5)
+    assert ev.opening_velocity == pytest.approx(0.2025, abs=1e-5)
+    assert ev.on_constant_velocity
+    # through run_checks: tappet-side stiffness c k^2 and mass
+    out = C.run_checks(law, {'base_radius': 40 * MM, 'rocker_ratio': 1.5,
+                             'lash': 0.25 * MM, 'cam_speed_rpm': 1500,
+                             'stiffness': 1.2e7 * 2.25, 'equivalent_mass': 0.12 * 2.25,
+                             'spring': {'preload': 250.0, 'rate': 3e4}})
+    assert out['seating_velocity_m_per_s'] == pytest.approx(0.2025, abs=1e-5)
+    assert out['natural_period_cam_deg'] == pytest.approx(5.65, abs=0.01)
+    # a ramp too low for the lash: opening on the constant-acceleration part
+    low = C.ramp_events(law, 1.5, 0.05 * MM, 250.0, 1.2e7, C.rpm_to_omega(1500))
+    assert not low.on_constant_velocity
+    with pytest.raises(InputError, match='lash'):
+        C.ramp_events(law, 1.5, 20 * MM, 250.0, 1.2e7, 100.0)
