@@ -93,7 +93,10 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
         raise InputError('scene', f'{len(text)} characters',
                          f'a scene file of at most {MAX_TEXT} characters')
     try:
-        doc = yaml.safe_load(text)
+        doc = yaml.load(text, Loader=_unique_key_loader())   # noqa: S506 (a SafeLoader)
+    except _DuplicateKey as exc:
+        raise InputError(exc.key, exc.name, f'unique keys in a mapping (given again at line '
+                         f'{exc.line}; YAML would silently keep the last)') from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, 'problem_mark', None)
         where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
@@ -131,6 +134,30 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  warnings=tuple(ctx.warnings))
+
+
+class _DuplicateKey(Exception):
+    def __init__(self, key: str, name: Any, line: int) -> None:
+        super().__init__(key)
+        self.key, self.name, self.line = key, name, line
+
+
+def _unique_key_loader() -> Any:
+    """A yaml SafeLoader class that rejects a key given twice in one mapping."""
+    import yaml
+
+    class Loader(getattr(yaml, 'CSafeLoader', yaml.SafeLoader)):  # type: ignore[misc]
+        def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                name = self.construct_object(key_node, deep=True)
+                if isinstance(name, (str, int, float, bool)) and name in seen:
+                    raise _DuplicateKey('scene', name, key_node.start_mark.line + 1)
+                if isinstance(name, (str, int, float, bool)):
+                    seen.add(name)
+            return super().construct_mapping(node, deep=deep)
+
+    return Loader
 
 
 def load_scene(path: str | Path) -> Scene:

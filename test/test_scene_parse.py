@@ -502,3 +502,12 @@ def test_scene_check_reads_stdin(capsys, monkeypatch):
     monkeypatch.setattr('sys.stdin', io.StringIO(yaml.safe_dump(_base())))
     code, out, _ = _run(capsys, 'scene', 'check', '-')
     assert code == 0 and 'lobe_1' in out
+
+
+def test_duplicate_key_is_an_error_not_a_silent_overwrite():
+    text = yaml.safe_dump(_base()).replace('  lash: 0.00025\n',
+                                           '  lash: 0.00025\n  lash: 0.0025\n')
+    assert text.count('lash:') == 2
+    with pytest.raises(InputError, match='unique keys') as info:
+        parse_scene(text)
+    assert info.value.value == 'lash' and 'line' in str(info.value)
