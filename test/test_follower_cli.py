@@ -161,3 +161,23 @@ def test_profile_csv_carries_the_converted_lift(tmp_path: Path,
     want = e * np.cos(x) + np.sqrt((rc + r) ** 2 - (e * np.sin(x)) ** 2) - (rc - e + r)
     assert np.max(np.abs(rows[:, names.index('lift_m')] - want)) < 1e-10   # table spline
     assert 'jerk_m_per_rad3' in names
+
+
+def test_profile_of_a_scene_lobe(capsys: pytest.CaptureFixture) -> None:
+    from conftest import CONFIG
+
+    scene = str(CONFIG / 'default_scene.yaml')
+    # lobe_1 is designed for a flat tappet: its flat profile, then seen by a 2 mm ball
+    assert main(['design', 'profile', scene, '--lobe', 'lobe_1', '--json', '-']) == 0
+    flat = json.loads(capsys.readouterr().out)
+    assert flat['rho_min_m'] == pytest.approx(4.32e-3, abs=0.02e-3)   # preset comment
+    assert main(['design', 'profile', scene, '--lobe', 'lobe_1', '--follower', 'roller',
+                 '--radius', '0.002', '--json', '-']) == 0
+    ball = json.loads(capsys.readouterr().out)
+    assert ball['rho_min_m'] == pytest.approx(flat['rho_min_m'], abs=2e-6)   # same cam
+    assert main(['design', 'profile', scene, '--lobe', 'nope']) == 2
+    assert 'error: --lobe: got' in capsys.readouterr().err
+    assert main(['design', 'profile', scene]) == 2          # several lobes: --lobe needed
+    assert main(['design', 'profile', scene, '--lobe', 'lobe_1', '--base-radius',
+                 '0.02']) == 2
+    assert 'error: --base-radius' in capsys.readouterr().err

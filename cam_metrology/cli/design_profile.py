@@ -44,6 +44,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--polar', action='store_true',
                    help='rocker: add the CG paper polar form (rho, theta; counter-directional '
                         'for --delta -1, co-directional for --delta 1; needs --eta 1)')
+    p.add_argument('--lobe', metavar='ID',
+                   help='FILE is a scene: use this lobe (its lift, design follower and the '
+                        'scene base_circle_radius; default: the only lobe)')
     p.add_argument('--design-follower', choices=('flat', 'roller', 'knife'),
                    help='the follower the lift law was written for, if not --follower: the '
                         'lift is converted through the cam profile first (flat/roller/knife)')
@@ -84,6 +87,20 @@ def _load_law(doc: Any, path: str) -> Any:
     return from_spec(spec, key)
 
 
+def _scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
+    """(lift law, design follower, base radius) of a lobe of the scene file ``args.file``."""
+    from cam_design.errors import InputError
+    from cam_metrology.scene_parse import load_scene
+
+    scene = load_scene(args.file)
+    ids = [lobe.id for lobe in scene.lobes]
+    lobe_id = args.lobe if args.lobe is not None else (ids[0] if len(ids) == 1 else None)
+    if lobe_id not in ids:
+        raise InputError('--lobe', args.lobe, 'one of ' + ', '.join(ids))
+    lobe = scene.lobe(lobe_id)
+    return lobe.lift, lobe.follower, scene.base_circle_radius
+
+
 def _base_radius(args: argparse.Namespace, doc: Any) -> float:
     from cam_design.errors import InputError, require_positive
 
@@ -113,13 +130,15 @@ def _design_law(args: argparse.Namespace, law: Any, base: float, radius: float) 
 
     if args.design_follower is None:
         return law
-    if args.follower not in ('flat', 'roller', 'knife'):
-        raise InputError('--design-follower', args.design_follower,
-                         'no conversion for offset-roller/rocker (give their own lift)')
     dr = require_positive('--design-radius', args.design_radius, allow_zero=True)
     if (args.design_follower == 'roller') != (dr > 0):
         raise InputError('--design-radius', dr, 'a radius > 0 for --design-follower roller '
                          'and none (0) for flat or knife')
+    if args.design_follower == args.follower and (args.follower == 'flat' or dr == radius):
+        return law
+    if args.follower not in ('flat', 'roller', 'knife'):
+        raise InputError('--design-follower', args.design_follower,
+                         'no conversion for offset-roller/rocker (give their own lift)')
     source = Follower(args.design_follower, dr)
     target = Follower(args.follower, radius if args.follower == 'roller' else 0.0)
     return convert_lift(law, base, source, target, key=args.file)
@@ -134,9 +153,19 @@ def compute(args: argparse.Namespace) -> tuple[Any, Any, float]:
     from cam_metrology.cli.design_law import _load_yaml
 
     doc = _load_yaml(args.file)
-    law = _load_law(doc, args.file)
-    base = _base_radius(args, doc)
     radius = _follower_radius(args) if args.follower != 'flat' else 0.0
+    if isinstance(doc, dict) and 'lobes' in doc:
+        law, design, base = _scene_lobe(args)
+        if args.base_radius is not None:
+            raise InputError('--base-radius', args.base_radius,
+                             'no value with a scene (its base_circle_radius is used)')
+        if args.design_follower is None:
+            args.design_follower, args.design_radius = design.kind, design.radius
+    else:
+        if args.lobe is not None:
+            raise InputError('--lobe', args.lobe, 'a scene file (with lobes:)')
+        law = _load_law(doc, args.file)
+        base = _base_radius(args, doc)
     step = args.step_deg
     if not (math.isfinite(step) and 1e-3 <= step <= 10):
         raise InputError('--step-deg', step, 'a step in [1e-3, 10] deg')
