@@ -126,16 +126,14 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     data = clean_samples(table.alpha, table.lift, key=table.feature)
     design = design or design_from_table(table)
     outcomes: dict[str, MethodOutcome] = {}
-    fairing = None
+    fairing = rebound_fairing(data.alpha, data.lift, threshold=sopt.threshold,
+                              gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)
     for m in methods:
         outcome = MethodOutcome(m)
         try:
             if m == 'spline':
-                rec = reconstruct_spline(data, None, sopt)
+                rec = reconstruct_spline(data, None, sopt, fairing)
             else:
-                if fairing is None:
-                    fairing = rebound_fairing(data.alpha, data.lift, threshold=sopt.threshold,
-                                              gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)
                 rec = reconstruct_harmonic(data, harmonic, fairing)
         except InputError as exc:
             outcome.error = str(exc)

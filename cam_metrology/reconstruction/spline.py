@@ -503,24 +503,26 @@ class SplineOptions:
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
-                       options: SplineOptions | None = None) -> Reconstruction:
+                       options: SplineOptions | None = None,
+                       fairing: Fairing | None = None) -> Reconstruction:
     """Rebound fairing + quintic smoothing spline of a lift table (methods §5.1).
 
     ``alpha`` [rad], ``lift`` [m] (or a ``CleanSamples``). Returns a Reconstruction on
     a uniform grid of ``options.step`` (default: the data's median spacing).
+    ``fairing``: a rebound result for the same samples, to share between methods.
     """
     with single_thread_blas():
-        return _reconstruct(alpha, lift, options or SplineOptions())
+        return _reconstruct(alpha, lift, options or SplineOptions(), fairing)
 
 
 def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
-                 opt: SplineOptions) -> Reconstruction:
+                 opt: SplineOptions, fairing: Fairing | None) -> Reconstruction:
     data = alpha if isinstance(alpha, CleanSamples) else clean_samples(alpha, lift)
     x, y0 = data.alpha, data.lift
     warnings: list[str] = []
     notes: list[str] = list(data.notes)
-    fair = rebound_fairing(x, y0, threshold=opt.threshold, gain=opt.gain, cap=opt.cap,
-                           sigma=opt.sigma)
+    fair = fairing or rebound_fairing(x, y0, threshold=opt.threshold, gain=opt.gain,
+                                      cap=opt.cap, sigma=opt.sigma)
     kept = ~fair.outlier
     if np.count_nonzero(fair.outlier):
         notes.append(f'rebound: {int(np.count_nonzero(fair.outlier))} outlier(s) removed '
