@@ -164,9 +164,7 @@ def test_profile_csv_carries_the_converted_lift(tmp_path: Path,
 
 
 def test_profile_of_a_scene_lobe(capsys: pytest.CaptureFixture) -> None:
-    from conftest import CONFIG
-
-    scene = str(CONFIG / 'default_scene.yaml')
+    scene = str(Path(__file__).resolve().parent.parent / 'config' / 'default_scene.yaml')
     # lobe_1 is designed for a flat tappet: its flat profile, then seen by a 2 mm ball
     assert main(['design', 'profile', scene, '--lobe', 'lobe_1', '--json', '-']) == 0
     flat = json.loads(capsys.readouterr().out)
