@@ -732,7 +732,14 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
     if n == 0:
         return decode_joint_states([])
     buf = np.frombuffer(data + b'\0' * 16, dtype=np.uint8)
-    big = buf[start + 1] == 0   # encapsulation CDR_BE = 00 00, CDR_LE = 00 01
+    kind = buf[start + 1]
+    bad = (buf[start] != 0) | (kind > 1) | (lengths < 4)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise InputError(f'{JOINT_STATES}[{i}]', bytes(buf[start[i]:start[i] + 4]).hex(),
+                         'plain CDR encapsulation (00 00 big-endian or 00 01 '
+                         'little-endian) as ROS 2 writes it')
+    big = kind == 0   # encapsulation CDR_BE = 00 00, CDR_LE = 00 01
     base = start + 4            # CDR alignment is relative to the payload start
     end = start + lengths
 

@@ -535,3 +535,11 @@ def test_bare_mcap_file_reads_like_its_directory(tmp_path):
     bad.write_bytes(b'not an mcap file at all')
     with pytest.raises(InputError, match='MCAP'):
         bagio.bag_topics(bad)
+
+
+def test_fast_path_rejects_other_cdr_encapsulations():
+    good = bagio.encode_joint_state('lobe_1', 1, 0.0, 0.0)
+    xcdr2 = b'\x00\x07' + good[2:]
+    with pytest.raises(InputError, match='plain CDR encapsulation') as info:
+        bagio.decode_joint_states([good, xcdr2])
+    assert info.value.key == '/bench/joint_states[1]'
