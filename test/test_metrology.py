@@ -365,3 +365,15 @@ def test_encoder_noise_is_estimated_and_weighted():
             np.degrees(enc) * 3600, rel=0.3)
         assert v['probe_noise_estimate_um'] == pytest.approx(0.3, rel=0.1)
     assert 0.6 < np.sqrt(np.mean(np.square(z))) < 1.4
+
+
+def test_sensitive_point_failure_keeps_the_lsq_result():
+    """Too few samples in the sensitive-point windows: SP is skipped with the reason,
+    the full-flank result stands."""
+    nose = np.radians(80.0)
+    smp = sample_lobe(CAM, nose, 1, n_per_rev=720)
+    res = analyze_lobe(_feature(smp), CAM, 1, Settings(sp_half_window_deg=0.1))
+    assert abs(_err_arcsec(res.values['angle_deg'], nose)) < 0.01
+    assert res.values['sensitive_point_angle_deg'] is None
+    assert 'samples within' in res.values['sensitive_point_error']
+    assert res.skipped[0][0] == 'sensitive_point'

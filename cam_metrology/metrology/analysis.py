@@ -181,6 +181,11 @@ def _encoder_deg(direction: int, x0: float, d: float) -> float:
 
 
 def _sp_values(sp: Any, direction: int, x0: float, d_lsq: float) -> dict[str, Any]:
+    """Report fields of the sensitive-point result (None fields when it failed: the
+    reason is in ``sp``, a str)."""
+    if isinstance(sp, str):
+        return {'sensitive_point_angle_deg': None, 'sensitive_point_angle_std_deg': None,
+                'sensitive_point_minus_lsq_deg': None, 'sensitive_point_error': sp}
     return {'sensitive_point_angle_deg': _encoder_deg(direction, x0, sp.d),
             'sensitive_point_angle_std_deg': float(np.degrees(sp.d_std)),
             'sensitive_point_minus_lsq_deg': float(np.degrees(direction * (sp.d - d_lsq))),
@@ -299,8 +304,8 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
             half_window=settings.sp_half_window_deg * DEG,
             pairs=settings.sp_pairs, spacing=settings.sp_pair_spacing_deg * DEG,
             order=settings.sp_fit_order, validity_tol=settings.validity_tol_um / UM)
-    except InputError as exc:
-        raise FeatureFailed(f'sensitive-point method: {exc}') from None
+    except InputError as exc:   # the primary (LSQ) result stands; SP reported as skipped
+        sp = f'sensitive-point method: {exc}'
     values: dict[str, Any] = {'kind': 'lobe',
                               'angle_deg': _encoder_deg(direction, x0, fit.d),
                               'angle_std_deg': float(np.degrees(fit.d_std)),
@@ -325,7 +330,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                                  (fs.s - fit.c)[base & good])
     if settings.fit_runout:
         values['fitted_runout_amplitude_um'] = float(np.hypot(*fit.runout)) * UM
-    skipped = []
+    skipped = [('sensitive_point', sp)] if isinstance(sp, str) else []
     if asymmetry:
         if is_symmetric(law, lo, hi):
             values.update(_asymmetry(alpha[good], measured[good], lo, hi, direction, settings))
@@ -422,8 +427,8 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
             if abs(sp.d - d_sp) < 1e-13:
                 break
             d_sp = sp.d
-    except InputError as exc:
-        raise FeatureFailed(f'sensitive-point method: {exc}') from None
+    except InputError as exc:   # the primary (LSQ) result stands; SP reported as skipped
+        sp = f'sensitive-point method: {exc}'
     values: dict[str, Any] = {'kind': 'dowel_pin',
                               'angle_deg': _encoder_deg(direction, x0, fit.d),
                               'angle_std_deg': float(np.degrees(fit.d_std)),
@@ -445,4 +450,5 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
     order = np.argsort(alpha)
     table = np.column_stack([alpha[order], measured[order], design[order]])
     return FeatureResult(fs.feature_id, 'dowel_pin', {**values, **_common(fs)}, table,
-                         float(np.radians(values['angle_deg'])))
+                         float(np.radians(values['angle_deg'])),
+                         skipped=[('sensitive_point', sp)] if isinstance(sp, str) else [])

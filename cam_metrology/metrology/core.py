@@ -269,6 +269,9 @@ class MetrologyCore:
             valid = values.get('validity', {}).get('valid', True)
             level = OK if valid else WARN
             msg = 'measured' if valid else 'measured; sensitive-point validity check failed'
+            if values.get('sensitive_point_error'):
+                level, msg = WARN, f"measured; {values['sensitive_point_error']}"
+
             main = Status(result.feature_id, level, msg, _flat(values), result.kind)
         extra = tuple(Status(f'skipped/{what}/{result.feature_id}', OK, why)
                       for what, why in result.skipped)

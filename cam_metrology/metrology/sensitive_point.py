@@ -109,6 +109,12 @@ def crossing(x: NDArray[np.float64], lift_ref: NDArray[np.float64], lift: Lift,
         a -= step
         if abs(step) < 1e-15:
             break
+    if not (np.isfinite(a) and window[0] - (window[1] - window[0]) <= a
+            <= window[1] + (window[1] - window[0])):
+        raise InputError('sensitive_point.crossing', float(np.degrees(a)),
+                         f'a crossing of the level {level * 1e3:.4f} mm near the window '
+                         f'[{np.degrees(window[0]):.3f}, {np.degrees(window[1]):.3f}] deg '
+                         '(the measured lift does not reach it there)')
     basis = (a - alpha_design) ** np.arange(order + 1)
     var_p = float(basis @ cov @ basis)
     return Crossing(float(a), float(np.sqrt(max(var_p, 0.0)) / abs(slope)),
