@@ -377,3 +377,11 @@ def test_sensitive_point_failure_keeps_the_lsq_result():
     assert res.values['sensitive_point_angle_deg'] is None
     assert 'samples within' in res.values['sensitive_point_error']
     assert res.skipped[0][0] == 'sensitive_point'
+
+
+def test_wrong_design_lift_fails_the_feature():
+    """Data of a 7 mm / 55 deg lobe analysed against the 8.3 mm / 50 deg design."""
+    other = PolynomialRampCam(rise=6.0e-3, half_angle=np.radians(40))
+    smp = sample_lobe(other, 1.0, 1, n_per_rev=1440)
+    with pytest.raises(FeatureFailed, match='does not match the design'):
+        analyze_lobe(_feature(smp), CAM, 1, Settings())

@@ -272,3 +272,13 @@ def test_default_scene_roller_probe_flat_design():
         assert (rep[fid]['angle_deg'] - np.degrees(nose)) * 3600 == pytest.approx(0, abs=0.01)
         assert (rep[fid]['sensitive_point_angle_deg'] - np.degrees(nose)) * 3600 == \
             pytest.approx(0, abs=0.01)
+
+
+def test_config_file_matches_parameters(config_dir):
+    """config/metrology.yaml sets every parameter to its documented default."""
+    from cam_metrology.cli.analyze import load_params
+    params = load_params(str(config_dir / 'metrology.yaml'))['metrology']
+    assert set(params) == set(MetrologyCore.PARAMETERS)
+    for name, (default, _) in MetrologyCore.PARAMETERS.items():
+        assert params[name] == default and type(params[name]) is type(default), name
+    MetrologyCore(params)

@@ -54,12 +54,13 @@ class Settings:
     asymmetry_knot_deg: float = 0.5
     max_shift_deg: float = 5.0
     outlier_sigma: float = 5.0
+    max_residual_rms_um: float = 50.0
 
     def __post_init__(self) -> None:
         if not 0 <= self.sp_fit_order <= 3:
             raise InputError('metrology.sp_fit_order', self.sp_fit_order, 'an order 0..3')
         for name in ('sp_half_window_deg', 'max_flank_gap_deg', 'asymmetry_knot_deg',
-                     'max_shift_deg', 'min_flank_samples'):
+                     'max_shift_deg', 'min_flank_samples', 'max_residual_rms_um'):
             if not getattr(self, name) > 0:
                 raise InputError(f'metrology.{name}', getattr(self, name), 'a value > 0')
 
@@ -215,6 +216,19 @@ def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[n
     return dev
 
 
+def _check_fit(fit: Any, settings: Settings, what: str) -> None:
+    """Fail the feature when the fit is not credible: it moved far from the coarse
+    estimate, or the measured lift does not match the design lift."""
+    if abs(fit.d) > settings.max_shift_deg * DEG:
+        raise FeatureFailed(f'least squares moved the {what} by {np.degrees(fit.d):.3f} deg '
+                            'from the coarse estimate (data do not match the design lift)')
+    if fit.sigma * UM > settings.max_residual_rms_um:
+        raise FeatureFailed(f'residual RMS {fit.sigma * UM:.1f} um after the fit exceeds '
+                            f'max_residual_rms_um {settings.max_residual_rms_um:g}: the '
+                            'measured lift does not match the design lift (wrong lobe or '
+                            'scene?)')
+
+
 def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
                settings: Settings, *, theta: NDArray[np.float64] | None = None,
                used: NDArray[np.bool_] | None = None, d0: float = 0.0,
@@ -294,9 +308,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     fit, outliers, noise = robust_fit(x, fs.s, law, settings, c0=c_base,
                                       theta=fs.theta if settings.fit_runout else None)
     good = ~outliers
-    if abs(fit.d) > settings.max_shift_deg * DEG:
-        raise FeatureFailed(f'least squares moved the nose by {np.degrees(fit.d):.3f} deg '
-                            'from the coarse estimate (data do not match the design lift)')
+    _check_fit(fit, settings, 'nose')
     ref = c_base if c_base is not None else fit.c
     try:
         sp = sensitive_point_shift(
@@ -410,9 +422,7 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
         d = fit.d
     good = ~outliers
     assert fit is not None
-    if abs(fit.d) > settings.max_shift_deg * DEG:
-        raise FeatureFailed(f'least squares moved the pin centre by {np.degrees(fit.d):.3f} '
-                            'deg from the coarse estimate')
+    _check_fit(fit, settings, 'pin centre')
     sp = None
     d_sp = 0.0
     try:

@@ -98,6 +98,8 @@ class MetrologyCore:
                                     'for the symmetry axis'),
         'max_shift_deg': (5.0, 'a fit moving the angle further than this [deg] from the '
                                'coarse estimate fails the feature'),
+        'max_residual_rms_um': (50.0, 'a fit leaving a larger residual RMS [um] fails the '
+                                      'feature (the lift does not match the design)'),
         'outlier_sigma': (5.0, 'samples whose fit residual exceeds this many robust sigmas '
                                '(1.4826 MAD) are rejected and counted (0: keep all)'),
         'idle_timeout': (0.0, 'seconds without samples that end a feature (0: the '
