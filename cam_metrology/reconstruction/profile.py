@@ -125,6 +125,17 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     check_options(sopt, harmonic)
     data = clean_samples(table.alpha, table.lift, key=table.feature)
     design = design or design_from_table(table)
+    if design is not None and sopt.expected_sign_changes is not None:
+        # the design says how many sign changes of h'' the lobe really has (a
+        # dual-peak EGR cam has more than the single lobe's two)
+        from dataclasses import replace
+
+        from cam_metrology.reconstruction.spline import _sign_changes
+        grid = np.linspace(data.alpha[0], data.alpha[-1], 4001)
+        acc = np.asarray(design(grid, 2), dtype=float)
+        if np.all(np.isfinite(acc)) and np.any(acc):
+            sopt = replace(sopt, expected_sign_changes=max(_sign_changes(acc),
+                                                           sopt.expected_sign_changes))
     outcomes: dict[str, MethodOutcome] = {}
     fairing = rebound_fairing(data.alpha, data.lift, threshold=sopt.threshold,
                               gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)

@@ -591,10 +591,16 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     expected = opt.expected_sign_changes
     if expected is not None and opt.smoothing is None:
         raised = 0
+        # more smoothing is only accepted while the fit still follows the data (RMS
+        # residual within 25 % of the noise): a real feature (a second lobe) stays
+        rms_limit = 1.25 * max(fair.sigma, 1e-300)
         while _sign_changes(acc) > expected and raised < 5:
+            trial = fit_spline(lam_d * 4.0)
+            if float(np.sqrt(np.mean((fair.lift[kept] - trial(x[kept])) ** 2))) > rms_limit:
+                break
             lam_d *= 4.0
             raised += 1
-            spline = fit_spline(lam_d)
+            spline = trial
             acc = spline(out, 2)
         if raised:
             why += (f'; raised x{4 ** raised} to lam_d = {lam_d:.4g} for the sign '
