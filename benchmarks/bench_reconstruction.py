@@ -14,7 +14,6 @@ times are wall-clock per reconstruction (single BLAS thread, see
 """
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 from typing import Any, Callable
