@@ -162,6 +162,9 @@ NEWTON_MAX_ITER = 40
 PLATEAU_TOL = 1e-9
 #: one-sided step [rad] used to evaluate the target on a plateau.
 PLATEAU_SHIFT = 1e-9
+#: scan density and (safeguarded Newton) steps locating the contact jumps of a bridge.
+SWITCH_SCAN = 4096
+SWITCH_ITER = 30
 #: points per block in ConvertedLift.solve (keeps the jet temporaries in cache).
 SOLVE_BLOCK = 2048
 
@@ -392,6 +395,8 @@ class ConvertedLift(LiftLaw):
         inner = [j for j in self._breaks if all(abs(j - b) > 1e-12 for b in edges)]
         if inner:
             marks.append(self._target_jets(np.asarray(inner, dtype=float), check=False)[0][0])
+        if len(self._runs) > 1:
+            marks.append(np.asarray(self._contact_switches()))
         self._junctions = tuple(sorted(set(float(x) for x in _wrap(np.concatenate(marks)))))
 
     @property
@@ -421,33 +426,92 @@ class ConvertedLift(LiftLaw):
                              'a lift law whose cam profile gives the target one contact')
         return out
 
-    def _solve_block(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
-        # every (angle, run) pair whose run reaches the angle is a candidate contact; all
-        # candidates are solved in one vectorised pass and the largest lift wins
-        which, where, cells = [], [], []
-        for i0, i1 in self._runs:
+    def _candidates(self, a: NDArray[np.float64], runs: NDArray[np.int64] | None = None
+                    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+        """Candidate contacts at angles ``a``: (angle index, run index, derivatives).
+
+        Every (angle, run) pair whose run reaches the angle is a candidate (with ``runs``:
+        only the pair (a[i], runs[i])); all are solved in one vectorised pass.
+        """
+        which, owner, where, cells = [], [], [], []
+        keys = range(len(self._runs)) if runs is None else np.unique(runs)
+        for k in keys:
+            i0, i1 = self._runs[k]
+            pick = np.arange(a.size) if runs is None else np.flatnonzero(runs == k)
             run = self._a[i0:i1 + 1]
-            aa = run[0] + np.mod(a - run[0], 2 * math.pi)
-            sel = np.flatnonzero(aa <= run[-1])
+            aa = run[0] + np.mod(a[pick] - run[0], 2 * math.pi)
+            inside = aa <= run[-1]
+            sel = pick[inside]
             if sel.size:
                 which.append(sel)
-                where.append(aa[sel])
-                cells.append(i0 + np.clip(np.searchsorted(run, aa[sel], side='right') - 1,
+                owner.append(np.full(sel.size, k))
+                where.append(aa[inside])
+                cells.append(i0 + np.clip(np.searchsorted(run, aa[inside], side='right') - 1,
                                           0, run.size - 2))
-        q = np.concatenate(which) if which else np.zeros(0, dtype=int)
+        if not which:
+            return np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros((4, 0))
+        got = self._run_contact(np.concatenate(where), np.concatenate(cells))
+        return np.concatenate(which), np.concatenate(owner), got
+
+    def _solve_block(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
+        q, _, got = self._candidates(a)
         if np.unique(q).size < a.size:
             i = int(np.setdiff1d(np.arange(a.size), q)[0])
             raise InputError(self.key, f'no contact found at alpha = {a[i]:.6g} rad',
                              'a closed, undercut-free cam profile')
-        got = self._run_contact(np.concatenate(where), np.concatenate(cells))
-        if q.size == a.size:          # one candidate each (a convex profile)
-            out = np.empty_like(got)
-            out[:, q] = got
-            return out
-        order = np.lexsort((-got[0], q))              # per angle, the largest lift first
-        first = order[np.concatenate([[True], np.diff(q[order]) != 0])]
         out = np.empty((JET_ORDER + 1, a.size))
+        first = self._winners(q, got[0])
         out[:, q[first]] = got[:, first]
+        return out
+
+    @staticmethod
+    def _winners(q: NDArray[np.int64], lift: NDArray[np.float64]) -> NDArray[np.int64]:
+        """Per angle index in ``q``, the position of its largest candidate lift."""
+        if np.unique(q).size == q.size:
+            return np.arange(q.size)
+        order = np.lexsort((-lift, q))
+        return order[np.concatenate([[True], np.diff(q[order]) != 0])]
+
+    def _contact_switches(self) -> list[float]:
+        """Angles [rad] where a bridging contact jumps between runs (h' steps there):
+        the winner changes on a 4096-point scan, then bisection on the two runs' lifts."""
+        grid = np.linspace(-math.pi, math.pi, SWITCH_SCAN, endpoint=False)
+        q, run, got = self._candidates(grid)
+        value = np.full((len(self._runs), grid.size), -np.inf)
+        value[run, q] = got[0]
+        first = self._winners(q, got[0])
+        win = np.empty(grid.size, dtype=int)
+        win[q[first]] = run[first]
+        nxt = np.roll(np.arange(grid.size), -1)
+        ra, rb = win, win[nxt]
+        both = (ra != rb) & np.isfinite(value[ra, nxt]) & np.isfinite(value[rb, np.arange(
+            grid.size)])
+        lo = grid[both]
+        hi = lo + 2 * math.pi / SWITCH_SCAN
+        ra, rb = ra[both], rb[both]
+        x = 0.5 * (lo + hi)
+        for _ in range(SWITCH_ITER):   # safeguarded Newton on the lift difference
+            da, db = self._run_lift(x, ra), self._run_lift(x, rb)
+            diff = da[0] - db[0]
+            ahead = diff > 0            # the first run still wins at x
+            lo = np.where(ahead, x, lo)
+            hi = np.where(ahead, hi, x)
+            with np.errstate(divide='ignore', invalid='ignore'):
+                step = x - diff / (da[1] - db[1])
+            ok = np.isfinite(step) & (step > lo) & (step < hi)
+            x_new = np.where(ok, step, 0.5 * (lo + hi))
+            moved = np.max(np.abs(x_new - x), initial=0.0)
+            x = x_new
+            if moved < 1e-13 or np.all(np.abs(diff) < 1e-15):
+                break
+        return [float(v) for v in _wrap(x)]
+
+    def _run_lift(self, a: NDArray[np.float64], runs: NDArray[np.int64]
+                  ) -> NDArray[np.float64]:
+        """(2, n): lift and h' of run ``runs[i]``'s contact at a[i] (-inf if out of reach)."""
+        q, _, got = self._candidates(a, runs)
+        out = np.full((2, a.size), -np.inf)
+        out[:, q] = got[:2]
         return out
 
     def _run_contact(self, aa: NDArray[np.float64], idx: NDArray[np.int64]

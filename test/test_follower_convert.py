@@ -203,7 +203,10 @@ def test_concave_roller_design_bridged_by_flat_and_large_roller(target: Follower
     law = smooth_bump(0.006, 0.8)
     r0, r = 0.012, 0.002
     conv = convert_lift(law, r0, Follower('roller', r), target)
-    assert conv.continuity_order == 0           # h' steps where the contact jumps
+    assert conv.continuity_order == 0           # h' steps where the contact jumps ...
+    j = np.array(conv.junctions)                # ... and those angles are junctions
+    jumps = np.abs(conv(j - 1e-9, 1) - conv(j + 1e-9, 1))
+    assert np.sum(jumps > 1e-3) == 2 and np.allclose(j, -j[::-1], atol=1e-12)
     prof = roller_profile(law, r0, r, np.linspace(-math.pi, math.pi, 40000, endpoint=False))
     a = np.linspace(-math.pi, math.pi, 361)
     ref = lift_from_profile(prof.x, prof.y, a, target, r0)
