@@ -151,8 +151,8 @@ TABLE_POINTS = 8192
 SIDE_EPS = 1e-10
 #: velocity steps [m/rad] below this are smooth; above it a flat design has a flat.
 JUMP_TOL = 1e-9
-#: downward velocity steps [m/rad] of a flat design (or any step of a roller design)
-#: above this are rejected (a swallowtail / notch: no unique contact).
+#: downward velocity steps [m/rad] above this are rejected (a convex corner: undercut);
+#: upward steps of a roller design below it are ignored (arc shorter than ~1e-16 m).
 STEP_REJECT = 1e-6
 #: largest allowed step of h itself at a breakpoint [m].
 POSITION_TOL = 1e-9
