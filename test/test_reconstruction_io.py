@@ -223,3 +223,13 @@ def test_centre_on_nose_and_cli_option(tmp_path, capsys):
     har = json.loads(capsys.readouterr().out)['features']['g']['harmonic']
     assert any('re-centred' in n for n in har['notes'])
     assert har['parameters']['half_angle_rad'] == pytest.approx(math.radians(82), abs=0.05)
+
+
+def test_cli_rebound_threshold(tmp_path, capsys):
+    a, h = simulate(LOBE, 180, 0.0, seed=1)          # 2 deg steps, noise-free
+    p = write_csv(tmp_path / 'c.csv', 'alpha_rad,lift_m', np.column_stack([a, h]))
+    assert main(['reconstruct', str(p), '--method', 'spline', '--json', '-',
+                 '--rebound-threshold', '1e6']) == 0
+    spl = json.loads(capsys.readouterr().out)['features']['c']['spline']
+    assert spl['parameters']['outliers'] == 0 and spl['max_residual_m'] < 1e-8
+    assert main(['reconstruct', str(p), '--rebound-threshold', '0']) == 2

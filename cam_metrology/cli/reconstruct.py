@@ -46,6 +46,10 @@ def register(subparsers: Any) -> None:
                    help='spline smoothing lam [rad^5] (default: automatic, GCV)')
     p.add_argument('--criterion', choices=('gcv', 'risk'), default='gcv',
                    help='automatic spline smoothing criterion')
+    p.add_argument('--rebound-threshold', type=float, metavar='T',
+                   help='rebound outlier tolerance in noise standard deviations x the '
+                        'rebound factor (default 4.5); raise it for tables coarser than '
+                        '1 deg, where the rebound of the lift itself exceeds the noise')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
                    help='step of the output grid [deg] (default 0.1)')
     p.add_argument('--follower', choices=('flat', 'roller', 'knife'),
@@ -71,6 +75,10 @@ def _params(args: argparse.Namespace) -> dict[str, Any]:
     params: dict[str, Any] = {'methods': methods, 'step_deg': args.step_deg,
                               'harmonic_basis': args.basis,
                               'smoothing_criterion': args.criterion}
+    if args.rebound_threshold is not None:
+        from cam_design.errors import require_positive
+        params['rebound_threshold'] = require_positive('--rebound-threshold',
+                                                       args.rebound_threshold)
     if args.smoothing is not None:
         from cam_design.errors import require_positive
         params['smoothing'] = require_positive('--smoothing', args.smoothing, allow_zero=True)
