@@ -216,7 +216,7 @@ def _inside(model: _Model, r: int, y: Any, v: Any, u: Any, ud: Any) -> tuple[Any
 
 _VANDER: dict[int, tuple[NDArray, NDArray]] = {}
 _ARANGE = np.arange(64, dtype=float)
-_GRID9 = np.linspace(0.0, 1.0, 9)
+_GRID9 = np.linspace(0.0, 1.0, 33)
 _VG9 = _GRID9[None, :] ** np.arange(64)[:, None]
 
 
@@ -243,6 +243,101 @@ def _vander(m: int) -> tuple[NDArray, NDArray]:
         if len(_VANDER) < 256:
             _VANDER[m] = hit
     return hit
+
+
+def _vander0(m: int) -> tuple[NDArray, NDArray, NDArray]:
+    """(NB, m+1) matrices giving p, p', p'' (sigma derivatives) at sigma = j/m, j=0..m."""
+    sig = np.arange(m + 1) / m
+    jj = np.arange(NB)[:, None]
+    v0 = sig[None, :] ** jj
+    v1 = np.zeros_like(v0)
+    v1[1:] = jj[1:] * sig[None, :] ** (jj[1:] - 1)
+    v2 = np.zeros_like(v0)
+    v2[2:] = jj[2:] * (jj[2:] - 1) * sig[None, :] ** (jj[2:] - 2)
+    return v0, v1, v2
+
+
+def _dips(f: NDArray, d: NDArray) -> NDArray:
+    """True on each interval where the cubic Hermite interpolant of values f and slopes
+    d (per unit of the interval), shape (..., m+1), goes below 0 -> (..., m).
+
+    Cheap bound first: the cubic departs from the chord by at most
+    (4/27)(|m0 - D| + |m1 - D|), D = p1 - p0; the exact minimum is computed only where
+    that bound does not settle the question."""
+    p0, p1 = f[..., :-1], f[..., 1:]
+    m0, m1 = d[..., :-1], d[..., 1:]
+    lo = np.minimum(p0, p1)
+    chord = p1 - p0
+    dev = (4.0 / 27.0) * (np.abs(m0 - chord) + np.abs(m1 - chord))
+    out = lo < 0
+    unsure = ~out & (lo - dev < 0)
+    if not np.any(unsure):
+        return out
+    q0, q1, n0, n1 = p0[unsure], p1[unsure], m0[unsure], m1[unsure]
+    a3 = 2 * q0 + n0 - 2 * q1 + n1
+    a2 = -3 * q0 - 2 * n0 + 3 * q1 - n1
+    a1 = n0
+    qa, qb, qc = 3 * a3, 2 * a2, a1
+    disc = qb * qb - 4 * qa * qc
+    low = np.minimum(q0, q1)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        small = np.abs(qa) < 1e-300
+        r1 = np.where(small, -qc / np.where(qb == 0, np.inf, qb), (-qb - sq) / (2 * qa))
+        r2 = np.where(small, r1, (-qb + sq) / (2 * qa))
+        for r in (r1, r2):
+            ok = (disc >= 0) & np.isfinite(r) & (r > 0) & (r < 1)
+            val = ((a3 * r + a2) * r + a1) * r + q0
+            low = np.where(ok, np.minimum(low, val), low)
+    out[unsure] = low < 0
+    return out
+
+
+_VANDER0: dict[int, tuple[NDArray, NDArray, NDArray]] = {}
+
+
+def _flags(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
+           lt: NDArray, z0: NDArray, zs: NDArray) -> NDArray:
+    """(q, m) True where sub-interval j of step q may hold a switch: the switching
+    components' cubic Hermite interpolants (values and time derivatives at the
+    sub-nodes, from the exact states) cross zero in the direction that ends regime r.
+
+    ucoef, fco: (q, NB) u monomials and forcing (sigma^j/j!); la, lt: (q,) step angle
+    and time; z0: (q, 2) start states; zs: (q, m, 2) sub-node states.
+    """
+    p = model.p
+    m = zs.shape[1]
+    mats = _VANDER0.get(m)
+    if mats is None:
+        mats = _vander0(m)
+        if len(_VANDER0) < 256:
+            _VANDER0[m] = mats
+    v0, v1, v2 = mats
+    rate = (model.omega / la)[:, None]
+    u = ucoef @ v0
+    ud = (ucoef @ v1) * rate
+    udd = (ucoef @ v2) * rate * rate
+    f = (fco / _FACT) @ v0
+    y = np.concatenate([z0[:, :1], zs[..., 0]], axis=1)
+    v = np.concatenate([z0[:, 1:], zs[..., 1]], axis=1)
+    k_, b_ = model.coefs(r)
+    acc = (f - k_ * y - b_ * v) / p.mass
+    h = (lt / m)[:, None]
+    delta, ddelta = u - y, ud - v
+    gc, dgc = p.stiffness * delta + p.damping * ddelta, p.stiffness * ddelta + p.damping * (
+        udd - acc)
+    dh, gh = ddelta * h, dgc * h
+    if r & CONTACT:
+        bad = _dips(delta, dh) | _dips(gc, gh)
+    else:
+        bad = _dips(-delta, -dh) & _dips(-gc, -gh)
+    if p.hard_seat:
+        return bad | _dips(y, v * h)
+    gs, dgs = -p.seat_stiffness * y - p.seat_damping * v, -p.seat_stiffness * v \
+        - p.seat_damping * acc
+    if r & SEAT:
+        return bad | _dips(-y, -v * h) | _dips(gs, dgs * h)
+    return bad | (_dips(y, v * h) & _dips(-gs, -dgs * h))
 
 
 def _inside_scalar(p: SdofParams, r: int, y: float, v: float, u: float, ud: float,
@@ -284,6 +379,49 @@ def _taylor(model: _Model, r: int, z: tuple[float, float], fcoef: NDArray,
         c[n + 2] = (a_n - k_ * c[n] - b_ * (n + 1) * c[n + 1] / ds) * ds * ds / (
             M * (n + 2) * (n + 1))
     return c
+
+
+def _eval_min(comp: tuple[float, list[list[float]]], t: float) -> tuple[float, float]:
+    """sign * min_i P_i(t) and the derivative of the active P_i (Horner)."""
+    sign, polys = comp
+    best = math.inf
+    dbest = 0.0
+    for c in polys:
+        val = der = 0.0
+        for x in c:
+            der = der * t + val
+            val = val * t + x
+        if val < best:
+            best, dbest = val, der
+    return sign * best, sign * dbest
+
+
+def _newton_bracket(comp: tuple[float, list[list[float]]], a: float,
+                    b: float) -> tuple[float, float]:
+    """[a, b] with f(a) >= 0 > f(b), shrunk to ~1e-14 by safeguarded Newton steps on
+    f = sign * min_i P_i (bisection when a step leaves the bracket)."""
+    x = b
+    for _ in range(100):
+        if b - a <= 1e-14:
+            break
+        f, d = _eval_min(comp, x)
+        if f >= 0:
+            a = x
+        else:
+            b = x
+        xn = x - f / d if d != 0 else 0.5 * (a + b)
+        if not a < xn < b:
+            xn = 0.5 * (a + b)
+        if abs(xn - x) < 1e-15:
+            # converged: make the bracket tight around the root
+            lo, hi = max(a, x - 1e-14), min(b, x + 1e-14)
+            if _eval_min(comp, lo)[0] >= 0:
+                a = lo
+            if _eval_min(comp, hi)[0] < 0:
+                b = hi
+            break
+        x = xn
+    return a, b
 
 
 def _bracket(fun: Any, a: float, b: float, fa: float, fb: float) -> tuple[float, float]:
@@ -389,12 +527,8 @@ class _Run:
                 continue
             z0 = np.stack([ys[idx], vs[idx]], axis=1)          # (q, 2)
             zs = np.einsum('mab,qb->qma', phis, z0) + np.einsum('mab,qb->qma', gams, fco[idx])
-            vand, dvand = _vander(m)
-            cc = cam.coeffs[ks[idx]]
-            uu = cc @ vand
-            ud = (cc @ dvand) * (model.omega / la[idx])[:, None]
-            ic, is_ = _inside(model, r, zs[..., 0], zs[..., 1], uu, ud)
-            bad = np.nonzero(np.any((ic < 0) | (is_ < 0), axis=1))[0]
+            flags = _flags(model, r, cam.coeffs[ks[idx]], fco[idx], la[idx], lt[idx], z0, zs)
+            bad = np.nonzero(np.any(flags, axis=1))[0]
             if bad.size:
                 clean = min(clean, int(idx[bad[0]]))
         out = list(zip(ys[1:clean + 1].tolist(), vs[1:clean + 1].tolist()))
@@ -428,20 +562,19 @@ class _Run:
             ds = lt / m
             fco = model.forcing(r, uco, la)
             if m <= 2 and s0 > 0:   # short rest after a switch: chain the Taylor series
-                j0, zs = 0, None
+                zs = None
             else:
                 phis, gams = model.propagator(r, lt, m)
                 zs = phis @ np.asarray(z) + gams @ fco                 # (m, 2)
-                vand, dvand = _vander(m)
-                ic, is_ = _inside(model, r, zs[:, 0], zs[:, 1], uco @ vand,
-                                  (uco @ dvand) * (model.omega / la))
-                bad = np.nonzero((ic < 0) | (is_ < 0))[0]
-                j0 = int(bad[0]) if bad.size else m
+                flags = _flags(model, r, uco[None, :], fco[None, :], np.array([la]),
+                               np.array([lt]), np.asarray(z)[None, :], zs[None])[0]
+                candidates: list[int] = np.nonzero(flags)[0].tolist()
             found = None
-            j_end = m if zs is None else min(j0 + 2, m)
-            for j in range(j0, j_end):
-                if j and zs is not None:
-                    z = (float(zs[j - 1, 0]), float(zs[j - 1, 1]))
+            todo = range(m) if zs is None else candidates
+            z_start = z
+            for j in todo:
+                if zs is not None:
+                    z = z_start if j == 0 else (float(zs[j - 1, 0]), float(zs[j - 1, 1]))
                 f_loc = _shift(fco / _FACT, j / m, 1.0 / m)
                 u_loc = _shift(uco, j / m, 1.0 / m)
                 cy = _taylor(model, r, z, f_loc, ds)
@@ -555,11 +688,9 @@ class _Run:
         a, b = float(grid[i - 1]), float(grid[i])
         best = None
         for which, pos in ((CONTACT, 0), (SEAT, 1)):
-            def fun(t: float, pos: int = pos) -> float:
-                return scalar(t, pos)
-            fa, fb = fun(a), fun(b)
+            fa, fb = scalar(a, pos), scalar(b, pos)
             if fb < 0 <= fa:
-                ta, tb = _bracket(fun, a, b, fa, fb)
+                ta, tb = _newton_bracket(comps[pos], a, b)
             elif fb < 0 and fa < 0:
                 ta, tb = a, a
             else:
@@ -625,7 +756,7 @@ class _Run:
         rs = np.empty(n + 1, dtype=np.int64)
         ys[0], vs[0], rs[0] = z[0], z[1], r
         k = 0
-        chunk = 64
+        chunk = 16
         while k < n:
             want = min(chunk, n - k)
             clean, states = self.bulk(k, z, r, want)
@@ -642,7 +773,7 @@ class _Run:
             z, r = self.event_step(k, z, r)
             k += 1
             ys[k], vs[k], rs[k] = z[0], z[1], r
-            chunk = 64
+            chunk = 16
         return ys, vs, rs, z, r
 
 
