@@ -427,3 +427,13 @@ def test_harmonic_explicit_ramps_fit_target() -> None:
     with pytest.raises(InputError, match=r'^L\.end_order'):
         from_spec({'family': 'harmonic', 'order': 15, 'half_angle': 50 * DEG,
                    'max_lift': 8.3 * MM, 'ramp': S2_RAMP, 'end_order': 4}, 'L')
+
+
+def test_polydyne_rejects_non_monotone_valve_motion() -> None:
+    """methods §1.5: y_d must rise monotonically (y_d = 8 mm (-7u^2 + 38u^3 - 50u^4 +
+    20u^5) dips below zero first): rejected, naming the flank angle parameter."""
+    coeffs = [[2, -7 * 8 * MM], [3, 38 * 8 * MM], [4, -50 * 8 * MM], [5, 20 * 8 * MM]]
+    with pytest.raises(InputError) as info:
+        from_spec(dict(TRAIN, family='polydyne', design_cam_speed_rpm=300,
+                       valve_motion={'angle': 60 * DEG, 'coefficients': coeffs}), 'L')
+    assert info.value.key == 'L.half_angle'

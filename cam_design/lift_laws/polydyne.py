@@ -129,6 +129,18 @@ def polydyne_law(valve: Sequence[PowerSegment], train: Train, *, key: str = 'lif
     required.append(nose)
     flank = Flank(tuple(ramp) + tuple(cam), tuple(required), nose_order=nose)
     law = assemble_lobe(flank, None, key=key, name='polydyne')
+    for seg in valve:          # methods §1.5: y_d monotone on the flank (it rises)
+        t = np.linspace(seg.lo, seg.hi, 4001)
+        v = seg(t, 1)
+        if np.any(v < -1e-9 * max(float(np.max(np.abs(v))), 1e-300)):
+            raise InputError(f'{key}.half_angle', None,
+                             'a valve motion y_d that rises monotonically to the nose '
+                             f'(y_d\' < 0 at t = {math.degrees(float(t[np.argmin(v)])):.4g} '
+                             'deg; change half_angle, exponents or ramp_velocity)')
+    if not law.flank_is_monotone():
+        raise InputError(f'{key}.design_cam_speed_rpm', train.design_speed * 30 / math.pi,
+                         'a design speed whose cam lift h is monotone on each flank (the '
+                         'eps_c y_d\'\' correction reverses h\')')
     law.train = train          # type: ignore[attr-defined]
     law.valve_motion = tuple(s.mapped(+1, flank.length) for s in valve)  # type: ignore
     return law
