@@ -430,9 +430,11 @@ def test_harmonic_explicit_ramps_fit_target() -> None:
 
 
 def test_polydyne_rejects_non_monotone_valve_motion() -> None:
-    """methods §1.5: y_d must rise monotonically (y_d = 8 mm (-7u^2 + 38u^3 - 50u^4 +
-    20u^5) dips below zero first): rejected, naming the flank angle parameter."""
-    coeffs = [[2, -7 * 8 * MM], [3, 38 * 8 * MM], [4, -50 * 8 * MM], [5, 20 * 8 * MM]]
+    """methods §1.5: y_d must rise monotonically. y_d = the §1.5 motion - 2u^2(1-u)^4
+    (8 mm units) keeps the first three derivatives zero at the nose but dips below zero
+    first: rejected, naming the flank angle parameter."""
+    coeffs = [[k, c * 8 * MM] for k, c in ((2, -2), (3, 8), (4, 23), (5, -76), (6, 68),
+                                           (7, -20))]
     with pytest.raises(InputError) as info:
         from_spec(dict(TRAIN, family='polydyne', design_cam_speed_rpm=300,
                        valve_motion={'angle': 60 * DEG, 'coefficients': coeffs}), 'L')
