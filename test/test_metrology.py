@@ -385,3 +385,18 @@ def test_wrong_design_lift_fails_the_feature():
     smp = sample_lobe(other, 1.0, 1, n_per_rev=1440)
     with pytest.raises(FeatureFailed, match='does not match the design'):
         analyze_lobe(_feature(smp), CAM, 1, Settings())
+
+
+def test_per_revolution_repeatability():
+    """Three revolutions whose noses differ by +-1 arcsec (a slipping drive): the joint
+    fit is the mean, the per-revolution deviations recover the slip."""
+    nose = np.radians(10.0)
+    parts = [sample_lobe(CAM, nose + k * np.radians(1 / 3600), 1, n_per_rev=3600,
+                         start=0.5 + 2 * np.pi * (k + 1)) for k in (-1, 0, 1)]
+    theta = np.concatenate([p.theta for p in parts])
+    s = np.concatenate([p.s for p in parts])
+    stamps = np.arange(theta.size, dtype=np.int64) * 1_000_000
+    v = analyze_lobe(clean_feature('lobe_1', stamps, theta, s), CAM, 1, Settings()).values
+    assert abs(_err_arcsec(v['angle_deg'], nose)) < 0.01
+    assert np.allclose(v['per_revolution_deviation_arcsec'], [-1.0, 0.0, 1.0], atol=0.01)
+    assert v['per_revolution_std_arcsec'] == pytest.approx(1.0, abs=0.01)

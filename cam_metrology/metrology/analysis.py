@@ -198,8 +198,11 @@ def _sp_values(sp: Any, direction: int, x0: float, d_lsq: float) -> dict[str, An
                          'valid': sp.valid}}
 
 
-#: floor [m] of the robust noise scale (noise-free data: keep round-off residuals)
-OUTLIER_SCALE_FLOOR = 1e-9
+#: floor [m] of the robust noise scale: deviations below 5 x 0.1 um are never outliers
+#: (noise-free or very quiet data keep small systematic differences between revolutions)
+OUTLIER_SCALE_FLOOR = 1e-7
+#: outliers are rare by definition: above this fraction nothing is rejected
+OUTLIER_MAX_FRACTION = 0.05
 
 
 #: var(r - running median of 9) / var(r) for white Gaussian r (computed, 2e6 samples)
@@ -237,8 +240,8 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
 
     Samples whose residual deviates from the running median (9 samples in angle
     order) of the residuals by more than ``outlier_sigma`` times the robust scale
-    (1.4826 x the median of those deviations, floored at 1 nm) are dropped and the
-    fit repeated (at most 3 times). Isolated spikes are removed; a smooth real form
+    (1.4826 x the median of those deviations, floored at 0.1 um) are dropped and the
+    fit repeated (at most 3 times), unless they would be more than 5 % of the samples. Isolated spikes are removed; a smooth real form
     error is not (it stays visible in the lift error). Then the residual variance
     model of ``_angle_noise_weighting``. Returns the fit, the mask of rejected
     samples (among ``used``) and the noise estimates.
@@ -254,6 +257,8 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
         scale = max(1.4826 * float(np.median(dev)), OUTLIER_SCALE_FLOOR)
         keep = cand.copy()
         keep[cand] = dev <= k * scale
+        if np.count_nonzero(~keep[cand]) > OUTLIER_MAX_FRACTION * r.size:
+            keep = fit.used   # not isolated spikes: systematic, keep everything
         if np.array_equal(keep, fit.used):
             break
         fit = fit_shift(x, s, law, theta=theta, d0=fit.d, c0=fit.c, used=keep)
@@ -327,6 +332,9 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                               'samples_outliers_rejected': int(np.count_nonzero(outliers)),
                               **noise,
                               'iterations': fit.iterations}
+    values.update(_per_revolution(fs, x, law, fit, good, settings,
+                                  (_slope_zone(law, alpha_m, lo, 0.0),
+                                   _slope_zone(law, alpha_n, 0.0, hi))))
     alpha = x - fit.d
     design = law(alpha, 0)
     measured = fs.s - fit.c
@@ -355,6 +363,32 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     table = np.column_stack([alpha[order], measured[order], design[order]])
     return FeatureResult(fs.feature_id, 'lobe', {**values, **_common(fs)}, table,
                          float(np.radians(values['angle_deg'])), skipped=skipped)
+
+
+def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: Any,
+                    good: NDArray[np.bool_], settings: Settings,
+                    zones: tuple[tuple[float, float], ...]) -> dict[str, Any]:
+    """Repeatability: the shift fitted on each revolution alone (revolutions counted
+    on the stamp-ordered unwrapped angle), as deviations [arcsec] from the joint fit;
+    revolutions whose flanks are not covered are left out."""
+    if fs.revolutions < 1.9:
+        return {}
+    turns = np.unwrap(fs.theta)
+    rev = np.floor(np.abs(turns - turns[0]) / (2 * np.pi)).astype(np.int64)
+    devs = []
+    for k in range(int(rev.max()) + 1):
+        sel = (rev == k) & good
+        try:
+            for flank, zone in zip(('rise', 'fall'), zones):
+                _zone_check(x[sel], zone, flank, settings)
+            one = fit_shift(x, fs.s, law, d0=fit.d, c0=fit.c, used=sel)
+        except (FeatureFailed, InputError):
+            continue
+        devs.append(float(np.degrees(one.d - fit.d) * 3600))
+    if len(devs) < 2:
+        return {}
+    return {'per_revolution_deviation_arcsec': devs,
+            'per_revolution_std_arcsec': float(np.std(devs, ddof=1))}
 
 
 def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]) -> float | None:
