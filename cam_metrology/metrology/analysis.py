@@ -241,8 +241,9 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
     Samples whose residual deviates from the running median (9 samples in angle
     order) of the residuals by more than ``outlier_sigma`` times the robust scale
     (1.4826 x the median of those deviations, floored at 0.1 um) are dropped and the
-    fit repeated (at most 3 times), unless they would be more than 5 % of the samples. Isolated spikes are removed; a smooth real form
-    error is not (it stays visible in the lift error). Then the residual variance
+    fit repeated (at most 3 times), unless they would be more than 5 % of the
+    samples. Isolated spikes are removed; a smooth real form error is not (it stays
+    visible in the lift error). Then the residual variance
     model of ``_angle_noise_weighting``. Returns the fit, the mask of rejected
     samples (among ``used``) and the noise estimates.
     """
