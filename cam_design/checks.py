@@ -348,6 +348,12 @@ def ramp_events(law: Any, rocker_ratio: float, lash: float, preload: float,
 
 
 # ---------------------------------------------------------------- all checks for a law
+#: top-level keys of the check input (docs/lift_laws.md)
+CHECK_KEYS = ('base_radius', 'rocker_ratio', 'lash', 'cam_speed_rpm', 'stiffness',
+              'follower', 'valve', 'spring', 'masses', 'equivalent_mass', 'contact',
+              'lubrication', 'piston')
+
+
 def _follower(cfg: Mapping[str, Any], key: str) -> tuple[str, float]:
     """(kind, roller radius) from the optional ``follower: {kind, radius}`` (flat)."""
     from cam_design.lift_laws import params as P
@@ -357,6 +363,7 @@ def _follower(cfg: Mapping[str, Any], key: str) -> tuple[str, float]:
         return 'flat', 0.0
     fk = f'{key}.follower'
     raw = P.mapping(raw, fk)
+    P.reject_unknown(raw, fk, ('kind', 'radius'))
     kind = P.choice(raw, fk, 'kind', ('flat', 'roller', 'knife'))
     if kind == 'roller':
         return kind, P.positive(raw, fk, 'radius')
@@ -373,6 +380,7 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
     from cam_design.lift_laws import params as P
 
     key = 'check'
+    P.reject_unknown(cfg, key, CHECK_KEYS)
     r0 = P.positive(cfg, key, 'base_radius')
     k = P.positive(cfg, key, 'rocker_ratio', 1.0)
     x0 = P.positive(cfg, key, 'lash', 0.0, allow_zero=True)
@@ -428,13 +436,14 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
     if valve is not None:
         vk = f'{key}.valve'
         valve = P.mapping(valve, vk)
-        fp = valve_flow_area(y, P.positive(valve, vk, 'seat_diameter'),
-                             P.positive(valve, vk, 'seat_angle', allow_zero=True))
+        P.reject_unknown(valve, vk, ('seat_diameter', 'seat_angle', 'seat_width'))
+        seat_angle = P.positive(valve, vk, 'seat_angle', allow_zero=True)
+        fp = valve_flow_area(y, P.positive(valve, vk, 'seat_diameter'), seat_angle)
         ta = time_area(a, fp)
         out['max_flow_area_mm2'] = float(fp.max()) * 1e6
         out['time_area_mm2_deg'] = float(ta[-1]) * 1e6 * 180 / math.pi
         if 'seat_width' in valve:
-            lim = flow_area_validity(P.positive(valve, vk, 'seat_width'), valve['seat_angle'])
+            lim = flow_area_validity(P.positive(valve, vk, 'seat_width'), seat_angle)
             out['flow_area_formula_valid'] = bool(y.max() < lim)
     rpm = cfg.get('cam_speed_rpm')
     spring, masses = cfg.get('spring'), cfg.get('masses')
@@ -447,6 +456,9 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
         omega = rpm_to_omega(P.positive(cfg, key, 'cam_speed_rpm'), f'{key}.cam_speed_rpm')
         sk, mk = f'{key}.spring', f'{key}.masses'
         spring, masses = P.mapping(spring, sk), P.mapping(masses, mk)
+        P.reject_unknown(spring, sk, ('preload', 'rate'))
+        P.reject_unknown(masses, mk, ('valve', 'spring', 'retainer', 'rocker_inertia',
+                                      'rocker_arm', 'tappet', 'push_rod'))
         m = P.positive(cfg, key, 'equivalent_mass') if not masses else equivalent_mass(
             valve=P.positive(masses, mk, 'valve', allow_zero=True),
             spring=P.positive(masses, mk, 'spring', 0.0, allow_zero=True),
@@ -481,6 +493,7 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
         if contact is not None and kind != 'knife':   # no line contact for a knife edge
             ck = f'{key}.contact'
             contact = P.mapping(contact, ck)
+            P.reject_unknown(contact, ck, ('width', 'youngs_modulus'))
             lifted = h > 0
             normal = np.where(lifted, force / cos_p, 0.0)
             sig = hertz_stress_steel(normal, P.positive(contact, ck, 'width'), rho,
@@ -493,6 +506,7 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
     if lub is not None and kind == 'flat':
         lk = f'{key}.lubrication'
         lub = P.mapping(lub, lk)
+        P.reject_unknown(lub, lk, ('k_film',))
         lifted = h > 0
         film = oil_film(a[lifted], h[lifted], rho[lifted], r0, P.positive(lub, lk, 'k_film'))
         out['oil_film_nose_gamma'] = film.nose_gamma
@@ -504,6 +518,8 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
     if piston is not None and y.max() > 0:
         pk = f'{key}.piston'
         piston = P.mapping(piston, pk)
+        P.reject_unknown(piston, pk, ('crank_radius', 'rod_length', 'clearance',
+                                      'opening_crank_angle', 'exact'))
         open_alpha = float(a[np.nonzero(y > 0)[0][0]])
         phi = crank_angle(a, P.finite(piston, pk, 'opening_crank_angle'), open_alpha)
         exact = bool(piston.get('exact', True))

@@ -171,6 +171,10 @@ def test_run_checks_all_sections() -> None:
     assert out['min_valve_piston_clearance_mm'] > 0
     with pytest.raises(InputError, match='check.valve.seat_diameter'):
         C.run_checks(law, dict(cfg, valve={'seat_angle': 0.5}))
+    with pytest.raises(InputError, match='check.valve.seat_diametre'):
+        C.run_checks(law, dict(cfg, valve={'seat_diametre': 0.03, 'seat_angle': 0.5}))
+    with pytest.raises(InputError, match=r'^check\.cam_speed:'):
+        C.run_checks(law, dict(cfg, cam_speed=3000))
 
 
 @pytest.mark.parametrize('kind,radius', [('flat', 0.0), ('roller', 8 * MM), ('knife', 0.0)])
