@@ -179,3 +179,15 @@ def test_profile_of_a_scene_lobe(capsys: pytest.CaptureFixture) -> None:
     assert main(['design', 'profile', scene, '--lobe', 'lobe_1', '--base-radius',
                  '0.02']) == 2
     assert 'error: --base-radius' in capsys.readouterr().err
+
+
+def test_profile_json_is_strict_json(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    # an infinite radius (a straight pitch piece) would be written as null, never Infinity
+    a = np.linspace(-1.2, 1.2, 241)
+    path = tmp_path / 'lobe.yaml'
+    path.write_text('base_radius: 0.02\nalpha: ' + json.dumps(a.tolist()) + '\nh: ' +
+                    json.dumps((0.004 * np.cos(0.5 * math.pi * a / 1.2) ** 4).tolist()) + '\n')
+    assert main(['design', 'profile', str(path), '--follower', 'knife', '--json', '-']) == 0
+    text = capsys.readouterr().out
+    assert 'Infinity' not in text and 'NaN' not in text
+    json.loads(text)

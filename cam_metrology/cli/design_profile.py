@@ -2,10 +2,11 @@
 
 The YAML file holds a lift law: a ``lift_law:`` mapping (or the mapping itself, see
 docs/lift_laws.md), or a table ``{alpha: [...], h: [...]}`` (also under ``lift:``), and
-optionally ``base_radius`` [m] (the base circle of the profile). Output: per-sample
-profile and pitch coordinates, radius of curvature, pressure angle and undercut flags
-(CSV/JSON, SI units in the column names), a summary with the undercut report, and a
-plot. See docs/follower.md.
+optionally ``base_radius`` [m] (the base circle of the profile); or it is a scene and
+``--lobe ID`` picks a lobe. Output: per-sample profile and pitch coordinates, radius of
+curvature, pressure angle, undercut flags and the lift used (CSV/JSON, SI units in the
+column names; an infinite radius of a straight piece is ``inf`` in CSV, ``null`` in
+JSON), a summary with the undercut report, and a plot. See docs/follower.md.
 """
 from __future__ import annotations
 
@@ -27,7 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                     'in-line roller or knife (2.16), offset translating roller and oscillating '
                     'roller (thesis reverse-method forms). Lengths in m, angles in rad in the '
                     'files; the summary adds _deg fields.')
-    p.add_argument('file', help='YAML with a lift law (lift_law: {family: ...} or alpha/h table)')
+    p.add_argument('file', help='YAML with a lift law (lift_law: {family: ...} or alpha/h '
+                                'table), or a scene with --lobe')
     p.add_argument('--follower', choices=FOLLOWERS, default='flat',
                    help='follower the profile is cut for (default flat)')
     p.add_argument('--radius', type=float, default=0.0, help='roller radius [m] (0: knife)')
@@ -211,7 +213,9 @@ def cmd_profile(args: argparse.Namespace) -> int:
         _write(args.csv, '\n'.join(lines) + '\n')
         wrote = True
     if args.json:
-        doc = dict(summary, columns=names, rows=table.tolist())
+        rows = np.where(np.isfinite(table), table, np.nan).tolist()
+        rows = [[None if v != v else v for v in row] for row in rows]   # NaN/inf -> null
+        doc = dict(summary, columns=names, rows=rows)
         _write(args.json, json.dumps(doc, indent=1) + '\n')
         wrote = True
     if args.plot:
