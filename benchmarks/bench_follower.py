@@ -38,10 +38,10 @@ def run() -> list[str]:
     for source, target in PAIRS:
         law = EccentricDiscLift(RC, E, source)
         exact = EccentricDiscLift(RC, E, target)
-        build, conv = _best(lambda: convert_lift(law, RC - E, source, target), 5)
+        build, conv = _best(lambda: convert_lift(law, RC - E, source, target), 15)
         for n in SIZES:
             alpha = np.linspace(-math.pi, math.pi, n, endpoint=False)
-            t_eval, got = _best(lambda: conv.derivatives(alpha), 5 if n < 36000 else 3)
+            t_eval, got = _best(lambda: conv.derivatives(alpha), 15 if n < 36000 else 5)
             err = np.max(np.abs(got - exact.derivatives(alpha)), axis=1)
             rows.append(f'| {source.kind} -> {target.kind} | {n} | {build * 1e3:.2f} | '
                         f'{t_eval * 1e3:.2f} | {err[0]:.1e} | {err[1]:.1e} | {err[2]:.1e} | '
