@@ -52,7 +52,7 @@ def test_demo_end_to_end(ros_domain: int, tmp_path: Path, config_dir: Path) -> N
             assert topic in counts, f'{name}: {topic} not in the bag'
         result = f'/{name}/result'
         if result in cls.publications:
-            assert counts[result] >= 1, f'{name} published no result'
+            assert counts[result] >= 1, f'{name} published no result:\n{out.stdout}'
     if 'metrology' in cores:
         assert counts['/metrology/report'] >= 1
         for fid in ('lobe_1', 'dowel_pin'):

@@ -2,19 +2,24 @@
 
 * declares the core's ``PARAMETERS`` as ROS parameters (with descriptors) and builds
   the core from their values (so ``--params-file config/<node>.yaml`` sets them);
-* subscribes to ``core.subscriptions`` with the QoS of ``topics.TOPICS``
+* subscribes to ``core.subscriptions``: bench topics with the QoS of ``topics.TOPICS``
   (/bench/scene transient local depth 1, created first; /bench/joint_states reliable
-  keep-last 20 000, see ``topics.SAMPLES``); every callback calls
-  ``core.handle(topic, msg, receive_time_ns)``;
-* publishes the returned outputs on their topics with the documented QoS (reports
-  transient local), converted by ``convert.to_message``;
+  keep-last 20 000, see ``topics.SAMPLES``), other nodes' outputs once their
+  publisher is in the graph, transient local when it offers it
+  (``topics.AdaptiveSubscriptions``: a node that matched late still gets the last 100
+  outputs); every callback calls ``core.handle(topic, msg, receive_time_ns)``;
+* publishes the returned outputs on their topics, reliable, transient local (depth 1
+  for the report, 100 for the others: ``topics.RESULTS``), converted by
+  ``convert.to_message``;
 * cross-topic order: ROS keeps order within a topic only, so a /bench/feature_done
   can overtake the last samples of its feature (seen live: the feature was split in
   two). When the core consumes /bench/joint_states, every other message is held and
   released in publication order (DDS ``source_timestamp`` from MessageInfo): just
-  before the first sample published after it, or once the sample subscription is
-  empty and has been idle for ``order_hold`` s. Samples already waiting in the reader
-  are taken at once (``take_message``) so nothing overtakes them. Under the
+  before the first sample published after it, or once the sample reader is empty and
+  neither a sample nor a held message has arrived for ``order_hold`` s (0.5 s: five
+  heartbeat periods of our Fast DDS profile, so a lost tail sample is repaired first).
+  Samples already waiting in the reader are taken at once (``take_message``) so
+  nothing overtakes them. Under the
   EventsExecutor (``with_info=False``) this is off: rclpy 7.1.6's EventsExecutor
   raises SystemError for any callback taking MessageInfo, and it runs callbacks in
   event-arrival order anyway;
@@ -33,11 +38,11 @@ import traceback
 from typing import Any, Sequence
 
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.duration import Duration
 from rclpy.node import Node
 
 from cam_metrology.nodes import convert
-from cam_metrology.nodes.topics import JOINT_STATES, SCENE, message_class, qos_of
+from cam_metrology.nodes.topics import (BENCH_TOPICS, JOINT_STATES, SCENE,
+                                        AdaptiveSubscriptions, QosSpec, message_class, qos_of)
 from cam_metrology.outputs import Output, msgtype_of
 
 
@@ -97,7 +102,7 @@ class CoreNode(Node):
     """A ROS node that feeds a node core and publishes its outputs."""
 
     def __init__(self, core_cls: Any, *, context: Any = None, node_name: str | None = None,
-                 tick_period: float = 0.1, order_hold: float = 0.25,
+                 tick_period: float = 0.1, order_hold: float = 0.5,
                  with_info: bool = True) -> None:
         super().__init__(node_name or core_cls.name, context=context)
         self.params = declare_parameters(self, dict(getattr(core_cls, 'PARAMETERS', {})))
@@ -113,22 +118,30 @@ class CoreNode(Node):
         self._seq = 0
         self._order_hold = order_hold
         self._last_sample = 0.0        # monotonic s of the last sample handled
+        self._last_held = 0.0          # monotonic s of the last message put on hold
         # the scene first: with several ready subscriptions, rclpy's executor takes
         # them in creation order, so the scene is handled before samples.
         topics = sorted(self.core.subscriptions.items(), key=lambda item: item[0] != SCENE)
         self._ordered = with_info and JOINT_STATES in self.core.subscriptions
+        self._adaptive = AdaptiveSubscriptions(self, self._subscribe)
         for topic, type_name in topics:
-            if topic == JOINT_STATES and self._ordered:
-                callback: Any = self._on_sample
-            elif self._ordered:
-                callback = functools.partial(self._on_held, topic)
-            else:
-                callback = functools.partial(self._on_message, topic)
-            self._subs[topic] = self.create_subscription(
-                message_class(type_name), topic, callback, qos_of(topic).profile())
+            if topic in BENCH_TOPICS:
+                self._subscribe(topic, type_name, qos_of(topic))
+            else:   # another node's output: QoS from its publishers (late joiners)
+                self._adaptive.add(topic, type_name, qos_of(topic).depth)
         self._timer = self.create_timer(tick_period, self._on_tick)
         if self._ordered:
-            self._order_timer = self.create_timer(min(0.05, order_hold), self._on_order_timer)
+            self._order_timer = self.create_timer(0.05, self._on_order_timer)
+
+    def _subscribe(self, topic: str, type_name: str, qos: QosSpec) -> None:
+        if topic == JOINT_STATES and self._ordered:
+            callback: Any = self._on_sample
+        elif self._ordered:
+            callback = functools.partial(self._on_held, topic)
+        else:
+            callback = functools.partial(self._on_message, topic)
+        self._subs[topic] = self.create_subscription(
+            message_class(type_name), topic, callback, qos.profile())
 
     # -- publishing -----------------------------------------------------------------
     def _publisher(self, topic: str, type_name: str) -> Any:
@@ -172,6 +185,7 @@ class CoreNode(Node):
         self.callbacks_run += 1
         self._seq += 1
         heapq.heappush(self._held, (_source_ns(info), self._seq, topic, msg))
+        self._last_held = time.monotonic()
         self._take_waiting_samples()
 
     def _on_sample(self, msg: Any, info: Any) -> None:
@@ -207,7 +221,8 @@ class CoreNode(Node):
         if not self._held:
             return
         self._take_waiting_samples()
-        if self._held and time.monotonic() - self._last_sample >= self._order_hold:
+        quiet = time.monotonic() - max(self._last_sample, self._last_held)
+        if self._held and quiet >= self._order_hold:
             while self._held:
                 self._release_one()
 
@@ -229,10 +244,8 @@ class CoreNode(Node):
 
     def wait_acked(self, timeout: float) -> bool:
         """Wait (deadline) until every matched subscriber acknowledged every message."""
-        ok = True
-        for pub in self._pubs.values():
-            ok = pub.wait_for_all_acked(Duration(seconds=timeout)) and ok
-        return ok
+        from cam_metrology.nodes.runtime import wait_all_acked
+        return wait_all_acked(self._pubs.values(), timeout)
 
 
 def _source_ns(info: Any) -> int:

@@ -34,6 +34,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 from cam_metrology.nodes.adapter import declare_parameters
+from cam_metrology.nodes.runtime import publish_retrying, wait_all_acked
 from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, SCENE, TOPICS, TRUTH)
 
 PARAMETERS: dict[str, tuple[Any, str]] = {
@@ -177,18 +178,9 @@ class BenchSimNode(Node):
         left = max(0.1, deadline - time.monotonic())
         return bool(self.pub[SCENE].wait_for_all_acked(Duration(seconds=left)))
 
-    def _publish(self, topic: str, msg: Any, deadline: float) -> None:
-        """Publish, retrying on RCLError (a blocked reliable writer) until ``deadline``."""
-        from rclpy._rclpy_pybind11 import RCLError
-        while True:
-            try:
-                self.pub[topic].publish(msg)
-                return
-            except RCLError:
-                self.publish_errors += 1
-                if time.monotonic() > deadline:
-                    raise
-                time.sleep(0.001)
+    def _publish(self, topic: str, msg: Any) -> None:
+        """Publish, retrying on RCLError (a blocked reliable writer) for up to 5 s."""
+        self.publish_errors += publish_retrying(self.pub[topic], msg, 5.0)
 
     def run(self, max_burst: int = 200, should_stop: Any = None) -> int:
         """Publish every sample when its stamp is due; returns the samples sent."""
@@ -214,24 +206,19 @@ class BenchSimNode(Node):
                 msg.header.stamp.sec = int(secs[i])
                 msg.header.stamp.nanosec = int(nsecs[i])
                 msg.position = [float(theta[i]), float(s[i])]
-                self._publish(JOINT_STATES, msg, time.monotonic() + 5.0)
+                self._publish(JOINT_STATES, msg)
                 k += 1
                 if should_stop is not None and k % 256 == 0 and should_stop():
                     self.sent = k
                     return k
-            self._publish(FEATURE_DONE, String(data=fid), time.monotonic() + 5.0)
+            self._publish(FEATURE_DONE, String(data=fid))
             self.get_logger().info(f'feature {fid} done ({theta.size} samples)')
         self.sent = k
         return k
 
     def wait_acked(self, timeout: float) -> bool:
         """Wait (deadline) until all subscribers acknowledged everything published."""
-        deadline = time.monotonic() + timeout
-        ok = True
-        for pub in self.pub.values():
-            left = max(0.0, deadline - time.monotonic())
-            ok = pub.wait_for_all_acked(Duration(seconds=left)) and ok
-        return ok
+        return wait_all_acked(self.pub.values(), timeout)
 
 
 def run_bench_sim(args: Sequence[str] | None = None,

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any, Callable, TextIO
 
 from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, METROLOGY_REPORT,
-                                        OUTPUT_TOPICS, TOPICS, TRUTH)
+                                        OUTPUT_TOPICS, TOPICS, TRUTH, AdaptiveSubscriptions)
 
 CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
 STATUS_TOPICS = ('/metrology/result', '/reconstruction/result', '/dynamics/result')
@@ -191,7 +191,6 @@ class DemoMonitor:
     """In-process rclpy node that watches progress and collects report and truth."""
 
     def __init__(self, proc: Any, say: Callable[[str], None]) -> None:
-        from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.node import Node
         from std_msgs.msg import String
 
@@ -206,9 +205,14 @@ class DemoMonitor:
         sub(String, FEATURE_DONE, self._on_done, TOPICS[FEATURE_DONE][1].profile())
         sub(String, TRUTH, self._on_truth, TOPICS[TRUTH][1].profile())
         sub(String, METROLOGY_REPORT, self._on_report, TOPICS[METROLOGY_REPORT][1].profile())
+        self._adaptive = AdaptiveSubscriptions(self.node, self._subscribe_status)
         for topic in STATUS_TOPICS:
-            sub(DiagnosticArray, topic, lambda m, t=topic: self._on_status(t, m),
-                TOPICS[topic][1].profile())
+            self._adaptive.add(topic, TOPICS[topic][0])
+
+    def _subscribe_status(self, topic: str, _type: str, qos: Any) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
+        self.node.create_subscription(DiagnosticArray, topic,
+                                      lambda m, t=topic: self._on_status(t, m), qos.profile())
 
     def _on_done(self, msg: Any) -> None:
         self.callbacks_run += 1
@@ -250,12 +254,16 @@ class DemoMonitor:
 
 
 def downstream_subscriptions(core_classes: list[Any]) -> dict[str, int]:
-    """Subscriptions the graph must show on each output topic before the first sample:
-    the recorder (every topic), this monitor (statuses, report) and every core that
-    consumes another core's output (e.g. reconstruction on /metrology/lift)."""
-    need = {topic: 1 for topic in OUTPUT_TOPICS}
+    """Subscriptions the graph must show on each output topic of the cores that run,
+    before the first sample: the recorder, this monitor (statuses, report) and every
+    core that consumes another core's output (e.g. reconstruction on /metrology/lift).
+    Output subscriptions appear once the subscriber has discovered the publisher
+    (``topics.AdaptiveSubscriptions``), so this also waits for that discovery."""
+    published = {t for cls in core_classes for t in getattr(cls, 'publications', {})}
+    need = {topic: 1 for topic in OUTPUT_TOPICS if topic in published}
     for topic in STATUS_TOPICS + (METROLOGY_REPORT,):
-        need[topic] += 1
+        if topic in need:
+            need[topic] += 1
     for cls in core_classes:
         for topic in getattr(cls, 'subscriptions', {}):
             if topic in need:

@@ -5,12 +5,14 @@
   ``serialize_message``, platform.md §4).
 * Topics: the bench inputs (/bench/scene, /bench/truth, /bench/joint_states,
   /bench/feature_done) and every output topic of architecture.md, plus extras
-  (``/topic`` or ``/topic:pkg/msg/Type``; without a type, the type and a compatible
-  QoS are taken from the graph once a publisher appears).
-* QoS per topic from ``topics.TOPICS``: transient local for /bench/scene,
-  /bench/truth and /metrology/report (so a late recorder still gets the latched
-  scene), reliable keep-last 20 000 for samples (``topics.SAMPLES``: a busy machine
-  must not overrun it), reliable depth 100 for outputs.
+  (``/topic`` or ``/topic:pkg/msg/Type``).
+* QoS: the bench topics from ``topics.TOPICS`` (transient local for /bench/scene and
+  /bench/truth, so a late recorder still gets the latched scene; reliable keep-last
+  20 000 for samples, ``topics.SAMPLES``: a busy machine must not overrun it). Output
+  and extra topics are subscribed once a publisher is in the graph, transient local
+  if every publisher offers it (``topics.AdaptiveSubscriptions``, as ``ros2 bag
+  record`` does): our nodes offer their outputs transient local depth 100, so a
+  recorder that matched a node late still records every result.
 * Log time = publication time: the DDS ``source_timestamp`` of the sample (MessageInfo,
   the publisher's clock; same host), falling back to the receive time when absent.
   rosbag2 logs the receive time instead, but ROS orders messages only within a topic,
@@ -37,10 +39,10 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
 from cam_metrology.bagio import BagWriter
-from cam_metrology.nodes.topics import (RESULTS, TOPICS, QosSpec, message_class, qos_of)
+from cam_metrology.nodes.topics import (BENCH_TOPICS, TOPICS, AdaptiveSubscriptions, QosSpec,
+                                        message_class, qos_of)
 
 PARAMETERS: dict[str, tuple[Any, str]] = {
     'output': ('', 'bag directory to create (must not exist); empty: '
@@ -95,24 +97,30 @@ class RecorderNode(Node):
         self.counts: dict[str, int] = {}
         self.callbacks_run = 0
         self._subs: dict[str, Any] = {}
-        self._pending: list[str] = []
+        self._adaptive = AdaptiveSubscriptions(self, self._subscribe_found)
         for topic, type_name in wanted.items():
-            if type_name:
-                self._subscribe(topic, type_name, qos_of(topic))
-            else:
-                self._pending.append(topic)
-        if self._pending:
-            self._resolver = self.create_timer(0.25, self._resolve_pending)
+            if topic in BENCH_TOPICS:
+                self._subscribe(topic, type_name or TOPICS[topic][0], qos_of(topic))
+            else:   # outputs and extras: QoS (and type if not given) from the publishers
+                if type_name:   # in the bag from the start, even with no message
+                    self.writer.add_topic(topic, type_name, qos_of(topic).bag_yaml())
+                self._adaptive.add(topic, type_name, qos_of(topic).depth)
         period = float(params['status_period'])
         if period > 0:
             self._status = self.create_timer(period, self._log_status)
 
+    def _subscribe_found(self, topic: str, type_name: str, qos: QosSpec) -> None:
+        self.get_logger().info(f'recording {topic} ({type_name}, '
+                               f'{"transient local" if qos.transient_local else "volatile"})')
+        self._subscribe(topic, type_name, qos)
+
     def _subscribe(self, topic: str, type_name: str, qos: QosSpec,
                    reader: QosSpec | None = None) -> None:
-        """Record ``topic``: ``qos`` goes into the bag, ``reader`` (default ``qos``) is
-        the subscription's QoS."""
-        self.writer.add_topic(topic, type_name, qos.bag_yaml())
-        self.counts[topic] = 0
+        """Record ``topic``: ``qos`` goes into the bag (unless the topic is registered
+        already), ``reader`` (default ``qos``) is the subscription's QoS."""
+        if not self.writer.has_topic(topic):
+            self.writer.add_topic(topic, type_name, qos.bag_yaml())
+        self.counts.setdefault(topic, 0)
         callback = self._on_message if self._with_info else self._on_message_no_info
         self._subs[topic] = self.create_subscription(
             message_class(type_name), topic, functools.partial(callback, topic),
@@ -131,21 +139,6 @@ class RecorderNode(Node):
         self.writer.write(topic, time.time_ns(), data)
         self.counts[topic] += 1
         self.callbacks_run += 1
-
-    def _resolve_pending(self) -> None:
-        """Subscribe to untyped extra topics once a publisher shows type and QoS."""
-        for topic in list(self._pending):
-            infos = self.get_publishers_info_by_topic(topic)
-            if not infos:
-                continue
-            self._pending.remove(topic)
-            reliable = all(i.qos_profile.reliability == ReliabilityPolicy.RELIABLE
-                           for i in infos)
-            latched = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
-                          for i in infos)
-            self._subscribe(topic, infos[0].topic_type,
-                            QosSpec(reliable, latched, 1 if latched else RESULTS.depth))
-            self.get_logger().info(f'recording {topic} ({infos[0].topic_type})')
 
     def _log_status(self) -> None:
         self.get_logger().info(f'recorded {sum(self.counts.values())} messages: '
@@ -187,7 +180,7 @@ def run_recorder(args: Sequence[str] | None = None, *, output: str | Path | None
         node = proc.add(RecorderNode(context=proc.context, output=output, topics=topics,
                                      with_info=not events_executor))
         if announce:
-            print(f'recording {len(node.counts) + len(node._pending)} topics to '
+            print(f'recording {len(node.counts) + len(node._adaptive.pending)} topics to '
                   f'{node.path} (Ctrl-C to stop)', flush=True)
         proc.spin_until()
         proc.drain(lambda: node.callbacks_run)

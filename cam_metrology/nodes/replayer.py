@@ -22,6 +22,7 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from cam_metrology.nodes.runtime import publish_retrying, wait_all_acked
 from cam_metrology.nodes.topics import TOPICS, message_class
 
 
@@ -90,18 +91,8 @@ class ReplayNode(Node):
         return {t: p.get_subscription_count() for t, p in self.pubs.items()}
 
     def _publish(self, topic: str, data: bytes, stats: ReplayStats, timeout: float) -> None:
-        from rclpy._rclpy_pybind11 import RCLError
-        deadline = time.monotonic() + timeout
-        while True:
-            try:
-                self.pubs[topic].publish(data)
-                stats.counts[topic] = stats.counts.get(topic, 0) + 1
-                return
-            except RCLError:
-                stats.retries += 1
-                if time.monotonic() > deadline:
-                    raise
-                time.sleep(0.0005)
+        stats.retries += publish_retrying(self.pubs[topic], data, timeout)
+        stats.counts[topic] = stats.counts.get(topic, 0) + 1
 
     def play(self, rate: float = 1.0, wait_subscribers: int = 1, match_timeout: float = 10.0,
              should_stop: Callable[[], bool] | None = None,
@@ -160,12 +151,7 @@ class ReplayNode(Node):
 
     def wait_acked(self, timeout: float) -> bool:
         """Wait (deadline) until every subscriber acknowledged every message."""
-        deadline = time.monotonic() + timeout
-        ok = True
-        for pub in self.pubs.values():
-            left = max(0.0, deadline - time.monotonic())
-            ok = pub.wait_for_all_acked(Duration(seconds=left)) and ok
-        return ok
+        return wait_all_acked(self.pubs.values(), timeout)
 
 
 def _chain(first: list[Any], rest: Any) -> Any:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -50,7 +50,11 @@ LATCHED = QosSpec(reliable=True, transient_local=True, depth=1)
 #: are 10 s of slack at 2 kHz.
 SAMPLES = QosSpec(reliable=True, transient_local=False, depth=20000)
 EVENTS = QosSpec(reliable=True, transient_local=False, depth=10)
-RESULTS = QosSpec(reliable=True, transient_local=False, depth=100)
+#: node outputs: reliable depth 100 as in architecture.md, offered *transient local*
+#: (compatible with every volatile subscriber): a subscriber that matches late, e.g. the
+#: recorder on a loaded machine where discovery between two nodes took seconds and a
+#: demo bag missed every /metrology/result, still gets the last 100 messages.
+RESULTS = QosSpec(reliable=True, transient_local=True, depth=100)
 
 STRING = 'std_msgs/msg/String'
 TABLE = 'std_msgs/msg/Float64MultiArray'
@@ -101,3 +105,46 @@ def message_class(type_name: str) -> Any:
 def type_name_of(cls: Any) -> str:
     """``pkg/msg/Type`` of an rclpy message class."""
     return f'{cls.__module__.split(".")[0]}/msg/{cls.__name__}'
+
+
+def offered_qos(node: Any, topic: str, depth: int) -> tuple[str, QosSpec] | None:
+    """(type, QoS compatible with every publisher now in the graph) or None if none:
+    transient local only if all publishers offer it, reliable only if all do."""
+    infos = node.get_publishers_info_by_topic(topic)
+    if not infos:
+        return None
+    reliable = all(i.qos_profile.reliability == ReliabilityPolicy.RELIABLE for i in infos)
+    latched = all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
+    return infos[0].topic_type, QosSpec(reliable, latched, depth)
+
+
+class AdaptiveSubscriptions:
+    """Subscribe to topics once a publisher is in the graph, with a matching QoS.
+
+    What ``ros2 bag record`` does: a transient-local subscription would not match a
+    volatile publisher, and a volatile one gets no history from a transient-local
+    publisher, so the durability is chosen from the publishers' offered QoS. Polled
+    every 0.1 s by a timer of ``node``; ``subscribe(topic, type, qos)`` does the work.
+    """
+
+    def __init__(self, node: Any, subscribe: Callable[[str, str, QosSpec], None]) -> None:
+        self.node = node
+        self.pending: dict[str, tuple[str | None, int]] = {}
+        self._subscribe = subscribe
+        self._timer: Any = None
+
+    def add(self, topic: str, type_name: str | None = None, depth: int = 100) -> None:
+        """Subscribe to ``topic`` when it has a publisher (type from the graph if None)."""
+        self.pending[topic] = (type_name, depth)
+        if self._timer is None:
+            self._timer = self.node.create_timer(0.1, self.poll)
+        self.poll()
+
+    def poll(self) -> None:
+        """Subscribe to every pending topic that has publishers now."""
+        for topic, (type_name, depth) in list(self.pending.items()):
+            found = offered_qos(self.node, topic, depth)
+            if found is None:
+                continue
+            del self.pending[topic]
+            self._subscribe(topic, type_name or found[0], found[1])
