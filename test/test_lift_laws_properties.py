@@ -236,3 +236,44 @@ def test_dual_peak_properties(start: float, alpha4: float, frac: float, h_a: flo
     ends = [j for j in law.junction_report
             if min(abs(j.alpha - cut), abs(j.alpha - cut - alpha4)) < 1e-12]
     assert len(ends) == 2 and all(j.achieved >= 2 for j in ends)
+
+
+def test_garbage_in_every_parameter_of_every_docs_example() -> None:
+    """Stress: each parameter of each docs/lift_laws.md example replaced by None, text,
+    a negative, zero, 1e300, NaN, a list or a mapping: from_spec either builds
+    a law or raises InputError - never another exception, never a non-finite law."""
+    import copy
+    import re
+    from pathlib import Path
+
+    import yaml
+
+    text = (Path(__file__).resolve().parent.parent / 'docs' / 'lift_laws.md').read_text()
+    specs = [yaml.safe_load(b)['lift_law']
+             for b in re.findall(r'```yaml\n(.*?)```', text, re.S) if 'lift_law' in b]
+    bad = [None, 'abc', -1, 0, 1e300, float('nan'), [], {'x': 1}]
+
+    def paths(d: object, pre: tuple = ()) -> list[tuple]:
+        out: list[tuple] = []
+        items = d.items() if isinstance(d, dict) else (
+            enumerate(d) if isinstance(d, list) else ())
+        for k, v in items:
+            out.append(pre + (k,))
+            if not (isinstance(d, list) and len(d) > 3):   # long numeric lists: once
+                out.extend(paths(v, pre + (k,)))
+        return out
+
+    for spec in specs:
+        for path in paths(spec):
+            for value in bad:
+                s = copy.deepcopy(spec)
+                node = s
+                for k in path[:-1]:
+                    node = node[k]
+                node[path[-1]] = value
+                try:
+                    law = from_spec(s, 'L')
+                except InputError:
+                    continue
+                a = np.linspace(*law.support, 101)
+                assert np.all(np.isfinite(law.derivatives(a))), (path, value)

@@ -203,7 +203,7 @@ def _flank(spec: Mapping, key: str, ramp: Ramp, rise: float) -> Flank:
         P.reject_unknown(item, k, ('shape', 'width', 'coefficients'))
         shape = P.choice(item, k, 'shape', SHAPES)
         poly = tuple(P.numbers(item, k, 'coefficients')) if shape == 'polynomial' else ()
-        shapes.append((shape, P.positive(item, k, 'width'), poly))
+        shapes.append((shape, P.angle(item, k, 'width'), poly))
     ratios = []
     for i, r in enumerate(spec.get('ratios') or []):
         if not (isinstance(r, Sequence) and len(r) == 3):
@@ -212,7 +212,7 @@ def _flank(spec: Mapping, key: str, ramp: Ramp, rise: float) -> Flank:
     cont = int(P.finite(spec, key, 'continuity', 2))
     half = None
     if P.get(spec, key, 'free_widths', False) is True:
-        half = P.positive(spec, key, 'half_angle')
+        half = P.angle(spec, key, 'half_angle')
     elif spec.get('half_angle') is not None:
         raise InputError(f'{key}.half_angle', spec['half_angle'],
                          'no half_angle unless free_widths: true (the widths sum to it)')
@@ -245,9 +245,9 @@ def constant_acceleration_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
 
 
 def _ca_flank(spec: Mapping, key: str, ramp: Ramp, rise: float) -> Flank:
-    alpha0 = P.positive(spec, key, 'half_angle')
-    phi1 = P.positive(spec, key, 'positive_width')
-    phi3 = P.positive(spec, key, 'nose_width', 0.0, allow_zero=True)
+    alpha0 = P.angle(spec, key, 'half_angle')
+    phi1 = P.angle(spec, key, 'positive_width')
+    phi3 = P.angle(spec, key, 'nose_width', 0.0, allow_zero=True)
     if phi1 + phi3 >= alpha0:
         raise InputError(f'{key}.positive_width', phi1,
                          f'positive_width + nose_width < half_angle ({alpha0:.6g} rad)')

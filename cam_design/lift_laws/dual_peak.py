@@ -72,7 +72,7 @@ def dual_peak_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
         raise InputError(f'{key}.ramp', spec.get('ramp'),
                          'a main ramp (the connection starts on it)')
     rise = P.positive(spec, key, 'rise')
-    alpha0 = P.positive(spec, key, 'half_angle')
+    alpha0 = P.angle(spec, key, 'half_angle')
     exps = P.integers(spec, key, 'exponents', [2, 6, 10, 14])
     main = polynomial_flank(ramp1, rise, alpha0, exps, key=key)
     t_main = main.length
@@ -84,7 +84,7 @@ def dual_peak_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
     ck = f'{key}.connection'
     conn = P.mapping(P.get(spec, key, 'connection'), ck)
     P.reject_unknown(conn, ck, ('start', 'angle', 'point_angle', 'point_lift'))
-    start = P.positive(conn, ck, 'start')
+    start = P.angle(conn, ck, 'start')
     if start >= ramp1.angle:
         raise InputError(f'{ck}.start', start,
                          f'a point on the main descending ramp, 0 < start < {ramp1.angle:.6g} rad')
@@ -110,11 +110,11 @@ def dual_peak_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
         raise InputError(f'{sk}.velocity', v5, f'v5 = v6 = {ramp6.velocity:.9g} m/rad '
                          '(otherwise h\' jumps where h5 meets h6)')
     h5_rise = P.positive(sec, sk, 'rise')
-    a5 = P.positive(sec, sk, 'half_angle')
+    a5 = P.angle(sec, sk, 'half_angle')
     exps5 = P.integers(sec, sk, 'exponents', [2, 6, 10, 14])
 
-    alpha4 = P.positive(conn, ck, 'angle')
-    alpha_a = P.positive(conn, ck, 'point_angle', alpha4 / 2)
+    alpha4 = P.angle(conn, ck, 'angle')
+    alpha_a = P.angle(conn, ck, 'point_angle', alpha4 / 2)
     if alpha_a >= alpha4:
         raise InputError(f'{ck}.point_angle', alpha_a, f'0 < point_angle < angle ({alpha4:.6g})')
     h_a = P.positive(conn, ck, 'point_lift')

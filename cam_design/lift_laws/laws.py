@@ -1,6 +1,7 @@
 """Spec handling shared by the flank families; the polynomial and table families."""
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Mapping
 
 from cam_design.errors import InputError
@@ -68,7 +69,7 @@ def flanked_lobe(spec: Mapping, key: str, names: tuple[str, ...], build: FlankBu
 
 
 def _polynomial_flank(spec: Mapping, key: str, ramp: Ramp, rise: float) -> Flank:
-    return polynomial_flank(ramp, rise, P.positive(spec, key, 'half_angle'),
+    return polynomial_flank(ramp, rise, P.angle(spec, key, 'half_angle'),
                             P.integers(spec, key, 'exponents', [2, 6, 10, 14]), key=key)
 
 
@@ -81,4 +82,8 @@ def polynomial_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
 def table_from_spec(spec: Mapping, key: str) -> LiftLaw:
     """``family: table``: ``alpha`` [rad] and ``h`` [m] lists (TabulatedLift)."""
     P.reject_unknown(spec, key, ('alpha', 'h'))
-    return TabulatedLift(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'), key=key)
+    alpha = P.numbers(spec, key, 'alpha')
+    if any(abs(a) > math.pi + 1e-12 for a in alpha):
+        raise InputError(f'{key}.alpha', [a for a in alpha if abs(a) > math.pi][0],
+                         'angles within -pi .. pi rad (alpha is wrapped)')
+    return TabulatedLift(alpha, P.numbers(spec, key, 'h'), key=key)

@@ -1,6 +1,7 @@
 """Parameter access for lift-law specs: every error names ``key.param``."""
 from __future__ import annotations
 
+import math
 from typing import Any, Mapping, Sequence
 
 from cam_design.errors import InputError, require_finite, require_positive
@@ -29,6 +30,15 @@ def positive(spec: Mapping, key: str, name: str, default: Any = MISSING, *,
     """A finite number > 0 (>= 0 with ``allow_zero``)."""
     return require_positive(f'{key}.{name}', get(spec, key, name, default),
                             allow_zero=allow_zero)
+
+
+def angle(spec: Mapping, key: str, name: str, default: Any = MISSING, *,
+          allow_zero: bool = False, limit: float = math.pi) -> float:
+    """An angle [rad] in (0, limit] ([0, limit] with ``allow_zero``); default limit pi."""
+    out = positive(spec, key, name, default, allow_zero=allow_zero)
+    if out > limit:
+        raise InputError(f'{key}.{name}', out, f'an angle <= {limit:.6g} rad')
+    return out
 
 
 def finite(spec: Mapping, key: str, name: str, default: Any = MISSING) -> float:
@@ -67,7 +77,7 @@ def choice(spec: Mapping, key: str, name: str, options: Sequence[str],
            default: Any = MISSING) -> str:
     """One of ``options``."""
     raw = get(spec, key, name, default)
-    if raw not in options:
+    if not any(raw == o and type(raw) is type(o) for o in options):
         raise InputError(f'{key}.{name}', raw, 'one of ' + ', '.join(map(str, options)))
     return raw
 

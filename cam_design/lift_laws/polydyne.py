@@ -62,6 +62,8 @@ class Train:
     def from_spec(cls, spec: Mapping, key: str) -> 'Train':
         """Read the valve-train parameters (design speed in cam rpm)."""
         rpm = P.positive(spec, key, 'design_cam_speed_rpm')
+        if rpm > 1e5:
+            raise InputError(f'{key}.design_cam_speed_rpm', rpm, 'a cam speed <= 1e5 rpm')
         return cls(P.positive(spec, key, 'rocker_ratio'),
                    P.positive(spec, key, 'lash', allow_zero=True),
                    P.positive(spec, key, 'mass'), P.positive(spec, key, 'stiffness'),
@@ -185,7 +187,7 @@ def polydyne_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
         if v_r > 0:
             raise InputError(f'{key}.ramp_velocity', v_r,
                              '0 with an explicit valve_motion (its start is used as is)')
-        angle = P.positive(vm, vk, 'angle')
+        angle = P.angle(vm, vk, 'angle')
         raw = P.get(vm, vk, 'coefficients')
         coeffs = []
         for i, pair in enumerate(raw if isinstance(raw, list) else [None]):
@@ -195,7 +197,7 @@ def polydyne_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
         seg = PowerSegment(0.0, angle, 0.0, angle, coefficients=tuple(coeffs))
         return polydyne_law([seg], train, key=key, nose_required=1)
     seg = practical_valve_motion(train, P.positive(spec, key, 'valve_lift'),
-                                 P.positive(spec, key, 'half_angle'), v_r,
+                                 P.angle(spec, key, 'half_angle'), v_r,
                                  P.integers(spec, key, 'exponents', [2, 6, 10, 14, 18]),
                                  start, key=key)
     return polydyne_law([seg], train, key=key, ramp=ramp, ramp_required=ramp_required)

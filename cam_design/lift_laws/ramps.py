@@ -114,7 +114,7 @@ def ramp_from_spec(spec: Any, key: str, *, default_kind: str | None = None) -> R
     P.reject_unknown(spec, key, ('kind', 'height', 'velocity', 'angle'))
     return acceleration_velocity_ramp(P.positive(spec, key, 'height'),
                                       P.positive(spec, key, 'velocity'),
-                                      P.positive(spec, key, 'angle'), key=key)
+                                      P.angle(spec, key, 'angle'), key=key)
 
 
 def ramp_spec_example() -> Mapping[str, Any]:

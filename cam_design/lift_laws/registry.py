@@ -63,7 +63,7 @@ def from_spec(spec: Mapping, key: str = 'lift_law') -> LiftLaw:
     """Build a lift law from ``{family: NAME, ...}`` (see docs/lift_laws.md)."""
     spec = P.mapping(spec, key)
     family = spec.get('family')
-    if family not in FAMILIES:
+    if not isinstance(family, str) or family not in FAMILIES:
         raise InputError(f'{key}.family', family, 'one of ' + ', '.join(sorted(FAMILIES)))
     module, func = FAMILIES[family].split(':')
     builder: Callable[[Mapping, str], LiftLaw] = getattr(importlib.import_module(module), func)
@@ -75,7 +75,7 @@ def preset_spec(name: str, key: str = 'lift_law.name') -> dict[str, Any]:
     """A deep copy of the preset's spec."""
     import copy
 
-    if name not in PRESETS:
+    if not isinstance(name, str) or name not in PRESETS:
         raise InputError(key, name, 'one of ' + ', '.join(sorted(PRESETS)))
     return copy.deepcopy(PRESETS[name])
 
