@@ -82,6 +82,15 @@ def make_no_pin(out: Path) -> Any:
     return write_sim_bag(out, scene, params)   # the uncompressed fixture
 
 
+def make_runout(out: Path) -> Any:
+    scene = fixture_scene(REPO / 'config' / 'default_scene.yaml',
+                          'default scene (run-out and encoder noise)')
+    params = SimParams(samples_per_rev=1800, probe_noise=0.5e-6,
+                       encoder_noise=math.radians(2.0 / 3600.0), runout=3e-6,
+                       start_theta=math.radians(123.0), seed=5)
+    return write_sim_bag(out, scene, params, compression=True)
+
+
 def make_irregular(out: Path) -> Any:
     """Default scene written as another program might: see bags/README.md."""
     scene = fixture_scene(REPO / 'config' / 'default_scene.yaml',
@@ -141,6 +150,7 @@ FIXTURES: dict[str, tuple[Callable[[Path], Any], str]] = {
                                      'direction -1, 1 um noise, 2 rev, wrapped'),
     'no_pin_no_valve_train': (make_no_pin, 'two lobes, no pin, no valve_train'),
     'irregular': (make_irregular, 'NaN, duplicates, out of order, extra/swapped joints'),
+    'runout_encoder_noise': (make_runout, '3 um run-out, 2 arcsec encoder noise'),
 }
 
 
