@@ -112,6 +112,15 @@ def flat_tappet_curvature(h: ArrayLike, h2: ArrayLike, base_radius: float) -> ND
     return r0 + _arr('h', h) + _arr('h2', h2)
 
 
+def _finite_stress(sigma: NDArray) -> NDArray:
+    """The stress, or InputError if the inputs overflowed it."""
+    with np.errstate(invalid='ignore'):
+        if not np.all(np.isfinite(sigma)):
+            raise InputError('force', 'a non-finite stress',
+                             'force, width, radii and moduli of physical size')
+    return sigma
+
+
 def _curvature_sum(rho1: ArrayLike, rho2: ArrayLike) -> NDArray:
     """1/|rho1| + 1/rho2 (rho2 signed: inf = flat, < 0 = concave), clipped at 0."""
     r1 = np.abs(_arr('rho1', rho1))
@@ -140,7 +149,7 @@ def hertz_stress(force: ArrayLike, width: float, rho1: ArrayLike, rho2: ArrayLik
     f = np.maximum(_arr('force', force), 0.0)
     curv = _curvature_sum(rho1, rho2)
     comp = (1 - mu1 ** 2) / e1 + (1 - mu2 ** 2) / e2
-    return HERTZ_GENERAL * np.sqrt(f * curv / (comp * w))
+    return _finite_stress(HERTZ_GENERAL * np.sqrt(f * curv / (comp * w)))
 
 
 def hertz_stress_steel(force: ArrayLike, width: float, rho1: ArrayLike,
@@ -154,7 +163,7 @@ def hertz_stress_steel(force: ArrayLike, width: float, rho1: ArrayLike,
     em = 2 * e1 * e2 / (e1 + e2)
     f = np.maximum(_arr('force', force), 0.0)
     curv = _curvature_sum(rho1, rho2)
-    return HERTZ_STEEL * np.sqrt(em * f * curv / w)
+    return _finite_stress(HERTZ_STEEL * np.sqrt(em * f * curv / w))
 
 
 # ---------------------------------------------------------------- forces (2.8-2.10)
@@ -194,8 +203,11 @@ def inertia_force(h2: ArrayLike, mass: float, omega: float) -> NDArray:
 
 
 def rpm_to_omega(rpm: float, key: str = 'cam_speed_rpm') -> float:
-    """Camshaft speed [rpm] -> omega [rad/s]."""
-    return require_positive(key, rpm) * 2 * math.pi / 60
+    """Camshaft speed [rpm] -> omega [rad/s] (at most 1e5 rpm)."""
+    value = require_positive(key, rpm)
+    if value > 1e5:
+        raise InputError(key, rpm, 'a camshaft speed <= 1e5 rpm')
+    return value * 2 * math.pi / 60
 
 
 @dataclasses.dataclass(frozen=True)

@@ -281,3 +281,33 @@ def test_ramp_events_case_18() -> None:
     assert not low.on_constant_velocity
     with pytest.raises(InputError, match='lash'):
         C.ramp_events(law, 1.5, 20 * MM, 250.0, 1.2e7, 100.0)
+
+
+def test_garbage_in_every_check_input() -> None:
+    """Stress: every parameter of a full check input replaced by None, text, negative,
+    zero, 1e300, NaN, a list or a mapping: InputError, or finite results only."""
+    import copy
+
+    law = from_spec(PRESETS['flat_tappet_intake'], 'l')
+    cfg0 = {'base_radius': 16.5 * MM, 'rocker_ratio': 1.0, 'lash': 0.2 * MM,
+            'cam_speed_rpm': 3000, 'stiffness': 5e6, 'follower': {'kind': 'flat'},
+            'valve': {'seat_diameter': 0.03, 'seat_angle': 45 * D, 'seat_width': 1.5 * MM},
+            'spring': {'preload': 250.0, 'rate': 3e4},
+            'masses': {'valve': 0.045, 'spring': 0.04, 'retainer': 0.012, 'tappet': 0.05},
+            'contact': {'width': 0.012}, 'lubrication': {'k_film': 1e-4},
+            'piston': {'crank_radius': 0.04, 'rod_length': 0.14, 'clearance': 1.2 * MM,
+                       'opening_crank_angle': -18 * D}}
+    paths = [(k,) for k in cfg0] + [(k, j) for k, v in cfg0.items() if isinstance(v, dict)
+                                    for j in v]
+    for path in paths:
+        for value in (None, 'abc', -1, 0, 1e300, float('nan'), [], {'x': 1}):
+            cfg = copy.deepcopy(cfg0)
+            node = cfg
+            for k in path[:-1]:
+                node = node[k]
+            node[path[-1]] = value
+            try:
+                out = C.run_checks(law, cfg, samples=361)
+            except InputError:
+                continue
+            assert all(math.isfinite(v) for v in out.values() if isinstance(v, float)), path
