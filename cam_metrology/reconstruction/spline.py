@@ -201,6 +201,8 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
         raise InputError('gain', gain, 'a fraction in (0, 1]')
     require_positive('cap', cap)
     op = ReboundOperator(alpha)
+    x_arr = op.alpha
+    coarse = float(np.median(op.h)) > math.radians(0.75)
     y = np.asarray(lift, dtype=float).copy()
     n = y.size
     r = op.rebound(y)
@@ -228,9 +230,17 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
         if not np.any(big):
             sweeps -= 1
             break
-        padded = np.concatenate([np.zeros(2), a, np.zeros(2)])
-        window = np.lib.stride_tricks.sliding_window_view(padded, 5)
-        cand = np.nonzero(big & (a >= window.max(axis=1)))[0]
+        # candidates: local maxima of |r|/tol. On coarse tables (steps > 0.75 deg) the
+        # cubic spline's own interpolation error on the flanks exceeds the noise, so
+        # each candidate must be confirmed by a local quintic leave-one-out prediction
+        # (which follows the lift); a rejected maximum is vetoed and the next tried.
+        if coarse:
+            cand = _confirmed_candidates(x_arr, y, a, big, outlier, threshold * sigma, floor)
+        else:
+            cand = np.flatnonzero(big & _local_maxima(a))
+        if cand.size == 0:
+            sweeps -= 1
+            break
         step = gain * r[cand]
         too_far = np.abs(corr[cand] + step) > cap_m
         drop = cand[too_far]
@@ -241,6 +251,79 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
         corr[keep] += step[~too_far]
         r = op.rebound(y)
     return Fairing(y, outlier, corr, r0, float(sigma), float(tol), sweeps)
+
+
+def _local_maxima(a: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """a_i > 0 and a_i is the largest within +-2 samples."""
+    padded = np.concatenate([np.zeros(2), a, np.zeros(2)])
+    window = np.lib.stride_tricks.sliding_window_view(padded, 5)
+    return (a > 0) & (a >= window.max(axis=1))
+
+
+def _confirmed_candidates(x: NDArray[np.float64], y: NDArray[np.float64],
+                          a: NDArray[np.float64], big: NDArray[np.bool_],
+                          excluded: NDArray[np.bool_], tol: float,
+                          floor: float) -> NDArray[np.int64]:
+    """Indices to move this sweep: confirmed local maxima of ``a`` among ``big``."""
+    score = np.where(big, a, 0.0)
+    chosen: list[int] = []
+    for _ in range(4):
+        cand = np.flatnonzero(_local_maxima(score))
+        if cand.size == 0:
+            break
+        ok = _quintic_confirms(x, y, cand, excluded, tol, floor)
+        chosen += [int(i) for i in cand[ok]]
+        score[cand] = 0.0                   # confirmed: taken; rejected: vetoed
+        if np.all(ok):
+            break
+    return np.array(sorted(chosen), dtype=np.int64)
+
+
+def _quintic_loo(x: NDArray[np.float64], y: NDArray[np.float64], usable: NDArray[np.int64],
+                 i: int, skip: tuple[int, ...]) -> tuple[float, float] | None:
+    """(|y_i - p(x_i)|, sqrt(1 + sum w^2)) for a degree-5 polynomial p through six of the
+    seven usable samples nearest to i other than ``skip``: the subset that predicts y_i
+    best, so that one more spike among the neighbours does not spoil the test. None if
+    there are not seven such samples."""
+    pos = int(np.searchsorted(usable, i))
+    lo = max(0, min(pos - 7, usable.size - 15))
+    near = [int(j) for j in usable[lo:lo + 15] if j not in skip]
+    idx = np.array(sorted(near, key=lambda j: abs(j - i))[:7])
+    if idx.size < 7:
+        return None
+    xs = (x[idx] - x[i]) / max(float(np.ptp(x[idx])), 1e-300)
+    subsets = np.array([[k for k in range(7) if k != drop] for drop in range(7)])
+    vander = np.vander(xs, 6, increasing=True)[subsets]          # (7, 6, 6)
+    try:
+        weights = np.linalg.solve(np.transpose(vander, (0, 2, 1)),
+                                  np.broadcast_to(np.eye(6)[0], (7, 6))[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        return None
+    resid = np.abs(y[i] - np.einsum('sk,sk->s', weights, y[idx][subsets]))
+    best = int(np.argmin(resid))
+    return float(resid[best]), math.sqrt(1.0 + float(weights[best] @ weights[best]))
+
+
+def _quintic_confirms(x: NDArray[np.float64], y: NDArray[np.float64],
+                      cand: NDArray[np.int64], excluded: NDArray[np.bool_], tol: float,
+                      floor: float) -> NDArray[np.bool_]:
+    """For each candidate i: does y_i differ from the local quintic leave-one-out
+    prediction by more than ``tol`` x its noise factor, than ``floor``, and than 4 x
+    the same prediction error at its neighbours (i +- 1, i +- 2, each without i)? The
+    last test tells a spike from lift that the sampling does not resolve."""
+    ok = np.ones(cand.size, dtype=bool)
+    usable = np.flatnonzero(~excluded)
+    others = tuple(int(c) for c in cand)          # other candidates stay out of stencils
+    for k, i in enumerate(cand):
+        own = _quintic_loo(x, y, usable, int(i), others)
+        if own is None:
+            continue
+        local = [_quintic_loo(x, y, usable, j, (j,) + others)
+                 for j in (i - 2, i - 1, i + 1, i + 2)
+                 if 0 <= j < x.size and not excluded[j] and j not in others]
+        scale = float(np.median([v[0] for v in local if v is not None] or [0.0]))
+        ok[k] = own[0] > max(tol * own[1], floor, 4.0 * scale)
+    return ok
 
 
 @dataclass(frozen=True)
