@@ -274,3 +274,25 @@ def test_replay_of_a_bare_mcap_file(tmp_path):
     run_offline(bag, [Source(a), Mid(a), Sink(a)])
     run_offline(bare, [Source(b), Mid(b), Sink(b)])
     assert a == b
+
+
+def test_write_outputs_bag_decodes_with_mcap_alone(tmp_path):
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    bag = tmp_path / 'bag'
+    _bag(bag)
+    res = run_offline(bag, [Source([]), Mid([]), Sink([])])
+    out = tmp_path / 'out'
+    write_outputs(res, out)
+    (path,) = out.glob('*.mcap')
+    with open(path, 'rb') as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        got = {}
+        for _, ch, _, msg in reader.iter_decoded_messages():
+            got.setdefault(ch.topic, []).append(msg)
+    assert [m.layout.dim[0].label for m in got[PROFILE]] == ['lobe_1/spline', 'lobe_2/spline']
+    np.testing.assert_allclose(np.reshape(got[PROFILE][1].data, (5, 2)),
+                               2 * np.array([[1.0 + 0.1 * i, 1e-3 * i] for i in range(5)]))
+    assert [s.name for s in got[RESULT][0].status] == ['lobe_1/spline', 'lobe_2/spline']
+    assert got['/metrology/report'][0].data == '{"done": 10}'
