@@ -9,24 +9,28 @@ Pipeline (``reconstruct_spline``):
    J(S) = Q gamma and J_i(L_i) = (Q T^-1 Q^T)_ii (Reinsch's Q, T). The band of T^-1
    comes from the LDL^T factors (LAPACK dpttrf) by Takahashi's recurrences,
    evaluated as a vectorised affine scan: O(N) per sweep.
-2. **Fairing**: in each sweep, interior points whose |r_i| exceeds
-   ``threshold`` robust standard deviations of r (and is the local maximum within
-   +-2 points) are moved by ``gain * r_i``; a point whose cumulative move would exceed
+2. **Fairing**: in each sweep, interior points whose |r_i| exceeds ``threshold``
+   noise standard deviations times the point's rebound noise factor (1.524 on uniform
+   knots, estimated per point on uneven ones), and is the local maximum within +-2
+   points, are moved by ``gain * r_i``; a point whose cumulative move would exceed
    ``cap`` noise standard deviations is declared an outlier, replaced by its
-   leave-one-out value and given zero weight. Sweeps repeat until no point exceeds
-   the tolerance.
+   leave-one-out value and given zero weight. On tables coarser than 0.75 deg a local
+   quintic leave-one-out prediction must confirm each candidate. Sweeps repeat until
+   no point exceeds the tolerance.
 3. **Quintic smoothing**: the faired values on a uniform grid are smoothed with the
    discrete quintic smoothing spline (penalty on third differences, the discrete
-   form of the integral of h'''^2; reflective ends), which the DCT-II diagonalises:
-   eigenvalues mu_k^3 with mu_k = 2 - 2 cos(pi k / n). The smoothing level is chosen
-   automatically by GCV (default) or by minimising an unbiased estimate of the
-   *acceleration* error (SURE, noise from the upper half of the spectrum), or set by
-   the caller. Missing grid nodes (gaps, outliers) get zero weight in an exact banded
-   solve (``smooth_grid``). A quintic (k = 5) interpolating spline through the
-   smoothed values gives h..h''' with h''' continuous.
+   form of the integral of h'''^2; reflective ends, or free end nodes for a table
+   that ends on a flank), which the DCT-II diagonalises: eigenvalues mu_k^3 with
+   mu_k = 2 - 2 cos(pi k / n). The smoothing level is chosen automatically by GCV
+   (default) or by minimising an unbiased estimate of the *acceleration* error
+   (SURE, noise from the upper half of the spectrum), or set by the caller. Missing
+   grid nodes (gaps, outliers) get zero weight in an exact banded solve
+   (``smooth_grid``). A quintic (k = 5) interpolating spline through the smoothed
+   values gives h..h''' with h''' continuous. Uneven samples are fitted directly by
+   a quintic P-spline on uniform knots (``_pspline``).
 4. **Sign pattern** of h'' (methods §5.1 step 3): significant sign changes above
-   the expected count (2 for a single lobe) raise the smoothing (x4, at most 5 times);
-   if that does not help, a warning says so.
+   the expected count (2 for a single lobe, or the design's) raise the smoothing (x4,
+   at most 5 times) while the fit still follows the data; otherwise a warning.
 """
 from __future__ import annotations
 
