@@ -39,6 +39,7 @@ _FACT = np.array([math.factorial(j) for j in range(NB)], dtype=float)
 _SUB = math.pi / 4.0          # max |lambda| * sub-step
 _TAYLOR = 22                  # order of the local Taylor series ((pi/4)^22/22! ~ 1e-23)
 _MAX_EVENTS = 20000
+BOUNCE_TOL = 1e-9             # m: smallest bounce (height bound) that is counted
 CONTACT, SEAT = 1, 2          # regime bits: cam contact, seat contact (held if hard seat)
 
 
@@ -443,15 +444,15 @@ def _bracket(fun: Any, a: float, b: float, fa: float, fb: float) -> tuple[float,
 class _Run:
     """One simulation: state machine over the steps of a CamInput."""
 
-    def __init__(self, model: _Model, cam: CamInput, bounce_tol: float) -> None:
+    def __init__(self, model: _Model, cam: CamInput) -> None:
         self.model = model
         self.cam = cam
         self.lt = cam.lengths / model.omega
-        self.bounce_tol = bounce_tol
         self.ev = Events()
         self.seated_once = False
         self.opened = False
         self.sep_open: list[float] | None = None
+        self.stop_after_bounce = False
 
     # -- regimes -----------------------------------------------------------------
     def initial(self) -> tuple[tuple[float, float], int]:
@@ -629,12 +630,20 @@ class _Run:
         self._reopen(alpha)
         return CONTACT
 
-    def _reopen(self, alpha: float) -> None:
+    def _reopen(self, alpha: float, v_up: float = math.inf) -> None:
+        """Lift-off at ``alpha`` with velocity ``v_up`` [m/s]: the opening, or a bounce
+        if after the first seating and its free-flight height bound M v^2 / (2 F0)
+        reaches ``BOUNCE_TOL`` (reopenings of 1e-10 m on the penalty seat at crawl
+        speed are not reported as bounces)."""
         if not self.opened:
             self.opened = True
             self.ev.opening = alpha
         elif self.seated_once:
-            self.ev.bounce_count += 1
+            p = self.model.p
+            height = (p.mass * v_up * v_up / (2 * p.spring_preload)
+                      if p.spring_preload > 0 else math.inf)
+            if height >= BOUNCE_TOL:
+                self.ev.bounce_count += 1
 
     def _first_switch(self, r: int, cy: NDArray, u_loc: NDArray,
                       ds: float) -> tuple[float, float, int] | None:
@@ -727,10 +736,10 @@ class _Run:
                 if held_inside >= 0:
                     return (0.0, 0.0), SEAT
                 return (0.0, 0.0), r
-            self._reopen(alpha)
+            self._reopen(alpha, v_new)
             return (0.0, v_new), r
         if r & SEAT:            # leaves the seat
-            self._reopen(alpha)
+            self._reopen(alpha, v)
             return z, r & ~SEAT
         self._seat(alpha, -v)
         ev.impacts.append((alpha, -v))
@@ -758,6 +767,9 @@ class _Run:
         k = 0
         chunk = 16
         while k < n:
+            if self.stop_after_bounce and self.seated_once and len(self.ev.impacts) >= 2:
+                ys[k + 1:], vs[k + 1:], rs[k + 1:] = np.nan, np.nan, -1
+                break
             want = min(chunk, n - k)
             clean, states = self.bulk(k, z, r, want)
             if clean:
@@ -778,41 +790,48 @@ class _Run:
 
 
 def simulate(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 0.1,
-             max_revolutions: int = 4, bounce_tol: float = 1e-9,
-             periodic_tol: float = 1e-10) -> SdofResult:
+             max_revolutions: int = 4, periodic_tol: float = 1e-10) -> SdofResult:
     """Simulate the valve at ``rpm`` (camshaft) until periodic; solution of the last
     revolution on nodes every ``step_deg`` (plus the law's junctions).
 
     Periodic steady state: revolutions are repeated (at most ``max_revolutions``)
     until the state at the start node repeats within ``periodic_tol`` m (and the
-    velocity within periodic_tol * omega_n). ``bounce_tol`` [m]: reopenings after the
-    first seating lower than this are not counted as bounces.
+    velocity within periodic_tol * omega_n). A reopening after the first seating counts
+    as a bounce when its free-flight height bound M v^2/(2 F0) is >= BOUNCE_TOL (1e-9 m);
+    ``bounce_height`` is the largest lift after the first seating, sampled at the nodes.
     """
     if not isinstance(law, LiftLaw):
         raise InputError('lift', type(law).__name__, 'a cam_design LiftLaw')
     omega = omega_of_rpm(rpm)
     step = math.radians(require_positive('step_deg', step_deg))
-    require_positive('bounce_tol', bounce_tol, allow_zero=True)
     if int(max_revolutions) < 1:
         raise InputError('max_revolutions', max_revolutions, 'an integer >= 1')
     cam = build_cam_input(law, params.rocker_ratio, params.lash, step)
     return simulate_cam(cam, params, omega, max_revolutions=int(max_revolutions),
-                        bounce_tol=bounce_tol, periodic_tol=periodic_tol)
+                        periodic_tol=periodic_tol)
 
 
 def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
-                 max_revolutions: int = 4, bounce_tol: float = 1e-9,
-                 periodic_tol: float = 1e-10) -> SdofResult:
-    """``simulate`` on a prepared CamInput (reuse it across speeds)."""
+                 max_revolutions: int = 4, periodic_tol: float = 1e-10,
+                 events_only: bool = False) -> SdofResult:
+    """``simulate`` on a prepared CamInput (reuse it across speeds).
+
+    ``events_only`` (sweeps): one revolution, stopped at the end of the first bounce
+    (second seat impact): separations, seating velocity and the bounce onset are then
+    known; later nodes are NaN (regime -1).
+    """
+    if events_only:
+        max_revolutions = 1
     model = _Model(params, omega)
     wn = math.sqrt((params.stiffness + params.spring_rate) / params.mass)
-    run = _Run(model, cam, bounce_tol)
+    run = _Run(model, cam)
     z0, r0 = run.initial()
     z, r = z0, r0
     residual = math.inf
     revs = 0
     for revs in range(1, max_revolutions + 1):
-        run = _Run(model, cam, bounce_tol)
+        run = _Run(model, cam)
+        run.stop_after_bounce = events_only
         ys, vs, rs, z, r = run.revolution(z0, r0)
         residual = max(abs(z[0] - z0[0]), abs(z[1] - z0[1]) / wn)
         if residual <= periodic_tol and r == r0:
@@ -834,9 +853,7 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
     if ev.closing is not None:
         after = np.zeros(cam.nodes.size, dtype=bool)
         after[cam.nodes > ev.closing] = True
-        ev.bounce_height = float(max(0.0, np.max(ys[after], initial=0.0)))
-        if ev.bounce_height < bounce_tol:
-            ev.bounce_count = 0
+        ev.bounce_height = float(max(0.0, np.nanmax(ys[after], initial=0.0)))
     return SdofResult(alpha=cam.nodes.copy(), y=ys, v=vs, force=ft, u=u, regime=rs,
                       uniform=cam.uniform.copy(), events=ev, omega=omega, params=params,
                       revolutions=revs, periodic_residual=float(residual))

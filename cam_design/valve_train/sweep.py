@@ -5,7 +5,8 @@ definitions); the bounce onset the lowest with a bounce. Both are bracketed on t
 sweep grid (first grid speed with the event, the previous one without) and refined by
 bisection to ``tol_rpm``. A sweep reuses one CamInput (the cam polynomial does not
 depend on speed) and simulates one revolution from rest per speed (enough for both
-events: the valve is at rest before the lobe at any speed where it still seats).
+events: the valve is at rest before the lobe at any speed where it still seats), stopped
+at the end of the first bounce (``simulate_cam(events_only=True)``).
 """
 from __future__ import annotations
 
@@ -72,7 +73,7 @@ def parse_range(text: str, key: str = '--sweep') -> NDArray[np.float64]:
 
 
 def _run(cam: CamInput, params: SdofParams, rpm: float) -> SdofResult:
-    return simulate_cam(cam, params, rpm * math.pi / 30.0, max_revolutions=1)
+    return simulate_cam(cam, params, rpm * math.pi / 30.0, events_only=True)
 
 
 def _bisect(pred: Callable[[float], bool], lo: float, hi: float, tol: float) -> float:
@@ -87,7 +88,7 @@ def _bisect(pred: Callable[[float], bool], lo: float, hi: float, tol: float) -> 
 
 
 def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
-          step_deg: float = 0.5, tol_rpm: float = 0.5, refine: bool = True) -> SweepResult:
+          step_deg: float = 1.0, tol_rpm: float = 0.5, refine: bool = True) -> SweepResult:
     """Simulate every speed of ``rpms`` (increasing) and locate the event speeds."""
     speeds = np.asarray(rpms, dtype=float)
     if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(
@@ -107,7 +108,7 @@ def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
         bounce[i] = res.events.bounce_count
         if res.events.seating_velocity is not None:
             vseat[i] = res.events.seating_velocity
-        ymax[i] = float(np.max(res.y))
+        ymax[i] = float(np.nanmax(res.y))
     seconds = time.perf_counter() - t0
 
     def first(flags: NDArray[np.bool_], pred: Callable[[float], bool]) -> float | None:

@@ -162,7 +162,7 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
             from cam_design.valve_train.sweep import sweep
 
             res = sweep(law, SdofParams.from_valve_train(scene.valve_train), sweep_speeds,
-                        step_deg=max(args.step_deg, 0.5))
+                        step_deg=max(args.step_deg, 1.0))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
             entry['bounce_onset_rpm'] = res.bounce_onset_rpm
             entry['sweep'] = res.as_dict()
