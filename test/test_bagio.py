@@ -543,3 +543,35 @@ def test_fast_path_rejects_other_cdr_encapsulations():
     with pytest.raises(InputError, match='plain CDR encapsulation') as info:
         bagio.decode_joint_states([good, xcdr2])
     assert info.value.key == '/bench/joint_states[1]'
+
+
+def test_bare_mcap_written_by_mcap_ros2(tmp_path):
+    """Another program: the mcap_ros2 writer (own CDR encoder, no rosbag2 directory)."""
+    from mcap_ros2.writer import Writer
+
+    ts = bagio.typestore()
+    path = tmp_path / 'other.mcap'
+    with open(path, 'wb') as f:
+        writer = Writer(f)
+        js_schema = writer.register_msgdef(
+            'sensor_msgs/msg/JointState', ts.generate_msgdef(JS, ros_version=2)[0])
+        str_schema = writer.register_msgdef(
+            'std_msgs/msg/String', ts.generate_msgdef('std_msgs/msg/String', ros_version=2)[0])
+        writer.write_message('/bench/scene', str_schema, {'data': 'scene'}, log_time=5)
+        for i in range(100):
+            names = ['probe', 'camshaft'] if i % 2 else ['camshaft', 'probe', 'spindle']
+            pos = [1e-4 * i, 0.01 * i] if i % 2 else [0.01 * i, 1e-4 * i, 7.0]
+            writer.write_message('/bench/joint_states', js_schema, {
+                'header': {'stamp': {'sec': 1, 'nanosec': i}, 'frame_id': 'lobe_1'},
+                'name': names, 'position': pos, 'velocity': [], 'effort': []},
+                log_time=10 + i)
+        writer.finish()
+    js = bagio.read_joint_states(path)
+    np.testing.assert_allclose(js.theta, 0.01 * np.arange(100), rtol=0, atol=0)
+    np.testing.assert_allclose(js.s, 1e-4 * np.arange(100), rtol=0, atol=0)
+    assert js.stamp_ns.tolist() == [10**9 + i for i in range(100)]
+    assert js.log_ns.tolist() == [10 + i for i in range(100)]
+    fallback = bagio.read_joint_states(path, direct=False)
+    np.testing.assert_array_equal(fallback.theta, js.theta)
+    (scene,) = list(bagio.iter_messages(path, ['/bench/scene']))
+    assert scene.msg.data == 'scene'
