@@ -50,7 +50,11 @@ def valve_flow_area(y: ArrayLike, seat_diameter: float, seat_angle: float) -> ND
     yy = _arr('y', y)
     if np.any(yy < 0):
         raise InputError('y', float(yy.min()), 'valve lifts >= 0 m')
-    return math.pi * d * math.cos(g) * yy + math.pi * math.cos(g) ** 2 * math.sin(g) * yy ** 2
+    with np.errstate(over='ignore', invalid='ignore'):
+        fp = math.pi * d * math.cos(g) * yy + math.pi * math.cos(g) ** 2 * math.sin(g) * yy ** 2
+    if not np.all(np.isfinite(fp)):
+        raise InputError('y', 'an overflowing lift', 'valve lifts of physical size')
+    return fp
 
 
 def flow_area_validity(seat_width: float, seat_angle: float) -> float:
@@ -149,7 +153,9 @@ def hertz_stress(force: ArrayLike, width: float, rho1: ArrayLike, rho2: ArrayLik
     f = np.maximum(_arr('force', force), 0.0)
     curv = _curvature_sum(rho1, rho2)
     comp = (1 - mu1 ** 2) / e1 + (1 - mu2 ** 2) / e2
-    return _finite_stress(HERTZ_GENERAL * np.sqrt(f * curv / (comp * w)))
+    with np.errstate(over='ignore', invalid='ignore', divide='ignore'):
+        sigma = HERTZ_GENERAL * np.sqrt(f * curv / (comp * w))
+    return _finite_stress(sigma)
 
 
 def hertz_stress_steel(force: ArrayLike, width: float, rho1: ArrayLike,
@@ -163,7 +169,9 @@ def hertz_stress_steel(force: ArrayLike, width: float, rho1: ArrayLike,
     em = 2 * e1 * e2 / (e1 + e2)
     f = np.maximum(_arr('force', force), 0.0)
     curv = _curvature_sum(rho1, rho2)
-    return _finite_stress(HERTZ_STEEL * np.sqrt(em * f * curv / w))
+    with np.errstate(over='ignore', invalid='ignore', divide='ignore'):
+        sigma = HERTZ_STEEL * np.sqrt(em * f * curv / w)
+    return _finite_stress(sigma)
 
 
 # ---------------------------------------------------------------- forces (2.8-2.10)
