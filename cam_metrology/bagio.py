@@ -21,7 +21,7 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Sequence
+from typing import Any, Iterable, Iterator, NamedTuple, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -376,17 +376,14 @@ def statuses_from_msg(msg: Any) -> list[dict[str, Any]]:
 
 # ------------------------------------------------------------------------- readers
 
-@dataclass(frozen=True)
-class BagMessage:
-    """One decoded message: topic, ROS type, log time [ns], rosbags message object."""
+class BagMessage(NamedTuple):
+    """One decoded message: topic, ROS type, log time [ns], rosbags message object (or
+    the CDR bytes with ``raw=True``); a tuple ``(topic, msgtype, stamp_ns, msg)``."""
 
     topic: str
     msgtype: str
     stamp_ns: int
     msg: Any
-
-    def __iter__(self) -> Iterator[Any]:   # unpacks as (topic, msgtype, stamp_ns, msg)
-        return iter((self.topic, self.msgtype, self.stamp_ns, self.msg))
 
 
 def _open_reader(path: str | Path) -> Any:

@@ -575,3 +575,12 @@ def test_bare_mcap_written_by_mcap_ros2(tmp_path):
     np.testing.assert_array_equal(fallback.theta, js.theta)
     (scene,) = list(bagio.iter_messages(path, ['/bench/scene']))
     assert scene.msg.data == 'scene'
+
+
+def test_bag_message_is_a_tuple(tmp_path):
+    bag = tmp_path / 'bag'
+    with bagio.BagWriter(bag) as w:
+        w.write('/bench/scene', 3, bagio.encode_string('s'))
+    (m,) = list(bagio.iter_messages(bag))
+    assert m[0] == m.topic == '/bench/scene' and m[2] == 3 and m[3].data == 's'
+    assert tuple(m)[:3] == ('/bench/scene', 'std_msgs/msg/String', 3)
