@@ -204,20 +204,27 @@ class HermiteLift:
         s = self.step
         left = np.column_stack([vals[0][:-1], s * vals[1][:-1], s * s * vals[2][:-1]])
         right = np.column_stack([vals[0][1:], s * vals[1][1:], s * s * vals[2][1:]])
-        self.coef = np.hstack([left, right]) @ _HERMITE   # (n, 6) monomial coefficients
+        coef = np.hstack([left, right]) @ _HERMITE   # (n, 6) monomial coefficients
         self.n = n
+        # per derivative order: columns of the differentiated polynomial, scaled
+        self._cols = []
+        for nu in range(4):
+            cols = []
+            for k in range(nu, 6):
+                fall = float(np.prod(np.arange(k - nu + 1, k + 1)))
+                cols.append(np.ascontiguousarray(coef[:, k] * fall / s ** nu))
+            self._cols.append(cols)
 
     def __call__(self, alpha: NDArray[np.float64] | float, nu: int = 0) -> NDArray[np.float64]:
         a = np.asarray(alpha, dtype=float)
         flat = a.reshape(-1)
         u = (flat - self.lo) / self.step
         inside = (u >= 0) & (u <= self.n)
-        idx = np.clip(np.floor(u).astype(np.int64), 0, self.n - 1)
+        idx = np.clip(u.astype(np.int64), 0, self.n - 1)
         t = u - idx
-        c = self.coef[idx]
-        out = np.zeros_like(flat)
-        for k in range(5, nu - 1, -1):   # Horner on the nu-th derivative
-            fall = float(np.prod(np.arange(k - nu + 1, k + 1)))
-            out = out * t + fall * c[:, k]
-        out = np.where(inside, out / self.step ** nu, 0.0)
+        cols = self._cols[nu]
+        out = cols[-1][idx]
+        for col in cols[-2::-1]:   # Horner on the nu-th derivative
+            out = out * t + col[idx]
+        out[~inside] = 0.0
         return out.reshape(a.shape)
