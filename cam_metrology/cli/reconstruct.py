@@ -202,6 +202,12 @@ def _human(result: dict[str, Any]) -> str:
                          'mm/rad^2 rms')
             lines.append(line)
             lines.append(f'    why: {r["why"]}')
+            if 'acceleration_m_per_s2' in r:
+                lines.append(f"    at {r['cam_speed_rpm']:g} rpm: max |v| "
+                             f"{max(map(abs, r['velocity_m_per_s'])):.4g} m/s, max |a| "
+                             f"{max(map(abs, r['acceleration_m_per_s2'])):.4g} m/s^2")
+            if r.get('engine_follower'):
+                lines.append(f"    follower: {r['engine_follower']}")
             for w in r['warnings']:
                 lines.append(f'    warning: {w}')
     for s in result['skipped']:
