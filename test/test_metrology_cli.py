@@ -165,3 +165,15 @@ def test_fixture_no_pin_bag_skips(tmp_path):
     for fid in ('lobe_1', 'lobe_2'):
         assert rep['features'][fid]['phase_deg'] is None
         assert rep['features'][fid]['asymmetry_deg'] is not None
+
+
+def test_analyze_bag_without_scene_exits_2(tmp_path, capsys):
+    from cam_metrology import bagio
+    bag = tmp_path / 'noscene'
+    with bagio.BagWriter(bag) as writer:
+        writer.add_topic(bagio.JOINT_STATES, 'sensor_msgs/msg/JointState')
+        for k in range(10):
+            writer.write(bagio.JOINT_STATES, 1000 + k,
+                         bagio.encode_joint_state('lobe_1', 1000 + k, 0.01 * k, 0.0))
+    assert main(['analyze', str(bag), '--only-metrology']) == 2
+    assert 'no /bench/scene' in capsys.readouterr().err
