@@ -400,3 +400,18 @@ def test_per_revolution_repeatability():
     assert abs(_err_arcsec(v['angle_deg'], nose)) < 0.01
     assert np.allclose(v['per_revolution_deviation_arcsec'], [-1.0, 0.0, 1.0], atol=0.01)
     assert v['per_revolution_std_arcsec'] == pytest.approx(1.0, abs=0.01)
+
+
+def test_lobe_scan_without_base_circle():
+    """Only the lobe was scanned (no base-circle samples): the offset comes from the
+    fit itself; both estimators stay exact."""
+    nose = np.radians(222.0)
+    smp = sample_lobe(CAM, nose, 1, n_per_rev=3600, zero=0.0042)
+    alpha = np.angle(np.exp(1j * (smp.theta - nose)))
+    keep = np.abs(alpha) < np.radians(75.0)
+    fs = clean_feature('lobe_1', smp.stamp_ns[keep], smp.theta[keep], smp.s[keep])
+    v = analyze_lobe(fs, CAM, 1, Settings()).values
+    assert abs(_err_arcsec(v['angle_deg'], nose)) < 0.01
+    assert abs(_err_arcsec(v['sensitive_point_angle_deg'], nose)) < 0.01
+    assert v['lift_offset_mm'] == pytest.approx(4.2, abs=1e-9)
+    assert v['base_circle_runout_um'] is None
