@@ -282,3 +282,19 @@ def test_config_file_matches_parameters(config_dir):
     for name, (default, _) in MetrologyCore.PARAMETERS.items():
         assert params[name] == default and type(params[name]) is type(default), name
     MetrologyCore(params)
+
+
+def test_result_status_values_are_flat_strings():
+    _, out = run_bulk(scene_text())
+    lobe = next(s for s in out['status'] if s.name == 'lobe_1')
+    assert lobe.hardware_id == 'lobe' and lobe.level == OK
+    for key in ('angle_deg', 'angle_std_deg', 'sensitive_point_angle_deg', 'validity.valid',
+                'lift_error_um.rms', 'samples_used'):
+        assert isinstance(lobe.values[key], str), key
+    assert float(lobe.values['angle_deg']) == pytest.approx(np.degrees(NOSES['lobe_1']),
+                                                            abs=1e-6)
+    pin = next(s for s in out['status'] if s.name == 'dowel_pin')
+    assert pin.hardware_id == 'dowel_pin' and 'phase_deg' not in pin.values
+    # the lobes measured after the pin carry their phase in the status already
+    later = [s for s in out['status'] if s.name in NOSES]
+    assert all('phase_deg' not in s.values for s in later)   # pin comes last here
