@@ -183,7 +183,7 @@ def run_recorder(args: Sequence[str] | None = None, *, output: str | Path | None
             print(f'recording {len(node.counts) + len(node._adaptive.pending)} topics to '
                   f'{node.path} (Ctrl-C to stop)', flush=True)
         proc.spin_until()
-        proc.drain(lambda: node.callbacks_run)
+        proc.drain(lambda: node.callbacks_run, limit=30.0)   # a backlog must be written
         return 0
     finally:
         if node is not None:
