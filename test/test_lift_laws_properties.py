@@ -15,7 +15,7 @@ from cam_design.lift_laws.base import LiftLaw
 
 DEG = math.pi / 180
 MM = 1e-3
-SETTINGS = settings(max_examples=60, deadline=None,
+SETTINGS = settings(max_examples=40, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
 
 
