@@ -295,6 +295,7 @@ def test_result_status_values_are_flat_strings():
                                                             abs=1e-6)
     pin = next(s for s in out['status'] if s.name == 'dowel_pin')
     assert pin.hardware_id == 'dowel_pin' and 'phase_deg' not in pin.values
-    # the lobes measured after the pin carry their phase in the status already
-    later = [s for s in out['status'] if s.name in NOSES]
-    assert all('phase_deg' not in s.values for s in later)   # pin comes last here
+    # lobes measured before the pin are published again after it, with their phase
+    lobe1 = [s for s in out['status'] if s.name == 'lobe_1']
+    assert len(lobe1) == 2 and 'phase_deg' not in lobe1[0].values
+    assert float(lobe1[1].values['phase_deg']) == pytest.approx(37.0, abs=1e-6)

@@ -208,6 +208,10 @@ class MetrologyCore:
         out: list[Output] = [self._feature_status(result, stamp_ns)]
         if result.table is not None:
             out.append(TableOutput(LIFT, fs.feature_id, LIFT_COLUMNS, result.table))
+        if fs.feature_id == PIN_ID and self._pin_angle() is not None:
+            # lobes measured before the pin: publish them again, now with their phase
+            out += [self._feature_status(r, stamp_ns) for r in self.results.values()
+                    if r.kind == 'lobe' and r.angle_rad is not None]
         if not self.report_sent and not self._missing():
             out.append(TextOutput(REPORT, json.dumps(self.report(final=False), indent=1)))
             self.report_sent = True
