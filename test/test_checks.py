@@ -286,7 +286,7 @@ def test_ramp_events_case_18() -> None:
 def test_garbage_in_every_check_input() -> None:
     """Stress: every parameter of a full check input replaced by None, text, negative,
     zero, 1e300, NaN, a list or a mapping: InputError, or finite results only."""
-    import copy
+    from test_lift_laws_properties import with_value
 
     law = from_spec(PRESETS['flat_tappet_intake'], 'l')
     cfg0 = {'base_radius': 16.5 * MM, 'rocker_ratio': 1.0, 'lash': 0.2 * MM,
@@ -301,13 +301,8 @@ def test_garbage_in_every_check_input() -> None:
                                     for j in v]
     for path in paths:
         for value in (None, 'abc', -1, 0, 1e300, float('nan'), [], {'x': 1}):
-            cfg = copy.deepcopy(cfg0)
-            node = cfg
-            for k in path[:-1]:
-                node = node[k]
-            node[path[-1]] = value
             try:
-                out = C.run_checks(law, cfg, samples=361)
+                out = C.run_checks(law, with_value(cfg0, path, value), samples=361)
             except InputError:
                 continue
             assert all(math.isfinite(v) for v in out.values() if isinstance(v, float)), path
