@@ -19,7 +19,8 @@ Model (conventions of interfaces.md):
   inside contact; outside it the probe rests on its stop ``pin_stop_depth`` below the
   lowest contact lift;
 * ``theta`` reported = ``theta_true + encoder noise``; the shaft turns continuously
-  from ``start_theta`` through all features (unwrapped, or wrapped to [0, 2 pi));
+  from ``start_theta`` through all features (unwrapped, or wrapped to [0, 2 pi)),
+  theta increasing with time (decreasing with ``reverse``);
 * ``runout``: base-circle run-out amplitude [m], ``runout * cos(theta_true)`` (a shaft
   eccentric on its centres, first order).
 """
@@ -80,6 +81,7 @@ class SimParams:
     runout: float = _doc(0.0, 'm, base-circle run-out amplitude (once per revolution)')
     feature_gap: float = _doc(0.05, 's, pause between two features (stamps)')
     start_ns: int | None = _doc(None, 'ns, stamp of the first sample (None: 2026-01-01)')
+    reverse: bool = _doc(False, 'shaft turned backwards: theta decreases with time')
 
     def validated(self) -> SimParams:
         """Raise InputError for an impossible parameter; return self."""
@@ -236,7 +238,7 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     conversions: dict[str, str] = {}
     for fid, kind in order:
         k = np.arange(k0, k0 + n, dtype=np.float64)
-        theta_true = params.start_theta + k * step
+        theta_true = params.start_theta + (-k if params.reverse else k) * step
         alpha = wrap_pi(scene.direction * (theta_true - angles[fid]))
         if kind == 'lobe':
             law = probe_lift(scene, fid)

@@ -306,12 +306,13 @@ def test_cli_simulate_writes_a_bag_and_prints_the_truth(tmp_path, capsys):
     assert code == 2 and 'never overwritten' in err
     code, stdout, _ = _run(capsys, 'simulate', str(tmp_path / 'z'), '--samples-per-rev',
                            '360', '--zero-mm', '-2', '--runout-um', '3', '--rate', '500',
-                           '--quiet')
+                           '--reverse', '--quiet')
     truth = json.loads(stdout[stdout.index('{'):])
     assert (truth['probe_zero_offset_m'], truth['runout_m']) == (-2e-3, 3e-6)
     assert truth['params']['rate'] == 500.0
     js = bagio.read_joint_states(tmp_path / 'z')
     assert js.stamp_ns[1] - js.stamp_ns[0] == 2_000_000
+    assert truth['params']['reverse'] is True and js.theta[1] < js.theta[0]
 
 
 def test_cli_simulate_progress_for_large_runs(tmp_path, capsys):
@@ -329,3 +330,17 @@ def test_cli_simulate_bad_input_exits_2(tmp_path, capsys):
     code, _, err = _run(capsys, 'simulate', str(tmp_path / 'y'), '--samples-per-rev', '3')
     assert code == 2 and '--samples-per-rev' in err
     assert not (tmp_path / 'x').exists() and not (tmp_path / 'y').exists()
+
+
+def test_reverse_turning_gives_the_same_lift_at_the_same_angle():
+    fwd = simulate(_scene(), SimParams(seed=8, samples_per_rev=720))
+    rev = simulate(_scene(), SimParams(seed=8, samples_per_rev=720, reverse=True,
+                                       start_theta=10.0))
+    for f, r in zip(fwd.features, rev.features):
+        assert f.true_angle == r.true_angle
+        assert np.all(np.diff(r.theta) < 0)
+        law = (lambda a: _scene().lobe(r.id).lift(a)) if r.kind == 'lobe' else None
+        if law is not None:
+            np.testing.assert_allclose(r.s - 5e-4, law(_alpha(r.theta, r.true_angle, 1)),
+                                       atol=1e-15)
+    assert rev.features[0].theta[0] == 10.0

@@ -48,6 +48,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help='override the scene\'s direction of rotation')
     sim.add_argument('--wrapped', action='store_true',
                      help='encoder angles wrapped to [0, 2 pi) instead of unwrapped')
+    sim.add_argument('--reverse', action='store_true',
+                     help='shaft turned backwards: encoder angle decreasing with time')
     sim.add_argument('--start-deg', type=float, default=0.0, metavar='DEG',
                      help='encoder angle at the first sample, degrees (default 0)')
     sim.add_argument('--zero-mm', type=float, default=0.5, metavar='MM',
@@ -160,7 +162,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.samples_per_rev < 8:
         raise InputError('--samples-per-rev', args.samples_per_rev, 'at least 8')
     params = SimParams(samples_per_rev=args.samples_per_rev, revolutions=args.revolutions,
-                       wrapped=args.wrapped, start_theta=math.radians(args.start_deg),
+                       wrapped=args.wrapped, reverse=args.reverse,
+                       start_theta=math.radians(args.start_deg),
                        probe_noise=args.noise_um * 1e-6,
                        probe_zero_offset=args.zero_mm * 1e-3,
                        runout=args.runout_um * 1e-6, rate=args.rate,
