@@ -9,7 +9,8 @@ Outputs are collected with the log time at which they were produced.
 Delivery rules (what a core sees):
 
 * ``handle(topic, msg, stamp_ns)``: ``msg`` decoded by rosbags (same fields as the
-  rclpy message), ``stamp_ns`` the bag's log time (receive time) [ns].
+  rclpy message), ``stamp_ns`` the bag's log time (receive time) [ns]. A JointState
+  sample and another message with the same log time: the sample comes first.
 * ``/bench/joint_states`` is decoded with the fast numpy path (``bagio``). A core
   with a bulk method ``handle_samples(frame_ids, stamp_ns, theta, s[, rx_ns])`` gets
   contiguous runs of samples as arrays (``stamp_ns`` header stamps, ``rx_ns`` the log
@@ -256,8 +257,9 @@ def write_outputs(result: OfflineResult, out_bag: str | Path, *,
     with bagio.BagWriter(out_bag, compression=compression) as writer:
         topics = {t: v for t, v in bagio.bag_topics(result.bag).items()
                   if t not in result.regenerated_topics}
+        qos = bagio.topic_qos_yaml(result.bag)
         for topic, (msgtype, _) in topics.items():
-            writer.add_topic(topic, msgtype, _bag_qos(result.bag, topic))
+            writer.add_topic(topic, msgtype, qos.get(topic))
         inputs = ((m.stamp_ns, 0, i, m) for i, m in enumerate(
             bagio.iter_messages(result.bag, list(topics), raw=True)))
         outputs = ((o.stamp_ns, 1, i, o) for i, o in enumerate(result.outputs))
@@ -268,8 +270,3 @@ def write_outputs(result: OfflineResult, out_bag: str | Path, *,
             else:
                 writer.write_output(item.output, stamp)
     return len(result.outputs)
-
-
-def _bag_qos(bag: Path, topic: str) -> str | None:
-    """The offered QoS YAML of ``topic`` in ``bag`` (None: the default for the topic)."""
-    return bagio.topic_qos_yaml(bag).get(topic)
