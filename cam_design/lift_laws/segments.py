@@ -244,7 +244,7 @@ class PiecewiseLaw(LiftLaw):
         pieces: list[Segment | None] = [None, *self.segments, None]
         for k, req in enumerate(required):
             left, right = pieces[k], pieces[k + 1]
-            at = right.lo if right is not None else left.hi
+            at = float(right.lo if right is not None else left.hi) + 0.0   # no -0.0
             jumps = []
             for nu in range(MAX_ORDER + 1):
                 lv = float(left(at, nu)) if left is not None else 0.0
