@@ -12,13 +12,13 @@ NODE_CHOICES = ('metrology', 'reconstruction', 'dynamics', 'bench-sim', 'recorde
 
 
 def _positive_or_zero(text: str) -> float:
-    from cam_design.errors import InputError
+    """argparse type: a finite number >= 0."""
     try:
         value = float(text)
     except ValueError:
-        raise InputError('--rate', text, 'a number >= 0') from None
-    if not value >= 0.0 or value == float('inf'):
-        raise InputError('--rate', text, 'a finite number >= 0')
+        value = float('nan')
+    if not 0.0 <= value < float('inf'):
+        raise argparse.ArgumentTypeError(f'got {text!r}; expected a finite number >= 0')
     return value
 
 
