@@ -187,11 +187,16 @@ def test_lsq_error_within_reported_std_and_crb():
         std = np.radians(v['angle_std_deg'])
         z.append(err / std)
         alpha = np.angle(np.exp(1j * (fs.theta - nose)))
-        ratios.append(std / crb_shift_std(alpha, CAM, 1e-6))
+        # the default model fits the run-out harmonic: its bound is ~7 % above the
+        # offset-only bound
+        ratios.append(std / crb_shift_std(alpha, CAM, 1e-6, theta=fs.theta))
+        assert crb_shift_std(alpha, CAM, 1e-6, theta=fs.theta) == pytest.approx(
+            1.07 * crb_shift_std(alpha, CAM, 1e-6), rel=0.03)
     z = np.asarray(z)
     assert np.max(np.abs(z)) < 4.0
     assert 0.6 < np.sqrt(np.mean(z**2)) < 1.5
-    assert np.allclose(ratios, 1.0, atol=0.05)
+    assert abs(np.mean(ratios) - 1.0) < 0.03   # residual-based sigma: ~2 % scatter each
+    assert np.allclose(ratios, 1.0, atol=0.1)
 
 
 def test_sensitive_point_noise_within_reported_std():

@@ -42,7 +42,7 @@ class FeatureFailed(Exception):
 class Settings:
     """Numerical settings of the metrology node (see ``core.MetrologyCore.PARAMETERS``)."""
 
-    fit_runout: bool = False
+    fit_runout: bool = True
     min_flank_samples: int = 20
     max_flank_gap_deg: float = 2.0
     sp_half_window_deg: float = 1.0
@@ -311,14 +311,16 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     _zone_check(x, _slope_zone(law, alpha_n, 0.0, hi), 'fall', settings)
     base = (x < lo - 2 * DEG) | (x > hi + 2 * DEG)
     c_base = float(np.median(fs.s[base])) if np.count_nonzero(base) >= 5 else None
+    runout = settings.fit_runout and covers_circle(fs.theta)
     fit, outliers, noise = robust_fit(x, fs.s, law, settings, c0=c_base,
-                                      theta=fs.theta if settings.fit_runout else None)
+                                      theta=fs.theta if runout else None)
     good = ~outliers
     _check_fit(fit, settings, 'nose')
-    ref = c_base if c_base is not None else fit.c
+    harmonic = fit.runout[0] * np.cos(fs.theta) + fit.runout[1] * np.sin(fs.theta)
+    ref = base_reference(fs.theta, fs.s, base & good, runout, fit.c + harmonic)
     try:
         sp = sensitive_point_shift(
-            x[good], fs.s[good] - ref, law, alpha_m, alpha_n,
+            x[good], (fs.s - ref)[good], law, alpha_m, alpha_n,
             half_window=settings.sp_half_window_deg * DEG,
             pairs=settings.sp_pairs, spacing=settings.sp_pair_spacing_deg * DEG,
             order=settings.sp_fit_order, validity_tol=settings.validity_tol_um / UM)
@@ -333,14 +335,12 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                               'samples_outliers_rejected': int(np.count_nonzero(outliers)),
                               **noise,
                               'iterations': fit.iterations}
-    values.update(_per_revolution(fs, x, law, fit, good, settings,
+    values.update(_per_revolution(fs, x, fs.s - harmonic, law, fit, good, settings,
                                   (_slope_zone(law, alpha_m, lo, 0.0),
                                    _slope_zone(law, alpha_n, 0.0, hi))))
     alpha = x - fit.d
     design = law(alpha, 0)
-    measured = fs.s - fit.c
-    if settings.fit_runout:
-        measured = measured - fit.runout[0] * np.cos(fs.theta) - fit.runout[1] * np.sin(fs.theta)
+    measured = fs.s - fit.c - harmonic
     err = measured - design
     lobe = (design > 0) & good
     if np.any(lobe):
@@ -349,9 +349,13 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                    'rms': float(np.sqrt(np.mean(err[lobe] ** 2))) * UM}
     values['base_circle_runout_um'] = _runout_um(fs.theta[base & good],
                                                  (fs.s - fit.c)[base & good])
-    if settings.fit_runout:
+    values['runout_fitted'] = runout
+    if runout:
         values['fitted_runout_amplitude_um'] = float(np.hypot(*fit.runout)) * UM
     skipped = [('sensitive_point', sp)] if isinstance(sp, str) else []
+    if settings.fit_runout and not runout:
+        skipped.append(('runout_fit', 'the samples do not cover the revolution (need 30 '
+                                      'of 36 sectors of 10 deg)'))
     if asymmetry:
         if is_symmetric(law, lo, hi):
             values.update(_asymmetry(alpha[good], measured[good], lo, hi, direction, settings))
@@ -366,12 +370,13 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                          float(np.radians(values['angle_deg'])), skipped=skipped)
 
 
-def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: Any,
-                    good: NDArray[np.bool_], settings: Settings,
+def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.float64],
+                    law: Lift, fit: Any, good: NDArray[np.bool_], settings: Settings,
                     zones: tuple[tuple[float, float], ...]) -> dict[str, Any]:
     """Repeatability: the shift fitted on each revolution alone (revolutions counted
-    on the stamp-ordered unwrapped angle), as deviations [arcsec] from the joint fit;
-    revolutions whose flanks are not covered are left out."""
+    on the stamp-ordered unwrapped angle; ``s`` [m] with the fitted run-out removed),
+    as deviations [arcsec] from the joint fit; revolutions whose flanks are not
+    covered are left out."""
     if fs.revolutions < 1.9:
         return {}
     turns = np.unwrap(fs.theta)
@@ -382,7 +387,7 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: 
         try:
             for flank, zone in zip(('rise', 'fall'), zones):
                 _zone_check(x[sel], zone, flank, settings)
-            one = fit_shift(x, fs.s, law, d0=fit.d, c0=fit.c, used=sel)
+            one = fit_shift(x, s, law, d0=fit.d, c0=fit.c, used=sel)
         except (FeatureFailed, InputError):
             continue
         devs.append(float(np.degrees(one.d - fit.d) * 3600))
@@ -390,6 +395,30 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: 
         return {}
     return {'per_revolution_deviation_arcsec': devs,
             'per_revolution_std_arcsec': float(np.std(devs, ddof=1))}
+
+
+def covers_circle(theta: NDArray[np.float64], need: int = 30) -> bool:
+    """True if the angles [rad] fall in at least ``need`` of 36 sectors of 10 deg
+    (a first harmonic is then well determined)."""
+    sectors = np.unique((np.mod(theta, 2 * np.pi) // (np.pi / 18)).astype(np.int64))
+    return bool(sectors.size >= need)
+
+
+def base_reference(theta: NDArray[np.float64], s: NDArray[np.float64],
+                   base: NDArray[np.bool_], runout: bool,
+                   fallback: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Base-circle level [m] under every sample, from the base-circle samples alone:
+    their median, or with ``runout`` (and base samples in >= 18 of 36 sectors) the
+    fitted circle c + a cos(theta) + b sin(theta); ``fallback`` (the LSQ level) when
+    there are fewer than 10 base-circle samples."""
+    if np.count_nonzero(base) < 10:
+        return np.asarray(fallback, dtype=float)
+    if runout and covers_circle(theta[base], need=18):
+        tb = theta[base]
+        coef, *_ = np.linalg.lstsq(np.column_stack([np.ones_like(tb), np.cos(tb),
+                                                    np.sin(tb)]), s[base], rcond=None)
+        return coef[0] + coef[1] * np.cos(theta) + coef[2] * np.sin(theta)
+    return np.full(theta.size, float(np.median(s[base])))
 
 
 def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]) -> float | None:

@@ -47,8 +47,10 @@ def _flat(values: dict[str, Any], prefix: str = '') -> dict[str, str]:
             out.update(_flat(val, name + '.'))
         elif isinstance(val, (list, tuple)):
             out[name] = ','.join(repr(float(v)) if isinstance(v, float) else str(v) for v in val)
-        elif isinstance(val, float):
-            out[name] = repr(val)
+        elif isinstance(val, (bool, np.bool_)):
+            out[name] = str(bool(val))
+        elif isinstance(val, (float, np.floating)):
+            out[name] = repr(float(val))
         else:
             out[name] = str(val)
     return out
@@ -80,8 +82,9 @@ class MetrologyCore:
                     LIFT: 'std_msgs/msg/Float64MultiArray',
                     REPORT: 'std_msgs/msg/String'}
     PARAMETERS: dict[str, tuple[Any, str]] = {
-        'fit_runout': (False, 'also fit a first-harmonic base-circle run-out in the '
-                              'least-squares angle fit'),
+        'fit_runout': (True, 'fit a first-harmonic base-circle run-out with the angle '
+                             '(when the samples cover the revolution); costs ~7 % in std, '
+                             'removes the run-out bias'),
         'min_flank_samples': (20, 'minimum samples in each flank sensitive zone, else '
                                   'the feature fails'),
         'max_flank_gap_deg': (2.0, 'largest gap [deg] allowed in a flank sensitive zone'),
