@@ -22,6 +22,9 @@
   times keep the bag in the order the bench produced it (a latched scene delivered
   late keeps its original, earlier stamp). The acquisition time stays in each
   message's header.
+* Single-threaded: a callback also takes what else is already waiting on its topic
+  (``take_message``, up to ``TAKE_BATCH``), which skips the executor's ~95 us per
+  message; the publication-time log stamps keep the bag in order regardless.
 * With ``events_executor`` the log time is the receive time (``time.time_ns()`` in the
   callback): rclpy 7.1.6's EventsExecutor raises ``SystemError: null argument to
   internal routine`` for every raw message whose callback takes MessageInfo (20 000 of
@@ -55,6 +58,10 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
                                '(5-7x cheaper per message; experimental)'),
     'status_period': (0.0, 'log a line with the message counts every N s (0: never)'),
 }
+
+
+#: messages taken per callback beyond the one the executor handed over (single-threaded)
+TAKE_BATCH = 500
 
 
 def parse_topic_specs(text: str | Sequence[str]) -> dict[str, str | None]:
@@ -127,6 +134,21 @@ class RecorderNode(Node):
             (reader or qos).profile(), raw=True)
 
     def _on_message(self, topic: str, data: bytes, info: Any) -> None:
+        self._write_with_info(topic, data, info)
+        # batch: take what else is waiting on this topic now (up to TAKE_BATCH), which
+        # skips the executor's ~95 us per message; the log times keep the bag ordered
+        sub = self._subs.get(topic)
+        for _ in range(TAKE_BATCH):
+            try:
+                with sub.handle:
+                    taken = sub.handle.take_message(sub.msg_type, True)
+            except Exception:  # noqa: BLE001 (destroyed at shutdown)
+                return
+            if taken is None:
+                return
+            self._write_with_info(topic, taken[0], taken[1])
+
+    def _write_with_info(self, topic: str, data: bytes, info: Any) -> None:
         try:
             stamp = int(info['source_timestamp']) or time.time_ns()
         except (TypeError, KeyError):
