@@ -401,7 +401,11 @@ def _newton_bracket(comp: tuple[float, list[list[float]]], a: float,
                     b: float) -> tuple[float, float]:
     """[a, b] with f(a) >= 0 > f(b), shrunk to ~1e-14 by safeguarded Newton steps on
     f = sign * min_i P_i (bisection when a step leaves the bracket)."""
-    x = b
+    fa = _eval_min(comp, a)[0]
+    fb = _eval_min(comp, b)[0]
+    x = a - fa * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
+    if not a < x < b:
+        x = 0.5 * (a + b)
     for _ in range(100):
         if b - a <= 1e-14:
             break
@@ -413,9 +417,9 @@ def _newton_bracket(comp: tuple[float, list[list[float]]], a: float,
         xn = x - f / d if d != 0 else 0.5 * (a + b)
         if not a < xn < b:
             xn = 0.5 * (a + b)
-        if abs(xn - x) < 1e-15:
+        if abs(xn - x) < 1e-13:
             # converged: make the bracket tight around the root
-            lo, hi = max(a, x - 1e-14), min(b, x + 1e-14)
+            lo, hi = max(a, xn - 1e-14), min(b, xn + 1e-14)
             if _eval_min(comp, lo)[0] >= 0:
                 a = lo
             if _eval_min(comp, hi)[0] < 0:
@@ -562,7 +566,7 @@ class _Run:
             m = min(max(2, int(math.ceil(model.rho(r) * lt / _SUB))), 4096)
             ds = lt / m
             fco = model.forcing(r, uco, la)
-            if m <= 2 and s0 > 0:   # short rest after a switch: chain the Taylor series
+            if m <= 4 and s0 > 0:   # short rest after a switch: chain the Taylor series
                 zs = None
             else:
                 phis, gams = model.propagator(r, lt, m)
