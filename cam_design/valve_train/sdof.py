@@ -457,6 +457,7 @@ class _Run:
         self.opened = False
         self.sep_open: list[float] | None = None
         self.stop_after_bounce = False
+        self.hint: tuple[int, int, NDArray, NDArray] | None = None
 
     # -- regimes -----------------------------------------------------------------
     def initial(self) -> tuple[tuple[float, float], int]:
@@ -534,8 +535,10 @@ class _Run:
             zs = np.einsum('mab,qb->qma', phis, z0) + np.einsum('mab,qb->qma', gams, fco[idx])
             flags = _flags(model, r, cam.coeffs[ks[idx]], fco[idx], la[idx], lt[idx], z0, zs)
             bad = np.nonzero(np.any(flags, axis=1))[0]
-            if bad.size:
-                clean = min(clean, int(idx[bad[0]]))
+            if bad.size and int(idx[bad[0]]) < clean:
+                clean = int(idx[bad[0]])
+                # hand the sub-node states and flags of that step to event_step
+                self.hint = (int(ks[clean]), r, zs[bad[0]].copy(), flags[bad[0]].copy())
         out = list(zip(ys[1:clean + 1].tolist(), vs[1:clean + 1].tolist()))
         return clean, out
 
@@ -566,8 +569,12 @@ class _Run:
             m = min(max(2, int(math.ceil(model.rho(r) * lt / _SUB))), 4096)
             ds = lt / m
             fco = model.forcing(r, uco, la)
+            hint = self.hint
             if m <= 4 and s0 > 0:   # short rest after a switch: chain the Taylor series
                 zs = None
+            elif s0 == 0 and hint is not None and hint[0] == k and hint[1] == r and \
+                    hint[2].shape[0] == m:
+                zs, candidates = hint[2], np.nonzero(hint[3])[0].tolist()
             else:
                 phis, gams = model.propagator(r, lt, m)
                 zs = phis @ np.asarray(z) + gams @ fco                 # (m, 2)
