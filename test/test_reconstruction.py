@@ -412,3 +412,20 @@ def test_coarse_tables_keep_their_flank_points(n_per_rev, false_max):
     found = rebound_fairing(a, spiky).outlier
     spikes = np.abs(spiky - h) > 1e-6
     assert found[spikes].sum() == 5 and found.sum() <= 5 + false_max
+
+
+@pytest.mark.parametrize('n, jitter', [(300, 0.45), (40, 0.3), (1000, 0.0)])
+def test_rebound_noise_factors_are_exact(n, jitter):
+    """std(r_i)/sigma = |K e_i| / K_ii, K = Q T^-1 Q^T, against a dense computation."""
+    a, _ = simulate(LOBE, n, 0.0, seed=4, jitter=jitter)
+    op = ReboundOperator(a)
+    h = np.diff(a)
+    m = a.size - 2
+    t = (np.diag((h[:-1] + h[1:]) / 3) + np.diag(h[1:-1] / 6, 1)
+         + np.diag(h[1:-1] / 6, -1))
+    q = np.zeros((a.size, m))
+    for j in range(m):
+        q[j, j], q[j + 1, j], q[j + 2, j] = 1 / h[j], -1 / h[j] - 1 / h[j + 1], 1 / h[j + 1]
+    k = q @ np.linalg.solve(t, q.T)
+    ref = np.sqrt(np.sum(k ** 2, axis=1)) / np.diag(k)
+    assert np.allclose(op.noise_factors()[1:-1], ref[1:-1], rtol=1e-8)

@@ -156,22 +156,72 @@ class ReboundOperator:
         r[0] = r[-1] = 0.0        # ends: no interior knot to release (extrapolation)
         return r
 
-    def noise_factors(self, probes: int = 48) -> NDArray[np.float64]:
+    def noise_factors(self, half_width: int = 10) -> NDArray[np.float64]:
         """std(r_i) / sigma for white noise, per point (0 at the ends).
 
-        Uniform knots: the constant REBOUND_NOISE_FACTOR (1.524). Uneven knots: the
-        factor varies from point to point (1.1 to 7 for +-0.45 step jitter), so it is
-        estimated from ``probes`` seeded white-noise vectors (one multi-RHS solve);
-        relative accuracy about 1/sqrt(2 probes) = 10 %.
+        std(r_i)/sigma = |K e_i| / K_ii with K = Q T^-1 Q^T. Uniform knots: the
+        constant REBOUND_NOISE_FACTOR (1.524). Uneven knots (the factor then varies
+        from 1.1 to 7 for +-0.45 step jitter): K e_i = Q g_i with T g_i = Q^T e_i, solved
+        for every i at once on a window of +-``half_width`` interior knots (T^-1 decays
+        geometrically: relative error 1e-10 at 10) by a vectorised Thomas algorithm.
         """
         h = self.h
-        out = np.full(h.size + 1, REBOUND_NOISE_FACTOR)
+        n = h.size + 1
+        out = np.full(n, REBOUND_NOISE_FACTOR)
         if float(np.ptp(h)) > 1e-6 * float(np.median(h)):
-            noise = np.random.default_rng(12345).standard_normal((h.size + 1, probes))
-            out = np.sqrt(np.mean(self.rebound(noise) ** 2, axis=1))
-            out = np.maximum(out, 0.5 * float(np.median(out[1:-1])))
+            out[1:-1] = np.sqrt(self._row_norms2(half_width)) / self.diag[1:-1]
         out[0] = out[-1] = 0.0
         return out
+
+    def _row_norms2(self, half_width: int) -> NDArray[np.float64]:
+        """|K e_i|^2 for the interior knots i = 1..n-2 (see ``noise_factors``)."""
+        h = self.h
+        n = h.size + 1
+        m = n - 2
+        d = (h[:-1] + h[1:]) / 3.0
+        e = h[1:-1] / 6.0
+        hw = min(half_width, m)
+        offsets = np.arange(-hw, hw + 1)
+        cols = np.arange(m)[:, None] + offsets[None, :]        # interior indices
+        inside = (cols >= 0) & (cols < m)
+        cc = np.clip(cols, 0, m - 1)
+        diag = np.where(inside, d[cc], 1.0)
+        lower = np.zeros_like(diag)
+        if m > 1:
+            lower[:, 1:] = np.where(inside[:, 1:] & inside[:, :-1],
+                                    e[np.clip(cc[:, :-1], 0, m - 2)], 0.0)
+        upper = np.zeros_like(diag)
+        upper[:, :-1] = lower[:, 1:]
+        inv_h = 1.0 / h
+        knot = np.arange(1, n - 1)
+        rhs = np.zeros_like(diag)
+        rhs[:, hw] = -(inv_h[knot - 1] + inv_h[knot])           # Q^T e_i at knot i
+        if hw >= 1:
+            rhs[:, hw - 1] = np.where(knot >= 2, inv_h[knot - 1], 0.0)       # knot i-1
+            rhs[:, hw + 1] = np.where(knot <= n - 3, inv_h[np.minimum(knot, n - 2)], 0.0)
+        rhs = np.where(inside, rhs, 0.0)
+        cp = np.zeros_like(diag)
+        dp = np.zeros_like(diag)
+        cp[:, 0] = upper[:, 0] / diag[:, 0]
+        dp[:, 0] = rhs[:, 0] / diag[:, 0]
+        for k in range(1, 2 * hw + 1):
+            den = diag[:, k] - lower[:, k] * cp[:, k - 1]
+            cp[:, k] = upper[:, k] / den
+            dp[:, k] = (rhs[:, k] - lower[:, k] * dp[:, k - 1]) / den
+        g = np.zeros_like(diag)
+        g[:, -1] = dp[:, -1]
+        for k in range(2 * hw - 1, -1, -1):
+            g[:, k] = dp[:, k] - cp[:, k] * g[:, k + 1]
+        g = np.where(inside, g, 0.0)
+        # Q g = jumps of the slopes of g on the full knots (g = 0 outside the window)
+        gp = np.pad(g, ((0, 0), (1, 1)))
+        kf = np.concatenate([cols[:, :1], cols + 1, cols[:, -1:] + 2], axis=1)
+        valid = (kf[:, :-1] >= 0) & (kf[:, 1:] <= n - 1)
+        hk = h[np.clip(kf[:, :-1], 0, h.size - 1)]
+        slope = np.where(valid, np.diff(gp, axis=1) / hk, 0.0)
+        jump = np.concatenate([slope[:, :1], slope[:, 1:] - slope[:, :-1], -slope[:, -1:]],
+                              axis=1)
+        return np.sum(jump ** 2, axis=1)
 
 
 @dataclass(frozen=True)
