@@ -82,3 +82,20 @@ def test_invalid(args: tuple, key: str) -> None:
     with pytest.raises(InputError) as info:
         synthesize(*args)
     assert info.value.key == key
+
+
+@pytest.mark.parametrize('psi', [7.865, 8.4519, 8.541])
+def test_polar_form_eqs_4_6(psi: float) -> None:
+    """Independent check with S1 eqs 4-6: psi0 = arccos((L^2 + l^2 - R_b^2)/(2 L l)),
+    tan beta = l sin(psi0 + psi)/(L - l cos(psi0 + psi)), delta = beta0 - beta: its
+    extremes over the stroke are +-delta* at the optimum L."""
+    import numpy as np
+
+    r = synthesize(L_ARM, RB, psi * D)
+    big = r.frame_length
+    psi0 = math.acos((big ** 2 + L_ARM ** 2 - RB ** 2) / (2 * big * L_ARM))
+    s = np.linspace(0, psi * D, 200001)
+    beta = np.arctan2(L_ARM * np.sin(psi0 + s), big - L_ARM * np.cos(psi0 + s))
+    delta = beta[0] - beta
+    assert max(abs(delta.max()), abs(delta.min())) == pytest.approx(r.delta, rel=1e-8)
+    assert delta.max() == pytest.approx(-delta.min(), rel=1e-8)
