@@ -57,9 +57,9 @@ def accuracy() -> tuple[list[str], dict[str, float]]:
     multi_pair = Settings(sp_pairs=2, sp_pair_spacing_deg=2.0)   # seed 004 §5(2)
     exact, law, _ = _lobe()
     rows = []
-    pooled = {'lsq': [], 'sp': [], 'std': [], 'mp': []}
+    pooled = {'lsq': [], 'lsq_ro': [], 'sp': [], 'std': [], 'mp': []}
     for noise, spr, revs, direction in CONFIGS:
-        e_lsq, e_sp, e_mp, stds, crbs, times = [], [], [], [], [], []
+        e_lsq, e_sp, e_mp, stds, crbs, crbs_ro, times = [], [], [], [], [], [], []
         for seed in range(SEEDS):
             rng = np.random.default_rng([seed, spr, revs])
             nose = rng.uniform(0, 2 * np.pi)
@@ -79,19 +79,23 @@ def accuracy() -> tuple[list[str], dict[str, float]]:
                                    - 180))
             alpha = np.angle(np.exp(1j * direction * (fs.theta - nose)))
             crbs.append(crb_shift_std(alpha, exact, noise))
+            crbs_ro.append(crb_shift_std(alpha, exact, noise, theta=fs.theta))
         crb = float(np.sqrt(np.mean(np.square(crbs))))
         r_lsq = float(np.sqrt(np.mean(np.square(e_lsq)))) / crb
+        r_lsq_ro = float(np.sqrt(np.mean(np.square(e_lsq)))) / float(
+            np.sqrt(np.mean(np.square(crbs_ro))))
         r_sp = float(np.sqrt(np.mean(np.square(e_sp)))) / crb
-        r_std = float(np.mean(stds)) / crb
+        r_std = float(np.mean(stds)) / float(np.sqrt(np.mean(np.square(crbs_ro))))
         r_mp = float(np.sqrt(np.mean(np.square(e_mp)))) / crb
         pooled['lsq'] += list(np.asarray(e_lsq) / np.asarray(crbs))
+        pooled['lsq_ro'] += list(np.asarray(e_lsq) / np.asarray(crbs_ro))
         pooled['sp'] += list(np.asarray(e_sp) / np.asarray(crbs))
-        pooled['std'] += list(np.asarray(stds) / np.asarray(crbs))
+        pooled['std'] += list(np.asarray(stds) / np.asarray(crbs_ro))
         pooled['mp'] += list(np.asarray(e_mp) / np.asarray(crbs))
         rows.append(f'| {noise * 1e6:.1f} | {spr} | {revs} | {direction:+d} | '
                     f'{np.degrees(crb) * 3600:.4f} | '
                     f'{np.degrees(np.sqrt(np.mean(np.square(e_lsq)))) * 3600:.4f} | '
-                    f'{r_lsq:.2f} | {r_std:.3f} | '
+                    f'{r_lsq:.2f} | {r_lsq_ro:.2f} | {r_std:.3f} | '
                     f'{np.degrees(np.sqrt(np.mean(np.square(e_sp)))) * 3600:.4f} | '
                     f'{r_sp:.2f} | {r_mp:.2f} | {1e3 * float(np.median(times)):.1f} |')
         print(rows[-1], flush=True)
@@ -172,16 +176,21 @@ def main() -> None:
         '`convert_lift`; samples from the exact converted lift, analysis with the tabulated '
         f'one the core uses), {SEEDS} seeds per row (random nose, start angle, probe zero). '
         'CRB: bound of the nose shift for Gaussian probe noise with the lift offset unknown, '
-        'at the true sample angles. Ratios are RMS error / CRB (1.00 = efficient; the '
-        f'sampling uncertainty of a ratio over {SEEDS} seeds is about '
-        f'{100 / np.sqrt(2 * SEEDS):.0f} %). "std/CRB": mean reported angle_std_deg / CRB.', '',
+        'at the true sample angles ("incl. run-out": with the run-out harmonic unknown '
+        'too, the model the core fits by default). Ratios are RMS error / CRB (1.00 = '
+        f'efficient; the sampling uncertainty of a ratio over {SEEDS} seeds is about '
+        f'{100 / np.sqrt(2 * SEEDS):.0f} %). "std/CRB": mean reported angle_std_deg / CRB '
+        'incl. run-out.', '',
         '| noise um | samples/rev | revs | dir | CRB arcsec | LSQ RMS err arcsec | LSQ/CRB | '
-        'std/CRB | SP RMS err arcsec | SP/CRB | SP multi-pair/CRB | analysis ms |',
-        '|---|---|---|---|---|---|---|---|---|---|---|---|',
+        'LSQ/CRB incl. run-out | std/CRB | SP RMS err arcsec | SP/CRB | SP multi-pair/CRB | '
+        'analysis ms |',
+        '|---|---|---|---|---|---|---|---|---|---|---|---|---|',
         *acc_rows, '',
-        f'Pooled over all rows: LSQ/CRB = {summary["lsq"]:.3f} (goal <= 1.2), '
+        f'Pooled over all rows: LSQ/CRB = {summary["lsq"]:.3f} (goal <= 1.2; the default '
+        'model also fits the base-circle run-out harmonic, whose own bound is ~7 % higher: '
+        f'LSQ/CRB incl. run-out = {summary["lsq_ro"]:.3f}), '
         f'sensitive point/CRB = {summary["sp"]:.2f} (one pair, +-1 deg windows; multi-pair '
-        f'K = 2 at 2 deg spacing: {summary["mp"]:.2f}), reported std/CRB = '
+        f'K = 2 at 2 deg spacing: {summary["mp"]:.2f}), reported std/CRB incl. run-out = '
         f'{summary["std"]:.3f}. "analysis ms": median time of one feature analysis (LSQ + '
         'sensitive point + asymmetry + lift error), i.e. the latency from the end of a '
         'feature to its /metrology/result status.',
