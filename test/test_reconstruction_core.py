@@ -183,3 +183,20 @@ def test_config_file_holds_the_defaults():
     params = doc['reconstruction']['ros__parameters']
     assert params == {k: v[0] for k, v in ReconstructionCore.PARAMETERS.items()}
     ReconstructionCore(params)
+
+
+def test_numerical_failure_of_one_method_is_reported(measured, monkeypatch):
+    from cam_metrology.reconstruction import profile
+
+    def boom(*args, **kwargs):
+        raise np.linalg.LinAlgError('singular')
+
+    monkeypatch.setattr(profile, 'reconstruct_harmonic', boom)
+    core = ReconstructionCore()
+    core.handle('/bench/scene', scene_msg(), 1)
+    out = core.handle('/metrology/lift', msg('lobe_1', ('alpha_rad', 'lift_m', 'design_lift_m'),
+                                             measured[3]), 2)
+    st = statuses(out)
+    har = st['lobe_1/harmonic']
+    assert har.level == ERROR and 'numerical failure' in har.message
+    assert st['lobe_1/spline'].level == OK

@@ -150,6 +150,11 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
             outcome.error = str(exc)
             outcomes[m] = outcome
             continue
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            # a numerical failure on odd data fails this method, not the node
+            outcome.error = f'{m}: numerical failure ({type(exc).__name__}: {exc})'
+            outcomes[m] = outcome
+            continue
         rec.notes = list(table.notes) + rec.notes
         outcome.reconstruction = rec
         if design is not None:
