@@ -46,11 +46,11 @@ def register(subparsers: Any) -> None:
     p.add_argument('--sim', action='append', default=[], metavar='NAME:=VALUE',
                    help='a bench-sim parameter (SimParams field), e.g. --sim seed:=3 '
                         '--sim probe_noise:=1e-6 (repeatable)')
-    p.add_argument('--recorder-executor', choices=('events', 'single'), default='events',
-                   help='executor of the recorder: events (rclpy.experimental.EventsExecutor, '
-                        'default: 5-7x cheaper per message, lossless on a loaded 2-core '
-                        'machine where single dropped samples) or single '
-                        '(SingleThreadedExecutor)')
+    p.add_argument('--recorder-executor', choices=('single', 'events'), default='single',
+                   help='executor of the recorder: single (SingleThreadedExecutor, default: '
+                        'log times = publication times, so the bag keeps the order the '
+                        'bench published in) or events (rclpy.experimental.EventsExecutor: '
+                        'cheaper, receive-time log stamps)')
     p.add_argument('--keep-logs', action='store_true', help='keep the node logs directory')
     p.set_defaults(func=_demo)
 
