@@ -221,6 +221,8 @@ def test_uneven_sampling():
     assert e[0] < 0.3e-6 and e[2] < 6e-4
     e = rms_errors(reconstruct_harmonic(clean_samples(a, h)), LOBE)
     assert e[0] < 0.3e-6 and e[2] < 6e-4
+    manual = reconstruct_spline(a, h, SplineOptions(smoothing=rec.parameter['smoothing']))
+    assert np.allclose(manual.lift, rec.lift, atol=1e-9)
 
 
 def test_repeated_angles_from_two_turns_are_merged():
