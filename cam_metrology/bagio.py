@@ -37,6 +37,7 @@ __all__ = [
     'encode_joint_state_positions', 'encode_string', 'encode_output', 'encode_table',
     'encode_statuses', 'decode', 'table_from_msg', 'statuses_from_msg', 'iter_messages',
     'read_joint_states', 'decode_joint_states', 'light_joint_states', 'bag_topics',
+    'BagTopic', 'bag_connections',
     'topic_qos_yaml', 'copy_bag', 'recover_bag',
 ]
 
@@ -872,6 +873,37 @@ def _distinct_name_lists(codes: list[NDArray[np.int64]], texts: list[NDArray[np.
 
 
 # -------------------------------------------------------------------------- copying
+
+class BagTopic(NamedTuple):
+    """One topic of a bag: ROS type, message count, offered QoS YAML ('' if none
+    recorded) and whether it was offered transient local (latched)."""
+
+    msgtype: str
+    count: int
+    qos_yaml: str
+    latched: bool
+
+
+def bag_connections(path: str | Path) -> dict[str, BagTopic]:
+    """topic -> BagTopic(msgtype, count, qos_yaml, latched) of a bag (rosbag2 directory
+    or bare .mcap); counts and latching summed over the topic's connections."""
+    reader = _open_reader(path)
+    try:
+        out: dict[str, BagTopic] = {}
+        for conn in reader.connections:
+            profiles = list(getattr(conn.ext, 'offered_qos_profiles', None) or [])
+            latched = any(getattr(p.durability, 'name', '') == 'TRANSIENT_LOCAL'
+                          for p in profiles)
+            prev = out.get(conn.topic)
+            out[conn.topic] = BagTopic(
+                conn.msgtype, conn.msgcount + (prev.count if prev else 0),
+                prev.qos_yaml if prev and prev.qos_yaml else
+                (_dump_qos(profiles) if profiles else ''),
+                latched or bool(prev and prev.latched))
+        return out
+    finally:
+        reader.close()
+
 
 def topic_qos_yaml(path: str | Path) -> dict[str, str]:
     """topic -> offered QoS YAML recorded in a bag (topics without QoS are absent)."""

@@ -584,3 +584,17 @@ def test_bag_message_is_a_tuple(tmp_path):
     (m,) = list(bagio.iter_messages(bag))
     assert m[0] == m.topic == '/bench/scene' and m[2] == 3 and m[3].data == 's'
     assert tuple(m)[:3] == ('/bench/scene', 'std_msgs/msg/String', 3)
+
+
+def test_bag_connections_with_qos_and_latching(tmp_path):
+    bag = tmp_path / 'bag'
+    _write_small_bag(bag)
+    conns = bagio.bag_connections(bag)
+    assert set(conns) == set(bagio.bag_topics(bag))
+    scene = conns['/bench/scene']
+    assert scene == (('std_msgs/msg/String', 1, scene.qos_yaml, True))
+    assert 'transient_local' in scene.qos_yaml
+    js = conns['/bench/joint_states']
+    assert (js.msgtype, js.count, js.latched) == ('sensor_msgs/msg/JointState', 50, False)
+    (bare,) = bag.glob('*.mcap')
+    assert bagio.bag_connections(bare) == conns
