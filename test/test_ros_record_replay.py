@@ -2,7 +2,8 @@
 
 * record: a latched scene published *before* the recorder starts is still recorded
   (transient local); 600 JointState samples and an extra typed topic are recorded
-  byte-exact; SIGINT leaves a closed bag (metadata.yaml) that rosbags and mcap read.
+  byte-exact; SIGINT or SIGTERM leaves a closed bag (metadata.yaml) that rosbags and
+  mcap read.
 * replay: a fixture bag (written here with bagio) republished at rate 4 reaches a
   subscriber complete, in order per topic, scene first, and no faster than the scaled
   timing.
@@ -40,7 +41,9 @@ def joint_state(k: int) -> Any:
     return msg
 
 
-def test_record_sigint_leaves_complete_bag(ros_domain: int, tmp_path: Path) -> None:
+@pytest.mark.parametrize('stop', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
+def test_record_stop_signal_leaves_complete_bag(ros_domain: int, tmp_path: Path,
+                                                stop: signal.Signals) -> None:
     from rclpy.duration import Duration
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
@@ -73,7 +76,7 @@ def test_record_sigint_leaves_complete_bag(ros_domain: int, tmp_path: Path) -> N
         # heartbeat, so this takes up to 3 s); the recorder drains it on SIGINT
         for pub in (scene, samples, extra):
             assert pub.wait_for_all_acked(Duration(seconds=10))
-        rec.send_signal(signal.SIGINT)
+        rec.send_signal(stop)
         text, _ = rec.communicate(timeout=30)
         assert rec.returncode == 0, text
     finally:
