@@ -6,7 +6,6 @@ integrator: the truth for tests and the baseline of the benchmark.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -166,8 +165,3 @@ def reference_solve(law: LiftLaw, params: SdofParams, rpm: float,
     else:
         raise RuntimeError('reference solver: too many restarts')
     return ReferenceResult(alpha=a_out, y=ys, v=vs, switches=switches, nfev=nfev)
-
-
-def degrees(x: float) -> float:
-    """rad -> deg (helper for reports)."""
-    return math.degrees(x)
