@@ -398,7 +398,8 @@ def _open_reader(path: str | Path) -> Any:
     if bag.is_dir() and not (bag / 'metadata.yaml').exists():
         raise InputError('bag', str(bag),
                          'a closed rosbag2 directory with metadata.yaml (the recorder '
-                         'writes it on close; an interrupted recording has none)')
+                         'writes it on close; an interrupted recording has none: '
+                         '`cam-bench bag recover SRC DST` saves its complete chunks)')
     reader = AnyReader([bag], default_typestore=typestore())
     try:
         reader.open()
