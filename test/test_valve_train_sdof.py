@@ -228,3 +228,16 @@ def test_bad_speed_and_step(law: PiecewisePolynomialLaw) -> None:
 def test_smoothstep_helper() -> None:
     s = smoothstep(0.0, 1.0, 0.0, 2.0)
     assert s(1.0) == pytest.approx(2.0) and s.deriv(3)(1.0) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_hard_seat_against_radau(law: PiecewisePolynomialLaw) -> None:
+    """Hard seat with restitution 0.5: impacts, rebounds and the held valve against the
+    reference (Radau with the same impact law) over the closing."""
+    p = SdofParams(**BASE, restitution=0.5)
+    res = simulate(law, p, 2000.0, step_deg=0.1)
+    i0 = int(np.argmin(np.abs(res.alpha - 50 * DEG)))
+    sel = slice(i0, i0 + 151)
+    ref = reference_solve(law, p, 2000.0, res.alpha[sel], rtol=1e-10, atol=1e-14,
+                          z0=(res.y[i0], res.v[i0]), r0=int(res.regime[i0]))
+    assert len(res.events.impacts) >= 2
+    assert np.max(np.abs(ref.y - res.y[sel])) < 1e-6 * np.max(res.y)
