@@ -73,7 +73,8 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         'replay', formatter_class=fmt, help='republish a bag with its timing scaled by R',
         description='Republish the recorded CDR bytes of a bag (latched topics first, '
-                    'transient local), wait for subscribers (deadline), then stream the '
+                    'transient local), wait for subscribers of the sample stream (deadline), '
+                    'then stream the '
                     'rest with the original timing divided by --rate.')
     p.add_argument('bag', help='rosbag2 directory')
     p.add_argument('--rate', type=_positive_or_zero, default=1.0,
@@ -81,7 +82,8 @@ def register(subparsers: Any) -> None:
     p.add_argument('--loop', action='store_true', help='replay again until Ctrl-C')
     p.add_argument('--topics', nargs='+', metavar='TOPIC', help='only these topics')
     p.add_argument('--wait-subscribers', type=int, default=1,
-                   help='subscriptions to wait for on every topic before streaming (default 1)')
+                   help='subscriptions to wait for on the busiest topic (the samples) '
+                        'before streaming (default 1)')
     p.add_argument('--match-timeout', type=float, default=10.0,
                    help='s to wait for them (then a warning, and replay anyway)')
     p.set_defaults(func=_replay)

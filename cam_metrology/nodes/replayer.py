@@ -5,8 +5,9 @@
   (/bench/scene, /bench/truth, /metrology/report, or any topic the bag recorded as
   transient local).
 * The latched topics' first messages are published first, then the player waits
-  (deadline) until ``wait_subscribers`` subscriptions matched on every replayed topic
-  (and acknowledged the latched messages), then streams the rest in log-time order at
+  (deadline) until ``wait_subscribers`` subscriptions matched the busiest topic (the
+  sample stream; other topics may legitimately have no subscriber) and acknowledged the
+  latched messages, then streams the rest in log-time order at
   ``t_wall0 + (t_bag - t_bag0) / rate`` (``rate`` <= 0: as fast as possible).
 * ``publish()`` of bytes sends them as a serialized message (nothing re-encoded); an
   ``RCLError`` from a blocked KEEP_ALL writer is retried until a deadline.
@@ -83,6 +84,10 @@ class ReplayNode(Node):
         if topics:
             conns = {t: v for t, v in conns.items() if t in set(topics)}
         self.latched = {t for t, (_, lat) in conns.items() if lat}
+        from cam_metrology.bagio import bag_topics
+        counts = {t: n for t, (_, n) in bag_topics(self.bag).items() if t in conns}
+        #: the topic with the most messages (the sample stream): the one waited for
+        self.main_topic = max(counts, key=lambda t: counts[t]) if counts else None
         self.pubs = {t: self.create_publisher(message_class(type_name), t, replay_qos(lat))
                      for t, (type_name, lat) in conns.items()}
 
@@ -115,8 +120,8 @@ class ReplayNode(Node):
         # 2. wait for subscribers on every topic, and for the latched data to be taken
         if wait_subscribers > 0:
             deadline = time.monotonic() + match_timeout
-            while min(self.matched_counts().values(), default=wait_subscribers) \
-                    < wait_subscribers:
+            main = self.pubs[self.main_topic] if self.main_topic else None
+            while main is not None and main.get_subscription_count() < wait_subscribers:
                 if time.monotonic() >= deadline or (should_stop and should_stop()):
                     stats.matched = False
                     break
@@ -179,7 +184,7 @@ def run_replay(bag: str | Path, rate: float = 1.0, *, loop: bool = False,
             node.wait_acked(5.0)
             if not stats.matched:
                 print(f'replay: warning: fewer than {wait_subscribers} subscriber(s) on '
-                      f'some topics after {match_timeout} s: {node.matched_counts()}',
+                      f'{node.main_topic} after {match_timeout} s: {node.matched_counts()}',
                       flush=True)
             if not quiet:
                 print(f'published {stats.total} messages in {stats.wall_s:.2f} s (bag span '
