@@ -64,7 +64,9 @@ class DowelPinGeometry:
         rz, rho = self.circle_radius, self.pin_radius + self.probe_radius
         sin_a, cos_a = np.sin(a), np.cos(a)
         radicand = rho * rho - (rz * sin_a) ** 2
-        contact = radicand > 0.0
+        # cos(alpha) > 0: the pin is on the probe's side of the axis (rho < R_z, so the
+        # radicand alone would also admit the mirror region behind the axis).
+        contact = (radicand > 0.0) & (cos_a > 0.0)
         s = np.sqrt(np.where(contact, radicand, np.nan))
         s2a, c2a = np.sin(2 * a), np.cos(2 * a)
         if nu == 0:
@@ -79,7 +81,7 @@ class DowelPinGeometry:
         else:
             raise InputError('nu', nu, 'a derivative order 0..3')
         # alpha = +-alpha_max exactly: h is finite (radicand 0), the slope is not.
-        edge = radicand == 0.0
+        edge = (radicand == 0.0) & (cos_a > 0.0)
         if nu == 0 and np.any(edge):
             out = np.where(edge, rz * cos_a - self.probe_radius, out)
         return np.asarray(out, dtype=float)

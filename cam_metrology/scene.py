@@ -26,6 +26,7 @@ class Lobe:
     lift: LiftLaw
     nominal_phase: float | None = None
     lift_spec: dict[str, Any] | None = None   # the scene's lift_law mapping, if any
+    width: float | None = None                # m, cam width (Hertz contact line length)
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,8 @@ TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
             'dowel_pin', 'compute', 'valve_train', 'idle_timeout')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
-LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law')
+LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law',
+             'width')
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 VALVE_MODELS = ('sdof', 'mdof')
 SEAT_KEYS = ('stiffness', 'damping', 'restitution')
@@ -264,8 +265,11 @@ def _lobes(ctx: _Ctx, value: Any, base: float) -> list[Lobe]:
             spec = dict(lobe['lift_law'])   # the registry rejects unknown parameters
             law = lift_law_from_spec(spec, f'{key}.lift_law')
         _check_law(f'{key}.lift_law' if spec is not None else f'{key}.lift', law)
+        width = lobe.get('width')
+        if width is not None:
+            width = require_positive(f'{key}.width', width)
         lobes.append(Lobe(id=lobe_id, follower=follower, lift=law, nominal_phase=phase,
-                          lift_spec=spec))
+                          lift_spec=spec, width=width))
     return lobes
 
 

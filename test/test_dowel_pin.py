@@ -72,6 +72,9 @@ def test_no_contact_is_nan_not_a_number() -> None:
     """Outside contact the lift is undefined: NaN, never a plausible-looking value."""
     assert np.isnan(SEED.lift(0.5))
     assert np.isnan(SEED.lift(-0.5, 2))
+    # behind the axis the radicand is positive again, but the probe cannot reach the pin
+    for nu in range(4):
+        assert np.all(np.isnan(SEED.lift(np.array([np.pi, -np.pi, 3.0, np.pi / 2 + 0.01]), nu)))
 
 
 @pytest.mark.parametrize('kwargs, key', [

@@ -511,3 +511,16 @@ def test_duplicate_key_is_an_error_not_a_silent_overwrite():
     with pytest.raises(InputError, match='unique keys') as info:
         parse_scene(text)
     assert info.value.value == 'lash' and 'line' in str(info.value)
+
+
+def test_lobe_width_for_hertz_stress():
+    """lobes[].width (m) is optional, parsed as a positive length, and rejected if not."""
+    doc = _base()
+    doc['lobes'][0]['width'] = 0.014
+    scene = _parse(doc)
+    assert scene.lobes[0].width == 0.014 and scene.lobes[1].width is None
+    assert not any('width' in w for w in scene.warnings)
+
+    def mutate(d):
+        d['lobes'][1]['width'] = -0.01
+    _bad(mutate, 'lobes[1].width', '-0.01', '> 0')
