@@ -221,6 +221,8 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from cam_metrology.reconstruction.profile import design_from_table
+
     folder.mkdir(parents=True, exist_ok=True)
     names = ('lift [mm]', 'velocity [mm/rad]', 'acceleration [mm/rad^2]', 'jerk [mm/rad^3]')
     for fid, outcomes in core.results.items():
@@ -231,13 +233,20 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
         if table is not None:
             axes[0].plot(np.degrees(table.alpha), table.lift * 1e3, '.', ms=2, color='0.6',
                          label='measured')
+            design = design_from_table(table)
+            first = next((o.reconstruction for o in outcomes.values()
+                          if o.reconstruction is not None), None)
+            if design is not None and first is not None:
+                for nu, ax in enumerate(axes):
+                    ax.plot(np.degrees(first.alpha), design(first.alpha, nu) * 1e3, 'k--',
+                            lw=0.8, label='design (probe)' if nu == 0 else None)
         for m, o in outcomes.items():
             rec = o.reconstruction
             if rec is None:
                 continue
             for ax, values in zip(axes, rec.derivatives()):
                 ax.plot(np.degrees(rec.alpha), values * 1e3, lw=1, label=m)
-            if rec.outliers_alpha.size:
+            if rec.outliers_alpha.size and m == next(iter(outcomes)):
                 axes[0].plot(np.degrees(rec.outliers_alpha),
                              np.interp(rec.outliers_alpha, table.alpha, table.lift) * 1e3
                              if table is not None else np.zeros(rec.outliers_alpha.size),
