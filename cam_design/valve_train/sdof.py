@@ -397,35 +397,66 @@ def _eval_min(comp: tuple[float, list[list[float]]], t: float) -> tuple[float, f
     return sign * best, sign * dbest
 
 
-def _newton_bracket(comp: tuple[float, list[list[float]]], a: float,
-                    b: float) -> tuple[float, float]:
-    """[a, b] with f(a) >= 0 > f(b), shrunk to ~1e-14 by safeguarded Newton steps on
-    f = sign * min_i P_i (bisection when a step leaves the bracket)."""
-    fa = _eval_min(comp, a)[0]
-    fb = _eval_min(comp, b)[0]
+def _poly_root(c: list[float], a: float, b: float, fa: float) -> float:
+    """Root in [a, b] of the polynomial c (Horner order) changing sign there
+    (safeguarded Newton from the secant point)."""
+    def ev(t: float) -> tuple[float, float]:
+        val = der = 0.0
+        for x in c:
+            der = der * t + val
+            val = val * t + x
+        return val, der
+
+    fb = ev(b)[0]
     x = a - fa * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
-    if not a < x < b:
-        x = 0.5 * (a + b)
-    for _ in range(100):
-        if b - a <= 1e-14:
-            break
-        f, d = _eval_min(comp, x)
-        if f >= 0:
+    up = fb > fa
+    for _ in range(60):
+        if not a <= x <= b:
+            x = 0.5 * (a + b)
+        f, d = ev(x)
+        if (f < 0) == up:
             a = x
         else:
             b = x
         xn = x - f / d if d != 0 else 0.5 * (a + b)
         if not a < xn < b:
             xn = 0.5 * (a + b)
-        if abs(xn - x) < 1e-13:
-            # converged: make the bracket tight around the root
-            lo, hi = max(a, xn - 1e-14), min(b, xn + 1e-14)
-            if _eval_min(comp, lo)[0] >= 0:
-                a = lo
-            if _eval_min(comp, hi)[0] < 0:
-                b = hi
-            break
+        if abs(xn - x) < 1e-15 or b - a < 1e-15:
+            return xn
         x = xn
+    return 0.5 * (a + b)
+
+
+def _newton_bracket(comp: tuple[float, list[list[float]]], a: float,
+                    b: float) -> tuple[float, float]:
+    """[a, b] with f(a) >= 0 > f(b), f = sign * min_i P_i, shrunk to ~1e-14.
+
+    The components are smooth: each one's own root is found by Newton, and the switch
+    is the first component root (sign +1: a component drops below 0) or the last one
+    (sign -1: every component has become positive); bisection on f is the fallback.
+    """
+    sign, polys = comp
+    roots = []
+    for c in polys:
+        pa = _eval_min((1.0, [c]), a)[0]
+        pb = _eval_min((1.0, [c]), b)[0]
+        if sign > 0 and pb < 0 <= pa:
+            roots.append(_poly_root(c, a, b, pa))
+        elif sign < 0 and pa <= 0 < pb:
+            roots.append(_poly_root(c, a, b, pa))
+    if roots:
+        x = min(roots) if sign > 0 else max(roots)
+        lo, hi = max(a, x - 1e-14), min(b, x + 1e-14)
+        if _eval_min(comp, hi)[0] < 0 and _eval_min(comp, lo)[0] >= 0:
+            return lo, hi
+    for _ in range(200):           # fallback: bisection on f
+        if b - a <= 1e-14:
+            break
+        m = 0.5 * (a + b)
+        if _eval_min(comp, m)[0] >= 0:
+            a = m
+        else:
+            b = m
     return a, b
 
 
