@@ -1,11 +1,15 @@
 """Run every benchmark module in turn and write benchmarks/results/<area>.md."""
 from __future__ import annotations
 
-import importlib
-import pkgutil
-import sys
-import time
-from pathlib import Path
+import os
+
+os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')   # as the CLI does; before numpy loads
+
+import importlib  # noqa: E402
+import pkgutil  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 
 def main() -> int:

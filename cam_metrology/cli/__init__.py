@@ -8,9 +8,16 @@ never load ROS.
 """
 from __future__ import annotations
 
-import argparse
-import importlib
-import sys
+import os
+
+# Small dense solves (splines, 2x2..100x100 systems) dominate our numerics; the bundled
+# multi-threaded OpenBLAS made them 100-1000x slower on a loaded 2-core machine. Must be
+# set before numpy is first imported; a user's explicit setting wins.
+os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
+
+import argparse  # noqa: E402
+import importlib  # noqa: E402
+import sys  # noqa: E402
 from typing import Sequence
 
 # Order here is the order in `cam-bench --help`.
