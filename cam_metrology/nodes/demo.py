@@ -104,13 +104,18 @@ def start_child(name: str, argv: list[str], env: dict[str, str], log_dir: Path) 
     return Child(name, proc, log)
 
 
-def stop_child(child: Child, sigint_wait: float = 20.0, term_wait: float = 5.0) -> int:
-    """SIGINT, wait; SIGTERM, wait; SIGKILL. Returns the exit code."""
+def stop_child(child: Child, sigint_wait: float = 20.0, term_wait: float = 5.0,
+               waiter: Callable[[Callable[[], bool], float], Any] | None = None) -> int:
+    """SIGINT, wait; SIGTERM, wait; SIGKILL. Returns the exit code. ``waiter(cond, s)``
+    waits for ``cond`` (default: block on the process), e.g. while spinning a node."""
     for sig, wait in ((signal.SIGINT, sigint_wait), (signal.SIGTERM, term_wait),
                       (signal.SIGKILL, 5.0)):
         if child.proc.poll() is not None:
             break
         child.proc.send_signal(sig)
+        if waiter is not None:
+            waiter(lambda: child.proc.poll() is not None, wait)
+            continue
         try:
             child.proc.wait(wait)
         except subprocess.TimeoutExpired:
@@ -416,10 +421,21 @@ def _shutdown(children: dict[str, Child], proc: Any, monitor: Any,
                 proc.drain(lambda: monitor.callbacks_run, idle=0.3, limit=3.0)
         finally:   # whatever happens, every child is stopped
             already = child.proc.poll() is not None
-            exits[name] = stop_child(child)
+            # the monitor keeps spinning meanwhile (progress lines stay in order)
+            exits[name] = stop_child(child, waiter=_spin_waiter(proc))
         if not already:
             say(f'{name} stopped (exit {exits[name]})')
     return exits
+
+
+def _spin_waiter(proc: Any) -> Callable[[Callable[[], bool], float], Any]:
+    """A ``stop_child`` waiter that spins ``proc`` (ignoring a stop request: the demo
+    is already stopping)."""
+    def wait(condition: Callable[[], bool], timeout: float) -> None:
+        end = time.monotonic() + timeout
+        while not condition() and time.monotonic() < end:
+            proc.spin_once(0.05)
+    return wait
 
 
 def _bag_counts(bag: Path) -> dict[str, tuple[str, int]] | None:
