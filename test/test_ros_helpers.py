@@ -38,7 +38,8 @@ def test_ros_arguments() -> None:
 def test_truth_scoring_and_report_table() -> None:
     from cam_metrology.nodes.demo import report_lines, truth_angle_deg, wrap180
 
-    truth = {'features': {'lobe_1': {'angle_deg': 359.99}, 'dowel_pin': {'angle_rad': 1.0}},
+    truth = {'features': {'lobe_1': {'angle_deg': 359.99, 'phase_error_deg': 0.45},
+                          'dowel_pin': {'angle_rad': 1.0}},
              'nose_angles': {'lobe_2': -math.pi / 2}}
     assert truth_angle_deg(truth, 'lobe_1') == pytest.approx(359.99)
     assert truth_angle_deg(truth, 'lobe_2') == pytest.approx(270.0)
@@ -52,7 +53,7 @@ def test_truth_scoring_and_report_table() -> None:
         'skipped': [{'what': 'pin', 'why': 'no pin'}]}
     lines = report_lines(report, truth)
     row1 = next(ln for ln in lines if ln.startswith('lobe_1')).split()
-    assert row1[1:] == ['0.0200', '0.00100', '0.5000', '359.9900', '0.03000']
+    assert row1[1:] == ['0.0200', '0.00100', '0.5000', '359.9900', '0.03000', '0.05000']
     assert 'FAILED: too few samples' in next(ln for ln in lines if ln.startswith('lobe_2'))
     assert lines[-1] == 'skipped: pin (no pin)'
     assert report_lines(None, truth) == ['no metrology report']

@@ -156,25 +156,38 @@ def wrap180(deg: float) -> float:
     return 180.0 if out == -180.0 else out
 
 
+def truth_phase_error_deg(truth: dict[str, Any], fid: str) -> float | None:
+    """The true phase error [deg] of lobe ``fid`` in the /bench/truth JSON, if any."""
+    feats = truth.get('features')
+    entry = feats.get(fid) if isinstance(feats, dict) else None
+    value = entry.get('phase_error_deg') if isinstance(entry, dict) else None
+    return float(value) if isinstance(value, (int, float)) else None
+
+
 def report_lines(report: dict[str, Any] | None, truth: dict[str, Any] | None) -> list[str]:
-    """The per-feature table: angle, std, phase error, error vs truth (degrees)."""
+    """The per-feature table [deg]: measured angle, its std, measured phase error, true
+    angle, angle error (measured - true), phase error minus the true phase error."""
     if not report:
         return ['no metrology report']
-    lines = [f'camshaft {report.get("camshaft_id", "?")}',
-             f'{"feature":<12}{"angle_deg":>12}{"std_deg":>11}{"phase_err_deg":>15}'
-             f'{"truth_deg":>12}{"err_deg":>11}']
+    lines = [f'camshaft {report.get("camshaft_id", "?")}   (all angles in degrees; '
+             'err = measured - /bench/truth)',
+             f'{"feature":<12}{"angle":>11}{"std":>10}{"phase_err":>11}'
+             f'{"true_angle":>12}{"angle_err":>11}{"phase_err_err":>15}']
 
     def num(value: Any, width: int, digits: int) -> str:
         return (f'{value:>{width}.{digits}f}' if isinstance(value, (int, float))
                 else f'{"-":>{width}}')
 
+    def diff(a: Any, b: float | None) -> float | None:
+        return wrap180(a - b) if isinstance(a, (int, float)) and b is not None else None
+
     for fid, feat in (report.get('features') or {}).items():
-        angle = feat.get('angle_deg') if isinstance(feat, dict) else None
+        feat = feat if isinstance(feat, dict) else {}
+        angle, phase_err = feat.get('angle_deg'), feat.get('phase_error_deg')
         true = truth_angle_deg(truth or {}, fid)
-        err = wrap180(angle - true) if isinstance(angle, (int, float)) and true is not None \
-            else None
-        row = (f'{fid:<12}{num(angle, 12, 4)}{num(feat.get("angle_std_deg"), 11, 5)}'
-               f'{num(feat.get("phase_error_deg"), 15, 4)}{num(true, 12, 4)}{num(err, 11, 5)}')
+        row = (f'{fid:<12}{num(angle, 11, 4)}{num(feat.get("angle_std_deg"), 10, 5)}'
+               f'{num(phase_err, 11, 4)}{num(true, 12, 4)}{num(diff(angle, true), 11, 5)}'
+               f'{num(diff(phase_err, truth_phase_error_deg(truth or {}, fid)), 15, 5)}')
         if feat.get('error') or feat.get('reason'):
             row += f'  FAILED: {feat.get("error") or feat.get("reason")}'
         lines.append(row)
