@@ -23,6 +23,12 @@ setup(
     entry_points={
         'console_scripts': [
             'cam-bench = cam_metrology.cli:main',
+            # one per node, for `ros2 run cam_metrology <node>` after a colcon build
+            'metrology = cam_metrology.nodes.entry:metrology',
+            'reconstruction = cam_metrology.nodes.entry:reconstruction',
+            'dynamics = cam_metrology.nodes.entry:dynamics',
+            'bench_sim = cam_metrology.nodes.entry:bench_sim',
+            'recorder = cam_metrology.nodes.entry:recorder',
         ],
     },
 )
