@@ -420,3 +420,17 @@ def test_lobe_scan_without_base_circle():
     assert abs(_err_arcsec(v['sensitive_point_angle_deg'], nose)) < 0.01
     assert v['lift_offset_mm'] == pytest.approx(4.2, abs=1e-9)
     assert v['base_circle_runout_um'] is None
+
+
+def test_pin_multi_pair_goes_inward():
+    """Extra pin pairs lie towards the top (outside the contact there is no lift)."""
+    centre = np.radians(123.0)
+    smp = sample_pin(PIN, centre, n_per_rev=7200, noise=0.3e-6, seed=3)
+    one = analyze_pin(_feature(smp, 'dowel_pin'), PIN, 1, Settings()).values
+    multi = analyze_pin(_feature(smp, 'dowel_pin'), PIN, 1,
+                        Settings(sp_pairs=2, sp_pair_spacing_deg=2.0)).values
+    assert multi['sensitive_point_angle_deg'] is not None
+    assert multi['sensitive_point_angle_std_deg'] < one['sensitive_point_angle_std_deg']
+    for v in (one, multi):
+        assert abs(_err_arcsec(v['sensitive_point_angle_deg'], centre)) < \
+            4 * v['sensitive_point_angle_std_deg'] * 3600

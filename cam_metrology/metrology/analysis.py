@@ -496,7 +496,7 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
             sp = sensitive_point_shift(
                 x[good], fs.s[good] - ref, law, -(inner - half), inner - half, half_window=half,
                 pairs=settings.sp_pairs, spacing=settings.sp_pair_spacing_deg * DEG,
-                limits=(-inner, inner), order=settings.sp_fit_order,
+                limits=(-inner, inner), order=settings.sp_fit_order, inward_only=True,
                 validity_tol=settings.validity_tol_um / UM)
             if abs(sp.d - d_sp) < 1e-13:
                 break

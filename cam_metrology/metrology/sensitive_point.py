@@ -144,16 +144,20 @@ def sensitive_point_shift(x: NDArray[np.float64], lift_ref: NDArray[np.float64],
                           lift: Lift, alpha_m: float, alpha_n: float, *,
                           half_window: float, pairs: int = 0, spacing: float = 0.0,
                           limits: tuple[float, float] = (-np.inf, np.inf), order: int = 1,
+                          inward_only: bool = False,
                           validity_tol: float = 1e-6, max_iter: int = 10) -> SensitivePointResult:
     """Nose shift d [rad] by the sensitive-point method (multi-pair if ``pairs`` > 0).
 
     ``x`` [rad] sample angles relative to a coarse nose, ``lift_ref`` [m] readings
     referenced to the design zero (base circle, or pin geometry); windows are
-    clipped to ``limits`` [rad] (the contact range of a dowel pin). The frame is
-    re-centred on the current estimate until the shift converges.
+    clipped to ``limits`` [rad] (the contact range of a dowel pin); ``inward_only``
+    puts the extra pairs only towards the top (k = 0..2K). The frame is re-centred on
+    the current estimate until the shift converges.
     """
     d = 0.0
-    ks = np.arange(-pairs, pairs + 1)
+    # pairs on both sides of the sensitive points, or (dowel pin: the sensitive points
+    # sit at the edge of contact) only towards the top
+    ks = np.arange(0, 2 * pairs + 1) if inward_only else np.arange(-pairs, pairs + 1)
     it = 0
     for it in range(1, max_iter + 1):
         xr = x - d
@@ -172,7 +176,7 @@ def sensitive_point_shift(x: NDArray[np.float64], lift_ref: NDArray[np.float64],
         if abs(step) < 1e-14:
             break
     std = float(np.sqrt(1.0 / np.sum(1.0 / var))) if np.all(var > 0) else 0.0
-    centre = cross[pairs]
+    centre = cross[0 if inward_only else pairs]
     dev_m, dev_n = centre[0].deviation_at_design, centre[1].deviation_at_design
     tol = max(validity_tol, 3.0 * np.hypot(centre[0].std * abs(float(lift(np.array(alpha_m), 1))),
                                            centre[1].std * abs(float(lift(np.array(alpha_n), 1)))))
