@@ -440,6 +440,9 @@ def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64], lo: fl
         tp = top_point(spline, float(a.min()), float(a.max()))
     except (InputError, ValueError) as exc:
         return {'asymmetry_error': str(exc)}
+    if not (np.isfinite(tp.d) and abs(tp.d) <= settings.max_shift_deg * DEG):
+        return {'asymmetry_error': f'symmetry axis {np.degrees(tp.d):.3f} deg from the '
+                                   'least-squares nose: no credible top point'}
     return {'asymmetry_deg': float(np.degrees(direction * tp.d)),
             'asymmetry_flank_deg': float(np.degrees(direction * tp.d_flank)),
             'flank_midpoint_scatter_deg': float(np.degrees(tp.flank_scatter)),
