@@ -327,18 +327,24 @@ def _flags(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
     delta, ddelta = u - y, ud - v
     gc, dgc = p.stiffness * delta + p.damping * ddelta, p.stiffness * ddelta + p.damping * (
         udd - acc)
-    dh, gh = ddelta * h, dgc * h
-    if r & CONTACT:
-        bad = _dips(delta, dh) | _dips(gc, gh)
-    else:
-        bad = _dips(-delta, -dh) & _dips(-gc, -gh)
+    sc = 1.0 if r & CONTACT else -1.0
+    vals = [sc * delta, sc * gc]
+    ders = [sc * ddelta * h, sc * dgc * h]
     if p.hard_seat:
-        return bad | _dips(y, v * h)
-    gs, dgs = -p.seat_stiffness * y - p.seat_damping * v, -p.seat_stiffness * v \
-        - p.seat_damping * acc
-    if r & SEAT:
-        return bad | _dips(-y, -v * h) | _dips(gs, dgs * h)
-    return bad | (_dips(y, v * h) & _dips(-gs, -dgs * h))
+        vals.append(y)
+        ders.append(v * h)
+    else:
+        gs = -p.seat_stiffness * y - p.seat_damping * v
+        dgs = -p.seat_stiffness * v - p.seat_damping * acc
+        ss = 1.0 if r & SEAT else -1.0
+        vals += [-ss * y, ss * gs]
+        ders += [-ss * v * h, ss * dgs * h]
+    dips = _dips(np.stack(vals), np.stack(ders))        # one call for all components
+    # in a regime: leaves when a component dips; out of it: enters when all rise
+    bad = dips[0] | dips[1] if r & CONTACT else dips[0] & dips[1]
+    if p.hard_seat:
+        return bad | dips[2]
+    return bad | (dips[2] | dips[3] if r & SEAT else dips[2] & dips[3])
 
 
 def _inside_scalar(p: SdofParams, r: int, y: float, v: float, u: float, ud: float,
