@@ -362,6 +362,8 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
             if 'asymmetry_deg' in values:
                 values['top_point_deg'] = float(np.mod(values['angle_deg']
                                                        + values['asymmetry_deg'], 360.0))
+            else:
+                skipped.append(('asymmetry', values['asymmetry_error']))
         else:
             skipped.append(('asymmetry', 'design lift is asymmetric: no symmetry axis'))
     order = np.argsort(alpha)
