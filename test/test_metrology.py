@@ -434,3 +434,18 @@ def test_pin_multi_pair_goes_inward():
     for v in (one, multi):
         assert abs(_err_arcsec(v['sensitive_point_angle_deg'], centre)) < \
             4 * v['sensitive_point_angle_std_deg'] * 3600
+
+
+def test_gap_at_the_nose_is_harmless():
+    """No samples within 1.5 deg of the nose (flat top, no information on the angle):
+    the flanks carry both the angle and the symmetry axis."""
+    nose = np.radians(300.0)
+    smp = sample_lobe(CAM, nose, 1, n_per_rev=3600)
+    alpha = np.angle(np.exp(1j * (smp.theta - nose)))
+    keep = np.abs(alpha) > np.radians(1.5)
+    fs = clean_feature('lobe_1', smp.stamp_ns[keep], smp.theta[keep], smp.s[keep])
+    res = analyze_lobe(fs, CAM, 1, Settings())
+    assert abs(_err_arcsec(res.values['angle_deg'], nose)) < 0.01
+    assert abs(_err_arcsec(res.values['sensitive_point_angle_deg'], nose)) < 0.01
+    assert abs(res.values['asymmetry_deg']) * 3600 < 0.01
+    assert res.skipped == []
