@@ -19,7 +19,13 @@
   neither a sample nor a held message has arrived for ``order_hold`` s (0.5 s: five
   heartbeat periods of our Fast DDS profile, so a lost tail sample is repaired first).
   Samples already waiting in the reader are taken at once (``take_message``) so
-  nothing overtakes them. Under the
+  nothing overtakes them;
+* bulk samples: when the core has ``handle_samples`` (the bulk path of the offline
+  replay), /bench/joint_states is subscribed raw; each callback drains the reader
+  (up to ``MAX_BATCH`` messages), decodes the CDR with numpy
+  (``bagio.decode_joint_states``, joints by name) and hands the block to the core in
+  one call. This removes the per-message executor dispatch, deserialization and core
+  call that limited the live node to a few thousand samples/s. Under the
   EventsExecutor (``with_info=False``) this is off: rclpy 7.1.6's EventsExecutor
   raises SystemError for any callback taking MessageInfo, and it runs callbacks in
   event-arrival order anyway;
@@ -44,6 +50,10 @@ from cam_metrology.nodes import convert
 from cam_metrology.nodes.topics import (BENCH_TOPICS, JOINT_STATES, SCENE,
                                         AdaptiveSubscriptions, QosSpec, message_class, qos_of)
 from cam_metrology.outputs import Output, msgtype_of
+
+
+#: most raw samples handed to a core in one callback (keeps timers responsive)
+MAX_BATCH = 4000
 
 
 class CoreMissing(RuntimeError):
@@ -123,6 +133,7 @@ class CoreNode(Node):
         # them in creation order, so the scene is handled before samples.
         topics = sorted(self.core.subscriptions.items(), key=lambda item: item[0] != SCENE)
         self._ordered = with_info and JOINT_STATES in self.core.subscriptions
+        self._bulk = self._ordered and callable(getattr(self.core, 'handle_samples', None))
         self._adaptive = AdaptiveSubscriptions(self, self._subscribe)
         for topic, type_name in topics:
             if topic in BENCH_TOPICS:
@@ -134,14 +145,18 @@ class CoreNode(Node):
             self._order_timer = self.create_timer(0.05, self._on_order_timer)
 
     def _subscribe(self, topic: str, type_name: str, qos: QosSpec) -> None:
-        if topic == JOINT_STATES and self._ordered:
-            callback: Any = self._on_sample
+        raw = False
+        if topic == JOINT_STATES and self._bulk:
+            callback: Any = self._on_sample_raw
+            raw = True
+        elif topic == JOINT_STATES and self._ordered:
+            callback = self._on_sample
         elif self._ordered:
             callback = functools.partial(self._on_held, topic)
         else:
             callback = functools.partial(self._on_message, topic)
         self._subs[topic] = self.create_subscription(
-            message_class(type_name), topic, callback, qos.profile())
+            message_class(type_name), topic, callback, qos.profile(), raw=raw)
 
     # -- publishing -----------------------------------------------------------------
     def _publisher(self, topic: str, type_name: str) -> Any:
@@ -199,12 +214,63 @@ class CoreNode(Node):
         self._guarded(f'handle({JOINT_STATES})', self.core.handle, JOINT_STATES, msg,
                       self.now_ns())
 
+    def _on_sample_raw(self, data: bytes, info: Any) -> None:
+        self.callbacks_run += 1
+        batch = [(data, _source_ns(info))]
+        batch.extend(self._drain_samples(MAX_BATCH - 1))
+        self._deliver_batch(batch)
+
+    def _drain_samples(self, limit: int) -> list[tuple[Any, int]]:
+        """Take up to ``limit`` samples already waiting in the reader, in order."""
+        sub = self._subs.get(JOINT_STATES)
+        taken_all: list[tuple[Any, int]] = []
+        while sub is not None and len(taken_all) < limit:
+            try:
+                with sub.handle:
+                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+            except Exception:  # noqa: BLE001 (destroyed handle at shutdown)
+                break
+            if taken is None:
+                break
+            taken_all.append((taken[0], _source_ns(taken[1])))
+        return taken_all
+
+    def _deliver_batch(self, batch: list[tuple[bytes, int]]) -> None:
+        """Hand raw samples to the core in blocks, releasing each held message just
+        before the first sample published after it (the same order as one by one)."""
+        i = 0
+        while i < len(batch):
+            while self._held and self._held[0][0] <= batch[i][1]:
+                self._release_one()
+            limit = self._held[0][0] if self._held else None
+            j = i + 1
+            while j < len(batch) and (limit is None or batch[j][1] < limit):
+                j += 1
+            self._guarded(f'handle_samples({JOINT_STATES})', self._handle_block,
+                          [data for data, _ in batch[i:j]])
+            i = j
+        self._last_sample = time.monotonic()
+
+    def _handle_block(self, chunks: list[bytes]) -> list[Output]:
+        from cam_metrology.bagio import decode_joint_states
+        js = decode_joint_states(chunks)
+        return self.core.handle_samples(js.frame_id, js.stamp_ns, js.theta, js.s,
+                                        rx_ns=self.now_ns())
+
     def _release_one(self) -> None:
         _, _, topic, msg = heapq.heappop(self._held)
         self._guarded(f'handle({topic})', self.core.handle, topic, msg, self.now_ns())
 
     def _take_waiting_samples(self) -> None:
         """Handle the samples already in the reader (in order) while messages are held."""
+        if self._bulk:
+            while self._held:
+                batch = self._drain_samples(MAX_BATCH)
+                if not batch:
+                    return
+                self.callbacks_run += 1
+                self._deliver_batch(batch)
+            return
         sub = self._subs.get(JOINT_STATES)
         while self._held and sub is not None:
             try:
