@@ -106,18 +106,29 @@ def synthesize(arm_length: float, base_radius: float, max_swing: float,
     psi = require_positive('max_swing', max_swing)
     if psi >= math.pi / 4:
         raise InputError('max_swing', max_swing, 'a swing angle below 45 deg (in rad)')
-    if rb >= l * 10 or rb <= 0:
-        raise InputError('base_radius', rb, 'a base radius comparable with the arm length')
+    if rb >= l * 10:
+        raise InputError('base_radius', rb, f'a base radius below 10 x the arm length '
+                                            f'({10 * l:.6g})')
+    # The construction is scale-invariant: solve it on lengths in units of the arm
+    # length (no overflow/underflow for any unit, e.g. 1e300 or 1e-300), scale back.
+    rb1 = rb / l
     lo = 1e-6
-    f_lo = optimality(lo, l, rb, psi)
-    f_hi = optimality(psi, l, rb, psi)
+    try:
+        f_lo = optimality(lo, 1.0, rb1, psi)
+        f_hi = optimality(psi, 1.0, rb1, psi)
+    except InputError as exc:
+        raise InputError('base_radius', rb, f'a base circle that the tangents to the tip arc '
+                                            f'meet (too small for arm length {l:.6g} and '
+                                            f'this swing)') from exc
     if not (f_lo < 0 < f_hi):
         raise InputError('max_swing', max_swing,
                          f'data for which f(eta) changes sign on (0, max_swing] (f = '
                          f'{f_lo:.4g} .. {f_hi:.4g} rad)')
-    eta = brentq(optimality, lo, psi, args=(l, rb, psi), xtol=1e-15, rtol=8.9e-16,
+    eta = brentq(optimality, lo, psi, args=(1.0, rb1, psi), xtol=1e-15, rtol=8.9e-16,
                  maxiter=200)
-    geo = tangent_geometry(eta, l, rb, psi)
+    g1 = tangent_geometry(eta, 1.0, rb1, psi)
+    geo = dataclasses.replace(g1, x_o1=g1.x_o1 * l, y_o1=g1.y_o1 * l,
+                              frame_length=g1.frame_length * l)
     lo_len = None
     e = None
     if eccentricity is not None:
@@ -130,7 +141,8 @@ def projected_frame_length(frame_length: float, eccentricity: float) -> float:
     """L_o = sqrt(L^2 - e^2)."""
     if eccentricity >= frame_length:
         raise InputError('eccentricity', eccentricity, f'e < L = {frame_length:.9g}')
-    return math.sqrt(frame_length ** 2 - eccentricity ** 2)
+    r = eccentricity / frame_length      # scaled: no overflow for any length unit
+    return frame_length * math.sqrt((1 - r) * (1 + r))
 
 
 def eccentricity_for(frame_length: float, projected: float) -> float:

@@ -146,3 +146,17 @@ def test_check_scene_lobe(capsys: pytest.CaptureFixture) -> None:
     assert out['natural_period_cam_deg'] == pytest.approx(
         math.degrees(1000 * math.pi / 30 * 2 * math.pi * math.sqrt(vt['mass'] / vt['stiffness'])))
     assert out['no_separation'] is True
+
+
+@pytest.mark.parametrize('args, flag, value', [
+    (['--max-swing-deg', '60'], '--max-swing-deg', '60.0'),
+    (['--max-swing-deg', '7.865', '--eccentricity', '0.1'], '--eccentricity', '0.1'),
+    (['--max-swing-deg', '7.865', '--arm-length', '1e300'], '--base-radius', '0.0323')])
+def test_rocker_errors_name_the_option(args: list[str], flag: str, value: str,
+                                       capsys: pytest.CaptureFixture) -> None:
+    """QA: errors from the synthesis name the option and the value as typed (deg for
+    the swing, not 'max_swing: got 1.047...' in rad), and never a traceback."""
+    base = ['design', 'rocker', '--arm-length', '0.0458', '--base-radius', '0.0323']
+    assert main(base + args) == 2
+    err = capsys.readouterr().err
+    assert f'{flag}: got {value};' in err and 'Traceback' not in err

@@ -99,3 +99,21 @@ def test_polar_form_eqs_4_6(psi: float) -> None:
     delta = beta[0] - beta
     assert max(abs(delta.max()), abs(delta.min())) == pytest.approx(r.delta, rel=1e-8)
     assert delta.max() == pytest.approx(-delta.min(), rel=1e-8)
+
+
+@pytest.mark.parametrize('unit', [1e297, 1e-300])
+def test_extreme_length_units_are_scale_invariant(unit: float) -> None:
+    """QA: the construction is scale-invariant; lengths given in any unit (here 1e297
+    and 1e-300 x mm) must give case #1 scaled, not an OverflowError or underflow."""
+    r = synthesize(L_ARM * unit, RB * unit, 7.865 * D, 0.9 * unit)
+    assert math.degrees(r.eta) == pytest.approx(3.089302, abs=2e-6)
+    assert r.frame_length / unit == pytest.approx(57.501894, abs=2e-6)
+    assert r.projected_frame_length / unit == pytest.approx(57.494851, abs=2e-6)
+
+
+def test_tiny_base_radius_against_huge_arm_is_input_error() -> None:
+    """QA: `design rocker --arm-length 1e300 --base-radius 0.0323` raised OverflowError
+    (a traceback); it must be an InputError naming the user's base radius."""
+    with pytest.raises(InputError) as exc:
+        synthesize(1e300, 0.0323, 7.865 * D)
+    assert exc.value.key == 'base_radius' and exc.value.value == 0.0323

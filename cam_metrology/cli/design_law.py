@@ -235,7 +235,7 @@ def check_config_from_scene(scene: dict[str, Any], law_key: str) -> dict[str, An
 
 def cmd_rocker(args: argparse.Namespace) -> int:
     """Rocker synthesis."""
-    from cam_design.errors import require_positive
+    from cam_design.errors import InputError, require_positive
     from cam_design.rocker import sampled_deviation, synthesize
 
     psi = math.radians(require_positive('--max-swing-deg', args.max_swing_deg))
@@ -243,7 +243,17 @@ def cmd_rocker(args: argparse.Namespace) -> int:
     base = require_positive('--base-radius', args.base_radius)
     ecc = (None if args.eccentricity is None
            else require_positive('--eccentricity', args.eccentricity, allow_zero=True))
-    r = synthesize(arm, base, psi, ecc)
+    try:
+        r = synthesize(arm, base, psi, ecc)
+    except InputError as exc:     # name the option the user typed, in its unit
+        flag = {'arm_length': '--arm-length', 'base_radius': '--base-radius',
+                'eccentricity': '--eccentricity'}.get(exc.key)
+        if exc.key == 'max_swing':
+            raise InputError('--max-swing-deg', args.max_swing_deg,
+                             exc.expected.replace(' (in rad)', '')) from None
+        if flag:
+            raise InputError(flag, exc.value, exc.expected) from None
+        raise
     lo, hi = sampled_deviation(r, 20001)
     out = {'eta_deg': math.degrees(r.eta), 'delta_deg': math.degrees(r.delta),
            'frame_length_m': r.frame_length,
