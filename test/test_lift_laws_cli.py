@@ -160,3 +160,20 @@ def test_rocker_errors_name_the_option(args: list[str], flag: str, value: str,
     assert main(base + args) == 2
     err = capsys.readouterr().err
     assert f'{flag}: got {value};' in err and 'Traceback' not in err
+
+
+@pytest.mark.parametrize('what', ['law', 'check', 'profile'])
+def test_unreadable_inputs_are_one_line_errors(what: str, tmp_path: Path,
+                                               capsys: pytest.CaptureFixture) -> None:
+    """QA: a directory or a binary file as FILE gave IsADirectoryError /
+    UnicodeDecodeError tracebacks (exit 1); a YAML syntax error gave a 5-line message.
+    Each must be one line naming the file, exit 2."""
+    binary = tmp_path / 'b.yaml'
+    binary.write_bytes(b'\xff\xfe\x00garbage')
+    broken = tmp_path / 'c.yaml'
+    broken.write_text('lift_law: {family: preset, name: [unclosed\n')
+    for path, got in ((tmp_path, 'a directory'), (binary, 'binary data'),
+                      (broken, 'invalid YAML'), (tmp_path / 'missing.yaml', 'no such file')):
+        assert main(['design', what, str(path)]) == 2
+        err = capsys.readouterr().err
+        assert f"{path}: got '{got}'" in err and len(err.strip().splitlines()) == 1, err

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from typing import Any
 
@@ -60,11 +61,23 @@ def load_yaml(path: str) -> Any:
 
     from cam_design.errors import InputError
 
-    with open(path, encoding='utf-8') as f:
-        try:
+    if os.path.isdir(path):
+        raise InputError(path, 'a directory', 'a YAML file')
+    try:
+        with open(path, encoding='utf-8') as f:
             return yaml.safe_load(f)
-        except yaml.YAMLError as exc:
-            raise InputError(path, 'invalid YAML', f'a YAML document ({exc})') from None
+    except UnicodeDecodeError:
+        raise InputError(path, 'binary data', 'a UTF-8 YAML text file') from None
+    except FileNotFoundError:
+        raise InputError(path, 'no such file', 'an existing YAML file') from None
+    except OSError as exc:
+        raise InputError(path, exc.strerror or type(exc).__name__,
+                         'a readable YAML file') from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, 'problem_mark', None)
+        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
+        what = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
+        raise InputError(path, 'invalid YAML', f'a YAML document ({what}{where})') from None
 
 
 def write_text(target: str, text: str) -> None:
