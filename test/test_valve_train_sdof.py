@@ -241,3 +241,25 @@ def test_hard_seat_against_radau(law: PiecewisePolynomialLaw) -> None:
                           z0=(res.y[i0], res.v[i0]), r0=int(res.regime[i0]))
     assert len(res.events.impacts) >= 2
     assert np.max(np.abs(ref.y - res.y[sel])) < 1e-6 * np.max(res.y)
+
+
+def test_case22_with_lift_law_polydyne() -> None:
+    """The lift-law registry's polydyne (from_spec) is the same cam as ours (1e-15 m)
+    and gives the case-22 transient through the solver."""
+    from cam_design.lift_laws.registry import from_spec
+
+    p = SdofParams(**{**BASE, 'damping': 0.0}, restitution=0.0)
+    spec = {'family': 'polydyne', 'rocker_ratio': 1.5, 'lash': 0.25e-3, 'mass': 0.12,
+            'stiffness': 1.2e7, 'spring_rate': 3e4, 'spring_preload': 250.0,
+            'design_cam_speed_rpm': 1500.0, 'valve_lift': 8e-3, 'half_angle': 50 * DEG,
+            'ramp_velocity': 0.015 * MM_DEG}
+    try:
+        law = from_spec(spec, 'lift_law')
+    except InputError as exc:
+        pytest.skip(f'polydyne family not available: {exc}')
+    mine, yd = ramp_polydyne_law(p, 1500.0)
+    a = np.linspace(-60 * DEG, 60 * DEG, 1201)
+    assert np.max(np.abs(law(a) - mine(a))) < 1e-15
+    res = simulate(law, p, 1500.0, step_deg=0.1)
+    sel = (res.alpha >= -50 * DEG) & (res.alpha <= 0.0)
+    assert np.max(np.abs(res.y[sel] - yd(res.alpha[sel]))) == pytest.approx(2.02e-5, rel=0.02)
