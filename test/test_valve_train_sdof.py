@@ -263,3 +263,17 @@ def test_case22_with_lift_law_polydyne() -> None:
     res = simulate(law, p, 1500.0, step_deg=0.1)
     sel = (res.alpha >= -50 * DEG) & (res.alpha <= 0.0)
     assert np.max(np.abs(res.y[sel] - yd(res.alpha[sel]))) == pytest.approx(2.02e-5, rel=0.02)
+
+
+def test_case18_with_lift_law_preset() -> None:
+    """Case 18 on the registry's methods_example lobe (the §1.1 ramp of #8)."""
+    from cam_design.lift_laws.registry import from_spec
+
+    try:
+        law = from_spec({'family': 'preset', 'name': 'methods_example'}, 'lift_law')
+    except InputError as exc:
+        pytest.skip(f'preset not available: {exc}')
+    p = SdofParams(**{**BASE, 'damping': 0.0}, restitution=0.0)
+    res = simulate(law, p, 1500.0, step_deg=0.5)
+    assert math.degrees(res.events.opening - law.support[0]) == pytest.approx(22.03704,
+                                                                              abs=1e-5)
