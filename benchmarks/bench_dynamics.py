@@ -56,7 +56,8 @@ def sdof_rows(law, p, rpm: float) -> tuple[list[tuple], float]:
     omega = rpm * math.pi / 30
     lo = law.support[0]
     n = int(round(360.0 / GRID_DEG))
-    grid = lo - math.radians(PRE_DEG) + math.radians(GRID_DEG) * np.arange(n + 1)
+    g0 = math.floor((lo - math.radians(PRE_DEG)) / math.radians(2.0) + 1e-9) * math.radians(2.0)
+    grid = g0 + math.radians(GRID_DEG) * np.arange(n + 1)   # contains every step's nodes
     t_ref, ref = _timed(lambda: reference_solve(law, p, rpm, grid, method='Radau',
                                                 rtol=1e-12, atol=1e-15))
     ymax = float(np.nanmax(ref.y))

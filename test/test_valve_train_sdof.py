@@ -277,3 +277,37 @@ def test_case18_with_lift_law_preset() -> None:
     res = simulate(law, p, 1500.0, step_deg=0.5)
     assert math.degrees(res.events.opening - law.support[0]) == pytest.approx(22.03704,
                                                                               abs=1e-5)
+
+
+def test_jet_table_edges() -> None:
+    """Tables of h..h''': exact at nodes, reversed / NaN / flat tables rejected, a
+    noisy table still gives a finite motion."""
+    from cam_design.valve_train.cam_input import JetTableLift
+
+    law = ramp_law()
+    a = np.linspace(-math.pi, math.pi, 3601)
+    jets = law.derivatives(a)
+    tab = JetTableLift(a, jets)
+    lo, hi = tab.support
+    inner = (a > lo) & (a < hi)
+    assert np.max(np.abs(tab(a[inner]) - jets[0, inner])) < 1e-15
+    assert np.max(jets[0, ~inner]) <= 1e-3 * np.max(jets[0])      # trimmed base circle
+    with pytest.raises(InputError, match='alpha_rad'):
+        JetTableLift(a[::-1], jets[:, ::-1])
+    bad = jets.copy()
+    bad[2, 50] = np.nan
+    with pytest.raises(InputError, match='non-finite'):
+        JetTableLift(a, bad)
+    with pytest.raises(InputError, match='lift_m'):
+        JetTableLift(a, np.zeros_like(jets))
+    rng = np.random.default_rng(1)
+    noisy = jets + rng.normal(0, 1e-7, jets.shape) * np.array([[1], [10], [100], [1000]])
+    res = simulate(JetTableLift(a, noisy), SdofParams(**BASE), 1500.0, step_deg=0.5)
+    assert np.all(np.isfinite(res.y)) and res.events.opening is not None
+
+
+def test_lobe_wider_than_revolution_rejected() -> None:
+    from numpy.polynomial import Polynomial as P
+    wide = PiecewisePolynomialLaw([-3.2, 3.2], [P([1e-3])])
+    with pytest.raises(InputError, match='lift.support'):
+        simulate(wide, SdofParams(**BASE), 1500.0)

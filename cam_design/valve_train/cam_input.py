@@ -70,10 +70,11 @@ class CamInput:
 
 def build_cam_input(law: LiftLaw, rocker_ratio: float, lash: float, step: float,
                     pre: float | None = None) -> CamInput:
-    """Nodes every ``step`` rad over one revolution starting ``pre`` before the lobe.
+    """Nodes every ``step`` rad over one revolution starting at least ``pre`` before
+    the lobe, on the grid of multiples of ``step`` (alpha = 0 is a node).
 
-    ``pre`` defaults to two steps (at least 0.5 deg). The window is [lo - pre,
-    lo - pre + 2 pi]; the lobe support must be shorter than 2 pi - 2 pre.
+    ``pre`` defaults to two steps (at least 0.5 deg). The window is [start, start +
+    2 pi], start = floor((lo - pre)/step) step; the lobe must be narrower than that.
     """
     step = require_positive('step', step)
     if step > math.radians(5.0):
@@ -81,7 +82,8 @@ def build_cam_input(law: LiftLaw, rocker_ratio: float, lash: float, step: float,
     lo, hi = (float(v) for v in law.support)
     if pre is None:
         pre = max(2 * step, math.radians(0.5))
-    start = lo - pre
+    # anchored on alpha = 0: every run with this step shares its grid (the nose is a node)
+    start = math.floor((lo - pre) / step + 1e-9) * step
     end = start + 2.0 * math.pi
     if hi >= end - pre:
         raise InputError('lift.support', (lo, hi), 'a lobe narrower than one revolution')
@@ -119,14 +121,17 @@ class JetTableLift(LiftLaw):
     """A lift from tables of h, h', h'', h''' on a grid (e.g. /reconstruction/profile):
     the degree-7 Hermite interpolant of the four columns (C3, exact at the nodes).
 
-    The support is trimmed to where h exceeds ``trim`` times its maximum (plus two grid
-    steps), so that a table covering the whole revolution still has a base circle.
+    The support is the contiguous run of samples around the maximum where h exceeds
+    ``trim`` times the maximum lift (plus two grid steps): a measured table over the whole
+    revolution then still has a base circle, and its ripple there (noise, smoothing
+    residue) is dropped. The cut is a step of at most trim * max lift in h (8 um for an
+    8 mm lobe at the default 1e-3), far below the lash at the valve.
     """
 
     continuity_order = 3
 
     def __init__(self, alpha: NDArray[np.float64], jets: NDArray[np.float64], *,
-                 key: str = 'profile', trim: float = 1e-6) -> None:
+                 key: str = 'profile', trim: float = 1e-3) -> None:
         from scipy.interpolate import PPoly
 
         a = np.asarray(alpha, dtype=float)
@@ -141,9 +146,12 @@ class JetTableLift(LiftLaw):
         hmax = float(np.max(j[0]))
         if hmax <= 0:
             raise InputError(f'{key}.lift_m', hmax, 'a lobe with positive lift')
-        above = np.nonzero(j[0] > trim * hmax)[0]
-        i0 = max(int(above[0]) - 2, 0)
-        i1 = min(int(above[-1]) + 2, a.size - 1)
+        top = int(np.argmax(j[0]))
+        low = j[0] <= trim * hmax
+        before = np.nonzero(low[:top])[0]
+        after = np.nonzero(low[top:])[0]
+        i0 = max(int(before[-1]) - 2, 0) if before.size else 0
+        i1 = min(top + int(after[0]) + 2, a.size - 1) if after.size else a.size - 1
         self.alpha = a[i0:i1 + 1]
         self.jets = j[:, i0:i1 + 1]
         lengths = np.diff(self.alpha)

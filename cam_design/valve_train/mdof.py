@@ -226,7 +226,7 @@ def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float =
     k = b.rocker_ratio
     n = asm.n
     lo, _ = law.support
-    a0 = lo - math.radians(pre_deg)
+    a0 = math.floor((lo - math.radians(pre_deg)) / step + 1e-9) * step   # alpha = 0 is a node
     span = math.radians(require_positive('span_deg', span_deg))
     if span > 2 * math.pi + 1e-12:
         raise InputError('span_deg', span_deg, 'at most 360')
