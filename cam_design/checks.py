@@ -516,12 +516,22 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
             P.reject_unknown(contact, ck, ('width', 'youngs_modulus'))
             lifted = h > 0
             normal = np.where(lifted, force / cos_p, 0.0)
-            sig = hertz_stress_steel(normal, P.positive(contact, ck, 'width'), rho,
-                                     math.inf if kind == 'flat' else roller,
-                                     e1=P.positive(contact, ck, 'youngs_modulus', 2.06e11))
-            i = int(np.argmax(sig))
-            out['max_hertz_stress_mpa'] = float(sig[i]) / 1e6
-            out['max_hertz_stress_alpha_deg'] = math.degrees(float(a[i]))
+            width = P.positive(contact, ck, 'width')
+            modulus = P.positive(contact, ck, 'youngs_modulus', 2.06e11)
+            if kind == 'flat' and out['undercut']:
+                # rho1 <= 0 somewhere: the profile is not realisable and |rho1| -> 0 gives a
+                # grid-dependent stress; report none rather than a meaningless number
+                out['max_hertz_stress_mpa'] = None
+                out['max_hertz_stress_note'] = 'undercut (rho1 <= 0): no Hertz stress'
+            else:
+                # the cam radius is signed (< 0: concave flank) and goes second, so a
+                # roller on a concave flank gets 1/r - 1/|rho|, not 1/r + 1/|rho|
+                sig = (hertz_stress_steel(normal, width, rho, math.inf, e1=modulus)
+                       if kind == 'flat' else
+                       hertz_stress_steel(normal, width, roller, rho, e1=modulus))
+                i = int(np.argmax(sig))
+                out['max_hertz_stress_mpa'] = float(sig[i]) / 1e6
+                out['max_hertz_stress_alpha_deg'] = math.degrees(float(a[i]))
     lub = cfg.get('lubrication')
     if lub is not None and kind == 'flat':
         lk = f'{key}.lubrication'
