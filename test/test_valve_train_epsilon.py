@@ -76,3 +76,20 @@ def test_sweep_jump_speed_bracketed(tmp_path) -> None:
 def test_parse_range_rejects(text: str) -> None:
     with pytest.raises(InputError, match='--sweep'):
         parse_range(text)
+
+
+def test_hertz_stress_flat_and_undercut() -> None:
+    """Flat tappet: sigma = 0.418 sqrt(E F / (W rho1)) with rho1 = R0 + h + h'' (2.11);
+    an undercut profile (rho1 <= 0) reports no maximum instead of a grid-dependent one."""
+    law = ramp_law()
+    p = SdofParams(**BASE)
+    big = run_sdof(law, p, 1500.0, step_deg=0.5, geometry=ContactGeometry(0.04))
+    i = int(np.argmax(big.stress))
+    rho1 = 0.04 + law(big.alpha[i]) + law(big.alpha[i], 2)
+    expect = 0.418 * math.sqrt(2.06e11 * big.force[i] / (0.012 * rho1))
+    assert big.stress[i] == pytest.approx(expect, rel=1e-12)
+    assert big.events['max_contact_stress_pa'] == pytest.approx(expect, rel=1e-12)
+    small = run_sdof(law, p, 1500.0, step_deg=0.5, geometry=ContactGeometry(0.0165))
+    assert small.events['profile_undercut'] is True
+    assert small.events['max_contact_stress_pa'] is None
+    assert np.all(np.isfinite(small.stress[np.abs(small.alpha) > 0.6]))

@@ -47,20 +47,31 @@ class ContactGeometry:
 
 def contact_stress(law: LiftLaw, alpha: NDArray[np.float64], force: NDArray[np.float64],
                    geom: ContactGeometry) -> NDArray[np.float64]:
-    """Hertz line-contact stress [Pa] at the cam for the cam-side force ``force`` [N]."""
+    """Hertz line-contact stress [Pa] at the cam for the cam-side force ``force`` [N].
+
+    Flat tappet: rho1 = R0 + h + h'' against a flat face; where rho1 <= 0 the profile is
+    undercut (not realisable) and the stress is NaN there (reported as undercut, no
+    maximum). Roller: the cam radius is signed (< 0 on a concave flank) and passed
+    second, so a concave flank gets 1/r - 1/|rho| (as in ``checks.run_checks``).
+    """
     from cam_design import checks
 
     if geom.follower == 'flat':
         rho1 = checks.flat_tappet_curvature(law(alpha), law(alpha, 2), geom.base_radius)
-        rho2 = math.inf
-    else:
-        from cam_design.follower import roller_profile
-        prof = roller_profile(law, geom.base_radius, geom.radius, alpha)
-        rho1 = prof.rho
-        rho2 = geom.radius if geom.radius > 0 else math.inf
-    # rho1 <= 0 is an undercut profile (flagged by the caller): |rho1| >= 0.1 mm there
-    rho1 = np.where(np.abs(rho1) < 1e-4, 1e-4, np.abs(rho1))
-    return checks.hertz_stress_steel(force, geom.width, rho1, rho2, e1=geom.youngs_modulus)
+        ok = rho1 > 0
+        sig = np.full(alpha.shape, np.nan)
+        if np.any(ok):
+            sig[ok] = checks.hertz_stress_steel(force[ok], geom.width, rho1[ok], math.inf,
+                                                e1=geom.youngs_modulus)
+        return sig
+    from cam_design.follower import roller_profile
+
+    rho = roller_profile(law, geom.base_radius, geom.radius, alpha).rho
+    rho = np.where(np.abs(rho) < 1e-9, 1e-9, rho)
+    if geom.radius > 0:
+        return checks.hertz_stress_steel(force, geom.width, geom.radius, rho,
+                                         e1=geom.youngs_modulus)
+    return checks.hertz_stress_steel(force, geom.width, rho, math.inf, e1=geom.youngs_modulus)
 
 
 @dataclass
@@ -137,20 +148,19 @@ def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
     undercut = False
     if geometry is not None:
         stress = contact_stress(law, alpha, force, geometry)
-        if geometry.follower == 'flat':
-            undercut = bool(np.any(geometry.base_radius + law(alpha) + law(alpha, 2) <= 0))
+        undercut = bool(np.any(np.isnan(stress)))
     else:
         stress = np.zeros_like(force)
-    i_s = int(np.argmax(stress))
+    have_stress = geometry is not None and not undercut
+    i_s = int(np.argmax(stress)) if have_stress else 0
     i_f = int(np.argmax(force))
     eps = assess(law, params, rpm)
     events = dict(events)
     events.update({
         'max_contact_force_n': float(force[i_f]),
         'max_contact_force_deg': math.degrees(float(alpha[i_f])),
-        'max_contact_stress_pa': float(stress[i_s]) if geometry is not None else None,
-        'max_contact_stress_deg': math.degrees(float(alpha[i_s]))
-        if geometry is not None else None,
+        'max_contact_stress_pa': float(stress[i_s]) if have_stress else None,
+        'max_contact_stress_deg': math.degrees(float(alpha[i_s])) if have_stress else None,
         'profile_undercut': undercut,
         'max_valve_lift_m': float(np.max(lift)),
         'epsilon': eps.eps,
