@@ -174,3 +174,17 @@ def test_cli_bag_uses_reconstructed_profiles(tmp_path: Path) -> None:
     for feat in res['features'].values():
         assert feat['source'].startswith(('profile:', 'design'))
         assert feat['runs'][0]['opening_deg'] is not None
+
+
+def test_cli_mdof_model(tmp_path: Path) -> None:
+    from cam_metrology.cli import main
+
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(scene_text())
+    out = tmp_path / 'mdof.json'
+    assert main(['dynamics', str(scene), '--model', 'mdof', '--rpm', '1500',
+                 '--step-deg', '1', '--json', str(out)]) == 0
+    run = json.loads(out.read_text())['features']['lobe_1']['runs'][0]
+    assert run['model'] == 'mdof' and len(run['natural_frequencies_hz']) == 6
+    assert run['seating_velocity_m_s'] > 0 and run['opening_deg'] < 0 < run['closing_deg']
+    assert len(run['spring_surge_hz']) == 2
