@@ -44,3 +44,10 @@ def test_cli_does_not_import_rclpy_for_help() -> None:
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          timeout=60)
     assert out.stdout.strip() == 'False', out.stderr
+
+
+def test_error_prefix_names_the_subcommand(capsys: pytest.CaptureFixture[str]) -> None:
+    """QA #25: `design law` errors say `cam-bench design law: error: ...`."""
+    assert main(['design', 'law', '/nonexistent/law.yaml']) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('cam-bench design law: error: ') and 'law.yaml' in err

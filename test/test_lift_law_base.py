@@ -67,3 +67,15 @@ def test_require_helpers() -> None:
     assert require_positive('r', 0.0, allow_zero=True) == 0.0
     err = InputError('a.b', 'x' * 200, 'short')
     assert len(str(err)) < 120 and err.key == 'a.b'
+
+
+def test_coarse_table_that_rings_below_the_base_circle_is_rejected() -> None:
+    """QA #29: a 7-point lobe interpolated to -1 mm between its points, silently."""
+    alpha = [-1.2, -0.8, -0.4, 0.0, 0.4, 0.8, 1.2]
+    h = [0.0, 0.001, 0.006, 0.008, 0.006, 0.001, 0.0]
+    with pytest.raises(InputError, match=r'lift.alpha: .*tabulate more points'):
+        TabulatedLift(alpha, h)
+    # the same lobe finely tabulated is accepted and stays >= 0 within 1 um
+    a = np.linspace(-np.pi / 2, np.pi / 2, 181)
+    law = TabulatedLift(a, cosine_bump(a, width=np.pi / 2))
+    assert np.min(law(np.linspace(-1.5, 1.5, 5001))) > -1e-6

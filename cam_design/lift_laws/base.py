@@ -100,6 +100,27 @@ class TabulatedLift(LiftLaw):
         self.h = v
         self._spline = make_interp_spline(a, v, k=5)
         self._derivs = [self._spline] + [self._spline.derivative(n) for n in (1, 2, 3)]
+        self._check_no_dip(key)
+
+    def _check_no_dip(self, key: str) -> None:
+        """Reject a table whose interpolant dips below the lowest tabulated lift.
+
+        A coarse table rings between its points (a 7-point lobe dipped 1 mm below the
+        base circle): that would be silently wrong lift, not a property of the cam.
+        Tolerance: 1 um + 0.1 % of the lift range.
+        """
+        a = self.alpha
+        dense = np.linspace(a[0], a[-1], max(2001, 8 * a.size))
+        h = self._spline(dense)
+        floor = float(np.min(self.h))
+        tol = 1e-6 + 1e-3 * float(np.ptp(self.h))
+        i = int(np.argmin(h))
+        if h[i] < floor - tol:
+            raise InputError(
+                f'{key}.alpha', f'{a.size} points',
+                f'a table fine enough that its quintic interpolant stays above the lowest '
+                f'tabulated lift ({floor:g} m); it reaches {h[i]:.4g} m at alpha = '
+                f'{np.degrees(dense[i]):.2f} deg: tabulate more points')
 
     @property
     def support(self) -> tuple[float, float]:

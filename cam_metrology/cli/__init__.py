@@ -73,17 +73,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, 'func', None):
         parser.print_help()
         return 0 if args.command is None else 2
+    name = command_name(args)
     try:
         return int(args.func(args) or 0)
-    except (InputError, CliError) as exc:
-        print(f'cam-bench {args.command}: error: {exc}', file=sys.stderr)
-        return 2
-    except FileNotFoundError as exc:
-        print(f'cam-bench {args.command}: error: {exc}', file=sys.stderr)
+    except (InputError, CliError, FileNotFoundError) as exc:
+        print(f'cam-bench {name}: error: {exc}', file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f'cam-bench {args.command}: interrupted', file=sys.stderr)
+        print(f'cam-bench {name}: interrupted', file=sys.stderr)
         return 130
+
+
+def command_name(args: argparse.Namespace) -> str:
+    """The command as typed, e.g. ``design law`` (group plus ``*_command`` sub-choices)."""
+    parts = [args.command] + [value for key, value in sorted(vars(args).items())
+                              if key.endswith('_command') and isinstance(value, str)]
+    return ' '.join(p for p in parts if p)
 
 
 if __name__ == '__main__':
