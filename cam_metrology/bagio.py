@@ -400,8 +400,10 @@ def _open_reader(path: str | Path) -> Any:
                          'a closed rosbag2 directory with metadata.yaml (the recorder '
                          'writes it on close; an interrupted recording has none: '
                          '`cam-bench bag recover SRC DST` saves its complete chunks)')
-    reader = AnyReader([bag], default_typestore=typestore())
+    if bag.is_file() and bag.suffix != '.bag':   # rosbag2: a directory (or bare .mcap)
+        raise InputError('bag', str(bag), 'a rosbag2 directory or .mcap file')
     try:
+        reader = AnyReader([bag], default_typestore=typestore())
         reader.open()
     except Exception as exc:   # rosbags raises its own error types
         raise InputError('bag', str(bag), f'a readable rosbag2 bag ({exc})') from None

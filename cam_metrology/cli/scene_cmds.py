@@ -168,12 +168,27 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                        probe_zero_offset=args.zero_mm * 1e-3,
                        runout=args.runout_um * 1e-6, rate=args.rate,
                        encoder_noise=math.radians(args.encoder_noise_deg), seed=args.seed)
+    try:
+        params.validated()
+    except InputError as exc:   # name the option and the value the user typed
+        option = SIM_OPTIONS.get(exc.key)
+        if option is None:
+            raise
+        raise InputError(option, getattr(args, option[2:].replace('-', '_')),
+                         exc.expected) from None
     progress = None if args.quiet else _progress_printer()
     run = write_sim_bag(args.out, scene, params, compression=args.compress,
                         progress=progress)
     print(f'wrote {args.out}: {run.sample_count} samples in {len(run.features)} features')
     print(json.dumps(run.truth, indent=2, sort_keys=True))
     return 0
+
+
+# SimParams field -> the simulate option that sets it (in the option's own unit)
+SIM_OPTIONS = {'samples_per_rev': '--samples-per-rev', 'revolutions': '--revolutions',
+               'start_theta': '--start-deg', 'probe_zero_offset': '--zero-mm',
+               'probe_noise': '--noise-um', 'encoder_noise': '--encoder-noise-deg',
+               'rate': '--rate', 'runout': '--runout-um'}
 
 
 def _progress_printer() -> Any:
