@@ -17,6 +17,7 @@ from typing import Any
 
 REPORT_TOPIC = '/metrology/report'
 LIFT_TOPIC = '/metrology/lift'
+JOINT_TOPIC = '/bench/joint_states'
 
 
 def register(subparsers: Any) -> None:
@@ -38,24 +39,42 @@ def register(subparsers: Any) -> None:
 
 
 def load_params(path: str | None) -> dict[str, dict[str, Any]]:
-    """node -> parameters from a ROS parameter file (empty when no file)."""
+    """node -> parameters from a ROS parameter file (empty when no file).
+
+    Raises InputError naming ``--params`` for an unreadable or malformed file, and
+    ``params.<node>`` for a node name that matches no core (a mistyped section would
+    otherwise be ignored without a word)."""
     if path is None:
         return {}
     import yaml
 
     from cam_design.errors import InputError
+    from cam_metrology.registry import CORES
 
-    doc = yaml.safe_load(Path(path).read_text())
+    try:
+        doc = yaml.safe_load(Path(path).read_text())
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError('--params', path, f'a readable YAML file ({exc.__class__.__name__}: '
+                         f'{getattr(exc, "strerror", None) or exc})') from None
+    except yaml.YAMLError as exc:
+        where = getattr(exc, 'problem_mark', None)
+        line = f' at line {where.line + 1}' if where is not None else ''
+        raise InputError('--params', path, f'valid YAML ({getattr(exc, "problem", None) or exc}'
+                         f'{line})') from None
     if doc is None:
         return {}
     if not isinstance(doc, dict):
         raise InputError('params', path, 'a mapping node_name: {ros__parameters: {...}}')
     out = {}
     for node, body in doc.items():
+        name = str(node).lstrip('/')
+        if name not in CORES:
+            raise InputError(f'params.{node}', node,
+                             f'a node name: one of {", ".join(CORES)}')
         params = (body or {}).get('ros__parameters', {}) if isinstance(body, dict) else None
         if not isinstance(params, dict):
             raise InputError(f'{node}.ros__parameters', params, 'a mapping of parameters')
-        out[str(node).lstrip('/')] = params
+        out[name] = params
     return out
 
 
@@ -85,13 +104,19 @@ def replay(bag: str, cores: list[Any]) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Handler of ``cam-bench analyze``."""
+    """Handler of ``cam-bench analyze``: 0 when features were measured, 2 for bad input
+    (checked before the replay), 1 when the bag gave nothing to measure."""
     from cam_design.errors import InputError
 
     if not Path(args.bag).exists():
         raise InputError('bag', args.bag, 'an existing rosbag2 directory')
+    if args.out_bag and Path(args.out_bag).exists():
+        raise InputError('--out-bag', args.out_bag, 'a path that does not exist yet')
     cores, missing = make_cores(load_params(args.params), args.only_metrology)
     result = replay(args.bag, cores)
+    if result.samples == 0:
+        raise InputError('bag', args.bag, f'{JOINT_TOPIC} samples (the bag has none: '
+                         'nothing to measure)')
     outputs = [(o.stamp_ns, o.output) for o in result.outputs]
     metrology = next(c for c in cores if c.name == 'metrology')
     report = final_report(outputs, metrology)
@@ -109,6 +134,11 @@ def run(args: argparse.Namespace) -> int:
     if args.out_bag:
         from cam_metrology.replay import write_outputs
         write_outputs(result, args.out_bag)
+    if not any(f.get('status') == 'ok' for f in report.get('features', {}).values()):
+        print(f'cam-bench analyze: error: nothing was measured in {args.bag}: no feature '
+              f'of the scene was measured from its {JOINT_TOPIC} samples (see the '
+              'report)', file=sys.stderr)
+        return 1
     return 0
 
 
@@ -176,7 +206,6 @@ def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, 
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
-    import numpy as np
 
     from cam_metrology.outputs import TableOutput
 
@@ -184,20 +213,36 @@ def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, 
     for _, o in outputs:
         if not (isinstance(o, TableOutput) and o.topic == LIFT_TOPIC):
             continue
-        alpha = np.degrees(o.data[:, 0])
-        fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
-        ax1.plot(alpha, o.data[:, 1] * 1e3, '.', ms=1.5, label='measured')
-        ax1.plot(alpha, o.data[:, 2] * 1e3, '-', lw=0.8, label='design (as seen by the probe)')
-        ax1.set_ylabel('lift [mm]')
-        ax1.legend(loc='upper right')
-        angle = (report.get('features', {}).get(o.label) or {}).get('angle_deg')
-        ax1.set_title(f'{o.label}: angle {angle:.5f} deg' if angle is not None else o.label)
-        ax2.plot(alpha, (o.data[:, 1] - o.data[:, 2]) * 1e6, '.', ms=1.5)
-        ax2.set_ylabel('measured - design [um]')
-        ax2.set_xlabel('alpha from the fitted nose [deg]')
-        fig.tight_layout()
-        fig.savefig(folder / f'{o.label.replace("/", "_")}.png', dpi=110)
+        fig = lift_figure(o.label, o.data, report.get('features', {}).get(o.label) or {})
+        fig.savefig(folder / f'{o.label.replace("/", "_")}.png', dpi=110,
+                    bbox_inches='tight')
         plt.close(fig)
+
+
+def lift_figure(label: str, table: Any, feature: dict[str, Any]) -> Any:
+    """The figure of one ``/metrology/lift`` table (columns alpha [rad], measured and
+    design lift [m]): lift [mm] on top, measured - design [um] below. The legend sits
+    outside the axes (above them), so it never hides data; the x axis is named after the
+    reference of alpha: the fitted nose (lobe) or the fitted pin centre (dowel pin)."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    alpha = np.degrees(table[:, 0])
+    fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6.5))
+    ax1.plot(alpha, table[:, 1] * 1e3, '.', ms=1.5, label='measured')
+    ax1.plot(alpha, table[:, 2] * 1e3, '-', lw=0.8, label='design (as seen by the probe)')
+    ax1.set_ylabel('lift [mm]')
+    ax1.legend(loc='lower center', bbox_to_anchor=(0.5, 1.0), ncol=2, frameon=False,
+               markerscale=6)
+    angle = feature.get('angle_deg')
+    fig.suptitle(f'{label}: angle {angle:.5f} deg' if angle is not None else label)
+    ax2.plot(alpha, (table[:, 1] - table[:, 2]) * 1e6, '.', ms=1.5)
+    ax2.set_ylabel('measured - design [um]')
+    pin = feature.get('kind') == 'dowel_pin' or (not feature and label == 'dowel_pin')
+    ax2.set_xlabel('alpha from the fitted pin centre [deg]' if pin
+                   else 'alpha from the fitted nose [deg]')
+    fig.tight_layout()
+    return fig
 
 
 if __name__ == '__main__':   # pragma: no cover

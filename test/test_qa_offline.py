@@ -1,0 +1,198 @@
+"""QA findings on the offline commands (notes/qa.md #1, #4, #8, #9, #18, #19, #24):
+bad input gives one line and exit 2, an empty measurement is not a success, plots do
+not hide their data."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cam_design.errors import InputError
+from cam_metrology import bagio
+from cam_metrology.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+CLEAN = ROOT / 'bags' / 'default_clean'
+NOT_A_BAG = ROOT / 'config' / 'default_scene.yaml'
+
+
+def _scene_text() -> str:
+    return NOT_A_BAG.read_text()
+
+
+def _bag(path: Path, frames: list[str]) -> Path:
+    """A bag with the default scene and 100 samples per frame id in ``frames``."""
+    with bagio.BagWriter(path) as writer:
+        writer.add_topic('/bench/scene', 'std_msgs/msg/String')
+        writer.write('/bench/scene', 1000, bagio.encode_string(_scene_text()))
+        if frames:
+            writer.add_topic(bagio.JOINT_STATES, 'sensor_msgs/msg/JointState')
+        t = 2000
+        for frame in frames:
+            for k in range(100):
+                writer.write(bagio.JOINT_STATES, t,
+                             bagio.encode_joint_state(frame, t, 0.01 * k, 0.0))
+                t += 1000
+    return path
+
+
+# --- #1: no samples is not a passing report ---------------------------------------
+
+def test_analyze_bag_without_joint_states_exits_2_naming_the_topic(tmp_path, capsys):
+    bag = _bag(tmp_path / 'nojs', [])
+    assert main(['analyze', str(bag)]) == 2
+    cap = capsys.readouterr()
+    assert '/bench/joint_states' in cap.err
+    assert len(cap.err.strip().splitlines()) == 1
+    assert 'camshaft' not in cap.out   # no (empty) report printed
+
+
+def test_analyze_with_nothing_measured_reports_and_exits_nonzero(tmp_path, capsys):
+    bag = _bag(tmp_path / 'wrongframe', ['not_a_feature'])
+    assert main(['analyze', str(bag), '--json', '-', '--only-metrology']) == 1
+    cap = capsys.readouterr()
+    report = json.loads(cap.out)
+    assert report['features']['not_a_feature']['status'] == 'failed'
+    assert 'nothing was measured' in cap.err
+
+
+# --- #4, #9: the parameter file -----------------------------------------------------
+
+@pytest.mark.parametrize('text', ['metrologyy:\n  ros__parameters:\n    fit_runout: false\n',
+                                  '/metrolgy:\n  ros__parameters: {}\n'])
+def test_params_unknown_node_is_an_error_listing_the_nodes(tmp_path, capsys, text):
+    params = tmp_path / 'p.yaml'
+    params.write_text(text)
+    assert main(['analyze', str(CLEAN), '--params', str(params)]) == 2
+    err = capsys.readouterr().err
+    assert 'params.' in err and 'metrol' in err
+    assert 'metrology, reconstruction, dynamics' in err
+    assert 'Traceback' not in err
+
+
+def test_params_known_node_with_leading_slash_still_applies(tmp_path):
+    from cam_metrology.cli.analyze import load_params
+    params = tmp_path / 'p.yaml'
+    params.write_text('/metrology:\n  ros__parameters:\n    sp_pairs: 2\n')
+    assert load_params(str(params)) == {'metrology': {'sp_pairs': 2}}
+
+
+@pytest.mark.parametrize('kind', ['malformed', 'directory', 'binary'])
+def test_params_unreadable_file_is_one_line(tmp_path, capsys, kind):
+    params = tmp_path / 'p.yaml'
+    if kind == 'malformed':
+        params.write_text('metrology: [\n')
+    elif kind == 'directory':
+        params.mkdir()
+    else:
+        params.write_bytes(bytes(range(128, 256)) * 4)
+    assert main(['analyze', str(CLEAN), '--params', str(params)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('cam-bench analyze: error: --params: got ')
+    assert len(err.strip().splitlines()) == 1
+
+
+# --- #8: a file that is not a bag ---------------------------------------------------
+
+@pytest.mark.parametrize('argv', [['analyze'], ['bag', 'info']])
+def test_cli_on_a_yaml_file_is_one_line(capsys, argv):
+    assert main([*argv, str(NOT_A_BAG)]) == 2
+    err = capsys.readouterr().err
+    assert 'bag: got' in err and 'expected a rosbag2 directory or .mcap file' in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_reader_on_a_yaml_file_raises_input_error():
+    """The shared reader (analyze, bag info and the live replayer use it)."""
+    for call in (bagio.bag_topics, lambda p: list(bagio.iter_messages(p)),
+                 bagio._open_reader):
+        with pytest.raises(InputError) as exc:
+            call(NOT_A_BAG)
+        assert exc.value.key == 'bag'
+
+
+# --- #19: --out-bag checked before the analysis -------------------------------------
+
+def test_out_bag_existing_fails_before_the_replay(tmp_path, capsys, monkeypatch):
+    from cam_metrology.cli import analyze
+
+    calls = []
+    monkeypatch.setattr(analyze, 'replay', lambda *a: calls.append(a))
+    out = tmp_path / 'exists'
+    out.mkdir()
+    assert main(['analyze', str(CLEAN), '--out-bag', str(out)]) == 2
+    cap = capsys.readouterr()
+    assert calls == []
+    assert cap.out == ''
+    assert '--out-bag' in cap.err
+
+
+# --- #18: simulate names the option and the value typed -----------------------------
+
+@pytest.mark.parametrize('option, value, expected', [
+    ('--noise-um', '-1', '--noise-um: got -1.0; expected a number >= 0'),
+    ('--runout-um', '-5', '--runout-um: got -5.0; expected a number >= 0'),
+    ('--revolutions', '0', '--revolutions: got 0.0; expected a number > 0'),
+    ('--start-deg', 'inf', '--start-deg: got inf; expected a finite'),
+    ('--encoder-noise-deg', '-0.5', '--encoder-noise-deg: got -0.5; expected a number >= 0'),
+    ('--zero-mm', 'nan', '--zero-mm: got nan; expected a finite'),
+    ('--rate', '0', '--rate: got 0.0; expected a number > 0'),
+])
+def test_simulate_errors_name_the_option(tmp_path, capsys, option, value, expected):
+    out = tmp_path / 'sim'
+    assert main(['simulate', str(out), option, value, '--quiet']) == 2
+    err = capsys.readouterr().err
+    assert expected in err
+    assert not out.exists()
+
+
+# --- #24: the dowel-pin plot ---------------------------------------------------------
+
+@pytest.fixture(scope='module')
+def fixture_tables():
+    """The /metrology/lift tables and the report of the clean fixture bag."""
+    from cam_metrology.metrology.core import MetrologyCore
+    from cam_metrology.outputs import TableOutput
+    from cam_metrology.replay import run_offline
+
+    result = run_offline(CLEAN, [MetrologyCore()])
+    tables = {o.output.label: o.output.data for o in result.outputs
+              if isinstance(o.output, TableOutput) and o.output.topic == '/metrology/lift'}
+    return tables, result.report()
+
+
+def test_pin_lift_table_is_centred_on_the_pin(fixture_tables):
+    """What the pin plot's x axis is: alpha from the fitted pin centre (the lift, seed
+    004's L - R_c, peaks at alpha = 0 and the arc is symmetric), not from a nose."""
+    tables, _ = fixture_tables
+    pin = tables['dowel_pin']
+    alpha, lift = pin[:, 0], pin[:, 2]
+    assert abs(alpha[np.argmax(lift)]) < np.radians(0.2)
+    assert alpha.min() == pytest.approx(-alpha.max(), abs=np.radians(0.2))
+
+
+@pytest.mark.parametrize('label, xlabel', [('dowel_pin', 'alpha from the fitted pin centre'),
+                                           ('lobe_1', 'alpha from the fitted nose')])
+def test_plot_legend_hides_no_data_and_x_label(fixture_tables, label, xlabel):
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from cam_metrology.cli.analyze import lift_figure
+
+    tables, report = fixture_tables
+    fig = lift_figure(label, tables[label], report['features'][label])
+    try:
+        fig.canvas.draw()
+        ax1, ax2 = fig.axes
+        box = ax1.get_legend().get_window_extent()
+        for line in ax1.get_lines():
+            xy = ax1.transData.transform(line.get_xydata())
+            inside = ((xy[:, 0] >= box.x0) & (xy[:, 0] <= box.x1)
+                      & (xy[:, 1] >= box.y0) & (xy[:, 1] <= box.y1))
+            assert not inside.any(), (label, line.get_label(), int(inside.sum()))
+        assert xlabel in ax2.get_xlabel()
+    finally:
+        plt.close(fig)
