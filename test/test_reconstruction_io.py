@@ -233,3 +233,115 @@ def test_cli_rebound_threshold(tmp_path, capsys):
     spl = json.loads(capsys.readouterr().out)['features']['c']['spline']
     assert spl['parameters']['outliers'] == 0 and spl['max_residual_m'] < 1e-8
     assert main(['reconstruct', str(p), '--rebound-threshold', '0']) == 2
+
+
+# --- QA findings: nothing reconstructed, bad options, unreadable tables -----------------
+
+def _bag(path: Path, scene: bool, samples: int) -> Path:
+    from cam_metrology import bagio
+
+    with bagio.BagWriter(path) as w:
+        if scene:
+            w.add_topic('/bench/scene', 'std_msgs/msg/String')
+            text = (REPO / 'config' / 'default_scene.yaml').read_text()
+            w.write('/bench/scene', 1, bagio.encode_string(text))
+        if samples:
+            w.add_topic(bagio.JOINT_STATES, 'sensor_msgs/msg/JointState')
+            for i in range(samples):
+                w.write(bagio.JOINT_STATES, 10 + i, bagio.encode_joint_state(
+                    'lobe_1', 10 + i, 2 * math.pi * i / samples, 0.0))
+    return path
+
+
+@pytest.mark.parametrize('scene, samples, missing', [(True, 0, '/bench/joint_states'),
+                                                     (False, 50, '/bench/scene')])
+def test_cli_bag_without_scene_or_samples_fails(tmp_path, capsys, scene, samples, missing):
+    bag = _bag(tmp_path / 'b', scene, samples)
+    assert main(['reconstruct', str(bag), '--json', '-']) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ''
+    err = captured.err.strip()
+    assert len(err.splitlines()) == 1 and f'no {missing} messages' in err
+
+
+def test_cli_table_with_no_or_too_few_rows_fails(tmp_path, capsys):
+    empty = tmp_path / 't_empty.csv'
+    empty.write_text('alpha_deg,lift_mm\n')
+    assert main(['reconstruct', str(empty), '--json', '-']) == 2
+    captured = capsys.readouterr()
+    assert captured.out == '' and "t_empty.csv: got '0 data rows'" in captured.err
+    few = tmp_path / 'few.csv'
+    few.write_text('alpha_deg,lift_mm\n' + ''.join(f'{d},0\n' for d in range(3)))
+    assert main(['reconstruct', str(few)]) == 2
+    assert "few.csv.alpha: got '3 distinct finite angles'; expected at least 8" in \
+        capsys.readouterr().err
+
+
+@pytest.mark.parametrize('step', ['400', '10.5', '1e-9', '0', '-1', 'nan'])
+def test_cli_step_deg_out_of_range_names_the_option(tmp_path, capsys, step):
+    a, h = simulate(LOBE, 360, 0.5e-6, seed=2)
+    p = write_csv(tmp_path / 't.csv', 'alpha_rad,lift_m', np.column_stack([a, h]))
+    assert main(['reconstruct', str(p), '--step-deg', step]) == 2
+    err = capsys.readouterr().err
+    assert '--step-deg: got' in err and 'expected a step in [0.001, 10] deg' in err
+
+
+def test_step_deg_limits_are_inclusive_and_checked_in_the_core(tmp_path, capsys):
+    from cam_metrology.reconstruction.core import ReconstructionCore
+
+    a, h = simulate(LOBE, 360, 0.5e-6, seed=2)
+    p = write_csv(tmp_path / 't.csv', 'alpha_rad,lift_m', np.column_stack([a, h]))
+    assert main(['reconstruct', str(p), '--step-deg', '10', '--method', 'spline',
+                 '--json', '-']) == 0
+    grid = json.loads(capsys.readouterr().out)['features']['t']['spline']['alpha_rad']
+    # 10 deg multiples inside the data span (wrapped to (-180, 180] deg): -170 .. 180
+    assert np.allclose(np.degrees(grid), np.arange(-170.0, 181.0, 10.0))
+    with pytest.raises(InputError, match=r'reconstruction.step_deg: got 400'):
+        ReconstructionCore({'step_deg': 400})
+
+
+@pytest.mark.parametrize('n', ['0', '1', '-3'])
+def test_cli_harmonics_below_two_is_rejected(tmp_path, capsys, n):
+    a, h = simulate(LOBE, 360, 0.5e-6, seed=2)
+    p = write_csv(tmp_path / 't.csv', 'alpha_rad,lift_m', np.column_stack([a, h]))
+    assert main(['reconstruct', str(p), '--harmonics', n]) == 2
+    assert f'--harmonics: got {n}; expected an integer >= 2' in capsys.readouterr().err
+
+
+def test_harmonic_order_below_two_and_underfit(tmp_path, capsys):
+    from cam_metrology.reconstruction.core import ReconstructionCore
+    from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
+    from cam_metrology.reconstruction.samples import clean_samples
+
+    a, h = simulate(LOBE, 720, 0.5e-6, seed=3)
+    data = clean_samples(a, h)
+    for basis in ('section', 'full'):
+        for order in (0, 1):
+            with pytest.raises(InputError, match='harmonic.order'):
+                reconstruct_harmonic(data, HarmonicOptions(basis=basis, order=order))
+    with pytest.raises(InputError, match='reconstruction.harmonics: got 1'):
+        ReconstructionCore({'harmonics': 1})
+    low = reconstruct_harmonic(data, HarmonicOptions(order=2))
+    assert low.parameter['order'] == 2 and low.rms_residual > 20 * low.sigma
+    assert any('too low for this lobe' in w for w in low.warnings)
+    auto = reconstruct_harmonic(data)
+    assert auto.rms_residual < 2 * auto.sigma
+    assert not any('too low' in w for w in auto.warnings)
+    p = write_csv(tmp_path / 't.csv', 'alpha_rad,lift_m', np.column_stack([a, h]))
+    assert main(['reconstruct', str(p), '--method', 'harmonic', '--harmonics', '2']) == 0
+    assert 'order set by the caller (N = 2) is too low' in capsys.readouterr().out
+
+
+@pytest.mark.parametrize('content, got', [
+    (b'\xff\xfe\x00', "got 'binary data'"),
+    (b'angle,lift\n0,0\n1,1\n', "t.csv:1: got 'angle,lift'"),
+    (b'# comment\n\ncamshaft_id: X\nlobes: []\n', "t.csv:3: got 'camshaft_id: X'"),
+])
+def test_cli_unreadable_or_unrecognised_table(tmp_path, capsys, content, got):
+    p = tmp_path / 't.csv'
+    p.write_bytes(content)
+    assert main(['reconstruct', str(p)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and got in err
+    assert 'alpha_deg|alpha_rad' in err and 'lift_mm|lift_um|lift_m' in err
+    assert 'gauge profile file' in err

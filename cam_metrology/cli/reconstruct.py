@@ -38,7 +38,7 @@ def register(subparsers: Any) -> None:
     p.add_argument('--feature', metavar='ID', help='only this feature (default: all lobes)')
     p.add_argument('--method', choices=('spline', 'harmonic', 'both'), default='both')
     p.add_argument('--harmonics', type=int, metavar='N',
-                   help='harmonic order (default: automatic)')
+                   help='harmonic order, >= 2 (default: automatic)')
     p.add_argument('--basis', choices=('section', 'full'), default='section',
                    help='harmonic basis: working-section cosines (default) or rFFT over '
                         'the revolution')
@@ -51,7 +51,7 @@ def register(subparsers: Any) -> None:
                         'rebound factor (default 4.5); raise it for tables coarser than '
                         '1 deg, where the rebound of the lift itself exceeds the noise')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
-                   help='step of the output grid [deg] (default 0.1)')
+                   help='step of the output grid [deg] (default 0.1; 0.001 to 10)')
     p.add_argument('--follower', choices=('flat', 'roller', 'knife'),
                    help='TABLE: follower that measured the lift (default flat; a gauge '
                         'file: roller with its probe radius)')
@@ -71,8 +71,11 @@ def register(subparsers: Any) -> None:
 
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
+    from cam_metrology.reconstruction.core import check_step_deg
+
     methods = 'spline,harmonic' if args.method == 'both' else args.method
-    params: dict[str, Any] = {'methods': methods, 'step_deg': args.step_deg,
+    params: dict[str, Any] = {'methods': methods,
+                              'step_deg': check_step_deg('--step-deg', args.step_deg),
                               'harmonic_basis': args.basis,
                               'smoothing_criterion': args.criterion}
     if args.rebound_threshold is not None:
@@ -84,8 +87,9 @@ def _params(args: argparse.Namespace) -> dict[str, Any]:
         params['smoothing'] = require_positive('--smoothing', args.smoothing, allow_zero=True)
     if args.harmonics is not None:
         from cam_design.errors import InputError
-        if args.harmonics < 0:
-            raise InputError('--harmonics', args.harmonics, 'an integer >= 0')
+        from cam_metrology.reconstruction.harmonic import MIN_ORDER, ORDER_EXPECTED
+        if args.harmonics < MIN_ORDER:
+            raise InputError('--harmonics', args.harmonics, ORDER_EXPECTED)
         params['harmonics'] = args.harmonics
     if args.rpm is not None:
         from cam_design.errors import require_positive
@@ -106,11 +110,14 @@ def run(args: argparse.Namespace) -> int:
         raise FileNotFoundError(f'no such bag or table: {path}')
     core = ReconstructionCore(_params(args))
     if _is_bag(path):
-        kind, follower, skipped = 'bag', _bag(path, core, args.feature), []
+        kind, skipped = 'bag', []
+        follower, problems = _bag(path, core)
     else:
-        kind = 'table'
+        kind, problems = 'table', []
         follower, skipped = _table(path, core, args)
     skipped += _skips(core)
+    if not core.results:
+        _nothing_reconstructed(path, kind, skipped, problems)
     rpm = args.rpm or core.cam_speed()
     from cam_metrology.reconstruction.profile import summary
 
@@ -134,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         _plots(core, Path(args.plot), args.feature)
     ok = any(m.get('ok') for f in features.values() for m in f.values())
-    return 0 if ok or not features else 1
+    return 0 if ok else 1
 
 
 def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, Any], list]:
@@ -156,25 +163,66 @@ def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, A
         kind, radius = 'roller', args.radius
     from cam_design.follower import Follower
     Follower(kind, radius)   # validates
+    from cam_metrology.reconstruction.samples import clean_samples
+    clean_samples(table.alpha, table.lift, key=path.name)   # too few rows: InputError
     core.results.clear()
-    out = core.process_table(table, 0, note='table input: lift as seen by the measuring '
+    core.process_table(table, 0, note='table input: lift as seen by the measuring '
                                       f'follower ({kind}); no scene, no conversion')
-    del out
     return {'kind': kind, 'radius_m': radius,
             'note': 'no scene: no design follower conversion'}, []
 
 
-def _bag(path: Path, core: Any, feature: str | None) -> dict[str, Any]:
+#: what a bag needs for a reconstruction (the metrology core makes the lift tables)
+BAG_NEEDS = ('a bag with the scene (/bench/scene) and the measured samples '
+             '(/bench/joint_states)')
+
+
+def _bag(path: Path, core: Any) -> tuple[dict[str, Any], list[str]]:
+    """Replay the bag through the metrology and reconstruction cores: (follower
+    description, metrology errors). InputError when the bag lacks the scene or the
+    samples."""
+    from cam_design.errors import InputError
+    from cam_metrology.bagio import bag_topics
     from cam_metrology.metrology.core import MetrologyCore
     from cam_metrology.replay import run_offline
 
-    run_offline(path, [MetrologyCore(), core])
+    topics = bag_topics(path)
+    for topic in ('/bench/scene', '/bench/joint_states'):
+        if topics.get(topic, ('', 0))[1] <= 0:
+            raise InputError(str(path), f'no {topic} messages', BAG_NEEDS)
+    result = run_offline(path, [MetrologyCore(), core])
     scene = core.scene
     if scene is None:
-        return {'note': 'the bag has no scene'}
+        raise InputError(str(path), 'no valid scene', BAG_NEEDS)
+    problems = [f"{s['name']}: {s['message']}"
+                for topic in ('/metrology/result', '/reconstruction/result')
+                for out in result.by_topic(topic)
+                for s in _statuses(out) if s['level'] == 'ERROR']
     follower = {'probe': {'kind': scene.probe.kind, 'radius_m': scene.probe.radius}}
     follower['design'] = {lobe.id: lobe.follower.kind for lobe in scene.lobes}
-    return follower
+    return follower, problems
+
+
+def _statuses(output: Any) -> list[dict[str, str]]:
+    """name, level (OK/WARN/ERROR) and message of the statuses of a StatusOutput."""
+    from cam_metrology.outputs import ERROR, WARN
+
+    names = {ERROR: 'ERROR', WARN: 'WARN'}
+    return [{'name': s.name, 'level': names.get(s.level, 'OK'), 'message': s.message}
+            for s in getattr(output, 'statuses', ())]
+
+
+def _nothing_reconstructed(path: Path, kind: str, skipped: list[dict[str, str]],
+                           problems: list[str]) -> None:
+    """Raise InputError: no feature was reconstructed (nor failed); say why."""
+    from cam_design.errors import InputError
+
+    why = [f"{s['what']}: {s['why']}" for s in skipped] + problems
+    raise InputError(str(path), 'nothing to reconstruct' + (
+        f" ({'; '.join(why)})" if why else ''),
+        'at least one lobe with measured lift' + (' (a bag with /bench/joint_states '
+                                                  'samples of a lobe)' if kind == 'bag'
+                                                  else ''))
 
 
 def _skips(core: Any) -> list[dict[str, str]]:

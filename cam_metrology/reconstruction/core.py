@@ -28,7 +28,7 @@ import numpy as np
 
 from cam_design.errors import InputError, require_positive
 from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
-from cam_metrology.reconstruction.harmonic import HarmonicOptions
+from cam_metrology.reconstruction.harmonic import MIN_ORDER, ORDER_EXPECTED, HarmonicOptions
 from cam_metrology.reconstruction.profile import (Conversion, MethodOutcome, check_options,
                                                   reconstruct_table)
 from cam_metrology.reconstruction.samples import LiftTable, lift_table_from_message
@@ -39,6 +39,21 @@ PROFILE, RESULT = '/reconstruction/profile', '/reconstruction/result'
 PROFILE_COLUMNS = ('alpha_rad', 'lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
                    'jerk_m_per_rad3')
 PIN_ID = 'dowel_pin'
+#: allowed step [deg] of the uniform output grid: 10 deg still resolves a lobe of 60 deg
+#: and more; 1e-3 deg is 360 000 points per revolution (far below any measured step)
+STEP_DEG_RANGE = (1e-3, 10.0)
+
+
+def check_step_deg(key: str, value: Any) -> float:
+    """The output grid step [deg] as a float in ``STEP_DEG_RANGE``, else InputError."""
+    lo, hi = STEP_DEG_RANGE
+    try:
+        step = float(value)
+    except (TypeError, ValueError):
+        raise InputError(key, value, f'a step in [{lo:g}, {hi:g}] deg') from None
+    if isinstance(value, bool) or not (math.isfinite(step) and lo <= step <= hi):
+        raise InputError(key, value, f'a step in [{lo:g}, {hi:g}] deg')
+    return step
 
 
 def _same_follower(a: Any, b: Any) -> bool:
@@ -102,7 +117,7 @@ class ReconstructionCore:
         if not methods:
             raise InputError('reconstruction.methods', p['methods'], 'at least one method')
         self.methods = methods
-        step = math.radians(require_positive('reconstruction.step_deg', p['step_deg']))
+        step = math.radians(check_step_deg('reconstruction.step_deg', p['step_deg']))
         smoothing = float(p['smoothing'])
         sign = int(p['sign_changes'])
         self.spline_options = SplineOptions(
@@ -112,6 +127,9 @@ class ReconstructionCore:
             cap=float(p['rebound_cap']), expected_sign_changes=None if sign < 0 else sign,
             step=step)
         order = int(p['harmonics'])
+        if 0 <= order < MIN_ORDER:
+            raise InputError('reconstruction.harmonics', p['harmonics'],
+                             ORDER_EXPECTED.replace('omit it', '< 0'))
         self.harmonic_options = HarmonicOptions(
             basis=str(p['harmonic_basis']), order=None if order < 0 else order,
             criterion=str(p['harmonic_criterion']) or None, step=step,

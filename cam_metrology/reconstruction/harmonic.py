@@ -40,6 +40,14 @@ from cam_metrology.reconstruction.spline import Fairing, rebound_fairing
 
 BASES = ('section', 'full')
 CRITERIA = ('cp', 'bic', 'risk', 'residual')
+#: smallest order a caller may set: N = 0 is a constant and N = 1 a single cosine (an
+#: eccentric circle); neither can represent a lobe
+MIN_ORDER = 2
+ORDER_EXPECTED = (f'an integer >= {MIN_ORDER} (N = 0 is a constant, N = 1 a single '
+                  'cosine: neither represents a lobe); omit it for the automatic order')
+#: a caller-set order whose rms residual exceeds this many noise sigmas (and 1e-4 of the
+#: lift range) under-fits the lobe: the result says so
+UNDERFIT_SIGMAS = 5.0
 
 
 @dataclass(frozen=True)
@@ -67,8 +75,8 @@ def _check(opt: HarmonicOptions) -> HarmonicOptions:
     if opt.criterion not in CRITERIA:
         raise InputError('harmonic.criterion', opt.criterion, ' | '.join(CRITERIA))
     if opt.order is not None and (isinstance(opt.order, bool) or int(opt.order) != opt.order
-                                  or opt.order < 0):
-        raise InputError('harmonic.order', opt.order, 'an integer >= 0')
+                                  or opt.order < MIN_ORDER):
+        raise InputError('harmonic.order', opt.order, ORDER_EXPECTED)
     if opt.criterion == 'residual' and opt.order is None:
         if opt.tol is None:
             raise InputError('harmonic.tol', None, "a residual target [m] for 'residual'")
@@ -109,8 +117,24 @@ def _reconstruct(data: CleanSamples, opt: HarmonicOptions,
     if np.count_nonzero(fair.outlier):
         rec.notes.append(f'rebound: {int(np.count_nonzero(fair.outlier))} outlier(s) removed')
     rec.check_residuals(tol=opt.tol or 0.0)
+    if opt.order is not None:
+        _check_underfit(rec, y_raw)
     rec.check_finite()
     return rec
+
+
+def _check_underfit(rec: Reconstruction, y: NDArray[np.float64]) -> None:
+    """Warn when an order set by the caller is too low for the lobe: rms residual above
+    ``UNDERFIT_SIGMAS`` noise sigmas and above 1e-4 of the lift range [m]."""
+    span = float(np.max(y) - np.min(y)) if y.size else 0.0
+    bound = max(UNDERFIT_SIGMAS * rec.sigma, 1e-4 * span)
+    rms = rec.rms_residual
+    if rms > bound:
+        order = rec.parameter.get('order')
+        rec.warnings.append(
+            f'the order set by the caller (N = {order}) is too low for this lobe: rms '
+            f'residual {rms * 1e6:.3f} um against noise sigma {rec.sigma * 1e6:.3g} um; '
+            'raise N or omit it for the automatic order')
 
 
 def _gap_warning(x: NDArray[np.float64], step: float, period: float,
@@ -313,7 +337,6 @@ def _section(x: NDArray[np.float64], y: NDArray[np.float64], y_raw: NDArray[np.f
     search = min(nyquist, opt.max_order)
     if opt.order is not None:
         order = _cap_order(int(opt.order), nyquist, warnings)
-        order = max(order, 2)
         why = f'set by the caller: N = {order}'
     else:
         order, why = _choose_section(xs, ys, phi, search, asym, sigma, opt)

@@ -32,6 +32,10 @@ from cam_design.errors import InputError
 ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
 LENGTH_UNITS = {'m': 1.0, 'mm': 1.0e-3, 'um': 1.0e-6}
 _SPLIT = re.compile(r'[\s,;]+')
+#: the accepted table layouts, for error messages
+TABLE_FORMATS = ('a CSV whose first line names the columns alpha_deg|alpha_rad and '
+                 'lift_mm|lift_um|lift_m (e.g. alpha_deg,lift_mm), or a gauge profile '
+                 'file whose first line is the probe radius (one number)')
 
 
 @dataclass(frozen=True)
@@ -135,7 +139,7 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
     a malformed line raises InputError naming ``FILE:LINE``.
     """
     p = Path(path)
-    lines = p.read_text(encoding='utf-8').splitlines()
+    lines = _read_text(p).splitlines()
     header: list[str] | None = None
     rows: list[list[float]] = []
     for number, raw in enumerate(lines, start=1):
@@ -155,6 +159,9 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
             raise InputError(f'{p.name}:{number}', raw.strip(), 'numbers') from None
     if header is None:
         raise InputError(p.name, 'an empty file', 'a header alpha_rad,lift_m and rows')
+    if not rows:
+        raise InputError(p.name, '0 data rows', f'rows of numbers under the header '
+                         f'{",".join(header)}')
     names = {n: i for i, n in enumerate(header)}
     a_col = [n for n in header if n.startswith('alpha_')]
     h_col = [n for n in header if n.startswith('lift_')]
@@ -187,7 +194,7 @@ def read_gauge_file(path: str | Path, *, angle_unit: str = 'deg', length_unit: s
         raise InputError('length_unit', length_unit, ' | '.join(LENGTH_UNITS))
     p = Path(path)
     content = [(n, raw.strip()) for n, raw in
-               enumerate(p.read_text(encoding='utf-8').splitlines(), start=1)]
+               enumerate(_read_text(p).splitlines(), start=1)]
     content = [(n, s) for n, s in content if s and not s.startswith('#')]
     if len(content) < 2:
         raise InputError(p.name, f'{len(content)} non-empty line(s)',
@@ -287,14 +294,37 @@ def read_table_file(path: str | Path, *, angle_unit: str = 'deg',
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f'no such table file: {p}')
-    first = ''
-    for raw in p.read_text(encoding='utf-8').splitlines():
+    first, number = '', 0
+    for number, raw in enumerate(_read_text(p).splitlines(), start=1):
         if raw.strip() and not raw.strip().startswith('#'):
             first = raw.strip()
             break
     if first.startswith('alpha_') or ',alpha_' in first:
         return read_csv_table(p)
+    fields = [f for f in _SPLIT.split(first) if f]
+    try:
+        if len(fields) != 1:
+            raise ValueError
+        float(fields[0])
+    except ValueError:
+        shown = first if len(first) <= 80 else first[:77] + '...'
+        raise InputError(f'{p.name}:{number}' if first else p.name,
+                         shown if first else 'an empty file', TABLE_FORMATS) from None
     return read_gauge_file(p, angle_unit=angle_unit, length_unit=length_unit)
+
+
+def _read_text(path: Path) -> str:
+    """The file's UTF-8 text; InputError for binary data or an unreadable file."""
+    try:
+        return path.read_text(encoding='utf-8')
+    except UnicodeDecodeError:
+        raise InputError(path.name, 'binary data', 'a UTF-8 text table: ' + TABLE_FORMATS
+                         ) from None
+    except IsADirectoryError:
+        raise InputError(path.name, 'a directory', 'a table file') from None
+    except OSError as exc:
+        raise InputError(path.name, f'an unreadable file ({exc.strerror})',
+                         'a readable table file') from None
 
 
 def table_from_message(msg: Any) -> tuple[str, tuple[str, ...], NDArray[np.float64]]:
