@@ -42,6 +42,7 @@ __all__ = [
 ]
 
 JOINT_STATES = '/bench/joint_states'
+MCAP_MAGIC = b'\x89MCAP0\r\n'
 CAMSHAFT_JOINT = 'camshaft'
 PROBE_JOINT = 'probe'
 
@@ -955,7 +956,13 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
     files = sorted(source.glob('*.mcap')) if source.is_dir() else [source]
     if not files or not all(f.is_file() for f in files):
         raise InputError('bag', str(source), 'a rosbag2 directory with .mcap files')
+    for path in files:   # nothing is written for a file that is not MCAP at all
+        with open(path, 'rb') as f:
+            if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+                raise InputError('bag', str(path), 'an MCAP recording (the file does not '
+                                 'start with the MCAP magic bytes)')
     counts: dict[str, int] = {}
+    readable = False
     with BagWriter(dst, compression=compression) as writer:
         for path in files:
             schemas: dict[int, str] = {}
@@ -976,6 +983,12 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
                             counts[topic] = counts.get(topic, 0) + 1
                 except (McapError, EOFError, ValueError, struct.error):
                     pass   # the truncated tail of an interrupted recording
+            readable = readable or bool(channels)
+    if not readable:   # not even a channel: do not leave an empty "recovered" bag
+        import shutil
+        shutil.rmtree(dst, ignore_errors=True)
+        raise InputError('bag', str(source), 'an MCAP recording with at least one '
+                         'readable channel (nothing recoverable found)')
     return counts
 
 

@@ -196,3 +196,23 @@ def test_plot_legend_hides_no_data_and_x_label(fixture_tables, label, xlabel):
         assert xlabel in ax2.get_xlabel()
     finally:
         plt.close(fig)
+
+
+# --- additional finding: `bag recover` of something that is not MCAP ----------------
+
+@pytest.mark.parametrize('kind', ['random', 'yaml', 'magic_only'])
+def test_recover_of_non_mcap_writes_nothing(tmp_path, capsys, kind):
+    if kind == 'yaml':
+        src = NOT_A_BAG
+    else:
+        src = tmp_path / 'src'
+        src.mkdir()
+        (src / 'metadata.yaml').write_text('rosbag2_bagfile_information: {}\n')
+        head = (CLEAN / 'default_clean.mcap').read_bytes()[:20] if kind == 'magic_only' \
+            else np.random.default_rng(3).bytes(100_000)
+        (src / 'src_0.mcap').write_bytes(head)
+    dst = tmp_path / 'dst'
+    assert main(['bag', 'recover', str(src), str(dst)]) == 2
+    err = capsys.readouterr().err
+    assert 'expected an MCAP recording' in err
+    assert not dst.exists()
