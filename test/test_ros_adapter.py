@@ -136,3 +136,24 @@ def proc_node(proc: Any, name: str) -> Any:
     """A plain node in the process' context."""
     from rclpy.node import Node
     return Node(name, context=proc.context)
+
+
+@pytest.mark.parametrize('override, message', [
+    # rclpy's InvalidParameterTypeException (string parameter, integer given) -> InputError
+    ('label:=5', "fake_metrology.label: got 5; expected a string"),
+    # float parameters are dynamically typed: checked after declaring
+    ('gain:=abc', "fake_metrology.gain: got 'abc'; expected a number (integer or float)"),
+])
+def test_adapter_wrong_typed_parameter(ros_domain: int, override: str, message: str) -> None:
+    from cam_design.errors import InputError
+    from cam_metrology.nodes.adapter import CoreNode
+    from cam_metrology.nodes.runtime import RosProcess
+
+    proc = RosProcess(['x', '--ros-args', '-p', f'fake_metrology:{override}'],
+                      handle_signals=False)
+    try:
+        with pytest.raises(InputError) as exc:
+            CoreNode(FakeCore, context=proc.context)
+        assert str(exc.value) == message
+    finally:
+        proc.close()

@@ -15,8 +15,10 @@ def test_topic_specs_and_graph_counts() -> None:
     from cam_metrology.nodes.bench_sim import parse_graph_counts
     from cam_metrology.nodes.recorder import parse_topic_specs
 
-    assert parse_topic_specs('/a, b:std_msgs/msg/String') == {
+    assert parse_topic_specs('/a, /b:std_msgs/msg/String') == {
         '/a': None, '/b': 'std_msgs/msg/String'}
+    with pytest.raises(InputError, match="topics: got 'b:std_msgs/msg/String'"):
+        parse_topic_specs('/a, b:std_msgs/msg/String')     # relative names are rejected
     assert parse_topic_specs(['/x:sensor_msgs/msg/JointState']) == {
         '/x': 'sensor_msgs/msg/JointState'}
     assert parse_graph_counts(' /m/lift=2,/m/result=3 ,') == {'/m/lift': 2, '/m/result': 3}

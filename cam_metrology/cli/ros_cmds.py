@@ -22,6 +22,17 @@ def _positive_or_zero(text: str) -> float:
     return value
 
 
+def _count(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f'got {text!r}; expected an integer >= 0')
+    return value
+
+
 def register(subparsers: Any) -> None:
     """Add the ``demo``, ``record``, ``replay`` and ``run`` subcommands."""
     fmt = argparse.RawDescriptionHelpFormatter
@@ -81,10 +92,10 @@ def register(subparsers: Any) -> None:
                    help='time scale: 2 = twice as fast; 0 = as fast as possible (default 1)')
     p.add_argument('--loop', action='store_true', help='replay again until Ctrl-C')
     p.add_argument('--topics', nargs='+', metavar='TOPIC', help='only these topics')
-    p.add_argument('--wait-subscribers', type=int, default=1,
+    p.add_argument('--wait-subscribers', type=_count, default=1,
                    help='subscriptions to wait for on the busiest topic (the samples) '
                         'before streaming (default 1)')
-    p.add_argument('--match-timeout', type=float, default=10.0,
+    p.add_argument('--match-timeout', type=_positive_or_zero, default=10.0,
                    help='s to wait for them (then a warning, and replay anyway)')
     p.set_defaults(func=_replay)
 
@@ -122,6 +133,8 @@ def _record(args: argparse.Namespace) -> int:
         raise InputError('OUT', args.out, 'a path that does not exist yet')
     if args.only and not args.topics:
         raise InputError('--only', 'without --topics', 'some --topics to record')
+    from cam_metrology.nodes.recorder import parse_topic_specs
+    parse_topic_specs(args.topics, '--topics')   # reject bad names before starting ROS
     ros_args = ['cam-bench', '--ros-args', '-p', f'record_defaults:={str(not args.only).lower()}',
                 '-p', f'compression:={str(args.compression).lower()}']
     return run_recorder(ros_args, output=args.out, topics=args.topics,
@@ -135,12 +148,11 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
+    from cam_metrology.nodes.bench_sim import sim_param_table
     from cam_metrology.nodes.demo import DemoOptions, run_demo
-    from cam_design.errors import InputError
-    for item in args.sim:
-        name, sep, value = item.partition(':=')
-        if not sep or not name or not value:
-            raise InputError('--sim', item, 'NAME:=VALUE (a bench-sim parameter)')
+    from cam_metrology.nodes.params import parse_assignments
+    # names and types checked before anything starts (bench-sim would ignore an unknown name)
+    parse_assignments(args.sim, 'SimParams', sim_param_table(), '--sim')
     return run_demo(DemoOptions(scene=args.scene, out=args.out, rate=args.rate,
                                 timeout=args.timeout, json_out=args.json,
                                 events_executor=args.recorder_executor == 'events',

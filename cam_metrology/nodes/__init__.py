@@ -14,7 +14,7 @@ has a ``main()`` for console scripts (``colcon build`` installs them to
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 CORE_NODES = ('metrology', 'reconstruction', 'dynamics')
 NODES = CORE_NODES + ('bench-sim', 'recorder')
@@ -47,6 +47,46 @@ def ros_arguments(params_file: str | Path | None, ros_args: Sequence[str] = ()) 
     return argv
 
 
+def parameter_table(name: str) -> dict[str, Any] | None:
+    """``{parameter: (default, description)}`` of node ``name`` (None: its core is missing,
+    which ``run_node`` reports itself)."""
+    if name in CORE_NODES:
+        from cam_metrology.nodes.adapter import CoreMissing, load_core
+        try:
+            return dict(getattr(load_core(name), 'PARAMETERS', {}))
+        except CoreMissing:
+            return None
+    if name == 'bench-sim':
+        from cam_metrology.nodes import bench_sim
+        return {**bench_sim.PARAMETERS, **bench_sim.sim_param_table()}
+    from cam_metrology.nodes import recorder
+    return dict(recorder.PARAMETERS)
+
+
+def cli_assignments(ros_args: Sequence[str]) -> list[str]:
+    """The ``NAME:=VALUE`` items of ``-p``/``--param`` in ROS arguments."""
+    items = list(ros_args)
+    return [items[i + 1] for i, arg in enumerate(items[:-1]) if arg in ('-p', '--param')]
+
+
+def validate_parameters(name: str, params_file: str | Path | None,
+                        ros_args: Sequence[str] = ()) -> None:
+    """Check the parameter file and the ``-p`` items of node ``name`` before rclpy reads
+    them: InputError (one line) instead of rclpy's RCLError or
+    InvalidParameterTypeException tracebacks."""
+    from cam_metrology.nodes.params import check_params, parse_assignments, read_params_file
+    table = parameter_table(name)
+    if table is None:
+        return
+    node_name = NODE_NAMES[name]
+    if params_file is not None:
+        check_params(node_name, read_params_file(params_file, node_name), table)
+    from cam_metrology.nodes.params import BUILTIN_PARAMETERS
+    items = [item for item in cli_assignments(ros_args)
+             if item.partition(':=')[0] not in BUILTIN_PARAMETERS]
+    parse_assignments(items, node_name, table, '-p')
+
+
 def run_node(name: str, params_file: str | Path | None = None,
              ros_args: Sequence[str] = (), *, events_executor: bool | None = None) -> int:
     """Run node ``name`` until it is done or SIGINT/SIGTERM; returns the exit code.
@@ -57,6 +97,7 @@ def run_node(name: str, params_file: str | Path | None = None,
         raise ValueError(f'unknown node {name!r}; expected one of {", ".join(NODES)}')
     if params_file is None:
         params_file = default_params_file(name)
+    validate_parameters(name, params_file, ros_args)
     argv = ros_arguments(params_file, ros_args)
     if name in CORE_NODES:
         from cam_metrology.nodes.adapter import run_core_node

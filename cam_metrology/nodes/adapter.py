@@ -91,20 +91,24 @@ def declare_parameters(node: Node, table: dict[str, tuple[Any, str]]) -> dict[st
     """Declare ``{name: (default, description)}`` on ``node``; returns the values in force.
 
     Float parameters given as integers are converted; anything else of the wrong type
-    raises InputError naming the parameter.
+    raises InputError naming the parameter, its value and the expected type.
     """
-    from cam_design.errors import InputError
+    from rclpy.exceptions import InvalidParameterTypeException
+
+    from cam_metrology.nodes.params import check_value, expected_type
 
     values: dict[str, Any] = {}
     for name, (default, description) in table.items():
         value = list(default) if isinstance(default, tuple) else default
-        param = node.declare_parameter(name, value, descriptor(name, default, description))
-        got = param.value
-        if isinstance(default, float) and not isinstance(default, bool):
-            if isinstance(got, bool) or not isinstance(got, (int, float)):
-                raise InputError(f'{node.get_name()}.{name}', got, 'a number')
-            got = float(got)
-        values[name] = got
+        key = f'{node.get_name()}.{name}'
+        try:
+            param = node.declare_parameter(name, value, descriptor(name, default, description))
+        except InvalidParameterTypeException:
+            from cam_design.errors import InputError
+            given = getattr(node, '_parameter_overrides', {}).get(name)
+            raise InputError(key, getattr(given, 'value', given),
+                             expected_type(default) or 'a valid value') from None
+        values[name] = check_value(key, param.value, default)
     return values
 
 

@@ -308,6 +308,8 @@ def run_demo(opts: DemoOptions) -> int:
     scene = Path(opts.scene) if opts.scene else default_scene_path()
     if not scene.is_file():
         raise FileNotFoundError(f'scene file {scene} does not exist')
+    from cam_metrology.scene_parse import load_scene
+    load_scene(scene)   # a bad scene: InputError now, before any node or bag directory
     bag = Path(opts.out) if opts.out else Path('demo-out') / time.strftime(
         'demo_%Y%m%dT%H%M%SZ', time.gmtime())
     if bag.exists():

@@ -36,6 +36,7 @@
 from __future__ import annotations
 
 import functools
+import re
 import time
 from pathlib import Path
 from typing import Any, Sequence
@@ -63,14 +64,24 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
 TAKE_BATCH = 500
 
 
-def parse_topic_specs(text: str | Sequence[str]) -> dict[str, str | None]:
-    """``'/a, /b:std_msgs/msg/String'`` -> {topic: type or None}."""
+#: a ROS topic name: absolute, tokens of letters, digits and '_' not starting with a digit
+TOPIC_RULE = '/topic or /topic:pkg/msg/Type (absolute name: /-separated tokens of letters, ' \
+             'digits and _, not starting with a digit)'
+_TOPIC_RE = re.compile(r'^(/[A-Za-z_][A-Za-z0-9_]*)+$')
+_TYPE_RE = re.compile(r'^[A-Za-z_][A-Za-z0-9_]*/(msg/)?[A-Za-z_][A-Za-z0-9_]*$')
+
+
+def parse_topic_specs(text: str | Sequence[str],
+                      key: str = 'topics') -> dict[str, str | None]:
+    """``'/a, /b:std_msgs/msg/String'`` -> {topic: type or None}; InputError(key, item,
+    TOPIC_RULE) on a relative or malformed name or type."""
+    from cam_design.errors import InputError
     items = text.replace(',', ' ').split() if isinstance(text, str) else list(text)
     out: dict[str, str | None] = {}
     for item in items:
-        topic, _, type_name = item.partition(':')
-        if not topic.startswith('/'):
-            topic = '/' + topic
+        topic, sep, type_name = item.partition(':')
+        if not _TOPIC_RE.match(topic) or (sep and not _TYPE_RE.match(type_name)):
+            raise InputError(key, item, TOPIC_RULE)
         out[topic] = type_name or None
     return out
 
@@ -88,15 +99,15 @@ class RecorderNode(Node):
                  with_info: bool = True) -> None:
         super().__init__(node_name, context=context)
         self._with_info = with_info
-        params = {name: self.declare_parameter(name, default,).value
-                  for name, (default, _) in PARAMETERS.items()}
+        from cam_metrology.nodes.adapter import declare_parameters
+        params = declare_parameters(self, PARAMETERS)
         self.params = params
         out = Path(output or params['output'] or default_output())
         wanted: dict[str, str | None] = {}
         if params['record_defaults']:
             wanted.update({topic: type_name for topic, (type_name, _) in TOPICS.items()})
-        wanted.update(parse_topic_specs(params['topics']))
-        wanted.update(parse_topic_specs(topics or ()))
+        wanted.update(parse_topic_specs(params['topics'], f'{node_name}.topics'))
+        wanted.update(parse_topic_specs(topics or (), '--topics'))
         out.parent.mkdir(parents=True, exist_ok=True)
         self.writer = BagWriter(out, compression=bool(params['compression']))
         self.path = out

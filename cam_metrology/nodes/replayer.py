@@ -14,6 +14,7 @@
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -73,6 +74,19 @@ def replay_qos(latched: bool) -> QoSProfile:
                                   else DurabilityPolicy.VOLATILE))
 
 
+def select_topics(available: Sequence[str], topics: Sequence[str] | None) -> set[str]:
+    """The topics to replay: ``topics`` (all when empty), each of which must be in
+    ``available``; InputError('--topics', name, the bag's topics) otherwise."""
+    from cam_design.errors import InputError
+    if not topics:
+        return set(available)
+    for topic in topics:
+        if topic not in available:
+            raise InputError('--topics', topic,
+                             f'a topic of the bag: {", ".join(sorted(available))}')
+    return set(topics)
+
+
 class ReplayNode(Node):
     """Publishers for every topic of a bag and the paced replay loop."""
 
@@ -81,8 +95,8 @@ class ReplayNode(Node):
         super().__init__(node_name, context=context)
         self.bag = Path(bag)
         conns = bag_connections(self.bag)
-        if topics:
-            conns = {t: v for t, v in conns.items() if t in set(topics)}
+        wanted = select_topics(list(conns), topics)
+        conns = {t: v for t, v in conns.items() if t in wanted}
         self.latched = {t for t, (_, lat) in conns.items() if lat}
         from cam_metrology.bagio import bag_topics
         counts = {t: n for t, (_, n) in bag_topics(self.bag).items() if t in conns}
@@ -170,8 +184,14 @@ def run_replay(bag: str | Path, rate: float = 1.0, *, loop: bool = False,
                quiet: bool = False) -> int:
     """Replay ``bag`` (``loop``: again until SIGINT). Exit 0 (a missing subscriber is a
     warning: replay publishes anyway, like ``ros2 bag play``)."""
+    from cam_design.errors import InputError
     from cam_metrology.nodes.runtime import RosProcess
 
+    if not (match_timeout >= 0 and math.isfinite(match_timeout)):
+        raise InputError('--match-timeout', match_timeout, 'a finite number of s >= 0')
+    if wait_subscribers < 0:
+        raise InputError('--wait-subscribers', wait_subscribers, 'a count >= 0')
+    select_topics(list(bag_connections(bag)), topics)   # before any ROS set-up
     proc = RosProcess(args)
     try:
         node = proc.add(ReplayNode(bag, context=proc.context, topics=topics))
