@@ -175,7 +175,12 @@ def test_profile_of_a_scene_lobe(capsys: pytest.CaptureFixture) -> None:
     assert ball['rho_min_m'] == pytest.approx(flat['rho_min_m'], abs=2e-6)   # same cam
     assert main(['design', 'profile', scene, '--lobe', 'nope']) == 2
     assert 'error: --lobe: got' in capsys.readouterr().err
-    assert main(['design', 'profile', scene]) == 2          # several lobes: --lobe needed
+    # no --lobe: the first lobe, as `design law` and `design check` (QA #26)
+    assert main(['design', 'profile', scene, '--json', '-']) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert first['lobe'] == 'lobe_1' and first['rho_min_m'] == flat['rho_min_m']
+    assert main(['design', 'profile', scene]) == 0
+    assert capsys.readouterr().out.startswith('lobe_1 flat: 720 points')
     assert main(['design', 'profile', scene, '--lobe', 'lobe_1', '--base-radius',
                  '0.02']) == 2
     assert 'error: --base-radius' in capsys.readouterr().err
@@ -191,3 +196,46 @@ def test_profile_json_is_strict_json(tmp_path: Path, capsys: pytest.CaptureFixtu
     text = capsys.readouterr().out
     assert 'Infinity' not in text and 'NaN' not in text
     json.loads(text)
+
+
+@pytest.mark.parametrize('step', ['10.5', '30', '0.0009', 'inf', 'nan'])
+def test_profile_step_limits(table_file: Path, capsys: pytest.CaptureFixture,
+                             step: str) -> None:
+    assert main(['design', 'profile', str(table_file), '--step-deg', step]) == 2
+    err = capsys.readouterr().err
+    assert '--step-deg: got' in err and 'a step in [0.001, 10] deg' in err
+    # the upper limit itself: 36 points per turn, exactly 10 deg apart
+    assert main(['design', 'profile', str(table_file), '--step-deg', '10', '--csv', '-']) == 0
+    alpha = [float(ln.split(',')[0]) for ln in capsys.readouterr().out.split()[1:]]
+    assert len(alpha) == 36 and np.allclose(np.diff(np.degrees(alpha)), 10.0)
+
+
+def test_docs_table_example_is_a_realistic_lobe(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture) -> None:
+    """docs/lift_laws.md `family: table` example (QA #29): the interpolant stays on or
+    above the base circle and follows the preset it was tabulated from."""
+    import re
+
+    import yaml
+
+    from cam_design.lift_laws import from_spec
+
+    text = (Path(__file__).resolve().parent.parent / 'docs' / 'lift_laws.md').read_text()
+    blocks = [b for b in re.findall(r'```yaml\n(.*?)```', text, re.S) if 'family: table' in b]
+    assert len(blocks) == 1
+    spec = yaml.safe_load(blocks[0])['lift_law']
+    law = from_spec(spec, 'docs')
+    preset = from_spec({'family': 'preset', 'name': 'flat_tappet_intake'}, 'preset')
+    grid = np.linspace(*law.support, 20001)
+    assert float(np.min(law(grid))) >= 0.0
+    assert float(np.max(np.abs(law(grid) - preset(grid)))) < 2.5e-6
+    path = tmp_path / 'table.yaml'
+    path.write_text(yaml.safe_dump({'base_radius': 0.0165, 'lift_law': spec}))
+    assert main(['design', 'profile', str(path), '--json', '-']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    lift = np.array([row[doc['columns'].index('lift_m')] for row in doc['rows']])
+    assert lift.min() >= 0.0 and lift.max() == pytest.approx(8.5e-3, abs=1e-7)
+    assert doc['undercut'] is False
+    # the preset's 4.32 mm (test_profile_from_spec) within what the 5 deg table gives
+    # for h'' (0.6 mm/rad^2 off near +-28 deg): rho1 = R0 + h + h''
+    assert doc['rho_min_m'] == pytest.approx(4.32e-3, abs=0.2e-3)

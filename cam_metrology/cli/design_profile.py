@@ -3,7 +3,7 @@
 The YAML file holds a lift law: a ``lift_law:`` mapping (or the mapping itself, see
 docs/lift_laws.md), or a table ``{alpha: [...], h: [...]}`` (also under ``lift:``), and
 optionally ``base_radius`` [m] (the base circle of the profile); or it is a scene and
-``--lobe ID`` picks a lobe. Output: per-sample profile and pitch coordinates, radius of
+``--lobe ID`` picks a lobe (default: the first, as ``design law``/``design check``). Output: per-sample profile and pitch coordinates, radius of
 curvature, pressure angle, undercut flags and the lift used (CSV/JSON, SI units in the
 column names; an infinite radius of a straight piece is ``inf`` in CSV, ``null`` in
 JSON), a summary with the undercut report, and a plot. See docs/follower.md.
@@ -18,6 +18,11 @@ from typing import Any
 FOLLOWERS = ('flat', 'roller', 'knife', 'offset-roller', 'rocker')
 #: the lift used for the profile (converted with --design-follower) and its derivatives
 LIFT_COLUMNS = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk_m_per_rad3')
+#: allowed --step-deg [deg]. Narrower than ``design law`` ([1e-4, 90]), which only
+#: tabulates the lift: a profile needs at least 36 points per turn for its curvature and
+#: undercut report, and its per-point envelope work makes 1e-4 deg (3.6 million points)
+#: a memory problem rather than a result
+STEP_DEG = (1e-3, 10.0)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -48,13 +53,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                         'for --delta -1, co-directional for --delta 1; needs --eta 1)')
     p.add_argument('--lobe', metavar='ID',
                    help='FILE is a scene: use this lobe (its lift, design follower and the '
-                        'scene base_circle_radius; default: the only lobe)')
+                        'scene base_circle_radius; default: the first lobe)')
     p.add_argument('--design-follower', choices=('flat', 'roller', 'knife'),
                    help='the follower the lift law was written for, if not --follower: the '
                         'lift is converted through the cam profile first (flat/roller/knife)')
     p.add_argument('--design-radius', type=float, default=0.0,
                    help='roller radius of --design-follower [m]')
-    p.add_argument('--step-deg', type=float, default=0.5, help='angle step [deg] (default 0.5)')
+    p.add_argument('--step-deg', type=float, default=0.5,
+                   help=f'angle step [deg] over the full turn, {STEP_DEG[0]:g} to '
+                        f'{STEP_DEG[1]:g} (default 0.5)')
     p.add_argument('--csv', metavar='FILE|-', help='write the per-sample table as CSV')
     p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
     p.add_argument('--plot', metavar='PNG', help='plot profile, curvature and pressure angle')
@@ -90,15 +97,17 @@ def _load_law(doc: Any, path: str) -> Any:
 
 
 def _scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
-    """(lift law, design follower, base radius) of a lobe of the scene file ``args.file``."""
+    """(lift law, design follower, base radius) of a lobe of the scene file ``args.file``:
+    ``args.lobe``, else the first lobe (``args.lobe`` is then set to its id)."""
     from cam_design.errors import InputError
     from cam_metrology.scene_parse import load_scene
 
     scene = load_scene(args.file)
     ids = [lobe.id for lobe in scene.lobes]
-    lobe_id = args.lobe if args.lobe is not None else (ids[0] if len(ids) == 1 else None)
+    lobe_id = args.lobe if args.lobe is not None else ids[0]
     if lobe_id not in ids:
         raise InputError('--lobe', args.lobe, 'one of ' + ', '.join(ids))
+    args.lobe = lobe_id
     lobe = scene.lobe(lobe_id)
     return lobe.lift, lobe.follower, scene.base_circle_radius
 
@@ -169,9 +178,10 @@ def compute(args: argparse.Namespace) -> tuple[Any, Any, float]:
         law = _load_law(doc, args.file)
         base = _base_radius(args, doc)
     step = args.step_deg
-    if not (math.isfinite(step) and 1e-3 <= step <= 10):
-        raise InputError('--step-deg', step, 'a step in [1e-3, 10] deg')
-    n = max(int(round(360.0 / step)), 8)
+    if not (math.isfinite(step) and STEP_DEG[0] <= step <= STEP_DEG[1]):
+        raise InputError('--step-deg', step, f'a step in [{STEP_DEG[0]:g}, {STEP_DEG[1]:g}] '
+                         'deg (a profile needs >= 36 points per turn)')
+    n = int(round(360.0 / step))
     alpha = -math.pi + 2.0 * math.pi * np.arange(n) / n
     law = _design_law(args, law, base, radius)
     if args.follower == 'flat':
@@ -198,6 +208,8 @@ def cmd_profile(args: argparse.Namespace) -> int:
 
     prof, law, base = compute(args)
     summary = prof.summary()
+    if args.lobe is not None:
+        summary['lobe'] = args.lobe
     summary['rho_min_alpha_deg'] = math.degrees(summary['rho_min_alpha_rad'])
     summary['undercut_intervals_deg'] = [[math.degrees(a), math.degrees(b)]
                                          for a, b in summary['undercut_intervals_rad']]
@@ -221,7 +233,8 @@ def cmd_profile(args: argparse.Namespace) -> int:
     if args.plot:
         _plot(args.plot, prof)
     if not wrote:
-        print(f"{prof.kind}: {summary['points']} points, min radius of curvature "
+        lobe = f"{args.lobe} " if args.lobe is not None else ''
+        print(f"{lobe}{prof.kind}: {summary['points']} points, min radius of curvature "
               f"{summary['rho_min_m'] * 1e3:.6f} mm at {summary['rho_min_alpha_deg']:.3f} deg, "
               f"max pressure angle {summary['pressure_angle_max_deg']:.4f} deg, "
               f"max face offset {summary['face_offset_max_m'] * 1e3:.6f} mm")
