@@ -188,3 +188,160 @@ def test_cli_mdof_model(tmp_path: Path) -> None:
     assert run['model'] == 'mdof' and len(run['natural_frequencies_hz']) == 6
     assert run['seating_velocity_m_s'] > 0 and run['opening_deg'] < 0 < run['closing_deg']
     assert len(run['spring_surge_hz']) == 2
+
+
+# -- QA findings (notes/qa.md #3, #6, #11, #16, #23) and the scene's lobes[].width ------
+
+def _run_values(core: DynamicsCore, outs: list) -> tuple[np.ndarray, dict]:
+    tab = [o for o in outs if isinstance(o, TableOutput)][0]
+    status = [o for o in outs if isinstance(o, StatusOutput)][0].statuses[0]
+    return tab.data, status.values
+
+
+def test_lobe_width_used_for_hertz_stress_else_parameter() -> None:
+    """Flat tappet Hertz (2.11): sigma = 0.418 sqrt(E F / (W rho1)), rho1 = R0 + h + h'':
+    with the scene's lobes[].width = 3 mm the stress is exactly twice that with the
+    12 mm parameter (same forces), and the status says which width was used."""
+    doc = yaml.safe_load(scene_text())
+    plain = yaml.safe_dump(doc, sort_keys=False)
+    doc['lobes'][0]['width'] = 0.003
+    narrow = yaml.safe_dump(doc, sort_keys=False)
+    ref = DynamicsCore({'source': 'design', 'step_deg': 1.0, 'cam_width': 0.012})
+    d12, v12 = _run_values(ref, ref.handle('/bench/scene', NS(data=plain), 0))
+    core = DynamicsCore({'source': 'design', 'step_deg': 1.0, 'cam_width': 0.012})
+    d3, v3 = _run_values(core, core.handle('/bench/scene', NS(data=narrow), 0))
+    assert v12['cam_width_m'] == '0.012' and v12['cam_width_source'] == 'parameter cam_width'
+    assert v3['cam_width_m'] == '0.003' and v3['cam_width_source'] == 'scene lobes[].width'
+    assert np.array_equal(d3[:, 3], d12[:, 3])                       # same forces
+    loaded = d12[:, 3] > 1.0
+    assert np.allclose(d3[loaded, 4], 2.0 * d12[loaded, 4], rtol=1e-12)
+    law = core.scene.lobe('lobe_1').lift
+    i = int(np.argmax(d3[:, 3]))
+    a = d3[i, 0]
+    rho1 = core.scene.base_circle_radius + float(law(a)) + float(law(a, 2))
+    sigma = 0.418 * math.sqrt(2.06e11 * d3[i, 3] / (0.003 * rho1))
+    assert d3[i, 4] == pytest.approx(sigma, rel=1e-3)   # 0.418 is the rounded constant
+    assert float(v3['max_contact_stress_pa']) == pytest.approx(np.nanmax(d3[:, 4]))
+
+
+def test_cli_width_precedence_and_human_output(tmp_path: Path, capsys) -> None:
+    import re
+
+    from cam_metrology.cli import main
+
+    doc = yaml.safe_load(scene_text())
+    doc['lobes'] = yaml.safe_load(SCENE)['lobes'][:2]
+    doc['lobes'][1]['width'] = 0.008
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(yaml.safe_dump(doc, sort_keys=False))
+    out = tmp_path / 'w.json'
+    assert main(['dynamics', str(scene), '--cam-width', '0.01', '--step-deg', '1',
+                 '--json', str(out)]) == 0
+    human = capsys.readouterr().out.strip().splitlines()
+    feats = json.loads(out.read_text())['features']
+    r1, r2 = feats['lobe_1']['runs'][0], feats['lobe_2']['runs'][0]
+    assert (r1['cam_width_m'], r1['cam_width_source']) == (0.01, 'parameter cam_width')
+    assert (r2['cam_width_m'], r2['cam_width_source']) == (0.008, 'scene lobes[].width')
+    # human output (QA #23): fixed precision with units, consistent with the JSON
+    assert len(human) == 2
+    line = human[0]
+    assert not re.findall(r'\d\.\d{4,}', line), line
+    assert f"opening {r1['opening_deg']:.3f} deg" in line
+    assert f"closing {r1['closing_deg']:.3f} deg" in line
+    assert f"seating {r1['seating_velocity_m_s']:.3f} m/s" in line
+    assert f"max stress {r1['max_contact_stress_pa'] / 1e6:.1f} MPa" in line
+    assert 'W 10.0 mm, parameter cam_width' in line
+    assert 'W 8.0 mm, scene lobes[].width' in human[1]
+
+
+def test_step_deg_range_checked_before_allocation(tmp_path: Path, capsys) -> None:
+    """QA #11: --step-deg 1e-7 needed 27 GiB (traceback); now a one-line error."""
+    from cam_design.valve_train.sdof import simulate
+    from cam_metrology.cli import main
+
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(scene_text())
+    for bad in ('1e-7', '0.001', '6', 'nan', 'inf'):
+        assert main(['dynamics', str(scene), '--step-deg', bad]) == 2
+        err = capsys.readouterr().err
+        assert '--step-deg' in err and '[0.01, 5] deg' in err and 'Traceback' not in err
+    for bad in (1e-7, float('nan'), 10):
+        with pytest.raises(InputError, match=r'dynamics\.step_deg'):
+            DynamicsCore({'step_deg': bad})
+    law = DynamicsCore({'source': 'design'})
+    law.handle('/bench/scene', NS(data=scene_text(compute=['nose'])), 0)
+    with pytest.raises(InputError, match='step_deg'):
+        simulate(law.scene.lobe('lobe_1').lift, None, 1500.0, step_deg=1e-7)  # type: ignore
+
+
+def test_absurd_speeds_rejected_and_unseated_runs_explained(tmp_path: Path, capsys) -> None:
+    """QA #16: speeds above 1e5 rpm are rejected naming the option; a speed the valve
+    train cannot follow (20000 rpm: the valve never returns to the seat) has no events
+    and says why instead of 'opening None deg'."""
+    from cam_metrology.cli import main
+
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(scene_text())
+    assert main(['dynamics', str(scene), '--rpm', '1e9']) == 2
+    assert '--rpm[0]' in capsys.readouterr().err
+    assert main(['dynamics', str(scene), '--sweep', '1000:1e9:1e8']) == 2
+    assert '--sweep.HI' in capsys.readouterr().err
+    with pytest.raises(InputError, match=r'dynamics\.cam_speeds_rpm\[0\]'):
+        DynamicsCore({'cam_speeds_rpm': '1e9'})
+    out = tmp_path / 'fast.json'
+    assert main(['dynamics', str(scene), '--rpm', '20000', '--step-deg', '1',
+                 '--json', str(out)]) == 0
+    human = capsys.readouterr().out
+    run = json.loads(out.read_text())['features']['lobe_1']['runs'][0]
+    assert run['closing_deg'] is None and run['periodic_residual_m'] > 1e-3
+    assert 'does not return to the seat' in run['note']
+    assert 'None' not in human and 'closing none' in human
+    assert 'note: the valve does not return to the seat' in human
+
+
+def test_bag_without_profiles_says_design_law_used(tmp_path: Path, capsys) -> None:
+    """QA #3: a bag with a scene but no measured samples -> the design law is used and
+    said so: `note` in the feature's JSON, a warning line on stderr, `source_note` in
+    the status; a scene input (design asked for) has no note."""
+    from cam_metrology.bagio import BagWriter, encode_string
+    from cam_metrology.cli import main
+
+    bag = tmp_path / 'scene_only'
+    with BagWriter(bag) as w:
+        w.write('/bench/scene', 1, encode_string(scene_text()))
+    out = tmp_path / 'bag.json'
+    assert main(['dynamics', str(bag), '--rpm', '1500', '--step-deg', '1',
+                 '--json', str(out)]) == 0
+    cap = capsys.readouterr()
+    feat = json.loads(out.read_text())['features']['lobe_1']
+    assert feat['source'] == 'design'
+    assert feat['note'].startswith('no measured profile for this lobe')
+    assert 'warning: lobe_1: no measured profile' in cap.err
+    core = DynamicsCore({'step_deg': 1.0})
+    assert core.handle('/bench/scene', NS(data=scene_text()), 0) == []
+    status = [o for o in core.finish() if isinstance(o, StatusOutput)][0].statuses[0]
+    assert status.values['source'] == 'design' and 'design law used' in status.values[
+        'source_note']
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(scene_text())
+    assert main(['dynamics', str(scene), '--step-deg', '1', '--json', str(out)]) == 0
+    assert 'note' not in json.loads(out.read_text())['features']['lobe_1']
+    assert 'warning' not in capsys.readouterr().err
+
+
+def test_sweep_reports_bounced_not_a_partial_count(tmp_path: Path) -> None:
+    """QA #6: the sweep stops after the first bounce, so it reports `bounced` (bool),
+    which agrees with the full runs' bounce_count > 0 at the same speeds."""
+    from cam_metrology.cli import main
+
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(scene_text())
+    out = tmp_path / 's.json'
+    assert main(['dynamics', str(scene), '--rpm', '1000', '--rpm', '1500', '--step-deg',
+                 '1', '--sweep', '1000:1500:500', '--json', str(out)]) == 0
+    feat = json.loads(out.read_text())['features']['lobe_1']
+    sw = feat['sweep']
+    assert 'bounce_count' not in sw and sw['sweep_rpm'] == [1000.0, 1500.0]
+    assert sw['bounced'] == [r['bounce_count'] > 0 for r in feat['runs']]
+    assert all(isinstance(b, bool) for b in sw['bounced'])
+    assert feat['runs'][1]['bounce_count'] > 1          # a full run counts every bounce

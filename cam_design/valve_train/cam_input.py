@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_laws.base import LiftLaw
+from cam_design.valve_train.params import require_step_deg
 
 DEGREE = 7
 _ONE_SIDED = 1e-11   # rad: offset used to evaluate one-sided derivatives at junctions
@@ -76,9 +77,7 @@ def build_cam_input(law: LiftLaw, rocker_ratio: float, lash: float, step: float,
     ``pre`` defaults to two steps (at least 0.5 deg). The window is [start, start +
     2 pi], start = floor((lo - pre)/step) step; the lobe must be narrower than that.
     """
-    step = require_positive('step', step)
-    if step > math.radians(5.0):
-        raise InputError('step', math.degrees(step), 'a step <= 5 deg')
+    require_step_deg('step [deg]', round(math.degrees(require_positive('step', step)), 12))
     lo, hi = (float(v) for v in law.support)
     if pre is None:
         pre = max(2 * step, math.radians(0.5))

@@ -37,7 +37,7 @@ from scipy.linalg import eigh
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.cam_input import build_cam_input
-from cam_design.valve_train.params import SdofParams, omega_of_rpm
+from cam_design.valve_train.params import SdofParams, omega_of_rpm, require_step_deg
 
 T, P, R, V = 0, 1, 2, 3
 
@@ -220,7 +220,7 @@ def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float =
     """From static equilibrium on the base circle ``pre_deg`` before the lobe over
     ``span_deg`` of cam angle (default one revolution)."""
     omega = omega_of_rpm(rpm)
-    step = math.radians(require_positive('step_deg', step_deg))
+    step = math.radians(require_step_deg('step_deg', step_deg))
     asm = _Assembly(mp)
     b = mp.base
     k = b.rocker_ratio

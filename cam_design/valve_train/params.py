@@ -89,7 +89,38 @@ class SdofParams:
                    restitution=getattr(seat, 'restitution', None), key=key)
 
 
-def omega_of_rpm(rpm: float, key: str = 'cam_speed_rpm') -> float:
-    """Cam angular speed [rad/s] from camshaft rpm (> 0, finite)."""
+#: accepted camshaft speeds [rpm] (as ``cam_design.checks``): above 1e5 rpm a valve
+#: train has long stopped following any cam (no opening, no seating).
+RPM_MAX = 1.0e5
+#: accepted output steps [deg]: below 0.01 deg a revolution is > 36 000 steps (seconds
+#: and hundreds of MB; the solver is exact between nodes, the step only sets the grid).
+STEP_DEG_MIN, STEP_DEG_MAX = 0.01, 5.0
+
+
+def require_rpm(key: str, rpm: Any) -> float:
+    """``rpm`` as float if it is a camshaft speed in (0, RPM_MAX] rpm, else InputError."""
     value = require_positive(key, rpm)
+    if value > RPM_MAX:
+        raise InputError(key, rpm, f'a camshaft speed in (0, {RPM_MAX:g}] rpm')
+    return value
+
+
+def require_step_deg(key: str, step_deg: Any) -> float:
+    """``step_deg`` as float if it is in [STEP_DEG_MIN, STEP_DEG_MAX] deg, else InputError.
+
+    Checked before anything is allocated (a 1e-7 deg step would need 27 GiB).
+    """
+    expected = f'a step in [{STEP_DEG_MIN:g}, {STEP_DEG_MAX:g}] deg'
+    try:
+        value = float(step_deg)
+    except (TypeError, ValueError):
+        raise InputError(key, step_deg, expected) from None
+    if isinstance(step_deg, bool) or not STEP_DEG_MIN <= value <= STEP_DEG_MAX:  # NaN too
+        raise InputError(key, step_deg, expected)
+    return value
+
+
+def omega_of_rpm(rpm: float, key: str = 'cam_speed_rpm') -> float:
+    """Cam angular speed [rad/s] from camshaft rpm (in (0, RPM_MAX], finite)."""
+    value = require_rpm(key, rpm)
     return value * 2.0 * math.pi / 60.0

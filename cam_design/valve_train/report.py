@@ -141,6 +141,24 @@ def run_sdof(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 
                       events, geometry)
 
 
+def events_note(events: dict[str, Any]) -> str | None:
+    """Why a run has no opening or no closing event (None when it has both).
+
+    Far above the jump speed the valve no longer returns to the seat within a
+    revolution: there is no periodic state and no opening/closing/seating to report.
+    """
+    if events.get('opening_deg') is not None and events.get('closing_deg') is not None:
+        return None
+    if events.get('opening_deg') is None and events.get('max_valve_lift_m', 0.0) <= 1e-9:
+        return 'the valve never lifts off the seat (train force below the preload)'
+    res, revs = events.get('periodic_residual_m'), events.get('revolutions')
+    state = (f' (no periodic state: residual {res:.3g} m after {revs} revolutions)'
+             if res is not None and revs is not None else '')
+    return ('the valve does not return to the seat within a revolution' + state
+            + ', so opening/closing/seating events are undefined: the speed is far above '
+              'what this valve train follows')
+
+
 def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
                alpha: NDArray, lift: NDArray, velocity: NDArray, force: NDArray,
                events: dict[str, Any], geometry: ContactGeometry | None) -> Run:
@@ -167,6 +185,10 @@ def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
         'epsilon_c': eps.eps_book_c,
         'epsilon_predicted_amplitude_m': eps.predicted_amplitude_m,
         'epsilon_recommendation': eps.recommendation,
+        'cam_width_m': geometry.width if geometry is not None else None,
     })
+    note = events_note(events)
+    if note:
+        events['note'] = note
     return Run(rpm=float(rpm), model=model, alpha=alpha, lift=lift, velocity=velocity,
                force=force, stress=stress, events=events)

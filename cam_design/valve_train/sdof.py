@@ -29,10 +29,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
-from cam_design.errors import InputError, require_positive
+from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.cam_input import DEGREE, CamInput, build_cam_input
-from cam_design.valve_train.params import SdofParams, omega_of_rpm
+from cam_design.valve_train.params import SdofParams, omega_of_rpm, require_step_deg
 
 NB = DEGREE + 1
 _FACT = np.array([math.factorial(j) for j in range(NB)], dtype=float)
@@ -851,7 +851,7 @@ def simulate(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 
     if not isinstance(law, LiftLaw):
         raise InputError('lift', type(law).__name__, 'a cam_design LiftLaw')
     omega = omega_of_rpm(rpm)
-    step = math.radians(require_positive('step_deg', step_deg))
+    step = math.radians(require_step_deg('step_deg', step_deg))
     if int(max_revolutions) < 1:
         raise InputError('max_revolutions', max_revolutions, 'an integer >= 1')
     cam = build_cam_input(law, params.rocker_ratio, params.lash, step)

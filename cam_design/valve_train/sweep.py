@@ -22,17 +22,21 @@ from numpy.typing import NDArray
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.cam_input import CamInput, build_cam_input
-from cam_design.valve_train.params import SdofParams
+from cam_design.valve_train.params import SdofParams, require_rpm
 from cam_design.valve_train.sdof import SdofResult, simulate_cam
 
 
 @dataclass
 class SweepResult:
-    """Per-speed summary arrays and the refined event speeds (None: not reached)."""
+    """Per-speed summary arrays and the refined event speeds (None: not reached).
+
+    ``bounced``: the valve bounced at least once (the sweep stops at the end of the first
+    bounce, so it does not count bounces: a full run's ``bounce_count`` does).
+    """
 
     rpm: NDArray[np.float64]
     separated: NDArray[np.bool_]
-    bounce_count: NDArray[np.int64]
+    bounced: NDArray[np.bool_]
     seating_velocity: NDArray[np.float64]     # m/s (nan if the valve never seated)
     max_lift: NDArray[np.float64]             # m
     jump_speed_rpm: float | None
@@ -43,7 +47,7 @@ class SweepResult:
         """JSON-ready summary."""
         return {
             'sweep_rpm': self.rpm.tolist(), 'separated': self.separated.tolist(),
-            'bounce_count': self.bounce_count.tolist(),
+            'bounced': self.bounced.tolist(),
             'seating_velocity_m_s': [None if not math.isfinite(v) else v
                                      for v in self.seating_velocity.tolist()],
             'max_valve_lift_m': self.max_lift.tolist(),
@@ -62,10 +66,11 @@ def parse_range(text: str, key: str = '--sweep') -> NDArray[np.float64]:
         lo, hi, st = (float(x) for x in parts)
     except ValueError:
         raise InputError(key, text, 'LO:HI:STEP with numbers') from None
-    require_positive(f'{key}.LO', lo)
+    require_rpm(f'{key}.LO', lo)
     require_positive(f'{key}.STEP', st)
     if not math.isfinite(hi) or hi < lo:
         raise InputError(f'{key}.HI', hi, f'a speed >= LO ({lo})')
+    require_rpm(f'{key}.HI', hi)
     n = int(math.floor((hi - lo) / st + 1e-9)) + 1
     if n > 100000:
         raise InputError(key, text, 'at most 100000 speeds')
@@ -99,13 +104,13 @@ def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
                           math.radians(require_positive('step_deg', step_deg)))
     t0 = time.perf_counter()
     sep = np.zeros(speeds.size, dtype=bool)
-    bounce = np.zeros(speeds.size, dtype=np.int64)
+    bounce = np.zeros(speeds.size, dtype=bool)
     vseat = np.full(speeds.size, np.nan)
     ymax = np.zeros(speeds.size)
     for i, rpm in enumerate(speeds):
         res = _run(cam, params, float(rpm))
         sep[i] = bool(res.events.separations)
-        bounce[i] = res.events.bounce_count
+        bounce[i] = res.events.bounce_count > 0
         if res.events.seating_velocity is not None:
             vseat[i] = res.events.seating_velocity
         ymax[i] = float(np.nanmax(res.y))
@@ -121,8 +126,8 @@ def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
         return _bisect(pred, float(speeds[i - 1]), float(speeds[i]), tol_rpm)
 
     jump = first(sep, lambda r: bool(_run(cam, params, r).events.separations))
-    onset = first(bounce > 0, lambda r: _run(cam, params, r).events.bounce_count > 0)
-    return SweepResult(rpm=speeds, separated=sep, bounce_count=bounce, seating_velocity=vseat,
+    onset = first(bounce, lambda r: _run(cam, params, r).events.bounce_count > 0)
+    return SweepResult(rpm=speeds, separated=sep, bounced=bounce, seating_velocity=vseat,
                        max_lift=ymax, jump_speed_rpm=jump, bounce_onset_rpm=onset,
                        seconds=seconds)
 

@@ -5,7 +5,8 @@ jump speed of the scene's valve train (methods.md §4; see docs/dynamics.md).
   ``lift_law``) drives the scene's ``valve_train`` model.
 * BAG (rosbag2 directory or .mcap): replayed in-process through the metrology,
   reconstruction and dynamics cores (the live code path); the reconstructed profile of
-  each lobe drives the model (the design law when a lobe has no profile).
+  each lobe drives the model (the design law when a lobe has no profile: then the
+  feature has a ``note`` and a warning goes to stderr).
 
 JSON (``--json FILE`` or ``-``): ``{"input", "kind", "model", "features": {ID:
 {"source", "runs": [...], "jump_speed_rpm", "bounce_onset_rpm", "sweep"}},
@@ -13,7 +14,10 @@ JSON (``--json FILE`` or ``-``): ``{"input", "kind", "model", "features": {ID:
 ``valve_velocity_m_s``, ``contact_force_n``, ``contact_stress_pa`` (arrays on the
 uniform ``--step-deg`` grid), ``opening_deg``, ``closing_deg``, ``separations``
 ([start_deg, end_deg] pairs), ``seating_velocity_m_s``, ``bounce_count``,
-``bounce_height_m``, ``max_contact_stress_pa``, ``epsilon`` and more.
+``bounce_height_m``, ``max_contact_stress_pa``, ``cam_width_m`` (the scene's
+``lobes[].width`` or ``--cam-width``), ``epsilon`` and more; ``note`` when the valve
+never seats. ``sweep`` reports ``bounced`` per speed (the sweep stops after the first
+bounce). Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
 """
 from __future__ import annotations
 
@@ -42,9 +46,10 @@ def register(subparsers: Any) -> None:
                    help='also sweep these speeds [rpm] (SDOF) and report jump_speed_rpm '
                         'and bounce_onset_rpm')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
-                   help='step of the output grid [deg] (default 0.1)')
+                   help='step of the output grid [deg], 0.01 to 5 (default 0.1)')
     p.add_argument('--cam-width', type=float, default=0.012, metavar='M',
-                   help='contact width [m] for the Hertz stress (default 0.012)')
+                   help='contact width [m] for the Hertz stress of lobes without a scene '
+                        'lobes[].width (default 0.012)')
     p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
     p.add_argument('--plot', metavar='DIR',
                    help='write <feature>.png (valve lift and contact force) to DIR')
@@ -56,19 +61,18 @@ def _is_bag(path: Path) -> bool:
 
 
 def _core_params(args: argparse.Namespace, source: str) -> dict[str, Any]:
-    from cam_design.errors import InputError, require_positive
+    from cam_design.errors import require_positive
+    from cam_design.valve_train.params import require_rpm, require_step_deg
 
     params: dict[str, Any] = {'source': source,
-                              'step_deg': require_positive('--step-deg', args.step_deg),
+                              'step_deg': require_step_deg('--step-deg', args.step_deg),
                               'cam_width': require_positive('--cam-width', args.cam_width)}
     if args.rpm:
         for i, r in enumerate(args.rpm):
-            require_positive(f'--rpm[{i}]', r)
+            require_rpm(f'--rpm[{i}]', r)
         params['cam_speeds_rpm'] = ','.join(repr(float(r)) for r in args.rpm)
     if args.model:
         params['model'] = args.model
-    if args.step_deg > 5:
-        raise InputError('--step-deg', args.step_deg, 'a step <= 5 deg')
     return params
 
 
@@ -80,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
     path = Path(args.input)
     if not path.exists():
         raise FileNotFoundError(f'no such scene or bag: {path}')
+    _core_params(args, 'auto')          # validate the options before any replay
     sweep_speeds = None
     if args.sweep:
         from cam_design.valve_train.sweep import parse_range
@@ -154,6 +159,8 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
             continue
         entry: dict[str, Any] = {'source': source,
                                  'runs': [r.as_dict() for r in core.runs.get(feature, [])]}
+        if feature in core.notes:
+            entry['note'] = core.notes[feature]
         failed = {k: v for k, v in core.failures.items() if k.startswith(feature + '/')}
         if failed:
             entry['failures'] = failed
@@ -176,14 +183,41 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
         sys.stdout.write(text + '\n')
     elif args.json:
         Path(args.json).write_text(text + '\n', encoding='utf-8')
+    for feature, entry in result['features'].items():
+        if 'note' in entry:         # stderr: seen also with --json -
+            print(f"warning: {feature}: {entry['note']}", file=sys.stderr)
     if args.json != '-':
         for feature, entry in result['features'].items():
             for r in entry['runs']:
-                print(f"{feature} {r['cam_speed_rpm']:g} rpm: opening {r['opening_deg']} deg, "
-                      f"closing {r['closing_deg']} deg, separations {len(r['separations'])}, "
-                      f"seating {r['seating_velocity_m_s']} m/s, bounces {r['bounce_count']}")
+                print(run_line(feature, r))
+                if r.get('note'):
+                    print(f"  note: {r['note']}")
             if 'jump_speed_rpm' in entry:
-                print(f"{feature}: jump speed {entry['jump_speed_rpm']} rpm, bounce onset "
-                      f"{entry['bounce_onset_rpm']} rpm")
+                speeds = (entry['jump_speed_rpm'], entry['bounce_onset_rpm'])
+                print(f"{feature}: jump speed {_q(speeds[0], '.1f', 'rpm')}, bounce onset "
+                      f"{_q(speeds[1], '.1f', 'rpm')}"
+                      + (' (none: not reached in the sweep)' if None in speeds else ''))
         for s in result['skipped']:
             print(f"skipped {s['what']}: {s['why']}")
+
+
+def _q(value: Any, fmt: str, unit: str, scale: float = 1.0) -> str:
+    """'12.345 unit' with ``fmt``, or 'none' for a missing value."""
+    return 'none' if value is None else f'{value * scale:{fmt}} {unit}'
+
+
+def run_line(feature: str, r: dict[str, Any]) -> str:
+    """One human-readable line per run: angles to 0.001 deg, velocity to 1 mm/s,
+    heights in um, stress in MPa, the contact width used in mm."""
+    line = (f"{feature} {r['cam_speed_rpm']:g} rpm: opening {_q(r['opening_deg'], '.3f', 'deg')}"
+            f", closing {_q(r['closing_deg'], '.3f', 'deg')}, separations "
+            f"{len(r['separations'])}, seating {_q(r['seating_velocity_m_s'], '.3f', 'm/s')}, "
+            f"bounces {r['bounce_count']}")
+    if r['bounce_count']:
+        line += f" (max {_q(r['bounce_height_m'], '.2f', 'um', 1e6)})"
+    line += f", max stress {_q(r['max_contact_stress_pa'], '.1f', 'MPa', 1e-6)}"
+    if r.get('profile_undercut'):
+        line += ' (profile undercut)'
+    if r.get('cam_width_m') is not None:
+        line += f" (W {r['cam_width_m'] * 1e3:.1f} mm, {r.get('cam_width_source', '')})"
+    return line

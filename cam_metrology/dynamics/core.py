@@ -29,7 +29,7 @@ import numpy as np
 
 from cam_design.errors import InputError, require_positive
 from cam_design.valve_train.cam_input import JetTableLift
-from cam_design.valve_train.params import SdofParams
+from cam_design.valve_train.params import SdofParams, require_rpm, require_step_deg
 from cam_design.valve_train.report import (COLUMNS, ContactGeometry, Run, finish_run,
                                            run_sdof)
 from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
@@ -39,6 +39,9 @@ MOTION, RESULT = '/dynamics/valve_motion', '/dynamics/result'
 PROFILE_COLUMNS = ('alpha_rad', 'lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
                    'jerk_m_per_rad3')
 SOURCES = ('auto', 'profile', 'design')
+#: why a lobe's run uses the design law with source=auto (no measured profile arrived)
+FALLBACK_NOTE = ('no measured profile for this lobe (no /reconstruction/profile): '
+                 'design law used')
 
 
 def rpm_label(rpm: float) -> str:
@@ -96,7 +99,8 @@ class DynamicsCore:
         'step_deg': (0.1, 'output grid step [deg] of /dynamics/valve_motion'),
         'cam_speeds_rpm': ('', 'comma-separated camshaft speeds [rpm] overriding the '
                                "scene's valve_train.cam_speed_rpm; empty: the scene's"),
-        'cam_width': (0.012, 'contact line width W [m] for the Hertz stress'),
+        'cam_width': (0.012, 'contact line width W [m] for the Hertz stress of lobes '
+                             'without a scene lobes[].width'),
         'youngs_modulus': (2.06e11, 'Young modulus E [Pa] of cam and follower (mu = 0.3)'),
         'max_revolutions': (4, 'at most this many revolutions to reach the periodic state'),
         'model': ('', "sdof | mdof; empty: the scene's valve_train.model"),
@@ -113,9 +117,7 @@ class DynamicsCore:
             raise InputError('dynamics.source', p['source'], ' | '.join(SOURCES))
         self.source = str(p['source'])
         self.profile_method = str(p['profile_method'] or '')
-        self.step_deg = require_positive('dynamics.step_deg', p['step_deg'])
-        if self.step_deg > 5:
-            raise InputError('dynamics.step_deg', self.step_deg, 'a step <= 5 deg')
+        self.step_deg = require_step_deg('dynamics.step_deg', p['step_deg'])
         self.speeds = parse_speeds(p['cam_speeds_rpm'], 'dynamics.cam_speeds_rpm')
         self.cam_width = require_positive('dynamics.cam_width', p['cam_width'])
         self.youngs = require_positive('dynamics.youngs_modulus', p['youngs_modulus'])
@@ -130,6 +132,7 @@ class DynamicsCore:
         self.done: set[str] = set()
         self.runs: dict[str, list[Run]] = {}
         self.failures: dict[str, str] = {}
+        self.notes: dict[str, str] = {}
 
     # -- protocol ------------------------------------------------------------------
     def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:
@@ -151,7 +154,7 @@ class DynamicsCore:
         out: list[Output] = []
         for lobe in self.scene.lobes:
             if lobe.id not in self.done:
-                out += self._compute(lobe.id, lobe.lift, 'design', 0)
+                out += self._compute(lobe.id, lobe.lift, 'design', 0, note=FALLBACK_NOTE)
         return out
 
     # -- work --------------------------------------------------------------------
@@ -162,6 +165,7 @@ class DynamicsCore:
         self.laws.clear()
         self.runs.clear()
         self.failures.clear()
+        self.notes.clear()
         self.active = False
         try:
             scene = parse_scene(text, '/bench/scene')
@@ -208,18 +212,22 @@ class DynamicsCore:
                                  stamp_ns)]
         return self._compute(feature, law, f'profile:{method}', stamp_ns)
 
-    def _compute(self, feature: str, law: Any, source: str, stamp_ns: int) -> list[Output]:
+    def _compute(self, feature: str, law: Any, source: str, stamp_ns: int,
+                 note: str | None = None) -> list[Output]:
         self.done.add(feature)
         self.laws[feature] = (law, source)
+        if note:
+            self.notes[feature] = note
         vt = self.scene.valve_train
         if self.model:
             from dataclasses import replace
             vt = replace(vt, model=self.model)
         lobe = self.scene.lobe(feature)
         speeds = self.speeds or tuple(vt.cam_speed_rpm)
+        width, width_source = cam_width_of(lobe, self.cam_width)
         geom = ContactGeometry(base_radius=self.scene.base_circle_radius,
                                follower=lobe.follower.kind, radius=lobe.follower.radius,
-                               width=self.cam_width, youngs_modulus=self.youngs)
+                               width=width, youngs_modulus=self.youngs)
         out: list[Output] = []
         statuses = []
         for rpm in speeds:
@@ -229,7 +237,8 @@ class DynamicsCore:
             except (InputError, RuntimeError, ValueError) as exc:
                 self.failures[name] = str(exc)
                 statuses.append(Status(name, ERROR, f'dynamics failed: {exc}',
-                                       {'source': source}))
+                                       {'source': source, **({'source_note': note}
+                                                             if note else {})}))
                 continue
             self.runs.setdefault(feature, []).append(run)
             out.append(TableOutput(MOTION, name, COLUMNS, run.table()))
@@ -237,7 +246,10 @@ class DynamicsCore:
             level = WARN if ev.get('jump') or ev.get('bounce_count') else OK
             msg = ('separation' if ev.get('jump') else
                    'bounce' if ev.get('bounce_count') else 'ok')
+            run.events['cam_width_source'] = width_source
             values = {'source': source, 'model': run.model}
+            if note:
+                values['source_note'] = note
             values.update({k: _fmt(v) for k, v in ev.items()})
             statuses.append(Status(name, level, msg, values))
         out.append(StatusOutput(RESULT, tuple(statuses), stamp_ns))
@@ -251,17 +263,30 @@ class DynamicsCore:
         return StatusOutput(RESULT, (status,), stamp_ns)
 
 
+def cam_width_of(lobe: Any, default: float) -> tuple[float, str]:
+    """Hertz contact line length [m] of a lobe and where it comes from: the scene's
+    ``lobes[].width`` when given, else ``default`` (the ``cam_width`` parameter)."""
+    width = getattr(lobe, 'width', None)
+    if width is not None:
+        return float(width), 'scene lobes[].width'
+    return float(default), 'parameter cam_width'
+
+
 def parse_speeds(value: Any, key: str) -> tuple[float, ...]:
-    """'1500, 3000' or [1500, 3000] -> (1500.0, 3000.0); '' -> ()."""
+    """'1500, 3000' or [1500, 3000] -> (1500.0, 3000.0); '' -> ().
+
+    Each speed must be in (0, 1e5] rpm (``valve_train.params.RPM_MAX``).
+    """
     if value is None or value == '' or value == []:
         return ()
     items = value.split(',') if isinstance(value, str) else list(value)
     out = []
     for i, item in enumerate(items):
         try:
-            out.append(require_positive(f'{key}[{i}]', float(item)))
+            speed = float(item)
         except (TypeError, ValueError):
             raise InputError(f'{key}[{i}]', item, 'a speed > 0 in rpm') from None
+        out.append(require_rpm(f'{key}[{i}]', speed))
     return tuple(out)
 
 
