@@ -345,3 +345,22 @@ def test_sweep_reports_bounced_not_a_partial_count(tmp_path: Path) -> None:
     assert sw['bounced'] == [r['bounce_count'] > 0 for r in feat['runs']]
     assert all(isinstance(b, bool) for b in sw['bounced'])
     assert feat['runs'][1]['bounce_count'] > 1          # a full run counts every bounce
+
+
+def test_failed_run_shown_and_exit_1(tmp_path: Path, capsys) -> None:
+    """A scene speed beyond 1e5 rpm fails that run (the others are computed): the
+    failure is printed with its reason and the exit status is 1 (was silent, exit 0)."""
+    from cam_metrology.cli import main
+
+    doc = yaml.safe_load(scene_text())
+    doc['valve_train']['cam_speed_rpm'] = [1500.0, 1.0e9]
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(yaml.safe_dump(doc, sort_keys=False))
+    out = tmp_path / 'f.json'
+    assert main(['dynamics', str(scene), '--step-deg', '1', '--json', str(out)]) == 1
+    human = capsys.readouterr().out
+    feat = json.loads(out.read_text())['features']['lobe_1']
+    assert [r['cam_speed_rpm'] for r in feat['runs']] == [1500.0]
+    (name, why), = feat['failures'].items()
+    assert name == 'lobe_1/1e+09rpm' and '(0, 100000] rpm' in why
+    assert f'{name}: FAILED: {why}' in human

@@ -117,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
             if args.feature and feature != args.feature:
                 continue
             plot_runs(runs, Path(args.plot) / f'{feature}.png', title=feature)
-    return 0
+    return 1 if any('failures' in e for e in result['features'].values()) else 0
 
 
 def _scene_text(scene: Any, feature: str | None) -> str:
@@ -192,6 +192,8 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
                 print(run_line(feature, r))
                 if r.get('note'):
                     print(f"  note: {r['note']}")
+            for name, why in entry.get('failures', {}).items():
+                print(f'{name}: FAILED: {why}')
             if 'jump_speed_rpm' in entry:
                 speeds = (entry['jump_speed_rpm'], entry['bounce_onset_rpm'])
                 print(f"{feature}: jump speed {_q(speeds[0], '.1f', 'rpm')}, bounce onset "
