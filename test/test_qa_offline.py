@@ -216,3 +216,23 @@ def test_recover_of_non_mcap_writes_nothing(tmp_path, capsys, kind):
     err = capsys.readouterr().err
     assert 'expected an MCAP recording' in err
     assert not dst.exists()
+
+
+# --- additional finding: asymmetry with samples exactly one knot spacing apart ------
+
+@pytest.mark.parametrize('seed', [1, 2, 3])
+def test_asymmetry_spline_at_the_knot_spacing(seed):
+    """Samples every 0.5 deg (720/rev) with the 0.5 deg default knot spacing: a
+    symmetric lobe (closed form, true axis 0) gives its top point near 0, no
+    'gaps in the lobe data'."""
+    from cam_metrology.metrology.asymmetry import lift_spline, top_point
+
+    alpha = np.radians(np.arange(-60.0, 60.0 + 1e-9, 0.5))
+    h = 8e-3 * np.clip(1 - (alpha / 1.05) ** 2, 0, None) ** 3
+    noisy = h + np.random.default_rng(seed).normal(0.0, 2e-6, alpha.size)
+    spline = lift_spline(alpha, noisy, knot_spacing=np.radians(0.5))
+    tp = top_point(spline, float(alpha.min()), float(alpha.max()))
+    assert abs(np.degrees(tp.d)) < 0.005
+    exact = top_point(lift_spline(alpha, h, knot_spacing=np.radians(0.5)),
+                      float(alpha.min()), float(alpha.max()))
+    assert abs(np.degrees(exact.d)) < 1e-6

@@ -48,7 +48,8 @@ def lift_spline(alpha: NDArray[np.float64], lift: NDArray[np.float64], *,
 
     Without ``knot_spacing`` it interpolates the table (exact data); with it, it is a
     least-squares regression spline with knots every ``knot_spacing`` [rad] (noisy
-    data, any number of samples; linear cost).
+    data, any number of samples; linear cost), widened where needed to keep at least
+    two samples per knot interval on average (coarse sampling).
     """
     order = np.argsort(alpha, kind='stable')
     a, h = alpha[order], lift[order]
@@ -58,7 +59,9 @@ def lift_spline(alpha: NDArray[np.float64], lift: NDArray[np.float64], *,
         raise InputError('asymmetry.samples', int(a.size), 'at least 8 distinct angles')
     if knot_spacing is None:
         return make_interp_spline(a, h, k=5)
-    n_int = max(int((a[-1] - a[0]) / knot_spacing), 1)
+    # at least 2 samples per knot interval on average: a spacing equal to the sample
+    # spacing would make the regression an ill-posed interpolation (Schoenberg-Whitney)
+    n_int = max(min(int((a[-1] - a[0]) / knot_spacing), a.size // 2), 1)
     inner = np.linspace(a[0], a[-1], n_int + 1)[1:-1]
     knots = np.concatenate((np.full(6, a[0]), inner, np.full(6, a[-1])))
     try:
