@@ -345,3 +345,24 @@ def test_cli_unreadable_or_unrecognised_table(tmp_path, capsys, content, got):
     assert len(err.splitlines()) == 1 and got in err
     assert 'alpha_deg|alpha_rad' in err and 'lift_mm|lift_um|lift_m' in err
     assert 'gauge profile file' in err
+
+
+@pytest.mark.parametrize('extra, option', [(['--follower', 'knife'], '--follower'),
+                                           (['--radius', '0.5'], '--radius'),
+                                           (['--center-nose'], '--center-nose'),
+                                           (['--angle-unit', 'rad'], '--angle-unit'),
+                                           (['--length-unit', 'mm'], '--length-unit')])
+def test_cli_table_options_with_a_bag_are_rejected(tmp_path, capsys, extra, option):
+    bag = _bag(tmp_path / 'b', True, 50)
+    assert main(['reconstruct', str(bag), *extra]) == 2
+    err = capsys.readouterr().err
+    assert f'{option}: got' in err and 'no value with a BAG' in err
+
+
+def test_cli_human_output_counts_dropped_rows(tmp_path, capsys):
+    a, h = simulate(LOBE, 360, 0.5e-6, seed=2)
+    h[[5, 200]] = np.nan
+    p = write_csv(tmp_path / 'n.csv', 'alpha_rad,lift_m', np.column_stack([a, h]))
+    assert main(['reconstruct', str(p), '--method', 'spline']) == 0
+    out = capsys.readouterr().out
+    assert out.count('dropped 2 non-finite sample(s)') == 1

@@ -58,9 +58,9 @@ def register(subparsers: Any) -> None:
     p.add_argument('--radius', type=float, metavar='M', help='TABLE: roller radius [m]')
     p.add_argument('--rpm', type=float, metavar='R',
                    help='cam speed [rpm] for per-second velocity, acceleration, jerk')
-    p.add_argument('--angle-unit', choices=('deg', 'rad'), default='deg',
+    p.add_argument('--angle-unit', choices=('deg', 'rad'),
                    help='gauge file angle unit (default deg)')
-    p.add_argument('--length-unit', choices=('mm', 'um', 'm'), default='mm',
+    p.add_argument('--length-unit', choices=('mm', 'um', 'm'),
                    help='gauge file length unit (default mm)')
     p.add_argument('--center-nose', action='store_true',
                    help='TABLE: re-centre the angles on the lobe axis (gauge files whose '
@@ -110,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
         raise FileNotFoundError(f'no such bag or table: {path}')
     core = ReconstructionCore(_params(args))
     if _is_bag(path):
+        _reject_table_options(args)
         kind, skipped = 'bag', []
         follower, problems = _bag(path, core)
     else:
@@ -144,10 +145,28 @@ def run(args: argparse.Namespace) -> int:
     return 0 if ok else 1
 
 
+#: options that describe a TABLE (a bag's scene gives the probe and the angles)
+TABLE_OPTIONS = ('follower', 'radius', 'angle_unit', 'length_unit', 'center_nose')
+
+
+def _reject_table_options(args: argparse.Namespace) -> None:
+    """InputError for a TABLE-only option given with a BAG (it would be ignored)."""
+    from cam_design.errors import InputError
+
+    for name in TABLE_OPTIONS:
+        value = getattr(args, name)
+        if value is not None and value is not False:
+            raise InputError('--' + name.replace('_', '-'), value,
+                             'no value with a BAG (only for a TABLE: the scene in the bag '
+                             'gives the probe, the units are SI and the angles are '
+                             'aligned on the fitted nose)')
+
+
 def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, Any], list]:
     from cam_metrology.reconstruction.samples import read_table_file
 
-    table = read_table_file(path, angle_unit=args.angle_unit, length_unit=args.length_unit)
+    table = read_table_file(path, angle_unit=args.angle_unit or 'deg',
+                            length_unit=args.length_unit or 'mm')
     if args.feature:
         from dataclasses import replace
         table = replace(table, feature=args.feature)
@@ -230,9 +249,16 @@ def _skips(core: Any) -> list[dict[str, str]]:
             for name, why in getattr(core, 'skipped', {}).items()]
 
 
+#: notes of the data cleaning (samples.clean_samples) shown in the human output too
+CLEANING_NOTES = ('dropped ', 'wrapped ', 'merged ')
+
+
 def _human(result: dict[str, Any]) -> str:
     lines = [f"reconstruct {result['input']} ({result['kind']})"]
     for fid, methods in result['features'].items():
+        cleaning = dict.fromkeys(n for r in methods.values() for n in r.get('notes', ())
+                                 if n.startswith(CLEANING_NOTES))
+        lines += [f'  {fid}: data: {n}' for n in cleaning]
         for m, r in methods.items():
             if not r.get('ok'):
                 lines.append(f'  {fid}/{m}: FAILED: {r["error"]}')
