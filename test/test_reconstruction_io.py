@@ -366,3 +366,23 @@ def test_cli_human_output_counts_dropped_rows(tmp_path, capsys):
     assert main(['reconstruct', str(p), '--method', 'spline']) == 0
     out = capsys.readouterr().out
     assert out.count('dropped 2 non-finite sample(s)') == 1
+
+
+def test_noise_free_table_gives_no_rounding_residual_warning():
+    """QA: the spline on a noise-free bag warned 'max residual 2.15e-14 m exceeds 7
+    noise sigma (6.82e-18 m)'. Rounding-level residuals stay quiet; a real 50 um bump on
+    the same table is still reported with its angle."""
+    from cam_metrology.reconstruction.profile import reconstruct_table
+    from cam_metrology.reconstruction.samples import LiftTable
+
+    a = np.radians(np.arange(-180.0, 180.0, 0.5))
+    outcomes = reconstruct_table(LiftTable('t', a, LOBE(a)), methods=('spline',))
+    rec = outcomes['spline'].reconstruction
+    assert rec is not None and rec.sigma < 1e-12
+    assert 0 < rec.max_residual < 1e-9          # rounding level (~1e-14 m), not zero
+    assert not [w for w in rec.warnings if 'max residual' in w]
+    rec.residual = rec.residual.copy()
+    rec.residual[100] = 50e-6
+    rec.check_residuals()
+    assert any('max residual 5e-05 m at' in w and 'exceeds 1e-09 m' in w
+               for w in rec.warnings)
