@@ -177,3 +177,23 @@ def test_unreadable_inputs_are_one_line_errors(what: str, tmp_path: Path,
         assert main(['design', what, str(path)]) == 2
         err = capsys.readouterr().err
         assert f"{path}: got '{got}'" in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_law_and_check_accept_a_tabulated_scene_lobe(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture) -> None:
+    """QA: a scene lobe given as `lift: {alpha, h}` (as in every bags/ fixture scene) was
+    rejected by `design law|check SCENE` ("expected a lobe with a lift_law mapping"). It
+    is the `table` family: the interpolant passes through the samples (h(0) = 3 mm)."""
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text('camshaft_id: x\nbase_circle_radius: 0.0165\n'
+                     'probe: {kind: flat, radius: 0}\nlobes:\n  - id: lobe_1\n'
+                     '    lift: {alpha: [-0.3, -0.2, -0.1, 0, 0.1, 0.2, 0.3],\n'
+                     '           h: [0, 1.0e-3, 2.0e-3, 3.0e-3, 2.0e-3, 1.0e-3, 0]}\n')
+    assert main(['design', 'law', str(scene), '--step-deg', '0.5', '--json', '-']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc['family'] == 'table'
+    assert doc['support_deg'] == pytest.approx([-math.degrees(0.3), math.degrees(0.3)])
+    assert doc['max_lift_mm'] == pytest.approx(3.0, abs=1e-12)
+    assert math.isclose(doc['rows'][0][1], 0.0, abs_tol=1e-12)
+    assert main(['design', 'check', str(scene), '--json', '-']) == 0
+    assert json.loads(capsys.readouterr().out)['max_lift_mm'] == pytest.approx(3.0)

@@ -102,7 +102,11 @@ def law_spec(doc: Any, path: str, lobe: str | None = None) -> tuple[Any, str]:
         item = doc['lobes'][i]
         if isinstance(item, dict) and 'lift_law' in item:
             return item['lift_law'], f'lobes[{i}].lift_law'
-        raise InputError(f'lobes[{i}]', ids[i], 'a lobe with a lift_law mapping')
+        if isinstance(item, dict) and isinstance(item.get('lift'), dict):
+            # a tabulated lobe (lift: {alpha, h}) is the `table` family
+            return dict(item['lift'], family='table'), f'lobes[{i}].lift'
+        raise InputError(f'lobes[{i}]', ids[i], 'a lobe with a lift_law mapping or a lift '
+                                                'table {alpha, h}')
     if isinstance(doc, dict) and 'lift_law' in doc:
         return doc['lift_law'], 'lift_law'
     if isinstance(doc, dict) and 'family' in doc:
