@@ -3,10 +3,11 @@
 The YAML file holds a lift law: a ``lift_law:`` mapping (or the mapping itself, see
 docs/lift_laws.md), or a table ``{alpha: [...], h: [...]}`` (also under ``lift:``), and
 optionally ``base_radius`` [m] (the base circle of the profile); or it is a scene and
-``--lobe ID`` picks a lobe (default: the first, as ``design law``/``design check``). Output: per-sample profile and pitch coordinates, radius of
-curvature, pressure angle, undercut flags and the lift used (CSV/JSON, SI units in the
-column names; an infinite radius of a straight piece is ``inf`` in CSV, ``null`` in
-JSON), a summary with the undercut report, and a plot. See docs/follower.md.
+``--lobe ID`` picks a lobe (default: the first, as ``design law``/``design check``).
+Output: per-sample profile and pitch coordinates, radius of curvature, pressure angle,
+undercut flags and the lift used (CSV/JSON, SI units in the column names; an infinite
+radius of a straight piece is ``inf`` in CSV, ``null`` in JSON), a summary with the
+undercut report, and a plot. See docs/follower.md.
 """
 from __future__ import annotations
 
