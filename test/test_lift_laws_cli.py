@@ -97,7 +97,7 @@ def test_check_json(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     assert math.isfinite(out['max_hertz_stress_mpa'])
     f.write_text(CHECK.replace('rocker_ratio: 1.0', 'rocker_ratio: -1.0'))
     assert main(['design', 'check', str(f)]) == 2
-    assert 'check.rocker_ratio' in capsys.readouterr().err
+    assert 'error: rocker_ratio: got' in capsys.readouterr().err
 
 
 def test_law_from_scene_lobe(capsys: pytest.CaptureFixture) -> None:
@@ -124,7 +124,7 @@ def test_check_roller_follower(tmp_path: Path, capsys: pytest.CaptureFixture) ->
     assert 'oil_film_nose_gamma' not in out
     f.write_text(CHECK + 'follower: {kind: wheel}\n')
     assert main(['design', 'check', str(f)]) == 2
-    assert 'check.follower.kind' in capsys.readouterr().err
+    assert 'error: follower.kind: got' in capsys.readouterr().err
 
 
 def test_check_scene_lobe(capsys: pytest.CaptureFixture) -> None:
@@ -197,3 +197,27 @@ def test_law_and_check_accept_a_tabulated_scene_lobe(tmp_path: Path,
     assert math.isclose(doc['rows'][0][1], 0.0, abs_tol=1e-12)
     assert main(['design', 'check', str(scene), '--json', '-']) == 0
     assert json.loads(capsys.readouterr().out)['max_lift_mm'] == pytest.approx(3.0)
+
+
+def test_check_errors_use_the_users_keys(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture) -> None:
+    """QA: `design check` errors named internal keys: `check.follower.radius`,
+    `seat_angle` (for valve.seat_angle), `check.cam_speed_rpm` for `--rpm 0`, and
+    `check.spring.preload` for a scene's valve_train.spring_preload."""
+    base = ('lift_law: {family: preset, name: flat_tappet_intake}\nbase_radius: 0.0165\n'
+            'cam_speed_rpm: 3000\nspring: {preload: 250.0, rate: 30000.0}\n'
+            'equivalent_mass: 0.1\n')
+    cases = [('follower: {kind: roller}\n', [], 'follower.radius: got None;'),
+             ('valve: {seat_diameter: 0.03, seat_angle: 45, seat_width: 0.0015}\n', [],
+              'valve.seat_angle: got 45'),
+             ('', ['--rpm', '0'], '--rpm: got 0.0;')]
+    for i, (extra, opts, want) in enumerate(cases):
+        f = tmp_path / f'c{i}.yaml'
+        f.write_text(base + extra)
+        assert main(['design', 'check', str(f)] + opts) == 2
+        assert f'error: {want}' in capsys.readouterr().err
+    scene = Path(__file__).resolve().parent.parent / 'config' / 'default_scene.yaml'
+    bad = tmp_path / 'scene.yaml'
+    bad.write_text(scene.read_text().replace('spring_preload: 250.0', 'spring_preload: -250.0'))
+    assert main(['design', 'check', str(bad)]) == 2
+    assert 'error: valve_train.spring_preload: got -250.0;' in capsys.readouterr().err

@@ -212,13 +212,45 @@ def cmd_check(args: argparse.Namespace) -> int:
         cfg = {k: v for k, v in doc.items() if k != 'lift_law'}
     if args.rpm is not None:
         cfg['cam_speed_rpm'] = args.rpm
-    res = run_checks(from_spec(spec, key), cfg)
+    law = from_spec(spec, key)
+    try:
+        res = run_checks(law, cfg)
+    except InputError as exc:
+        raise check_input_error(exc, args.rpm, scene=isinstance(doc.get('lobes'), list),
+                                law_key=key) from None
     if args.json:
         write_text(args.json, json.dumps(res, indent=1) + '\n')
     else:
         for k, v in res.items():
             print(f'{k:34s} {v:.6g}' if isinstance(v, float) else f'{k:34s} {v}')
     return 0
+
+
+# run_checks keys (prefix 'check.' stripped) -> the scene key they come from
+_SCENE_KEYS = {'base_radius': 'base_circle_radius', 'rocker_ratio': 'valve_train.rocker_ratio',
+               'lash': 'valve_train.lash', 'spring.preload': 'valve_train.spring_preload',
+               'spring.rate': 'valve_train.spring_rate', 'equivalent_mass': 'valve_train.mass',
+               'stiffness': 'valve_train.stiffness',
+               'cam_speed_rpm': 'valve_train.cam_speed_rpm'}
+
+
+def check_input_error(exc: Any, rpm: float | None, *, scene: bool, law_key: str) -> Any:
+    """The InputError of run_checks re-keyed to what the user wrote: ``--rpm`` for the
+    speed given on the command line, the file's own keys (no internal ``check.``
+    prefix; ``valve.seat_angle``), or the scene key a check input came from."""
+    from cam_design.errors import InputError
+
+    k = exc.key
+    if rpm is not None and k.endswith('cam_speed_rpm'):
+        return InputError('--rpm', rpm, exc.expected)
+    k = k[len('check.'):] if k.startswith('check.') else k
+    if k == 'seat_angle':
+        k = 'valve.seat_angle'
+    if scene:
+        lobe = law_key.rsplit('.', 1)[0]
+        k = {'follower.radius': f'{lobe}.follower_radius',
+             'follower.kind': f'{lobe}.follower'}.get(k, _SCENE_KEYS.get(k, k))
+    return InputError(k, exc.value, exc.expected)
 
 
 def check_config_from_scene(scene: dict[str, Any], law_key: str) -> dict[str, Any]:
