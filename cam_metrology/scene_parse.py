@@ -21,7 +21,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from cam_design.errors import InputError, require_finite, require_positive
-from cam_design.lift_laws import LiftLaw, TabulatedLift
+from cam_design.lift_laws import LiftLaw
+from cam_design.lift_laws.base import design_table
 from cam_metrology.scene import (COMPUTE_ITEMS, DowelPin, Follower, Lobe, Scene, Seat,
                                  ValveTrain)
 
@@ -37,7 +38,6 @@ PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 VALVE_MODELS = ('sdof', 'mdof')
 SEAT_KEYS = ('stiffness', 'damping', 'restitution')
 #: lift tables must end on the base circle within this [m] ("covering the whole lobe")
-TABLE_END_TOLERANCE = 1.0e-6
 #: a scene this large is surely not a scene file [characters]
 MAX_TEXT = 50_000_000
 
@@ -316,25 +316,7 @@ def _lift_table(ctx: _Ctx, key: str, value: Any) -> LiftLaw:
         j = int(bad[0]) + 1
         raise InputError(f'{key}.alpha[{j}]', float(alpha[j]),
                          f'strictly increasing angles in rad (previous is {alpha[j - 1]:g})')
-    for j in (0, alpha.size - 1):
-        if abs(alpha[j]) > math.pi:
-            raise InputError(f'{key}.alpha[{j}]', float(alpha[j]),
-                             'an angle in rad within [-pi, pi] from the lobe centreline '
-                             '(degrees given?)')
-    neg = np.nonzero(h < -TABLE_END_TOLERANCE)[0]
-    if neg.size:
-        j = int(neg[0])
-        raise InputError(f'{key}.h[{j}]', float(h[j]), 'a lift >= 0 m above the base circle')
-    for j in (0, h.size - 1):
-        if abs(h[j]) > TABLE_END_TOLERANCE:
-            raise InputError(f'{key}.h[{j}]', float(h[j]),
-                             f'0 (within {TABLE_END_TOLERANCE:g} m) at both ends: the table '
-                             'must cover the whole lobe down to the base circle')
-    if float(np.max(h)) <= TABLE_END_TOLERANCE:
-        raise InputError(f'{key}.h', 'all zero', 'a lobe with a positive lift in m')
-    if float(np.max(h)) > 0.1:
-        raise InputError(f'{key}.h', float(np.max(h)), 'lifts in m (mm given?)')
-    return TabulatedLift(alpha, h, key=key)
+    return design_table(alpha, h, key)
 
 
 def _registry() -> Any:

@@ -79,3 +79,31 @@ def test_coarse_table_that_rings_below_the_base_circle_is_rejected() -> None:
     a = np.linspace(-np.pi / 2, np.pi / 2, 181)
     law = TabulatedLift(a, cosine_bump(a, width=np.pi / 2))
     assert np.min(law(np.linspace(-1.5, 1.5, 5001))) > -1e-6
+
+
+@pytest.mark.parametrize('h, match', [
+    ([0, 1e-3, -5e-4, 8e-3, 1e-3, 0], r'lift.h\[2\]: .*>= 0'),
+    ([1e-3, 2e-3, 5e-3, 8e-3, 2e-3, 0], r'lift.h\[0\]: .*both ends'),
+    ([0, 1, 5, 8, 1, 0], r'lift.h: .*mm given'),
+    ([0, 0, 0, 0, 0, 0], r'lift.h: .*positive lift'),
+])
+def test_design_table_rules(h: list, match: str) -> None:
+    """A design table covers the whole lobe: >= 0, zero at both ends, in metres."""
+    from cam_design.lift_laws.base import design_table
+    with pytest.raises(InputError, match=match):
+        design_table(np.linspace(-1.0, 1.0, 6), np.array(h, dtype=float), 'lift')
+
+
+def test_table_family_and_scene_share_the_design_rules() -> None:
+    """`family: table` used to accept negative lifts and non-zero ends (QA, reconstruct fixer)."""
+    from cam_design.lift_laws import from_spec
+    a = np.linspace(-1.2, 1.2, 49)
+    good = cosine_bump(a, width=1.2)
+    assert from_spec({'family': 'table', 'alpha': a.tolist(), 'h': good.tolist()},
+                     'lobes[0].lift_law')(0.0) == pytest.approx(8e-3)
+    with pytest.raises(InputError, match=r'lobes\[0\].lift_law.h\[0\]: .*both ends'):
+        from_spec({'family': 'table', 'alpha': a.tolist(), 'h': (good + 1e-3).tolist()},
+                  'lobes[0].lift_law')
+    with pytest.raises(InputError, match=r'lift_law.alpha\[0\]: .*degrees given'):
+        from_spec({'family': 'table', 'alpha': (a * 180).tolist(), 'h': good.tolist()},
+                  'lift_law')

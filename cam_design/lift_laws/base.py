@@ -17,6 +17,8 @@ from numpy.typing import ArrayLike, NDArray
 from cam_design.errors import InputError
 
 MAX_ORDER = 3
+#: m: how far a design table may sit off the base circle at its ends, or below it
+DESIGN_TABLE_TOLERANCE = 1e-6
 
 
 class LiftLaw(abc.ABC):
@@ -78,24 +80,7 @@ class TabulatedLift(LiftLaw):
     def __init__(self, alpha: ArrayLike, h: ArrayLike, *, key: str = 'lift') -> None:
         from scipy.interpolate import make_interp_spline
 
-        a = _float_array(alpha, f'{key}.alpha', 'angles in rad')
-        v = _float_array(h, f'{key}.h', 'lifts in m')
-        if a.ndim != 1 or v.ndim != 1:
-            raise InputError(f'{key}.alpha', a.shape, 'one-dimensional lists')
-        if a.size != v.size:
-            raise InputError(f'{key}.h', f'{v.size} values',
-                             f'as many values as {key}.alpha ({a.size})')
-        if a.size < 6:
-            raise InputError(f'{key}.alpha', f'{a.size} points', 'at least 6 points')
-        if not np.all(np.isfinite(a)):
-            raise InputError(f'{key}.alpha', 'non-finite entries', 'finite angles in rad')
-        if not np.all(np.isfinite(v)):
-            raise InputError(f'{key}.h', 'non-finite entries', 'finite lifts in m')
-        bad = np.nonzero(np.diff(a) <= 0)[0]
-        if bad.size:
-            i = int(bad[0])
-            raise InputError(f'{key}.alpha[{i + 1}]', float(a[i + 1]),
-                             f'strictly increasing angles (previous is {float(a[i])})')
+        a, v = _checked_table(alpha, h, key)
         self.alpha = a
         self.h = v
         self._spline = make_interp_spline(a, v, k=5)
@@ -137,3 +122,59 @@ def _float_array(values: ArrayLike, key: str, what: str) -> NDArray[np.float64]:
         return np.asarray(values, dtype=float)
     except (TypeError, ValueError):
         raise InputError(key, values, f'a list of numbers ({what})') from None
+
+
+def design_table(alpha: NDArray[np.float64], h: NDArray[np.float64], key: str) -> TabulatedLift:
+    """A design lift table as a TabulatedLift, with the rules of a nominal lobe.
+
+    Beyond TabulatedLift's own checks: angles [rad] within [-pi, pi] from the lobe
+    centreline, lifts >= 0 m, h = 0 (within ``DESIGN_TABLE_TOLERANCE``) at both ends
+    (the table covers the whole lobe down to the base circle), a positive lift, and
+    lifts in m (not mm). Used by the scene parser and the ``table`` lift-law family.
+    """
+    a, v = _checked_table(alpha, h, key)
+    tol = DESIGN_TABLE_TOLERANCE
+    for j in (0, a.size - 1):
+        if abs(a[j]) > np.pi:
+            raise InputError(f'{key}.alpha[{j}]', float(a[j]),
+                             'an angle in rad within [-pi, pi] from the lobe centreline '
+                             '(degrees given?)')
+    neg = np.nonzero(v < -tol)[0]
+    if neg.size:
+        j = int(neg[0])
+        raise InputError(f'{key}.h[{j}]', float(v[j]), 'a lift >= 0 m above the base circle')
+    for j in (0, v.size - 1):
+        if abs(v[j]) > tol:
+            raise InputError(f'{key}.h[{j}]', float(v[j]),
+                             f'0 (within {tol:g} m) at both ends: the table '
+                             'must cover the whole lobe down to the base circle')
+    if float(np.max(v)) <= tol:
+        raise InputError(f'{key}.h', 'all zero', 'a lobe with a positive lift in m')
+    if float(np.max(v)) > 0.1:
+        raise InputError(f'{key}.h', float(np.max(v)), 'lifts in m (mm given?)')
+    return TabulatedLift(a, v, key=key)
+
+
+def _checked_table(alpha: ArrayLike, h: ArrayLike, key: str,
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Validate a lift table's structure: numeric, 1-D, same length, >= 6 points,
+    finite, alpha strictly increasing. Returns (alpha, h) as float arrays."""
+    a = _float_array(alpha, f'{key}.alpha', 'angles in rad')
+    v = _float_array(h, f'{key}.h', 'lifts in m')
+    if a.ndim != 1 or v.ndim != 1:
+        raise InputError(f'{key}.alpha', a.shape, 'one-dimensional lists')
+    if a.size != v.size:
+        raise InputError(f'{key}.h', f'{v.size} values',
+                         f'as many values as {key}.alpha ({a.size})')
+    if a.size < 6:
+        raise InputError(f'{key}.alpha', f'{a.size} points', 'at least 6 points')
+    if not np.all(np.isfinite(a)):
+        raise InputError(f'{key}.alpha', 'non-finite entries', 'finite angles in rad')
+    if not np.all(np.isfinite(v)):
+        raise InputError(f'{key}.h', 'non-finite entries', 'finite lifts in m')
+    bad = np.nonzero(np.diff(a) <= 0)[0]
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f'{key}.alpha[{i + 1}]', float(a[i + 1]),
+                         f'strictly increasing angles (previous is {float(a[i])})')
+    return a, v

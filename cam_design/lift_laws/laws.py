@@ -1,12 +1,11 @@
 """Spec handling shared by the flank families; the polynomial and table families."""
 from __future__ import annotations
 
-import math
 from typing import Any, Callable, Mapping
 
 from cam_design.errors import InputError
 from cam_design.lift_laws import params as P
-from cam_design.lift_laws.base import LiftLaw, TabulatedLift
+from cam_design.lift_laws.base import LiftLaw, design_table
 from cam_design.lift_laws.polynomial import polynomial_flank
 from cam_design.lift_laws.ramps import Ramp, ramp_from_spec
 from cam_design.lift_laws.segments import Flank, PiecewiseLaw, assemble_lobe
@@ -82,8 +81,4 @@ def polynomial_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
 def table_from_spec(spec: Mapping, key: str) -> LiftLaw:
     """``family: table``: ``alpha`` [rad] and ``h`` [m] lists (TabulatedLift)."""
     P.reject_unknown(spec, key, ('alpha', 'h'))
-    alpha = P.numbers(spec, key, 'alpha')
-    if any(abs(a) > math.pi + 1e-12 for a in alpha):
-        raise InputError(f'{key}.alpha', [a for a in alpha if abs(a) > math.pi][0],
-                         'angles within -pi .. pi rad (alpha is wrapped)')
-    return TabulatedLift(alpha, P.numbers(spec, key, 'h'), key=key)
+    return design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'), key)
