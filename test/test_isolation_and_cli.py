@@ -51,3 +51,18 @@ def test_error_prefix_names_the_subcommand(capsys: pytest.CaptureFixture[str]) -
     assert main(['design', 'law', '/nonexistent/law.yaml']) == 2
     err = capsys.readouterr().err
     assert err.startswith('cam-bench design law: error: ') and 'law.yaml' in err
+
+
+def test_broken_pipe_is_not_a_traceback(tmp_path) -> None:
+    """`cam-bench ... | head -1`: the closed pipe ends the command quietly."""
+    import os
+    script = ('import sys; from cam_metrology.cli import main; '
+              "sys.exit(main(['design', 'law', 'config/default_scene.yaml', '--csv', '-']))")
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    proc = subprocess.Popen([sys.executable, '-c', script], cwd=repo, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.readline()
+    proc.stdout.close()       # the reader goes away after one line
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 0
+    assert 'Traceback' not in err and 'BrokenPipe' not in err

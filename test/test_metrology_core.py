@@ -299,3 +299,12 @@ def test_result_status_values_are_flat_strings():
     lobe1 = [s for s in out['status'] if s.name == 'lobe_1']
     assert len(lobe1) == 2 and 'phase_deg' not in lobe1[0].values
     assert float(lobe1[1].values['phase_deg']) == pytest.approx(37.0, abs=1e-6)
+
+
+def test_parameter_type_message_grammar() -> None:
+    """`expected an integer`, not `expected a int` (QA #21, metrology side)."""
+    from cam_metrology.metrology.analysis import _typed
+    with pytest.raises(InputError, match='expected an integer'):
+        _typed('sp_pairs', 'x', int)
+    with pytest.raises(InputError, match=r'expected a number >= 0 \(finite\)'):
+        _typed('window', float('nan'), float)

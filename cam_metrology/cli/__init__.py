@@ -82,6 +82,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f'cam-bench {name}: interrupted', file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader went away (`cam-bench ... | head`): not an error of ours; point
+        # stdout at /dev/null so the interpreter's final flush does not raise again
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
 
 
 def command_name(args: argparse.Namespace) -> str:

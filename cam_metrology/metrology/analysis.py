@@ -74,6 +74,9 @@ class Settings:
         return cls(**kwargs)
 
 
+_KIND_WORDS = {int: 'an integer', float: 'a number'}
+
+
 def _typed(name: str, value: Any, kind: type) -> Any:
     """``value`` converted to ``kind`` (bool, int, float) or InputError."""
     if kind is bool:
@@ -83,9 +86,9 @@ def _typed(name: str, value: Any, kind: type) -> Any:
     try:
         out = kind(value)
     except (TypeError, ValueError):
-        raise InputError(f'metrology.{name}', value, f'a {kind.__name__}') from None
+        raise InputError(f'metrology.{name}', value, _KIND_WORDS[kind]) from None
     if isinstance(value, bool) or not np.isfinite(out) or out < 0:
-        raise InputError(f'metrology.{name}', value, f'a finite {kind.__name__} >= 0')
+        raise InputError(f'metrology.{name}', value, f'{_KIND_WORDS[kind]} >= 0 (finite)')
     return out
 
 
