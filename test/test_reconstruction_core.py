@@ -200,3 +200,63 @@ def test_numerical_failure_of_one_method_is_reported(measured, monkeypatch):
     har = st['lobe_1/harmonic']
     assert har.level == ERROR and 'numerical failure' in har.message
     assert st['lobe_1/spline'].level == OK
+
+
+@pytest.mark.parametrize('lobe_id,seed', [('lobe_1', 0), ('lobe_2', 3)])
+def test_full_turn_spline_converts_like_the_harmonic(lobe_id, seed):
+    """A smoothing spline over the whole turn is not periodic: its end slopes differ by
+    noise (~1e-6 m/rad), which convert_lift used to refuse as a convex corner at the
+    +-180 deg seam, so the spline stayed in the probe frame (QA A6). Only the lobe is
+    converted now: both methods reach the design follower, to noise level."""
+    from cam_design.lift_laws import TabulatedLift
+    from cam_metrology.reconstruction.profile import Conversion, lobe_section, reconstruct_table
+    from cam_metrology.reconstruction.samples import LiftTable
+
+    scene = parse_scene(SCENE_TEXT)
+    lobe = scene.lobe(lobe_id)
+    seen = convert_lift(lobe.lift, scene.base_circle_radius, lobe.follower, scene.probe)
+    a, h = simulate(seen, 720, 0.5e-6, seed=seed)
+    conv = Conversion(scene.probe, lobe.follower, scene.base_circle_radius, lobe.lift)
+    out = reconstruct_table(LiftTable(feature=lobe_id, alpha=a, lift=h, design=seen(a)),
+                            conversion=conv)
+    for method, o in out.items():
+        assert o.engine is not None, (method, o.engine_note)
+        assert o.engine_note.startswith('converted'), o.engine_note
+        assert o.engine_errors['max_error_lift_m'] < 1.2e-6, method
+        assert o.engine_errors['rms_error_lift_m'] < 0.4e-6, method
+        assert o.engine_errors['rms_error_acceleration_m_per_rad2'] < 1.5e-3, method
+    rec = out['spline'].reconstruction
+    # the seam really is a noise-level corner of the spline
+    assert rec.alpha[0] < -3.1 and rec.alpha[-1] > 3.1
+    # the section handed to convert_lift: the lift itself wherever it is above the
+    # noise, exact zeros at both ends, h' there far below convert_lift's 1e-9 m/rad
+    sa, sh = lobe_section(rec.alpha, rec.lift, rec.sigma)
+    i0 = int(np.searchsorted(rec.alpha, sa[0]))
+    assert np.array_equal(sa, rec.alpha[i0:i0 + sa.size])
+    big = np.abs(rec.lift[i0:i0 + sa.size]) > 5 * rec.sigma
+    assert np.count_nonzero(big) == np.count_nonzero(np.abs(rec.lift) > 5 * rec.sigma)
+    assert np.array_equal(sh[big], rec.lift[i0:i0 + sa.size][big])
+    assert sh[0] == 0.0 and sh[-1] == 0.0 and -3.0 < sa[0] and sa[-1] < 3.0
+    ends = np.array([sa[0], sa[-1]])
+    assert np.all(np.abs(TabulatedLift(sa, sh)(ends, 1)) < 1e-10)
+
+
+def test_lobe_section_of_an_exact_lift_is_the_lift():
+    """Noise-free: the section is the lift (to rounding) and the conversion of a
+    full-turn table is exact; a table that does not reach the base circle before its
+    ends falls back to the old linear end-offset removal."""
+    from cam_metrology.reconstruction.profile import lobe_section
+
+    scene = parse_scene(SCENE_TEXT)
+    lobe = scene.lobe('lobe_1')
+    seen = convert_lift(lobe.lift, scene.base_circle_radius, lobe.follower, scene.probe)
+    grid = np.linspace(-np.pi, np.pi, 3601)
+    sa, sh = lobe_section(grid, seen(grid), 0.0)
+    assert sa.size < grid.size and sh[0] == 0.0 and sh[-1] == 0.0
+    np.testing.assert_array_equal(sh, seen(sa))
+    cut = grid[np.abs(grid) < np.radians(92.0)]     # the roller lift: +-90 deg
+    lifted = seen(cut) + 1e-7
+    ca, ch = lobe_section(cut, lifted, 1e-7)
+    assert ca.size == cut.size
+    assert ch[0] == pytest.approx(0.0, abs=1e-18) and ch[-1] == pytest.approx(0.0, abs=1e-18)
+    np.testing.assert_allclose(ch, seen(cut), rtol=0, atol=1e-18)

@@ -82,6 +82,58 @@ def design_errors(rec: Reconstruction, design: Law,
     return out
 
 
+LOBE_MARGIN_RAD = math.radians(2.0)   # base circle kept unchanged, tapered, zero
+LOBE_MARGIN_POINTS = (24, 12)         # at least this many zero / taper points (ringing)
+
+
+def _taper(t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """C3 step from 0 (t <= 0) to 1 (t >= 1): 35t^4 - 84t^5 + 70t^6 - 20t^7."""
+    t = np.clip(t, 0.0, 1.0)
+    return t ** 4 * (35.0 - 84.0 * t + 70.0 * t ** 2 - 20.0 * t ** 3)
+
+
+def lobe_section(alpha: NDArray[np.float64], lift: NDArray[np.float64],
+                 sigma: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The part of a reconstructed lift [m] on ``alpha`` [rad] to hand to convert_lift.
+
+    h = 0 on the base circle by definition, but a reconstruction is 0 there only
+    within noise, and a smoothing spline over the revolution is not periodic: its end
+    slopes differ by noise, which convert_lift reads as a corner at the +-180 deg seam.
+    So only the lobe is converted: the span where |h| exceeds the noise (5 sigma, at
+    least 1 nm) plus a margin of base circle on each side: from the lobe outwards,
+    ``LOBE_MARGIN_RAD`` of the lift itself, then a C3 taper from the lift (within
+    noise of 0 there) to 0, then exact zeros (each at least ``LOBE_MARGIN_RAD`` and the
+    ``LOBE_MARGIN_POINTS``, so that the quintic interpolant's ringing has died out at
+    the table ends: h' there below 1e-9 m/rad). So the lift is unchanged wherever it is
+    above the noise and for 2 deg around. A table whose lift does
+    not come down to the noise before its ends (a margin would not fit) only has its
+    noise-level end offsets removed (linearly), as before; a table cut on the flanks
+    is passed as it is (convert_lift then refuses it with the reason).
+    """
+    n = lift.size
+    peak = float(np.max(np.abs(lift))) if n else 0.0
+    noise = max(5.0 * sigma, 1e-9)
+    above = np.nonzero(np.abs(lift) > noise)[0]
+    if n >= 2 and above.size:
+        step = float(alpha[-1] - alpha[0]) / (n - 1)
+        keep = int(math.ceil(LOBE_MARGIN_RAD / step - 1e-9)) if step > 0 else n
+        zero, taper = (max(p, keep) for p in LOBE_MARGIN_POINTS)
+        m = zero + taper + keep
+        lo, hi = int(above[0]) - m, int(above[-1]) + m
+        if lo >= 0 and hi <= n - 1:
+            a = alpha[lo:hi + 1]
+            h = lift[lo:hi + 1].copy()
+            k = np.arange(h.size, dtype=float)
+            w = (_taper((k - zero + 1) / (taper + 1))
+                 * _taper((h.size - k - zero) / (taper + 1)))
+            return a, h * w
+    small = max(5.0 * sigma, 1e-4 * peak)
+    if n >= 2 and abs(lift[0]) <= small and abs(lift[-1]) <= small:
+        ramp = np.linspace(0.0, 1.0, n)
+        lift = lift - (lift[0] * (1.0 - ramp) + lift[-1] * ramp)
+    return alpha, lift
+
+
 def _engine(rec: Reconstruction, conv: Conversion) -> tuple[NDArray[np.float64] | None, str]:
     from cam_design.lift_laws import TabulatedLift
 
@@ -90,15 +142,9 @@ def _engine(rec: Reconstruction, conv: Conversion) -> tuple[NDArray[np.float64] 
     except ImportError:
         return None, ('convert_lift not available: the profile is for the probe, not for '
                       f'the design follower ({conv.design.kind})')
-    lift = rec.lift
-    small = max(5.0 * rec.sigma, 1e-4 * float(np.max(np.abs(lift))))
-    if lift.size >= 2 and abs(lift[0]) <= small and abs(lift[-1]) <= small:
-        # h = 0 on the base circle by definition: remove the (noise-level) end offsets so
-        # that the tabulated law does not step at the ends of its support
-        ramp = np.linspace(0.0, 1.0, lift.size)
-        lift = lift - (lift[0] * (1.0 - ramp) + lift[-1] * ramp)
+    alpha, lift = lobe_section(rec.alpha, rec.lift, rec.sigma)
     try:
-        tab = TabulatedLift(rec.alpha, lift, key=f'{rec.method}.lift')
+        tab = TabulatedLift(alpha, lift, key=f'{rec.method}.lift')
         law = convert_lift(tab, conv.base_radius, conv.probe, conv.design,
                            key=f'{rec.method}.lift')
         derivs = law.derivatives(rec.alpha)
