@@ -364,3 +364,20 @@ def test_failed_run_shown_and_exit_1(tmp_path: Path, capsys) -> None:
     (name, why), = feat['failures'].items()
     assert name == 'lobe_1/1e+09rpm' and '(0, 100000] rpm' in why
     assert f'{name}: FAILED: {why}' in human
+
+
+def test_json_without_sweep_has_the_sweep_keys_as_null(tmp_path: Path, capsys) -> None:
+    """docs/dynamics.md lists jump_speed_rpm, bounce_onset_rpm and sweep for every
+    feature: without --sweep they are null (they were missing), and the human output
+    does not print a 'jump speed none' line for a sweep that was not asked for."""
+    from cam_metrology.cli import main
+
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(scene_text())
+    out = tmp_path / 'n.json'
+    assert main(['dynamics', str(scene), '--rpm', '1500', '--step-deg', '1',
+                 '--json', str(out)]) == 0
+    feat = json.loads(out.read_text())['features']['lobe_1']
+    for key in ('jump_speed_rpm', 'bounce_onset_rpm', 'sweep'):
+        assert key in feat and feat[key] is None, key
+    assert 'jump speed' not in capsys.readouterr().out

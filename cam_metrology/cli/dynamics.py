@@ -9,8 +9,8 @@ jump speed of the scene's valve train (methods.md §4; see docs/dynamics.md).
   feature has a ``note`` and a warning goes to stderr).
 
 JSON (``--json FILE`` or ``-``): ``{"input", "kind", "model", "features": {ID:
-{"source", "runs": [...], "jump_speed_rpm", "bounce_onset_rpm", "sweep"}},
-"skipped"}``. Each run has ``cam_speed_rpm``, ``alpha_deg``, ``valve_lift_m``,
+{"source", "runs": [...], "jump_speed_rpm", "bounce_onset_rpm", "sweep" (null without
+--sweep)}}, "skipped"}``. Each run has ``cam_speed_rpm``, ``alpha_deg``, ``valve_lift_m``,
 ``valve_velocity_m_s``, ``contact_force_n``, ``contact_stress_pa`` (arrays on the
 uniform ``--step-deg`` grid), ``opening_deg``, ``closing_deg``, ``separations``
 ([start_deg, end_deg] pairs), ``seating_velocity_m_s``, ``bounce_count``,
@@ -173,6 +173,8 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
             entry['jump_speed_rpm'] = res.jump_speed_rpm
             entry['bounce_onset_rpm'] = res.bounce_onset_rpm
             entry['sweep'] = res.as_dict()
+        else:       # the documented keys are always there: null without --sweep
+            entry.update(jump_speed_rpm=None, bounce_onset_rpm=None, sweep=None)
         out['features'][feature] = entry
     return _json_safe(out)
 
@@ -194,7 +196,7 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
                     print(f"  note: {r['note']}")
             for name, why in entry.get('failures', {}).items():
                 print(f'{name}: FAILED: {why}')
-            if 'jump_speed_rpm' in entry:
+            if entry.get('sweep') is not None:
                 speeds = (entry['jump_speed_rpm'], entry['bounce_onset_rpm'])
                 print(f"{feature}: jump speed {_q(speeds[0], '.1f', 'rpm')}, bounce onset "
                       f"{_q(speeds[1], '.1f', 'rpm')}"
