@@ -12,9 +12,10 @@ undercut report, and a plot. See docs/follower.md.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
-from typing import Any
+from typing import Any, Iterator
 
 FOLLOWERS = ('flat', 'roller', 'knife', 'offset-roller', 'rocker')
 #: the lift used for the profile (converted with --design-follower) and its derivatives
@@ -190,15 +191,37 @@ def compute(args: argparse.Namespace) -> tuple[Any, Any, float]:
     if args.follower in ('roller', 'knife'):
         return fl.roller_profile(law, base, radius, alpha), law, base
     if args.follower == 'offset-roller':
-        return fl.offset_roller_profile(law, base, radius, args.offset, alpha, eta=args.eta,
-                                        delta=args.delta), law, base
+        with _option_keys():
+            return fl.offset_roller_profile(law, base, radius, args.offset, alpha,
+                                            eta=args.eta, delta=args.delta), law, base
     for name in ('centre_distance', 'arm_length'):
         if getattr(args, name) is None:
             raise InputError('--' + name.replace('_', '-'), None, 'a length [m] for a rocker')
     if args.delta == 0:
         raise InputError('--delta', 0, '+1 or -1 (the swing direction during the rise)')
-    return fl.rocker_profile(law, base, radius, args.centre_distance, args.arm_length, alpha,
-                             eta=args.eta, delta=args.delta), law, base
+    with _option_keys():
+        return fl.rocker_profile(law, base, radius, args.centre_distance, args.arm_length,
+                                 alpha, eta=args.eta, delta=args.delta), law, base
+
+
+# the follower functions' parameter names -> the options as typed
+OPTION_KEYS = {'offset': '--offset', 'centre_distance': '--centre-distance',
+               'arm_length': '--arm-length', 'eta': '--eta', 'delta': '--delta'}
+
+
+@contextlib.contextmanager
+def _option_keys() -> Iterator[None]:
+    """Re-raise an InputError of a follower function under the CLI option's name
+    (``offset`` -> ``--offset``, ``centre_distance`` -> ``--centre-distance``, ...)."""
+    from cam_design.errors import InputError
+
+    try:
+        yield
+    except InputError as exc:
+        flag = OPTION_KEYS.get(exc.key)
+        if flag is None:
+            raise
+        raise InputError(flag, exc.value, exc.expected) from None
 
 
 def cmd_profile(args: argparse.Namespace) -> int:
