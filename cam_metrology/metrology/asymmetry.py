@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.interpolate import make_interp_spline, make_lsq_spline
+from scipy.interpolate import BSpline, make_interp_spline, make_lsq_spline
+from scipy.linalg import cholesky_banded
 from scipy.optimize import brentq
 
 from cam_design.errors import InputError
@@ -42,33 +43,121 @@ class TopPoint:
     iterations: int
 
 
+#: angles [rad] closer than this are one encoder position (several revolutions over
+#: the same encoder counts differ only by rounding, ~1e-15 rad; the lift moves by
+#: < 1e-11 m over 1e-9 rad)
+SAME_ANGLE = 1e-9
+#: positions closer than knot_spacing / POSITION_BINS count once when the knot
+#: spacing is chosen (encoder noise spreads a repeated position by arc-seconds)
+POSITION_BINS = 8
+#: largest accepted pivot ratio (max/min diagonal of the Cholesky factor of the
+#: regression's normal matrix, squared: a lower bound of its condition number); well
+#: posed fits are ~10-400, rank-deficient ones infinite
+MAX_PIVOT_RATIO = 1e6
+
+
+def merge_repeated(alpha: NDArray[np.float64], lift: NDArray[np.float64],
+                   tol: float = SAME_ANGLE,
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """Sorted distinct angles [rad], the mean lift [m] at each and the sample count.
+
+    Angles within ``tol`` [rad] of their neighbour (chained) are one position; its
+    angle and lift are the means. A least-squares fit of the means weighted by
+    sqrt(count) is the fit of all samples (the within-position scatter only adds a
+    constant to the sum of squares).
+    """
+    order = np.argsort(alpha, kind='stable')
+    a, h = alpha[order], lift[order]
+    start = np.concatenate(([True], np.diff(a) > tol))
+    group = np.cumsum(start) - 1
+    count = np.bincount(group)
+    return (np.bincount(group, a) / count, np.bincount(group, h) / count,
+            count.astype(np.int64))
+
+
+def distinct_positions(alpha: NDArray[np.float64], resolution: float) -> int:
+    """Number of cells of width ``resolution`` [rad] holding at least one angle."""
+    return int(np.unique(np.floor((alpha - alpha.min()) / resolution)).size)
+
+
 def lift_spline(alpha: NDArray[np.float64], lift: NDArray[np.float64], *,
                 knot_spacing: float | None = None) -> Any:
     """Quintic spline S(alpha) [m] of a lift table (alpha [rad]).
 
-    Without ``knot_spacing`` it interpolates the table (exact data); with it, it is a
-    least-squares regression spline with knots every ``knot_spacing`` [rad] (noisy
-    data, any number of samples; linear cost), widened where needed to keep at least
-    two samples per knot interval on average (coarse sampling).
+    Repeated angles (several revolutions over the same encoder counts) are merged
+    into their mean first. Without ``knot_spacing`` it interpolates the table (exact
+    data); with it, it is a least-squares regression spline with knots every
+    ``knot_spacing`` [rad] (noisy data, any number of samples; linear cost), widened
+    where needed to keep at least two distinct positions per knot interval on average
+    (coarse sampling). A regression that is rank deficient or ill-conditioned raises
+    InputError instead of returning a meaningless spline.
     """
-    order = np.argsort(alpha, kind='stable')
-    a, h = alpha[order], lift[order]
-    keep = np.concatenate(([True], np.diff(a) > 0))
-    a, h = a[keep], h[keep]
+    alpha, lift = np.asarray(alpha, dtype=float), np.asarray(lift, dtype=float)
+    bad = int(np.count_nonzero(~(np.isfinite(alpha) & np.isfinite(lift))))
+    if bad:
+        raise InputError('asymmetry.samples', f'{bad} non-finite angle(s) or lift(s)',
+                         'finite numbers')
+    a, h, count = merge_repeated(alpha, lift)
     if a.size < 8:
         raise InputError('asymmetry.samples', int(a.size), 'at least 8 distinct angles')
     if knot_spacing is None:
         return make_interp_spline(a, h, k=5)
-    # at least 2 samples per knot interval on average: a spacing equal to the sample
-    # spacing would make the regression an ill-posed interpolation (Schoenberg-Whitney)
-    n_int = max(min(int((a[-1] - a[0]) / knot_spacing), a.size // 2), 1)
-    inner = np.linspace(a[0], a[-1], n_int + 1)[1:-1]
+    # at least 2 distinct positions per knot interval on average: a spacing equal to
+    # the sample spacing would make the regression an ill-posed interpolation
+    # (Schoenberg-Whitney); positions are counted, not samples, so that repeated
+    # revolutions do not narrow the knots
+    positions = distinct_positions(a, knot_spacing / POSITION_BINS)
+    n_int = max(min(int((a[-1] - a[0]) / knot_spacing), positions // 2), 1)
+    inner = _knots_with_data(a, np.linspace(a[0], a[-1], n_int + 1)[1:-1])
     knots = np.concatenate((np.full(6, a[0]), inner, np.full(6, a[-1])))
+    weights = np.sqrt(count.astype(float))
+    _check_conditioning(a, weights, knots, knot_spacing)
     try:
-        return make_lsq_spline(a, h, knots, k=5)
+        spline = make_lsq_spline(a, h, knots, k=5, w=weights)
     except (ValueError, np.linalg.LinAlgError):
         raise InputError('asymmetry.samples', 'gaps in the lobe data',
                          f'samples in every {np.degrees(knot_spacing):.2f} deg interval') from None
+    if not np.all(np.isfinite(spline.c)):
+        raise InputError('asymmetry.fit', 'non-finite spline coefficients',
+                         'a well-posed regression spline')
+    return spline
+
+
+def _knots_with_data(a: NDArray[np.float64], inner: NDArray[np.float64],
+                     ) -> NDArray[np.float64]:
+    """The interior knots [rad] without those that would leave a knot interval empty
+    (a gap in the data, e.g. no samples over the nose, is bridged by one wider
+    interval instead of an undetermined coefficient). ``a`` sorted."""
+    kept: list[float] = []
+    prev = a[0]
+    for knot in inner:   # a sample strictly inside (previous kept knot, knot)
+        if np.searchsorted(a, knot, 'left') > np.searchsorted(a, prev, 'right'):
+            kept.append(float(knot))
+            prev = knot
+    while kept and np.searchsorted(a, a[-1], 'left') <= np.searchsorted(a, kept[-1], 'right'):
+        kept.pop()
+    return np.asarray(kept, dtype=float)
+
+
+def _check_conditioning(a: NDArray[np.float64], weights: NDArray[np.float64],
+                        knots: NDArray[np.float64], knot_spacing: float, k: int = 5) -> None:
+    """Raise InputError if the regression on the knots is rank deficient or
+    ill-conditioned (data too clustered to determine every coefficient)."""
+    basis = BSpline.design_matrix(a, knots, k).tocsr().multiply(weights[:, None]).tocsr()
+    normal = (basis.T @ basis).todia()
+    n = normal.shape[0]
+    banded = np.zeros((k + 1, n))
+    for j in range(k + 1):
+        banded[j, :n - j] = normal.diagonal(-j)
+    try:
+        diag = cholesky_banded(banded, lower=True)[0]
+        ratio = float((diag.max() / diag.min()) ** 2)
+    except (np.linalg.LinAlgError, ZeroDivisionError, FloatingPointError):
+        ratio = np.inf
+    if not ratio <= MAX_PIVOT_RATIO:
+        raise InputError('asymmetry.fit', f'regression spline ill-conditioned (pivot ratio '
+                         f'{ratio:.3g})', f'distinct angles spread over every '
+                         f'{np.degrees(knot_spacing):.2f} deg knot interval')
 
 
 def top_point(spline: Any, lo: float, hi: float, *, d0: float = 0.0, levels: int = 9,
