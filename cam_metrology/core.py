@@ -17,8 +17,9 @@ the same field names (``msg.header.frame_id``, ``msg.name``, ``msg.position``,
 """
 from __future__ import annotations
 
-from typing import Any, Protocol
+from typing import Any, Mapping, Protocol
 
+from cam_design.errors import InputError
 from cam_metrology.outputs import Output
 
 
@@ -40,3 +41,19 @@ class NodeCore(Protocol):
 
     def finish(self) -> list[Output]:
         """End of the stream: flush pending features; return the last outputs."""
+
+
+def merged_parameters(node: str, table: Mapping[str, tuple[Any, str]],
+                      params: Mapping[str, Any] | None) -> dict[str, Any]:
+    """A core's parameters: ``params`` over the defaults of ``table`` (PARAMETERS).
+
+    An unknown name raises InputError naming ``<node>.<name>`` and listing the known
+    ones, so a misspelled setting is never silently ignored. Values are not converted
+    here; each core validates its own.
+    """
+    given = dict(params or {})
+    unknown = sorted(set(given) - set(table))
+    if unknown:
+        raise InputError(f'{node}.{unknown[0]}', given[unknown[0]],
+                         'one of ' + ', '.join(sorted(table)))
+    return {name: given.get(name, default) for name, (default, _doc) in table.items()}

@@ -32,6 +32,7 @@ from cam_design.valve_train.cam_input import JetTableLift
 from cam_design.valve_train.params import SdofParams, require_rpm, require_step_deg
 from cam_design.valve_train.report import (COLUMNS, ContactGeometry, Run, finish_run,
                                            run_sdof)
+from cam_metrology.core import merged_parameters
 from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
 
 SCENE, PROFILE = '/bench/scene', '/reconstruction/profile'
@@ -107,12 +108,7 @@ class DynamicsCore:
     }
 
     def __init__(self, params: dict[str, Any] | None = None) -> None:
-        params = dict(params or {})
-        unknown = sorted(set(params) - set(self.PARAMETERS))
-        if unknown:
-            raise InputError(f'dynamics.{unknown[0]}', params[unknown[0]],
-                             'one of ' + ', '.join(sorted(self.PARAMETERS)))
-        p = {k: params.get(k, v[0]) for k, v in self.PARAMETERS.items()}
+        p = merged_parameters('dynamics', self.PARAMETERS, params)
         if p['source'] not in SOURCES:
             raise InputError('dynamics.source', p['source'], ' | '.join(SOURCES))
         self.source = str(p['source'])

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike
 
 from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.errors import InputError, require_positive
+from cam_metrology.core import merged_parameters
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_lobe, analyze_pin, seen_lift)
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
@@ -111,10 +112,7 @@ class MetrologyCore:
 
     def __init__(self, params: dict[str, Any] | None = None) -> None:
         params = dict(params or {})
-        unknown = sorted(set(params) - set(self.PARAMETERS))
-        if unknown:
-            raise InputError(f'metrology.{unknown[0]}', params[unknown[0]],
-                             'one of ' + ', '.join(sorted(self.PARAMETERS)))
+        merged_parameters('metrology', self.PARAMETERS, params)   # rejects unknown names
         self.settings = Settings.from_params(params)
         self.idle_timeout_param = require_positive('metrology.idle_timeout',
                                                    params.get('idle_timeout', 0.0),

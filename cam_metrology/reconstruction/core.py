@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from cam_design.errors import InputError, require_positive
+from cam_metrology.core import merged_parameters
 from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
 from cam_metrology.reconstruction.harmonic import MIN_ORDER, ORDER_EXPECTED, HarmonicOptions
 from cam_metrology.reconstruction.profile import (Conversion, MethodOutcome, check_options,
@@ -103,12 +104,7 @@ class ReconstructionCore:
     }
 
     def __init__(self, params: dict[str, Any] | None = None) -> None:
-        params = dict(params or {})
-        unknown = sorted(set(params) - set(self.PARAMETERS))
-        if unknown:
-            raise InputError(f'reconstruction.{unknown[0]}', params[unknown[0]],
-                             'one of ' + ', '.join(sorted(self.PARAMETERS)))
-        p = {k: params.get(k, v[0]) for k, v in self.PARAMETERS.items()}
+        p = merged_parameters('reconstruction', self.PARAMETERS, params)
         methods = tuple(m.strip() for m in str(p['methods']).split(',') if m.strip())
         for m in methods:
             if m not in ('spline', 'harmonic'):
