@@ -15,7 +15,8 @@ from pathlib import Path  # noqa: E402
 def main() -> int:
     """Import and run ``main()`` of every ``benchmarks.bench_*`` module."""
     here = Path(__file__).resolve().parent
-    names = sorted(m.name for m in pkgutil.iter_modules([str(here)]) if m.name.startswith('bench_'))
+    names = sorted(m.name for m in pkgutil.iter_modules([str(here)])
+                   if m.name.startswith('bench_'))
     only = set(sys.argv[1:])
     failed = []
     for name in names:

@@ -88,6 +88,7 @@ def run(samples: int, repeat: int) -> str:
                                         for st, fid, th, v in msgs], repeat)
         rows.append(('encode JointState, bagio struct encoder', n / t_struct, t_struct,
                      'byte-identical to typestore (test_bagio)'))
+
         def vectorised() -> list[bytes]:
             out: list[bytes] = []
             for f in run_.features:

@@ -298,8 +298,8 @@ def cam_angle(phi: ArrayLike, phi0: float, alpha0: float) -> NDArray:
 
 def valve_piston_clearance(piston: ArrayLike, valve: ArrayLike, clearance: float) -> NDArray:
     """(2.13) D_s = s + y0 - y [m]; D_s <= 0 is a collision."""
-    return _arr('piston', piston) + require_finite('clearance', clearance) - _arr('valve',
-                                                                                   valve)
+    return (_arr('piston', piston) + require_finite('clearance', clearance)
+            - _arr('valve', valve))
 
 
 # ---------------------------------------------------------------- flank shape (§1.4)

@@ -101,7 +101,7 @@ def synthesize(arm_length: float, base_radius: float, max_swing: float,
     """
     from scipy.optimize import brentq
 
-    l = require_positive('arm_length', arm_length)
+    l = require_positive('arm_length', arm_length)  # noqa: E741 (the paper's l)
     rb = require_positive('base_radius', base_radius)
     psi = require_positive('max_swing', max_swing)
     if psi >= math.pi / 4:

@@ -564,9 +564,9 @@ def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
 _MSG_HEAD = struct.Struct('<BQHIQ')   # opcode, record length, channel, sequence, log_time
 
 
-def _read_mcap_direct(bag: Path, topic: str) -> tuple[bytes, NDArray[np.int64],
-                                                       NDArray[np.int64],
-                                                       NDArray[np.int64]] | None:
+def _read_mcap_direct(bag: Path, topic: str,
+                      ) -> tuple[bytes, NDArray[np.int64], NDArray[np.int64],
+                                 NDArray[np.int64]] | None:
     """(buffer, message starts, lengths, log times) of ``topic`` in log-time order, read
     straight from the MCAP chunks of a rosbag2 directory; None if the bag is not an
     indexed, chunked MCAP bag without file compression (the caller falls back)."""

@@ -185,7 +185,6 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     last_t: int | None = None
 
     def ticks_until(t: int) -> None:
-        nonlocal last_t
         if last_t is not None and t - last_t > tick_period_ns:
             grid = last_t + tick_period_ns * np.arange(1, MAX_TICKS_PER_GAP + 1)
             grid = grid[grid < t - 1]

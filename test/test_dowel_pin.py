@@ -19,7 +19,8 @@ def dms(d: float, m: float, s: float) -> float:
 
 
 def test_case5_contact_angle_and_lifts() -> None:
-    """alpha_max = 23.035684° (seed prints the truncated 23°02'06"), h(0) = 14, h(amax) = 8.583005 mm."""
+    """alpha_max = 23.035684° (seed prints the truncated 23°02'06"), h(0) = 14 mm,
+    h(alpha_max) = 8.583005 mm."""
     assert math.degrees(SEED.contact_half_angle) == pytest.approx(23.035684, abs=1e-6)
     assert SEED.lift(0.0) == pytest.approx(14.000 * MM, abs=1e-12)
     assert SEED.lift(SEED.contact_half_angle) == pytest.approx(8.583005 * MM, abs=1e-9)

@@ -158,7 +158,8 @@ def test_section_continuity_constraints_hold():
 
 
 def test_asymmetric_lobe_gets_sines():
-    law = lambda x, nu=0: LOBE(x, nu) + (1e-4 * np.sin(x) * LOBE(x) / 8e-3 if nu == 0 else 0)
+    def law(x, nu=0):
+        return LOBE(x, nu) + (1e-4 * np.sin(x) * LOBE(x) / 8e-3 if nu == 0 else 0)
     a = np.arange(-180.0, 180.0, 0.25) * DEG
     h = law(a) + np.random.default_rng(4).normal(0, 0.3e-6, a.size)
     rec = reconstruct_harmonic(clean_samples(a, h))
@@ -389,7 +390,9 @@ def test_dual_peak_cam_keeps_its_second_lobe():
 
     law = from_spec(DUAL_PEAK, 'law')
     centre = 0.5 * sum(law.support)
-    shifted = lambda x, nu=0: law(np.asarray(x) + centre, nu)
+
+    def shifted(x, nu=0):
+        return law(np.asarray(x) + centre, nu)
     a, h = simulate(shifted, 3600, 0.5e-6, seed=1)
     out = reconstruct_table(LiftTable('egr', a, h, shifted(a)), methods=('spline',))
     rec = out['spline'].reconstruction

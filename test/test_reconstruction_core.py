@@ -154,8 +154,8 @@ def test_bad_scene_and_bad_tables_are_reported_not_raised(measured):
     assert st['lobe_1'].level == ERROR and 'distinct finite angles' in st['lobe_1'].message
     nan = measured[3].copy()
     nan[:, 1] = np.nan
-    st = statuses(core.handle('/metrology/lift', msg('lobe_2', ('alpha_rad', 'lift_m',
-                                                                 'design_lift_m'), nan), 4))
+    columns = ('alpha_rad', 'lift_m', 'design_lift_m')
+    st = statuses(core.handle('/metrology/lift', msg('lobe_2', columns, nan), 4))
     assert st['lobe_2'].level == ERROR
     wrong = msg('lobe_1', ('theta', 'lift_m'), np.zeros((10, 2)))
     st = statuses(core.handle('/metrology/lift', wrong, 5))

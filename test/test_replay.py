@@ -157,8 +157,8 @@ def test_routing_order_between_cores(tmp_path):
     assert [s[0] for s in src.samples] == ['lobe_1'] * 5 + ['lobe_2'] * 5
     assert src.samples[0][1] == src.samples[0][4] - 10   # header stamp vs log time
     label, data = sink.tables[1]
-    np.testing.assert_allclose(data, 2 * np.array([[1.0 + 0.1 * i, 1e-3 * i]
-                                                    for i in range(5)]))
+    want = 2 * np.array([[1.0 + 0.1 * i, 1e-3 * i] for i in range(5)])
+    np.testing.assert_allclose(data, want)
     # every output collected, with its source, in production order
     assert [(o.source, o.output.topic) for o in res.outputs] == [
         ('source', LIFT), ('mid', PROFILE), ('source', LIFT), ('mid', PROFILE),

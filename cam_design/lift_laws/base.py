@@ -115,7 +115,6 @@ class TabulatedLift(LiftLaw):
         return self._derivs[nu](alpha)
 
 
-
 def _float_array(values: ArrayLike, key: str, what: str) -> NDArray[np.float64]:
     """``values`` as a float array, or InputError naming ``key`` if not numeric."""
     try:

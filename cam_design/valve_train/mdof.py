@@ -302,6 +302,7 @@ def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float =
         return out
 
     x0 = _static(asm, mp, cam(0.0)[0])
+
     def crossing(t: float, s: NDArray) -> float:
         return float(s[V])
 

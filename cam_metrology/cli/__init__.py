@@ -18,7 +18,7 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 import argparse  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
-from typing import Sequence
+from typing import Sequence  # noqa: E402
 
 # Order here is the order in `cam-bench --help`.
 COMMAND_MODULES = (

@@ -302,5 +302,3 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
                           events, geom)
     return run_sdof(law, params, rpm, step_deg=step_deg, geometry=geom,
                     max_revolutions=max_revolutions)
-
-

@@ -477,5 +477,3 @@ def _print_summary(out: TextIO, bag: Path, counts: dict[str, tuple[str, int]] | 
     if missing:
         print(f'missing cores (not run): {", ".join(missing)}', file=out)
     print(f'demo took {seconds:.1f} s', file=out, flush=True)
-
-

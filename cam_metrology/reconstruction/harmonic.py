@@ -56,8 +56,8 @@ class HarmonicOptions:
 
     basis: str = 'section'             # 'section' | 'full'
     order: int | None = None           # N; None: automatic
-    criterion: str | None = None       # 'cp' | 'bic' | 'risk' (full) | 'residual';
-                                       # None: 'bic' (section), 'cp' (full)
+    # criterion: 'cp' | 'bic' | 'risk' (full) | 'residual'; None: 'bic' (section), 'cp' (full)
+    criterion: str | None = None
     tol: float | None = None           # residual target [m] for 'residual'
     half_angle: float | None = None    # Phi [rad] for 'section'; None: from the data
     asymmetric: bool | None = None     # add sines; None: decided from the data

@@ -125,7 +125,9 @@ class ReboundOperator:
         ca[2:] = inv_h[1:]                 # knot i-1 -> 1/h[i-1], valid for i >= 2
         cb[1:-1] = -(inv_h[:-1] + inv_h[1:])
         cc[:-2] = inv_h[:-1]               # knot i+1 -> 1/h[i], valid for i <= n-3
-        pad = lambda v, lo: np.concatenate([np.zeros(lo), v, np.zeros(n - lo - v.size)])
+
+        def pad(v: NDArray[np.float64], lo: int) -> NDArray[np.float64]:
+            return np.concatenate([np.zeros(lo), v, np.zeros(n - lo - v.size)])
         sa, sb, sc = pad(s0, 2), pad(s0, 1), pad(s0, 0)          # Sigma at (i-2), (i-1), (i)
         sab = pad(s1, 2)                                          # Sigma(i-2, i-1)
         sbc = pad(s1, 1)                                          # Sigma(i-1, i)
