@@ -266,26 +266,17 @@ class CoreNode(Node):
         self._guarded(f'handle({topic})', self.core.handle, topic, msg, self.now_ns())
 
     def _take_waiting_samples(self) -> None:
-        """Handle the samples already in the reader (in order) while messages are held."""
-        if self._bulk:
-            while self._held:
-                batch = self._drain_samples(MAX_BATCH)
-                if not batch:
-                    return
-                self.callbacks_run += 1
-                self._deliver_batch(batch)
-            return
-        sub = self._subs.get(JOINT_STATES)
-        while self._held and sub is not None:
-            try:
-                with sub.handle:
-                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
-            except Exception:  # noqa: BLE001 (destroyed handle at shutdown)
-                return
-            if taken is None:
+        """Handle the samples already in the reader (in order) while messages are held:
+        in blocks on the bulk path, one at a time otherwise (each may release some)."""
+        while self._held:
+            batch = self._drain_samples(MAX_BATCH if self._bulk else 1)
+            if not batch:
                 return
             self.callbacks_run += 1
-            self._deliver_sample(taken[0], _source_ns(taken[1]))
+            if self._bulk:
+                self._deliver_batch(batch)
+            else:
+                self._deliver_sample(*batch[0])
 
     def _on_order_timer(self) -> None:
         if not self._held:
