@@ -236,3 +236,18 @@ def test_asymmetry_spline_at_the_knot_spacing(seed):
     exact = top_point(lift_spline(alpha, h, knot_spacing=np.radians(0.5)),
                       float(alpha.min()), float(alpha.max()))
     assert abs(np.degrees(exact.d)) < 1e-6
+
+
+def test_analyze_and_run_read_parameter_files_alike(tmp_path, config_dir):
+    """`analyze --params` and `run --params` share one reader (rcl's YAML typing): the
+    shipped files and a YAML-1.1 exponent without a dot give the same values to both."""
+    from cam_metrology.cli.analyze import load_params
+    from cam_metrology.nodes.params import read_params_file
+    for node in ('metrology', 'reconstruction', 'dynamics'):
+        path = config_dir / f'{node}.yaml'
+        assert load_params(str(path))[node] == read_params_file(path, node)
+    p = tmp_path / 'p.yaml'
+    p.write_text('metrology:\n  ros__parameters:\n    outlier_sigma: 5e0\n')
+    value = load_params(str(p))['metrology']['outlier_sigma']
+    assert value == read_params_file(p, 'metrology')['outlier_sigma']
+    assert isinstance(value, float) and value == 5.0

@@ -46,36 +46,17 @@ def load_params(path: str | None) -> dict[str, dict[str, Any]]:
     otherwise be ignored without a word)."""
     if path is None:
         return {}
-    import yaml
-
     from cam_design.errors import InputError
+    from cam_metrology.nodes.params import load_params_doc, section_values
     from cam_metrology.registry import CORES
 
-    try:
-        doc = yaml.safe_load(Path(path).read_text())
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError('--params', path, f'a readable YAML file ({exc.__class__.__name__}: '
-                         f'{getattr(exc, "strerror", None) or exc})') from None
-    except yaml.YAMLError as exc:
-        where = getattr(exc, 'problem_mark', None)
-        line = f' at line {where.line + 1}' if where is not None else ''
-        raise InputError('--params', path, f'valid YAML ({getattr(exc, "problem", None) or exc}'
-                         f'{line})') from None
-    if doc is None:
-        return {}
-    if not isinstance(doc, dict):
-        raise InputError('params', path, 'a mapping node_name: {ros__parameters: {...}}')
-    out = {}
-    for node, body in doc.items():
-        name = str(node).lstrip('/')
-        if name not in CORES:
+    doc = load_params_doc(path)   # the reader `cam-bench run --params` uses
+    for node in doc:
+        if str(node).lstrip('/') not in CORES:
             raise InputError(f'params.{node}', node,
                              f'a node name: one of {", ".join(CORES)}')
-        params = (body or {}).get('ros__parameters', {}) if isinstance(body, dict) else None
-        if not isinstance(params, dict):
-            raise InputError(f'{node}.ros__parameters', params, 'a mapping of parameters')
-        out[name] = params
-    return out
+    present = {str(node).lstrip('/') for node in doc}
+    return {name: section_values(doc, path, name) for name in CORES if name in present}
 
 
 def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool,

@@ -19,6 +19,9 @@ from cam_design.errors import InputError
 BUILTIN_PARAMETERS = ('use_sim_time', 'start_type_description_service')
 
 
+PARAMS_LAYOUT = '`<node name>: {ros__parameters: {name: value}}`'
+
+
 class _RosYamlLoader(yaml.SafeLoader):
     """SafeLoader that reads ``1e-6`` as a float, as rcl's parameter parser does."""
 
@@ -82,9 +85,10 @@ def _flatten(prefix: str, section: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def read_params_file(path: str | Path, node_name: str) -> dict[str, Any]:
-    """The parameters a ROS parameter YAML sets for ``node_name`` (its own section and
-    ``/**``), flattened; InputError('--params', ...) on an unreadable or malformed file."""
+def load_params_doc(path: str | Path) -> Mapping[str, Any]:
+    """The top-level mapping of a ROS parameter YAML, parsed with rcl's typing;
+    InputError('--params', ...) on an unreadable, malformed or empty file. Shared by
+    ``cam-bench run`` and ``cam-bench analyze --params``."""
     path = Path(path)
     if path.is_dir():
         raise InputError('--params', str(path), 'a ROS parameter YAML file, not a directory')
@@ -101,9 +105,14 @@ def read_params_file(path: str | Path, node_name: str) -> dict[str, Any]:
         line = f' (line {where.line + 1})' if where is not None else ''
         raise InputError('--params', str(path),
                          f'valid YAML{line}: {getattr(exc, "problem", exc)}') from None
-    layout = '`<node name>: {ros__parameters: {name: value}}`'
     if not isinstance(doc, Mapping):
-        raise InputError('--params', str(path), f'a mapping {layout}')
+        raise InputError('--params', str(path), f'a mapping {PARAMS_LAYOUT}')
+    return doc
+
+
+def section_values(doc: Mapping[str, Any], path: str | Path, node_name: str) -> dict[str, Any]:
+    """The parameters ``doc`` sets for ``node_name``: its own section (with or without
+    a leading ``/``) and ``/**``, flattened."""
     values: dict[str, Any] = {}
     for key, section in doc.items():
         name = str(key).lstrip('/')
@@ -111,9 +120,15 @@ def read_params_file(path: str | Path, node_name: str) -> dict[str, Any]:
             continue   # another node's section (rcl ignores it too)
         if not isinstance(section, Mapping) or not isinstance(
                 section.get('ros__parameters'), Mapping):
-            raise InputError(f'--params {path}: {key}', section, layout)
+            raise InputError(f'--params {path}: {key}', section, PARAMS_LAYOUT)
         values.update(_flatten('', section['ros__parameters']))
     return values
+
+
+def read_params_file(path: str | Path, node_name: str) -> dict[str, Any]:
+    """The parameters a ROS parameter YAML sets for ``node_name`` (its own section and
+    ``/**``), flattened; InputError('--params', ...) on an unreadable or malformed file."""
+    return section_values(load_params_doc(path), path, node_name)
 
 
 def check_params(node_name: str, values: Mapping[str, Any],
