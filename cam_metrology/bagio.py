@@ -388,6 +388,13 @@ class BagMessage(NamedTuple):
     msg: Any
 
 
+def looks_like_bag(path: str | Path) -> bool:
+    """True for what the readers here take as a bag: a directory (rosbag2) or a bare
+    ``.mcap`` file; anything else is a table or scene file to the CLIs."""
+    p = Path(path)
+    return p.is_dir() or p.suffix == '.mcap'
+
+
 def _open_reader(path: str | Path) -> Any:
     from rosbags.highlevel import AnyReader
 

@@ -56,10 +56,6 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _is_bag(path: Path) -> bool:
-    return path.is_dir() or path.suffix == '.mcap'
-
-
 def _core_params(args: argparse.Namespace, source: str) -> dict[str, Any]:
     from cam_design.errors import require_positive
     from cam_design.valve_train.params import require_rpm, require_step_deg
@@ -89,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
     if args.sweep:
         from cam_design.valve_train.sweep import parse_range
         sweep_speeds = parse_range(args.sweep)
-    if _is_bag(path):
+    from cam_metrology.bagio import looks_like_bag
+    if looks_like_bag(path):
         core = DynamicsCore(_core_params(args, 'auto'))
         _replay(path, core)
         kind = 'bag'

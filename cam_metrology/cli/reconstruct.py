@@ -97,10 +97,6 @@ def _params(args: argparse.Namespace) -> dict[str, Any]:
     return params
 
 
-def _is_bag(path: Path) -> bool:
-    return path.is_dir() or path.suffix == '.mcap'
-
-
 def run(args: argparse.Namespace) -> int:
     """Handler of ``cam-bench reconstruct``."""
     from cam_metrology.reconstruction.core import ReconstructionCore
@@ -109,7 +105,8 @@ def run(args: argparse.Namespace) -> int:
     if not path.exists():
         raise FileNotFoundError(f'no such bag or table: {path}')
     core = ReconstructionCore(_params(args))
-    if _is_bag(path):
+    from cam_metrology.bagio import looks_like_bag
+    if looks_like_bag(path):
         _reject_table_options(args)
         kind, skipped = 'bag', []
         follower, problems = _bag(path, core)
