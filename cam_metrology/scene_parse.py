@@ -23,6 +23,7 @@ import numpy as np
 from cam_design.errors import InputError, require_finite, require_positive
 from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import design_table
+from cam_metrology.files import read_text_file
 from cam_metrology.scene import (COMPUTE_ITEMS, DowelPin, Follower, Lobe, Scene, Seat,
                                  ValveTrain)
 
@@ -163,16 +164,7 @@ def _unique_key_loader() -> Any:
 
 def load_scene(path: str | Path) -> Scene:
     """Read and validate the scene file at ``path`` (see ``parse_scene``)."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding='utf-8')
-    except FileNotFoundError:
-        raise InputError('scene', str(p), 'an existing scene file') from None
-    except IsADirectoryError:
-        raise InputError('scene', str(p), 'a scene file, not a directory') from None
-    except UnicodeDecodeError:
-        raise InputError('scene', str(p), 'a UTF-8 text file') from None
-    return parse_scene(text, source=str(p))
+    return parse_scene(read_text_file(path, 'scene file'), source=str(path))
 
 
 # ------------------------------------------------------------------------- scalars

@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 from typing import Any
 
@@ -60,19 +59,11 @@ def load_yaml(path: str) -> Any:
     import yaml
 
     from cam_design.errors import InputError
+    from cam_metrology.files import read_text_file
 
-    if os.path.isdir(path):
-        raise InputError(path, 'a directory', 'a YAML file')
+    text = read_text_file(path, 'YAML file', key=path)
     try:
-        with open(path, encoding='utf-8') as f:
-            return yaml.safe_load(f)
-    except UnicodeDecodeError:
-        raise InputError(path, 'binary data', 'a UTF-8 YAML text file') from None
-    except FileNotFoundError:
-        raise InputError(path, 'no such file', 'an existing YAML file') from None
-    except OSError as exc:
-        raise InputError(path, exc.strerror or type(exc).__name__,
-                         'a readable YAML file') from None
+        return yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, 'problem_mark', None)
         where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
+from cam_metrology.files import read_text_file
 
 ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
 LENGTH_UNITS = {'m': 1.0, 'mm': 1.0e-3, 'um': 1.0e-6}
@@ -314,17 +315,9 @@ def read_table_file(path: str | Path, *, angle_unit: str = 'deg',
 
 
 def _read_text(path: Path) -> str:
-    """The file's UTF-8 text; InputError for binary data or an unreadable file."""
-    try:
-        return path.read_text(encoding='utf-8')
-    except UnicodeDecodeError:
-        raise InputError(path.name, 'binary data', 'a UTF-8 text table: ' + TABLE_FORMATS
-                         ) from None
-    except IsADirectoryError:
-        raise InputError(path.name, 'a directory', 'a table file') from None
-    except OSError as exc:
-        raise InputError(path.name, f'an unreadable file ({exc.strerror})',
-                         'a readable table file') from None
+    """The file's UTF-8 text; InputError (naming the file) for binary data, a directory
+    or an unreadable file, listing the accepted table layouts."""
+    return read_text_file(path, 'text table: ' + TABLE_FORMATS, key=path.name)
 
 
 def table_from_message(msg: Any) -> tuple[str, tuple[str, ...], NDArray[np.float64]]:
