@@ -20,7 +20,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from benchmarks.machine import describe
+from benchmarks.machine import describe, save_results
 from cam_metrology import bagio
 from cam_metrology.paths import default_scene_path
 from cam_metrology.scene_parse import load_scene
@@ -192,8 +192,7 @@ def main(argv: list[str] | None = None) -> None:
     text = run(args.samples, args.repeat)
     print(text)
     if not args.no_write:
-        RESULTS.parent.mkdir(parents=True, exist_ok=True)
-        RESULTS.write_text(text)
+        save_results(RESULTS, text)
 
 
 if __name__ == '__main__':

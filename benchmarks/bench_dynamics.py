@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.machine import describe
+from benchmarks.machine import describe, save_results
 
 RESULTS = Path(__file__).resolve().parent / 'results' / 'dynamics.md'
 PRE_DEG = 2.0
@@ -172,8 +172,7 @@ def main() -> None:
               f"{sw['jump']} rpm, bounce onset (grid) {sw['onset']} rpm (measured first, "
               'before the scipy runs).', '']
     text = '\n'.join(lines) + '\n'
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(text, encoding='utf-8')
+    save_results(RESULTS, text)
     print(text)
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.machine import describe
+from benchmarks.machine import describe, save_results
 from cam_design.follower import EccentricDiscLift, Follower, convert_lift
 
 RC, E, R = 0.020, 0.005, 0.008
@@ -99,8 +99,7 @@ def main() -> None:
                       'law); evaluate = `derivatives(alpha)` (all four orders, one solve).',
                       '', f'Machine: {machine}', ''] + head + rows) + '\n'
     print(text)
-    RESULT.parent.mkdir(parents=True, exist_ok=True)
-    RESULT.write_text(text, encoding='utf-8')
+    save_results(RESULT, text)
 
 
 if __name__ == '__main__':

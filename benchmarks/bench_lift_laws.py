@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.machine import describe
+from benchmarks.machine import describe, save_results
 
 DEG = math.pi / 180
 MM = 1e-3
@@ -184,8 +184,7 @@ def main() -> None:
         jr_s = '-' if math.isnan(jr) else f'{jr:.1e}'
         lines.append(f'| {name} | {b:.2f} | {pts:.3g} | {jr_s} | {order} | {extra} |')
     text = '\n'.join(lines) + '\n'
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(text, encoding='utf-8')
+    save_results(OUT, text)
     print(text)
 
 

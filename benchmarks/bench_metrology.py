@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.machine import describe
+from benchmarks.machine import describe, save_results
 
 RESULTS = Path(__file__).resolve().parent / 'results' / 'metrology.md'
 SEEDS = 40
@@ -202,8 +202,7 @@ def main() -> None:
         'max angle error arcsec |',
         '|---|---|---|---|---|---|---|',
         *speed_rows, ''])
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(text)
+    save_results(RESULTS, text)
     print(text)
 
 

@@ -20,7 +20,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from benchmarks.machine import describe
+from benchmarks.machine import describe, save_results
 from cam_metrology.reconstruction.blas import single_thread_blas
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
 from cam_metrology.reconstruction.result import output_grid
@@ -242,8 +242,7 @@ def main() -> None:
         '## Stress (poly, 3600 points, 0.5 um)', '',
         '| case | method | time [ms] | lift err [um] | vel err [um/rad] | '
         'acc err [mm/rad^2] | warnings |', '|---|---|---|---|---|---|---|', *stress, '']
-    RESULT.parent.mkdir(parents=True, exist_ok=True)
-    RESULT.write_text('\n'.join(text))
+    save_results(RESULT, '\n'.join(text))
     print('\n'.join(text))
 
 

@@ -232,7 +232,7 @@ def _verdict(run: dict[str, Any]) -> str:
 
 def main() -> None:
     """Run the three benchmarks and write benchmarks/results/ros.md."""
-    from benchmarks.machine import describe
+    from benchmarks.machine import describe, save_results
     from cam_metrology.isolation import claim_domain, isolated_env
 
     machine = describe()
@@ -299,8 +299,7 @@ def main() -> None:
                   'the 2 cores).']
     text = '\n'.join(lines) + '\n'
     print(text)
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
-    RESULTS.write_text(text, encoding='utf-8')
+    save_results(RESULTS, text)
 
 
 if __name__ == '__main__':

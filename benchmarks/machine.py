@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 import platform
+from pathlib import Path
 
 
 def describe() -> str:
@@ -19,3 +20,9 @@ def describe() -> str:
     load = os.getloadavg()[0] if hasattr(os, 'getloadavg') else float('nan')
     return (f'{model}, {os.cpu_count()} cores, Python {platform.python_version()}, '
             f'load average {load:.2f} at start')
+
+
+def save_results(path: Path, text: str) -> None:
+    """Write a benchmark's Markdown results to ``path`` (UTF-8; folders created)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding='utf-8')
