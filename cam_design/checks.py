@@ -1,4 +1,4 @@
-"""Design checks of the book §2.1 (seed 000, methods.md §3), SI units throughout.
+"""Design checks of Shang (1988) §2.1 (docs/lift_laws.md), SI units throughout.
 
 Formulas (S0 numbering): valve flow area (2.1), time-area (2.2), fullness (2.3),
 Hertz line-contact stress (2.4, 2.5, 2.11), spring force (2.8), inertia force (2.9),
@@ -10,7 +10,7 @@ the cam/crank angle mapping phi - phi0 = 2 (alpha - alpha0).
 Flat-tappet radius of curvature rho1 = R0 + h + h'' (2.6) is here; roller-follower
 curvature (2.7) belongs to ``cam_design.follower``.
 
-The Hertz constants are the book's printed 0.564 (= 1/sqrt(pi) = 0.56419 rounded)
+The Hertz constants are Shang's printed 0.564 (= 1/sqrt(pi) = 0.56419 rounded)
 and 0.418 (= 0.564 * sqrt(1 / (2 (1 - 0.3^2))) rounded), so results agree with the
 book to its printing; they differ from the unrounded constants by < 0.05 %.
 """
@@ -103,7 +103,7 @@ def fullness(alpha: ArrayLike, y: ArrayLike) -> float:
 
 
 def rigid_valve_lift(h: ArrayLike, rocker_ratio: float, lash: float) -> NDArray:
-    """y = max(k h - x0, 0) [m] (methods §0; the seed prints it wrongly twice)."""
+    """y = max(k h - x0, 0) [m] (docs/contract.md; Shang prints it wrongly twice)."""
     k = require_positive('rocker_ratio', rocker_ratio)
     x0 = require_positive('lash', lash, allow_zero=True)
     return np.maximum(k * _arr('h', h) - x0, 0.0)
@@ -255,7 +255,7 @@ class OilFilm:
 
 def oil_film(alpha: ArrayLike, h: ArrayLike, rho: ArrayLike, base_radius: float,
              k_film: float, band: float = 0.05) -> OilFilm:
-    """(2.12) with the sign handling of methods §3 (radicand negative for 0 < g < 0.5)."""
+    """(2.12) with the sign handling of docs/lift_laws.md (radicand negative for 0 < g < 0.5)."""
     a = _arr('alpha', alpha)
     hh, rr = _arr('h', h), _arr('rho', rho)
     r0 = require_positive('base_radius', base_radius)
@@ -305,7 +305,7 @@ def valve_piston_clearance(piston: ArrayLike, valve: ArrayLike, clearance: float
 # ---------------------------------------------------------------- flank shape (§1.4)
 @dataclasses.dataclass(frozen=True)
 class FlankShape:
-    """Shape checks of methods §1.4 for one flank."""
+    """Shape checks of docs/lift_laws.md for one flank."""
 
     monotone: bool                  # h' of one sign (to 1e-9 of max |h'|)
     acceleration_sign_changes: int  # sign changes of h'' (zeros skipped); 1 expected
@@ -332,7 +332,7 @@ def flank_shape(alpha: ArrayLike, h1: ArrayLike, h2: ArrayLike, rise: bool) -> F
 # ---------------------------------------------------------------- ramp (§1.1c)
 @dataclasses.dataclass(frozen=True)
 class RampEvents:
-    """Quasi-static valve opening and seating on the ramps (methods §1.1c, §4.1)."""
+    """Quasi-static valve opening and seating on the ramps (docs/lift_laws.md)."""
 
     opening_alpha: float       # rad, first k h = x0 + F0/c on the rise flank
     closing_alpha: float       # rad, last one on the fall flank

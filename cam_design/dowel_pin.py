@@ -1,4 +1,4 @@
-"""Dowel pin measured as a cam (seed 004, methods.md §5.4).
+"""Dowel pin measured as a cam (Liu, docs/metrology.md).
 
 A cylinder of radius ``pin_radius`` (R_x) has its centre on a circle of radius
 ``circle_radius`` (R_z) about the shaft axis; a ball probe of radius ``probe_radius``

@@ -1,5 +1,5 @@
 """Follower geometry: cam profile coordinates, curvature, pressure angle, undercut, and
-lift conversion between follower kinds through the cam profile (methods.md §2).
+lift conversion between follower kinds through the cam profile (docs/follower.md).
 
 Conventions: alpha [rad] is the cam angle from the lobe centreline (see
 ``cam_design.lift_laws.base``); ``base_radius`` R0 [m] is the radius of the cam's base
@@ -142,7 +142,7 @@ def _wrap(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 # ---------------------------------------------------------------------------------------
-# Lift conversion between follower kinds through the cam profile (methods.md §2.6, §5.5)
+# Lift conversion between follower kinds through the cam profile (docs/follower.md)
 # ---------------------------------------------------------------------------------------
 
 #: table density of the contact-angle map (points on the full turn).
@@ -620,7 +620,7 @@ def convert_lift(law: LiftLaw, base_radius: float, source: Follower, target: Fol
     Returns ``law`` itself when the followers are the same (flat radii are ignored);
     otherwise a :class:`ConvertedLift` with exact h, h', h'', h'''.
     A concave flank that the target cannot follow (flat face, larger roller) is bridged:
-    the lift is the max over the contacts (methods §2.6), with a step of h' where the
+    the lift is the max over the contacts (docs/follower.md), with a step of h' where the
     contact jumps. Raises InputError (naming ``key``) for an undercut design profile
     (envelope cusp), a step in h, or a downward step of h' (a convex corner).
     """
@@ -636,7 +636,7 @@ def convert_lift(law: LiftLaw, base_radius: float, source: Follower, target: Fol
 
 
 # ---------------------------------------------------------------------------------------
-# Cam profile coordinates, radius of curvature, pressure angle, undercut (methods §2.1-2.5)
+# Cam profile coordinates, radius of curvature, pressure angle, undercut (docs/follower.md)
 # ---------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -721,7 +721,7 @@ def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64
 
 def inner_envelope(pitch: NDArray[np.float64], d1: NDArray[np.float64],
                    d2: NDArray[np.float64], radius: float) -> dict[str, NDArray[np.float64]]:
-    """Inner envelope of circles of ``radius`` [m] centred on a pitch curve (methods §2.5).
+    """Inner envelope of circles of ``radius`` [m] centred on a pitch curve (docs/follower.md).
 
     ``pitch``, ``d1``, ``d2``: (2, n) arrays of P, dP/dphi, d2P/dphi2 (analytic). The side
     is picked numerically: the offset P + sign r n (n the left normal) with the smaller
@@ -749,7 +749,7 @@ def inner_envelope(pitch: NDArray[np.float64], d1: NDArray[np.float64],
 
 
 def flat_profile(law: LiftLaw, base_radius: float, alpha: ArrayLike) -> Profile:
-    """Flat-faced translating tappet profile, book eq. 2.15 (methods §2.1).
+    """Flat-faced translating tappet profile, Shang eq. 2.15 (docs/follower.md).
 
     Cam frame: origin at the cam centre, nose on +Y; the tappet axis at cam angle alpha is
     at theta = pi/2 + alpha. x = p cos(theta) - h' sin(theta), y = h' cos(theta) +
@@ -782,7 +782,7 @@ def _pitch_profile(kind: str, a: NDArray[np.float64], pitch: NDArray[np.float64]
 
 def roller_profile(law: LiftLaw, base_radius: float, radius: float,
                    alpha: ArrayLike) -> Profile:
-    """In-line translating roller (or knife, radius 0) tappet profile, book eq. 2.16.
+    """In-line translating roller (or knife, radius 0) tappet profile, Shang eq. 2.16.
 
     Same frame as :func:`flat_profile`. g = R0 + r + h is the pitch radius (R0 the base
     radius of the profile, r the roller radius R00); the profile is the inner envelope,
@@ -815,7 +815,7 @@ def _sign_param(key: str, value: int, allowed: tuple[int, ...]) -> int:
 
 def offset_roller_profile(law: LiftLaw, base_radius: float, radius: float, offset: float,
                           alpha: ArrayLike, *, eta: int = 1, delta: int = 1) -> Profile:
-    """Offset translating roller follower, thesis (S3) reverse-method form (methods §2.3).
+    """Offset translating roller follower, thesis (S3) reverse-method form (docs/follower.md).
 
     Frame: x-axis along the follower's rise direction. phi = alpha is the cam angle, s =
     h(phi) the lift; ``eta`` = +1 clockwise cam, -1 counter-clockwise; ``delta`` = +1/-1
@@ -839,7 +839,7 @@ def offset_roller_profile(law: LiftLaw, base_radius: float, radius: float, offse
 def offset_pressure_angle(law: LiftLaw, base_radius: float, radius: float, offset: float,
                           alpha: ArrayLike, *, eta: int = 1, delta: int = 1
                           ) -> NDArray[np.float64]:
-    """Closed-form pressure angle [rad] of methods §2.3: atan(|s' - eta delta e| / (s0 + s))."""
+    """Closed-form pressure angle [rad] (docs/follower.md): atan(|s' - eta delta e| / (s0 + s))."""
     _, e, eta, delta, s0 = _offset_params(base_radius, radius, offset, eta, delta)
     a = _alpha_grid(alpha)
     return np.arctan(np.abs(law(a, 1) - eta * delta * e) / (s0 + law(a)))
@@ -878,7 +878,7 @@ def _rocker_check(base_radius: float, radius: float, centre_distance: float,
 def rocker_profile(law: LiftLaw, base_radius: float, radius: float, centre_distance: float,
                    arm_length: float, alpha: ArrayLike, *, eta: int = 1, delta: int = 1
                    ) -> Profile:
-    """Oscillating (rocker) roller follower, thesis form (methods §2.4).
+    """Oscillating (rocker) roller follower, thesis form (docs/follower.md).
 
     Frame: x-axis along OA (cam centre O to pivot A, distance a = ``centre_distance``),
     arm length l; the swing is psi = h(phi) / l [rad] (the law gives the roller centre's
@@ -926,7 +926,7 @@ def rocker_polar(law: LiftLaw, base_radius: float, radius: float, frame_length: 
 
 
 class EccentricDiscLift(LiftLaw):
-    """Exact lift of an eccentric disc (methods §2.1/§2.2, §7 #13) for a follower.
+    """Exact lift of an eccentric disc (docs/follower.md; docs/methods.md case 13) for a follower.
 
     Disc radius ``disc_radius`` R_c [m], eccentricity e [m] (nose at alpha = 0, base
     radius R0 = R_c - e). Flat: h = e (1 + cos a). Roller radius r (knife r = 0):
@@ -959,7 +959,7 @@ class EccentricDiscLift(LiftLaw):
 
 def wheel_centre_lift(law: LiftLaw, base_radius: float, design: Follower,
                       wheel_radius: float) -> LiftLaw:
-    """Grinding-wheel centre path as a roller lift (methods §5.5 step 1).
+    """Grinding-wheel centre path as a roller lift (docs/follower.md step 1).
 
     The wheel of radius R_w [m] acts as a roller follower on the work cam: its centre is
     at D = R0 + R_w + h_w(alpha), with h_w = convert_lift(law, R0, design, roller R_w).
@@ -970,7 +970,7 @@ def wheel_centre_lift(law: LiftLaw, base_radius: float, design: Follower,
 
 def ground_lift(law: LiftLaw, base_radius: float, design: Follower, wheel_radius: float,
                 wheel_error: float, target: Follower | None = None) -> LiftLaw:
-    """Lift of the cam actually ground with a wheel of radius R_w + dR (methods §5.5).
+    """Lift of the cam actually ground with a wheel of radius R_w + dR (docs/follower.md).
 
     The master is computed for ``wheel_radius`` R_w, the real wheel is R_w + dR
     (``wheel_error`` dR [m], either sign) and the operator re-zeroes the base circle, so

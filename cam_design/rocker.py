@@ -1,4 +1,4 @@
-"""CG rocker optimum dimension synthesis (seed 001, methods.md §6, erratum 1 applied).
+"""CG rocker optimum dimension synthesis (Song et al., docs/lift_laws.md, erratum 1 applied).
 
 One cam drives an intake rocker counter-directionally and an exhaust rocker
 co-directionally; their theoretical profiles differ by 2 delta(psi). The frame length

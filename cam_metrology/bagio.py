@@ -4,7 +4,7 @@ No rclpy here (architecture.md): messages are encoded with the rosbags ROS2_JAZZ
 typestore (or, for ``sensor_msgs/JointState``, with an equivalent ``struct`` encoder
 checked byte for byte against it in the tests), and bags are written with
 ``rosbags.rosbag2.Writer(version=9, storage_plugin=MCAP)`` so that they open with
-rosbags, with ``mcap`` + ``mcap_ros2`` and with ``ros2 bag`` (platform.md §4).
+rosbags, with ``mcap`` + ``mcap_ros2`` and with ``ros2 bag`` (docs/ros.md).
 
 Writing: ``BagWriter`` takes CDR bytes as received (the recorder path: nothing is
 re-encoded) and writes the rosbag2 QoS metadata of each topic (``/bench/scene``,
@@ -138,7 +138,7 @@ class BagWriter:
 
     ``BagWriter(path, compression=False)``; ``compression=True`` turns on zstd chunk
     compression (readable by rosbags, mcap and ros2 bag). Use it as a context manager
-    or call ``close()``: ``metadata.yaml`` is written on close only (platform.md §4).
+    or call ``close()``: ``metadata.yaml`` is written on close only (docs/ros.md).
     An existing ``path`` is never overwritten (InputError).
     """
 
@@ -950,7 +950,7 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
     """Copy what is readable of an interrupted recording into a new, closed bag.
 
     ``src``: a rosbag2 directory (or a single ``.mcap`` file) whose writer never
-    closed (no metadata.yaml, no MCAP footer: platform.md §4). Every message of the
+    closed (no metadata.yaml, no MCAP footer: docs/ros.md). Every message of the
     complete chunks is kept, bytes unchanged, with its topic, type and QoS; the
     truncated tail is dropped. Returns messages per topic. Types must be ROS 2 Jazzy
     types (the writer takes definitions from the typestore).

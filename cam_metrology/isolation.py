@@ -1,6 +1,6 @@
 """ROS 2 isolation for tests and one-shot runs: claim a free ROS_DOMAIN_ID.
 
-Domains 1..100 are safe with Fast DDS on this platform (232+ fail, see platform.md).
+Domains 1..100 are safe with Fast DDS on this platform (232+ fail, see docs/ros.md).
 A domain is claimed by holding an exclusive, non-blocking ``fcntl.flock`` on a lock
 file for the lifetime of the process; the lock disappears with the process, so a
 crashed run never leaks a claim.

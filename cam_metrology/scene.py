@@ -1,4 +1,4 @@
-"""The scene: camshaft under test, probe, features and what to compute (interfaces.md).
+"""The scene: camshaft under test, probe, features and what to compute (docs/contract.md).
 
 This module holds the typed result of parsing a scene. ``parse_scene(text)`` and
 ``load_scene(path)`` validate the whole schema before anything runs and raise
@@ -31,7 +31,7 @@ class Lobe:
 
 @dataclass(frozen=True)
 class DowelPin:
-    """Dowel pin of seed 004: radii in m; ``nominal_angle`` rad (optional)."""
+    """Dowel pin (Liu's geometry): radii in m; ``nominal_angle`` rad (optional)."""
 
     pin_radius: float
     circle_radius: float
@@ -51,7 +51,7 @@ class Seat:
 
 @dataclass(frozen=True)
 class ValveTrain:
-    """Dynamics parameters at the valve side (methods.md §4, interfaces.md ``sdof``)."""
+    """Dynamics parameters at the valve side (docs/dynamics.md, docs/contract.md ``sdof``)."""
 
     model: str                      # 'sdof' | 'mdof'
     rocker_ratio: float             # k

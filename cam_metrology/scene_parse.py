@@ -1,4 +1,4 @@
-"""Parse and validate a scene file (interfaces.md "Scene file") into ``scene.Scene``.
+"""Parse and validate a scene file (docs/scene.md) into ``scene.Scene``.
 
 ``parse_scene(text, source)`` validates the whole document before it builds anything:
 a bad value raises ``InputError`` whose key is the full path of the offending entry
@@ -6,7 +6,7 @@ a bad value raises ``InputError`` whose key is the full path of the offending en
 half-applied. Keys that the schema does not know are allowed: each gives a warning
 (``Scene.warnings``, with its key path), never an error.
 
-Schema: interfaces.md plus the extra keys of architecture.md (``lobes[].follower_radius``,
+Schema: docs/scene.md plus the extra keys of architecture.md (``lobes[].follower_radius``,
 ``idle_timeout``, ``valve_train.seat.restitution``, ``valve_train.mdof``). All values SI.
 Numbers written as strings that YAML 1.1 does not read as floats (``1e9``) are
 accepted when they parse as finite floats.
@@ -110,7 +110,7 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
     top = ctx.mapping('', doc, TOP_KEYS) if isinstance(doc, Mapping) else None
     if top is None:
         raise InputError('scene', type(doc).__name__,
-                         'a YAML mapping with the keys of interfaces.md at the top level')
+                         'a YAML mapping with the keys of docs/scene.md at the top level')
     camshaft_id = _text('camshaft_id', top.get('camshaft_id', ''), allow_empty=True)
     direction = _direction(top.get('direction', 1))
     if 'probe' not in top:
@@ -415,7 +415,7 @@ def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
         if k in vt:
             params[k] = check(f'valve_train.{k}', vt[k])
         elif required:
-            raise InputError(f'valve_train.{k}', None, 'a value (see interfaces.md)')
+            raise InputError(f'valve_train.{k}', None, 'a value (see docs/scene.md)')
     seat = _seat(ctx, vt.get('seat'))
     speeds = _speeds(vt.get('cam_speed_rpm', [1500.0]))
     mdof = vt.get('mdof')

@@ -9,13 +9,13 @@ live ``bench-sim`` node publishes, and ``write_sim_bag`` records it into a bag e
 as the recorder would (``/bench/scene``, ``/bench/truth``, ``/bench/joint_states``,
 ``/bench/feature_done``).
 
-Model (conventions of interfaces.md):
+Model (conventions of docs/contract.md):
 
 * lobe: ``s = zero + h_probe(alpha) + runout + noise`` with
   ``alpha = direction * (theta_true - nose)`` wrapped to (-pi, pi], where ``h_probe``
   is the lobe's design lift converted through the cam profile to the scene's probe
   (``cam_design.follower.convert_lift``; identity when the followers are the same);
-* dowel pin: ``s = zero + DowelPinGeometry.lift(alpha)`` (seed 004's absolute lift)
+* dowel pin: ``s = zero + DowelPinGeometry.lift(alpha)`` (Liu's absolute lift)
   inside contact; outside it the probe rests on its stop ``pin_stop_depth`` below the
   lowest contact lift;
 * ``theta`` reported = ``theta_true + encoder noise``; the shaft turns continuously

@@ -1,4 +1,4 @@
-"""Composite acceleration-segment engine (methods.md §1.3); constant-acceleration cam (§1.2).
+"""Composite acceleration-segment engine (docs/lift_laws.md); constant-acceleration cam (§1.2).
 
 The base section (ramp end t0 -> nose T) is a sequence of acceleration segments
 i = 1..m of width w_i with h'' = A_i s_i(u), u in [0, 1], s_i one of the shapes
@@ -14,9 +14,9 @@ the amplitudes A_i solve the linear system
 
 Rows that are identically zero (e.g. h'' continuity between two half-sines, both 0 at
 the junction) are dropped; the remaining system must determine all A_i exactly,
-otherwise InputError. **FB2 and MFB2 (S0 §2.5) are not available**: their segment
-recipes are in pages of the book that the project does not have, so no preset is
-provided (methods.md §1.3); this engine is where they would be loaded.
+otherwise InputError. **FB2 and MFB2 (Shang §2.5) are not available**: their segment
+recipes are in pages of Shang (1988) that the project does not have, so no preset is
+provided (docs/lift_laws.md); this engine is where they would be loaded.
 """
 from __future__ import annotations
 
@@ -148,7 +148,7 @@ def composite_flank(ramp: Ramp, rise: float, shapes: Sequence[tuple[str, float, 
 
     With ``half_angle`` the widths are free (their given values are the start): they
     are scaled to sum to ``half_angle`` and adjusted by least squares until all the
-    conditions hold (methods §1.3 step 3)."""
+    conditions hold (docs/lift_laws.md step 3)."""
     m = len(shapes)
     if m == 0:
         raise InputError(f'{key}.segments', [], 'at least one acceleration segment')

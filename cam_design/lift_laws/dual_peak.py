@@ -1,4 +1,4 @@
-"""Dual-peak EGR cam of patent CN103422923B (seed 002, methods.md §1.7).
+"""Dual-peak EGR cam of patent CN103422923B (the patent, docs/lift_laws.md).
 
 Segments in alpha (main nose at alpha = 0):
 

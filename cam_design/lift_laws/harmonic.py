@@ -1,4 +1,4 @@
-"""N-harmonic cam (N次谐波凸轮), methods.md §1.6 [RECON: the book's basis is unconfirmed].
+"""N-harmonic cam (N次谐波凸轮), docs/lift_laws.md [RECON: Shang's basis is unconfirmed].
 
 Implicit ramps (default): h(alpha) = sum_{j=0..N} a_j cos(j pi alpha / Phi) for
 |alpha| <= Phi (0 outside), Phi the working half-angle including the ramps. Odd

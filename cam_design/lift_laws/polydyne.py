@@ -1,4 +1,4 @@
-"""Polydyne cam (Dudley), methods.md §1.5: invert the SDOF valve train for a valve motion.
+"""Polydyne cam (Dudley), docs/lift_laws.md: invert the SDOF valve train for a valve motion.
 
 Prescribe the valve motion y_d(alpha) (a polynomial); at the design speed omega_d the
 cam lift is (damping ignored, eps_c = M omega_d^2 / c)
@@ -38,7 +38,7 @@ TRAIN_KEYS = ('rocker_ratio', 'lash', 'mass', 'stiffness', 'spring_rate', 'sprin
 
 @dataclasses.dataclass(frozen=True)
 class Train:
-    """SDOF valve-train parameters at the valve side (interfaces.md names), SI."""
+    """SDOF valve-train parameters at the valve side (docs/contract.md names), SI."""
 
     rocker_ratio: float     # k
     lash: float             # x0 [m]
@@ -131,7 +131,7 @@ def polydyne_law(valve: Sequence[PowerSegment], train: Train, *, key: str = 'lif
     required.append(nose)
     flank = Flank(tuple(ramp) + tuple(cam), tuple(required), nose_order=nose)
     law = assemble_lobe(flank, None, key=key, name='polydyne')
-    for seg in valve:          # methods §1.5: y_d monotone on the flank (it rises)
+    for seg in valve:          # docs/lift_laws.md: y_d monotone on the flank (it rises)
         t = np.linspace(seg.lo, seg.hi, 4001)
         v = seg(t, 1)
         if np.any(v < -1e-9 * max(float(np.max(np.abs(v))), 1e-300)):

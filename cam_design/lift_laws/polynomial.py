@@ -1,4 +1,4 @@
-"""High-order polynomial (高次方) cam, methods.md §1.4 (S2 eqs 2, 18-32 corrected).
+"""High-order polynomial (高次方) cam, docs/lift_laws.md (S2 eqs 2, 18-32 corrected).
 
 Any 2..8 exponents are accepted: n exponents fix h, h', ..., h^(n-1) at the ramp end
 (zero beyond h'), so 4 give C3 (the patent's five-term form), 3 give C2, 5 and more

@@ -1,4 +1,4 @@
-"""Buffer (ramp) sections, methods.md §1.1, in flank coordinate t (t = 0 on the base circle).
+"""Buffer (ramp) sections, docs/lift_laws.md, in flank coordinate t (t = 0 on the base circle).
 
 * constant velocity [STD]: h = v t on [0, alpha_r], H_r = v alpha_r (h' steps at t = 0).
 * constant acceleration + constant velocity [S2 eqs 1, 7-13]: h = C_B t^2 on [0, beta1],

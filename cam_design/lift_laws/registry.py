@@ -48,7 +48,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         'half_angle': 65 * DEG,
         'exponents': [2, 10, 18, 26],
     },
-    # The worked example of methods.md §1.4 (H = 8 mm, alpha2 = 100 deg) on the §1.1 ramp.
+    # The worked example of docs/lift_laws.md (H = 8 mm, alpha2 = 100 deg) on the §1.1 ramp.
     'methods_example': {
         'family': 'polynomial',
         'ramp': dict(_RAMP_25, angle=30 * DEG),

@@ -1,4 +1,4 @@
-"""Valve-train dynamics (methods.md §4): single-DOF penalty/hard-seat model with an
+"""Valve-train dynamics (docs/dynamics.md): single-DOF penalty/hard-seat model with an
 exact piecewise-linear propagator, the 4+N1+N2 multi-DOF model, the epsilon criterion
 and cam-speed sweeps. Pure numerics: no messages, no ROS."""
 from cam_design.valve_train.params import SdofParams

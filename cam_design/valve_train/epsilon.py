@@ -1,4 +1,4 @@
-"""The epsilon criterion of methods.md §4.3 (book §3.3, reconstructed).
+"""The epsilon criterion of docs/dynamics.md (Shang §3.3, reconstructed).
 
 In the open phase (undamped) the SDOF model divided by c_sum = c + c' reads
 eps y'' + y = q(alpha), alpha in rad, with
@@ -6,13 +6,13 @@ eps y'' + y = q(alpha), alpha in rad, with
     eps = M omega^2 / c_sum = (omega / omega_n)^2     (dimensionless)
     q   = (c u - F0) / c_sum                          (quasi-static lift)
 
-The book prints eps = M omega^3 / c, which has units of 1/s and is dimensionally
+Shang (1988) prints eps = M omega^3 / c, which has units of 1/s and is dimensionally
 inconsistent; the dimensionless parameter is M omega^2 / c (we use c + c' by default,
-``use_spring=False`` gives the book's c; which one the book means is an open item).
+``use_spring=False`` gives Shang's c; which one Shang (1988) means is an open item).
 A jump Delta q^(j) of the j-th derivative of q (j >= 1, including the mismatch at the
 opening, where the valve starts at rest) adds a free vibration of amplitude
 eps^(j/2) |Delta q^(j)|: O(sqrt(eps)) for a velocity step, O(eps) for an acceleration
-step, O(eps^1.5) for a jerk step. The thresholds of the book's selection rule (pp.
+step, O(eps^1.5) for a jerk step. The thresholds of Shang's selection rule (pp.
 77-89) are not available: the allowed amplitude is an input here.
 """
 from __future__ import annotations

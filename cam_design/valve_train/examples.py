@@ -1,7 +1,7 @@
-"""Closed-form lifts used by the dynamics tests and benchmark (methods.md §1.5, §4.3).
+"""Closed-form lifts used by the dynamics tests and benchmark (docs/lift_laws.md).
 
 These are not lift-law families of the scene (those live in ``cam_design.lift_laws``):
-they build the exact test cams of methods.md §7 cases 19, 20 and 22 directly from
+they build the exact test cams of docs/methods.md cases 19, 20 and 22 directly from
 their formulas, as piecewise polynomials in alpha.
 
 * ``PiecewisePolynomialLaw``: a LiftLaw from polynomial pieces (numpy Polynomial in
@@ -108,7 +108,7 @@ def ramp_polydyne_yd(params: SdofParams, *, y_max: float = 8e-3, half: float = 5
                      exponents: Sequence[int] = (2, 6, 10, 14, 18)) -> Polynomial:
     """Case 22 valve motion: even-exponent polynomial in x = -alpha/half (x = 1 at the
     opening, 0 at the nose) with y_d = 0, y_d' = k v_r/(1 + c'/c), y_d'' = y_d''' =
-    y_d'''' = 0 at the opening and y_d = y_max at the nose (methods.md §1.5)."""
+    y_d'''' = 0 at the opening and y_d = y_max at the nose (docs/lift_laws.md)."""
     p = params
     if len(exponents) != 5:
         raise InputError('exponents', exponents, 'five exponents')

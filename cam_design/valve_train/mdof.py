@@ -1,6 +1,6 @@
-"""Multi-DOF valve train "4 + N1 + N2" (methods.md §4.2, book §3.2 RECONSTRUCTED).
+"""Multi-DOF valve train "4 + N1 + N2" (docs/dynamics.md, Shang §3.2 RECONSTRUCTED).
 
-The book's text is not available; this is the reading of methods.md §4.2: four lumped
+Shang's text is not available; this is the reading of docs/dynamics.md: four lumped
 bodies - tappet, push-rod, rocker (a translational DOF at the valve side) and valve
 with retainer - plus the inner and outer valve springs discretised into N1 and N2 coil
 masses. Every coordinate is referred to the valve side (tappet-side displacements

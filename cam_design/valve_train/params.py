@@ -1,4 +1,4 @@
-"""Parameters of the single-DOF valve-train model (interfaces.md ``sdof``), validated.
+"""Parameters of the single-DOF valve-train model (docs/contract.md ``sdof``), validated.
 
 All quantities are referred to the valve side, SI units: masses kg, stiffnesses N/m,
 dampings N s/m, forces N, lengths m. ``restitution`` None selects the penalty seat of
@@ -15,7 +15,7 @@ from cam_design.errors import InputError, require_finite, require_positive
 
 @dataclass(frozen=True)
 class SdofParams:
-    """The ``sdof`` model: M y'' = F_t + R_seat - F0 - c' y - b_v y' (methods.md §4.1)."""
+    """The ``sdof`` model: M y'' = F_t + R_seat - F0 - c' y - b_v y' (docs/dynamics.md)."""
 
     mass: float                 # M [kg], equivalent mass at the valve
     stiffness: float            # c [N/m], train stiffness at the valve

@@ -25,7 +25,7 @@ COLUMNS = ('alpha_rad', 'valve_lift_m', 'valve_velocity_m_per_s', 'contact_force
 
 @dataclass(frozen=True)
 class ContactGeometry:
-    """Cam-follower contact for the Hertz stress (methods.md §4.5, checks 2.5/2.11).
+    """Cam-follower contact for the Hertz stress (docs/dynamics.md, checks 2.5/2.11).
 
     follower: 'flat' | 'roller' | 'knife'; radius [m] of a roller; base_radius R0 [m];
     width W [m] of the contact line; youngs_modulus E [Pa] of both bodies (mu = 0.3).

@@ -1,4 +1,4 @@
-"""Single-DOF valve-train model (methods.md §4.1, interfaces.md ``sdof``), solved exactly.
+"""Single-DOF valve-train model (docs/dynamics.md, docs/contract.md ``sdof``), solved exactly.
 
 Equation (valve side, SI): with u = k h(alpha) - x0, delta = u - y,
     M y'' = F_t + R_seat - F0 - c' y - b_v y'        (time derivatives)
@@ -105,7 +105,7 @@ class SdofResult:
 
     @property
     def cam_force(self) -> NDArray[np.float64]:
-        """Cam-follower contact force k F_t [N] (methods.md §4.5)."""
+        """Cam-follower contact force k F_t [N] (docs/dynamics.md)."""
         return self.params.rocker_ratio * self.force
 
 

@@ -1,6 +1,6 @@
 """Cam-speed sweeps: separation (jump) speed and bounce onset speed, and plots.
 
-The jump speed is the lowest cam speed with a separation (interfaces.md event
+The jump speed is the lowest cam speed with a separation (docs/contract.md event
 definitions); the bounce onset the lowest with a bounce. Both are bracketed on the
 sweep grid (first grid speed with the event, the previous one without) and refined by
 bisection to ``tol_rpm``. A sweep reuses one CamInput (the cam polynomial does not

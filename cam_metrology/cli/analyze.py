@@ -3,7 +3,7 @@
 The bag goes through the same cores as the live nodes (metrology, plus the
 reconstruction and dynamics cores when they exist in this tree), so live and
 offline results come from one code path. Prints a human report, or writes the JSON
-report of interfaces.md (``--json FILE`` or ``-`` for stdout); ``--plot DIR`` writes
+report of docs/contract.md (``--json FILE`` or ``-`` for stdout); ``--plot DIR`` writes
 PNGs of measured vs design lift and the lift error per feature; ``--out-bag DIR``
 writes a copy of the bag plus every output the cores produced.
 """

@@ -18,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         'design', help='evaluate lift laws, cam profiles, design checks, rocker synthesis',
         description='Design side of cam-bench: lift laws (h, h\', h\'\', h\'\'\'), cam profile '
                     'coordinates for flat/roller/rocker followers, the design checks of '
-                    'the book §2.1, and the CG rocker optimum dimension synthesis.')
+                    'Shang (1988) §2.1, and the CG rocker optimum dimension synthesis.')
     design_sub = parser.add_subparsers(dest='design_command', metavar='WHAT')
     register_modules(design_sub, SUBMODULES)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)

@@ -2,8 +2,8 @@
 
 * ``design law FILE.yaml``: evaluate a lift law (``lift_law:`` mapping, or the file
   is the mapping itself) -> table of alpha, h, h', h'', h''' (CSV/JSON/plot).
-* ``design check FILE.yaml``: all design checks of the book §2.1 (docs/lift_laws.md).
-* ``design rocker``: CG rocker optimum frame length (seed 001).
+* ``design check FILE.yaml``: all design checks of Shang (1988) §2.1 (docs/lift_laws.md).
+* ``design rocker``: CG rocker optimum frame length (Song et al.).
 """
 from __future__ import annotations
 
@@ -32,8 +32,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--plot', metavar='PNG', help='plot h, h\', h\'\' and h\'\'\' to a PNG')
     p.set_defaults(func=cmd_law)
 
-    p = sub.add_parser('check', help='run the design checks of the book §2.1',
-                       description='Design checks (S0 §2.1): flow area, time-area, fullness, '
+    p = sub.add_parser('check', help='run the design checks of Shang (1988) §2.1',
+                       description='Design checks (Shang §2.1): flow area, time-area, fullness, '
                                    'rho1, Hertz stress, equivalent mass, separation, oil film, '
                                    'valve-piston clearance. Input format: docs/lift_laws.md.')
     p.add_argument('file', help='YAML check input, or a scene file')
@@ -43,9 +43,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
     p.set_defaults(func=cmd_check)
 
-    p = sub.add_parser('rocker', help='CG rocker optimum dimension synthesis (seed 001)',
+    p = sub.add_parser('rocker', help='CG rocker optimum dimension synthesis (Song et al.)',
                        description='Optimum frame length L of a rocker follower cam (S1, '
-                                   'methods.md §6, erratum 1 applied). Lengths in m.')
+                                   'docs/lift_laws.md, erratum 1 applied). Lengths in m.')
     p.add_argument('--arm-length', type=float, required=True, help='rocker length l [m]')
     p.add_argument('--base-radius', type=float, required=True, help='base radius R_b [m]')
     p.add_argument('--max-swing-deg', type=float, required=True, help='max swing [deg]')

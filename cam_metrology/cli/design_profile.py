@@ -31,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add ``profile`` to the ``design`` group."""
     p = sub.add_parser(
         'profile', help='cam profile coordinates, curvature, pressure angle, undercut',
-        description='Cam profile for a follower (methods.md §2): flat tappet (book eq. 2.15), '
+        description='Cam profile for a follower (docs/follower.md): flat tappet (Shang eq. 2.15), '
                     'in-line roller or knife (2.16), offset translating roller and oscillating '
                     'roller (thesis reverse-method forms). Lengths in m, angles in rad in the '
                     'files; the summary adds _deg fields.')
@@ -273,7 +273,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
 
 def _polar_columns(args: argparse.Namespace, prof: Any, law: Any, base: float
                    ) -> dict[str, Any]:
-    """S1 polar form of the rocker pitch curve (methods §2.4) for the same samples."""
+    """S1 polar form of the rocker pitch curve (docs/follower.md) for the same samples."""
     from cam_design.errors import InputError
     from cam_design.follower import rocker_polar
 

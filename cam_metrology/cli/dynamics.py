@@ -1,7 +1,7 @@
 """`cam-bench dynamics SCENE|BAG`: valve motion, contact force and stress, events and
-jump speed of the scene's valve train (methods.md §4; see docs/dynamics.md).
+jump speed of the scene's valve train (see docs/dynamics.md).
 
-* SCENE (YAML, interfaces.md): the design lift of every lobe (``lift`` table or
+* SCENE (YAML, docs/contract.md): the design lift of every lobe (``lift`` table or
   ``lift_law``) drives the scene's ``valve_train`` model.
 * BAG (rosbag2 directory or .mcap): replayed in-process through the metrology,
   reconstruction and dynamics cores (the live code path); the reconstructed profile of

@@ -1,6 +1,6 @@
 """`cam-bench reconstruct BAG|TABLE`: lift, velocity, acceleration and jerk of measured
 lobes by the smoothing spline with the rebound method and by the N-harmonic series
-(methods.md §5.1, §5.2; see docs/reconstruction.md).
+(see docs/reconstruction.md).
 
 * BAG (a rosbag2 directory or .mcap): replayed in-process through the metrology core
   and the reconstruction core (the live code path); the scene in the bag gives the

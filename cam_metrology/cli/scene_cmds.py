@@ -16,7 +16,7 @@ from typing import Any
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``scene`` group and the ``simulate`` command."""
     scene_sub = _group(sub, 'scene', 'validate a scene file',
-                       'Scene files (interfaces.md "Scene file"): validation and summary.')
+                       'Scene files (docs/scene.md): validation and summary.')
     check = scene_sub.add_parser(
         'check', help='validate a scene file and print a summary',
         description='Validate the whole scene (exit 2 with a message naming the key, the '

@@ -1,1 +1,1 @@
-"""Dynamics node core: valve motion per lobe and cam speed (methods.md §4)."""
+"""Dynamics node core: valve motion per lobe and cam speed (docs/dynamics.md)."""

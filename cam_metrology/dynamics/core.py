@@ -4,7 +4,7 @@ Subscribes ``/bench/scene`` (std_msgs/String, scene YAML) and
 ``/reconstruction/profile`` (Float64MultiArray, label ``<feature>/<method>``, columns
 ``alpha_rad,lift_m,velocity_m_per_rad,acceleration_m_per_rad2,jerk_m_per_rad3``, the
 lift for the lobe's design follower). For each lobe and each speed of the scene's
-``valve_train.cam_speed_rpm`` it runs the scene's model (``sdof``: methods.md §4.1 with
+``valve_train.cam_speed_rpm`` it runs the scene's model (``sdof``: docs/dynamics.md with
 the penalty or hard seat; ``mdof``: §4.2) and publishes
 
 * ``/dynamics/valve_motion``: one table per lobe and speed, label
@@ -85,7 +85,7 @@ def law_from_profile(cols: tuple[str, ...], data: np.ndarray, key: str) -> JetTa
 
 
 class DynamicsCore:
-    """Valve-train dynamics of the scene's lobes (methods.md §4)."""
+    """Valve-train dynamics of the scene's lobes (docs/dynamics.md)."""
 
     name = 'dynamics'
     subscriptions = {SCENE: 'std_msgs/msg/String',

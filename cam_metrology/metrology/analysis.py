@@ -5,7 +5,7 @@ design follower differs from the probe) -> coarse nose by circular correlation -
 flank coverage check (a flank with too little data fails the feature with the
 reason) -> full-flank least squares (primary angle, std) -> sensitive-point method
 (secondary angle, validity) -> top point / false asymmetry -> lift error and
-base-circle run-out. The dowel pin is measured the same way with the seed-004
+base-circle run-out. The dowel pin is measured the same way with Liu's
 geometry (absolute lift), excluding the samples near the tangent points and the
 probe-stop samples outside contact.
 
@@ -457,7 +457,7 @@ def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64], lo: fl
 
 def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
                 settings: Settings) -> FeatureResult:
-    """Measure the dowel-pin centre angle (seed 004 geometry, absolute lift)."""
+    """Measure the dowel-pin centre angle (Liu's geometry, absolute lift)."""
     if fs.theta.size < 4 * settings.min_flank_samples:
         raise FeatureFailed(f'{fs.theta.size} valid samples (need >= '
                             f'{4 * settings.min_flank_samples})')

@@ -1,4 +1,4 @@
-"""Top point and false asymmetry (methods.md §5.3, a reconstruction [RECON]).
+"""Top point and false asymmetry (docs/metrology.md, a reconstruction [RECON]).
 
 If the zero of a measured lift table is off the true nose by delta, a symmetric cam
 looks asymmetric: S(delta + a) != S(delta - a). Near the top h' ~ 0, so the maximum

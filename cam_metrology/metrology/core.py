@@ -4,7 +4,7 @@ Subscribes ``/bench/scene``, ``/bench/joint_states``, ``/bench/feature_done``.
 Publishes, per completed feature, a status on ``/metrology/result`` (name = feature
 id; ERROR with the reason for a failed feature; ``skipped/<what>`` statuses for what
 is not computed) and its aligned lift table on ``/metrology/lift``; the JSON report
-(interfaces.md) on ``/metrology/report`` when every expected feature is done, and
+(docs/contract.md) on ``/metrology/report`` when every expected feature is done, and
 again at ``finish``. A feature is analysed as soon as it ends (next frame_id,
 feature_done or idle timeout), so results follow the last sample within the
 analysis time of one feature (tens of ms).
@@ -322,7 +322,7 @@ class MetrologyCore:
         return out
 
     def report(self, final: bool = True) -> dict[str, Any]:
-        """The JSON report of interfaces.md (plus extra keys)."""
+        """The JSON report of docs/contract.md (plus extra keys)."""
         scene = self.scene
         features: dict[str, Any] = {}
         for fid, res in self.results.items():

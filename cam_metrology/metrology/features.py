@@ -1,4 +1,4 @@
-"""Assembly of features (lobes, dowel pin) from JointState samples (interfaces.md).
+"""Assembly of features (lobes, dowel pin) from JointState samples (docs/contract.md).
 
 Samples arrive one per message (``handle_joint_state``) or in bulk from the offline
 replay (``handle_samples``). Samples of one feature are contiguous: a new

@@ -1,4 +1,4 @@
-"""Sensitive-point method (methods.md §5.4, seed 004).
+"""Sensitive-point method (docs/metrology.md, Liu).
 
 An angle inferred from a lift reading has the error dh/|h'|, so the crossings of
 the measured lift with design levels are taken where |h'| of the design lift as
@@ -41,7 +41,7 @@ def circular_mean(angles: NDArray[np.float64] | list[float],
 
 def seed_nose(phi_m: float, phi_n: float) -> float:
     """Nose/pin-centre angle [rad] from the two crossing angles [rad] of a symmetric
-    feature (seed 004): the circular mean, wrapped to [0, 2 pi)."""
+    feature (Liu): the circular mean, wrapped to [0, 2 pi)."""
     return float(np.mod(circular_mean([phi_m, phi_n]), 2 * np.pi))
 
 

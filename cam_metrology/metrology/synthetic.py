@@ -1,6 +1,6 @@
 """Exact synthetic test data for the metrology numerics (tests and benchmarks).
 
-``PolynomialRampCam`` is the test cam of methods.md §1.4/§5.3 with the ramp of §1.1b,
+``PolynomialRampCam`` is the test cam of docs/lift_laws.md with the ramp of §1.1b,
 written here in closed form so that tests do not depend on the lift-law module.
 ``sample_lobe`` and ``sample_pin`` generate encoder/probe samples as a bench would
 record them: any start angle, several revolutions, either direction, wrapped or

@@ -1,7 +1,7 @@
 """Neutral core outputs (``cam_metrology.outputs``) -> rclpy messages.
 
 ``TableOutput`` -> Float64MultiArray (data filled through ``array.array('d', ...)``,
-the fast path of platform.md §2: 2.3 µs instead of ~300 µs for a numpy array),
+the fast path of docs/ros.md: 2.3 µs instead of ~300 µs for a numpy array),
 ``StatusOutput`` -> DiagnosticArray, ``TextOutput`` -> String.
 """
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 * One ``raw=True`` subscription per topic: the callback gets the bytes exactly as they
   came off the wire and writes them unchanged with ``bagio.BagWriter`` (never
-  ``serialize_message``, platform.md §4).
+  ``serialize_message``, docs/ros.md).
 * Topics: the bench inputs (/bench/scene, /bench/truth, /bench/joint_states,
   /bench/feature_done) and every output topic of architecture.md, plus extras
   (``/topic`` or ``/topic:pkg/msg/Type``).

@@ -1,7 +1,7 @@
 """Replay of a bag on live ROS 2 topics: the recorded CDR bytes, republished unchanged.
 
 * Publishers per topic with the bag's type; reliable KEEP_ALL (lossless replay with
-  back-pressure, platform.md §2/§5) and transient local for the latched topics
+  back-pressure, docs/ros.md) and transient local for the latched topics
   (/bench/scene, /bench/truth, /metrology/report, or any topic the bag recorded as
   transient local).
 * The latched topics' first messages are published first, then the player waits

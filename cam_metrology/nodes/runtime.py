@@ -7,7 +7,7 @@
 * ``drain`` spins until the subscriptions have been idle for a moment, so messages
   that arrived before a stop are still handled (the demo stops nodes upstream first).
 * rclpy.init() is not a context manager on Jazzy: ``close()`` does the
-  ``destroy_node`` / ``try_shutdown`` of platform.md §6.8.
+  ``destroy_node`` / ``try_shutdown`` of docs/ros.md
 * Fast DDS caps every history at its default resource limit ``max_samples = 5000``
   whatever the keep-last depth rclpy asks for (measured: depth 20 000, 15 000 samples
   published before spinning -> 5000 received). ``use_fastdds_profile`` points
@@ -187,7 +187,7 @@ def wait_all_acked(publishers: Any, timeout: float) -> bool:
 
 def publish_retrying(pub: Any, msg: Any, timeout: float) -> int:
     """``pub.publish(msg)``, retried while it raises RCLError (a reliable writer blocked
-    longer than Fast DDS's max_blocking_time, platform.md §2) until ``timeout`` s;
+    longer than Fast DDS's max_blocking_time, docs/ros.md) until ``timeout`` s;
     returns the number of retries."""
     from rclpy._rclpy_pybind11 import RCLError
     deadline = time.monotonic() + timeout

@@ -1,4 +1,4 @@
-"""Topics, message types and QoS of the ROS graph (architecture.md, interfaces.md).
+"""Topics, message types and QoS of the ROS graph (architecture.md, docs/contract.md).
 
 One table, used by every node, the recorder and replay, so that publishers and
 subscribers always agree. QoS is kept as a plain ``QosSpec`` (reliable or not,
@@ -41,7 +41,7 @@ class QosSpec:
 
 
 LATCHED = QosSpec(reliable=True, transient_local=True, depth=1)
-#: /bench/joint_states: reliable keep last 20 000 on both sides (interfaces.md asks
+#: /bench/joint_states: reliable keep last 20 000 on both sides (a bench publisher asks
 #: for depth >= 1000). Measured on this 2-core machine under a load of 5-6 from other
 #: jobs: with 1000 the demo lost 28-38 % of the samples in the recorder, both ways a
 #: keep-last history can drop: the reader's queue overflows when the Python callback

@@ -1,4 +1,4 @@
-"""Profile reconstruction from measured lift tables (methods.md §5.1, §5.2).
+"""Profile reconstruction from measured lift tables (docs/reconstruction.md).
 
 * ``samples``  -- input tables (CSV, gauge nominal-profile files, /metrology/lift
   messages), cleaning (NaN, wrapped and repeated angles) and unit handling;

@@ -3,7 +3,7 @@
 Subscribes ``/bench/scene`` (std_msgs/String, scene YAML) and ``/metrology/lift``
 (Float64MultiArray per feature: label = feature id, columns
 ``alpha_rad,lift_m,design_lift_m``). For every lobe table it runs the configured
-methods (methods.md §5.1 spline, §5.2 N-harmonic) and publishes:
+methods (docs/reconstruction.md spline, §5.2 N-harmonic) and publishes:
 
 * ``/reconstruction/profile``: one table per feature and method, label
   ``<feature>/<method>``, columns ``alpha_rad,lift_m,velocity_m_per_rad,

@@ -1,4 +1,4 @@
-"""N-harmonic (finite Fourier) approximation of a measured lift (methods.md §5.2, RECON).
+"""N-harmonic (finite Fourier) approximation of a measured lift (docs/reconstruction.md, RECON).
 
 Two bases, both on the rebound-cleaned samples (outliers removed by ``spline.
 rebound_fairing``):
@@ -18,7 +18,7 @@ rebound_fairing``):
 N is chosen automatically (overridable): ``cp`` (Mallows' Cp with the noise
 estimate: the noise-floor rule; default), ``bic`` (no noise estimate needed),
 ``risk`` (full basis only: estimated acceleration error with weights j^4), or
-``residual`` (the book's rule: the smallest N with max |residual| <= ``tol``).
+``residual`` (Shang's rule: the smallest N with max |residual| <= ``tol``).
 Orders beyond the Nyquist limit of the data are capped with a warning.
 """
 from __future__ import annotations

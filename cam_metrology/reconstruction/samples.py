@@ -252,7 +252,7 @@ def centre_on_nose(table: LiftTable) -> tuple[LiftTable, float]:
     """Shift the table's angles so that alpha = 0 is the lobe's symmetry axis.
 
     The axis is the mean midpoint of the rise/fall crossings of lift levels at 20..80 %
-    of the maximum (the flank form of methods.md §5.3; linear interpolation, adequate
+    of the maximum (the flank form of docs/metrology.md; linear interpolation, adequate
     because |h'| is large there). Returns the shifted table and the shift [rad] that
     was subtracted. Raises InputError if the lift has no clear single maximum.
     """

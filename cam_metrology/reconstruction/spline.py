@@ -1,4 +1,4 @@
-"""Smoothing spline with the rebound method 回弹法 (methods.md §5.1, a reconstruction).
+"""Smoothing spline with the rebound method 回弹法 (docs/reconstruction.md, a reconstruction).
 
 Pipeline (``reconstruct_spline``):
 
@@ -28,7 +28,7 @@ Pipeline (``reconstruct_spline``):
    (``smooth_grid``). A quintic (k = 5) interpolating spline through the smoothed
    values gives h..h''' with h''' continuous. Uneven samples are fitted directly by
    a quintic P-spline on uniform knots (``_pspline``).
-4. **Sign pattern** of h'' (methods §5.1 step 3): significant sign changes above
+4. **Sign pattern** of h'' (docs/reconstruction.md step 3): significant sign changes above
    the expected count (2 for a single lobe, or the design's) raise the smoothing (x4,
    at most 5 times) while the fit still follows the data; otherwise a warning.
 """
@@ -644,7 +644,7 @@ class SplineOptions:
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
                        options: SplineOptions | None = None,
                        fairing: Fairing | None = None) -> Reconstruction:
-    """Rebound fairing + quintic smoothing spline of a lift table (methods §5.1).
+    """Rebound fairing + quintic smoothing spline of a lift table (docs/reconstruction.md).
 
     ``alpha`` [rad], ``lift`` [m] (or a ``CleanSamples``). Returns a Reconstruction on
     a uniform grid of ``options.step`` (default: the data's median spacing).

@@ -1,7 +1,7 @@
 """Analytic test lobes with exact derivatives, and simulated measurements of them.
 
 Used by the tests and the benchmark as independent truth (they do not depend on the
-lift-law module). ``PolynomialLobe`` is the methods.md §1.4 test cam: §1.1(b) ramps
+lift-law module). ``PolynomialLobe`` is the docs/lift_laws.md test cam: §1.1(b) ramps
 (H1 = 0.3 mm, v1 = 0.015 mm/deg, alpha1 = 30 deg) around a 2-6-10-14 base section
 (H = 8 mm, alpha2 = 100 deg), C2 everywhere, h''' jumps at the ramp junctions.
 """
@@ -17,7 +17,7 @@ DEG = np.pi / 180.0
 
 @dataclass(frozen=True)
 class PolynomialLobe:
-    """Symmetric ramp + polynomial lobe (methods §1.1b, §1.4); mm and deg parameters."""
+    """Symmetric ramp + polynomial lobe (docs/lift_laws.md); mm and deg parameters."""
 
     rise_mm: float = 8.0
     ramp_height_mm: float = 0.3
