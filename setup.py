@@ -30,5 +30,8 @@ setup(
             'bench_sim = cam_metrology.nodes.entry:bench_sim',
             'recorder = cam_metrology.nodes.entry:recorder',
         ],
+        # pytest over recorded bags: fixtures cam_bench_analysis / cam_bench_report and
+        # the option --cam-bench-bags DIR (cam_metrology/pytest_plugin.py)
+        'pytest11': ['cam_bench = cam_metrology.pytest_plugin'],
     },
 )
