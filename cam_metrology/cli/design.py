@@ -9,7 +9,8 @@ import argparse
 
 from cam_metrology.cli import register_modules
 
-SUBMODULES = ('cam_metrology.cli.design_law', 'cam_metrology.cli.design_profile')
+SUBMODULES = ('cam_metrology.cli.design_law', 'cam_metrology.cli.design_profile',
+              'cam_metrology.cli.design_optimize')
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -1,0 +1,200 @@
+"""Optimisation of cam designs (``cam_design.optimize``, ``cam-bench design optimize``).
+
+Independent truth:
+
+* Bang-bang: a rise of lift H over the half-angle alpha0 with h'' bounded by +A (up)
+  and -D (down), and h <= H, has the largest area when it accelerates at +A, then
+  decelerates at -D until it reaches H with h' = 0, then dwells at H. With peak velocity
+  V: V = A w1 = D w2 and H = V (w1 + w2) / 2, so V = sqrt(2 H / (1/A + 1/D)),
+  w1 = V/A, w2 = V/D. The composite family with a dwell segment must find w1, w2.
+* Two-segment constant acceleration (no dwell): h'(alpha0) = 0 and h(alpha0) = H give
+  V = 2H/alpha0 for any switch phi1; the area is H (alpha0 + phi2)/3, largest for the
+  shortest phi1 = V/A that the bound on +A allows (when D is not binding).
+* Constraints are checked on the returned lift table by finite differences, not by the
+  optimiser's own metrics; relaxing a bound never lowers the optimum.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cam_design.errors import InputError
+from cam_design.lift_laws import from_spec
+from cam_design.optimize import optimize, parse_spec
+from cam_metrology.cli import main
+
+H = 0.008
+A_POS, A_NEG = 0.06, 0.025
+
+
+def _bang_bang(a_pos: float, a_neg: float) -> tuple[float, float]:
+    v = math.sqrt(2 * H / (1 / a_pos + 1 / a_neg))
+    return v / a_pos, v / a_neg
+
+
+def test_composite_recovers_the_bang_bang_optimum() -> None:
+    spec = parse_spec({'family': 'composite',
+                       'fixed': {'max_lift': H, 'half_duration_deg': 60},
+                       'constraints': {'max_positive_acceleration': A_POS,
+                                       'max_negative_acceleration': A_NEG}})
+    res = optimize(spec)
+    w1, w2 = _bang_bang(A_POS, A_NEG)
+    assert res.status == 'optimal'
+    assert res.parameters['segments[0].width'] == pytest.approx(w1, rel=1e-6)
+    assert res.parameters['segments[1].width'] == pytest.approx(w2, rel=1e-6)
+    assert all(c['active'] for c in res.constraints.values())      # both bounds active
+    # the area of the closed form: up + down + dwell, over the whole symmetric lobe
+    a0 = math.radians(60)
+    area = 2 * (A_POS * w1 ** 3 / 6 + H * w2 - A_NEG * w2 ** 3 / 6 + H * (a0 - w1 - w2))
+    assert res.metrics['fullness'] == pytest.approx(area / (H * 2 * a0), rel=1e-5)
+
+
+def test_constant_acceleration_switch_in_closed_form() -> None:
+    a0 = math.radians(60)
+    spec = parse_spec({'family': 'constant_acceleration',
+                       'fixed': {'max_lift': H, 'half_duration_deg': 60},
+                       'objective': 'fullness',
+                       'constraints': {'max_positive_acceleration': A_POS,
+                                       'max_negative_acceleration': A_NEG}})
+    res = optimize(spec)
+    phi1 = (2 * H / a0) / A_POS
+    assert res.parameters['positive_width'] == pytest.approx(phi1, rel=1e-6)
+    assert res.constraints['max_positive_acceleration']['active']
+    assert not res.constraints['max_negative_acceleration']['active']
+    assert res.metrics['fullness'] == pytest.approx((a0 + (a0 - phi1)) / 3 / a0, rel=1e-5)
+    assert res.start['improvement'] > 0
+
+
+def test_constraints_hold_on_the_returned_table() -> None:
+    """Second differences of the lift table (a fine resample of the returned lift_law
+    block, as a user would paste it) stay within the bounds."""
+    spec = parse_spec({'family': 'composite',
+                       'fixed': {'max_lift': H, 'half_duration_deg': 60},
+                       'constraints': {'max_positive_acceleration': A_POS,
+                                       'max_negative_acceleration': A_NEG}})
+    res = optimize(spec)
+    law = from_spec(res.lift_law, 'pasted')
+    a = np.linspace(*law.support, 120001)
+    h = law(a, 0)
+    h2 = np.diff(h, 2) / (a[1] - a[0]) ** 2
+    assert h2.max() <= A_POS * (1 + 1e-5) and -h2.min() <= A_NEG * (1 + 1e-5)
+    table = res.table
+    assert table['lift_m'][0] == pytest.approx(0.0, abs=1e-12)
+    assert max(table['lift_m']) == pytest.approx(H, rel=1e-9)
+
+
+def test_relaxing_a_constraint_never_lowers_the_optimum() -> None:
+    values = []
+    for a_pos in (0.03, 0.045, 0.06, 0.09, 0.2):
+        spec = parse_spec({'family': 'composite', 'starts': 2,
+                           'fixed': {'max_lift': H, 'half_duration_deg': 60},
+                           'constraints': {'max_positive_acceleration': a_pos,
+                                           'max_negative_acceleration': A_NEG}})
+        values.append(optimize(spec).metrics['fullness'])
+    assert all(b >= a - 1e-9 for a, b in zip(values, values[1:])), values
+    assert values[-1] > values[0]
+
+
+def test_infeasible_spec_names_the_most_violated_constraint() -> None:
+    """H = 8 mm over 60 deg needs V = 2H/alpha0 and so a1 >= V/alpha0 = 0.0146 m/rad^2
+    even with the whole flank accelerating: a bound of 0.01 cannot be met."""
+    spec = parse_spec({'family': 'constant_acceleration',
+                       'fixed': {'max_lift': H, 'half_duration_deg': 60},
+                       'constraints': {'max_positive_acceleration': 0.01}})
+    res = optimize(spec)
+    assert res.status == 'infeasible'
+    assert 'max_positive_acceleration' in res.message
+    assert not res.constraints['max_positive_acceleration']['satisfied']
+
+
+def test_integer_exponents_by_differential_evolution() -> None:
+    ramp = {'kind': 'constant_acceleration_velocity', 'height': 3.0e-4,
+            'velocity': 8.594366926962348e-4, 'angle': math.radians(30)}
+    spec = parse_spec({'family': 'polynomial', 'seed': 1, 'generations': 15,
+                       'fixed': {'rise': H, 'half_angle': math.radians(50), 'ramp': ramp},
+                       'free': {'exponents[2]': [8, 24, True], 'exponents[3]': [26, 40, True]},
+                       'constraints': {'max_negative_acceleration': 0.05}})
+    res = optimize(spec)
+    assert res.status == 'optimal'
+    e2, e3 = res.parameters['exponents[2]'], res.parameters['exponents[3]']
+    assert isinstance(e2, int) and 8 <= e2 <= 24 and 26 <= e3 <= 40
+    law = from_spec(res.lift_law, 'x')
+    a = np.linspace(*law.support, 20001)
+    assert -law(a, 2).min() <= 0.05 * (1 + 1e-9)
+    # better than the book's 2-6-10-14 example on the same ramp and angles
+    base = from_spec({'family': 'polynomial', 'rise': H, 'half_angle': math.radians(50),
+                      'ramp': ramp, 'exponents': [2, 6, 10, 14]}, 'base')
+    from cam_design.checks import fullness
+    ab = np.linspace(*base.support, 20001)
+    assert res.metrics['fullness'] > fullness(ab, base(ab, 0))
+
+
+def test_jump_speed_objective_reports_the_sdof_value() -> None:
+    """The jump speed the optimiser reports is what an independent SDOF run sees: no
+    separation 15 rpm below it, a separation 15 rpm above it."""
+    from cam_design.optimize import _sdof_params
+    from cam_design.valve_train.sdof import simulate
+
+    vt = {'rocker_ratio': 1.5, 'lash': 2.5e-4, 'mass': 0.12, 'stiffness': 1.2e7,
+          'damping': 60, 'spring_rate': 3e4, 'spring_preload': 250}
+    ramp = {'kind': 'constant_velocity', 'height': 3e-4, 'velocity': 8.594366926962348e-4}
+    spec = parse_spec({'family': 'constant_acceleration', 'generations': 2, 'seed': 3,
+                       'fixed': {'max_lift': H, 'half_duration_deg': 70, 'ramp': ramp},
+                       'valve_train': vt, 'objective': 'jump_speed_rpm'})
+    res = optimize(spec)
+    jump = res.metrics['jump_speed_rpm']
+    law, params = from_spec(res.lift_law, 'x'), _sdof_params(vt)
+    assert not simulate(law, params, jump - 15, step_deg=1.0).events.separations
+    assert simulate(law, params, jump + 15, step_deg=1.0).events.separations
+
+
+@pytest.mark.parametrize('doc, key', [
+    ({'family': 'fb2'}, 'family'),
+    ({'family': 'composite', 'fixed': {'max_lift': H, 'half_duration_deg': 200}},
+     'fixed.half_duration_deg'),
+    ({'family': 'constant_acceleration', 'fixed': {'max_lift': H, 'half_duration_deg': 60},
+      'constraints': {'max_speed': 1}}, 'constraints.max_speed'),
+    ({'family': 'constant_acceleration', 'fixed': {'max_lift': H, 'half_duration_deg': 60},
+      'free': {'positive_width': [0.5, 0.1]}}, 'free.positive_width'),
+    ({'family': 'constant_acceleration', 'fixed': {'max_lift': H, 'half_duration_deg': 60},
+      'objective': 'jump_speed_rpm'}, 'valve_train'),
+    ({'family': 'constant_acceleration', 'fixed': {'max_lift': H, 'half_duration_deg': 60},
+      'constraints': {'min_radius_of_curvature': 0.002}}, 'base_radius'),
+    ({'family': 'composite', 'fixed': {'max_lift': H}, 'free': {'segments[7].width': [0, 1]}},
+     'free.segments[7].width'),
+    ({'family': 'constant_acceleration', 'colour': 'red'}, 'colour'),
+])
+def test_bad_specs_name_the_key(doc: dict, key: str) -> None:
+    with pytest.raises(InputError) as info:
+        parse_spec(doc)
+    assert info.value.key == key
+
+
+def test_cli_summary_exit_codes_and_json(tmp_path, capsys) -> None:
+    good = tmp_path / 'spec.yaml'
+    good.write_text('family: constant_acceleration\n'
+                    'fixed: {max_lift: 0.008, half_duration_deg: 60}\n'
+                    'objective: fullness\n'
+                    'constraints: {max_positive_acceleration: 0.06, '
+                    'max_negative_acceleration: 0.025}\n')
+    assert main(['design', 'optimize', str(good)]) == 0
+    out = capsys.readouterr().out
+    assert 'status: optimal' in out and 'ACTIVE' in out and 'family: constant_acceleration' in out
+    js = tmp_path / 'r.json'
+    assert main(['design', 'optimize', str(good), '--json', str(js), '--plot',
+                 str(tmp_path / 'p')]) == 0
+    assert (tmp_path / 'p' / 'optimum.png').stat().st_size > 10000
+    import json
+    doc = json.loads(js.read_text())
+    assert doc['status'] == 'optimal' and doc['lift_law']['family'] == 'constant_acceleration'
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text(good.read_text().replace('0.06', '0.01'))
+    assert main(['design', 'optimize', str(bad)]) == 1          # infeasible
+    assert 'infeasible' in capsys.readouterr().out
+    wrong = tmp_path / 'wrong.yaml'
+    wrong.write_text('family: mfb2\n')
+    assert main(['design', 'optimize', str(wrong)]) == 2
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1 and 'family' in err and 'constant_acceleration' in err
