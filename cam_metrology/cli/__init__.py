@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     'cam_metrology.cli.analyze',       # analyze
     'cam_metrology.cli.golden',        # golden
     'cam_metrology.cli.batch',         # batch
+    'cam_metrology.cli.spc',           # spc
     'cam_metrology.cli.reconstruct',   # reconstruct
     'cam_metrology.cli.dynamics',      # dynamics
     'cam_metrology.cli.design',        # design law|profile|check|rocker
