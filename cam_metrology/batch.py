@@ -125,8 +125,10 @@ def rows_of_report(bag: str, sha: str, report: dict[str, Any], start_ns: int | N
     return rows
 
 
-def analyse_bag(bag: str) -> list[dict[str, Any]]:
-    """Rows of one bag (runs on a worker); a failure is a row, never an exception."""
+def analyse_bag(bag: str, all_cores: bool = False) -> list[dict[str, Any]]:
+    """Rows of one bag (runs on a worker); a failure is a row, never an exception. The
+    report comes from the metrology core; ``all_cores`` runs reconstruction and dynamics
+    too (as ``analyze`` does by default), which only adds their skip notes here."""
     os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
     path = Path(bag)
     try:
@@ -136,7 +138,7 @@ def analyse_bag(bag: str) -> list[dict[str, Any]]:
         return [_failed(bag, sha, f'unreadable: {exc.strerror}')]
     try:
         from cam_metrology.cli.golden import analyze_report
-        report = analyze_report(path)
+        report = analyze_report(path, only_metrology=not all_cores)
     except Exception as exc:  # noqa: BLE001 -- every failure is reported per bag
         return [_failed(bag, sha, str(exc) or type(exc).__name__)]
     return rows_of_report(bag, sha, report, _start_ns(path))
@@ -209,7 +211,7 @@ def write_table(rows: list[dict[str, Any]], parquet: Path, csv: Path | None = No
 def run_batch(bags: list[Path], out: Path, *, csv: Path | None = None,
               scheduler: str | None = None, workers: int = 2, redo: bool = False,
               progress: Callable[[str], None] | None = None,
-              connect_timeout_s: float = 10.0) -> BatchSummary:
+              connect_timeout_s: float = 10.0, all_cores: bool = False) -> BatchSummary:
     """Analyse ``bags`` on Dask and write the table (see the module docstring)."""
     from dask.distributed import Client, LocalCluster, as_completed
 
@@ -254,7 +256,7 @@ def run_batch(bags: list[Path], out: Path, *, csv: Path | None = None,
                                        processes=True, dashboard_address=None)
                 client = Client(cluster)
             try:
-                futures = client.map(analyse_bag, todo, pure=False)
+                futures = client.map(analyse_bag, todo, all_cores=all_cores, pure=False)
                 for i, fut in enumerate(as_completed(futures), 1):
                     part = fut.result()
                     rows += part

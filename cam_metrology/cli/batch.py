@@ -25,6 +25,9 @@ def register(subparsers: Any) -> None:
                    'tcp://10.0.0.5:8786 (default: a local cluster)')
     p.add_argument('--workers', type=int, default=2, help='local worker processes '
                    '(default 2)')
+    p.add_argument('--all-cores', action='store_true', help='also run the reconstruction '
+                   'and dynamics cores on every bag (slower; the table holds the metrology '
+                   'report either way)')
     p.add_argument('--redo', action='store_true', help='analyse bags again even if they '
                    'are in --out')
     p.set_defaults(func=run)
@@ -46,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     print(f'cam-bench batch: {len(bags)} bags', file=sys.stderr)
     summary = run_batch(bags, out, csv=Path(args.csv) if args.csv else None,
                         scheduler=args.scheduler, workers=args.workers, redo=args.redo,
+                        all_cores=args.all_cores,
                         progress=lambda m: print(m, file=sys.stderr, flush=True))
     print(f'cam-bench batch: {summary.analysed} analysed, {summary.skipped} already in '
           f'{out.name}, {summary.duplicates} duplicates, {summary.failed} failed; '

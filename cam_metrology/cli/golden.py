@@ -32,7 +32,8 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def analyze_report(bag: str | Path, params: str | Path | None = None) -> dict[str, Any]:
+def analyze_report(bag: str | Path, params: str | Path | None = None, *,
+                   only_metrology: bool = False) -> dict[str, Any]:
     """The JSON report of ``cam-bench analyze BAG`` as a dict (the same code path).
 
     Raises ``CliError`` with analyze's one-line message when the bag cannot be
@@ -44,6 +45,8 @@ def analyze_report(bag: str | Path, params: str | Path | None = None) -> dict[st
         argv = ['analyze', str(bag), '--json', str(out)]
         if params is not None:
             argv += ['--params', str(params)]
+        if only_metrology:
+            argv.append('--only-metrology')
         err = io.StringIO()
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
             code = main(argv)
