@@ -585,9 +585,10 @@ def _read_mcap_direct(bag: Path, topic: str,
         bag = bag.parent
     else:
         try:
-            info = yaml.safe_load((bag / 'metadata.yaml').read_text())[
+            from cam_metrology.yaml_input import load_yaml
+            info = load_yaml((bag / 'metadata.yaml').read_text(), 'metadata.yaml')[
                 'rosbag2_bagfile_information']
-        except (OSError, KeyError, TypeError, yaml.YAMLError):
+        except (OSError, KeyError, TypeError, yaml.YAMLError, InputError):
             return None
         if info.get('storage_identifier') != 'mcap' or info.get('compression_mode') not in (
                 '', None, 'none', 'NONE'):

@@ -95,7 +95,8 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
         raise InputError('scene', f'{len(text)} characters',
                          f'a scene file of at most {MAX_TEXT} characters')
     try:
-        doc = yaml.load(text, Loader=_unique_key_loader())   # noqa: S506 (a SafeLoader)
+        from cam_metrology.yaml_input import load_yaml
+        doc = load_yaml(text, 'scene', _unique_key_loader())
     except _DuplicateKey as exc:
         raise InputError(exc.key, exc.name, f'unique keys in a mapping (given again at line '
                          f'{exc.line}; YAML would silently keep the last)') from None

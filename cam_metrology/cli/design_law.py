@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 from typing import Any
 
 COLUMNS = ('alpha_deg', 'h_mm', 'h1_mm_per_rad', 'h2_mm_per_rad2', 'h3_mm_per_rad3')
@@ -63,7 +62,8 @@ def load_yaml(path: str) -> Any:
 
     text = read_text_file(path, 'YAML file', key=path)
     try:
-        return yaml.safe_load(text)
+        from cam_metrology.yaml_input import load_yaml
+        return load_yaml(text, path)
     except yaml.YAMLError as exc:
         mark = getattr(exc, 'problem_mark', None)
         where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
@@ -71,13 +71,12 @@ def load_yaml(path: str) -> Any:
         raise InputError(path, 'invalid YAML', f'a YAML document ({what}{where})') from None
 
 
-def write_text(target: str, text: str) -> None:
-    """Write ``text`` to the file ``target``, or to stdout for '-'."""
-    if target == '-':
-        sys.stdout.write(text)
-    else:
-        with open(target, 'w', encoding='utf-8') as f:
-            f.write(text)
+def write_text(target: str, text: str, key: str = 'output') -> None:
+    """Write ``text`` to the file ``target`` (all or nothing), or to stdout for '-';
+    errors name ``key`` (the option)."""
+    from cam_metrology.files import write_output
+
+    write_output(target, text, key)
 
 
 def law_spec(doc: Any, path: str, lobe: str | None = None) -> tuple[Any, str]:
@@ -112,11 +111,11 @@ def write_table(args: argparse.Namespace, columns: list[str], table: Any,
     wrote = False
     if getattr(args, 'csv', None):
         lines = [','.join(columns)] + [','.join(f'{v:.12g}' for v in row) for row in table]
-        write_text(args.csv, '\n'.join(lines) + '\n')
+        write_text(args.csv, '\n'.join(lines) + '\n', '--csv')
         wrote = True
     if getattr(args, 'json', None):
         doc = dict(summary, columns=list(columns), rows=table.tolist())
-        write_text(args.json, json.dumps(doc, indent=1) + '\n')
+        write_text(args.json, json.dumps(doc, indent=1) + '\n', '--json')
         wrote = True
     return wrote
 
@@ -180,8 +179,11 @@ def _plot(path: str, table: Any, title: str) -> None:
     axes[-1].set_xlabel('alpha [deg] (rise flank < 0)')
     axes[0].set_title(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    from cam_metrology.files import save_figure
+    try:
+        save_figure(fig, path, '--plot', dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -210,7 +212,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         raise check_input_error(exc, args.rpm, scene=isinstance(doc.get('lobes'), list),
                                 law_key=key) from None
     if args.json:
-        write_text(args.json, json.dumps(res, indent=1) + '\n')
+        write_text(args.json, json.dumps(res, indent=1) + '\n', '--json')
     else:
         for k, v in res.items():
             print(f'{k:34s} {v:.6g}' if isinstance(v, float) else f'{k:34s} {v}')
@@ -303,7 +305,7 @@ def cmd_rocker(args: argparse.Namespace) -> int:
         out['eccentricity_m'] = r.eccentricity
         out['projected_frame_length_m'] = r.projected_frame_length
     if args.json:
-        write_text(args.json, json.dumps(out, indent=1) + '\n')
+        write_text(args.json, json.dumps(out, indent=1) + '\n', '--json')
     else:
         for k, v in out.items():
             print(f'{k:26s} {v}')

@@ -99,7 +99,8 @@ def load_params_doc(path: str | Path) -> Mapping[str, Any]:
     except UnicodeDecodeError:
         raise InputError('--params', str(path), 'a UTF-8 YAML text file') from None
     try:
-        doc = yaml.load(text, Loader=_RosYamlLoader)  # noqa: S506 (a SafeLoader subclass)
+        from cam_metrology.yaml_input import load_yaml
+        doc = load_yaml(text, '--params', _RosYamlLoader)
     except yaml.YAMLError as exc:
         where = getattr(exc, 'problem_mark', None)
         line = f' (line {where.line + 1})' if where is not None else ''
@@ -158,7 +159,8 @@ def parse_assignments(items: Iterable[str], node_name: str,
         if name not in table:
             raise InputError(key, name, f'a {node_name} parameter: {", ".join(sorted(table))}')
         try:
-            value = yaml.load(text, Loader=_RosYamlLoader) if text else ''  # noqa: S506
+            from cam_metrology.yaml_input import load_yaml
+            value = load_yaml(text, f'{key} {name}', _RosYamlLoader) if text else ''
         except yaml.YAMLError:
             value = text
         values[name] = check_value(f'{key} {name}', value, table[name][0])
