@@ -153,7 +153,17 @@ def plot_runs(runs: Sequence[object], path: str | Path, title: str = '') -> Path
     for ax in (ax1, ax2):
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
+    import io
+    import os
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format='png', dpi=110)
     plt.close(fig)
+    tmp = out.with_name(f'.{out.name}.partial-{os.getpid()}')
+    try:                          # all or nothing: a full disk leaves no half PNG
+        tmp.write_bytes(buf.getvalue())
+        os.replace(tmp, out)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise InputError('plot', str(out), f'a writable file ({exc.strerror})') from None
     return out

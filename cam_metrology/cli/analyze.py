@@ -103,18 +103,17 @@ def run(args: argparse.Namespace) -> int:
     report = final_report(outputs, metrology)
     report['skipped'] = report.get('skipped', []) + other_skips(outputs) + missing
     if args.json:
-        text = json.dumps(report, indent=1)
-        if args.json == '-':
-            print(text)
-        else:
-            Path(args.json).write_text(text + '\n')
+        from cam_metrology.files import write_output
+        write_output(args.json, json.dumps(report, indent=1) + '\n', '--json')
     else:
         print(human_report(report))
     if args.plot:
         write_plots(outputs, Path(args.plot), report)
     if args.out_bag:
+        from cam_metrology.files import atomic_dir
         from cam_metrology.replay import write_outputs
-        write_outputs(result, args.out_bag)
+        with atomic_dir(args.out_bag, '--out-bag') as tmp:
+            write_outputs(result, tmp)
     if not any(f.get('status') == 'ok' for f in report.get('features', {}).values()):
         print(f'cam-bench analyze: error: nothing was measured in {args.bag}: no feature '
               f'of the scene was measured from its {JOINT_TOPIC} samples (see the '
@@ -190,14 +189,18 @@ def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, 
 
     from cam_metrology.outputs import TableOutput
 
-    folder.mkdir(parents=True, exist_ok=True)
+    from cam_metrology.files import output_dir, safe_name, save_figure
+
+    folder = output_dir(folder, '--plot')
     for _, o in outputs:
         if not (isinstance(o, TableOutput) and o.topic == LIFT_TOPIC):
             continue
         fig = lift_figure(o.label, o.data, report.get('features', {}).get(o.label) or {})
-        fig.savefig(folder / f'{o.label.replace("/", "_")}.png', dpi=110,
-                    bbox_inches='tight')
-        plt.close(fig)
+        try:
+            save_figure(fig, folder / f'{safe_name(o.label)}.png', '--plot', dpi=110,
+                        bbox_inches='tight')
+        finally:
+            plt.close(fig)
 
 
 def lift_figure(label: str, table: Any, feature: dict[str, Any]) -> Any:

@@ -69,7 +69,8 @@ def _plot(folder: Path, res: Any, start_spec: dict[str, Any] | None,
 
     from cam_design.lift_laws import from_spec
 
-    folder.mkdir(parents=True, exist_ok=True)
+    from cam_metrology.files import output_dir, save_figure
+    folder = output_dir(folder, '--plot')
     fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6.5))
     laws = [('optimum', from_spec(res.lift_law, 'optimum'), '-')]
     if start_spec is not None:
@@ -94,7 +95,7 @@ def _plot(folder: Path, res: Any, start_spec: dict[str, Any] | None,
     shown = ', '.join(f'{k}={v:.4g}' for k, v in res.objective['metrics'].items())
     fig.suptitle(f'optimum: {shown}')
     fig.tight_layout()
-    fig.savefig(folder / 'optimum.png', dpi=110)
+    save_figure(fig, folder / 'optimum.png', '--plot', dpi=110)
     plt.close(fig)
     if front and names:
         fig, ax = plt.subplots(figsize=(6, 4.5))
@@ -104,7 +105,7 @@ def _plot(folder: Path, res: Any, start_spec: dict[str, Any] | None,
         ax.set_ylabel(f'{names[0]} [{OBJECTIVES[names[0]][1]}]')
         ax.set_title('Pareto front')
         fig.tight_layout()
-        fig.savefig(folder / 'pareto.png', dpi=110)
+        save_figure(fig, folder / 'pareto.png', '--plot', dpi=110)
         plt.close(fig)
 
 
@@ -132,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         text = json.dumps(out, indent=1, default=lambda v: None if not math.isfinite(v)
                           else v) + '\n'
-        write_text(args.json, text)
+        write_text(args.json, text, '--json')
         if args.json != '-':
             print(f'cam-bench design optimize: wrote {args.json} ({res.status})')
     else:

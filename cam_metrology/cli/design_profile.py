@@ -315,5 +315,8 @@ def _plot(path: str, prof: Any) -> None:
     ax3.set_xlabel('alpha [deg]')
     ax3.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    from cam_metrology.files import save_figure
+    try:
+        save_figure(fig, path, '--plot', dpi=110)
+    finally:
+        plt.close(fig)

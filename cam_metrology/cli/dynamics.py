@@ -110,10 +110,12 @@ def run(args: argparse.Namespace) -> int:
     _write(result, args)
     if args.plot:
         from cam_design.valve_train.sweep import plot_runs
+        from cam_metrology.files import output_dir, safe_name
+        folder = output_dir(args.plot, '--plot')
         for feature, runs in core.runs.items():
             if args.feature and feature != args.feature:
                 continue
-            plot_runs(runs, Path(args.plot) / f'{feature}.png', title=feature)
+            plot_runs(runs, folder / f'{safe_name(feature)}.png', title=feature)
     return 1 if any('failures' in e for e in result['features'].values()) else 0
 
 
@@ -178,10 +180,9 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
 
 def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
     text = json.dumps(result, indent=1)
-    if args.json == '-':
-        sys.stdout.write(text + '\n')
-    elif args.json:
-        Path(args.json).write_text(text + '\n', encoding='utf-8')
+    if args.json:
+        from cam_metrology.files import write_output
+        write_output(args.json, text + '\n', '--json')
     for feature, entry in result['features'].items():
         if 'note' in entry:         # stderr: seen also with --json -
             print(f"warning: {feature}: {entry['note']}", file=sys.stderr)

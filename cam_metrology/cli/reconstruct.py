@@ -129,11 +129,9 @@ def run(args: argparse.Namespace) -> int:
     result = {'input': str(path), 'kind': kind, 'follower': follower,
               'features': features, 'skipped': skipped}
     if args.json:
-        text = json.dumps(result, indent=1, allow_nan=False)
-        if args.json == '-':
-            print(text)
-        else:
-            Path(args.json).write_text(text + '\n')
+        from cam_metrology.files import write_output
+        write_output(args.json, json.dumps(result, indent=1, allow_nan=False) + '\n',
+                     '--json')
     else:
         print(_human(result))
     if args.plot:
@@ -292,9 +290,10 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
+    from cam_metrology.files import output_dir, safe_name, save_figure
     from cam_metrology.reconstruction.profile import design_from_table
 
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = output_dir(folder, '--plot')
     names = ('lift [mm]', 'velocity [mm/rad]', 'acceleration [mm/rad^2]', 'jerk [mm/rad^3]')
     for fid, outcomes in core.results.items():
         if feature is not None and fid != feature:
@@ -329,9 +328,10 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
         axes[-1].set_xlabel('cam angle from the lobe centre [deg]')
         fig.suptitle(f'{fid}: reconstruction')
         fig.tight_layout()
-        safe = fid.replace('/', '_')
-        fig.savefig(folder / f'{safe}.png', dpi=110)
-        plt.close(fig)
+        try:
+            save_figure(fig, folder / f'{safe_name(fid)}.png', '--plot', dpi=110)
+        finally:
+            plt.close(fig)
 
 
 if __name__ == '__main__':   # pragma: no cover

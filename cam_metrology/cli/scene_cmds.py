@@ -177,8 +177,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise InputError(option, getattr(args, option[2:].replace('-', '_')),
                          exc.expected) from None
     progress = None if args.quiet else _progress_printer()
-    run = write_sim_bag(args.out, scene, params, compression=args.compress,
-                        progress=progress)
+    from cam_metrology.files import atomic_dir
+    with atomic_dir(args.out, 'OUT_BAG') as tmp:   # complete bag or nothing (Ctrl-C too)
+        run = write_sim_bag(tmp, scene, params, compression=args.compress,
+                            progress=progress)
     print(f'wrote {args.out}: {run.sample_count} samples in {len(run.features)} features')
     print(json.dumps(run.truth, indent=2, sort_keys=True))
     return 0

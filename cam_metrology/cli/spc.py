@@ -213,9 +213,8 @@ def write_report(path: Path, table: str, spc: list[dict[str, Any]],
                      f"<p>%GRR {g['percent_grr']:.2f} %, ndc {g['ndc']}, {g['parts']} parts x "
                      f"{g['operators']} operators x {g['trials']} trials</p>")
     parts.append('</body></html>')
-    tmp = path.with_name(f'.{path.name}.partial')
-    tmp.write_text('\n'.join(parts), encoding='utf-8')
-    tmp.replace(path)
+    from cam_metrology.files import write_output
+    write_output(path, '\n'.join(parts), '--report')
 
 
 def run(args: argparse.Namespace) -> int:
@@ -230,10 +229,8 @@ def run(args: argparse.Namespace) -> int:
     doc = {'table': args.table, 'spc': spc, 'gauge_rr': grr}
     if args.json:
         text = json.dumps(doc, indent=1, default=lambda v: None) + '\n'
-        if args.json == '-':
-            print(text, end='')
-        else:
-            Path(args.json).write_text(text, encoding='utf-8')
+        from cam_metrology.files import write_output
+        write_output(args.json, text, '--json')
     else:
         for e in spc:
             c = e.get('chart')
