@@ -94,8 +94,13 @@ class SimParams:
                              f'at least 8 samples per feature ({self.samples_per_rev} '
                              'samples per revolution)')
         if revs * self.samples_per_rev > 50_000_000:
-            raise InputError('revolutions', self.revolutions,
-                             'at most 5e7 samples per feature')
+            # blame the factor that made it huge: the per-revolution count unless the
+            # revolutions exceed one
+            key, value = (('revolutions', self.revolutions) if revs > 1
+                          else ('samples_per_rev', self.samples_per_rev))
+            raise InputError(key, value,
+                             f'at most 5e7 samples per feature (samples per revolution '
+                             f'{self.samples_per_rev} x revolutions {revs:g})')
         require_finite('start_theta', self.start_theta)
         require_finite('probe_zero_offset', self.probe_zero_offset)
         require_positive('probe_noise', self.probe_noise, allow_zero=True)
