@@ -105,6 +105,58 @@ def test_record_stop_signal_leaves_complete_bag(ros_domain: int, tmp_path: Path,
     assert sum(t == '/bench/joint_states' for t, _ in decoded) == 600
 
 
+def test_record_stops_promptly_while_samples_keep_coming(
+        ros_domain: int, tmp_path: Path) -> None:
+    """Ctrl-C while a publisher keeps sending: the recorder stops within its drain limit
+    (1 s, plus start-up slack) and the bag it leaves is complete and readable."""
+    import time
+
+    from rclpy.node import Node
+    from sensor_msgs.msg import JointState
+
+    from cam_metrology import bagio
+    from cam_metrology.nodes.recorder import STOP_DRAIN_S
+    from cam_metrology.nodes.runtime import RosProcess
+    from cam_metrology.nodes.topics import TOPICS
+
+    out = tmp_path / 'rec'
+    proc = RosProcess(handle_signals=False)
+    rec = None
+    try:
+        node = proc.add(Node('record_flood', context=proc.context))
+        samples = node.create_publisher(JointState, '/bench/joint_states',
+                                        TOPICS['/bench/joint_states'][1].profile())
+        rec = cam_bench('record', str(out))
+        assert proc.spin_until(lambda: samples.get_subscription_count() >= 1
+                               or rec.poll() is not None, 30.0), 'recorder never matched'
+        k = 0
+        signalled = stopped = None
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and stopped is None:   # never stop sending
+            for _ in range(50):
+                samples.publish(joint_state(k))
+                k += 1
+            if signalled is None and k >= 3000:
+                rec.send_signal(signal.SIGINT)
+                signalled = time.monotonic()
+            if rec.poll() is not None:
+                stopped = time.monotonic()
+        assert stopped is not None and signalled is not None, 'recorder did not stop'
+        text, _ = rec.communicate(timeout=10)
+        assert rec.returncode == 0, text
+        assert stopped - signalled < STOP_DRAIN_S + 4.0, (stopped - signalled, text)
+    finally:
+        if rec is not None and rec.poll() is None:
+            rec.kill()
+        proc.close()
+    got = bagio.read_joint_states(out)   # closed bag, metadata agrees with the file
+    n = bagio.bag_topics(out)['/bench/joint_states'][1]
+    assert 0 < n == got.theta.size <= k
+    idx = np.rint(got.theta / 0.01)   # samples as sent, in order (a flood may drop some)
+    assert np.allclose(got.theta, 0.01 * idx, rtol=0, atol=1e-12)
+    assert np.all(np.diff(idx) > 0) and idx[-1] < k
+
+
 def write_fixture_bag(path: Path, n: int = 400, period_ns: int = 1_000_000) -> int:
     """Scene + n JointState samples 1 ms apart + feature_done; returns the span [ns]."""
     from cam_metrology import bagio

@@ -30,7 +30,8 @@
   internal routine`` for every raw message whose callback takes MessageInfo (20 000 of
   20 000 in a probe). Its callbacks run in event-arrival order across topics, which
   keeps the publish order of one publisher in practice, but not by contract.
-* Stop (SIGINT/SIGTERM or end of a run): drain what already arrived, then
+* Stop (SIGINT/SIGTERM or end of a run): drain what already arrived for at most
+  ``STOP_DRAIN_S`` (so a publisher that keeps sending cannot hold the recorder), then
   ``writer.close()`` in ``finally`` so that metadata.yaml is always written.
 """
 from __future__ import annotations
@@ -200,6 +201,10 @@ def events_flag_from_params(params_file: str | None, node_name: str = 'recorder'
     return False
 
 
+#: longest time the recorder keeps writing after SIGINT/SIGTERM [s]
+STOP_DRAIN_S = 1.0
+
+
 def run_recorder(args: Sequence[str] | None = None, *, output: str | Path | None = None,
                  topics: Sequence[str] | None = None, events_executor: bool = False,
                  announce: bool = True) -> int:
@@ -215,7 +220,9 @@ def run_recorder(args: Sequence[str] | None = None, *, output: str | Path | None
             print(f'recording {len(node.counts) + len(node._adaptive.pending)} topics to '
                   f'{node.path} (Ctrl-C to stop)', flush=True)
         proc.spin_until()
-        proc.drain(lambda: node.callbacks_run, limit=30.0)   # a backlog must be written
+        # write what had already arrived, but stop within STOP_DRAIN_S even while a
+        # publisher keeps sending (a bench left running must not hold the bag open)
+        proc.drain(lambda: node.callbacks_run, limit=STOP_DRAIN_S)
         return 0
     finally:
         if node is not None:
