@@ -53,7 +53,7 @@ class Seat:
 class ValveTrain:
     """Dynamics parameters at the valve side (docs/dynamics.md, docs/contract.md ``sdof``)."""
 
-    model: str                      # 'sdof' | 'mdof'
+    model: str                      # 'sdof' | 'mdof' | 'hydraulic'
     rocker_ratio: float             # k
     lash: float                     # x0 [m]
     mass: float                     # M [kg]
@@ -65,6 +65,7 @@ class ValveTrain:
     seat: Seat = field(default_factory=Seat)
     cam_speed_rpm: tuple[float, ...] = (1500.0,)
     mdof: dict[str, Any] | None = None   # extra parameters of the 4+N1+N2 model
+    hydraulic: dict[str, Any] | None = None   # block of the hydraulic model
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,9 @@ FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law',
              'width')
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
-VALVE_MODELS = ('sdof', 'mdof')
+VALVE_MODELS = ('sdof', 'mdof', 'hydraulic')
+#: valve_train keys the hydraulic model does not use, with the value it takes
+HYDRAULIC_UNUSED = {'rocker_ratio': 1.0, 'lash': 0.0, 'stiffness': 1.0e12, 'damping': 0.0}
 SEAT_KEYS = ('stiffness', 'damping', 'restitution')
 #: lift tables must end on the base circle within this [m] ("covering the whole lobe")
 #: a scene this large is surely not a scene file [characters]
@@ -406,18 +408,32 @@ def _compute(value: Any) -> frozenset[str] | None:
 
 
 def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
-    known = ('model', 'seat', 'cam_speed_rpm', 'mdof') + tuple(VALVE_KEYS)
+    known = ('model', 'seat', 'cam_speed_rpm', 'mdof', 'hydraulic') + tuple(VALVE_KEYS)
     vt = ctx.mapping('valve_train', value, known)
     model = vt.get('model', 'sdof')
     if model not in VALVE_MODELS:
         raise InputError('valve_train.model', model, ' | '.join(VALVE_MODELS))
+    hydraulic = model == 'hydraulic'
     params: dict[str, float] = {}
     for k, (required, check) in VALVE_KEYS.items():
         if k in vt:
             params[k] = check(f'valve_train.{k}', vt[k])
+        elif hydraulic and k in HYDRAULIC_UNUSED:
+            params[k] = HYDRAULIC_UNUSED[k]
         elif required:
             raise InputError(f'valve_train.{k}', None, 'a value (see docs/scene.md)')
     seat = _seat(ctx, vt.get('seat'))
+    block = vt.get('hydraulic')
+    if hydraulic or block is not None:
+        from cam_design.hydraulic.run import hydraulic_params
+
+        hydraulic_params(block, mass=params['mass'], spring_rate=params['spring_rate'],
+                         spring_preload=params['spring_preload'],
+                         valve_damping=params.get('valve_damping', 0.0),
+                         restitution=seat.restitution)   # validated here, built per run
+        if not hydraulic:
+            ctx.warnings.append(f'valve_train.hydraulic: ignored by model {model} (set '
+                                'valve_train.model: hydraulic to use it)')
     speeds = _speeds(vt.get('cam_speed_rpm', [1500.0]))
     mdof = vt.get('mdof')
     if mdof is not None and not isinstance(mdof, Mapping):
@@ -426,7 +442,8 @@ def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
         ctx.warnings.append('valve_train.mdof: model mdof without an mdof block; the '
                             'dynamics node uses its defaults')
     return ValveTrain(model=model, seat=seat, cam_speed_rpm=speeds,
-                      mdof=dict(mdof) if mdof is not None else None, **params)
+                      mdof=dict(mdof) if mdof is not None else None,
+                      hydraulic=dict(block) if block is not None else None, **params)
 
 
 def _seat(ctx: _Ctx, value: Any) -> Seat:

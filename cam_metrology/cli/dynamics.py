@@ -37,7 +37,7 @@ def register(subparsers: Any) -> None:
                     'lift (SCENE) or the reconstructed measured profile (BAG).')
     p.add_argument('input', metavar='SCENE|BAG', help='scene YAML, or rosbag2 directory/.mcap')
     p.add_argument('--feature', metavar='ID', help='only this lobe (default: all lobes)')
-    p.add_argument('--model', choices=('sdof', 'mdof'),
+    p.add_argument('--model', choices=('sdof', 'mdof', 'hydraulic'),
                    help="model (default: the scene's valve_train.model)")
     p.add_argument('--rpm', type=float, action='append', metavar='R',
                    help="camshaft speed [rpm]; repeat for several (default: the scene's "
@@ -116,6 +116,16 @@ def run(args: argparse.Namespace) -> int:
             if args.feature and feature != args.feature:
                 continue
             plot_runs(runs, folder / f'{safe_name(feature)}.png', title=feature)
+            hydraulic = [r for r in runs if hasattr(r, 'pump_pressure')]
+            if hydraulic:
+                import matplotlib.pyplot as plt
+
+                from cam_design.hydraulic.plot import plot_pressures
+                from cam_metrology.files import save_figure
+                fig = plot_pressures(hydraulic, title=f'{feature}: hydraulic valve gear')
+                save_figure(fig, folder / f'{safe_name(feature)}_pressure.png', '--plot',
+                            dpi=110)
+                plt.close(fig)
     return 1 if any('failures' in e for e in result['features'].values()) else 0
 
 
@@ -211,6 +221,14 @@ def _q(value: Any, fmt: str, unit: str, scale: float = 1.0) -> str:
 def run_line(feature: str, r: dict[str, Any]) -> str:
     """One human-readable line per run: angles to 0.001 deg, velocity to 1 mm/s,
     heights in um, stress in MPa, the contact width used in mm."""
+    if r.get('model') == 'hydraulic':
+        return (f"{feature} {r['cam_speed_rpm']:g} rpm (hydraulic): max valve lift "
+                f"{_q(r['max_valve_lift_m'], '.3f', 'mm', 1e3)} (rigid oil "
+                f"{_q(r['rigid_valve_lift_m'], '.3f', 'mm', 1e3)}), peak pressure pump "
+                f"{_q(r['peak_pump_pressure_pa'], '.1f', 'bar', 1e-5)} / actuator "
+                f"{_q(r['peak_actuator_pressure_pa'], '.1f', 'bar', 1e-5)}, seating "
+                f"{_q(r['seating_velocity_m_s'], '.3f', 'm/s')}, cavitation "
+                f"{'yes' if r['cavitation'] else 'no'}")
     line = (f"{feature} {r['cam_speed_rpm']:g} rpm: opening {_q(r['opening_deg'], '.3f', 'deg')}"
             f", closing {_q(r['closing_deg'], '.3f', 'deg')}, separations "
             f"{len(r['separations'])}, seating {_q(r['seating_velocity_m_s'], '.3f', 'm/s')}, "

@@ -104,7 +104,7 @@ class DynamicsCore:
                              'without a scene lobes[].width'),
         'youngs_modulus': (2.06e11, 'Young modulus E [Pa] of cam and follower (mu = 0.3)'),
         'max_revolutions': (4, 'at most this many revolutions to reach the periodic state'),
-        'model': ('', "sdof | mdof; empty: the scene's valve_train.model"),
+        'model': ('', "sdof | mdof | hydraulic; empty: the scene's valve_train.model"),
     }
 
     def __init__(self, params: dict[str, Any] | None = None) -> None:
@@ -119,8 +119,9 @@ class DynamicsCore:
         self.youngs = require_positive('dynamics.youngs_modulus', p['youngs_modulus'])
         self.max_revolutions = int(require_positive('dynamics.max_revolutions',
                                                     p['max_revolutions']))
-        if p['model'] not in ('', 'sdof', 'mdof'):
-            raise InputError('dynamics.model', p['model'], "sdof | mdof (or '' for the scene's)")
+        if p['model'] not in ('', 'sdof', 'mdof', 'hydraulic'):
+            raise InputError('dynamics.model', p['model'],
+                             "sdof | mdof | hydraulic (or '' for the scene's)")
         self.model = str(p['model'])
         self.scene: Any = None
         self.laws: dict[str, tuple[Any, str]] = {}
@@ -238,6 +239,11 @@ class DynamicsCore:
                 continue
             self.runs.setdefault(feature, []).append(run)
             out.append(TableOutput(MOTION, name, COLUMNS, run.table()))
+            if hasattr(run, 'pressure_table'):   # hydraulic model: chamber pressures
+                from cam_design.hydraulic.run import PRESSURE_COLUMNS
+
+                out.append(TableOutput(MOTION, f'{name}/pressure', PRESSURE_COLUMNS,
+                                       run.pressure_table()))
             ev = run.events
             level = WARN if ev.get('jump') or ev.get('bounce_count') else OK
             msg = ('separation' if ev.get('jump') else
@@ -289,6 +295,10 @@ def parse_speeds(value: Any, key: str) -> tuple[float, ...]:
 def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
                 geom: ContactGeometry | None, max_revolutions: int = 4) -> Run:
     """One run of the scene's valve-train model (``vt``: scene ValveTrain)."""
+    if getattr(vt, 'model', 'sdof') == 'hydraulic':
+        from cam_design.hydraulic.run import hydraulic_from_valve_train, run_hydraulic
+
+        return run_hydraulic(law, hydraulic_from_valve_train(vt), rpm, geom)
     params = SdofParams.from_valve_train(vt)
     if getattr(vt, 'model', 'sdof') == 'mdof':
         from cam_design.valve_train.mdof import mdof_from_mapping, simulate_mdof
