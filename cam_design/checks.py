@@ -546,18 +546,39 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
         out['min_oil_film_um'] = float(film.h_min.min()) * 1e6
     piston = cfg.get('piston')
     if piston is not None and y.max() > 0:
-        pk = f'{key}.piston'
-        piston = P.mapping(piston, pk)
-        P.reject_unknown(piston, pk, ('crank_radius', 'rod_length', 'clearance',
-                                      'opening_crank_angle', 'exact'))
-        open_alpha = float(a[np.nonzero(y > 0)[0][0]])
-        phi = crank_angle(a, P.finite(piston, pk, 'opening_crank_angle'), open_alpha)
-        exact = bool(piston.get('exact', True))
-        s = piston_displacement(phi, P.positive(piston, pk, 'crank_radius'),
-                                P.positive(piston, pk, 'rod_length'), exact=exact)
-        ds = valve_piston_clearance(s, y, P.positive(piston, pk, 'clearance', allow_zero=True))
-        i = int(np.argmin(ds))
-        out['min_valve_piston_clearance_mm'] = float(ds[i]) * 1e3
-        out['min_clearance_crank_deg'] = math.degrees(float(phi[i]))
-        out['valve_piston_collision'] = bool(ds[i] <= 0)
+        ds, phi_at = min_valve_piston_clearance(a, y, piston, f'{key}.piston')
+        out['min_valve_piston_clearance_mm'] = ds * 1e3
+        out['min_clearance_crank_deg'] = math.degrees(phi_at)
+        out['valve_piston_collision'] = bool(ds <= 0)
     return out
+
+
+PISTON_KEYS = ('crank_radius', 'rod_length', 'clearance', 'opening_crank_angle', 'exact')
+
+
+def min_valve_piston_clearance(alpha: ArrayLike, valve_lift: ArrayLike,
+                               piston: Mapping[str, Any], key: str = 'piston',
+                               open_alpha: float | None = None) -> tuple[float, float]:
+    """Smallest valve-piston clearance D_s = s + y0 - y [m] (2.13) over the cam angles
+    ``alpha`` [rad] for the valve lift ``valve_lift`` [m] (rigid or dynamic), and the
+    crank angle [rad from TDC] where it occurs. ``piston`` holds ``crank_radius``,
+    ``rod_length``, ``clearance`` [m], ``opening_crank_angle`` [rad] (crank angle at the
+    opening) and ``exact`` (default True); errors name ``key.X``. The opening is the cam
+    angle ``open_alpha`` [rad] (the rigid train's, which fixes the valve timing), or else
+    the first sample with y > 0."""
+    from cam_design.lift_laws import params as P
+
+    a, y = _arr('alpha', alpha), _arr('valve_lift', valve_lift)
+    piston = P.mapping(piston, key)
+    P.reject_unknown(piston, key, PISTON_KEYS)
+    if not np.any(y > 0):
+        raise InputError('valve_lift', float(y.max()), 'a valve that opens (lift > 0)')
+    if open_alpha is None:
+        open_alpha = float(a[np.nonzero(y > 0)[0][0]])
+    phi = crank_angle(a, P.finite(piston, key, 'opening_crank_angle'), open_alpha)
+    s = piston_displacement(phi, P.positive(piston, key, 'crank_radius'),
+                            P.positive(piston, key, 'rod_length'),
+                            exact=bool(piston.get('exact', True)))
+    ds = valve_piston_clearance(s, y, P.positive(piston, key, 'clearance', allow_zero=True))
+    i = int(np.argmin(ds))
+    return float(ds[i]), float(phi[i])

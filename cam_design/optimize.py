@@ -56,6 +56,11 @@ CONSTRAINTS: dict[str, tuple[str, str, str]] = {
     'min_spring_margin': ('spring_margin', 'min', '1 (needs valve_train, cam_speed_rpm)'),
     'min_jump_speed_rpm': ('jump_speed_rpm', 'min', 'rpm (needs valve_train)'),
     'min_fullness': ('fullness', 'min', '1'),
+    'min_nose_oil_film': ('nose_oil_film', 'min', 'm (flat follower; needs base_radius, '
+                          'lubrication)'),
+    'min_valve_piston_clearance': ('valve_piston_clearance', 'min',
+                                   'm (needs piston; the dynamic valve lift when valve_train '
+                                   'and cam_speed_rpm are given, else the rigid one)'),
 }
 
 #: free parameters used when a SPEC gives none: family -> {path: (low, high) as
@@ -74,7 +79,7 @@ DEFAULT_FREE: dict[str, dict[str, tuple]] = {
 FAMILIES = tuple(DEFAULT_FREE)
 SPEC_KEYS = ('family', 'fixed', 'free', 'objective', 'constraints', 'valve_train',
              'cam_speed_rpm', 'base_radius', 'follower', 'width', 'samples', 'starts', 'seed',
-             'generations')
+             'generations', 'lubrication', 'piston')
 #: metrics computed by simulation: piecewise constant in the parameters (bisection to a
 #: tolerance), so they go to the derivative-free search
 SIMULATED = frozenset({'jump_speed_rpm'})
@@ -107,6 +112,8 @@ class Spec:
     base_radius: float | None = None
     follower: tuple[str, float] = ('flat', 0.0)
     width: float | None = None
+    lubrication: dict[str, Any] | None = None   # {k_film}: oil-film constant of Shang (2.12)
+    piston: dict[str, Any] | None = None        # checks.PISTON_KEYS
     samples: int = 4001
     starts: int = 6
     seed: int = 0
@@ -337,6 +344,21 @@ def parse_spec(doc: Any, key: str = 'spec') -> Spec:
         if not isinstance(f, Mapping) or f.get('kind') not in ('flat', 'roller'):
             raise InputError('follower', f, '{kind: flat} or {kind: roller, radius: m}')
         follower = (f['kind'], _number(f.get('radius', 0.0), 'follower.radius'))
+    lub, piston = doc.get('lubrication'), doc.get('piston')
+    if 'min_nose_oil_film' in constraints:
+        if follower[0] != 'flat':
+            raise InputError('constraints.min_nose_oil_film', constraints['min_nose_oil_film'],
+                             'a flat follower (the oil-film check is for flat tappets)')
+        if r0 is None:
+            raise InputError('base_radius', None, 'the base-circle radius [m] (needed by '
+                             'min_nose_oil_film)')
+        if not isinstance(lub, Mapping) or 'k_film' not in lub:
+            raise InputError('lubrication', lub, '{k_film: K} (needed by min_nose_oil_film)')
+        _number(lub['k_film'], 'lubrication.k_film')
+    if 'min_valve_piston_clearance' in constraints and not isinstance(piston, Mapping):
+        raise InputError('piston', piston, 'a mapping of crank_radius, rod_length, '
+                         'clearance, opening_crank_angle (needed by '
+                         'min_valve_piston_clearance)')
     samples = int(_number(doc.get('samples', 4001), 'samples'))
     if not 201 <= samples <= 100001:
         raise InputError('samples', samples, 'an integer in [201, 100001]')
@@ -345,6 +367,8 @@ def parse_spec(doc: Any, key: str = 'spec') -> Spec:
                 cam_speed_rpm=None if rpm is None else _number(rpm, 'cam_speed_rpm'),
                 base_radius=None if r0 is None else _number(r0, 'base_radius'),
                 follower=follower, width=None if width is None else _number(width, 'width'),
+                lubrication=dict(lub) if isinstance(lub, Mapping) else None,
+                piston=dict(piston) if isinstance(piston, Mapping) else None,
                 samples=samples, starts=int(_number(doc.get('starts', 6), 'starts')),
                 generations=int(_number(doc.get('generations', 30), 'generations')),
                 seed=int(_number(doc.get('seed', 0), 'seed')))
@@ -447,6 +471,15 @@ def metrics_of(spec: Spec, law: Any) -> dict[str, float]:
             from cam_design.follower import roller_profile
             rho = roller_profile(law, spec.base_radius, spec.follower[1], a).rho
         out['min_radius_of_curvature'] = float(rho.min())
+        if 'min_nose_oil_film' in need:   # at the nose: over a flank the film of (2.12)
+            from cam_design.checks import oil_film   # vanishes where gamma crosses 1/2
+
+            i = int(np.argmax(h))
+            out['nose_oil_film'] = float(oil_film(a[i:i + 1], h[i:i + 1], rho[i:i + 1],
+                                                  spec.base_radius,
+                                                  float(spec.lubrication['k_film'])).h_min[0])
+    if 'min_valve_piston_clearance' in need:
+        out['valve_piston_clearance'] = _clearance(spec, law, a, h)
     if spec.valve_train is not None:
         params = _sdof_params(spec.valve_train)
         if {'min_jump_speed_rpm', 'jump_speed_rpm'} & need:
@@ -471,6 +504,30 @@ def metrics_of(spec: Spec, law: Any) -> dict[str, float]:
                                            else math.inf)
                 out['max_hertz_stress'] = float(np.max(sigma))
     return out
+
+
+def _clearance(spec: Spec, law: Any, a: NDArray, h: NDArray) -> float:
+    """Smallest valve-piston clearance [m]: the valve lift of the exact SDOF run at
+    ``cam_speed_rpm`` when the SPEC has a valve train and a speed, else k h - x0."""
+    from cam_design.checks import min_valve_piston_clearance
+
+    from scipy.optimize import brentq
+
+    vt = spec.valve_train
+    k = float(vt.get('rocker_ratio', 1.0)) if vt else 1.0
+    lash = float(vt.get('lash', 0.0)) if vt else 0.0
+    # the valve timing is the rigid train's: the cam angle where k h first exceeds x0
+    i = int(np.nonzero(k * h > lash)[0][0])
+    a_open = a[0] if i == 0 else brentq(lambda x: k * float(law(x, 0)) - lash, a[i - 1],
+                                        a[i], xtol=1e-12)
+    if vt is not None and spec.cam_speed_rpm is not None:
+        from cam_design.valve_train.report import run_sdof
+
+        run = run_sdof(law, _sdof_params(vt), spec.cam_speed_rpm, step_deg=0.25)
+        alpha, y = run.alpha, run.lift
+    else:
+        alpha, y = a, np.maximum(k * h - lash, 0.0)
+    return min_valve_piston_clearance(alpha, y, spec.piston or {}, 'piston', a_open)[0]
 
 
 def _evaluate(spec: Spec, x: NDArray[np.float64], cache: dict) -> Evaluation:

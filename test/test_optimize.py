@@ -97,6 +97,63 @@ def test_relaxing_a_constraint_never_lowers_the_optimum() -> None:
     assert values[-1] > values[0]
 
 
+PISTON = {'crank_radius': 0.04, 'rod_length': 0.14, 'clearance': 0.0012,
+          'opening_crank_angle': -0.3}
+
+
+def _clearance_by_hand(law, piston: dict) -> float:
+    """min over the lobe of s(phi) + y0 - h: exact slider-crank, phi from the opening."""
+    a = np.linspace(*law.support, 200001)
+    h = law(a, 0)
+    a_open = a[np.nonzero(h > 0)[0][0]]
+    phi = piston['opening_crank_angle'] + 2 * (a - a_open)
+    r, rod = piston['crank_radius'], piston['rod_length']
+    s = r * (1 - np.cos(phi)) + rod - np.sqrt(rod ** 2 - (r * np.sin(phi)) ** 2)
+    return float(np.min(s + piston['clearance'] - h))
+
+
+def test_valve_piston_clearance_constraint_holds_and_binds() -> None:
+    doc = {'family': 'constant_acceleration', 'fixed': {'max_lift': H, 'half_duration_deg': 60},
+           'constraints': {'max_positive_acceleration': A_POS,
+                           'max_negative_acceleration': A_NEG},
+           'piston': PISTON}
+    free = optimize(parse_spec(doc))
+    assert _clearance_by_hand(from_spec(free.lift_law, 'x'), PISTON) < 0.0005  # it binds
+    fullness = []
+    for limit in (0.0005, 0.0004):
+        doc['constraints'] = {**doc['constraints'], 'min_valve_piston_clearance': limit}
+        res = optimize(parse_spec(doc))
+        assert res.status == 'optimal'
+        c = res.constraints['min_valve_piston_clearance']
+        assert c['active'] and c['value'] == pytest.approx(limit, rel=1e-6)
+        assert _clearance_by_hand(from_spec(res.lift_law, 'x'), PISTON) == pytest.approx(
+            limit, rel=5e-4)   # 0.25 um: the 4001-sample grid
+        fullness.append(res.metrics['fullness'])
+    assert free.metrics['fullness'] > fullness[1] > fullness[0]   # relaxing never hurts
+
+
+def test_nose_oil_film_has_its_closed_form_ceiling() -> None:
+    """Flat tappet, (2.12) at the nose: h_min = K (R0 + H) sqrt(g |2g - 1|) with
+    g = 1 + h''/(R0 + H). Below g = 1/2 its largest value is K (R0 + H)/sqrt(8), at
+    g = 1/4: a limit just under it forces h''(nose) = -3/4 (R0 + H); one over it is
+    infeasible while the deceleration bound keeps g < 1/2."""
+    r0, k = 0.02, 1e-4
+    ceiling = k * (r0 + H) / math.sqrt(8)
+    doc = {'family': 'constant_acceleration', 'fixed': {'max_lift': H, 'half_duration_deg': 60},
+           'constraints': {'max_positive_acceleration': A_POS,
+                           'max_negative_acceleration': A_NEG},
+           'base_radius': r0, 'lubrication': {'k_film': k}}
+    doc['constraints']['min_nose_oil_film'] = 0.9995 * ceiling
+    res = optimize(parse_spec(doc))
+    assert res.status == 'optimal'
+    law = from_spec(res.lift_law, 'x')
+    g = 1 + float(law(0.0, 2)) / (r0 + H)
+    assert g == pytest.approx(0.25, abs=0.02)
+    assert k * (r0 + H) * math.sqrt(g * abs(2 * g - 1)) >= 0.9995 * ceiling * (1 - 1e-6)
+    doc['constraints']['min_nose_oil_film'] = 1.01 * ceiling
+    assert optimize(parse_spec(doc)).status == 'infeasible'
+
+
 def test_infeasible_spec_names_the_most_violated_constraint() -> None:
     """H = 8 mm over 60 deg needs V = 2H/alpha0 and so a1 >= V/alpha0 = 0.0146 m/rad^2
     even with the whole flank accelerating: a bound of 0.01 cannot be met."""
