@@ -222,7 +222,7 @@ def _base_spec(family: str, fixed: Mapping[str, Any]) -> dict[str, Any]:
             raise InputError('fixed.half_duration_deg', hd,
                              f'more than the ramp angle ({math.degrees(hd - half):.4g} deg)')
         base['half_angle'] = half
-    if family in ('constant_acceleration', 'composite', 'polynomial', 'polydyne',
+    if family in ('constant_acceleration', 'composite', 'polynomial',
                   'dual_peak') and 'ramp' not in base:
         base['ramp'] = None
     if family == 'polydyne' and 'max_lift' in base:
@@ -460,7 +460,7 @@ def metrics_of(spec: Spec, law: Any) -> dict[str, float]:
            'positive_acceleration': float(max(h2.max(), 0.0)),
            'negative_acceleration': float(max(-h2.min(), 0.0)),
            'peak_acceleration': float(np.abs(h2).max()),
-           'peak_jerk': float(np.abs(h3).max()),
+           'peak_jerk': _peak_jerk(a, h2, h3),
            'max_lift': float(h.max())}
     need = set(spec.constraints) | set(spec.objective)
     rho = None
@@ -504,6 +504,17 @@ def metrics_of(spec: Spec, law: Any) -> dict[str, float]:
                                            else math.inf)
                 out['max_hertz_stress'] = float(np.max(sigma))
     return out
+
+
+def _peak_jerk(a: NDArray, h2: NDArray, h3: NDArray) -> float:
+    """Largest |h'''| [m/rad^3]; infinite when h'' jumps somewhere (a constant-
+    acceleration segment, a ramp junction): the jerk is then a Dirac pulse, and the
+    piecewise derivative alone would understate it. A jump is a change of h'' between
+    neighbouring samples more than twice what |h'''| allows, plus 1e-9 of max |h''|."""
+    step = np.abs(np.diff(h2))
+    allowed = 2.0 * np.maximum(np.abs(h3[:-1]), np.abs(h3[1:])) * np.diff(a) \
+        + 1e-9 * float(np.abs(h2).max())
+    return math.inf if np.any(step > allowed) else float(np.abs(h3).max())
 
 
 def _clearance(spec: Spec, law: Any, a: NDArray, h: NDArray) -> float:

@@ -255,3 +255,54 @@ def test_cli_summary_exit_codes_and_json(tmp_path, capsys) -> None:
     assert main(['design', 'optimize', str(wrong)]) == 2
     err = capsys.readouterr().err
     assert err.count('\n') == 1 and 'family' in err and 'constant_acceleration' in err
+
+
+DEG, MM = math.pi / 180, 1e-3
+S2_RAMP = {'kind': 'constant_acceleration_velocity', 'height': 0.3 * MM,
+           'velocity': 0.015 * MM / DEG, 'angle': 30 * DEG}
+
+
+@pytest.mark.parametrize('doc, name, limit', [
+    ({'family': 'polydyne', 'generations': 4,
+      'fixed': {'rocker_ratio': 1.5, 'lash': 0.25 * MM, 'mass': 0.12, 'stiffness': 1.2e7,
+                'spring_rate': 3e4, 'spring_preload': 250.0, 'design_cam_speed_rpm': 1500,
+                'valve_lift': 8 * MM, 'half_angle': 50 * DEG}},
+     'max_positive_acceleration', 0.05),
+    ({'family': 'dual_peak', 'starts': 2,
+      'fixed': {'ramp': S2_RAMP, 'rise': 8 * MM, 'half_angle': 50 * DEG,
+                'connection': {'start': 5 * DEG, 'angle': 40 * DEG, 'point_angle': 20 * DEG,
+                               'point_lift': 0.1 * MM},
+                'secondary': {'rise': 1.5 * MM, 'half_angle': 20 * DEG,
+                              'ramp': {'height': 0.25 * MM, 'velocity': 0.0125 * MM / DEG,
+                                       'angle': 30 * DEG}}}},
+     'max_positive_acceleration', 0.08),
+], ids=['polydyne', 'dual_peak'])
+def test_polydyne_and_dual_peak_families_meet_their_constraint(
+        doc: dict, name: str, limit: float) -> None:
+    """Both remaining families optimise; the constraint holds on finite differences of
+    the pasted law (not the optimiser's own derivatives)."""
+    res = optimize(parse_spec({**doc, 'constraints': {name: limit}}))
+    assert res.status == 'optimal', res.message
+    law = from_spec(res.lift_law, 'pasted')
+    a = np.linspace(*law.support, 200001)
+    d = a[1] - a[0]
+    h = law(a, 0)
+    value = (np.diff(h, 2) / d ** 2).max()
+    assert value <= limit * (1 + 1e-3)
+    assert res.metrics['fullness'] >= res.start['objective'] - 1e-9 or not res.start[
+        'feasible']
+
+
+def test_jerk_of_a_law_with_acceleration_steps_is_infinite() -> None:
+    """A ramp junction or a constant-acceleration segment makes h'' jump: the jerk is a
+    Dirac pulse, so max_jerk can never hold (finite differences of the table grow
+    without bound as the step shrinks), and the optimiser says so."""
+    doc = {'family': 'constant_acceleration', 'starts': 1,
+           'fixed': {'max_lift': H, 'half_duration_deg': 60},
+           'constraints': {'max_jerk': 10.0}}
+    res = optimize(parse_spec(doc))
+    assert res.status == 'infeasible' and 'max_jerk' in res.message
+    law = from_spec(res.lift_law, 'x')
+    fd = [np.abs(np.diff(law(np.linspace(*law.support, n), 0), 3)).max()
+          / ((law.support[1] - law.support[0]) / (n - 1)) ** 3 for n in (2001, 20001)]
+    assert fd[1] > 5 * fd[0]      # ten times finer, ten times larger: unbounded
