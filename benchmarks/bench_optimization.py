@@ -49,6 +49,21 @@ def cases(ref: dict[str, float]) -> list[tuple[str, dict]]:
          {'family': 'harmonic', 'fixed': {'max_lift': ref['max_lift'],
                                           'half_duration_deg': 80, 'ramp': RAMP},
           'constraints': cons, 'generations': 10}),
+        ('polydyne at 1500 rpm, exponents 1..4 free (DE, integers)',
+         {'family': 'polydyne', 'generations': 6, 'constraints': cons,
+          'fixed': {'rocker_ratio': 1.0, 'lash': 0.0, 'mass': 0.12, 'stiffness': 1.2e7,
+                    'spring_rate': 3e4, 'spring_preload': 250.0,
+                    'design_cam_speed_rpm': 1500, 'valve_lift': ref['max_lift'],
+                    'half_angle': math.radians(80)}}),
+        ('dual peak, connection point lift free (SLSQP)',
+         {'family': 'dual_peak', 'starts': 3, 'constraints': cons,
+          'fixed': {'ramp': RAMP, 'rise': 8.0e-3, 'half_angle': math.radians(50),
+                    'connection': {'start': math.radians(5), 'angle': math.radians(40),
+                                   'point_angle': math.radians(20), 'point_lift': 1e-4},
+                    'secondary': {'rise': 1.5e-3, 'half_angle': math.radians(20),
+                                  'ramp': {'height': 2.5e-4,
+                                           'velocity': 0.0125e-3 / math.radians(1),
+                                           'angle': math.radians(30)}}}}),
     ]
 
 
@@ -68,7 +83,9 @@ def run() -> list[str]:
             'm/rad^2 (the constraints of every row), total lift '
             f'{ref["max_lift"] * 1e3:.3f} mm, 80 deg from lobe start to nose, the same ramp '
             'in every row. Fullness over the whole lobe, ramps included (the base section '
-            'alone of the reference has 0.494).', '']
+            'alone of the reference has 0.494). The polydyne row has no ramp (the '
+            'family has none); the dual-peak row carries a second (EGR) lift, so its '
+            'fullness is not comparable with the others.', '']
     return head + rows
 
 
