@@ -1,0 +1,145 @@
+"""`cam-bench grind ...`: the cam-grinding computations of cam_design.grinding.
+
+FILE holds a lift law (as ``design profile``: ``lift_law:`` or an ``alpha``/``h``
+table, ``base_radius``) and a ``grinding:`` section (docs/grinding.md), or it is a scene
+(``--lobe`` picks the lobe; the ``grinding:`` section then comes from ``--machine``).
+Subcommands: ``table`` (wheel-centre table for the CNC grinder), ``master`` (master-cam
+follower lift and master profile on a rocking cradle), ``errors`` (machining-error
+sensitivities), ``correct`` (fit a measured lift error, write a corrected table).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``grind`` group."""
+    parser = sub.add_parser(
+        'grind', help='cam grinding: wheel-centre table, master cam, machining errors',
+        description='Cam grinding (docs/grinding.md): the wheel-centre path of a grinding '
+                    'wheel on the cam, the master-cam follower lift of a rocking-cradle '
+                    'grinder, machining-error sensitivities and a measure -> correct loop. '
+                    'Lengths in m, angles in rad in the files.')
+    gsub = parser.add_subparsers(dest='grind_command', metavar='WHAT')
+    p = gsub.add_parser('table', help='wheel-centre distance and contact point vs angle',
+                        description='Wheel-centre table: the distance of the wheel centre from '
+                                    'the cam axis against its polar angle in the cam frame '
+                                    '(angle_rad), with the contact point, for one or several '
+                                    'wheel radii (long format: one block per radius).')
+    _common(p)
+    p.add_argument('--wheel-radius', type=float, action='append', metavar='M',
+                   help='wheel radius [m]; repeat for several (default: grinding.wheel_radius)')
+    p.add_argument('--step-deg', type=float,
+                   help='angle step [deg] over the full turn (default grinding.step_deg or 0.5)')
+    p.set_defaults(func=cmd_table)
+    parser.set_defaults(func=lambda args: parser.print_help() or 2)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument('file', help='YAML: lift law + base_radius + grinding: section, or a scene')
+    p.add_argument('--lobe', metavar='ID', help='FILE is a scene: use this lobe')
+    p.add_argument('--machine', metavar='YAML',
+                   help='a file whose grinding: section replaces the one of FILE')
+    p.add_argument('--base-radius', type=float, help='base-circle radius [m] (else '
+                                                     'base_radius in the file)')
+    p.add_argument('--csv', metavar='FILE|-', help='write the table as CSV')
+    p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
+
+
+def load(args: argparse.Namespace) -> tuple[Any, float, Any, dict[str, Any]]:
+    """(lift law, base radius [m], Design, grinding section) of the arguments."""
+    from cam_design.errors import InputError
+    from cam_design.grinding import spec as gs
+    from cam_design.grinding.wheel_path import Design
+    from cam_metrology.cli.design_law import load_yaml
+    from cam_metrology.cli.design_profile import _base_radius, _load_law, _scene_lobe
+
+    doc = load_yaml(args.file)
+    if args.machine:
+        machine = load_yaml(args.machine)
+        if not isinstance(machine, dict) or 'grinding' not in machine:
+            raise InputError('--machine', args.machine, 'a YAML file with a grinding: section')
+        section = dict(gs.section(machine))
+    else:
+        section = dict(gs.section(doc))
+    if isinstance(doc, dict) and 'lobes' in doc:
+        law, follower, base = _scene_lobe(args)
+        if args.base_radius is not None:
+            raise InputError('--base-radius', args.base_radius,
+                             'no value with a scene (its base_circle_radius is used)')
+        if 'design' in section:
+            raise InputError('grinding.design', section['design'],
+                             'no design with a scene (the lobe\'s follower is used)')
+        design = Design(follower.kind, follower.radius if follower.kind == 'roller' else 0.0)
+    else:
+        if args.lobe is not None:
+            raise InputError('--lobe', args.lobe, 'a scene file (with lobes:)')
+        law = _load_law(doc, args.file)
+        base = _base_radius(args, doc)
+        design = gs.design(section.get('design', 'flat'))
+    return law, base, design, section
+
+
+def _write(args: argparse.Namespace, columns: dict[str, Any], summary: dict[str, Any]
+           ) -> bool:
+    """CSV (15 significant digits) and/or JSON of ``columns`` with ``summary``."""
+    import numpy as np
+
+    from cam_metrology.cli.design_law import write_text
+
+    names = list(columns)
+    table = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])
+    wrote = False
+    if args.csv:
+        lines = [','.join(names)] + [','.join(f'{v:.15g}' for v in row) for row in table]
+        write_text(args.csv, '\n'.join(lines) + '\n', '--csv')
+        wrote = True
+    if args.json:
+        rows = [[None if not math.isfinite(v) else v for v in row] for row in table.tolist()]
+        write_text(args.json, json.dumps(dict(summary, columns=names, rows=rows), indent=1)
+                   + '\n', '--json')
+        wrote = True
+    return wrote
+
+
+def cmd_table(args: argparse.Namespace) -> int:
+    """Wheel-centre table for one or several wheel radii."""
+    import numpy as np
+
+    from cam_design.grinding import spec as gs
+    from cam_design.grinding.wheel_path import wheel_table
+
+    law, base, design, section = load(args)
+    if args.wheel_radius:
+        radii = gs.wheel_radii(args.wheel_radius, '--wheel-radius')
+    elif 'wheel_radius' in section:
+        radii = gs.wheel_radii(section['wheel_radius'])
+    else:
+        from cam_design.errors import InputError
+        raise InputError('--wheel-radius', None, 'a wheel radius [m] (or grinding.wheel_'
+                                                 'radius in the file)')
+    if args.step_deg is not None:
+        step = gs.step_rad(args.step_deg, '--step-deg')
+    else:
+        step = gs.step_rad(section.get('step_deg', 0.5))
+    cols = wheel_table(law, base, design, radii, step, key=args.file)
+    summary: dict[str, Any] = {'design': design.kind, 'base_radius_m': base,
+                               'wheel_radius_m': radii, 'step_rad': step}
+    per = []
+    for rw in radii:
+        sel = cols['wheel_radius_m'] == rw
+        d = cols['wheel_centre_distance_m'][sel]
+        mu = cols['wheel_pressure_angle_rad'][sel]
+        per.append({'wheel_radius_m': rw, 'distance_min_m': float(np.min(d)),
+                    'distance_max_m': float(np.max(d)),
+                    'wheel_pressure_angle_max_deg': float(np.degrees(np.max(np.abs(mu))))})
+    summary['wheels'] = per
+    if not _write(args, cols, summary):
+        for w in per:
+            print(f"wheel {w['wheel_radius_m'] * 1e3:.4f} mm: centre distance "
+                  f"{w['distance_min_m'] * 1e3:.6f} .. {w['distance_max_m'] * 1e3:.6f} mm, "
+                  f"max wheel pressure angle {w['wheel_pressure_angle_max_deg']:.4f} deg")
+    return 0

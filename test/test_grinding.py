@@ -1,0 +1,156 @@
+"""cam_design.grinding and `cam-bench grind` against closed forms and independent references."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from cam_design.errors import InputError
+from cam_design.follower import (EccentricDiscLift, Follower, convert_lift, flat_profile,
+                                 offset_roller_profile, rocker_profile)
+from cam_design.grinding.wheel_path import Design, WheelPath, equivalent_inline
+from cam_design.lift_laws import from_spec
+from cam_metrology.cli import main
+
+RC, ECC, RW = 0.02, 0.005, 0.2          # eccentric disc radius, eccentricity, wheel radius
+R0 = RC - ECC
+FULL = np.linspace(-math.pi, math.pi, 721)
+INTAKE = {'family': 'preset', 'name': 'flat_tappet_intake'}    # base circle 16.5 mm
+
+
+# --- (1) wheel-centre path -------------------------------------------------------------
+
+@pytest.mark.parametrize('kind,r', [('flat', 0.0), ('roller', 0.008), ('knife', 0.0)])
+def test_eccentric_disc_path_is_offset_circle(kind: str, r: float) -> None:
+    """The wheel centre of an eccentric disc runs on a circle of radius R_c + R_w centred
+    e off the axis; the contact point is on the disc."""
+    law = EccentricDiscLift(RC, ECC, Follower(kind, r))
+    t = WheelPath(law, R0, Design(kind, r), RW).table(FULL)
+    d = ECC * np.cos(FULL) + np.sqrt((RC + RW) ** 2 - ECC ** 2 * np.sin(FULL) ** 2)
+    assert np.max(np.abs(t['wheel_centre_distance_m'] - d)) < 1e-12
+    assert np.max(np.abs(np.hypot(t['wheel_x_m'], t['wheel_y_m'] - ECC) - RC - RW)) < 1e-12
+    assert np.max(np.abs(np.hypot(t['contact_x_m'], t['contact_y_m'] - ECC) - RC)) < 1e-12
+    # the contact normal points from the disc centre to the wheel centre
+    normal = np.arctan2(t['wheel_y_m'] - ECC, t['wheel_x_m']) - 0.5 * math.pi
+    err = (t['normal_angle_rad'] - normal + math.pi) % (2 * math.pi) - math.pi
+    assert np.max(np.abs(err)) < 1e-12
+
+
+def test_flat_design_closed_form() -> None:
+    """Flat design: D = sqrt((R0 + h + R_w)^2 + h'^2) at alpha + atan(h' / (R0 + h + R_w));
+    D = R0 + h + R_w only where h' = 0; the contact is the flat-profile point."""
+    law = from_spec(INTAKE)
+    r0 = 0.0165
+    a = np.linspace(-1.7, 1.7, 1201)
+    h, h1 = law(a), law(a, 1)
+    big = r0 + h + RW
+    at = a + np.arctan(h1 / big)
+    path = WheelPath(law, r0, Design('flat'), RW)
+    t = path.table(at)
+    assert np.max(np.abs(t['wheel_centre_distance_m'] - np.hypot(big, h1))) < 1e-12
+    prof = flat_profile(law, r0, a)
+    assert np.max(np.hypot(t['contact_x_m'] - prof.x, t['contact_y_m'] - prof.y)) < 1e-11
+    moving = np.abs(h1) > 1e-4
+    assert np.min(np.abs(t['wheel_centre_distance_m'] - big)[moving]) > 1e-10
+    nose = path.distance(np.array([0.0]))[0, 0]
+    assert abs(nose - (r0 + law(np.array([0.0]))[0] + RW)) < 1e-12
+
+
+def test_round_trip_profile_wheel_profile() -> None:
+    """design lift -> wheel path (roller R_w) -> lift of the design follower: identity."""
+    law = from_spec(INTAKE)
+    path = WheelPath(law, 0.0165, Design('flat'), RW)
+    back = convert_lift(path.lift, 0.0165, Follower('roller', RW), Follower('flat'))
+    a = np.linspace(-math.pi, math.pi, 2001)
+    assert np.max(np.abs(back(a) - law(a))) < 1e-9
+
+
+def test_offset_zero_equals_inline_roller() -> None:
+    law = EccentricDiscLift(RC, ECC, Follower('roller', 0.008))
+    p1 = WheelPath(law, R0, Design('roller', 0.008), RW)
+    p2 = WheelPath(law, R0, Design('offset-roller', 0.008, offset=0.0, delta=0), RW)
+    assert np.max(np.abs(p1.distance(FULL)[:3] - p2.distance(FULL)[:3])) < 1e-12
+
+
+def _rotate(x: np.ndarray, y: np.ndarray, angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.stack([c * x - s * y, s * x + c * y])
+
+
+@pytest.mark.parametrize('design', [
+    Design('offset-roller', 0.01, offset=0.006, eta=1, delta=1),
+    Design('offset-roller', 0.01, offset=0.004, eta=-1, delta=-1),
+    Design('rocker', 0.01, centre_distance=0.06, arm_length=0.045, eta=1, delta=-1),
+    Design('rocker', 0.008, centre_distance=0.06, arm_length=0.045, eta=-1, delta=1)])
+def test_offset_and_rocker_wheel_touches_profile(design: Design) -> None:
+    """Every wheel centre is R_w from the design profile (dense points of follower.py's
+    offset_roller_profile / rocker_profile), never closer."""
+    law = from_spec({'family': 'preset', 'name': 'methods_example'})
+    r0, rw = 0.02, 0.1
+    dense = np.linspace(-math.pi, math.pi, 40001)
+    if design.kind == 'offset-roller':
+        prof = offset_roller_profile(law, r0, design.radius, design.offset, dense,
+                                     eta=design.eta, delta=design.delta)
+        s0 = math.sqrt((r0 + design.radius) ** 2 - design.offset ** 2)
+        base_dir = math.atan2(design.delta * design.offset, s0)
+    else:
+        prof = rocker_profile(law, r0, design.radius, design.centre_distance,
+                              design.arm_length, dense, eta=design.eta, delta=design.delta)
+        rp = r0 + design.radius
+        a, arm = design.centre_distance, design.arm_length
+        psi0 = math.acos((a * a + arm * arm - rp * rp) / (2 * a * arm))
+        base_dir = math.atan2(arm * math.sin(design.delta * psi0), a - arm * math.cos(psi0))
+    pts = _rotate(prof.x, prof.y, 0.5 * math.pi - base_dir)
+    if design.eta < 0:
+        pts[0] = -pts[0]           # the equivalent in-line cam turns the other way: mirror
+    t = WheelPath(law, r0, design, rw).table(FULL)
+    dist, _ = cKDTree(pts.T).query(np.stack([t['wheel_x_m'], t['wheel_y_m']]).T)
+    assert np.min(dist) > rw - 1e-12
+    assert np.max(dist) < rw + 2e-9         # 40001 profile points: chord sag < 1e-9 m
+
+
+def test_bad_design_inputs() -> None:
+    with pytest.raises(InputError, match='design.kind'):
+        Design('cylinder')
+    with pytest.raises(InputError, match='offset'):
+        design = Design('offset-roller', 0.01, offset=0.05)
+        equivalent_inline(from_spec(INTAKE), 0.0165, design)
+    with pytest.raises(InputError, match='wheel_radius'):
+        WheelPath(from_spec(INTAKE), 0.0165, Design('flat'), 0.0)
+
+
+@pytest.fixture()
+def cam_file(tmp_path: Path) -> Path:
+    path = tmp_path / 'cam.yaml'
+    path.write_text('lift_law: {family: preset, name: flat_tappet_intake}\n'
+                    'base_radius: 0.0165\n'
+                    'grinding:\n  design: flat\n  wheel_radius: [0.2, 0.19]\n'
+                    '  step_deg: 1.0\n')
+    return path
+
+
+def test_cli_table_several_radii(cam_file: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(['grind', 'table', str(cam_file), '--csv', '-']) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    head = lines[0].split(',')
+    assert head[:4] == ['wheel_radius_m', 'angle_rad', 'wheel_centre_distance_m',
+                        'contact_angle_rad']
+    rows = np.array([[float(v) for v in ln.split(',')] for ln in lines[1:]])
+    assert rows.shape[0] == 720
+    law = from_spec(INTAKE)
+    for rw in (0.2, 0.19):
+        sel = rows[:, 0] == rw
+        ref = WheelPath(law, 0.0165, Design('flat'), rw).distance(rows[sel, 1])[0]
+        assert np.max(np.abs(rows[sel, 2] - ref)) < 1e-14 + 1e-15 * 0.22 * 10
+        base = np.abs(rows[sel, 1]) > 1.7
+        assert np.allclose(rows[sel, 2][base], 0.0165 + rw, atol=1e-15)
+
+
+def test_cli_table_errors(cam_file: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(['grind', 'table', str(cam_file), '--wheel-radius', '-0.1']) == 2
+    assert '--wheel-radius: got -0.1' in capsys.readouterr().err
+    assert main(['grind', 'table', str(cam_file), '--step-deg', '50']) == 2
+    assert '--step-deg: got 50' in capsys.readouterr().err
