@@ -154,3 +154,137 @@ def test_cli_table_errors(cam_file: Path, capsys: pytest.CaptureFixture) -> None
     assert '--wheel-radius: got -0.1' in capsys.readouterr().err
     assert main(['grind', 'table', str(cam_file), '--step-deg', '50']) == 2
     assert '--step-deg: got 50' in capsys.readouterr().err
+
+
+# --- (2) master cam on a rocking cradle --------------------------------------------------
+
+def _disc_path() -> WheelPath:
+    return WheelPath(EccentricDiscLift(RC, ECC, Follower('flat')), R0, Design('flat'), RW)
+
+
+def test_similar_cradle_master_is_scaled_copy() -> None:
+    """a_m = k a, c = k b, master_angle 0: master pitch curve = k x wheel path at the same
+    angle, and with a master roller k R_w the master profile is k x the cam profile."""
+    from cam_design.grinding.master_cam import Cradle, MasterCam
+
+    k = 1.7
+    law = from_spec(INTAKE)
+    path = WheelPath(law, 0.0165, Design('flat'), RW)
+    master = MasterCam(path, Cradle(0.35, 0.45, 0.35 * k, 0.45 * k), 'roller', k * RW)
+    assert abs(master.magnification - k) < 1e-12
+    s = np.linspace(-math.pi, math.pi, 721, endpoint=False)
+    st = master.jets(s)
+    assert np.max(np.abs(st['dm'][0] - k * path.distance(s)[0])) < 1e-12
+    assert np.max(np.abs(st['angle'][0] - s)) < 1e-12
+    prof = master.profile(720)
+    t = path.table(-math.pi + 2 * math.pi * np.arange(720) / 720)
+    assert np.max(np.hypot(prof.x - k * t['contact_x_m'], prof.y - k * t['contact_y_m'])) < 1e-12
+    assert not np.any(prof.undercut)
+
+
+@pytest.mark.parametrize('side,angle', [(1, 0.0), (-1, 0.1), (1, -0.2)])
+def test_master_lift_against_circle_intersection(side: int, angle: float) -> None:
+    """Eccentric disc: at spindle angle theta the wheel centre is where the circle of
+    radius R_c + R_w about the disc centre meets the circle of radius b about the pivot;
+    the master-follower distance then follows from the machine triangle (brute force)."""
+    from cam_design.grinding.master_cam import Cradle, MasterCam
+
+    a, b, am, c = 0.35, 0.45, 0.3, 0.5
+    master = MasterCam(_disc_path(), Cradle(a, b, am, c, angle, side), 'roller', 0.03)
+    theta = np.linspace(-math.pi, math.pi, 73)
+    lift = master.follower_lift(theta)
+    phib = master._base['phi']
+    rot = np.array([[math.cos(side * angle), -math.sin(side * angle)],
+                    [math.sin(side * angle), math.cos(side * angle)]])
+    ref = []
+    for t in theta:
+        centre = ECC * np.array([math.cos(phib - t), math.sin(phib - t)])
+        pivot = np.array([a, 0.0])
+        dvec = centre - pivot
+        dist = float(np.linalg.norm(dvec))
+        x = (b * b - (RC + RW) ** 2 + dist * dist) / (2 * dist)
+        foot = pivot + x * dvec / dist
+        perp = np.array([-dvec[1], dvec[0]]) / dist * math.sqrt(b * b - x * x)
+        w = [p for p in (foot + perp, foot - perp) if np.sign(p[1]) == side][0]
+        m = np.array([am, 0.0]) + c * rot @ ((w - pivot) / b)
+        ref.append(np.linalg.norm(m) - master.base_value)
+    assert np.max(np.abs(lift[0] - np.array(ref))) < 1e-12
+    # derivatives against central differences of the exact lift
+    eps = 1e-5
+    up, dn = master.follower_lift(theta + eps), master.follower_lift(theta - eps)
+    assert np.max(np.abs((up[0] - dn[0]) / (2 * eps) - lift[1])) < 1e-9
+    assert np.max(np.abs((up[1] - dn[1]) / (2 * eps) - lift[2])) < 1e-8
+
+
+def test_flat_master_face_touches_profile() -> None:
+    """Flat master follower: at every spindle angle the face (support H, normal psi) is
+    tangent to the master profile: max over dense profile points of P.n equals H."""
+    from cam_design.grinding.master_cam import Cradle, MasterCam
+
+    master = MasterCam(_disc_path(), Cradle(0.35, 0.45, 0.3, 0.5, 0.1, 1), 'flat')
+    prof = master.profile(40000)
+    assert not np.any(prof.undercut)
+    s = np.linspace(-math.pi, math.pi, 97)
+    st = master.jets(s)
+    psi = st['angle'][0]
+    nx, ny = -np.sin(psi), np.cos(psi)
+    support = np.max(np.outer(nx, prof.x) + np.outer(ny, prof.y), axis=1)
+    assert np.max(np.abs(support - st['value'][0])) < 2e-9     # chord sag of 40000 points
+
+
+def test_small_swing_error_shrinks_with_cradle_size() -> None:
+    """The magnified-copy approximation k h_w(theta) tends to the exact lift as the
+    pivot recedes at right angles to the wheel line (the swing turns into a radial
+    slide): its error falls at least 5x for a 10x longer cradle."""
+    from cam_design.grinding.master_cam import Cradle, MasterCam
+
+    theta = np.linspace(-math.pi, math.pi, 361)
+    errs = []
+    for a in (0.5, 5.0):          # wheel and master follower at right angles to the pivot
+        am = 0.9 * a
+        turn = math.atan(0.25 / am) - math.atan((R0 + RW) / a)
+        cr = Cradle(a, math.hypot(a, R0 + RW), am, math.hypot(am, 0.25), turn, 1)
+        tab = MasterCam(_disc_path(), cr, 'roller', 0.03).lift_table(theta)
+        errs.append(np.max(np.abs(tab['approx_error_m'])))
+        assert np.allclose(tab['approx_error_m'], tab['master_lift_approx_m']
+                           - tab['master_lift_m'], atol=1e-15)
+    assert errs[1] < errs[0] / 5
+    assert errs[0] > 1e-6          # not trivially zero on the small cradle
+
+
+def test_master_undercut_and_bad_cradle() -> None:
+    from cam_design.grinding.master_cam import Cradle, MasterCam
+
+    path = WheelPath(from_spec(INTAKE), 0.0165, Design('flat'), RW)
+    cradle = Cradle(0.35, 0.45, 0.35, 0.45)          # 1:1 copy: pitch = wheel path
+    # wheel-path radius of curvature at the nose ~ rho1 + R_w = 204.3 mm: a 210 mm
+    # master roller cannot follow it (undercut), a 30 mm one can
+    assert np.any(MasterCam(path, cradle, 'roller', 0.21).profile(3600).undercut)
+    assert not np.any(MasterCam(path, cradle, 'roller', 0.03).profile(3600).undercut)
+    with pytest.raises(InputError, match='grinding.cradle'):
+        MasterCam(path, Cradle(0.05, 0.3, 0.3, 0.5), 'roller', 0.03)
+    with pytest.raises(InputError, match='grinding.cradle.side'):
+        Cradle(0.35, 0.45, 0.3, 0.5, 0.0, 2)
+
+
+def test_cli_master(cam_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    import json
+
+    text = cam_file.read_text() + ('  cradle: {pivot_to_work: 0.35, pivot_to_wheel: 0.45, '
+                                   'pivot_to_master: 0.595, pivot_to_master_follower: 0.765}\n'
+                                   '  master_follower: {kind: roller, radius: 0.03}\n')
+    cam_file.write_text(text)
+    out = tmp_path / 'm.json'
+    assert main(['grind', 'master', str(cam_file), '--json', str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert abs(doc['magnification'] - 1.7) < 1e-12
+    assert doc['profile']['undercut'] is False
+    cols = doc['columns']
+    rows = np.array(doc['rows'])
+    lift = rows[:, cols.index('master_lift_m')]
+    dist = rows[:, cols.index('wheel_centre_distance_m')]
+    assert np.max(np.abs(lift - 1.7 * (dist - 0.0165 - 0.2))) < 1e-12    # similar cradle
+    assert abs(np.max(lift) - 1.7 * from_spec(INTAKE).max_lift()) < 1e-6   # 1 deg grid
+    cam_file.write_text(text.replace('pivot_to_wheel: 0.45', 'pivot_to_wheel: -0.45'))
+    assert main(['grind', 'master', str(cam_file)]) == 2
+    assert 'grinding.cradle.pivot_to_wheel: got -0.45' in capsys.readouterr().err

@@ -35,6 +35,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--step-deg', type=float,
                    help='angle step [deg] over the full turn (default grinding.step_deg or 0.5)')
     p.set_defaults(func=cmd_table)
+    p = gsub.add_parser('master', help='master-cam follower lift and master profile (cradle)',
+                        description='Rocking-cradle copy grinder: the master-follower lift '
+                                    'against the spindle angle, exact and as the small-swing '
+                                    'magnified copy with its error, and the master profile '
+                                    '(envelope of the master follower) with its curvature and '
+                                    'undercut check. Needs grinding.cradle and '
+                                    'grinding.master_follower.')
+    _common(p)
+    p.add_argument('--wheel-radius', type=float, metavar='M',
+                   help='wheel radius [m] (default: the first grinding.wheel_radius)')
+    p.add_argument('--step-deg', type=float,
+                   help='spindle-angle step [deg] (default grinding.step_deg or 0.5)')
+    p.add_argument('--profile-csv', metavar='FILE|-',
+                   help='write the master profile (x, y, pitch, rho, undercut) as CSV')
+    p.set_defaults(func=cmd_master)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)
 
 
@@ -142,4 +157,68 @@ def cmd_table(args: argparse.Namespace) -> int:
             print(f"wheel {w['wheel_radius_m'] * 1e3:.4f} mm: centre distance "
                   f"{w['distance_min_m'] * 1e3:.6f} .. {w['distance_max_m'] * 1e3:.6f} mm, "
                   f"max wheel pressure angle {w['wheel_pressure_angle_max_deg']:.4f} deg")
+    return 0
+
+
+def _one_wheel(args: argparse.Namespace, section: dict[str, Any]) -> float:
+    from cam_design.errors import InputError
+    from cam_design.grinding import spec as gs
+
+    if args.wheel_radius is not None:
+        return gs.wheel_radii(args.wheel_radius, '--wheel-radius')[0]
+    if 'wheel_radius' not in section:
+        raise InputError('--wheel-radius', None, 'a wheel radius [m] (or grinding.wheel_'
+                                                 'radius in the file)')
+    return gs.wheel_radii(section['wheel_radius'])[0]
+
+
+def _step(args: argparse.Namespace, section: dict[str, Any]) -> float:
+    from cam_design.grinding import spec as gs
+
+    if args.step_deg is not None:
+        return gs.step_rad(args.step_deg, '--step-deg')
+    return gs.step_rad(section.get('step_deg', 0.5))
+
+
+def cmd_master(args: argparse.Namespace) -> int:
+    """Master-follower lift table and master profile summary."""
+    import numpy as np
+
+    from cam_design.grinding.master_cam import master_from_section
+    from cam_design.grinding.wheel_path import WheelPath
+
+    law, base, design, section = load(args)
+    path = WheelPath(law, base, design, _one_wheel(args, section), key=args.file)
+    master = master_from_section(path, section)
+    step = _step(args, section)
+    n = int(round(2 * math.pi / step))
+    theta = -math.pi + 2 * math.pi * np.arange(n) / n
+    cols = master.lift_table(theta)
+    prof = master.profile(max(n, 360))
+    psum = prof.summary()
+    summary = {'design': design.kind, 'wheel_radius_m': path.wheel_radius,
+               'master_follower': master.kind, 'master_follower_radius_m': master.radius,
+               'magnification': master.magnification,
+               'master_base_value_m': master.base_value,
+               'master_lift_max_m': float(np.max(cols['master_lift_m'])),
+               'approx_error_max_m': float(np.max(np.abs(cols['approx_error_m']))),
+               'cradle_swing_deg': float(np.degrees(np.ptp(cols['cradle_angle_rad']))),
+               'profile': psum}
+    if args.profile_csv:
+        pcols = prof.columns()
+        names = [k for k in pcols if k != 'face_offset_m' or master.kind == 'flat']
+        from cam_metrology.cli.design_law import write_text
+        lines = [','.join(names)] + [','.join(f'{float(v):.15g}' for v in row)
+                                     for row in zip(*(pcols[k] for k in names))]
+        write_text(args.profile_csv, '\n'.join(lines) + '\n', '--profile-csv')
+    if not _write(args, cols, summary) and not args.profile_csv:
+        print(f"master {master.kind}: magnification {master.magnification:.9f}, max lift "
+              f"{summary['master_lift_max_m'] * 1e3:.6f} mm, cradle swing "
+              f"{summary['cradle_swing_deg']:.4f} deg; small-swing copy error up to "
+              f"{summary['approx_error_max_m'] * 1e6:.3f} um")
+        spans = ', '.join(f'{math.degrees(a):.3f} .. {math.degrees(b):.3f} deg'
+                          for a, b in psum['undercut_intervals_rad'])
+        tail = f'; UNDERCUT at {spans}' if psum['undercut'] else '; no undercut'
+        print(f"master profile: min radius of curvature {psum['rho_min_m'] * 1e3:.4f} mm"
+              + tail)
     return 0
