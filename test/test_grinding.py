@@ -288,3 +288,157 @@ def test_cli_master(cam_file: Path, tmp_path: Path, capsys: pytest.CaptureFixtur
     cam_file.write_text(text.replace('pivot_to_wheel: 0.45', 'pivot_to_wheel: -0.45'))
     assert main(['grind', 'master', str(cam_file)]) == 2
     assert 'grinding.cradle.pivot_to_wheel: got -0.45' in capsys.readouterr().err
+
+
+# --- (3) machining-error sensitivities ---------------------------------------------------
+
+def _disc(kind: str, r: float) -> WheelPath:
+    """Eccentric disc R_c 22 mm, e 5 mm (convex for every follower) and a 200 mm wheel."""
+    return WheelPath(EccentricDiscLift(0.022, 0.005, Follower(kind, r)), 0.017,
+                     Design(kind, r), RW)
+
+
+CASES = [('intake-flat', lambda: WheelPath(from_spec(INTAKE), 0.0165, Design('flat'), RW)),
+         ('disc-roller', lambda: _disc('roller', 0.012)),
+         ('disc-knife', lambda: _disc('knife', 0.0))]
+
+
+@pytest.mark.parametrize('name,make', CASES)
+def test_ground_cam_nominal_is_design(name: str, make) -> None:
+    """Exact grinding simulation with no error returns the design lift (round trip)."""
+    from cam_design.grinding.machining_error import GroundCam, MachineErrors
+
+    path = make()
+    a = np.linspace(-math.pi, math.pi, 721)
+    lift, _ = GroundCam(path, MachineErrors()).lift(a)
+    assert np.max(np.abs(lift - path.design_law(a))) < 1e-12
+
+
+@pytest.mark.parametrize('cradle', [False, True])
+@pytest.mark.parametrize('name,make', CASES)
+def test_sensitivities_against_finite_differences(name: str, make, cradle: bool) -> None:
+    """Each first-order sensitivity equals the central difference of the exactly
+    simulated ground lift (errors +-1e-6 m or rad)."""
+    from cam_design.grinding.machining_error import GroundCam, MachineErrors, sensitivities
+    from cam_design.grinding.master_cam import Cradle
+
+    path = make()
+    cr = Cradle(0.35, 0.45, 0.3, 0.5, 0.1, 1) if cradle else None
+    a = np.linspace(-math.pi, math.pi, 361)
+    sens = sensitivities(path, a, cradle=cr)
+    assert set(sens) == {'wheel_radius', 'centre_distance', 'index', 'run_out_x', 'run_out_y'}
+    _, s0 = GroundCam(path, MachineErrors()).lift(a)
+    eps = 1e-6
+    for source, value in sens.items():
+        up, _ = GroundCam(path, MachineErrors(**{source: eps}), cradle=cr).lift(a, s0)
+        dn, _ = GroundCam(path, MachineErrors(**{source: -eps}), cradle=cr).lift(a, s0)
+        fd = (up - dn) / (2 * eps)
+        assert np.max(np.abs(fd - value)) < 1e-7, source
+        assert np.max(np.abs(value)) > 1e-4, source          # not trivially zero
+
+
+def test_sensitivity_closed_forms() -> None:
+    """Index error: -h'(alpha); run-out on a flat design: the support of a shifted cam,
+    (x, y) . (-sin alpha, cos alpha); wheel radius: 0 at the nose and on the base circle;
+    CNC centre distance on a flat design: cos(mu_w) <= 1."""
+    from cam_design.grinding.machining_error import sensitivities
+
+    law = from_spec(INTAKE)
+    path = WheelPath(law, 0.0165, Design('flat'), RW)
+    a = np.linspace(-math.pi, math.pi, 721)
+    s = sensitivities(path, a)
+    assert np.max(np.abs(s['index'] + law(a, 1))) < 1e-12
+    assert np.max(np.abs(s['run_out_x'] + np.sin(a))) < 1e-12
+    assert np.max(np.abs(s['run_out_y'] - np.cos(a))) < 1e-12
+    still = (np.abs(law(a, 1)) < 1e-15)
+    assert np.max(np.abs(s['wheel_radius'][still])) < 1e-15
+    assert np.all(s['wheel_radius'] <= 0) and np.min(s['wheel_radius']) < -1e-3
+    assert np.all(s['centre_distance'] <= 1.0)
+
+
+@pytest.mark.parametrize('kind,r', [('flat', 0.0), ('roller', 0.012)])
+def test_master_radius_similar_cradle_closed_form(kind: str, r: float) -> None:
+    """1:k similar cradle: a master roller bigger by dr offsets the master pitch curve
+    by dr along its normal, i.e. the cam by dr / k along its normal: lift error
+    dr / (k cos mu_f)."""
+    from cam_design.grinding.machining_error import follower_normal, sensitivities
+    from cam_design.grinding.master_cam import Cradle, MasterCam
+
+    k = 1.7
+    path = _disc(kind, r)
+    master = MasterCam(path, Cradle(0.35, 0.45, 0.35 * k, 0.45 * k), 'roller', 0.03)
+    a = np.linspace(-math.pi, math.pi, 361)
+    sens = sensitivities(path, a, master=master)['master_follower_radius']
+    _, mu = follower_normal(path, a)
+    assert np.max(np.abs(sens * np.cos(mu) - 1.0 / k)) < 1e-12
+
+
+def test_master_radius_against_exact_cradle_balance() -> None:
+    """General cradle: finite differences of the exact wheel-centre path when the master
+    roller grows by +-1e-6 m (the master follower's new centre path by convert_lift on
+    the master pitch curve, the cradle re-balanced by a root solve), projected on the
+    profile normal, equal the analytic normal move."""
+    from scipy.optimize import brentq
+
+    from cam_design.grinding.curve import PolarCurveLift
+    from cam_design.grinding.machining_error import _master_radius_dn
+    from cam_design.grinding.master_cam import Cradle, MasterCam
+
+    path = _disc('flat', 0.0)
+    rm = 0.03
+    master = MasterCam(path, Cradle(0.35, 0.45, 0.3, 0.5, 0.1, -1), 'roller', rm)
+
+    def pitch(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        from cam_design.follower import _jet_mul
+        from cam_design.grinding.curve import jet_cos_sin
+
+        st = master.jets(s)
+        c, sn = jet_cos_sin(st['angle'])
+        return -_jet_mul(st['value'], sn), _jet_mul(st['value'], c)
+
+    d_m0 = master.base_value
+    pitch_lift = PolarCurveLift(pitch, d_m0)
+    cr = master.cradle
+    base = master._base
+    theta = np.linspace(-3.0, 3.0, 11)
+    s_nom = master.wheel_angle(theta)
+    d_nom = path.distance(s_nom)[0]
+
+    def wheel(eps: float) -> np.ndarray:
+        new = convert_lift(pitch_lift, d_m0 - rm, Follower('roller', rm),
+                           Follower('roller', rm + eps))
+        out = []
+        for t, d0 in zip(theta, d_nom):
+            def gap(d: float) -> float:
+                st = cr.wheel_jets(np.array([[d], [0.0], [0.0], [0.0]]))
+                alpha_m = t + st['phim'][0][0] - base['phim']
+                return st['dm'][0][0] - (d_m0 + eps + new(np.array([alpha_m]))[0])
+            d = brentq(gap, d0 - 1e-4, d0 + 1e-4, xtol=1e-16, rtol=1e-15)
+            phi = cr.wheel_jets(np.array([[d], [0.0], [0.0], [0.0]]))['phi'][0][0]
+            ang = 0.5 * math.pi + t + phi - base['phi']
+            out.append([d * math.cos(ang), d * math.sin(ang)])
+        return np.array(out)
+
+    eps = 1e-6
+    dw = (wheel(eps) - wheel(-eps)) / (2 * eps)
+    d = path.distance(s_nom)
+    norm = np.hypot(d[0], d[1])
+    ux, uy = -np.sin(s_nom), np.cos(s_nom)
+    nx, ny = (d[0] * ux + d[1] * uy) / norm, (d[0] * uy - d[1] * ux) / norm
+    fd = dw[:, 0] * nx + dw[:, 1] * ny
+    dj = np.stack([d[0], d[1], d[2] / 2, d[3] / 6])
+    analytic = _master_radius_dn(master, s_nom, cr.wheel_jets(dj), nx, ny)
+    assert np.max(np.abs(fd - analytic)) < 1e-6
+    assert np.min(np.abs(analytic)) > 0.5
+
+
+def test_bridged_hollow_is_reported() -> None:
+    """A roller design with concave flanks tighter than the wheel (methods_example as a
+    roller lift, hollows near +-40 deg): the wheel path lists them."""
+    law = from_spec({'family': 'preset', 'name': 'methods_example'})
+    path = WheelPath(law, 0.02, Design('roller', 0.012), RW)
+    assert len(path.bridged) == 2
+    lo, hi = path.bridged[1]
+    assert 0.5 < lo < hi < 0.9
+    assert WheelPath(from_spec(INTAKE), 0.0165, Design('flat'), RW).bridged == []
+    assert _disc('roller', 0.012).bridged == []

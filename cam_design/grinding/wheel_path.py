@@ -21,12 +21,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, require_positive
-from cam_design.follower import (Follower, _jet_mul, _offset_params, _rocker_check, _sign_param,
-                                 convert_lift)
+from cam_design.follower import (Follower, _jet_mul, _offset_params, _rocker_check,
+                                 _sign_param, convert_lift, roller_profile)
 from cam_design.grinding.curve import PolarCurveLift, jet_cos_sin, law_jet, param_jet
 from cam_design.lift_laws.base import LiftLaw
 
 DESIGN_KINDS = ('flat', 'roller', 'knife', 'offset-roller', 'rocker')
+#: design angles scanned for hollows the wheel cannot enter (points per turn)
+BRIDGE_SCAN = 7200
 
 
 @dataclass(frozen=True)
@@ -127,6 +129,22 @@ class WheelPath:
                                                                   key=key)
         self.lift = convert_lift(self.design_law, self.base_radius, self.design_follower,
                                  Follower('roller', self.wheel_radius), key=key)
+        self.bridged = self._bridged()
+
+    def _bridged(self) -> list[tuple[float, float]]:
+        """(alpha_first, alpha_last) [rad] of the design angles where the profile is
+        concave with a radius below R_w: the wheel bridges the hollow there and the ground
+        cam is NOT the design (empty list: the wheel reproduces the design)."""
+        if self.design_follower.kind == 'flat':
+            return []           # a realisable flat-tappet profile is convex everywhere
+        a = -math.pi + 2 * math.pi * np.arange(BRIDGE_SCAN) / BRIDGE_SCAN
+        prof = roller_profile(self.design_law, self.base_radius, self.design_follower.radius,
+                              a)
+        rho = prof.rho
+        bad = (rho < 0) & (-rho < self.wheel_radius)
+        edges = np.diff(np.concatenate([[0], bad.astype(int), [0]]))
+        first, last = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+        return [(float(a[i]), float(a[j])) for i, j in zip(first, last)]
 
     def distance(self, alpha: ArrayLike) -> NDArray[np.float64]:
         """(4, n): D, D', D'', D''' [m, m/rad^k] of the wheel-centre distance."""

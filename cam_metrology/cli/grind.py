@@ -125,7 +125,7 @@ def cmd_table(args: argparse.Namespace) -> int:
     import numpy as np
 
     from cam_design.grinding import spec as gs
-    from cam_design.grinding.wheel_path import wheel_table
+    from cam_design.grinding.wheel_path import WheelPath, wheel_table
 
     law, base, design, section = load(args)
     if args.wheel_radius:
@@ -148,9 +148,12 @@ def cmd_table(args: argparse.Namespace) -> int:
         sel = cols['wheel_radius_m'] == rw
         d = cols['wheel_centre_distance_m'][sel]
         mu = cols['wheel_pressure_angle_rad'][sel]
+        bridged = WheelPath(law, base, design, rw, key=args.file).bridged
         per.append({'wheel_radius_m': rw, 'distance_min_m': float(np.min(d)),
                     'distance_max_m': float(np.max(d)),
-                    'wheel_pressure_angle_max_deg': float(np.degrees(np.max(np.abs(mu))))})
+                    'wheel_pressure_angle_max_deg': float(np.degrees(np.max(np.abs(mu)))),
+                    'reproduces_design': not bridged, 'bridged_intervals_rad': bridged})
+        _warn_bridged(rw, bridged)
     summary['wheels'] = per
     if not _write(args, cols, summary):
         for w in per:
@@ -158,6 +161,17 @@ def cmd_table(args: argparse.Namespace) -> int:
                   f"{w['distance_min_m'] * 1e3:.6f} .. {w['distance_max_m'] * 1e3:.6f} mm, "
                   f"max wheel pressure angle {w['wheel_pressure_angle_max_deg']:.4f} deg")
     return 0
+
+
+def _warn_bridged(rw: float, bridged: list[tuple[float, float]]) -> None:
+    """One stderr line when the wheel cannot enter a hollow of the design."""
+    import sys
+
+    if bridged:
+        spans = ', '.join(f'{math.degrees(a):.3f} .. {math.degrees(b):.3f} deg'
+                          for a, b in bridged)
+        print(f'WARNING: wheel {rw * 1e3:.4f} mm bridges concave flanks of radius below its '
+              f'own at {spans}: the ground cam is not the design there', file=sys.stderr)
 
 
 def _one_wheel(args: argparse.Namespace, section: dict[str, Any]) -> float:
