@@ -442,3 +442,83 @@ def test_bridged_hollow_is_reported() -> None:
     assert 0.5 < lo < hi < 0.9
     assert WheelPath(from_spec(INTAKE), 0.0165, Design('flat'), RW).bridged == []
     assert _disc('roller', 0.012).bridged == []
+
+
+# --- (4) measure -> correct ---------------------------------------------------------------
+
+def _intake_path() -> WheelPath:
+    return WheelPath(from_spec(INTAKE), 0.0165, Design('flat'), RW)
+
+
+def test_fit_recovers_small_errors_without_noise() -> None:
+    """Linear regime (errors << R_w): the fit returns the simulated errors."""
+    from cam_design.grinding.correction import fit_errors
+    from cam_design.grinding.machining_error import GroundCam, MachineErrors
+
+    path = _intake_path()
+    truth = {'wheel_radius': -5e-4, 'index': 1e-4, 'run_out_x': 2e-6, 'run_out_y': -1e-6}
+    a = np.linspace(-math.pi, math.pi, 1440, endpoint=False)
+    err = GroundCam(path, MachineErrors(**truth)).lift(a)[0] - from_spec(INTAKE)(a)
+    fit = fit_errors(path, a, err)
+    assert fit.settled and fit.condition < 10
+    for k, v in truth.items():
+        assert abs(fit.values[k] - v) < 0.01 * abs(v) + 1e-9, k
+    assert fit.residual_rms_m < 1e-9
+
+
+@pytest.mark.parametrize('probe', [None, Follower('roller', 0.0125)])
+def test_measure_correct_regrind_loop(probe: Follower | None) -> None:
+    """Grind with a 5 mm small wheel and a 0.05 deg index error, measure with 0.2 um
+    noise (design follower or a 12.5 mm roller probe), fit, regrind with the corrected
+    table on the same faulty machine: the systematic lift error falls more than 10x."""
+    from cam_design.grinding.correction import corrected_curve, fit_errors
+    from cam_design.grinding.machining_error import GroundCam, MachineErrors
+
+    path = _intake_path()
+    law = from_spec(INTAKE)
+    ref_law = law if probe is None else convert_lift(law, 0.0165, Follower('flat'), probe)
+    truth = MachineErrors(wheel_radius=-5e-3, index=math.radians(0.05))
+    a = np.linspace(-math.pi, math.pi, 1440, endpoint=False)
+    before = GroundCam(path, truth, probe=probe).lift(a)[0] - ref_law(a)
+    noisy = before + np.random.default_rng(7).normal(0.0, 2e-7, a.size)
+    fit = fit_errors(path, a, noisy, sources=('wheel_radius', 'index'), probe=probe)
+    assert fit.settled
+    assert abs(fit.values['index'] - truth.index) < 5 * fit.std['index'] + 1e-6
+    assert abs(fit.values['wheel_radius'] - truth.wheel_radius) < 0.05 * 5e-3
+    assert 1.5e-7 < fit.residual_rms_m < 2.5e-7          # the noise, not the model
+    curve, radius = corrected_curve(path, fit)
+    after = GroundCam(path, truth, curve=curve, table_radius=radius,
+                      probe=probe).lift(a)[0] - ref_law(a)
+    rms = [float(np.std(x)) for x in (before, after)]
+    assert rms[0] > 3e-6
+    assert rms[1] < rms[0] / 10
+
+
+def test_fit_flags_indistinguishable_sources() -> None:
+    """On a CNC slide the centre-distance error is a wheel-radius change plus an
+    offset: the fit says so and is not settled."""
+    from cam_design.grinding.correction import fit_errors
+
+    path = _intake_path()
+    a = np.linspace(-math.pi, math.pi, 720, endpoint=False)
+    err = np.random.default_rng(3).normal(0.0, 1e-7, a.size)
+    fit = fit_errors(path, a, err, sources=('wheel_radius', 'centre_distance'))
+    assert not fit.settled
+    assert 'centre_distance' in fit.warnings[0] or 'wheel_radius' in fit.warnings[0]
+    with pytest.raises(InputError, match='lift_error'):
+        fit_errors(path, a, err[:-1])
+    with pytest.raises(InputError, match='lift_error'):
+        fit_errors(path, a, np.where(a > 0, np.nan, err))
+    with pytest.raises(InputError, match='sources'):
+        fit_errors(path, a, err, sources=('wheel_radius', 'coolant'))
+
+
+def test_curve_table_round_trip() -> None:
+    """The polar table of the nominal table curve is the wheel path itself."""
+    from cam_design.grinding.correction import curve_table
+    from cam_design.grinding.machining_error import path_curve
+
+    path = _intake_path()
+    a = np.linspace(-math.pi, math.pi, 721)
+    tab = curve_table(path_curve(path), 0.0165 + RW, a)
+    assert np.max(np.abs(tab['wheel_centre_distance_m'] - path.distance(a)[0])) < 1e-12

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, require_finite
-from cam_design.follower import _jet_mul, _jet_sqrt
+from cam_design.follower import Follower, _jet_mul, _jet_sqrt, convert_lift
 from cam_design.grinding.curve import jet_cos_sin, law_jet, param_jet, polar_jets
 from cam_design.grinding.master_cam import Cradle, MasterCam
 from cam_design.grinding.wheel_path import WheelPath
@@ -85,17 +85,19 @@ class GroundCam:
     ``path``: the nominal WheelPath (design law, follower, base radius); ``curve``: the
     table actually run (default: the nominal path); ``table_radius``: the wheel radius
     the table was computed for (default: the nominal); ``cradle``: for the
-    centre-distance error of a cradle machine (else CNC slide).
+    centre-distance error of a cradle machine (else CNC slide); ``probe``: the follower
+    whose lift is returned (default: the design follower).
     """
 
     def __init__(self, path: WheelPath, errors: MachineErrors, *,
                  curve: TableCurve | None = None, table_radius: float | None = None,
-                 cradle: Cradle | None = None) -> None:
+                 cradle: Cradle | None = None, probe: Follower | None = None) -> None:
         self.path, self.errors, self.cradle = path, errors, cradle
         self.curve = curve if curve is not None else path_curve(path)
         self.table_radius = path.wheel_radius if table_radius is None else table_radius
         self.wheel = path.wheel_radius + errors.wheel_radius
-        f = path.design_follower
+        self.probe = probe
+        f = path.design_follower if probe is None else probe
         self.r = 0.0 if f.kind == 'flat' else f.radius
         self.flat = f.kind == 'flat'
         if not self.flat and not self.r < self.wheel:
@@ -149,7 +151,7 @@ class GroundCam:
         the disc of radius R_a - r about W(s). Newton from ``s_start`` (default: the
         nominal contact); InputError if it does not settle (never a silent value)."""
         a = np.asarray(alpha, dtype=float).reshape(-1)
-        s = (contact_parameter(self.path, a) if s_start is None
+        s = (contact_parameter(self.path, a, self.probe) if s_start is None
              else np.asarray(s_start, dtype=float).reshape(-1).copy())
         sign = 1.0 if self.flat else -1.0           # maximise (flat) or minimise (roller)
         for _ in range(NEWTON_MAX_ITER):
@@ -169,11 +171,12 @@ class GroundCam:
         return j[0] - base, s
 
 
-def contact_parameter(path: WheelPath, alpha: ArrayLike) -> NDArray[np.float64]:
-    """Wheel angle s whose contact normal equals the design follower's contact normal
-    at ``alpha`` (s - atan(D'/D) = psi_f; Newton)."""
+def contact_parameter(path: WheelPath, alpha: ArrayLike, probe: Follower | None = None
+                      ) -> NDArray[np.float64]:
+    """Wheel angle s whose contact normal equals the follower's (design or ``probe``)
+    contact normal at ``alpha`` (s - atan(D'/D) = psi_f; Newton)."""
     a = np.asarray(alpha, dtype=float).reshape(-1)
-    psi, _ = follower_normal(path, a)
+    psi, _ = follower_normal(path, a, probe)
     d = path.distance(psi)
     s = psi + np.arctan2(d[1], d[0])
     for _ in range(NEWTON_MAX_ITER):
@@ -190,13 +193,17 @@ def contact_parameter(path: WheelPath, alpha: ArrayLike) -> NDArray[np.float64]:
                      'a wheel path whose normal turns monotonically (convex)')
 
 
-def follower_normal(path: WheelPath, alpha: NDArray[np.float64]
+def follower_normal(path: WheelPath, alpha: NDArray[np.float64],
+                    probe: Follower | None = None
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(normal angle psi_f, pressure angle mu_f) of the design follower's contact."""
-    f = path.design_follower
+    """(normal angle psi_f, pressure angle mu_f) of the contact of the design follower
+    (or of ``probe``, whose lift is the design lift converted through the profile)."""
+    f = path.design_follower if probe is None else probe
     if f.kind == 'flat':
         return alpha.copy(), np.zeros_like(alpha)
-    h = path.design_law.derivatives(alpha)
+    law = path.design_law if probe is None else convert_lift(
+        path.design_law, path.base_radius, path.design_follower, probe, key='probe')
+    h = law.derivatives(alpha)
     mu = np.arctan2(h[1], path.base_radius + f.radius + h[0])
     return alpha - mu, mu
 
@@ -208,10 +215,10 @@ def _rot(vx: NDArray[np.float64], vy: NDArray[np.float64], ang: NDArray[np.float
 
 
 def sensitivities(path: WheelPath, alpha: ArrayLike, *, cradle: Cradle | None = None,
-                  master: MasterCam | None = None,
-                  sources: tuple[str, ...] | None = None) -> dict[str, NDArray[np.float64]]:
-    """First-order lift error of the design follower per unit of each error source
-    (m/m or m/rad) at design angles ``alpha`` [rad]. ``centre_distance`` uses the cradle
+                  master: MasterCam | None = None, sources: tuple[str, ...] | None = None,
+                  probe: Follower | None = None) -> dict[str, NDArray[np.float64]]:
+    """First-order lift error of the design follower (or of ``probe``) per unit of each
+    error source (m/m or m/rad) at angles ``alpha`` [rad]. ``centre_distance`` uses the cradle
     (pivot-to-work) when ``cradle`` or ``master`` is given, else the CNC slide;
     ``master_follower_radius`` needs ``master`` (a roller master)."""
     a = np.asarray(alpha, dtype=float).reshape(-1)
@@ -225,8 +232,8 @@ def sensitivities(path: WheelPath, alpha: ArrayLike, *, cradle: Cradle | None = 
     if 'master_follower_radius' in names and (master is None or master.kind != 'roller'):
         raise InputError('sources', 'master_follower_radius', 'a cradle with a roller '
                                                               'master follower')
-    s = contact_parameter(path, a)
-    _, mu_f = follower_normal(path, a)
+    s = contact_parameter(path, a, probe)
+    _, mu_f = follower_normal(path, a, probe)
     d = path.distance(s)
     norm = np.hypot(d[0], d[1])
     ux, uy = -np.sin(s), np.cos(s)
