@@ -522,3 +522,44 @@ def test_curve_table_round_trip() -> None:
     a = np.linspace(-math.pi, math.pi, 721)
     tab = curve_table(path_curve(path), 0.0165 + RW, a)
     assert np.max(np.abs(tab['wheel_centre_distance_m'] - path.distance(a)[0])) < 1e-12
+
+
+def test_cli_errors_and_correct(cam_file: Path, tmp_path: Path,
+                                capsys: pytest.CaptureFixture) -> None:
+    """`grind errors` simulates a faulty machine; its simulated error fed to `grind
+    correct` gives back the errors, and a corrected table for the measured wheel."""
+    import json
+
+    cam_file.write_text(cam_file.read_text() + '  errors: {wheel_radius: -0.005, '
+                                               'index: 0.00087}\n')
+    err_csv = tmp_path / 'err.csv'
+    assert main(['grind', 'errors', str(cam_file), '--csv', str(err_csv)]) == 0
+    lines = err_csv.read_text().strip().splitlines()
+    head = lines[0].split(',')
+    assert head[:3] == ['alpha_rad', 'lift_m', 'wheel_radius_m_per_m']
+    rows = np.array([[float(v) for v in ln.split(',')] for ln in lines[1:]])
+    sim = rows[:, head.index('simulated_error_m')]
+    pred = rows[:, head.index('predicted_error_m')]
+    assert np.max(np.abs(sim)) > 1e-5
+    assert np.max(np.abs(sim - pred)) < 0.03 * np.max(np.abs(sim))   # nearly linear
+    meas = tmp_path / 'meas.csv'
+    triples = zip(rows[:, 0].tolist(), rows[:, 1].tolist(), sim.tolist())
+    meas.write_text('alpha_rad,lift_m,design_lift_m\n' + ''.join(
+        f'{a!r},{h + e!r},{h!r}\n' for a, h, e in triples))
+    out = tmp_path / 'c.json'
+    assert main(['grind', 'correct', str(cam_file), '--measured', str(meas),
+                 '--sources', 'wheel_radius,index', '--json', str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc['fit']['settled'] is True
+    assert abs(doc['fit']['values']['index'] - 0.00087) < 2e-5
+    assert abs(doc['fit']['values']['wheel_radius'] + 0.005) < 3e-4
+    cols = doc['columns']
+    table = np.array(doc['rows'])
+    assert abs(table[0, cols.index('wheel_radius_m')] - doc['table_wheel_radius_m']) < 1e-15
+    # ill-conditioned choice: exit 1, no table
+    assert main(['grind', 'correct', str(cam_file), '--measured', str(meas),
+                 '--sources', 'wheel_radius,centre_distance']) == 1
+    assert 'nearly indistinguishable' in capsys.readouterr().err
+    meas.write_text('alpha_rad,lift\n0,1\n')
+    assert main(['grind', 'correct', str(cam_file), '--measured', str(meas)]) == 2
+    assert 'lift_error_m, or lift_m and design_lift_m' in capsys.readouterr().err

@@ -147,4 +147,3 @@ def curve_table(curve: TableCurve, base: float, alpha: ArrayLike,
     lift = PolarCurveLift(curve, base, key=key)
     a = np.asarray(alpha, dtype=float).reshape(-1)
     return {'angle_rad': a, 'wheel_centre_distance_m': base + lift.solve(a)[0]}
-

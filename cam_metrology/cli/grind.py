@@ -50,6 +50,31 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--profile-csv', metavar='FILE|-',
                    help='write the master profile (x, y, pitch, rho, undercut) as CSV')
     p.set_defaults(func=cmd_master)
+    p = gsub.add_parser('errors', help='machining-error sensitivities of the lift vs angle',
+                        description='Lift error of the design follower (or --probe) per unit '
+                                    'of each machining error (wheel radius, centre distance, '
+                                    'index, run-out x/y, master-roller radius with a cradle) '
+                                    'against the design angle; with grinding.errors also the '
+                                    'predicted (linear) and the exactly simulated lift error.')
+    _common(p)
+    _wheel_step(p)
+    _probe(p)
+    p.set_defaults(func=cmd_errors)
+    p = gsub.add_parser('correct', help='fit a measured lift error, write a corrected table',
+                        description='Measure -> correct: least-squares fit of the machining '
+                                    'errors to a measured lift error, then the wheel-centre '
+                                    'table that pre-compensates them. Exit 1 (and no table) '
+                                    'when the fit is ill-conditioned.')
+    _common(p)
+    _wheel_step(p)
+    _probe(p)
+    p.add_argument('--measured', required=True, metavar='CSV',
+                   help='CSV with alpha_rad and lift_error_m, or alpha_rad, lift_m and '
+                        'design_lift_m (the columns of /metrology/lift)')
+    p.add_argument('--sources', default='wheel_radius,index,run_out_x,run_out_y',
+                   help='comma-separated error sources to fit (default: wheel_radius,index,'
+                        'run_out_x,run_out_y)')
+    p.set_defaults(func=cmd_correct)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)
 
 
@@ -163,6 +188,48 @@ def cmd_table(args: argparse.Namespace) -> int:
     return 0
 
 
+def _wheel_step(p: argparse.ArgumentParser) -> None:
+    p.add_argument('--wheel-radius', type=float, metavar='M',
+                   help='wheel radius [m] (default: the first grinding.wheel_radius)')
+    p.add_argument('--step-deg', type=float,
+                   help='angle step [deg] (default grinding.step_deg or 0.5)')
+
+
+def _probe(p: argparse.ArgumentParser) -> None:
+    p.add_argument('--probe', choices=('flat', 'roller', 'knife'),
+                   help='the follower whose lift is measured (default: the design follower)')
+    p.add_argument('--probe-radius', type=float, default=0.0, help='probe roller radius [m]')
+
+
+def _probe_follower(args: argparse.Namespace) -> Any:
+    from cam_design.errors import InputError, require_positive
+    from cam_design.follower import Follower
+
+    if args.probe is None:
+        return None
+    r = require_positive('--probe-radius', args.probe_radius, allow_zero=True)
+    if (args.probe == 'roller') != (r > 0):
+        raise InputError('--probe-radius', r, 'a radius > 0 for --probe roller, 0 otherwise')
+    return Follower(args.probe, r)
+
+
+def _machine(path: Any, section: dict[str, Any]) -> tuple[Any, Any]:
+    """(cradle or None, master or None) of the grinding section."""
+    from cam_design.grinding.master_cam import master_from_section
+
+    if 'cradle' not in section:
+        return None, None
+    master = master_from_section(path, section)
+    return master.cradle, master
+
+
+def _grid(step: float) -> Any:
+    import numpy as np
+
+    n = int(round(2 * math.pi / step))
+    return -math.pi + 2 * math.pi * np.arange(n) / n
+
+
 def _warn_bridged(rw: float, bridged: list[tuple[float, float]]) -> None:
     """One stderr line when the wheel cannot enter a hollow of the design."""
     import sys
@@ -236,3 +303,126 @@ def cmd_master(args: argparse.Namespace) -> int:
         print(f"master profile: min radius of curvature {psum['rho_min_m'] * 1e3:.4f} mm"
               + tail)
     return 0
+
+
+def cmd_errors(args: argparse.Namespace) -> int:
+    """Sensitivity table (and predicted / simulated error with grinding.errors)."""
+    import numpy as np
+
+    from cam_design.follower import convert_lift
+    from cam_design.grinding import spec as gs
+    from cam_design.grinding.machining_error import (UNITS, GroundCam, MachineErrors,
+                                                     sensitivities)
+    from cam_design.grinding.wheel_path import WheelPath
+
+    law, base, design, section = load(args)
+    path = WheelPath(law, base, design, _one_wheel(args, section), key=args.file)
+    _warn_bridged(path.wheel_radius, path.bridged)
+    probe = _probe_follower(args)
+    cradle, master = _machine(path, section)
+    alpha = _grid(_step(args, section))
+    sens = sensitivities(path, alpha, cradle=cradle, master=master, probe=probe)
+    ref = path.design_law if probe is None else convert_lift(
+        path.design_law, base, path.design_follower, probe, key='--probe')
+    cols: dict[str, Any] = {'alpha_rad': alpha, 'lift_m': ref(alpha)}
+    unit = {'m': 'm_per_m', 'rad': 'm_per_rad'}
+    for name, value in sens.items():
+        cols[f'{name}_{unit[UNITS[name]]}'] = value
+    summary: dict[str, Any] = {
+        'design': design.kind, 'wheel_radius_m': path.wheel_radius,
+        'probe': None if probe is None else {'kind': probe.kind, 'radius_m': probe.radius},
+        'machine': 'cradle' if cradle is not None else 'cnc',
+        'reproduces_design': not path.bridged,
+        'max_abs_sensitivity': {n: float(np.max(np.abs(v))) for n, v in sens.items()}}
+    if 'errors' in section:
+        spec = gs._mapping(section['errors'], 'grinding.errors', gs.ERROR_KEYS)
+        errors = MachineErrors(**gs.floats(spec, 'grinding.errors', gs.ERROR_KEYS))
+        pred = sum(getattr(errors, n) * v for n, v in sens.items())
+        sim = GroundCam(path, errors, cradle=cradle, probe=probe).lift(alpha)[0] - ref(alpha)
+        if errors.master_follower_radius:
+            summary['note'] = ('master_follower_radius enters the prediction only; the exact '
+                               'simulation leaves it out')
+        cols['predicted_error_m'] = pred
+        cols['simulated_error_m'] = sim
+        summary.update(errors={n: getattr(errors, n) for n in gs.ERROR_KEYS},
+                       predicted_error_max_m=float(np.max(np.abs(pred))),
+                       simulated_error_max_m=float(np.max(np.abs(sim))),
+                       linearisation_error_max_m=float(np.max(np.abs(pred - sim))))
+    if not _write(args, cols, summary):
+        for n, v in summary['max_abs_sensitivity'].items():
+            print(f'{n}: max |d lift / d {n}| = {v:.6g} {unit[UNITS[n]].replace("_", " ")}')
+        if 'errors' in summary:
+            print(f"lift error: predicted max {summary['predicted_error_max_m'] * 1e6:.4f} um, "
+                  f"simulated max {summary['simulated_error_max_m'] * 1e6:.4f} um")
+    return 0
+
+
+def _measured(path_text: str, key: str = '--measured') -> tuple[Any, Any]:
+    """(alpha [rad], lift error [m]) from a CSV with a header row."""
+    import numpy as np
+
+    from cam_design.errors import InputError
+    from cam_metrology.files import read_text_file
+
+    lines = [ln for ln in read_text_file(path_text, 'CSV file', key=key).splitlines()
+             if ln.strip()]
+    if len(lines) < 2:
+        raise InputError(key, path_text, 'a CSV with a header row and data rows')
+    head = [h.strip() for h in lines[0].split(',')]
+    try:
+        rows = np.array([[float(v) for v in ln.split(',')] for ln in lines[1:]])
+    except ValueError:
+        raise InputError(key, path_text, 'numbers in every data row') from None
+    if rows.ndim != 2 or rows.shape[1] != len(head):
+        raise InputError(key, path_text, f'{len(head)} values in every row')
+    col = {h: rows[:, i] for i, h in enumerate(head)}
+    if 'alpha_rad' not in col:
+        raise InputError(key, ','.join(head), 'an alpha_rad column')
+    if 'lift_error_m' in col:
+        return col['alpha_rad'], col['lift_error_m']
+    if 'lift_m' in col and 'design_lift_m' in col:
+        return col['alpha_rad'], col['lift_m'] - col['design_lift_m']
+    raise InputError(key, ','.join(head), 'lift_error_m, or lift_m and design_lift_m')
+
+
+def cmd_correct(args: argparse.Namespace) -> int:
+    """Fit the machining errors to a measured lift error; corrected wheel-centre table."""
+    import sys
+
+    from cam_design.grinding.correction import corrected_curve, curve_table, fit_errors
+    from cam_design.grinding.wheel_path import WheelPath
+
+    law, base, design, section = load(args)
+    path = WheelPath(law, base, design, _one_wheel(args, section), key=args.file)
+    _warn_bridged(path.wheel_radius, path.bridged)
+    cradle, master = _machine(path, section)
+    alpha, error = _measured(args.measured)
+    sources = tuple(s.strip() for s in args.sources.split(',') if s.strip())
+    fit = fit_errors(path, alpha, error, sources=sources, cradle=cradle, master=master,
+                     probe=_probe_follower(args), key=args.measured)
+    summary: dict[str, Any] = {'fit': fit.summary(), 'wheel_radius_m': path.wheel_radius}
+    for w in fit.warnings:
+        print(f'WARNING: {w}', file=sys.stderr)
+    cols: dict[str, Any] = {}
+    if fit.settled:
+        curve, radius = corrected_curve(path, fit, cradle=cradle)
+        table = curve_table(curve, base + radius, _grid(_step(args, section)))
+        cols = {'wheel_radius_m': table['angle_rad'] * 0.0 + radius}
+        cols.update(table)
+        summary['table_wheel_radius_m'] = radius
+    else:
+        summary['table'] = 'not written: the fit is not settled'
+    summary['fit']['std'] = {k: (None if v != v else v) for k, v in fit.std.items()}
+    wrote = _write(args, cols, summary) if cols else False
+    if not cols and args.json:
+        from cam_metrology.cli.design_law import write_text
+        write_text(args.json, json.dumps(summary, indent=1) + '\n', '--json')
+        wrote = True
+    if not wrote:
+        for k, v in fit.values.items():
+            s = fit.std[k]
+            print(f'{k}: {v:.6g} +- {s:.3g}')
+        print(f'offset {fit.offset_m * 1e6:.4f} um, residual rms '
+              f'{fit.residual_rms_m * 1e6:.4f} um over {fit.points} points, condition '
+              f'{fit.condition:.3g}' + ('' if fit.settled else ' (NOT settled)'))
+    return 0 if fit.settled else 1
