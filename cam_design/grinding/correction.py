@@ -58,8 +58,13 @@ class ErrorFit:
 def fit_errors(path: WheelPath, alpha: ArrayLike, lift_error: ArrayLike, *,
                sources: tuple[str, ...] = DEFAULT_SOURCES, cradle: Cradle | None = None,
                master: MasterCam | None = None, probe: Follower | None = None,
-               key: str = 'lift_error') -> ErrorFit:
-    """Fit the error ``sources`` (plus a constant) to ``lift_error`` [m] at ``alpha``."""
+               key: str = 'lift_error', exact_iterations: int = 0) -> ErrorFit:
+    """Fit the error ``sources`` (plus a constant) to ``lift_error`` [m] at ``alpha``.
+
+    ``exact_iterations`` > 0: after the linear fit, that many Gauss-Newton steps whose
+    model is the exact grinding simulation (removes the bias of the linearisation for
+    large errors, e.g. 2.4 % of a 5 mm wheel-radius error on a 200 mm wheel); not with
+    ``master_follower_radius``, which the simulation does not model."""
     a = np.asarray(alpha, dtype=float).reshape(-1)
     e = np.asarray(lift_error, dtype=float).reshape(-1)
     if a.size != e.size:
@@ -101,9 +106,40 @@ def fit_errors(path: WheelPath, alpha: ArrayLike, lift_error: ArrayLike, *,
     values = coef / scale
     diag = np.diag(cov)
     std = np.sqrt(np.where(diag >= 0, diag, np.nan)) / scale   # NaN: not determined
+    if exact_iterations and settled:
+        if 'master_follower_radius' in names:
+            raise InputError('exact_iterations', exact_iterations,
+                             '0 when fitting master_follower_radius (not simulated)')
+        values, resid = _refine(path, a, e, names, values, ms, scale, cradle, probe,
+                                exact_iterations)
+        sigma2 = float(resid @ resid) / dof
+        std = np.sqrt(np.diag(sigma2 * np.linalg.inv(ms.T @ ms))) / scale
     return ErrorFit({n: float(v) for n, v in zip(names, values[:-1])},
                     {n: float(s) for n, s in zip(names, std[:-1])}, float(values[-1]),
                     float(math.sqrt(sigma2)), cond, int(a.size), settled, warnings)
+
+
+def _refine(path: WheelPath, a: NDArray[np.float64], e: NDArray[np.float64],
+            names: tuple[str, ...], values: NDArray[np.float64], ms: NDArray[np.float64],
+            scale: NDArray[np.float64], cradle: Cradle | None, probe: Follower | None,
+            iterations: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gauss-Newton on the exact simulation, Jacobian = the sensitivities."""
+    from cam_design.follower import convert_lift
+    from cam_design.grinding.machining_error import GroundCam, MachineErrors
+
+    ref = path.design_law if probe is None else convert_lift(
+        path.design_law, path.base_radius, path.design_follower, probe, key='probe')
+    design = ref(a)
+    values = values.copy()
+    resid = e
+    for _ in range(iterations):
+        errors = MachineErrors(**dict(zip(names, (float(v) for v in values[:-1]))))
+        sim = GroundCam(path, errors, cradle=cradle, probe=probe).lift(a)[0] - design
+        resid = e - sim - values[-1]
+        step, *_ = np.linalg.lstsq(ms, resid, rcond=None)
+        values = values + step / scale
+    resid = resid - ms @ step
+    return values, resid
 
 
 def corrected_curve(path: WheelPath, fit: ErrorFit, *, cradle: Cradle | None = None

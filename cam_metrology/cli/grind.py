@@ -74,6 +74,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--sources', default='wheel_radius,index,run_out_x,run_out_y',
                    help='comma-separated error sources to fit (default: wheel_radius,index,'
                         'run_out_x,run_out_y)')
+    p.add_argument('--exact-iterations', type=int, default=3, metavar='N',
+                   help='Gauss-Newton steps on the exact grinding simulation after the linear '
+                        'fit (default 3; 0: linear fit only)')
     p.set_defaults(func=cmd_correct)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)
 
@@ -385,6 +388,14 @@ def _measured(path_text: str, key: str = '--measured') -> tuple[Any, Any]:
     raise InputError(key, ','.join(head), 'lift_error_m, or lift_m and design_lift_m')
 
 
+def _iterations(value: int) -> int:
+    from cam_design.errors import InputError
+
+    if not 0 <= value <= 20:
+        raise InputError('--exact-iterations', value, 'an integer in [0, 20]')
+    return value
+
+
 def cmd_correct(args: argparse.Namespace) -> int:
     """Fit the machining errors to a measured lift error; corrected wheel-centre table."""
     import sys
@@ -399,7 +410,8 @@ def cmd_correct(args: argparse.Namespace) -> int:
     alpha, error = _measured(args.measured)
     sources = tuple(s.strip() for s in args.sources.split(',') if s.strip())
     fit = fit_errors(path, alpha, error, sources=sources, cradle=cradle, master=master,
-                     probe=_probe_follower(args), key=args.measured)
+                     probe=_probe_follower(args), key=args.measured,
+                     exact_iterations=_iterations(args.exact_iterations))
     summary: dict[str, Any] = {'fit': fit.summary(), 'wheel_radius_m': path.wheel_radius}
     for w in fit.warnings:
         print(f'WARNING: {w}', file=sys.stderr)
