@@ -532,6 +532,23 @@ def test_fit_flags_indistinguishable_sources() -> None:
         fit_errors(path, a, err, sources=('wheel_radius', 'coolant'))
 
 
+def test_fit_wrapped_and_shuffled_angles() -> None:
+    """Angles in any order and beyond one turn (an unwrapped encoder) give the same fit."""
+    from cam_design.grinding.correction import fit_errors
+    from cam_design.grinding.machining_error import GroundCam, MachineErrors
+
+    path = _intake_path()
+    a = np.linspace(-math.pi, math.pi, 720, endpoint=False)
+    lift, _ = GroundCam(path, MachineErrors(wheel_radius=-1e-3, index=2e-4)).lift(a)
+    err = lift - from_spec(INTAKE)(a)
+    ref = fit_errors(path, a, err)
+    order = np.random.default_rng(5).permutation(a.size)
+    turned = a[order] + 2 * math.pi * np.random.default_rng(6).integers(-2, 3, a.size)
+    got = fit_errors(path, turned, err[order])
+    for k, v in ref.values.items():
+        assert abs(got.values[k] - v) < 1e-12 + 1e-9 * abs(v), k
+
+
 def test_curve_table_round_trip() -> None:
     """The polar table of the nominal table curve is the wheel path itself."""
     from cam_design.grinding.correction import curve_table

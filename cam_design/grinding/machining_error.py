@@ -199,6 +199,7 @@ def follower_normal(path: WheelPath, alpha: NDArray[np.float64],
     """(normal angle psi_f, pressure angle mu_f) of the contact of the design follower
     (or of ``probe``, whose lift is the design lift converted through the profile)."""
     f = path.design_follower if probe is None else probe
+    alpha = (alpha + math.pi) % (2 * math.pi) - math.pi
     if f.kind == 'flat':
         return alpha.copy(), np.zeros_like(alpha)
     law = path.design_law if probe is None else convert_lift(

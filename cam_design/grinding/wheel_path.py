@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, require_positive
 from cam_design.follower import (Follower, _jet_mul, _offset_params, _rocker_check,
-                                 _sign_param, convert_lift, roller_profile)
+                                 _sign_param, _wrap, convert_lift, roller_profile)
 from cam_design.grinding.curve import PolarCurveLift, jet_cos_sin, law_jet, param_jet
 from cam_design.lift_laws.base import LiftLaw
 
@@ -147,8 +147,12 @@ class WheelPath:
         return [(float(a[i]), float(a[j])) for i, j in zip(first, last)]
 
     def distance(self, alpha: ArrayLike) -> NDArray[np.float64]:
-        """(4, n): D, D', D'', D''' [m, m/rad^k] of the wheel-centre distance."""
-        out = self.lift.derivatives(alpha)
+        """(4, n): D, D', D'', D''' [m, m/rad^k] of the wheel-centre distance (any
+        angle: wrapped to one turn)."""
+        a = np.asarray(alpha, dtype=float).reshape(-1)
+        if not np.all(np.isfinite(a)):
+            raise InputError('alpha', 'non-finite angles', 'finite angles [rad]')
+        out = self.lift.derivatives(_wrap(a))
         out[0] += self.base_radius + self.wheel_radius
         return out
 
