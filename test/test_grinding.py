@@ -149,6 +149,25 @@ def test_cli_table_several_radii(cam_file: Path, capsys: pytest.CaptureFixture) 
         assert np.allclose(rows[sel, 2][base], 0.0165 + rw, atol=1e-15)
 
 
+def test_cli_table_scene_and_machine(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """A scene lobe (its lift, follower and base circle) with the section from --machine."""
+    from cam_metrology.scene_parse import load_scene
+
+    repo = Path(__file__).resolve().parent.parent
+    machine = tmp_path / 'machine.yaml'
+    machine.write_text('grinding:\n  wheel_radius: 0.25\n  step_deg: 2\n')
+    assert main(['grind', 'table', str(repo / 'config' / 'default_scene.yaml'), '--lobe',
+                 'lobe_2', '--machine', str(machine), '--csv', '-']) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    rows = np.array([[float(v) for v in ln.split(',')] for ln in lines[1:]])
+    scene = load_scene(repo / 'config' / 'default_scene.yaml')
+    lobe = scene.lobe('lobe_2')
+    ref = WheelPath(lobe.lift, scene.base_circle_radius, Design(lobe.follower.kind),
+                    0.25).distance(rows[:, 1])[0]
+    assert rows.shape[0] == 180
+    assert np.max(np.abs(rows[:, 2] - ref)) < 1e-14
+
+
 def test_cli_table_errors(cam_file: Path, capsys: pytest.CaptureFixture) -> None:
     assert main(['grind', 'table', str(cam_file), '--wheel-radius', '-0.1']) == 2
     assert '--wheel-radius: got -0.1' in capsys.readouterr().err
