@@ -543,6 +543,9 @@ def test_fit_flags_indistinguishable_sources() -> None:
     fit = fit_errors(path, a, err, sources=('wheel_radius', 'centre_distance'))
     assert not fit.settled
     assert 'centre_distance' in fit.warnings[0] or 'wheel_radius' in fit.warnings[0]
+    # pure noise: settled with the default sources, but the fit explains almost nothing
+    noise = fit_errors(path, a, err)
+    assert noise.settled and any('explain only' in w for w in noise.warnings)
     with pytest.raises(InputError, match='lift_error'):
         fit_errors(path, a, err[:-1])
     with pytest.raises(InputError, match='lift_error'):

@@ -31,6 +31,8 @@ from cam_design.grinding.wheel_path import WheelPath
 
 #: scaled condition number above which the fit is marked unsettled
 CONDITION_LIMIT = 1e4
+#: below this fraction of the error rms explained by the fit, a warning is given
+EXPLAINED_LIMIT = 0.8
 #: default sources of a fit (the CNC centre distance is a wheel-radius change plus an
 #: offset: indistinguishable from them, so it is fitted only on a cradle)
 DEFAULT_SOURCES = ('wheel_radius', 'index', 'run_out_x', 'run_out_y')
@@ -114,6 +116,13 @@ def fit_errors(path: WheelPath, alpha: ArrayLike, lift_error: ArrayLike, *,
                                 exact_iterations)
         sigma2 = float(resid @ resid) / dof
         std = np.sqrt(np.diag(sigma2 * np.linalg.inv(ms.T @ ms))) / scale
+    spread = float(np.std(e))
+    explained = 1.0 - float(np.sqrt(np.mean(resid ** 2))) / spread if spread > 0 else 1.0
+    if explained < EXPLAINED_LIMIT:
+        warnings.append(f'the fitted sources explain only {100 * max(explained, 0):.0f} % '
+                        'of the measured error (rms of residual vs error): another source, '
+                        'a different probe, or a non-systematic error; the correction '
+                        'removes only the fitted part')
     return ErrorFit({n: float(v) for n, v in zip(names, values[:-1])},
                     {n: float(s) for n, s in zip(names, std[:-1])}, float(values[-1]),
                     float(math.sqrt(sigma2)), cond, int(a.size), settled, warnings)

@@ -63,8 +63,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = gsub.add_parser('correct', help='fit a measured lift error, write a corrected table',
                         description='Measure -> correct: least-squares fit of the machining '
                                     'errors to a measured lift error, then the wheel-centre '
-                                    'table that pre-compensates them. Exit 1 (and no table) '
-                                    'when the fit is ill-conditioned.')
+                                    'table that pre-compensates them. Exit 1 and no table '
+                                    'when the fit is ill-conditioned; exit 1 with the table '
+                                    'when the sources explain < 80 % of the error.')
     _common(p)
     _wheel_step(p)
     _probe(p)
@@ -437,4 +438,4 @@ def cmd_correct(args: argparse.Namespace) -> int:
         print(f'offset {fit.offset_m * 1e6:.4f} um, residual rms '
               f'{fit.residual_rms_m * 1e6:.4f} um over {fit.points} points, condition '
               f'{fit.condition:.3g}' + ('' if fit.settled else ' (NOT settled)'))
-    return 0 if fit.settled else 1
+    return 0 if fit.settled and not fit.warnings else 1
