@@ -679,3 +679,31 @@ def test_end_to_end_simulate_analyze_correct() -> None:
     assert np.std(err[lobe_zone]) > 2e-6
     assert np.std(err2[np.abs(alpha2) < 1.6]) < 3e-7          # the 0.2 um noise
     assert abs(shift2) < abs(shift) / 100
+
+
+def test_cli_correct_master_radius_is_reported(cam_file: Path, tmp_path: Path,
+                                               capsys: pytest.CaptureFixture) -> None:
+    """On a cradle with a roller master, a fitted master-roller error is reported, not
+    compensated in the table: warning and exit 1."""
+    cam_file.write_text(cam_file.read_text() + (
+        '  cradle: {pivot_to_work: 0.35, pivot_to_wheel: 0.45, pivot_to_master: 0.3, '
+        'pivot_to_master_follower: 0.5, master_angle: 0.1}\n'
+        '  master_follower: {kind: roller, radius: 0.03}\n'))
+    path = _intake_path()
+    a = np.linspace(-math.pi, math.pi, 360, endpoint=False)
+    from cam_design.grinding.machining_error import sensitivities
+    from cam_design.grinding.master_cam import master_from_section
+    from cam_metrology.cli.design_law import load_yaml
+
+    master = master_from_section(path, load_yaml(str(cam_file))['grinding'])
+    sens = sensitivities(path, a, master=master)
+    err = 2e-5 * sens['master_follower_radius'] - 1e-3 * sens['wheel_radius']
+    meas = tmp_path / 'm.csv'
+    meas.write_text('alpha_rad,lift_error_m\n' + ''.join(
+        f'{x!r},{y!r}\n' for x, y in zip(a.tolist(), err.tolist())))
+    rc = main(['grind', 'correct', str(cam_file), '--measured', str(meas), '--sources',
+               'wheel_radius,master_follower_radius', '--exact-iterations', '0'])
+    out = capsys.readouterr()
+    assert rc == 1
+    assert 'master_follower_radius (2e-05 m) is not compensated' in out.err
+    assert 'wheel_radius: -0.001 +-' in out.out

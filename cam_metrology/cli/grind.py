@@ -414,6 +414,10 @@ def cmd_correct(args: argparse.Namespace) -> int:
                      probe=_probe_follower(args), key=args.measured,
                      exact_iterations=_iterations(args.exact_iterations))
     summary: dict[str, Any] = {'fit': fit.summary(), 'wheel_radius_m': path.wheel_radius}
+    if 'master_follower_radius' in fit.values:
+        fit.warnings.append(f"master_follower_radius ({fit.values['master_follower_radius']:.4g}"
+                            ' m) is not compensated in the table: check or replace the master '
+                            'roller')
     for w in fit.warnings:
         print(f'WARNING: {w}', file=sys.stderr)
     cols: dict[str, Any] = {}
