@@ -707,3 +707,17 @@ def test_cli_correct_master_radius_is_reported(cam_file: Path, tmp_path: Path,
     assert rc == 1
     assert 'master_follower_radius (2e-05 m) is not compensated' in out.err
     assert 'wheel_radius: -0.001 +-' in out.out
+
+
+def test_cli_table_reports_bridged_hollows(tmp_path: Path,
+                                           capsys: pytest.CaptureFixture) -> None:
+    import json
+
+    path = tmp_path / 'roller.yaml'
+    path.write_text('lift_law: {family: preset, name: methods_example}\nbase_radius: 0.02\n'
+                    'grinding: {design: {kind: roller, radius: 0.012}, wheel_radius: 0.2}\n')
+    assert main(['grind', 'table', str(path), '--json', '-', '--step-deg', '2']) == 0
+    out = capsys.readouterr()
+    wheel = json.loads(out.out)['wheels'][0]
+    assert wheel['reproduces_design'] is False and len(wheel['bridged_intervals_rad']) == 2
+    assert 'WARNING: wheel 200.0000 mm bridges concave flanks' in out.err

@@ -181,10 +181,11 @@ class WheelPath:
 
 
 def wheel_table(law: LiftLaw, base_radius: float, design: Design,
-                wheel_radii: ArrayLike, step: float, *, key: str = 'lift'
-                ) -> dict[str, NDArray[np.float64]]:
+                wheel_radii: ArrayLike, step: float, *, key: str = 'lift',
+                paths: list[WheelPath] | None = None) -> dict[str, NDArray[np.float64]]:
     """Long table over the full turn at angle ``step`` [rad] for each wheel radius [m]:
-    ``wheel_radius_m`` then the columns of :meth:`WheelPath.table`."""
+    ``wheel_radius_m`` then the columns of :meth:`WheelPath.table`. ``paths``, if given,
+    receives the WheelPath of each radius (for their ``bridged`` report)."""
     radii = np.asarray(wheel_radii, dtype=float).reshape(-1)
     if radii.size == 0:
         raise InputError('wheel_radius', 'an empty list', 'at least one wheel radius [m]')
@@ -195,6 +196,8 @@ def wheel_table(law: LiftLaw, base_radius: float, design: Design,
     parts: dict[str, list[NDArray[np.float64]]] = {}
     for rw in radii:
         path = WheelPath(law, base_radius, design, float(rw), key=key)
+        if paths is not None:
+            paths.append(path)
         cols = {'wheel_radius_m': np.full(n, float(rw))}
         cols.update(path.table(alpha))
         for k, v in cols.items():

@@ -154,7 +154,7 @@ def cmd_table(args: argparse.Namespace) -> int:
     import numpy as np
 
     from cam_design.grinding import spec as gs
-    from cam_design.grinding.wheel_path import WheelPath, wheel_table
+    from cam_design.grinding.wheel_path import wheel_table
 
     law, base, design, section = load(args)
     if args.wheel_radius:
@@ -169,15 +169,16 @@ def cmd_table(args: argparse.Namespace) -> int:
         step = gs.step_rad(args.step_deg, '--step-deg')
     else:
         step = gs.step_rad(section.get('step_deg', 0.5))
-    cols = wheel_table(law, base, design, radii, step, key=args.file)
+    paths: list[Any] = []
+    cols = wheel_table(law, base, design, radii, step, key=args.file, paths=paths)
     summary: dict[str, Any] = {'design': design.kind, 'base_radius_m': base,
                                'wheel_radius_m': radii, 'step_rad': step}
     per = []
-    for rw in radii:
+    for rw, path in zip(radii, paths):
         sel = cols['wheel_radius_m'] == rw
         d = cols['wheel_centre_distance_m'][sel]
         mu = cols['wheel_pressure_angle_rad'][sel]
-        bridged = WheelPath(law, base, design, rw, key=args.file).bridged
+        bridged = path.bridged
         per.append({'wheel_radius_m': rw, 'distance_min_m': float(np.min(d)),
                     'distance_max_m': float(np.max(d)),
                     'wheel_pressure_angle_max_deg': float(np.degrees(np.max(np.abs(mu)))),
