@@ -226,6 +226,24 @@ class ReboundOperator:
         return np.sum(jump ** 2, axis=1)
 
 
+def _rebound_l1_factor() -> float:
+    """max_j sum_i |d r_j / d y_i| on uniform knots, interior: the largest rebound that
+    errors bounded by 1 can cause (rebound operator row sum, ~2.9)."""
+    n = 121
+    op = ReboundOperator(np.arange(n, dtype=float))
+    rows = op.rebound(np.eye(n))
+    return float(np.sum(np.abs(rows[n // 2])))
+
+
+REBOUND_L1_FACTOR = _rebound_l1_factor()
+#: a table whose rebound noise is below this fraction of its lift range is computed, not
+#: measured (8 nm on an 8 mm lobe; gauges resolve 0.1 um at best)
+EXACT_NOISE_REL = 1e-6
+#: on such a table an outlier (a typing error) also misses by more than this multiple of
+#: the rebound floor (5 x 2e-5 = 1e-4 of the lift range: 0.8 um on an 8 mm lobe)
+EXACT_FLOOR = 5.0
+
+
 @dataclass(frozen=True)
 class Fairing:
     """Outcome of the rebound fairing: ``lift`` [m] faired values (outliers replaced by
@@ -239,6 +257,7 @@ class Fairing:
     sigma: float
     tolerance: float
     sweeps: int
+    quantum: float = 0.0
 
 
 def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5,
@@ -267,12 +286,21 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     interior[1:-1] = True
     u = r[interior] / factor[interior]              # rebounds in noise units
     span = float(np.ptp(y)) if n else 0.0
+    quantum = quantisation_step(y)
     floor = max(min_tolerance_rel * span, 1e-300)
     if sigma is None:
         sigma = MAD_TO_SIGMA * float(np.median(np.abs(u - np.median(u))))
+        exact = sigma < EXACT_NOISE_REL * span
+        # rounding to a step q is noise of std q / sqrt(12) on the lobe, where the MAD
+        # of a table whose base circle rounds to exact zeros does not see it
+        sigma = math.sqrt(sigma ** 2 + quantum ** 2 / 12.0)
     else:
         sigma = require_positive('sigma', sigma, allow_zero=True)
-    tol_i = np.maximum(threshold * sigma * factor, floor)     # per point
+        exact = sigma < EXACT_NOISE_REL * span
+    # rounding errors are bounded (|e| <= q/2): their rebound never exceeds q/2 times
+    # the rebound operator's row sum; no rounded point is an outlier
+    floor = max(floor, 1.05 * 0.5 * quantum * REBOUND_L1_FACTOR)
+    tol_i = np.maximum(threshold * sigma * factor, floor * factor / REBOUND_NOISE_FACTOR)
     tol = max(threshold * sigma * REBOUND_NOISE_FACTOR, floor)
     cap_m = max(cap * sigma, floor)
     outlier = np.zeros(n, dtype=bool)
@@ -280,8 +308,7 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     r0 = r.copy()
     sweeps = 0
     for sweeps in range(1, max_sweeps + 1):
-        a = np.abs(r) / tol_i
-        a[~interior | outlier] = 0.0
+        a = np.divide(np.abs(r), tol_i, out=np.zeros(n), where=interior & ~outlier)
         big = a > 1.0
         if not np.any(big):
             sweeps -= 1
@@ -290,8 +317,9 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
         # cubic spline's own interpolation error on the flanks exceeds the noise, so
         # each candidate must be confirmed by a local quintic leave-one-out prediction
         # (which follows the lift); a rejected maximum is vetoed and the next tried.
-        if coarse:
-            cand = _confirmed_candidates(x_arr, y, a, big, outlier, threshold * sigma, floor)
+        if coarse or exact:
+            cand = _confirmed_candidates(x_arr, y, a, big, outlier, threshold * sigma,
+                                         floor, exact)
         else:
             cand = np.flatnonzero(big & _local_maxima(a))
         if cand.size == 0:
@@ -306,7 +334,31 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
         y[keep] += step[~too_far]
         corr[keep] += step[~too_far]
         r = op.rebound(y)
-    return Fairing(y, outlier, corr, r0, float(sigma), float(tol), sweeps)
+    return Fairing(y, outlier, corr, r0, float(sigma), float(tol), sweeps, quantum)
+
+
+def quantisation_step(y: ArrayLike) -> float:
+    """The rounding step q [same unit as y] of a table whose values are all whole
+    multiples of q (1, 2 or 5 times a power of ten, from 1e-12 to 1e-2 of the largest
+    value, at least 20 levels over the range); 0 when the values are not rounded."""
+    v = np.asarray(y, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size < 8:
+        return 0.0
+    top = float(np.max(np.abs(v)))
+    span = float(np.ptp(v))
+    if not (top > 0 and span > 0):
+        return 0.0
+    start = math.floor(math.log10(span / 20.0))
+    for k in range(start, int(math.floor(math.log10(top))) - 13, -1):
+        for m in (5.0, 2.0, 1.0):
+            q = m * 10.0 ** k
+            if q > span / 20.0:
+                continue
+            ratio = v / q
+            if float(np.max(np.abs(ratio - np.rint(ratio)))) <= 1e-6:
+                return q
+    return 0.0
 
 
 def _local_maxima(a: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -319,7 +371,7 @@ def _local_maxima(a: NDArray[np.float64]) -> NDArray[np.bool_]:
 def _confirmed_candidates(x: NDArray[np.float64], y: NDArray[np.float64],
                           a: NDArray[np.float64], big: NDArray[np.bool_],
                           excluded: NDArray[np.bool_], tol: float,
-                          floor: float) -> NDArray[np.int64]:
+                          floor: float, exact: bool = False) -> NDArray[np.int64]:
     """Indices to move this sweep: confirmed local maxima of ``a`` among ``big``."""
     score = np.where(big, a, 0.0)
     chosen: list[int] = []
@@ -327,12 +379,33 @@ def _confirmed_candidates(x: NDArray[np.float64], y: NDArray[np.float64],
         cand = np.flatnonzero(_local_maxima(score))
         if cand.size == 0:
             break
-        ok = _quintic_confirms(x, y, cand, excluded, tol, floor)
+        ok = _quintic_confirms(x, y, cand, excluded, tol, floor, exact)
         chosen += [int(i) for i in cand[ok]]
         score[cand] = 0.0                   # confirmed: taken; rejected: vetoed
         if np.all(ok):
             break
     return np.array(sorted(chosen), dtype=np.int64)
+
+
+def _one_sided_miss(x: NDArray[np.float64], y: NDArray[np.float64],
+                    usable: NDArray[np.int64], i: int, skip: tuple[int, ...]) -> float:
+    """Smallest |y_i - p(x_i)| over the quintics through the six nearest usable samples
+    on either side of i (extrapolation; for exact tables, where a junction of the lift
+    law next to i spoils every two-sided stencil). inf if neither side has six."""
+    best = math.inf
+    pos = int(np.searchsorted(usable, i))
+    sides = (usable[max(0, pos - 12):pos][::-1], usable[pos:pos + 13])
+    for side in sides:
+        idx = np.array([int(j) for j in side if j != i and j not in skip][:6])
+        if idx.size < 6:
+            continue
+        xs = (x[idx] - x[i]) / max(float(np.ptp(x[idx])), 1e-300)
+        try:
+            w = np.linalg.solve(np.vander(xs, 6, increasing=True).T, np.eye(6)[0])
+        except np.linalg.LinAlgError:
+            continue
+        best = min(best, abs(float(y[i] - w @ y[idx])))
+    return best
 
 
 def _quintic_loo(x: NDArray[np.float64], y: NDArray[np.float64], usable: NDArray[np.int64],
@@ -360,9 +433,15 @@ def _quintic_loo(x: NDArray[np.float64], y: NDArray[np.float64], usable: NDArray
     return float(resid[best]), math.sqrt(1.0 + float(weights[best] @ weights[best]))
 
 
+#: a confirmed outlier misses its local quintic prediction by more than these multiples
+#: of the median and of the largest miss at its +-3 neighbours (the lift's own
+#: interpolation error there); (noisy table, exact table)
+NEIGHBOUR_FACTORS = ((4.0, 2.0), (8.0, 4.0))
+
+
 def _quintic_confirms(x: NDArray[np.float64], y: NDArray[np.float64],
                       cand: NDArray[np.int64], excluded: NDArray[np.bool_], tol: float,
-                      floor: float) -> NDArray[np.bool_]:
+                      floor: float, exact: bool = False) -> NDArray[np.bool_]:
     """For each candidate i: does y_i differ from the local quintic leave-one-out
     prediction by more than ``tol`` x its noise factor, than ``floor``, and than 4 x
     the same prediction error at its neighbours (i +- 1, i +- 2, each without i)? The
@@ -374,11 +453,18 @@ def _quintic_confirms(x: NDArray[np.float64], y: NDArray[np.float64],
         own = _quintic_loo(x, y, usable, int(i), others)
         if own is None:
             continue
-        local = [_quintic_loo(x, y, usable, j, (j,) + others)
-                 for j in (i - 2, i - 1, i + 1, i + 2)
-                 if 0 <= j < x.size and not excluded[j] and j not in others]
-        scale = float(np.median([v[0] for v in local if v is not None] or [0.0]))
-        ok[k] = own[0] > max(tol * own[1], floor, 4.0 * scale)
+        near = [j for j in (i - 3, i - 2, i - 1, i + 1, i + 2, i + 3)
+                if 0 <= j < x.size and not excluded[j] and j not in others]
+        local = [(_quintic_loo(x, y, usable, j, (j,) + others), j) for j in near]
+        errs = [v[0] for v, _ in local if v is not None] or [0.0]
+        if exact:
+            # no noise to amplify: one-sided stencils may avoid a junction of the law
+            own = (min(own[0], _one_sided_miss(x, y, usable, int(i), others)), own[1])
+            errs = [min(v[0], _one_sided_miss(x, y, usable, j, (j,) + others))
+                    for v, j in local if v is not None] or [0.0]
+        med, top = NEIGHBOUR_FACTORS[int(exact)]
+        scale = max(med * float(np.median(errs)), top * max(errs))
+        ok[k] = own[0] > max(tol * own[1], floor * (EXACT_FLOOR if exact else 1.0), scale)
     return ok
 
 
