@@ -245,7 +245,7 @@ def _skips(core: Any) -> list[dict[str, str]]:
 
 
 #: notes of the data cleaning (samples.clean_samples) shown in the human output too
-CLEANING_NOTES = ('dropped ', 'wrapped ', 'merged ')
+CLEANING_NOTES = ('dropped ', 'wrapped ', 'merged ', 'columns: ', 'angles: ', 'rounded ')
 
 
 def _human(result: dict[str, Any]) -> str:
