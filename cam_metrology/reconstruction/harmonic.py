@@ -39,7 +39,11 @@ from cam_metrology.reconstruction.samples import CleanSamples
 from cam_metrology.reconstruction.spline import Fairing, rebound_fairing
 
 BASES = ('section', 'full')
-CRITERIA = ('cp', 'bic', 'risk', 'residual')
+CRITERIA = ('noise', 'cp', 'bic', 'risk', 'residual')
+#: residual level [fraction of the lift range] below which a noise-free table counts as
+#: fitted (8 nm on an 8 mm lobe)
+NOISE_FLOOR_REL = 1e-6
+NOISE_SLACK = 1.25
 #: smallest order a caller may set: N = 0 is a constant and N = 1 a single cosine (an
 #: eccentric circle); neither can represent a lobe
 MIN_ORDER = 2
@@ -420,6 +424,19 @@ def _choose_section(x: NDArray[np.float64], y: NDArray[np.float64], phi: float,
     n_pts = y.size
     orders = np.arange(search + 1)
     valid = orders >= 2
+    # the noise rule: the smallest N whose residual variance is at the noise level
+    dof = np.maximum(n_pts - sizes, 1)
+    floor = max(sigma, NOISE_FLOOR_REL * float(np.ptp(y)), 1e-300) ** 2
+    # (the robust sigma is itself uncertain by a few per cent: 25 % slack on the variance)
+    fits = valid & (rss / dof <= floor * NOISE_SLACK * (1.0 + 2.0 * np.sqrt(2.0 / dof)))
+    n_noise = int(np.argmax(fits)) if np.any(fits) else None
+    noise_text = f'noise sigma {math.sqrt(floor):.3g} m'
+    if opt.criterion == 'noise':
+        if n_noise is not None:
+            return n_noise, f'smallest N whose residual is at the noise level ({noise_text}): ' \
+                            f'N = {n_noise}'
+        return search, (f'residual above the noise ({noise_text}) up to the search limit: '
+                        f'N = {search}')
     if opt.criterion == 'bic':
         score = n_pts * np.log(np.maximum(rss, 1e-300) / n_pts) + sizes * np.log(n_pts)
         label = 'BIC minimum'
@@ -430,4 +447,15 @@ def _choose_section(x: NDArray[np.float64], y: NDArray[np.float64], phi: float,
     score = np.where(valid, score, np.inf)
     n = int(np.argmin(score))
     edge = ' (at the search limit)' if n == search else ''
-    return n, f'{label}{edge}: N = {n}'
+    why = f'{label}{edge}: N = {n}'
+    if n_noise is None:
+        return n, why
+    top = n_noise + max(5, n_noise // 2)
+    if n < n_noise:
+        return n_noise, (f'{why}, raised to N = {n_noise}: below it the residual exceeds '
+                         f'the noise ({noise_text})')
+    if n > top:
+        return top, (f'{why}, capped to N = {top} (1.5 x the order N = {n_noise} that '
+                     f'reaches the noise, {noise_text}): beyond it the series fits noise '
+                     'or rounding')
+    return n, why
