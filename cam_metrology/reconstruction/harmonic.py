@@ -69,6 +69,7 @@ class HarmonicOptions:
     step: float | None = None          # output grid step [rad]; None: data step
     sigma: float | None = None         # noise [m]; None: estimated (rebound)
     continuity: int = 1                # section: h..h^(continuity) = 0 at +-Phi (-1: none)
+    expected_sign_changes: int | None = 2   # of h'' (None: no shape check)
 
 
 def _check(opt: HarmonicOptions) -> HarmonicOptions:
@@ -121,24 +122,43 @@ def _reconstruct(data: CleanSamples, opt: HarmonicOptions,
     if np.count_nonzero(fair.outlier):
         rec.notes.append(f'rebound: {int(np.count_nonzero(fair.outlier))} outlier(s) removed')
     rec.check_residuals(tol=opt.tol or 0.0)
-    if opt.order is not None:
-        _check_underfit(rec, y_raw)
+    _check_underfit(rec, y_raw, opt.order is not None)
+    _check_limit(rec, opt)
+    rec.check_shape(opt.expected_sign_changes)
     rec.check_finite()
     return rec
 
 
-def _check_underfit(rec: Reconstruction, y: NDArray[np.float64]) -> None:
-    """Warn when an order set by the caller is too low for the lobe: rms residual above
-    ``UNDERFIT_SIGMAS`` noise sigmas and above 1e-4 of the lift range [m]."""
+def _check_underfit(rec: Reconstruction, y: NDArray[np.float64], manual: bool) -> None:
+    """Warn when the order is too low for the lobe. Set by the caller: rms residual above
+    ``UNDERFIT_SIGMAS`` noise sigmas and above 1e-4 of the lift range [m]; automatic:
+    rms residual above 1.5 noise sigmas and 1e-5 of the lift range."""
     span = float(np.max(y) - np.min(y)) if y.size else 0.0
-    bound = max(UNDERFIT_SIGMAS * rec.sigma, 1e-4 * span)
+    order = rec.parameter.get('order')
     rms = rec.rms_residual
-    if rms > bound:
-        order = rec.parameter.get('order')
+    if manual:
+        if rms > max(UNDERFIT_SIGMAS * rec.sigma, 1e-4 * span):
+            rec.warnings.append(
+                f'the order set by the caller (N = {order}) is too low for this lobe: rms '
+                f'residual {rms * 1e6:.3f} um against noise sigma {rec.sigma * 1e6:.3g} um; '
+                'raise N or omit it for the automatic order')
+    elif rms > max(1.5 * rec.sigma, 1e-5 * span, 1e-300):
         rec.warnings.append(
-            f'the order set by the caller (N = {order}) is too low for this lobe: rms '
-            f'residual {rms * 1e6:.3f} um against noise sigma {rec.sigma * 1e6:.3g} um; '
-            'raise N or omit it for the automatic order')
+            f'under-fitted: the automatic order N = {order} leaves an rms residual of '
+            f'{rms * 1e6:.3f} um against noise sigma {rec.sigma * 1e6:.3g} um (the series '
+            'cannot follow this table; compare with the spline)')
+
+
+def _check_limit(rec: Reconstruction, opt: HarmonicOptions) -> None:
+    """Warn when the automatic order sits at the search limit (max_order or the Nyquist
+    limit of the data): the series may not have converged."""
+    order = rec.parameter.get('order')
+    limit = min(int(rec.parameter.get('nyquist_order', opt.max_order)), opt.max_order)
+    if opt.order is None and order is not None and order >= limit:
+        rec.warnings.append(
+            f'the automatic order N = {order} sits at the search limit ({limit}: '
+            f'{"the Nyquist limit of the data" if limit < opt.max_order else "max_order"}); '
+            'the series may not have converged')
 
 
 def _gap_warning(x: NDArray[np.float64], step: float, period: float,

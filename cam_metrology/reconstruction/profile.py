@@ -182,6 +182,10 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         if np.all(np.isfinite(acc)) and np.any(acc):
             sopt = replace(sopt, expected_sign_changes=max(_sign_changes(acc),
                                                            sopt.expected_sign_changes))
+    if harmonic is not None or 'harmonic' in methods:
+        from dataclasses import replace as _replace
+        harmonic = _replace(harmonic or HarmonicOptions(),
+                            expected_sign_changes=sopt.expected_sign_changes)
     outcomes: dict[str, MethodOutcome] = {}
     fairing = rebound_fairing(data.alpha, data.lift, threshold=sopt.threshold,
                               gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)

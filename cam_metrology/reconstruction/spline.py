@@ -830,9 +830,6 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         if raised:
             why += (f'; raised x{4 ** raised} to lam_d = {lam_d:.4g} for the sign '
                     f"pattern of h'' ({expected} sign changes expected)")
-        if _sign_changes(acc) > expected:
-            warnings.append(f"h'' has {_sign_changes(acc)} significant sign changes "
-                            f'(expected {expected}): noise or a real feature')
     fit = spline(x[kept])
     mu = _spectrum(grid.size)
     edf = float(np.sum(1.0 / (1.0 + lam_d * mu ** 3)))
@@ -851,5 +848,6 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         evaluate=lambda a, nu=0: spline(np.asarray(a, dtype=float), nu),
         outliers_alpha=x[fair.outlier], warnings=warnings, notes=notes)
     rec.check_residuals()
+    rec.check_shape(opt.expected_sign_changes)
     rec.check_finite()
     return rec
