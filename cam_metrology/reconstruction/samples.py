@@ -535,3 +535,57 @@ def lift_table_from_message(msg: Any) -> LiftTable:
     design = data[:, index['design_lift_m']].copy() if 'design_lift_m' in index else None
     return LiftTable(label, data[:, index['alpha_rad']].copy(),
                      data[:, index['lift_m']].copy(), design, None, '/metrology/lift')
+
+
+#: a step: one row-to-row change this many times the changes (per angle) next to it
+STEP_RATIO = 4.0
+
+
+def find_steps(alpha: NDArray[np.float64], lift: NDArray[np.float64], sigma: float
+               ) -> list[tuple[int, float, float, float, float]]:
+    """Steps of a lift table: (row index k, alpha_k, alpha_k+1 [rad], jump [m], largest
+    neighbour change [m]) for each pair of consecutive rows whose slope is ``STEP_RATIO`` times
+    the slopes on both sides and whose change exceeds 10 noise sigmas and 1 % of the
+    lift range (a ramp cut off: 0 -> 0.5 mm between two rows), or that leaves the base
+    circle (flat row before) by more than 5 % of the range and at least half the next
+    row's slope. A spike changes by +d then -d and is not a step."""
+    a = np.asarray(alpha, dtype=float)
+    h = np.asarray(lift, dtype=float)
+    if a.size < 4:
+        return []
+    dh = np.diff(h)
+    slope = dh / np.diff(a)
+    rng = float(np.ptp(h))
+    out = []
+    for k in range(dh.size):
+        side = [abs(slope[j]) for j in (k - 1, k + 1) if 0 <= j < dh.size]
+        near = [abs(dh[j]) for j in (k - 1, k + 1) if 0 <= j < dh.size]
+        if abs(slope[k]) > STEP_RATIO * max(side) and \
+                abs(dh[k]) - max(near) > max(10.0 * sigma, 0.01 * rng):
+            out.append((k, float(a[k]), float(a[k + 1]), float(dh[k]), float(max(near))))
+            continue
+        # leaving (or reaching) the base circle in one row: a lift that starts with a
+        # continuous velocity rises at most 1/3 as much in its first row as in the
+        # next (1:3 for constant h''); a cut ramp rises about as much
+        for before, after in ((k - 1, k + 1), (k + 1, k - 1)):
+            if not (0 <= before < dh.size and 0 <= after < dh.size):
+                continue
+            flat = abs(dh[before]) <= max(10.0 * sigma, 0.002 * rng)
+            if flat and abs(dh[k]) > max(10.0 * sigma, 0.05 * rng) and \
+                    dh[k] * dh[after] > 0 and abs(slope[k]) >= 0.5 * abs(slope[after]):
+                out.append((k, float(a[k]), float(a[k + 1]), float(dh[k]),
+                            float(abs(dh[before]))))
+                break
+    return out
+
+
+def step_warnings(steps: list[tuple[int, float, float, float, float]]) -> list[str]:
+    """One warning per step found by ``find_steps`` (at most 5, then a count)."""
+    out = [f'lift jumps by {jump * 1e3:.4g} mm between the rows at {math.degrees(a0):.3f} '
+           f'and {math.degrees(a1):.3f} deg (the row on the base-circle side, or the rows '
+           f'next to them, change by at most {near * 1e3:.3g} mm): a step, e.g. a ramp cut off; the reconstruction '
+           'interpolates it, so velocity and acceleration there are not the cam\'s'
+           for _, a0, a1, jump, near in steps[:5]]
+    if len(steps) > 5:
+        out.append(f'{len(steps) - 5} more step(s) in the table')
+    return out
