@@ -193,14 +193,19 @@ def _full(x: NDArray[np.float64], y: NDArray[np.float64], y_raw: NDArray[np.floa
     if covered:
         inside[:] = True          # the few nodes across +-pi: short extrapolation
     if not covered:
-        ends = (abs(float(np.mean(y[:5]))) <= base_tol and abs(float(np.mean(y[-5:])))
-                <= base_tol)
-        if not ends:
+        # end rule: the first and the last row must be on the base circle (within the
+        # noise); the lift is then 0 over the rest of the revolution
+        first, last = float(y[0]), float(y[-1])
+        if abs(first) > base_tol or abs(last) > base_tol:
             raise InputError('harmonic.basis', 'full',
-                             'a table covering the whole revolution or ending on the base '
-                             "circle at both ends (use basis 'section')")
-        notes.append(f'table covers {math.degrees(float(x[-1] - x[0])):.1f} deg: '
-                     'h = 0 (base circle) assumed outside')
+                             'a table covering the whole revolution, or whose first and '
+                             'last rows are on the base circle (lift within '
+                             f'{base_tol * 1e3:.3g} mm of 0; here {first * 1e3:.4g} and '
+                             f"{last * 1e3:.4g} mm); else use --basis section")
+        notes.append(f'full basis end rule: the table covers '
+                     f'{math.degrees(float(x[-1] - x[0])):.1f} deg and its end rows are on '
+                     f'the base circle ({first * 1e3:.3g} and {last * 1e3:.3g} mm): h = 0 '
+                     'assumed over the rest of the revolution')
     values = np.zeros(m_pts)
     values[inside] = CubicSpline(x, y, bc_type='natural')(wrapped[inside])
     coef = np.fft.rfft(values) / m_pts
@@ -318,7 +323,8 @@ def _half_angle(x: NDArray[np.float64], y: NDArray[np.float64], step: float,
     i0 = int(np.argmin(np.abs(x)))
     if mean[i0] <= thr:
         raise InputError('harmonic.half_angle', 'no lift above the base circle at alpha = 0',
-                         'a lobe centred on alpha = 0 (or set half_angle)')
+                         'a lobe centred on alpha = 0 (re-centre a table file with '
+                         '--center-nose, or set half_angle)')
     low = mean <= thr
     right = np.nonzero(low[i0:])[0]
     left = np.nonzero(low[:i0][::-1])[0]
@@ -450,7 +456,7 @@ def _choose_section(x: NDArray[np.float64], y: NDArray[np.float64], phi: float,
     # (the robust sigma is itself uncertain by a few per cent: 25 % slack on the variance)
     fits = valid & (rss / dof <= floor * NOISE_SLACK * (1.0 + 2.0 * np.sqrt(2.0 / dof)))
     n_noise = int(np.argmax(fits)) if np.any(fits) else None
-    noise_text = f'noise sigma {math.sqrt(floor):.3g} m'
+    noise_text = f'noise level {math.sqrt(floor):.3g} m'
     if opt.criterion == 'noise':
         if n_noise is not None:
             return n_noise, f'smallest N whose residual is at the noise level ({noise_text}): ' \

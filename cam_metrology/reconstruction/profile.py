@@ -23,7 +23,7 @@ from cam_design.errors import InputError
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
 from cam_metrology.reconstruction.result import Reconstruction, per_second
 from cam_metrology.reconstruction.samples import (LiftTable, clean_samples, find_steps,
-                                                  step_warnings)
+                                                  nose_warning, step_warnings)
 from cam_metrology.reconstruction.spline import (SplineOptions, rebound_fairing,
                                                  reconstruct_spline)
 
@@ -193,6 +193,9 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
                               gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)
     steps = find_steps(data.alpha, data.lift, fairing.sigma)
     table_warnings = step_warnings(steps)
+    off_centre = nose_warning(data)
+    if off_centre:
+        table_warnings.append(off_centre)
     table_notes = []
     if steps and np.any(fairing.outlier):
         # the rebound of a step rings over its neighbours: they are not outliers

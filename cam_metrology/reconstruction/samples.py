@@ -589,3 +589,27 @@ def step_warnings(steps: list[tuple[int, float, float, float, float]]) -> list[s
     if len(steps) > 5:
         out.append(f'{len(steps) - 5} more step(s) in the table')
     return out
+
+
+def nose_warning(data: CleanSamples) -> str | None:
+    """A warning when alpha = 0 is not on the lobe (lift there below half the largest
+    lift): the angles are not taken from the lobe centreline, which the section harmonic
+    basis and every lobe-centred quantity assume. Names the lobe axis (flank
+    midpoints) and the option that re-centres a table file."""
+    a, h = data.alpha, data.lift
+    top = float(np.max(h))
+    base = float(np.percentile(h, 5))
+    if not top - base > 0:
+        return None
+    at_zero = float(np.interp(0.0, a, h)) if a[0] <= 0.0 <= a[-1] else base
+    if at_zero - base >= 0.5 * (top - base):
+        return None
+    try:
+        _, shift = centre_on_nose(LiftTable('table', a, h))
+        where = f'the lobe axis is at {math.degrees(shift):.2f} deg'
+    except InputError:
+        where = f'the largest lift is at {math.degrees(float(a[int(np.argmax(h))])):.2f} deg'
+    return (f'alpha = 0 is not on the lobe ({where}; lift at 0 is '
+            f'{(at_zero - base) / (top - base) * 100:.0f} % of the lobe height): the angles '
+            'are not from the lobe centreline; re-centre the table (--center-nose, or '
+            'shift the angles)')

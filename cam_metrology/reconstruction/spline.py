@@ -548,8 +548,10 @@ def choose_smoothing(values: NDArray[np.float64], step: float, *, criterion: str
     what = ('minimum of the estimated acceleration error (SURE)' if criterion == 'risk'
             else 'GCV minimum')
     edge = ' (at the edge of the search range)' if i in (0, grid.size - 1) else ''
-    why = (f'{what}{edge}: lam_d = {lam_d:.4g}, edf = {edf:.1f} of {n}, '
-           f'noise sigma = {sigma:.3g} m')
+    why = f'{what}{edge}: lam_d = {lam_d:.4g}, edf = {edf:.1f} of {n}'
+    if criterion == 'risk':
+        # the noise of the (binned) grid values, not the table's noise sigma
+        why += f', grid noise {sigma:.3g} m'
     return SmoothingChoice(lam_d, lam_d * step ** 5, edf, float(sigma), why)
 
 
