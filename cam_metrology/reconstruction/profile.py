@@ -193,7 +193,8 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
                               gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)
     steps = find_steps(data.alpha, data.lift, fairing.sigma)
     table_warnings = step_warnings(steps)
-    off_centre = nose_warning(data)
+    # (with a design the table is aligned on it; a dual-peak lobe may have a valley at 0)
+    off_centre = nose_warning(data) if design is None else None
     if off_centre:
         table_warnings.append(off_centre)
     table_notes = []
