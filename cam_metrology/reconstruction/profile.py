@@ -181,8 +181,9 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         from cam_metrology.reconstruction.spline import _sign_changes
         grid = np.linspace(data.alpha[0], data.alpha[-1], 4001)
         acc = np.asarray(design(grid, 2), dtype=float)
+        lift = np.asarray(design(grid, 0), dtype=float)
         if np.all(np.isfinite(acc)) and np.any(acc):
-            sopt = replace(sopt, expected_sign_changes=max(_sign_changes(acc),
+            sopt = replace(sopt, expected_sign_changes=max(_sign_changes(acc, lift=lift),
                                                            sopt.expected_sign_changes))
     if harmonic is not None or 'harmonic' in methods:
         from dataclasses import replace as _replace
@@ -219,6 +220,12 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         try:
             if m == 'spline':
                 rec = reconstruct_spline(data, None, sopt, fairing)
+                mask = rec.outlier_mask
+                if mask is not None and not np.array_equal(mask, fairing.outlier):
+                    # the spline's second look corrected the outliers: the series too
+                    fairing = dataclasses.replace(
+                        fairing, outlier=mask,
+                        lift=np.where(mask | fairing.outlier, fairing.lift, data.lift))
             else:
                 rec = reconstruct_harmonic(data, harmonic, fairing)
         except InputError as exc:

@@ -13,6 +13,8 @@ Evaluator = Callable[[NDArray[np.float64], int], NDArray[np.float64]]
 #: residuals [m] below this never warn: 1 nm, 100 x below the resolution of 0.1 um class
 #: gauges; rounding of noise-free tables leaves ~1e-14 m
 RESIDUAL_FLOOR = 1e-9
+#: the lobe, for the h'' shape check: lift above this fraction of the largest lift
+LOBE_FRACTION = 0.02
 
 
 @dataclass
@@ -42,6 +44,8 @@ class Reconstruction:
     warnings: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     spectrum: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+    #: which input samples were treated as outliers (spline: after the second look)
+    outlier_mask: NDArray[np.bool_] | None = None
 
     @property
     def rms_residual(self) -> float:
@@ -80,7 +84,7 @@ class Reconstruction:
         stepped table or angles not taken from the lobe centre show up here."""
         if expected is None or self.acceleration.size < 3:
             return
-        got = sign_pattern(self.acceleration)
+        got = sign_pattern(self.acceleration, lift=self.lift)
         want = '+' + '-+' * (expected // 2) if expected % 2 == 0 else None
         if (got == want) if want is not None else (len(got) - 1 == expected):
             return
@@ -122,9 +126,15 @@ def per_second(derivs: ArrayLike, rpm: float) -> dict[str, NDArray[np.float64]]:
             'jerk_m_per_s3': omega ** 3 * d[3]}
 
 
-def sign_pattern(acc: NDArray[np.float64], frac: float = 0.05) -> str:
-    """Run-length compressed signs ('+'/'-') of ``acc`` where |acc| > frac x max|acc|."""
+def sign_pattern(acc: NDArray[np.float64], frac: float = 0.05,
+                 lift: NDArray[np.float64] | None = None) -> str:
+    """Run-length compressed signs ('+'/'-') of ``acc`` where |acc| > frac x max|acc|;
+    with ``lift`` (same grid) only on the lobe, where the lift exceeds 2 % of its
+    largest value (on the base circle h'' is noise around 0)."""
     a = np.asarray(acc, dtype=float)
+    if lift is not None:
+        h = np.asarray(lift, dtype=float)
+        a = a[h > LOBE_FRACTION * float(np.max(h))] if h.size else a
     top = float(np.max(np.abs(a))) if a.size else 0.0
     if not top > 0:
         return ''

@@ -47,10 +47,14 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
 from cam_metrology.reconstruction.blas import single_thread_blas
-from cam_metrology.reconstruction.result import Reconstruction, output_grid
+from cam_metrology.reconstruction.result import Reconstruction, output_grid, sign_pattern
 from cam_metrology.reconstruction.samples import CleanSamples, clean_samples
 
 CRITERIA = ('risk', 'gcv')
+#: a point the rebound kept is an outlier after all when it is this many noise sigmas
+#: (and the rebound tolerance) off the smooth fit, and the largest miss near it
+SECOND_LOOK_SIGMAS = 6.0
+GCV_GAMMA = 1.4
 MAD_TO_SIGMA = 1.482602218505602
 
 
@@ -490,8 +494,9 @@ class _Criterion:
     """GCV score or estimated acceleration risk as a function of log10(lam_d)."""
 
     def __init__(self, coef: NDArray[np.float64], mu: NDArray[np.float64], sigma: float,
-                 criterion: str) -> None:
+                 criterion: str, gamma: float = 1.0) -> None:
         self.m3 = mu ** 3
+        self.gamma = gamma
         self.gcv = criterion == 'gcv'
         self.n = coef.size
         if self.gcv:
@@ -506,12 +511,12 @@ class _Criterion:
         g = 1.0 - hk
         if self.gcv:
             rss = float(np.dot(g * g, self.c2))
-            return self.n * rss / max(self.n - float(hk.sum()), 1e-9) ** 2
+            return self.n * rss / max(self.n - self.gamma * float(hk.sum()), 1e-9) ** 2
         return float(np.dot(g * g, self.wc2) + np.dot(hk * hk, self.ws2))
 
 
 def choose_smoothing(values: NDArray[np.float64], step: float, *, criterion: str = 'risk',
-                     sigma: float | None = None) -> SmoothingChoice:
+                     sigma: float | None = None, gamma: float = 1.0) -> SmoothingChoice:
     """Automatic smoothing level for uniform samples ``values`` [m] at ``step`` [rad].
 
     ``risk``: minimise the unbiased estimate of the summed squared error of the second
@@ -525,7 +530,7 @@ def choose_smoothing(values: NDArray[np.float64], step: float, *, criterion: str
     mu = _spectrum(n)
     if sigma is None:
         sigma = MAD_TO_SIGMA * float(np.median(np.abs(coef[n // 2:])))
-    score = _Criterion(coef, mu, sigma, criterion)
+    score = _Criterion(coef, mu, sigma, criterion, gamma)
     grid = np.arange(-6.0, 18.01, 1.0)
     s = [score(v) for v in grid]
     i = int(np.argmin(s))
@@ -546,7 +551,7 @@ def choose_smoothing(values: NDArray[np.float64], step: float, *, criterion: str
     lam_d = 10.0 ** log_lam
     edf = float(np.sum(1.0 / (1.0 + lam_d * score.m3)))
     what = ('minimum of the estimated acceleration error (SURE)' if criterion == 'risk'
-            else 'GCV minimum')
+            else 'GCV minimum' if gamma == 1.0 else f'modified GCV minimum (gamma {gamma:g})')
     edge = ' (at the edge of the search range)' if i in (0, grid.size - 1) else ''
     why = f'{what}{edge}: lam_d = {lam_d:.4g}, edf = {edf:.1f} of {n}'
     if criterion == 'risk':
@@ -708,11 +713,11 @@ def _pad_flank_ends(grid: NDArray[np.float64], values: NDArray[np.float64],
     return grid, values, missing, pad
 
 
-def _sign_changes(acc: NDArray[np.float64], frac: float = 0.05) -> int:
-    """Sign changes of ``acc`` among samples with |acc| > frac * max|acc|."""
-    big = np.abs(acc) > frac * float(np.max(np.abs(acc)) if acc.size else 0.0)
-    s = np.sign(acc[big])
-    return int(np.count_nonzero(s[1:] != s[:-1])) if s.size > 1 else 0
+def _sign_changes(acc: NDArray[np.float64], frac: float = 0.05,
+                  lift: NDArray[np.float64] | None = None) -> int:
+    """Sign changes of ``acc`` among samples with |acc| > frac * max|acc| (on the lobe
+    only when ``lift`` is given: see ``result.sign_pattern``)."""
+    return max(len(sign_pattern(acc, frac, lift)) - 1, 0)
 
 
 @dataclass(frozen=True)
@@ -782,21 +787,26 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         density = float(np.sum(data.count[kept])) / n_grid
         notes.append(f'uneven sampling: quintic P-spline on {n_grid} uniform knots '
                      f'({np.count_nonzero(missing)} without samples)')
-    gaps = np.diff(x[kept])
+    gaps = np.diff(x)
     if gaps.size and float(gaps.max()) > 3.0 * step:
         g = int(np.argmax(gaps))
         warnings.append(f'gap of {math.degrees(float(gaps[g])):.3g} deg at '
-                        f'{math.degrees(float(x[kept][g])):.4g} deg: the reconstruction '
+                        f'{math.degrees(float(x[g])):.4g} deg: the reconstruction '
                         'there is an interpolation')
+    # GCV with gamma = 1.4 (Kim and Gu): plain GCV's flat minimum often under-smooths,
+    # which the acceleration pays for; an exact (computed) table keeps plain GCV, whose
+    # minimum is then the interpolant
+    exact = fair.sigma <= EXACT_NOISE_REL * float(np.ptp(y0))
+    gamma = 1.0 if exact else GCV_GAMMA
     if opt.smoothing is None:
-        choice = choose_smoothing(values, step, criterion=opt.criterion)
+        choice = choose_smoothing(values, step, criterion=opt.criterion, gamma=gamma)
         gap_nodes = bool(np.any(missing[:-2] & missing[1:-1] & missing[2:]))
         for _ in range(3 if gap_nodes or not uniform else 0):
             # filled nodes are not data: refill them with the weighted solution and
             # choose again, so that the fill looks like the smooth fit, not like an
             # interpolant through the noisy samples at the gap ends
             values = np.where(missing, smooth_grid(values, missing, choice.lam_d), values)
-            choice = choose_smoothing(values, step, criterion=opt.criterion)
+            choice = choose_smoothing(values, step, criterion=opt.criterion, gamma=gamma)
     else:
         lam = require_positive('smoothing', opt.smoothing, allow_zero=True)
         lam_d = lam / step ** 5
@@ -806,12 +816,40 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     why = choice.why
     lam_d = choice.lam_d
 
+    ylift = fair.lift.copy()
+
     def fit_spline(lam: float) -> Any:
         if uniform:
             return make_interp_spline(grid, smooth_grid(values, missing, lam), k=5)
-        return _pspline(x[kept], fair.lift[kept], data.count[kept], grid, lam * density)
+        return _pspline(x[kept], ylift[kept], data.count[kept], grid, lam * density)
 
     spline = fit_spline(lam_d)
+    # second look with the smooth fit: a spike the rebound missed (two spikes in
+    # adjacent rows hide each other's rebound) stands out of the fit, a point flagged
+    # next to it fits; refit once with the corrected set
+    outlier = fair.outlier.copy()
+    resid = y0 - spline(x)
+    absr = np.abs(resid)
+    absk = np.where(outlier, 0.0, absr)
+    # isolated: 3 x the misses of the kept rows within +-3 (bias near a sharp feature
+    # of the lift is spread over its neighbours)
+    padded = np.concatenate([np.zeros(3), absk, np.zeros(3)])
+    window = np.lib.stride_tricks.sliding_window_view(padded, 7).copy()
+    window[:, 3] = 0.0
+    new = ((absk > fair.tolerance) & (absk > SECOND_LOOK_SIGMAS * fair.sigma)
+           & (absk > 1e-9 * float(np.max(np.abs(y0))))
+           & (absk > 3.0 * window.max(axis=1)))
+    back = outlier & (absr < 3.0 * fair.sigma)
+    if np.any(new) or np.any(back):
+        outlier = (outlier | new) & ~back
+        kept = ~outlier
+        ylift[back] = y0[back]
+        if uniform:
+            values[pad:pad + x.size] = np.where(back, y0, values[pad:pad + x.size])
+            missing[pad:pad + x.size] = outlier
+        spline = fit_spline(lam_d)
+        notes.append(f'second look at the fit: {int(np.count_nonzero(new))} more '
+                     f'outlier(s), {int(np.count_nonzero(back))} restored')
     out_step = opt.step or step
     out = output_grid(x[0], x[-1], out_step)
     acc = spline(out, 2)
@@ -821,9 +859,9 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # more smoothing is only accepted while the fit still follows the data (RMS
         # residual within 25 % of the noise): a real feature (a second lobe) stays
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
-        while _sign_changes(acc) > expected and raised < 5:
+        while _sign_changes(acc, lift=spline(out)) > expected and raised < 5:
             trial = fit_spline(lam_d * 4.0)
-            if float(np.sqrt(np.mean((fair.lift[kept] - trial(x[kept])) ** 2))) > rms_limit:
+            if float(np.sqrt(np.mean((ylift[kept] - trial(x[kept])) ** 2))) > rms_limit:
                 break
             lam_d *= 4.0
             raised += 1
@@ -838,7 +876,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     parameter: dict[str, Any] = {
         'smoothing': lam_d * step ** 5, 'smoothing_discrete': lam_d, 'edf': edf,
         'criterion': opt.criterion if opt.smoothing is None else 'manual',
-        'grid_step_rad': step, 'outliers': int(np.count_nonzero(fair.outlier)),
+        'grid_step_rad': step, 'outliers': int(np.count_nonzero(outlier)),
         'rebound_tolerance_m': fair.tolerance, 'rebound_sweeps': fair.sweeps,
         'max_rebound_m': float(np.max(np.abs(fair.rebound0[1:-1]))),
         'median_rebound_m': float(np.median(np.abs(fair.rebound0[1:-1]))),
@@ -848,7 +886,8 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         acceleration=acc, jerk=spline(out, 3), data_alpha=x[kept],
         residual=y0[kept] - fit, parameter=parameter, why=why, sigma=fair.sigma,
         evaluate=lambda a, nu=0: spline(np.asarray(a, dtype=float), nu),
-        outliers_alpha=x[fair.outlier], warnings=warnings, notes=notes)
+        outliers_alpha=x[outlier], warnings=warnings, notes=notes)
+    rec.outlier_mask = outlier
     rec.check_residuals()
     rec.check_shape(opt.expected_sign_changes)
     rec.check_finite()
