@@ -334,7 +334,7 @@ def test_harmonic_order_below_two_and_underfit(tmp_path, capsys):
 
 @pytest.mark.parametrize('content, got', [
     (b'\xff\xfe\x00', "got 'binary data'"),
-    (b'angle,lift\n0,0\n1,1\n', "t.csv:1: got 'angle,lift'"),
+    (b'angle,lift\n0,0\n1,1\n', "t.csv:header: got 'angle'"),
     (b'# comment\n\ncamshaft_id: X\nlobes: []\n', "t.csv:3: got 'camshaft_id: X'"),
 ])
 def test_cli_unreadable_or_unrecognised_table(tmp_path, capsys, content, got):

@@ -245,7 +245,7 @@ def _skips(core: Any) -> list[dict[str, str]]:
 
 
 #: notes of the data cleaning (samples.clean_samples) shown in the human output too
-CLEANING_NOTES = ('dropped ', 'wrapped ', 'merged ')
+CLEANING_NOTES = ('dropped ', 'wrapped ', 'merged ', 'columns: ', 'angles: ', 'rounded ')
 
 
 def _human(result: dict[str, Any]) -> str:
@@ -262,7 +262,8 @@ def _human(result: dict[str, Any]) -> str:
             val = r[key]
             val_s = f'{val}' if key == 'order' else f'{val:.4g} rad^5'
             line = (f'  {fid}/{m}: {key} {val_s}; rms residual '
-                    f'{r["rms_residual_m"] * 1e6:.3f} um; max lift '
+                    f'{r["rms_residual_m"] * 1e6:.3f} um; noise sigma '
+                    f'{r["noise_sigma_m"] * 1e6:.4g} um; max lift '
                     f'{max(r["lift_m"]) * 1e3:.4f} mm')
             err = r.get('design_errors')
             if err:

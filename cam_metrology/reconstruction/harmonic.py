@@ -39,7 +39,11 @@ from cam_metrology.reconstruction.samples import CleanSamples
 from cam_metrology.reconstruction.spline import Fairing, rebound_fairing
 
 BASES = ('section', 'full')
-CRITERIA = ('cp', 'bic', 'risk', 'residual')
+CRITERIA = ('noise', 'cp', 'bic', 'risk', 'residual')
+#: residual level [fraction of the lift range] below which a noise-free table counts as
+#: fitted (8 nm on an 8 mm lobe)
+NOISE_FLOOR_REL = 1e-6
+NOISE_SLACK = 1.25
 #: smallest order a caller may set: N = 0 is a constant and N = 1 a single cosine (an
 #: eccentric circle); neither can represent a lobe
 MIN_ORDER = 2
@@ -65,6 +69,7 @@ class HarmonicOptions:
     step: float | None = None          # output grid step [rad]; None: data step
     sigma: float | None = None         # noise [m]; None: estimated (rebound)
     continuity: int = 1                # section: h..h^(continuity) = 0 at +-Phi (-1: none)
+    expected_sign_changes: int | None = 2   # of h'' (None: no shape check)
 
 
 def _check(opt: HarmonicOptions) -> HarmonicOptions:
@@ -117,24 +122,43 @@ def _reconstruct(data: CleanSamples, opt: HarmonicOptions,
     if np.count_nonzero(fair.outlier):
         rec.notes.append(f'rebound: {int(np.count_nonzero(fair.outlier))} outlier(s) removed')
     rec.check_residuals(tol=opt.tol or 0.0)
-    if opt.order is not None:
-        _check_underfit(rec, y_raw)
+    _check_underfit(rec, y_raw, opt.order is not None)
+    _check_limit(rec, opt)
+    rec.check_shape(opt.expected_sign_changes)
     rec.check_finite()
     return rec
 
 
-def _check_underfit(rec: Reconstruction, y: NDArray[np.float64]) -> None:
-    """Warn when an order set by the caller is too low for the lobe: rms residual above
-    ``UNDERFIT_SIGMAS`` noise sigmas and above 1e-4 of the lift range [m]."""
+def _check_underfit(rec: Reconstruction, y: NDArray[np.float64], manual: bool) -> None:
+    """Warn when the order is too low for the lobe. Set by the caller: rms residual above
+    ``UNDERFIT_SIGMAS`` noise sigmas and above 1e-4 of the lift range [m]; automatic:
+    rms residual above 1.5 noise sigmas and 1e-5 of the lift range."""
     span = float(np.max(y) - np.min(y)) if y.size else 0.0
-    bound = max(UNDERFIT_SIGMAS * rec.sigma, 1e-4 * span)
+    order = rec.parameter.get('order')
     rms = rec.rms_residual
-    if rms > bound:
-        order = rec.parameter.get('order')
+    if manual:
+        if rms > max(UNDERFIT_SIGMAS * rec.sigma, 1e-4 * span):
+            rec.warnings.append(
+                f'the order set by the caller (N = {order}) is too low for this lobe: rms '
+                f'residual {rms * 1e6:.3f} um against noise sigma {rec.sigma * 1e6:.3g} um; '
+                'raise N or omit it for the automatic order')
+    elif rms > max(1.5 * rec.sigma, 1e-5 * span, 1e-300):
         rec.warnings.append(
-            f'the order set by the caller (N = {order}) is too low for this lobe: rms '
-            f'residual {rms * 1e6:.3f} um against noise sigma {rec.sigma * 1e6:.3g} um; '
-            'raise N or omit it for the automatic order')
+            f'under-fitted: the automatic order N = {order} leaves an rms residual of '
+            f'{rms * 1e6:.3f} um against noise sigma {rec.sigma * 1e6:.3g} um (the series '
+            'cannot follow this table; compare with the spline)')
+
+
+def _check_limit(rec: Reconstruction, opt: HarmonicOptions) -> None:
+    """Warn when the automatic order sits at the search limit (max_order or the Nyquist
+    limit of the data): the series may not have converged."""
+    order = rec.parameter.get('order')
+    limit = min(int(rec.parameter.get('nyquist_order', opt.max_order)), opt.max_order)
+    if opt.order is None and order is not None and order >= limit:
+        rec.warnings.append(
+            f'the automatic order N = {order} sits at the search limit ({limit}: '
+            f'{"the Nyquist limit of the data" if limit < opt.max_order else "max_order"}); '
+            'the series may not have converged')
 
 
 def _gap_warning(x: NDArray[np.float64], step: float, period: float,
@@ -169,14 +193,19 @@ def _full(x: NDArray[np.float64], y: NDArray[np.float64], y_raw: NDArray[np.floa
     if covered:
         inside[:] = True          # the few nodes across +-pi: short extrapolation
     if not covered:
-        ends = (abs(float(np.mean(y[:5]))) <= base_tol and abs(float(np.mean(y[-5:])))
-                <= base_tol)
-        if not ends:
+        # end rule: the first and the last row must be on the base circle (within the
+        # noise); the lift is then 0 over the rest of the revolution
+        first, last = float(y[0]), float(y[-1])
+        if abs(first) > base_tol or abs(last) > base_tol:
             raise InputError('harmonic.basis', 'full',
-                             'a table covering the whole revolution or ending on the base '
-                             "circle at both ends (use basis 'section')")
-        notes.append(f'table covers {math.degrees(float(x[-1] - x[0])):.1f} deg: '
-                     'h = 0 (base circle) assumed outside')
+                             'a table covering the whole revolution, or whose first and '
+                             'last rows are on the base circle (lift within '
+                             f'{base_tol * 1e3:.3g} mm of 0; here {first * 1e3:.4g} and '
+                             f"{last * 1e3:.4g} mm); else use --basis section")
+        notes.append(f'full basis end rule: the table covers '
+                     f'{math.degrees(float(x[-1] - x[0])):.1f} deg and its end rows are on '
+                     f'the base circle ({first * 1e3:.3g} and {last * 1e3:.3g} mm): h = 0 '
+                     'assumed over the rest of the revolution')
     values = np.zeros(m_pts)
     values[inside] = CubicSpline(x, y, bc_type='natural')(wrapped[inside])
     coef = np.fft.rfft(values) / m_pts
@@ -294,7 +323,8 @@ def _half_angle(x: NDArray[np.float64], y: NDArray[np.float64], step: float,
     i0 = int(np.argmin(np.abs(x)))
     if mean[i0] <= thr:
         raise InputError('harmonic.half_angle', 'no lift above the base circle at alpha = 0',
-                         'a lobe centred on alpha = 0 (or set half_angle)')
+                         'a lobe centred on alpha = 0 (re-centre a table file with '
+                         '--center-nose, or set half_angle)')
     low = mean <= thr
     right = np.nonzero(low[i0:])[0]
     left = np.nonzero(low[:i0][::-1])[0]
@@ -420,6 +450,19 @@ def _choose_section(x: NDArray[np.float64], y: NDArray[np.float64], phi: float,
     n_pts = y.size
     orders = np.arange(search + 1)
     valid = orders >= 2
+    # the noise rule: the smallest N whose residual variance is at the noise level
+    dof = np.maximum(n_pts - sizes, 1)
+    floor = max(sigma, NOISE_FLOOR_REL * float(np.ptp(y)), 1e-300) ** 2
+    # (the robust sigma is itself uncertain by a few per cent: 25 % slack on the variance)
+    fits = valid & (rss / dof <= floor * NOISE_SLACK * (1.0 + 2.0 * np.sqrt(2.0 / dof)))
+    n_noise = int(np.argmax(fits)) if np.any(fits) else None
+    noise_text = f'noise level {math.sqrt(floor):.3g} m'
+    if opt.criterion == 'noise':
+        if n_noise is not None:
+            return n_noise, f'smallest N whose residual is at the noise level ({noise_text}): ' \
+                            f'N = {n_noise}'
+        return search, (f'residual above the noise ({noise_text}) up to the search limit: '
+                        f'N = {search}')
     if opt.criterion == 'bic':
         score = n_pts * np.log(np.maximum(rss, 1e-300) / n_pts) + sizes * np.log(n_pts)
         label = 'BIC minimum'
@@ -430,4 +473,15 @@ def _choose_section(x: NDArray[np.float64], y: NDArray[np.float64], phi: float,
     score = np.where(valid, score, np.inf)
     n = int(np.argmin(score))
     edge = ' (at the search limit)' if n == search else ''
-    return n, f'{label}{edge}: N = {n}'
+    why = f'{label}{edge}: N = {n}'
+    if n_noise is None:
+        return n, why
+    top = n_noise + max(5, n_noise // 2)
+    if n < n_noise:
+        return n_noise, (f'{why}, raised to N = {n_noise}: below it the residual exceeds '
+                         f'the noise ({noise_text})')
+    if n > top:
+        return top, (f'{why}, capped to N = {top} (1.5 x the order N = {n_noise} that '
+                     f'reaches the noise, {noise_text}): beyond it the series fits noise '
+                     'or rounding')
+    return n, why

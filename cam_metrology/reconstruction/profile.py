@@ -11,6 +11,7 @@ probe, each reconstruction is also converted back to the design follower with
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -21,7 +22,8 @@ from numpy.typing import NDArray
 from cam_design.errors import InputError
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
 from cam_metrology.reconstruction.result import Reconstruction, per_second
-from cam_metrology.reconstruction.samples import LiftTable, clean_samples
+from cam_metrology.reconstruction.samples import (LiftTable, clean_samples, find_steps,
+                                                  nose_warning, step_warnings)
 from cam_metrology.reconstruction.spline import (SplineOptions, rebound_fairing,
                                                  reconstruct_spline)
 
@@ -179,17 +181,51 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         from cam_metrology.reconstruction.spline import _sign_changes
         grid = np.linspace(data.alpha[0], data.alpha[-1], 4001)
         acc = np.asarray(design(grid, 2), dtype=float)
+        lift = np.asarray(design(grid, 0), dtype=float)
         if np.all(np.isfinite(acc)) and np.any(acc):
-            sopt = replace(sopt, expected_sign_changes=max(_sign_changes(acc),
+            sopt = replace(sopt, expected_sign_changes=max(_sign_changes(acc, lift=lift),
                                                            sopt.expected_sign_changes))
+    if harmonic is not None or 'harmonic' in methods:
+        from dataclasses import replace as _replace
+        harmonic = _replace(harmonic or HarmonicOptions(),
+                            expected_sign_changes=sopt.expected_sign_changes)
     outcomes: dict[str, MethodOutcome] = {}
     fairing = rebound_fairing(data.alpha, data.lift, threshold=sopt.threshold,
                               gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)
+    steps = find_steps(data.alpha, data.lift, fairing.sigma)
+    table_warnings = step_warnings(steps)
+    # (with a design the table is aligned on it; a dual-peak lobe may have a valley at 0)
+    off_centre = nose_warning(data) if design is None else None
+    if off_centre:
+        table_warnings.append(off_centre)
+    table_notes = []
+    if steps and np.any(fairing.outlier):
+        # the rebound of a step rings over its neighbours: they are not outliers
+        near = np.zeros(data.alpha.size, dtype=bool)
+        for k, *_ in steps:
+            near[max(k - 3, 0):k + 5] = True
+        restore = fairing.outlier & near
+        if np.any(restore):
+            fairing = dataclasses.replace(
+                fairing, lift=np.where(restore, data.lift, fairing.lift),
+                outlier=fairing.outlier & ~restore)
+            table_notes.append(f'{int(np.count_nonzero(restore))} point(s) next to a step '
+                               'kept (not outliers)')
+    if fairing.quantum > 0:
+        table_notes.append(f'rounded to {fairing.quantum * 1e3:.3g} mm: rounding noise '
+                           f'{fairing.quantum / math.sqrt(12.0) * 1e6:.3g} um (step/sqrt(12)) '
+                           'included in the noise sigma')
     for m in methods:
         outcome = MethodOutcome(m)
         try:
             if m == 'spline':
                 rec = reconstruct_spline(data, None, sopt, fairing)
+                mask = rec.outlier_mask
+                if mask is not None and not np.array_equal(mask, fairing.outlier):
+                    # the spline's second look corrected the outliers: the series too
+                    fairing = dataclasses.replace(
+                        fairing, outlier=mask,
+                        lift=np.where(mask | fairing.outlier, fairing.lift, data.lift))
             else:
                 rec = reconstruct_harmonic(data, harmonic, fairing)
         except InputError as exc:
@@ -201,7 +237,8 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
             outcome.error = f'{m}: numerical failure ({type(exc).__name__}: {exc})'
             outcomes[m] = outcome
             continue
-        rec.notes = list(table.notes) + rec.notes
+        rec.notes = list(table.notes) + rec.notes + table_notes
+        rec.warnings = table_warnings + rec.warnings
         outcome.reconstruction = rec
         if design is not None:
             outcome.design_errors = design_errors(rec, design)

@@ -13,6 +13,8 @@ Evaluator = Callable[[NDArray[np.float64], int], NDArray[np.float64]]
 #: residuals [m] below this never warn: 1 nm, 100 x below the resolution of 0.1 um class
 #: gauges; rounding of noise-free tables leaves ~1e-14 m
 RESIDUAL_FLOOR = 1e-9
+#: the lobe, for the h'' shape check: lift above this fraction of the largest lift
+LOBE_FRACTION = 0.02
 
 
 @dataclass
@@ -42,6 +44,8 @@ class Reconstruction:
     warnings: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     spectrum: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+    #: which input samples were treated as outliers (spline: after the second look)
+    outlier_mask: NDArray[np.bool_] | None = None
 
     @property
     def rms_residual(self) -> float:
@@ -73,6 +77,26 @@ class Reconstruction:
             self.warnings.append(f'max residual {worst:.3g} m at {np.degrees(where):.2f} deg '
                                  f'exceeds {limit_text}')
 
+    def check_shape(self, expected: int | None) -> None:
+        """Warn when the significant signs of h'' (|h''| > 5 % of its largest value) do
+        not follow the pattern of a cam lobe: + - + for one lobe (``expected`` = 2 sign
+        changes), + - + - + for 4, ...; None: no check. A table that is not a cam, a
+        stepped table or angles not taken from the lobe centre show up here."""
+        if expected is None or self.acceleration.size < 3:
+            return
+        got = sign_pattern(self.acceleration, lift=self.lift)
+        want = '+' + '-+' * (expected // 2) if expected % 2 == 0 else None
+        if (got == want) if want is not None else (len(got) - 1 == expected):
+            return
+        shown = ' '.join(got) if len(got) <= 9 else f'{len(got) - 1} sign changes'
+        what = (f'{" ".join(want)} for a lobe with {expected} sign changes'
+                if want is not None else f'{expected} sign changes')
+        self.warnings.append(
+            f"h'' has {max(len(got) - 1, 0)} significant sign changes, pattern {shown} "
+            f'(expected {what}): not the shape of a cam lobe; check that the table is a '
+            'lobe measured from its centre, without steps (noise or a real feature '
+            'otherwise)')
+
     def check_finite(self) -> None:
         """Raise InputError if any output is not finite (never publish silent NaN)."""
         for name in ('lift', 'velocity', 'acceleration', 'jerk'):
@@ -100,3 +124,20 @@ def per_second(derivs: ArrayLike, rpm: float) -> dict[str, NDArray[np.float64]]:
     d = np.asarray(derivs, dtype=float)
     return {'velocity_m_per_s': omega * d[1], 'acceleration_m_per_s2': omega ** 2 * d[2],
             'jerk_m_per_s3': omega ** 3 * d[3]}
+
+
+def sign_pattern(acc: NDArray[np.float64], frac: float = 0.05,
+                 lift: NDArray[np.float64] | None = None) -> str:
+    """Run-length compressed signs ('+'/'-') of ``acc`` where |acc| > frac x max|acc|;
+    with ``lift`` (same grid) only on the lobe, where the lift exceeds 2 % of its
+    largest value (on the base circle h'' is noise around 0)."""
+    a = np.asarray(acc, dtype=float)
+    if lift is not None:
+        h = np.asarray(lift, dtype=float)
+        a = a[h > LOBE_FRACTION * float(np.max(h))] if h.size else a
+    top = float(np.max(np.abs(a))) if a.size else 0.0
+    if not top > 0:
+        return ''
+    s = np.sign(a[np.abs(a) > frac * top])
+    keep = np.concatenate([[True], s[1:] != s[:-1]])
+    return ''.join('+' if v > 0 else '-' for v in s[keep])

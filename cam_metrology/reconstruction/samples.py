@@ -34,9 +34,9 @@ ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
 LENGTH_UNITS = {'m': 1.0, 'mm': 1.0e-3, 'um': 1.0e-6}
 _SPLIT = re.compile(r'[\s,;]+')
 #: the accepted table layouts, for error messages
-TABLE_FORMATS = ('a CSV whose first line names the columns alpha_deg|alpha_rad and '
-                 'lift_mm|lift_um|lift_m (e.g. alpha_deg,lift_mm), or a gauge profile '
-                 'file whose first line is the probe radius (one number)')
+TABLE_FORMATS = ('a CSV whose first line names the columns alpha_deg|alpha_rad|crank_deg '
+                 'and lift_mm|lift_um|lift_m|lift_in|h_mm (e.g. alpha_deg,lift_mm), or a '
+                 'gauge profile file whose first line is the probe radius (one number)')
 
 
 @dataclass(frozen=True)
@@ -125,37 +125,100 @@ def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                         tuple(notes))
 
 
-def _unit_scale(name: str, units: dict[str, float], key: str) -> float:
-    for unit, scale in units.items():
-        if name.endswith('_' + unit):
-            return scale
-    raise InputError(key, name, 'a column name ending in ' + ' | '.join('_' + u for u in units))
+#: column names (lower case, unit removed) of the angle, crank angle and lift columns
+ANGLE_NAMES = ('alpha', 'angle', 'cam', 'cam_angle', 'camangle', 'cam angle', 'theta')
+CRANK_NAMES = ('crank', 'crank_angle', 'crankangle', 'crank angle')
+LIFT_NAMES = ('lift', 'h', 'cam_lift', 'cam lift')
+#: unit spellings accepted in headers
+ANGLE_SPELLING = {'rad': 'rad', 'radian': 'rad', 'radians': 'rad', 'deg': 'deg',
+                  'degree': 'deg', 'degrees': 'deg', '°': 'deg'}
+LENGTH_SPELLING = {'m': 'm', 'mm': 'mm', 'um': 'um', 'µm': 'um', 'μm': 'um',
+                   'micron': 'um', 'microns': 'um', 'in': 'in', 'inch': 'in'}
+HEADER_UNITS = {'m': 1.0, 'mm': 1.0e-3, 'um': 1.0e-6, 'in': 0.0254}
+#: the crank shaft of a four-stroke engine turns twice per cam turn
+CRANK_PER_CAM = 2.0
+_BRACKET = re.compile(r'^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$')
+_SUFFIX = re.compile(r'^(?P<name>.+?)[_ ](?P<unit>[a-zµμ°]+)$')
+#: plausible cam lift range [m] (largest |lift| of a table): 20 um .. 250 mm
+LIFT_PLAUSIBLE = (20e-6, 0.25)
+
+
+def _split_header(name: str) -> tuple[str, str]:
+    """(name, unit) of a header field: ``lift_mm``, ``lift [mm]``, ``Lift (mm)``."""
+    text = name.strip().strip('"\'').strip().lower()
+    m = _BRACKET.match(text)
+    if m:
+        return m.group('name').strip(), m.group('unit').strip()
+    m = _SUFFIX.match(text)
+    if m:
+        return m.group('name').strip(), m.group('unit')
+    return text, ''
+
+
+@dataclass(frozen=True)
+class _Column:
+    index: int
+    header: str
+    role: str          # 'cam' | 'crank' | 'lift' | 'design'
+    unit: str
+    scale: float
+
+
+def _classify(header: list[str], key: str) -> list[_Column]:
+    """The angle, lift and design columns of a CSV header (others are ignored)."""
+    cols = []
+    for i, field_ in enumerate(header):
+        name, unit = _split_header(field_)
+        design = name.startswith(('design_', 'design '))
+        base = name[7:] if design else name
+        if base in ANGLE_NAMES or base in CRANK_NAMES:
+            if unit not in ANGLE_SPELLING:
+                raise InputError(key, field_, f'an angle column with a unit ({base}_deg or '
+                                 f'{base}_rad): {TABLE_FORMATS}')
+            role = 'crank' if base in CRANK_NAMES else 'cam'
+            unit = ANGLE_SPELLING[unit]
+            cols.append(_Column(i, field_, role, unit, ANGLE_UNITS[unit]))
+        elif base in LIFT_NAMES:
+            if unit not in LENGTH_SPELLING:
+                raise InputError(key, field_, f'a lift column with a unit ({base}_mm, '
+                                 f'{base}_um, {base}_m or {base}_in): {TABLE_FORMATS}')
+            unit = LENGTH_SPELLING[unit]
+            cols.append(_Column(i, field_, 'design' if design else 'lift', unit,
+                                HEADER_UNITS[unit]))
+    return cols
 
 
 def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable:
-    """Read a CSV lift table with header ``alpha_rad,lift_m[,design_lift_m]``.
+    """Read a CSV lift table whose header names the columns with their units.
 
-    Units come from the column names (``alpha_rad|alpha_deg``, ``lift_m|lift_mm|
-    lift_um``, ``design_lift_<same>``). Empty lines and ``#`` comments are skipped;
-    a malformed line raises InputError naming ``FILE:LINE``.
+    Angle: ``alpha_deg|alpha_rad`` (also ``angle``, ``cam``, ``theta``; ``crank_deg`` is
+    a crank angle, divided by 2 for the cam); lift: ``lift_mm|lift_um|lift_m|lift_in``
+    (also ``h_mm``, as ``cam-bench design law --csv`` writes); optional
+    ``design_lift_<unit>``. Units may also be written ``lift [mm]`` or ``Lift (mm)``.
+    Separators: comma, semicolon (then a decimal comma is accepted) or tab. Other
+    columns are ignored. Empty lines and ``#`` comments are skipped; a malformed line
+    raises InputError naming ``FILE:LINE``.
     """
     p = Path(path)
     lines = _read_text(p).splitlines()
     header: list[str] | None = None
+    sep = ','
     rows: list[list[float]] = []
     for number, raw in enumerate(lines, start=1):
         line = raw.split('#', 1)[0].strip()
         if not line:
             continue
-        fields = [f.strip() for f in line.split(',')]
         if header is None:
-            header = fields
+            sep = ';' if ';' in line else ('\t' if '\t' in line else ',')
+            header = [f.strip() for f in line.split(sep)]
             continue
+        fields = [f.strip() for f in line.split(sep)]
         if len(fields) != len(header):
             raise InputError(f'{p.name}:{number}', raw.strip(),
-                             f'{len(header)} comma-separated values ({",".join(header)})')
+                             f'{len(header)} values separated by {sep!r} '
+                             f'({",".join(header)})')
         try:
-            rows.append([float(f) for f in fields])
+            rows.append([float(f.replace(',', '.') if sep == ';' else f) for f in fields])
         except ValueError:
             raise InputError(f'{p.name}:{number}', raw.strip(), 'numbers') from None
     if header is None:
@@ -163,21 +226,130 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
     if not rows:
         raise InputError(p.name, '0 data rows', f'rows of numbers under the header '
                          f'{",".join(header)}')
-    names = {n: i for i, n in enumerate(header)}
-    a_col = [n for n in header if n.startswith('alpha_')]
-    h_col = [n for n in header if n.startswith('lift_')]
-    d_col = [n for n in header if n.startswith('design_lift_')]
-    if len(a_col) != 1 or len(h_col) != 1:
+    cols = _classify(header, f'{p.name}:header')
+    angles = [c for c in cols if c.role in ('cam', 'crank')]
+    lifts = [c for c in cols if c.role == 'lift']
+    designs = [c for c in cols if c.role == 'design']
+    if len(angles) != 1 or len(lifts) != 1 or len(designs) > 1:
         raise InputError(f'{p.name}:header', ','.join(header),
-                         'one alpha_<rad|deg> column and one lift_<m|mm|um> column')
+                         'one angle column (alpha_deg, alpha_rad or crank_deg) and one '
+                         'lift column (lift_mm, lift_um, lift_m, lift_in or h_mm)')
     data = np.asarray(rows, dtype=float).reshape(-1, len(header))
-    alpha = data[:, names[a_col[0]]] * _unit_scale(a_col[0], ANGLE_UNITS, f'{p.name}:header')
-    lift = data[:, names[h_col[0]]] * _unit_scale(h_col[0], LENGTH_UNITS, f'{p.name}:header')
+    ang, lift_col = angles[0], lifts[0]
+    raw_alpha = data[:, ang.index]
+    raw_lift = data[:, lift_col.index]
+    notes = [f'columns: angle {ang.header!r} in {ang.unit}, lift {lift_col.header!r} in '
+             f'{lift_col.unit}']
+    alpha = raw_alpha * ang.scale
+    if ang.role == 'crank':
+        alpha = alpha / CRANK_PER_CAM
+        notes.append(f'angles: crank angle / {CRANK_PER_CAM:g} (four-stroke: the camshaft '
+                     'turns once per two crank turns)')
+    key = f'{p.name}:{lift_col.header}'
+    check_lift_magnitude(raw_lift, lift_col.scale, key, lift_col.header,
+                         lambda u: f'name the column {_renamed(lift_col.header, u)}')
+    check_angle_magnitude(raw_alpha, raw_lift, ang.unit, ang.role,
+                          f'{p.name}:{ang.header}', ang.header,
+                          lambda u, r: f'name the column {_renamed(ang.header, u, r)}')
+    lift = raw_lift * lift_col.scale
     design = None
-    if d_col:
-        design = data[:, names[d_col[0]]] * _unit_scale(d_col[0], LENGTH_UNITS,
-                                                        f'{p.name}:header')
-    return LiftTable(feature or p.stem, alpha, lift, design, None, str(p))
+    if designs:
+        design = data[:, designs[0].index] * designs[0].scale
+    return LiftTable(feature or p.stem, alpha, lift, design, None, str(p), tuple(notes))
+
+
+def _renamed(header: str, unit: str, role: str | None = None) -> str:
+    """The header with another unit (and for angles another role: crank)."""
+    name, _ = _split_header(header)
+    if role == 'crank':
+        name = 'crank'
+    elif role == 'cam' and name in CRANK_NAMES:
+        name = 'alpha'
+    return f'{name.replace(" ", "_")}_{unit}'
+
+
+def check_lift_magnitude(raw: NDArray[np.float64], scale: float, key: str, what: str,
+                         fix: Any) -> None:
+    """InputError when the lift, read as ``raw`` x ``scale`` [m], is implausible for a
+    cam (largest |lift| outside ``LIFT_PLAUSIBLE``) while another length unit makes it
+    plausible; the message names that unit (``fix(unit)`` says how to select it)."""
+    v = np.abs(raw[np.isfinite(raw)])
+    if v.size == 0:
+        return
+    top = float(np.max(v))
+    lo, hi = LIFT_PLAUSIBLE
+    if lo <= top * scale <= hi or top == 0:
+        return
+    likely = [u for u, f in HEADER_UNITS.items() if u != 'in' and lo <= top * f <= hi
+              and f != scale]
+    if top * scale > hi or likely:
+        guess = min(likely, key=lambda u: abs(math.log10(top * HEADER_UNITS[u] / 8e-3))) \
+            if likely else None
+        hint = (f'the values look like {_UNIT_WORDS[guess]}: {fix(guess)}' if guess else
+                'a cam lift below 250 mm')
+        raise InputError(key, f'a largest lift of {top:g} {what} = {_si(top * scale)}',
+                         f'a plausible cam lift (0.02 to 250 mm); {hint}')
+
+
+_UNIT_WORDS = {'m': 'metres', 'mm': 'millimetres', 'um': 'micrometres', 'deg': 'degrees',
+               'rad': 'radians'}
+
+
+def _si(length: float) -> str:
+    return f'{length:.4g} m' if length >= 1 else f'{length * 1e3:.4g} mm'
+
+
+def check_angle_magnitude(raw: NDArray[np.float64], lift: NDArray[np.float64], unit: str,
+                          role: str, key: str, what: str, fix: Any) -> None:
+    """InputError when the angles read in ``unit`` cannot be right: degrees spanning
+    less than 2 pi (radians, then), or more than one turn whose turns disagree
+    (degrees read as radians, or crank degrees read as cam degrees). ``fix(unit,
+    role)`` says how to select the likely reading."""
+    ok = np.isfinite(raw) & np.isfinite(lift)
+    a, h = raw[ok], lift[ok]
+    if a.size < 8:
+        return
+    span = float(np.ptp(a))
+    if unit == 'deg' and role == 'cam' and span <= 2.0 * math.pi + 1e-6 and \
+            float(np.max(np.abs(a))) <= 2.0 * math.pi + 1e-6:
+        raise InputError(key, f'angles spanning {span:.4g} {what}',
+                         f'a lobe table over tens of degrees; the values look like radians: '
+                         f'{fix("rad", "cam")}')
+    scale = ANGLE_UNITS[unit] / (CRANK_PER_CAM if role == 'crank' else 1.0)
+    if span * scale <= 2.0 * math.pi * (1.0 + 1e-3) + 1e-9 or _turns_agree(a * scale, h):
+        return
+    if unit == 'rad':
+        hint = f'the values look like degrees: {fix("deg", "cam")}'
+    elif role == 'cam' and span <= 2.0 * 360.0 * (1.0 + 1e-3):
+        hint = f'the values look like crank degrees: {fix("deg", "crank")}'
+    else:
+        hint = 'one turn, or several turns that repeat the same lift'
+    raise InputError(key, f'angles spanning {span:.4g} {what} ({span * scale / (2 * math.pi):.3g} '
+                     'cam turns) whose turns disagree', f'angles within one cam turn; {hint}')
+
+
+def _turns_agree(alpha: NDArray[np.float64], lift: NDArray[np.float64]) -> bool:
+    """Do the turns of a table spanning more than one turn repeat the same lift (rms
+    difference below 5 % of the lift range where they overlap)?"""
+    order = np.argsort(alpha)
+    a, h = alpha[order], lift[order]
+    turn = np.floor((a - a[0]) / (2.0 * math.pi)).astype(int)
+    first = turn == 0
+    if np.count_nonzero(first) < 4:
+        return False
+    a0, h0 = a[first], h[first]
+    rng = float(np.ptp(h)) or 1.0
+    diffs = []
+    for k in range(1, int(turn.max()) + 1):
+        sel = turn == k
+        w = a[sel] - 2.0 * math.pi * k
+        inside = (w >= a0[0]) & (w <= a0[-1])
+        if np.any(inside):
+            diffs.append(h[sel][inside] - np.interp(w[inside], a0, h0))
+    if not diffs:
+        return True
+    d = np.concatenate(diffs)
+    return float(np.sqrt(np.mean(d ** 2))) <= 0.05 * rng
 
 
 def read_gauge_file(path: str | Path, *, angle_unit: str = 'deg', length_unit: str = 'mm',
@@ -300,7 +472,7 @@ def read_table_file(path: str | Path, *, angle_unit: str = 'deg',
         if raw.strip() and not raw.strip().startswith('#'):
             first = raw.strip()
             break
-    if first.startswith('alpha_') or ',alpha_' in first:
+    if _names_an_angle(first):
         return read_csv_table(p)
     fields = [f for f in _SPLIT.split(first) if f]
     try:
@@ -311,7 +483,24 @@ def read_table_file(path: str | Path, *, angle_unit: str = 'deg',
         shown = first if len(first) <= 80 else first[:77] + '...'
         raise InputError(f'{p.name}:{number}' if first else p.name,
                          shown if first else 'an empty file', TABLE_FORMATS) from None
-    return read_gauge_file(p, angle_unit=angle_unit, length_unit=length_unit)
+    table = read_gauge_file(p, angle_unit=angle_unit, length_unit=length_unit)
+    check_lift_magnitude(table.lift / LENGTH_UNITS[length_unit], LENGTH_UNITS[length_unit],
+                         '--length-unit', length_unit, lambda u: f'use --length-unit {u}')
+    check_angle_magnitude(table.alpha / ANGLE_UNITS[angle_unit], table.lift, angle_unit,
+                          'cam', '--angle-unit', angle_unit,
+                          lambda u, r: f'use --angle-unit {u}' + (
+                              ' and halve the angles (crank degrees)' if r == 'crank' else ''))
+    return table
+
+
+def _names_an_angle(line: str) -> bool:
+    """Is ``line`` a CSV header with an angle column (alpha_deg, crank_deg, ...)?"""
+    for field_ in re.split(r'[,;\t]', line):
+        name, _ = _split_header(field_)
+        name = name[7:] if name.startswith(('design_', 'design ')) else name
+        if name in ANGLE_NAMES or name in CRANK_NAMES:
+            return True
+    return False
 
 
 def _read_text(path: Path) -> str:
@@ -346,3 +535,81 @@ def lift_table_from_message(msg: Any) -> LiftTable:
     design = data[:, index['design_lift_m']].copy() if 'design_lift_m' in index else None
     return LiftTable(label, data[:, index['alpha_rad']].copy(),
                      data[:, index['lift_m']].copy(), design, None, '/metrology/lift')
+
+
+#: a step: one row-to-row change this many times the changes (per angle) next to it
+STEP_RATIO = 4.0
+
+
+def find_steps(alpha: NDArray[np.float64], lift: NDArray[np.float64], sigma: float
+               ) -> list[tuple[int, float, float, float, float]]:
+    """Steps of a lift table: (row index k, alpha_k, alpha_k+1 [rad], jump [m], largest
+    neighbour change [m]) for each pair of consecutive rows whose slope is ``STEP_RATIO`` times
+    the slopes on both sides and whose change exceeds 10 noise sigmas and 1 % of the
+    lift range (a ramp cut off: 0 -> 0.5 mm between two rows), or that leaves the base
+    circle (flat row before) by more than 5 % of the range and at least half the next
+    row's slope. A spike changes by +d then -d and is not a step."""
+    a = np.asarray(alpha, dtype=float)
+    h = np.asarray(lift, dtype=float)
+    if a.size < 4:
+        return []
+    dh = np.diff(h)
+    slope = dh / np.diff(a)
+    rng = float(np.ptp(h))
+    out = []
+    for k in range(dh.size):
+        side = [abs(slope[j]) for j in (k - 1, k + 1) if 0 <= j < dh.size]
+        near = [abs(dh[j]) for j in (k - 1, k + 1) if 0 <= j < dh.size]
+        if abs(slope[k]) > STEP_RATIO * max(side) and \
+                abs(dh[k]) - max(near) > max(10.0 * sigma, 0.01 * rng):
+            out.append((k, float(a[k]), float(a[k + 1]), float(dh[k]), float(max(near))))
+            continue
+        # leaving (or reaching) the base circle in one row: a lift that starts with a
+        # continuous velocity rises at most 1/3 as much in its first row as in the
+        # next (1:3 for constant h''); a cut ramp rises about as much
+        for before, after in ((k - 1, k + 1), (k + 1, k - 1)):
+            if not (0 <= before < dh.size and 0 <= after < dh.size):
+                continue
+            flat = abs(dh[before]) <= max(10.0 * sigma, 0.002 * rng)
+            if flat and abs(dh[k]) > max(10.0 * sigma, 0.05 * rng) and \
+                    dh[k] * dh[after] > 0 and abs(slope[k]) >= 0.5 * abs(slope[after]):
+                out.append((k, float(a[k]), float(a[k + 1]), float(dh[k]),
+                            float(abs(dh[before]))))
+                break
+    return out
+
+
+def step_warnings(steps: list[tuple[int, float, float, float, float]]) -> list[str]:
+    """One warning per step found by ``find_steps`` (at most 5, then a count)."""
+    out = [f'lift jumps by {jump * 1e3:.4g} mm between the rows at {math.degrees(a0):.3f} '
+           f'and {math.degrees(a1):.3f} deg (the row on the base-circle side, or the rows '
+           f'next to them, change by at most {near * 1e3:.3g} mm): a step, e.g. a ramp cut off; the reconstruction '
+           'interpolates it, so velocity and acceleration there are not the cam\'s'
+           for _, a0, a1, jump, near in steps[:5]]
+    if len(steps) > 5:
+        out.append(f'{len(steps) - 5} more step(s) in the table')
+    return out
+
+
+def nose_warning(data: CleanSamples) -> str | None:
+    """A warning when alpha = 0 is not on the lobe (lift there below half the largest
+    lift): the angles are not taken from the lobe centreline, which the section harmonic
+    basis and every lobe-centred quantity assume. Names the lobe axis (flank
+    midpoints) and the option that re-centres a table file."""
+    a, h = data.alpha, data.lift
+    top = float(np.max(h))
+    base = float(np.percentile(h, 5))
+    if not top - base > 0:
+        return None
+    at_zero = float(np.interp(0.0, a, h)) if a[0] <= 0.0 <= a[-1] else base
+    if at_zero - base >= 0.5 * (top - base):
+        return None
+    try:
+        _, shift = centre_on_nose(LiftTable('table', a, h))
+        where = f'the lobe axis is at {math.degrees(shift):.2f} deg'
+    except InputError:
+        where = f'the largest lift is at {math.degrees(float(a[int(np.argmax(h))])):.2f} deg'
+    return (f'alpha = 0 is not on the lobe ({where}; lift at 0 is '
+            f'{(at_zero - base) / (top - base) * 100:.0f} % of the lobe height): the angles '
+            'are not from the lobe centreline; re-centre the table (--center-nose, or '
+            'shift the angles)')
