@@ -32,7 +32,8 @@ from typing import Any, BinaryIO, Iterator
 
 from cam_design.errors import InputError
 
-__all__ = ['Damage', 'ChunkRecord', 'walk', 'check_bag', 'require_intact', 'mcap_files',
+__all__ = ['Damage', 'ChunkRecord', 'walk', 'parse_schema', 'parse_channel', 'parse_message',
+           'iter_records', 'check_bag', 'require_intact', 'mcap_files',
            'fill_chunk_crcs', 'describe', 'MAX_CHUNK_BYTES']
 
 MAGIC = b'\x89MCAP0\r\n'
@@ -83,7 +84,7 @@ def _string(buf: bytes, off: int) -> tuple[str, int]:
     return buf[off + 4:off + 4 + n].decode('utf-8', errors='replace'), off + 4 + n
 
 
-def _schema(body: bytes) -> tuple[int, str, str, bytes]:
+def parse_schema(body: bytes) -> tuple[int, str, str, bytes]:
     sid = _U16.unpack_from(body, 0)[0]
     name, off = _string(body, 2)
     encoding, off = _string(body, off)
@@ -93,7 +94,7 @@ def _schema(body: bytes) -> tuple[int, str, str, bytes]:
     return sid, name, encoding, body[off + 4:off + 4 + n]
 
 
-def _channel(body: bytes) -> tuple[int, int, str, str, dict[str, str]]:
+def parse_channel(body: bytes) -> tuple[int, int, str, str, dict[str, str]]:
     cid, sid = struct.unpack_from('<HH', body, 0)
     topic, off = _string(body, 4)
     encoding, off = _string(body, off)
@@ -228,10 +229,10 @@ def _read_summary(f: BinaryIO, size: int) -> _Summary | None:
             if len(body) != length:
                 return None
             if op == _OP_SCHEMA:
-                rec = _schema(body)
+                rec = parse_schema(body)
                 out.schemas[rec[0]] = rec
             elif op == _OP_CHANNEL:
-                ch = _channel(body)
+                ch = parse_channel(body)
                 out.channels[ch[0]] = ch
             elif op == _OP_CHUNK_INDEX:
                 t0, t1, cstart, _ = struct.unpack_from('<QQQQ', body, 0)
@@ -312,7 +313,7 @@ def walk(path: str | Path) -> Iterator[tuple[str, Any]]:
                     if summary is None and last_chunk.records is not None:
                         for rop, rbody in iter_records(last_chunk.records):
                             if rop == _OP_CHANNEL:   # names for the damage of later chunks
-                                ch = _channel(rbody)
+                                ch = parse_channel(rbody)
                                 channels[ch[0]] = ch[2]
                     yield 'chunk', last_chunk
                 elif op == _OP_MESSAGE_INDEX and last_chunk is not None \
@@ -322,9 +323,9 @@ def walk(path: str | Path) -> Iterator[tuple[str, Any]]:
                     topics = last_chunk.damage.topics
                     topics[topic] = topics.get(topic, 0) + n // 16
                 elif op == _OP_SCHEMA:
-                    yield 'schema', _schema(body)
+                    yield 'schema', parse_schema(body)
                 elif op == _OP_CHANNEL:
-                    ch = _channel(body)
+                    ch = parse_channel(body)
                     channels[ch[0]] = ch[2]
                     yield 'channel', ch
                 elif op == _OP_MESSAGE:
