@@ -34,7 +34,7 @@ from cam_design.errors import InputError
 
 __all__ = ['Damage', 'ChunkRecord', 'walk', 'parse_schema', 'parse_channel', 'parse_message',
            'iter_records', 'check_bag', 'require_intact', 'mcap_files',
-           'fill_chunk_crcs', 'describe', 'MAX_CHUNK_BYTES']
+           'fill_chunk_crcs', 'describe', 'MAX_CHUNK_BYTES', 'scan_bag', 'FileScan']
 
 MAGIC = b'\x89MCAP0\r\n'
 #: largest uncompressed chunk accepted [bytes] (writers use 1-4 MiB; ros2 bag: 768 KiB)
@@ -351,33 +351,48 @@ def mcap_files(bag: str | Path) -> list[Path]:
     return sorted(bag.glob('*.mcap'))
 
 
-_CACHE: dict[tuple[str, int, int], list[Damage]] = {}
+@dataclass
+class FileScan:
+    """What ``scan_file`` found in one file: chunks, chunks carrying a CRC, damage."""
+
+    file: Path
+    chunks: int = 0
+    crc_chunks: int = 0
+    damaged: list[Damage] = field(default_factory=list)
 
 
-def check_file(path: Path) -> list[Damage]:
-    """Every damaged range of one MCAP file (cached by path, size and mtime)."""
+_CACHE: dict[tuple[str, int, int], FileScan] = {}
+
+
+def scan_file(path: Path) -> FileScan:
+    """Walk one MCAP file (cached by path, size and mtime)."""
     st = path.stat()
     key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
     if key not in _CACHE:
-        damaged = []
+        scan = FileScan(path)
         for kind, item in walk(path):
             if kind == 'damage':
-                damaged.append(item)
-            elif kind == 'chunk' and item.damage is not None:
-                damaged.append(item.damage)
+                scan.damaged.append(item)
+            elif kind == 'chunk':
+                scan.chunks += 1
+                scan.crc_chunks += bool(item.crc)
+                if item.damage is not None:
+                    scan.damaged.append(item.damage)
         if len(_CACHE) > 64:
             _CACHE.clear()
-        _CACHE[key] = damaged
-    return list(_CACHE[key])
+        _CACHE[key] = scan
+    return _CACHE[key]
+
+
+def scan_bag(bag: str | Path) -> list[FileScan]:
+    """``scan_file`` of every MCAP file of a bag."""
+    return [scan_file(path) for path in mcap_files(bag)]
 
 
 def check_bag(bag: str | Path) -> list[Damage]:
     """Every damaged range of every MCAP file of a bag (empty: intact, as far as the
     file's CRCs and framing can tell)."""
-    out: list[Damage] = []
-    for path in mcap_files(bag):
-        out += check_file(path)
-    return out
+    return [d for scan in scan_bag(bag) for d in scan.damaged]
 
 
 def describe(d: Damage) -> str:

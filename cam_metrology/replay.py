@@ -74,6 +74,8 @@ class OfflineResult:
     samples: int = 0
     elapsed_s: float = 0.0
     regenerated_topics: tuple[str, ...] = ()
+    #: JointState messages that could not give a sample (bagio.JointIssue)
+    joint_issues: tuple[Any, ...] = ()
 
     def by_topic(self, topic: str) -> list[Output]:
         """The outputs published on ``topic``, in order."""
@@ -179,6 +181,7 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
         if wanted - {joints} else []
     total = len(samples) + len(others)
     result.samples = len(samples)
+    result.joint_issues = samples.issues
     log = samples.log_ns
     joint_cores = router.subscribers.get(joints, [])
     done = 0
