@@ -471,8 +471,7 @@ class _Decoder:
         try:
             return store.deserialize_cdr(data, msgtype)
         except Exception as exc:   # noqa: BLE001 - rosbags raises several types
-            topic = self._defs.get(msgtype, ('?', None))[0]
-            raise InputError(f'{topic} message', f'{len(data)} bytes',
+            raise InputError('message', f'{len(data)} bytes',
                              f'a complete {msgtype} CDR message ({type(exc).__name__}: '
                              f'{exc})') from None
 
@@ -646,7 +645,13 @@ def iter_messages(path: str | Path, topics: Iterable[str] | None = None,
         if not conns:
             return
         for conn, stamp, data in reader.messages(connections=conns):
-            msg = data if raw else reader.deserialize(data, conn.msgtype)
+            try:
+                msg = data if raw else reader.deserialize(data, conn.msgtype)
+            except InputError as exc:   # name the topic and the message's log time
+                if exc.key.startswith('topic '):
+                    raise
+                raise InputError(f'{conn.topic} message at log time {stamp / 1e9:.6f} s',
+                                 exc.value, exc.expected) from None
             yield BagMessage(conn.topic, conn.msgtype, int(stamp), msg)
     finally:
         reader.close()
@@ -709,11 +714,13 @@ def require_scenes(path: str | Path) -> list[BagScene]:
 class JointSamples:
     """The samples of a JointState topic as arrays (one entry per message).
 
-    ``frame_id`` (str array), ``stamp_ns`` header stamps [ns] (int64), ``log_ns`` bag
-    log times [ns], ``theta`` [rad] and ``s`` [m] found by joint name (NaN where a
-    message lacks the joint or its position); ``names``: the distinct joint-name lists
-    seen, in order of first appearance; ``features``: the distinct frame ids in order of
-    first appearance.
+    ``frame_id`` (str array; an object array of shared str when an id is longer than
+    64 characters, so memory does not grow as n x the longest id), ``stamp_ns`` header
+    stamps [ns] (int64), ``log_ns`` bag log times [ns], ``theta`` [rad] and ``s`` [m]
+    found by joint name (NaN where a message lacks the joint or its position);
+    ``names``: the distinct joint-name lists seen, in order of first appearance;
+    ``features``: the distinct frame ids in order of first appearance; ``issues``:
+    what made messages unusable (``JointIssue``).
     """
 
     frame_id: NDArray[np.str_]
@@ -1097,7 +1104,7 @@ def _string_codes(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[
         raise InputError(f'{JOINT_STATES}[{i}].{field_name}', f'{int(nlen[i]) - 1} bytes',
                          f'a string of at most {MAX_NAME_BYTES} bytes')
     width = max(int(nlen.max()) - 1, 1) if n else 1
-    rows = max(1, STRING_BLOCK_BYTES // width)
+    rows = max(1, STRING_BLOCK_BYTES // (9 * width))   # int64 index + byte matrix
     cols = np.arange(width)
     index: dict[bytes, int] = {}
     codes = np.zeros(n, dtype=np.int64)
@@ -1132,6 +1139,8 @@ def _strings(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[np.in
     texts, codes = _string_codes(buf, off, nlen, 'header.frame_id')
     first = np.unique(codes, return_index=True)[1]
     order = tuple(str(texts[codes[i]]) for i in np.sort(first))
+    if texts.dtype.itemsize > 4 * 64:   # long ids: shared str objects, not n fixed-width
+        return texts.astype(object)[codes], order
     return texts[codes], order
 
 
