@@ -158,6 +158,7 @@ class BagWriter:
 
             self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self._writer.open()
+        self._crc_inline = _crc_chunks_inline(self._writer)
         self._connections: dict[str, Any] = {}
         self.counts: dict[str, int] = {}
         self.closed = False
@@ -226,16 +227,43 @@ class BagWriter:
         if not self.closed:
             self.closed = True
             self._writer.close()
-            from cam_metrology.bagcheck import fill_chunk_crcs, mcap_files
+            if not self._crc_inline:   # another rosbags: fill the CRCs after the fact
+                from cam_metrology.bagcheck import fill_chunk_crcs, mcap_files
 
-            for path in mcap_files(self.path):   # rosbags leaves the chunk CRCs 0
-                fill_chunk_crcs(path)
+                for path in mcap_files(self.path):
+                    fill_chunk_crcs(path)
 
     def __enter__(self) -> BagWriter:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _crc_chunks_inline(writer: Any) -> bool:
+    """Make rosbags' MCAP storage writer store the CRC-32 of every chunk it closes
+    (it writes 0: no CRC). The CRC of the uncompressed records is computed when the
+    chunk closes and written into the Chunk record's ``uncompressed_crc`` field (byte
+    33 of the record: opcode, length, start, end, size). False when the storage
+    object is not the expected one (BagWriter.close then fills the CRCs in a pass)."""
+    import zlib
+
+    storage = getattr(writer, 'storage', None)
+    if not all(hasattr(storage, a) for a in ('close_chunk', 'chunk', 'bio', 'compression')):
+        return False
+    close_chunk = storage.close_chunk
+
+    def close_chunk_with_crc() -> None:
+        crc = zlib.crc32(storage.chunk.bio.getbuffer())
+        start = storage.bio.tell()
+        close_chunk()
+        end = storage.bio.tell()
+        storage.bio.seek(start + 9 + 24)
+        storage.bio.write(_U32.pack(crc))
+        storage.bio.seek(end)
+
+    storage.close_chunk = close_chunk_with_crc
+    return True
 
 
 # ------------------------------------------------------------------------ encoders
