@@ -34,7 +34,8 @@ from cam_design.errors import InputError
 
 __all__ = ['Damage', 'ChunkRecord', 'walk', 'parse_schema', 'parse_channel', 'parse_message',
            'iter_records', 'check_bag', 'require_intact', 'mcap_files',
-           'fill_chunk_crcs', 'describe', 'MAX_CHUNK_BYTES', 'scan_bag', 'FileScan']
+           'fill_chunk_crcs', 'describe', 'MAX_CHUNK_BYTES', 'scan_bag', 'FileScan',
+           'clear_cache']
 
 MAGIC = b'\x89MCAP0\r\n'
 #: largest uncompressed chunk accepted [bytes] (writers use 1-4 MiB; ros2 bag: 768 KiB)
@@ -382,6 +383,11 @@ def scan_file(path: Path) -> FileScan:
             _CACHE.clear()
         _CACHE[key] = scan
     return _CACHE[key]
+
+
+def clear_cache() -> None:
+    """Forget every cached scan (benchmarks; files rewritten within one mtime tick)."""
+    _CACHE.clear()
 
 
 def scan_bag(bag: str | Path) -> list[FileScan]:
