@@ -484,3 +484,30 @@ def test_huge_string_length_in_a_scene_message_is_a_clear_error(clean, tmp_path,
     assert main(['analyze', str(bag), '--only-metrology']) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and '/bench/scene' in err
+
+
+def test_fill_chunk_crcs_on_a_bag_written_by_plain_rosbags(tmp_path, capsys):
+    """rosbags alone stores CRC 0 (no CRC): `bag check` says so; filling them in place
+    makes the mcap library's validation pass and a flipped byte detectable."""
+    from mcap.reader import make_reader
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    bag = tmp_path / 'plain'
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conn = w.add_connection(JS, 'sensor_msgs/msg/JointState', typestore=bagio.typestore())
+        for i in range(20000):
+            w.write(conn, 10 + i, bagio.encode_joint_state('lobe_1', i, i * 1e-3, 0.0))
+    path = _mcap(bag)
+    assert main(['bag', 'check', str(bag)]) == 0
+    assert 'none with a CRC-32' in capsys.readouterr().out
+    n_chunks = len(_chunks(path))
+    assert n_chunks >= 2
+    assert bagcheck.fill_chunk_crcs(path) == n_chunks
+    with open(path, 'rb') as f:
+        assert sum(1 for _ in make_reader(f, validate_crcs=True).iter_messages()) == 20000
+    assert main(['bag', 'check', str(bag)]) == 0
+    assert f'({n_chunks} with a CRC-32)' in capsys.readouterr().out
+    last = _chunks(path)[-1]
+    _flip(path, last.chunk_start_offset + last.chunk_length - 50)
+    assert main(['bag', 'check', str(bag)]) == 1
+    assert 'CRC-32 mismatch' in capsys.readouterr().out
