@@ -64,7 +64,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     sim.add_argument('--quiet', action='store_true', help='no progress output')
     sim.set_defaults(func=cmd_simulate)
 
-    bag_sub = _group(sub, 'bag', 'inspect a bag, recover an interrupted recording',
+    bag_sub = _group(sub, 'bag', 'inspect a bag, check its chunks, recover what is intact',
                      'Offline bag utilities (rosbags/mcap; no ROS graph).')
     info = bag_sub.add_parser(
         'info', help='topics, types, counts, QoS and the features of a bag',
