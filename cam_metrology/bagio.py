@@ -1307,7 +1307,7 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
                                         parse_message, parse_schema, walk)
 
     source = Path(src)
-    files = mcap_files(source) if source.exists() else []
+    files = [source] if source.is_file() else mcap_files(source) if source.exists() else []
     if not files or not all(f.is_file() for f in files):
         raise InputError('bag', str(source), 'a rosbag2 directory with .mcap files')
     for path in files:   # nothing is written for a file that is not MCAP at all
