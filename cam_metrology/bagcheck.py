@@ -337,6 +337,10 @@ def walk(path: str | Path) -> Iterator[tuple[str, Any]]:
                 yield 'damage', Damage(path, off, off + 9 + length,
                                        f'unreadable record (opcode {op:#04x}: {exc})')
             off += 9 + length
+        # every record was whole, but the file stops before its DataEnd and footer
+        yield 'damage', Damage(path, size, size, 'the file ends without its DataEnd and '
+                               'footer records (an interrupted or cut copy; the records '
+                               'before are whole)', *_times_after(last_chunk))
 
 
 def _times_after(chunk: ChunkRecord | None) -> tuple[int | None, None]:

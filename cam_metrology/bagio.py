@@ -1348,7 +1348,7 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
                 elif kind == 'message':
                     message(*item)
                 elif kind == 'damage':
-                    counts.damaged.append(item)
+                    counts.damaged.append(item)   # (an empty range: only the end missing)
                 elif item.damage is not None:
                     counts.damaged.append(item.damage)
                 else:

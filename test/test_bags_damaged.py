@@ -511,3 +511,19 @@ def test_fill_chunk_crcs_on_a_bag_written_by_plain_rosbags(tmp_path, capsys):
     _flip(path, last.chunk_start_offset + last.chunk_length - 50)
     assert main(['bag', 'check', str(bag)]) == 1
     assert 'CRC-32 mismatch' in capsys.readouterr().out
+
+
+def test_file_cut_between_records_is_named_and_fully_recovered(clean, tmp_path, capsys):
+    bag = _rechunk(clean[0], tmp_path / 'chunked')
+    path = _mcap(bag)
+    chunks = _chunks(path)
+    cut = chunks[3].chunk_start_offset   # whole records before, no DataEnd, no footer
+    path.write_bytes(path.read_bytes()[:cut])
+    (d,) = bagcheck.check_bag(bag)
+    assert (d.start, d.end) == (cut, cut) and 'without its DataEnd and footer' in d.reason
+    capsys.readouterr()
+    assert main(['bag', 'recover', str(bag), str(tmp_path / 'fixed')]) == 0
+    assert f'note: {path.name} bytes {cut}-{cut}' in capsys.readouterr().out
+    kept = bagio.read_joint_states(tmp_path / 'fixed')
+    expect = sum(len(_chunk_messages(_mcap(clean[0]), c)) for c in chunks[:3])
+    assert len(kept) == expect

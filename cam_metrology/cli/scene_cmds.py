@@ -290,6 +290,6 @@ def cmd_bag_recover(args: argparse.Namespace) -> int:
     print(f'recovered into {args.dst}:')
     for topic, n in sorted(counts.items()):
         print(f'  {topic}: {n}')
-    for d in counts.damaged:
-        print(f'dropped: {describe(d)}')
+    for d in counts.damaged:   # an empty range: nothing dropped, only the end missing
+        print(f'{"dropped" if d.end > d.start else "note"}: {describe(d)}')
     return 0
