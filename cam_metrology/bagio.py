@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
+from cam_metrology.bagcheck import require_intact
 from cam_metrology.outputs import (Output, StatusOutput, TableOutput, TextOutput,
                                    msgtype_of)
 
@@ -37,8 +38,10 @@ __all__ = [
     'encode_joint_state_positions', 'encode_string', 'encode_output', 'encode_table',
     'encode_statuses', 'decode', 'table_from_msg', 'statuses_from_msg', 'iter_messages',
     'read_joint_states', 'decode_joint_states', 'light_joint_states', 'bag_topics',
-    'BagTopic', 'bag_connections',
-    'topic_qos_yaml', 'copy_bag', 'recover_bag',
+    'BagTopic', 'bag_connections', 'JointIssue', 'MAX_NAME_BYTES', 'BagScene',
+    'bag_scenes', 'require_scenes',
+    'topic_qos_yaml', 'copy_bag', 'recover_bag', 'Recovered', 'add_topics_like',
+    'topic_definitions',
 ]
 
 JOINT_STATES = '/bench/joint_states'
@@ -155,16 +158,20 @@ class BagWriter:
 
             self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self._writer.open()
+        self._crc_inline = _crc_chunks_inline(self._writer)
         self._connections: dict[str, Any] = {}
         self.counts: dict[str, int] = {}
         self.closed = False
 
-    def add_topic(self, topic: str, msgtype: str, qos_yaml: str | None = None) -> None:
+    def add_topic(self, topic: str, msgtype: str, qos_yaml: str | None = None,
+                  msgdef: str | None = None) -> None:
         """Register ``topic`` of ROS type ``msgtype`` ('pkg/msg/Type').
 
         ``qos_yaml``: rosbag2 ``offered_qos_profiles`` text; default from
-        ``default_qos_yaml(topic)``. Adding the same topic twice with the same type is a
-        no-op; with another type it is an InputError.
+        ``default_qos_yaml(topic)``. ``msgdef``: the message definition text (ros2msg)
+        of a type ROS 2 Jazzy does not know, as a source bag recorded it (copies and
+        recoveries of foreign bags keep such topics). Adding the same topic twice with
+        the same type is a no-op; with another type it is an InputError.
         """
         if topic in self._connections:
             if self._connections[topic].msgtype != msgtype:
@@ -172,11 +179,18 @@ class BagWriter:
                                  f'its registered type {self._connections[topic].msgtype}')
             return
         store = typestore()
-        if msgtype not in store.types:
-            raise InputError(f'topic {topic}', msgtype, 'a ROS 2 Jazzy message type')
         profiles = _parse_qos(qos_yaml if qos_yaml is not None else default_qos_yaml(topic))
-        self._connections[topic] = self._writer.add_connection(
-            topic, msgtype, typestore=store, offered_qos_profiles=profiles)
+        if msgtype in store.types:
+            conn = self._writer.add_connection(topic, msgtype, typestore=store,
+                                               offered_qos_profiles=profiles)
+        elif msgdef is not None:
+            conn = self._writer.add_connection(topic, msgtype, msgdef=msgdef,
+                                               rihs01=_rihs01_of(msgtype, msgdef),
+                                               offered_qos_profiles=profiles)
+        else:
+            raise InputError(f'topic {topic}', msgtype, 'a ROS 2 Jazzy message type (or '
+                             'the definition of this one)')
+        self._connections[topic] = conn
         self.counts[topic] = 0
 
     def has_topic(self, topic: str) -> bool:
@@ -213,12 +227,43 @@ class BagWriter:
         if not self.closed:
             self.closed = True
             self._writer.close()
+            if not self._crc_inline:   # another rosbags: fill the CRCs after the fact
+                from cam_metrology.bagcheck import fill_chunk_crcs, mcap_files
+
+                for path in mcap_files(self.path):
+                    fill_chunk_crcs(path)
 
     def __enter__(self) -> BagWriter:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _crc_chunks_inline(writer: Any) -> bool:
+    """Make rosbags' MCAP storage writer store the CRC-32 of every chunk it closes
+    (it writes 0: no CRC). The CRC of the uncompressed records is computed when the
+    chunk closes and written into the Chunk record's ``uncompressed_crc`` field (byte
+    33 of the record: opcode, length, start, end, size). False when the storage
+    object is not the expected one (BagWriter.close then fills the CRCs in a pass)."""
+    import zlib
+
+    storage = getattr(writer, 'storage', None)
+    if not all(hasattr(storage, a) for a in ('close_chunk', 'chunk', 'bio', 'compression')):
+        return False
+    close_chunk = storage.close_chunk
+
+    def close_chunk_with_crc() -> None:
+        crc = zlib.crc32(storage.chunk.bio.getbuffer())
+        start = storage.bio.tell()
+        close_chunk()
+        end = storage.bio.tell()
+        storage.bio.seek(start + 9 + 24)
+        storage.bio.write(_U32.pack(crc))
+        storage.bio.seek(end)
+
+    storage.close_chunk = close_chunk_with_crc
+    return True
 
 
 # ------------------------------------------------------------------------ encoders
@@ -395,33 +440,136 @@ def looks_like_bag(path: str | Path) -> bool:
     return p.is_dir() or p.suffix == '.mcap'
 
 
-def _open_reader(path: str | Path) -> Any:
-    from rosbags.highlevel import AnyReader
+def _open_reader(path: str | Path, *, check: bool = True) -> Any:
+    """A reader of the bag at ``path`` with ``connections`` (topic, msgtype, msgcount,
+    msgdef, ext.offered_qos_profiles), ``messages(connections)`` -> (conn, log time,
+    CDR bytes) in log-time order, ``deserialize(data, msgtype)`` and ``close()``.
 
+    rosbag2 directories are opened with ``rosbags.rosbag2.Reader``, which reads no
+    message definition on open: a topic whose type cam-bench does not know (a Jazzy
+    service-event topic, a vendor message) is listed and its bytes can be copied; its
+    definition is parsed only if a caller decodes it (``_Decoder``). ``check``: MCAP
+    chunks are verified first (``check_bag``) and a damaged bag is refused naming the
+    damaged range (docs/contract.md §4).
+    """
     bag = Path(path)
     if not bag.exists():
         raise InputError('bag', str(bag), 'an existing rosbag2 directory')
-    if bag.is_file() and bag.suffix == '.mcap':
-        return _BareMcapReader(bag)
     if bag.is_dir() and not (bag / 'metadata.yaml').exists():
         raise InputError('bag', str(bag),
                          'a closed rosbag2 directory with metadata.yaml (the recorder '
                          'writes it on close; an interrupted recording has none: '
                          '`cam-bench bag recover SRC DST` saves its complete chunks)')
-    if bag.is_file() and bag.suffix != '.bag':   # rosbag2: a directory (or bare .mcap)
+    if bag.is_file() and bag.suffix not in ('.bag', '.mcap'):
         raise InputError('bag', str(bag), 'a rosbag2 directory or .mcap file')
+    if check:
+        require_intact(bag)
+    if bag.is_file() and bag.suffix == '.mcap':
+        return _BareMcapReader(bag)
     try:
-        reader = AnyReader([bag], default_typestore=typestore())
+        if bag.is_dir():
+            from rosbags.rosbag2 import Reader
+
+            reader = Reader(bag)
+        else:   # a ROS 1 .bag: AnyReader converts the types
+            from rosbags.highlevel import AnyReader
+
+            reader = AnyReader([bag], default_typestore=typestore())
         reader.open()
     except Exception as exc:   # rosbags raises its own error types
         raise InputError('bag', str(bag), f'a readable rosbag2 bag ({exc})') from None
-    return reader
+    return _RosbagsReader(bag, reader)
+
+
+class _Decoder:
+    """CDR decoding by ROS type name: the ROS 2 Jazzy typestore for the types it knows;
+    other types from the definition recorded in the bag, parsed on first use (a type
+    whose definition cannot be parsed is an InputError naming the topic, only when that
+    topic is decoded)."""
+
+    def __init__(self, bag: Path, connections: Sequence[Any]) -> None:
+        self.bag = bag
+        self._defs = {c.msgtype: (c.topic, c.msgdef) for c in connections}
+        self._own: Any = None
+
+    def __call__(self, data: bytes | memoryview, msgtype: str) -> Any:
+        store = typestore()
+        if msgtype not in store.types:
+            store = self._store_for(msgtype)
+        try:
+            return store.deserialize_cdr(data, msgtype)
+        except Exception as exc:   # noqa: BLE001 - rosbags raises several types
+            raise InputError('message', f'{len(data)} bytes',
+                             f'a complete {msgtype} CDR message ({type(exc).__name__}: '
+                             f'{exc})') from None
+
+    def _store_for(self, msgtype: str) -> Any:
+        if self._own is not None and msgtype in self._own.types:
+            return self._own
+        from rosbags.typesys import (Stores, get_types_from_idl, get_types_from_msg,
+                                     get_typestore)
+
+        topic, msgdef = self._defs.get(msgtype, ('?', None))
+        fmt = getattr(getattr(msgdef, 'format', None), 'name', '')
+        text = getattr(msgdef, 'data', '') or ''
+        try:
+            if fmt == 'MSG' and text:
+                types = get_types_from_msg(text, msgtype)
+            elif fmt == 'IDL' and text:
+                sep = '=' * 80 + '\n'
+                types = {}
+                for part in (text.split(sep)[1:] if text.startswith(sep + 'IDL: ')
+                             else [text]):
+                    types.update(get_types_from_idl(part.split('\n', 1)[1]
+                                                    if part.startswith('IDL: ') else part))
+            else:
+                raise ValueError('no message definition recorded')
+            if self._own is None:
+                self._own = get_typestore(Stores.ROS2_JAZZY)
+            self._own.register({k: v for k, v in types.items()
+                                if k not in self._own.types})
+        except Exception as exc:   # noqa: BLE001 - rosbags raises several types
+            first = str(exc).strip().splitlines()[0][:120] if str(exc).strip() else ''
+            raise InputError(f'topic {topic}', msgtype,
+                             'a ROS 2 Jazzy message type or one whose definition in the '
+                             f'bag can be parsed ({type(exc).__name__}: {first}); '
+                             'cam-bench needs only the topics of docs/contract.md') from None
+        if msgtype not in self._own.types:
+            raise InputError(f'topic {topic}', msgtype, 'a type defined in the bag')
+        return self._own
+
+
+class _RosbagsReader:
+    """A rosbags reader (rosbag2 ``Reader`` or ROS 1 ``AnyReader``) with errors turned
+    into InputError and lazy decoding of types cam-bench does not know."""
+
+    def __init__(self, bag: Path, reader: Any) -> None:
+        self.bag = bag
+        self._reader = reader
+        self.connections = list(reader.connections)
+        self._decode = (reader.deserialize if hasattr(reader, 'typestore')
+                        else _Decoder(bag, self.connections))
+
+    def messages(self, connections: Sequence[Any] = ()) -> Iterator[tuple[Any, int, bytes]]:
+        try:
+            yield from self._reader.messages(connections=connections)
+        except Exception as exc:   # noqa: BLE001 - a damaged file: name the range
+            raise InputError('bag', str(self.bag), f'a readable bag ({exc}); '
+                             '`cam-bench bag check` names the damaged range, '
+                             '`cam-bench bag recover SRC DST` keeps what is intact') from None
+
+    def deserialize(self, data: bytes, msgtype: str) -> Any:
+        return self._decode(data, msgtype)
+
+    def close(self) -> None:
+        self._reader.close()
 
 
 class _BareMcapReader:
     """The subset of AnyReader used here, for a single ``.mcap`` file with ROS 2 CDR
     channels but no rosbag2 directory (written by other MCAP tools). Messages come in
-    log-time order; types are decoded with the ROS 2 Jazzy typestore."""
+    log-time order; types are decoded as by ``_Decoder``. Channels in another encoding
+    are listed (their type is the schema name, or the encoding) but not decoded."""
 
     def __init__(self, path: Path) -> None:
         from types import SimpleNamespace
@@ -446,36 +594,54 @@ class _BareMcapReader:
         self._by_channel: dict[int, Any] = {}
         for cid, ch in sorted(summary.channels.items()):
             schema = summary.schemas.get(ch.schema_id)
-            if schema is None or ch.message_encoding != 'cdr':
-                continue
             qos = ch.metadata.get('offered_qos_profiles')
             try:
                 profiles = _parse_qos(qos) if qos else []
             except InputError:
                 profiles = []
-            conn = SimpleNamespace(id=cid, topic=ch.topic, msgtype=schema.name,
-                                   msgcount=int(counts.get(cid, 0)),
+            msgdef = _schema_msgdef(schema)
+            name = schema.name if schema is not None else f'({ch.message_encoding})'
+            conn = SimpleNamespace(id=cid, topic=ch.topic, msgtype=name,
+                                   msgcount=int(counts.get(cid, 0)), msgdef=msgdef,
+                                   cdr=ch.message_encoding == 'cdr',
                                    ext=SimpleNamespace(offered_qos_profiles=profiles))
             self.connections.append(conn)
             self._by_channel[cid] = conn
+        self._decode = _Decoder(path, [c for c in self.connections if c.cdr])
 
     def messages(self, connections: Sequence[Any] = ()) -> Iterator[tuple[Any, int, bytes]]:
         topics = sorted({c.topic for c in connections}) if connections else None
-        for _, channel, message in self._reader.iter_messages(topics=topics,
-                                                              log_time_order=True):
-            conn = self._by_channel.get(channel.id)
-            if conn is not None:
-                yield conn, message.log_time, message.data
+        try:
+            for _, channel, message in self._reader.iter_messages(topics=topics,
+                                                                  log_time_order=True):
+                conn = self._by_channel.get(channel.id)
+                if conn is not None:
+                    yield conn, message.log_time, message.data
+        except InputError:
+            raise
+        except Exception as exc:   # noqa: BLE001 - a damaged file: name the range
+            raise InputError('bag', str(self.path), f'a readable MCAP file ({exc}); '
+                             '`cam-bench bag check` names the damaged range') from None
 
     def deserialize(self, data: bytes, msgtype: str) -> Any:
-        try:
-            return decode(data, msgtype)
-        except KeyError:
-            raise InputError('bag', str(self.path),
-                             f'ROS 2 Jazzy message types (unknown type {msgtype})') from None
+        conn = next((c for c in self.connections if c.msgtype == msgtype), None)
+        if conn is not None and not conn.cdr:
+            raise InputError(f'topic {conn.topic}', msgtype, 'a CDR-encoded ROS 2 topic')
+        return self._decode(data, msgtype)
 
     def close(self) -> None:
         self._file.close()
+
+
+def _schema_msgdef(schema: Any) -> Any:
+    """The rosbags MessageDefinition of an mcap Schema (NONE when there is none)."""
+    from rosbags.interfaces import MessageDefinition, MessageDefinitionFormat
+
+    fmt = {'ros2msg': MessageDefinitionFormat.MSG, 'ros2idl': MessageDefinitionFormat.IDL,
+           'omgidl': MessageDefinitionFormat.IDL}.get(getattr(schema, 'encoding', ''))
+    if schema is None or fmt is None:
+        return MessageDefinition(MessageDefinitionFormat.NONE, '')
+    return MessageDefinition(fmt, bytes(schema.data).decode('utf-8', errors='replace'))
 
 
 def bag_topics(path: str | Path) -> dict[str, tuple[str, int]]:
@@ -507,21 +673,82 @@ def iter_messages(path: str | Path, topics: Iterable[str] | None = None,
         if not conns:
             return
         for conn, stamp, data in reader.messages(connections=conns):
-            msg = data if raw else reader.deserialize(data, conn.msgtype)
+            try:
+                msg = data if raw else reader.deserialize(data, conn.msgtype)
+            except InputError as exc:   # name the topic and the message's log time
+                if exc.key.startswith('topic '):
+                    raise
+                raise InputError(f'{conn.topic} message at log time {stamp / 1e9:.6f} s',
+                                 exc.value, exc.expected) from None
             yield BagMessage(conn.topic, conn.msgtype, int(stamp), msg)
     finally:
         reader.close()
+
+
+SCENE_TOPIC = '/bench/scene'
+
+
+class BagScene(NamedTuple):
+    """One ``/bench/scene`` message of a bag: log time [ns], the YAML text, and the
+    parsed ``Scene`` or the InputError that the scene parser raised (key prefixed with
+    the topic, the log time in ``expected``)."""
+
+    stamp_ns: int
+    text: str
+    scene: Any
+    error: InputError | None
+
+
+def bag_scenes(path: str | Path) -> list[BagScene]:
+    """Every scene message of a bag in log-time order, parsed (the one place where a
+    bag's scene is read: ``bag info`` and ``analyze`` use it)."""
+    from cam_metrology.scene_parse import parse_scene
+
+    out = []
+    for m in iter_messages(path, [SCENE_TOPIC]):
+        text = str(getattr(m.msg, 'data', ''))
+        try:
+            out.append(BagScene(m.stamp_ns, text, parse_scene(text, source=SCENE_TOPIC),
+                                None))
+        except InputError as exc:
+            key = exc.key if exc.key not in ('scene', SCENE_TOPIC) else ''
+            err = InputError(f'{SCENE_TOPIC}.{key}' if key else SCENE_TOPIC, exc.value,
+                             f'{exc.expected} (the scene recorded at log time '
+                             f'{m.stamp_ns / 1e9:.6f} s)')
+            out.append(BagScene(m.stamp_ns, text, None, err))
+    return out
+
+
+def require_scenes(path: str | Path) -> list[BagScene]:
+    """The distinct scenes of a bag in the order they came into force (a repeated text
+    is not a change). InputError when the bag has no scene message, or for the first
+    invalid one (naming its bad key)."""
+    scenes = bag_scenes(path)
+    if not scenes:
+        raise InputError('bag', str(path), f'a {SCENE_TOPIC} message with the scene YAML '
+                         f'(docs/contract.md §2): the bag has no {SCENE_TOPIC} message, '
+                         'nothing to analyse')
+    for sc in scenes:
+        if sc.error is not None:
+            raise sc.error
+    out = [scenes[0]]
+    for sc in scenes[1:]:
+        if sc.text != out[-1].text:
+            out.append(sc)
+    return out
 
 
 @dataclass
 class JointSamples:
     """The samples of a JointState topic as arrays (one entry per message).
 
-    ``frame_id`` (str array), ``stamp_ns`` header stamps [ns] (int64), ``log_ns`` bag
-    log times [ns], ``theta`` [rad] and ``s`` [m] found by joint name (NaN where a
-    message lacks the joint or its position); ``names``: the distinct joint-name lists
-    seen, in order of first appearance; ``features``: the distinct frame ids in order of
-    first appearance.
+    ``frame_id`` (str array; an object array of shared str when an id is longer than
+    64 characters, so memory does not grow as n x the longest id), ``stamp_ns`` header
+    stamps [ns] (int64), ``log_ns`` bag log times [ns], ``theta`` [rad] and ``s`` [m]
+    found by joint name (NaN where a message lacks the joint or its position);
+    ``names``: the distinct joint-name lists seen, in order of first appearance;
+    ``features``: the distinct frame ids in order of first appearance; ``issues``:
+    what made messages unusable (``JointIssue``).
     """
 
     frame_id: NDArray[np.str_]
@@ -531,9 +758,31 @@ class JointSamples:
     s: NDArray[np.float64]
     names: tuple[tuple[str, ...], ...] = ()
     features: tuple[str, ...] = field(default=())
+    issues: tuple[JointIssue, ...] = ()
 
     def __len__(self) -> int:
         return int(self.theta.size)
+
+
+class JointIssue(NamedTuple):
+    """Messages of a JointState topic that cannot give a sample: ``key`` names the
+    field of the first such message (``/bench/joint_states[i].name`` or
+    ``.position``), ``value`` what it held, ``expected`` what would work, ``count``
+    how many messages have the problem (their samples are NaN: dropped and counted)."""
+
+    key: str
+    value: Any
+    expected: str
+    count: int
+
+    def error(self, total: int) -> InputError:
+        """The InputError of this issue (``total``: messages on the topic)."""
+        return InputError(self.key, self.value,
+                          f'{self.expected} ({self.count} of {total} messages)')
+
+    def text(self, total: int) -> str:
+        """One line: the error text of ``error(total)``."""
+        return str(self.error(total))
 
 
 def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
@@ -811,7 +1060,7 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
                 eq = np.all(got == np.frombuffer(raw, dtype=np.uint8), axis=1)
                 rows = np.nonzero(hit)[0][eq]
                 idx[rows] = j
-        texts, codes = _string_codes(buf, off + 4, np.where(has, nlen, 0))
+        texts, codes = _string_codes(buf, off + 4, np.where(has, nlen, 0), 'name')
         name_codes.append(np.where(has, codes, -1))
         name_texts.append(texts)
         off = np.where(has, off + 4 + nlen, off)
@@ -829,30 +1078,79 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
         return out
 
     names = _distinct_name_lists(name_codes, name_texts, n)
+    issues = _joint_issues(cam_idx, probe_idx, count, pcount, name_codes, name_texts)
     return JointSamples(frame_id=frame_ids, stamp_ns=stamp.astype(np.int64),
                         log_ns=np.asarray(log_ns, dtype=np.int64),
                         theta=pick(cam_idx), s=pick(probe_idx), names=names,
-                        features=features)
+                        features=features, issues=issues)
+
+
+def _joint_issues(cam_idx: NDArray[np.int64], probe_idx: NDArray[np.int64],
+                  count: NDArray[np.int64], pcount: NDArray[np.int64],
+                  codes: list[NDArray[np.int64]], texts: list[NDArray[np.str_]],
+                  ) -> tuple[JointIssue, ...]:
+    """What makes messages unusable: a missing ``camshaft`` or ``probe`` joint, fewer
+    positions than names (docs/contract.md §2), naming the first message of each."""
+    def names_of(i: int) -> list[str]:
+        return [str(texts[j][c[i]]) for j, c in enumerate(codes) if c[i] >= 0]
+
+    out = []
+    for joint, idx in ((CAMSHAFT_JOINT, cam_idx), (PROBE_JOINT, probe_idx)):
+        bad = idx < 0
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            out.append(JointIssue(f'{JOINT_STATES}[{i}].name', names_of(i),
+                                  f'a joint named {joint!r} (joints are looked up by name)',
+                                  int(bad.sum())))
+    short = pcount < count
+    if np.any(short):
+        i = int(np.argmax(short))
+        out.append(JointIssue(f'{JOINT_STATES}[{i}].position',
+                              f'{int(pcount[i])} values for {int(count[i])} names '
+                              f'{names_of(i)}', 'one position per name', int(short.sum())))
+    return tuple(out)
+
+
+#: longest frame id or joint name decoded [bytes]; a longer one is an InputError
+MAX_NAME_BYTES = 4096
+#: bytes of the gather matrix of one block of strings (bounds the decoder's memory)
+STRING_BLOCK_BYTES = 1 << 24
 
 
 def _string_codes(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[np.int64],
+                  field_name: str = 'string',
                   ) -> tuple[NDArray[np.str_], NDArray[np.int64]]:
     """Per-message CDR strings at ``off`` (byte count ``nlen`` incl. the NUL) as
     (distinct texts, code per message into them). Vectorised: the bytes are gathered
-    into a (n, maxlen) matrix and made unique as fixed-width byte strings."""
-    width = max(int(nlen.max()) - 1, 1) if off.size else 1
+    into a (rows, maxlen) matrix, in blocks of at most ``STRING_BLOCK_BYTES``, and made
+    unique as fixed-width byte strings; a string over ``MAX_NAME_BYTES`` is refused
+    (InputError naming the message and ``field_name``), so memory stays bounded
+    whatever length fields a bag holds."""
+    n = int(off.size)
+    if n and int(nlen.max()) - 1 > MAX_NAME_BYTES:
+        i = int(np.argmax(nlen))
+        raise InputError(f'{JOINT_STATES}[{i}].{field_name}', f'{int(nlen[i]) - 1} bytes',
+                         f'a string of at most {MAX_NAME_BYTES} bytes')
+    width = max(int(nlen.max()) - 1, 1) if n else 1
+    rows = max(1, STRING_BLOCK_BYTES // (9 * width))   # int64 index + byte matrix
     cols = np.arange(width)
-    mat = buf[off[:, None] + cols]
-    mat = np.where(cols[None, :] < (nlen[:, None] - 1), mat, 0).astype(np.uint8)
-    keys = np.ascontiguousarray(mat).view(f'S{width}').reshape(-1)
-    # strings come in runs (one frame_id per feature, the same names in every
-    # message): make only the run heads unique
-    change = np.ones(keys.size, dtype=bool)
-    change[1:] = keys[1:] != keys[:-1]
-    uniq, inverse = np.unique(keys[change], return_inverse=True)
-    codes = inverse.reshape(-1)[np.cumsum(change) - 1]
-    texts = np.array([u.decode('utf-8', errors='replace') for u in uniq] or [''])
-    return texts, codes.astype(np.int64)
+    index: dict[bytes, int] = {}
+    codes = np.zeros(n, dtype=np.int64)
+    for a in range(0, n, rows):
+        b = min(n, a + rows)
+        mat = buf[off[a:b, None] + cols]
+        mat = np.where(cols[None, :] < (nlen[a:b, None] - 1), mat, 0).astype(np.uint8)
+        keys = np.ascontiguousarray(mat).view(f'S{width}').reshape(-1)
+        # strings come in runs (one frame_id per feature, the same names in every
+        # message): make only the run heads unique
+        change = np.ones(keys.size, dtype=bool)
+        change[1:] = keys[1:] != keys[:-1]
+        uniq, inverse = np.unique(keys[change], return_inverse=True)
+        remap = np.array([index.setdefault(bytes(u), len(index)) for u in uniq],
+                         dtype=np.int64)
+        codes[a:b] = remap[inverse.reshape(-1)[np.cumsum(change) - 1]]
+    texts = np.array([u.decode('utf-8', errors='replace') for u in index] or [''])
+    return texts, codes
 
 
 def _byte_strided(buf: NDArray[np.uint8], dtype: str) -> NDArray[Any]:
@@ -866,9 +1164,11 @@ def _strings(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[np.in
              ) -> tuple[NDArray[np.str_], tuple[str, ...]]:
     """Per-message strings as a numpy str array, and the distinct ones in order of
     first appearance."""
-    texts, codes = _string_codes(buf, off, nlen)
+    texts, codes = _string_codes(buf, off, nlen, 'header.frame_id')
     first = np.unique(codes, return_index=True)[1]
     order = tuple(str(texts[codes[i]]) for i in np.sort(first))
+    if texts.dtype.itemsize > 4 * 64:   # long ids: shared str objects, not n fixed-width
+        return texts.astype(object)[codes], order
     return texts[codes], order
 
 
@@ -931,37 +1231,83 @@ def topic_qos_yaml(path: str | Path) -> dict[str, str]:
         reader.close()
 
 
+def _rihs01_of(msgtype: str, msgdef: str) -> str:
+    """The RIHS01 hash of a foreign type from its ros2msg definition; a zero hash when
+    the definition does not parse (a Jazzy service-event schema holds the raw .srv)."""
+    try:
+        from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+        store = get_typestore(Stores.ROS2_JAZZY)
+        types = get_types_from_msg(msgdef, msgtype)
+        store.register({k: v for k, v in types.items() if k not in store.types})
+        return str(store.hash_rihs01(msgtype))
+    except Exception:   # noqa: BLE001 - rosbags raises several types
+        return 'RIHS01_' + '0' * 64
+
+
+def topic_definitions(path: str | Path) -> dict[str, str]:
+    """topic -> message definition text recorded in a bag, for the topics whose type
+    ROS 2 Jazzy does not know (what ``BagWriter.add_topic(msgdef=...)`` needs)."""
+    reader = _open_reader(path)
+    try:
+        store = typestore()
+        return {c.topic: getattr(c.msgdef, 'data', '') or '' for c in reader.connections
+                if c.msgtype not in store.types}
+    finally:
+        reader.close()
+
+
+def add_topics_like(dst: BagWriter, src: str | Path, topics: Iterable[str] | None = None,
+                    ) -> list[str]:
+    """Register in ``dst`` the topics of bag ``src`` (all, or only ``topics``) with
+    their type, QoS and, for foreign types, their recorded definition; returns them."""
+    qos = topic_qos_yaml(src)
+    defs = topic_definitions(src)
+    wanted = None if topics is None else set(topics)
+    added = []
+    for topic, (msgtype, _) in bag_topics(src).items():
+        if wanted is None or topic in wanted:
+            dst.add_topic(topic, msgtype, qos.get(topic), defs.get(topic))
+            added.append(topic)
+    return added
+
+
 def copy_bag(src: str | Path, dst: BagWriter, topics: Iterable[str] | None = None) -> int:
     """Copy every message of ``src`` (optionally only ``topics``) into an open writer,
-    bytes unchanged, keeping types and QoS; returns the number of messages copied."""
-    qos = topic_qos_yaml(src)
+    bytes unchanged, keeping types, QoS and foreign definitions; returns the number of
+    messages copied."""
     copied = 0
-    for topic, (msgtype, _) in bag_topics(src).items():
-        if topics is None or topic in set(topics):
-            dst.add_topic(topic, msgtype, qos.get(topic))
-    wanted = None if topics is None else list(topics)
+    wanted = add_topics_like(dst, src, topics)
     for m in iter_messages(src, wanted, raw=True):
         dst.write(m.topic, m.stamp_ns, m.msg)
         copied += 1
     return copied
 
 
-def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
-                ) -> dict[str, int]:
-    """Copy what is readable of an interrupted recording into a new, closed bag.
+class Recovered(dict):  # type: ignore[type-arg]
+    """Messages kept per topic (a dict) by ``recover_bag``, with ``damaged``: the
+    ranges that were dropped (``bagcheck.Damage``; a torn tail included)."""
 
-    ``src``: a rosbag2 directory (or a single ``.mcap`` file) whose writer never
-    closed (no metadata.yaml, no MCAP footer: docs/ros.md). Every message of the
-    complete chunks is kept, bytes unchanged, with its topic, type and QoS; the
-    truncated tail is dropped. Returns messages per topic. Types must be ROS 2 Jazzy
-    types (the writer takes definitions from the typestore).
+    damaged: list[Any]
+
+
+def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
+                ) -> Recovered:
+    """Copy what is intact of a damaged or interrupted recording into a new, closed bag.
+
+    ``src``: a rosbag2 directory (or a single ``.mcap`` file): one whose writer never
+    closed (no metadata.yaml, no MCAP footer: docs/ros.md) or one with damaged chunks.
+    Every record that passes the checks of ``bagcheck`` (chunk size, CRC-32 where the
+    file has one, record framing) is kept, bytes unchanged, with its topic, type
+    (foreign types with their recorded definition) and QoS; damaged chunks and the
+    torn tail are dropped and listed in the result's ``damaged``. Returns messages
+    kept per topic.
     """
-    from mcap.exceptions import McapError
-    from mcap.records import Channel, Message, Schema
-    from mcap.stream_reader import StreamReader
+    from cam_metrology.bagcheck import (iter_records, mcap_files, parse_channel,
+                                        parse_message, parse_schema, walk)
 
     source = Path(src)
-    files = sorted(source.glob('*.mcap')) if source.is_dir() else [source]
+    files = [source] if source.is_file() else mcap_files(source) if source.exists() else []
     if not files or not all(f.is_file() for f in files):
         raise InputError('bag', str(source), 'a rosbag2 directory with .mcap files')
     for path in files:   # nothing is written for a file that is not MCAP at all
@@ -969,28 +1315,51 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
             if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
                 raise InputError('bag', str(path), 'an MCAP recording (the file does not '
                                  'start with the MCAP magic bytes)')
-    counts: dict[str, int] = {}
+    counts = Recovered()
+    counts.damaged = []
     readable = False
     with BagWriter(dst, compression=compression) as writer:
         for path in files:
-            schemas: dict[int, str] = {}
+            schemas: dict[int, tuple[str, str, bytes]] = {}
             channels: dict[int, str] = {}
-            with open(path, 'rb') as f:
-                try:
-                    for record in StreamReader(f).records:
-                        if isinstance(record, Schema):
-                            schemas[record.id] = record.name
-                        elif isinstance(record, Channel):
-                            channels[record.id] = record.topic
-                            qos = record.metadata.get('offered_qos_profiles') or None
-                            writer.add_topic(record.topic, schemas.get(record.schema_id, ''),
-                                             qos)
-                        elif isinstance(record, Message) and record.channel_id in channels:
-                            topic = channels[record.channel_id]
-                            writer.write(topic, record.log_time, record.data)
-                            counts[topic] = counts.get(topic, 0) + 1
-                except (McapError, EOFError, ValueError, struct.error):
-                    pass   # the truncated tail of an interrupted recording
+
+            def channel(rec: tuple[int, int, str, str, dict[str, str]]) -> None:
+                cid, sid, topic, _, meta = rec
+                if cid in channels:
+                    return
+                name, encoding, data = schemas.get(sid, ('', '', b''))
+                msgdef = data.decode('utf-8', errors='replace') \
+                    if encoding in ('ros2msg', 'ros2idl') else None
+                writer.add_topic(topic, name, meta.get('offered_qos_profiles') or None,
+                                 msgdef)
+                channels[cid] = topic
+
+            def message(cid: int, log: int, data: bytes) -> None:
+                topic = channels.get(cid)
+                if topic is not None:
+                    writer.write(topic, log, data)
+                    counts[topic] = counts.get(topic, 0) + 1
+
+            for kind, item in walk(path):
+                if kind == 'schema':
+                    schemas[item[0]] = item[1:]
+                elif kind == 'channel':
+                    channel(item)
+                elif kind == 'message':
+                    message(*item)
+                elif kind == 'damage':
+                    counts.damaged.append(item)   # (an empty range: only the end missing)
+                elif item.damage is not None:
+                    counts.damaged.append(item.damage)
+                else:
+                    for op, body in iter_records(item.records):
+                        if op == 5:
+                            message(*parse_message(body))
+                        elif op == 3:
+                            rec = parse_schema(body)
+                            schemas.setdefault(rec[0], rec[1:])
+                        elif op == 4:
+                            channel(parse_channel(body))
             readable = readable or bool(channels)
     if not readable:   # not even a channel: do not leave an empty "recovered" bag
         import shutil

@@ -74,6 +74,8 @@ class OfflineResult:
     samples: int = 0
     elapsed_s: float = 0.0
     regenerated_topics: tuple[str, ...] = ()
+    #: JointState messages that could not give a sample (bagio.JointIssue)
+    joint_issues: tuple[Any, ...] = ()
 
     def by_topic(self, topic: str) -> list[Output]:
         """The outputs published on ``topic``, in order."""
@@ -179,6 +181,7 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
         if wanted - {joints} else []
     total = len(samples) + len(others)
     result.samples = len(samples)
+    result.joint_issues = samples.issues
     log = samples.log_ns
     joint_cores = router.subscribers.get(joints, [])
     done = 0
@@ -254,11 +257,8 @@ def write_outputs(result: OfflineResult, out_bag: str | Path, *,
     import heapq
 
     with bagio.BagWriter(out_bag, compression=compression) as writer:
-        topics = {t: v for t, v in bagio.bag_topics(result.bag).items()
-                  if t not in result.regenerated_topics}
-        qos = bagio.topic_qos_yaml(result.bag)
-        for topic, (msgtype, _) in topics.items():
-            writer.add_topic(topic, msgtype, qos.get(topic))
+        topics = bagio.add_topics_like(writer, result.bag, [
+            t for t in bagio.bag_topics(result.bag) if t not in result.regenerated_topics])
         inputs = ((m.stamp_ns, 0, i, m) for i, m in enumerate(
             bagio.iter_messages(result.bag, list(topics), raw=True)))
         outputs = ((o.stamp_ns, 1, i, o) for i, o in enumerate(result.outputs))

@@ -94,14 +94,24 @@ def run(args: argparse.Namespace) -> int:
     if args.out_bag and Path(args.out_bag).exists():
         raise InputError('--out-bag', args.out_bag, 'a path that does not exist yet')
     cores, missing = make_cores(load_params(args.params), args.only_metrology)
+    warnings = bag_warnings(args.bag)   # damaged bag, no or invalid scene: exit 2 here
     result = replay(args.bag, cores)
     if result.samples == 0:
         raise InputError('bag', args.bag, f'{JOINT_TOPIC} samples (the bag has none: '
                          'nothing to measure)')
+    for issue in result.joint_issues:
+        if issue.count >= result.samples:   # not one usable sample: name the field
+            raise issue.error(result.samples)
+        warnings.append(f'{issue.text(result.samples)}: those samples are dropped and '
+                        'counted (samples_nan_dropped)')
     outputs = [(o.stamp_ns, o.output) for o in result.outputs]
     metrology = next(c for c in cores if c.name == 'metrology')
     report = final_report(outputs, metrology)
     report['skipped'] = report.get('skipped', []) + other_skips(outputs) + missing
+    if warnings:
+        report['warnings'] = report.get('warnings', []) + warnings
+        for line in warnings:
+            print(f'cam-bench analyze: warning: {line}', file=sys.stderr)
     if args.json:
         from cam_metrology.files import write_output
         write_output(args.json, json.dumps(report, indent=1) + '\n', '--json')
@@ -120,6 +130,23 @@ def run(args: argparse.Namespace) -> int:
               'report)', file=sys.stderr)
         return 1
     return 0
+
+
+def bag_warnings(bag: str) -> list[str]:
+    """Checks of the bag before the replay (docs/contract.md §4): InputError for a
+    damaged bag (naming the range), a bag without a scene or with an invalid scene
+    (naming its bad key); a warning line when the scene changes during the bag (each
+    feature is then analysed with the scene in force when it was measured)."""
+    from cam_metrology.bagio import require_scenes
+
+    scenes = require_scenes(bag)
+    if len(scenes) < 2:
+        return []
+    times = ', '.join(f'{sc.scene.camshaft_id or "(no id)"} from log time '
+                      f'{sc.stamp_ns / 1e9:.6f} s' for sc in scenes)
+    return [f'the bag holds {len(scenes)} different scenes ({times}): each feature is '
+            'analysed with the scene in force when it was measured (report: scenes, '
+            'features.*.scene_index)']
 
 
 def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, Any]:

@@ -123,15 +123,26 @@ class MetrologyCore:
         self.results: dict[str, FeatureResult] = {}
         self.report_sent = False
         self._design: dict[str, Any] = {}
+        #: every scene that came into force: (log time [ns], Scene)
+        self.scenes: list[tuple[int, Any]] = []
+        self._scene_of: dict[str, int] = {}   # feature id -> index in self.scenes
 
     # ------------------------------------------------------------------ inputs
-    def set_scene(self, scene: Any) -> list[Output]:
-        """Use a parsed ``Scene``; analyses features that were waiting for it."""
+    def set_scene(self, scene: Any, stamp_ns: int = 0) -> list[Output]:
+        """Use a parsed ``Scene``; analyses features that were waiting for it.
+
+        A different scene after features were measured does not discard them: the open
+        feature is closed and analysed with the scene in force while it was measured,
+        results keep the index of their scene (report: ``scenes``, ``scene_index``),
+        and a feature measured again replaces its earlier result."""
         if self.scene is not None and scene.text and scene.text == self.scene.text:
             return []
-        self.scene = scene
-        self.results, self.report_sent, self._design = {}, False, {}
         out: list[Output] = []
+        if self.scene is not None:
+            out += self._complete_all(self.assembler.close(), stamp_ns)
+        self.scene = scene
+        self.scenes.append((int(stamp_ns), scene))
+        self.report_sent, self._design = False, {}
         waiting, self.pending = self.pending, []
         for fs in waiting:
             out += self._complete(fs, 0)
@@ -158,7 +169,7 @@ class MetrologyCore:
                                      stamp_ns)]
             except InputError as exc:
                 return [self._status(Status('scene', ERROR, f'invalid scene: {exc}'), stamp_ns)]
-            return self.set_scene(scene)
+            return self.set_scene(scene, stamp_ns)
         return []
 
     def handle_samples(self, frame_ids: Sequence[str] | ArrayLike, stamp_ns: ArrayLike,
@@ -206,6 +217,7 @@ class MetrologyCore:
             return []
         result = self._analyze(fs)
         self.results[fs.feature_id] = result
+        self._scene_of[fs.feature_id] = len(self.scenes) - 1
         out: list[Output] = [self._feature_status(result, stamp_ns)]
         if result.table is not None:
             out.append(TableOutput(LIFT, fs.feature_id, LIFT_COLUMNS, result.table))
@@ -254,10 +266,13 @@ class MetrologyCore:
     def _phase(self, result: FeatureResult) -> dict[str, Any]:
         """phase_deg and phase_error_deg of a measured lobe (None when unavailable)."""
         pin = self._pin_angle()
-        if result.angle_rad is None or pin is None:
+        index = self._scene_of.get(result.feature_id, len(self.scenes) - 1)
+        if result.angle_rad is None or pin is None or \
+                index != self._scene_of.get(PIN_ID, index):
             return {'phase_deg': None, 'phase_error_deg': None}
         phase = wrap_deg(np.degrees(result.angle_rad - pin))
-        nominal = self.scene.lobe(result.feature_id).nominal_phase
+        nominal = self.scenes[index][1].lobe(result.feature_id).nominal_phase \
+            if self.scenes else self.scene.lobe(result.feature_id).nominal_phase
         err = None if nominal is None else wrap_deg(phase - np.degrees(nominal))
         return {'phase_deg': phase, 'phase_error_deg': err}
 
@@ -319,6 +334,10 @@ class MetrologyCore:
                 out.append({'what': f'phase_error/{lobe.id}', 'why': 'lobe has no nominal_phase'})
         for res in self.results.values():
             out += [{'what': f'{what}/{res.feature_id}', 'why': why} for what, why in res.skipped]
+            if res.kind == 'lobe' and self._pin_angle() is not None and \
+                    self._scene_of.get(res.feature_id) != self._scene_of.get(PIN_ID):
+                out.append({'what': f'phase/{res.feature_id}',
+                            'why': 'measured under another scene than the dowel pin'})
         return out
 
     def report(self, final: bool = True) -> dict[str, Any]:
@@ -338,8 +357,15 @@ class MetrologyCore:
                 entry['status'] = 'ok'
                 if res.kind == 'lobe':
                     entry.update(self._phase(res))
+            if len(self.scenes) > 1:
+                entry['scene_index'] = self._scene_of.get(fid)
             features[fid] = entry
         pin = self._pin_angle()
+        extra: dict[str, Any] = {}
+        if len(self.scenes) > 1:
+            extra['scenes'] = [{'index': k, 'camshaft_id': sc.camshaft_id,
+                                'from_log_time_ns': t}
+                               for k, (t, sc) in enumerate(self.scenes)]
         return _json_safe({
             'camshaft_id': scene.camshaft_id,
             'direction': scene.direction,
@@ -349,4 +375,5 @@ class MetrologyCore:
             'final': final,
             'dowel_pin_angle_deg': None if pin is None else float(np.degrees(pin)),
             'units': {'angles': 'deg (encoder frame, [0, 360))', 'lift_error': 'um'},
+            **extra,
         })
