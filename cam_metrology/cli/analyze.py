@@ -119,6 +119,30 @@ def run(args: argparse.Namespace) -> int:
               f'of the scene was measured from its {JOINT_TOPIC} samples (see the '
               'report)', file=sys.stderr)
         return 1
+    return verdict_exit_code(report)
+
+
+#: exit status of analyze for a part rejected against its tolerances (docs/contract.md)
+EXIT_REJECTED = 3
+
+
+def verdict_exit_code(report: dict[str, Any]) -> int:
+    """3 for a rejected part, 1 when the scene has tolerances that could not all be
+    checked (never a silent 0), else 0; the reason goes to stderr."""
+    verdict = report.get('verdict') or {}
+    if verdict.get('result') == 'fail':
+        failed = verdict.get('failed') or []
+        first = failed[0] if failed else {}
+        print(f"cam-bench analyze: part rejected: {len(failed)} check(s) out of tolerance"
+              + (f" (first: {first.get('feature')} {first.get('quantity')} = "
+                 f"{first.get('value'):.4g} {first.get('unit')}, limit {first.get('limit'):g})"
+                 if first else ''), file=sys.stderr)
+        return EXIT_REJECTED
+    if verdict.get('result') == 'not checked' and verdict.get('checks', 0) + len(
+            [m for m in verdict.get('not_checked') or [] if m.get('feature') != '*']) > 0:
+        print('cam-bench analyze: verdict not checked: some toleranced quantities could not '
+              'be evaluated (see the report)', file=sys.stderr)
+        return 1
     return 0
 
 
@@ -178,7 +202,8 @@ def human_report(report: dict[str, Any]) -> str:
                      f"{_fmt(f.get('asymmetry_deg'), '10.5f')}{_fmt(rms, '12.3f')}  {status}")
     for item in report.get('skipped', []):
         lines.append(f"skipped {item['what']}: {item['why']}")
-    return '\n'.join(lines)
+    from cam_metrology.metrology.tolerances import verdict_lines
+    return '\n'.join(verdict_lines(report) + lines)
 
 
 def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, Any]) -> None:

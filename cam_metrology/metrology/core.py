@@ -340,8 +340,13 @@ class MetrologyCore:
                     entry.update(self._phase(res))
             features[fid] = entry
         pin = self._pin_angle()
+        from cam_metrology.metrology.tolerances import judge_part
+        verdict = judge_part(scene, features,
+                             {f: r.table for f, r in self.results.items() if r.kind == 'lobe'},
+                             self._design)
         return _json_safe({
             'camshaft_id': scene.camshaft_id,
+            'verdict': verdict,
             'direction': scene.direction,
             'features': features,
             'skipped': self.skipped(),
