@@ -50,10 +50,9 @@ class Tolerances:
 
     def any(self) -> bool:
         """True if at least one limit is set."""
-        return any(v is not None for v in (self.lift_error_um, self.centreline_deg,
-                                            self.phase_deg, self.max_lift_um,
-                                            self.runout_max_um, self.duration_deg)) \
-            or bool(self.lift_error_zones)
+        limits = (self.lift_error_um, self.centreline_deg, self.phase_deg,
+                  self.max_lift_um, self.runout_max_um, self.duration_deg)
+        return any(v is not None for v in limits) or bool(self.lift_error_zones)
 
 
 @dataclass(frozen=True)
