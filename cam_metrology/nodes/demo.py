@@ -195,7 +195,7 @@ def report_lines(report: dict[str, Any] | None, truth: dict[str, Any] | None) ->
         if isinstance(item, dict):
             lines.append(f'skipped: {item.get("what")} ({item.get("why")})')
     from cam_metrology.metrology.tolerances import verdict_lines
-    return lines + verdict_lines(report)
+    return verdict_lines(report) + lines
 
 
 def _fmt(text: str, digits: int) -> str:
