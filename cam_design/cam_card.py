@@ -243,9 +243,14 @@ def _common(max_lift: float, peak_alpha: float, entries: list[dict[str, Any]],
 
 
 def card_from_law(law: Callable[..., Any], heights: Sequence[float] = DEFAULT_HEIGHTS_M,
-                  *, rocker_ratio: float | None = None, key: str = 'heights'
-                  ) -> dict[str, Any]:
-    """The design card of a lift law (module doc for every field)."""
+                  *, rocker_ratio: float | None = None, key: str = 'heights',
+                  derivatives: Callable[..., Any] | None = None,
+                  derivative_points: int = _GRID) -> dict[str, Any]:
+    """The design card of a lift law (module doc for every field).
+
+    ``derivatives``: the law whose h', h'', h''' are reported (default ``law``; e.g. the
+    exact converted lift when ``law`` is its C2 tabulation, whose h''' has spikes),
+    sampled at ``derivative_points`` evenly spaced angles over the support."""
     from scipy.integrate import quad
 
     peak_alpha, max_lift = law_peak(law)
@@ -260,7 +265,9 @@ def card_from_law(law: Callable[..., Any], heights: Sequence[float] = DEFAULT_HE
     card = _common(max_lift, peak_alpha, _height_entries(events), area, support,
                    rocker_ratio)
     card['source'] = 'design'
-    d = np.stack([np.asarray(law(a, k), dtype=float) for k in (1, 2, 3)])
+    dlaw = law if derivatives is None else derivatives
+    ad = a if derivative_points == _GRID else np.linspace(lo, hi, derivative_points)
+    d = np.stack([np.asarray(dlaw(ad, k), dtype=float) for k in (1, 2, 3)])
     for k, (name, unit) in enumerate((('velocity', 'mm_per_deg'),
                                       ('acceleration', 'mm_per_deg2'),
                                       ('jerk', 'mm_per_deg3')), start=1):
