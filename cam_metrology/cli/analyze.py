@@ -35,6 +35,11 @@ def register(subparsers: Any) -> None:
                    '(node_name: ros__parameters: ...)')
     p.add_argument('--only-metrology', action='store_true',
                    help='run only the metrology core')
+    p.add_argument('--report', metavar='FILE.html', help='write a self-contained HTML report '
+                   '(verdict, cam card, results, plots, provenance)')
+    p.add_argument('--csv', metavar='FILE|-', help='write the per-feature results as CSV')
+    p.add_argument('--heights-mm', metavar='LIST', default=None,
+                   help='cam-card checking heights in mm (default 1,1.27,0.1)')
     p.set_defaults(func=run)
 
 
@@ -102,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
     metrology = next(c for c in cores if c.name == 'metrology')
     report = final_report(outputs, metrology)
     report['skipped'] = report.get('skipped', []) + other_skips(outputs) + missing
+    tables = add_cards_and_provenance(report, metrology, args)
     if args.json:
         from cam_metrology.files import write_output
         write_output(args.json, json.dumps(report, indent=1) + '\n', '--json')
@@ -109,6 +115,14 @@ def run(args: argparse.Namespace) -> int:
         print(human_report(report))
     if args.plot:
         write_plots(outputs, Path(args.plot), report)
+    if args.report:
+        from cam_metrology.files import write_output
+        from cam_metrology.html_report import html_report
+        write_output(args.report, html_report(report, tables), '--report')
+    if args.csv:
+        from cam_metrology.files import write_output
+        from cam_metrology.html_report import csv_text
+        write_output(args.csv, csv_text(report), '--csv')
     if args.out_bag:
         from cam_metrology.files import atomic_dir
         from cam_metrology.replay import write_outputs
@@ -120,6 +134,28 @@ def run(args: argparse.Namespace) -> int:
               'report)', file=sys.stderr)
         return 1
     return verdict_exit_code(report)
+
+
+def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
+                             args: argparse.Namespace) -> dict[str, Any]:
+    """Add ``features.<id>.cam_card`` {measured, nominal} and ``provenance`` to the
+    report; returns the lift tables (feature id -> table) for the plots."""
+    from cam_metrology.cli.card import heights_from, measured_cards
+    from cam_metrology.provenance import provenance
+
+    results = getattr(metrology, 'results', {})
+    tables = {f: r.table for f, r in results.items() if r.table is not None}
+    scene = getattr(metrology, 'scene', None)
+    if scene is not None:
+        lobes = {f: t for f, t in tables.items() if results[f].kind == 'lobe'}
+        cards = measured_cards(scene, report.get('features', {}), lobes,
+                               getattr(metrology, '_design', {}), heights_from(args))
+        for fid, card in cards.items():
+            report['features'][fid]['cam_card'] = card
+    report['provenance'] = provenance(
+        bag=args.bag, scene_text=scene.text if scene is not None else None,
+        params=load_params(args.params) or None, command='analyze')
+    return tables
 
 
 #: exit status of analyze for a part rejected against its tolerances (docs/contract.md)
