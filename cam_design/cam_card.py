@@ -282,7 +282,7 @@ def card_from_law(law: Callable[..., Any], heights: Sequence[float] = DEFAULT_HE
 
 def card_from_table(alpha: Any, lift: Any, heights: Sequence[float] = DEFAULT_HEIGHTS_M,
                     reference: Any = None, *, rocker_ratio: float | None = None,
-                    key: str = 'heights') -> dict[str, Any]:
+                    key: str = 'heights', source: str = 'measured') -> dict[str, Any]:
     """The card of a measured lift table (``reference``: the design law for the same
     probe, used for the local fits; module doc). Derivatives of measured data are not
     given here (they need a smoothing model: ``cam-bench reconstruct``)."""
@@ -300,7 +300,7 @@ def card_from_table(alpha: Any, lift: Any, heights: Sequence[float] = DEFAULT_HE
     area = float(trap(h[inside], a[inside])) if np.count_nonzero(inside) > 1 else 0.0
     card = _common(max_lift, peak_alpha, _height_entries(events), area, support,
                    rocker_ratio)
-    card['source'] = 'measured'
+    card['source'] = source
     card['derivatives'] = 'not computed from measured points (cam-bench reconstruct)'
     return card
 

@@ -74,8 +74,8 @@ def feature_figure(fid: str, table: Any, feature: Mapping[str, Any]) -> Any:
         for y in band:
             ax.axhline(y, color='tab:red', lw=1.0, ls='--')
         span += list(band)
-        ax.text(0.01, 0.95, f'tolerance {band[0]:g} .. {band[1]:g} µm (on the lobe)', color='tab:red',
-                transform=ax.transAxes, va='top', fontsize=8)
+        ax.text(0.01, 0.95, f'tolerance {band[0]:g} .. {band[1]:g} µm (on the lobe)',
+                color='tab:red', transform=ax.transAxes, va='top', fontsize=8)
     for c in (feature.get('verdict') or {}).get('checks', []):
         q = c['quantity']
         if q.startswith('lift_error_um[') and q.endswith('.max_plus'):

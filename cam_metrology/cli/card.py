@@ -185,7 +185,7 @@ def run(args: argparse.Namespace) -> int:
         kind = 'table'
         table = read_table_file(path)
         cards = {table.feature: card_from_table(table.alpha, table.lift, heights,
-                                                key='--heights-mm')}
+                                                key='--heights-mm', source='table')}
         flat = cards
     doc: dict[str, Any] = {'input': str(path), 'kind': kind,
                            'heights_m': list(heights), 'cards': cards}
