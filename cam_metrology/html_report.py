@@ -27,7 +27,7 @@ CSV_COLUMNS = ('feature', 'kind', 'status', 'verdict', 'angle_deg', 'angle_std_a
 _STYLE = """
 body{font-family:sans-serif;margin:1.5em;color:#222}
 table{border-collapse:collapse;margin:0.5em 0 1.2em}
-td,th{border:1px solid #bbb;padding:2px 8px;text-align:right}
+td,th{border:1px solid #bbb;padding:2px 8px;text-align:right;white-space:nowrap}
 th{background:#eee} td.l,th.l{text-align:left}
 .pass{background:#c8f0c8}.fail{background:#f6b8b8}.nc{background:#f3e6a8}
 .verdict{font-size:1.6em;font-weight:bold;padding:0.4em 0.8em;display:inline-block}
@@ -41,6 +41,10 @@ def _e(x: Any) -> str:
 
 def _n(x: Any, spec: str) -> str:
     return '-' if x is None else format(x, spec)
+
+
+def _unit(unit: str) -> str:
+    return 'µm' if unit == 'um' else unit
 
 
 def _cls(result: str | None) -> str:
@@ -99,7 +103,7 @@ def _verdict_html(report: Mapping[str, Any]) -> str:
             lo = '-' if c['lower'] is None else f"{c['lower']:g}"
             rows.append(f'<tr class="{_cls(c["result"])}"><td class="l">{_e(fid)}</td>'
                         f'<td class="l">{_e(c["quantity"])}</td><td>{c["value"]:.4g}</td>'
-                        f'<td>{lo}</td><td>{c["upper"]:g}</td><td class="l">{_e(c["unit"])}'
+                        f'<td>{lo}</td><td>{c["upper"]:g}</td><td class="l">{_e(_unit(c["unit"]))}'
                         f'</td><td class="l">{_e(c["result"])}'
                         f'{" (within 2 std of a limit)" if c.get("uncertain") else ""}'
                         '</td></tr>')
