@@ -16,7 +16,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-__all__ = ['html_report', 'csv_text', 'CSV_COLUMNS']
+__all__ = ['html_report', 'csv_text', 'card_lines', 'CSV_COLUMNS']
 
 CSV_COLUMNS = ('feature', 'kind', 'status', 'verdict', 'angle_deg', 'angle_std_arcsec',
                'phase_deg', 'phase_error_deg', 'lift_error_max_plus_um',
@@ -229,3 +229,24 @@ def csv_text(report: Mapping[str, Any]) -> str:
         w.writerow(['' if x is None else (f'{x:.10g}' if isinstance(x, float) else x)
                     for x in row])
     return buf.getvalue()
+
+
+def card_lines(report: Mapping[str, Any]) -> list[str]:
+    """One line per measured lobe: the cam card at the first checking height, measured /
+    nominal (for the human report of ``analyze``)."""
+    lines = []
+    for fid, f in (report.get('features') or {}).items():
+        card = f.get('cam_card')
+        if not card:
+            continue
+        if 'error' in card:
+            lines.append(f'card {fid}: not computed: {card["error"]}')
+            continue
+        m, n = card['measured'], card['nominal']
+        em, en = m['heights'][0], n['heights'][0]
+        lines.append(f'card {fid:<10} measured/nominal: max lift {m["max_lift_mm"]:.4f}/'
+                     f'{n["max_lift_mm"]:.4f} mm; @{em["height_mm"]:g} mm '
+                     f'{em["opening_deg"]:.2f}/{en["opening_deg"]:.2f} .. '
+                     f'{em["closing_deg"]:.2f}/{en["closing_deg"]:.2f} deg, duration '
+                     f'{em["duration_cam_deg"]:.3f}/{en["duration_cam_deg"]:.3f}')
+    return lines

@@ -299,6 +299,8 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
         feats[DOWEL_PIN] = {'kind': 'dowel_pin', 'angle_deg': pin_angle * deg,
                             'angle_rad': pin_angle, 'samples': n}
     p = asdict(params)
+    if p.get('lift_scale') == 1.0:   # the design itself: truth as before the option existed
+        del p['lift_scale']
     return {
         'camshaft_id': scene.camshaft_id,
         'direction': scene.direction,

@@ -98,3 +98,12 @@ def test_report_renders_in_a_headless_browser(analysed, tmp_path) -> None:
     assert run.returncode == 0, run.stderr[-2000:]
     assert '<title>loaded 3 of 3</title>' in run.stdout
     assert 'FAIL: part rejected' in run.stdout
+
+
+def test_human_report_has_verdict_and_card(analysed, capsys) -> None:
+    assert main(['analyze', str(analysed['bag']), '--only-metrology',
+                 '--heights-mm', '0.5']) == 3
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith('verdict: FAIL')
+    card = next(line for line in out if line.startswith('card lobe_1'))
+    assert '@0.5 mm' in card

@@ -238,8 +238,9 @@ def human_report(report: dict[str, Any]) -> str:
                      f"{_fmt(f.get('asymmetry_deg'), '10.5f')}{_fmt(rms, '12.3f')}  {status}")
     for item in report.get('skipped', []):
         lines.append(f"skipped {item['what']}: {item['why']}")
+    from cam_metrology.html_report import card_lines
     from cam_metrology.metrology.tolerances import verdict_lines
-    return '\n'.join(verdict_lines(report) + lines)
+    return '\n'.join(verdict_lines(report) + lines + card_lines(report))
 
 
 def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, Any]) -> None:
