@@ -292,3 +292,21 @@ def test_analyze_exit_status_accepts_and_rejects(bags, capsys) -> None:
         # the +-1 deg window: 0.003 deg off measured, 0.005 allowed (the card's 0.01 deg)
         assert checks['duration_error_deg@1mm'] == pytest.approx(
             math.degrees((c - o) - (c0 - o0)), abs=5e-3)
+
+
+def test_exit_code_rules(capsys) -> None:
+    from cam_metrology.cli.analyze import EXIT_REJECTED, verdict_exit_code
+
+    fail = {'verdict': {'result': FAIL, 'checks': 3, 'not_checked': [], 'failed': [
+        {'feature': 'lobe_1', 'quantity': 'phase_error_deg', 'value': 0.7, 'limit': 0.5,
+         'unit': 'deg'}]}}
+    assert verdict_exit_code(fail) == EXIT_REJECTED == 3
+    assert 'lobe_1 phase_error_deg = 0.7 deg, limit 0.5' in capsys.readouterr().err
+    gap = {'verdict': {'result': NOT_CHECKED, 'checks': 0, 'failed': [], 'not_checked': [
+        {'feature': 'lobe_1', 'quantity': 'phase_error_deg', 'why': 'no phase'}]}}
+    assert verdict_exit_code(gap) == 1
+    untoleranced = {'verdict': {'result': NOT_CHECKED, 'checks': 0, 'failed': [],
+                                'not_checked': [{'feature': '*', 'quantity': '*',
+                                                 'why': 'the scene has no tolerances'}]}}
+    assert verdict_exit_code(untoleranced) == 0
+    assert verdict_exit_code({'verdict': {'result': PASS, 'checks': 4}}) == 0
