@@ -107,3 +107,21 @@ def test_human_report_has_verdict_and_card(analysed, capsys) -> None:
     assert out[0].startswith('verdict: FAIL')
     card = next(line for line in out if line.startswith('card lobe_1'))
     assert '@0.5 mm' in card
+
+
+def test_card_of_a_bag_and_its_measured_profile_file(analysed, tmp_path, capsys) -> None:
+    from cam_metrology.reconstruction.samples import read_gauge_file
+
+    out = tmp_path / 'lobe_1.txt'
+    assert main(['card', str(analysed['bag']), '--lobe', 'lobe_1', '--nominal', str(out),
+                 '--json', '-']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    measured = doc['cards']['lobe_1']['measured']
+    assert measured['max_lift_mm'] == pytest.approx(8.5 * 1.003, abs=2e-4)   # the truth
+    table = read_gauge_file(out)
+    assert table.follower == ('roller', pytest.approx(0.0125))
+    assert main(['card', str(out), '--json', '-']) == 0
+    again = json.loads(capsys.readouterr().out)['cards']['lobe_1']
+    assert again['max_lift_mm'] == pytest.approx(measured['max_lift_mm'], abs=1e-4)
+    assert again['heights'][0]['duration_cam_deg'] == pytest.approx(
+        measured['heights'][0]['duration_cam_deg'], abs=0.01)

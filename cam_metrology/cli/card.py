@@ -34,6 +34,10 @@ def register(subparsers: Any) -> None:
                    help='with --pair: intake centreline in crank deg ATDC; gives the valve '
                         'events of both lobes in crank degrees (BTDC/ABDC, BBDC/ATDC)')
     p.add_argument('--json', metavar='FILE|-', help='write the cards as JSON')
+    p.add_argument('--nominal', metavar='FILE', help='write the lobe (--lobe, or the only '
+                   'one) as a gauge nominal-profile file: a scene lobe as seen by the scene '
+                   'probe every 0.5 deg, a table as read, a bag lobe as measured (referenced '
+                   'to its base circle)')
     p.set_defaults(func=run)
 
 
@@ -115,6 +119,8 @@ def measured_cards(scene: Any, features: dict[str, Any], tables: dict[str, Any],
         from cam_metrology.metrology.tolerances import base_referenced
         table, good = base_referenced(table, bool(features[fid].get('runout_fitted')))
         table = table[good]
+        _NOMINAL_DATA[fid] = (table[:, 0], table[:, 1],
+                              scene.probe.radius if scene.probe.kind == 'roller' else 0.0)
         try:
             out[fid] = {
                 'measured': card_from_table(table[:, 0], table[:, 1], heights, design,
@@ -159,12 +165,48 @@ def bag_cards(bag: str, heights: tuple[float, ...], lobe: str | None
     return cards, phases
 
 
+def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) -> None:
+    """``card --nominal FILE`` (see the option's help)."""
+    import numpy as np
+
+    from cam_design.errors import InputError
+    from cam_metrology.files import write_output
+    from cam_metrology.nominal_file import gauge_text, law_gauge_text
+    from cam_metrology.reconstruction.samples import clean_samples
+
+    ids = list(cards)
+    lobe = args.lobe or (ids[0] if len(ids) == 1 else None)
+    if lobe is None or lobe not in ids:
+        raise InputError('--lobe', args.lobe, 'the lobe to write with --nominal: one of '
+                         + ', '.join(ids))
+    note = [f'from {args.input} ({kind}), lobe {lobe}; deg and mm']
+    if kind == 'scene':
+        from cam_metrology.metrology.analysis import seen_lift
+        from cam_metrology.scene_parse import load_scene
+
+        scene = load_scene(args.input)
+        law = seen_lift(scene.lobe(lobe), scene.probe, scene.base_circle_radius,
+                        tabulate_step=None)
+        radius = scene.probe.radius if scene.probe.kind == 'roller' else 0.0
+        text = law_gauge_text(law, 0.5, radius, note + ['as seen by the scene probe'])
+    else:
+        alpha, lift, radius = _NOMINAL_DATA[lobe]
+        data = clean_samples(alpha, lift, key=lobe)
+        text = gauge_text(np.degrees(data.alpha), data.lift, radius, note)
+    write_output(args.nominal, text, '--nominal')
+
+
+#: lobe -> (alpha [rad], lift [m], probe radius [m]) of tables and bags, for --nominal
+_NOMINAL_DATA: dict[str, tuple[Any, Any, float]] = {}
+
+
 def run(args: argparse.Namespace) -> int:
     """Handler of ``cam-bench card``."""
     from cam_design.cam_card import card_from_table, card_text
     from cam_design.errors import InputError
 
     heights = heights_from(args)
+    _NOMINAL_DATA.clear()
     path = Path(args.input)
     if not path.exists():
         raise InputError('input', args.input, 'an existing scene, lift table or bag')
@@ -189,7 +231,11 @@ def run(args: argparse.Namespace) -> int:
         table = read_table_file(path)
         cards = {table.feature: card_from_table(table.alpha, table.lift, heights,
                                                 key='--heights-mm', source='table')}
+        _NOMINAL_DATA[table.feature] = (table.alpha, table.lift,
+                                        table.follower[1] if table.follower else 0.0)
         flat = cards
+    if args.nominal:
+        write_nominal(args, kind, cards)
     doc: dict[str, Any] = {'input': str(path), 'kind': kind,
                            'heights_m': list(heights), 'cards': cards}
     if args.pair:
