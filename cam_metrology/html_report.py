@@ -66,7 +66,8 @@ def _band_of(feature: Mapping[str, Any]) -> tuple[float, float] | None:
 
 def feature_figure(fid: str, table: Any, feature: Mapping[str, Any]) -> Any:
     """The lift figure of ``analyze --plot`` with the tolerance band and zones drawn on
-    the lift-error axis (the error axis is scaled to the measured error and the band)."""
+    the lift-error axis (scaled to the measured error and the band, at least +-0.5 um).
+    For a lobe, ``table`` is the base-referenced table the verdict uses."""
     from cam_metrology.cli.analyze import lift_figure
 
     fig = lift_figure(fid, table, dict(feature))
@@ -86,8 +87,11 @@ def feature_figure(fid: str, table: Any, feature: Mapping[str, Any]) -> Any:
             a0, a1 = (float(v) for v in q[len('lift_error_um['):q.index(' deg]')].split('..'))
             ax.fill_between([a0, a1], c['lower'], c['upper'], color='tab:red', alpha=0.12)
             span += [c['lower'], c['upper']]
-    pad = 0.1 * (max(span) - min(span) or 1.0)
-    ax.set_ylim(min(span) - pad, max(span) + pad)
+    mid = 0.5 * (max(span) + min(span))
+    half = max(0.5 * (max(span) - min(span)) * 1.1, 0.5)   # at least +-0.5 um shown
+    ax.set_ylim(mid - half, mid + half)
+    if feature.get('kind', 'lobe') == 'lobe':
+        ax.set_ylabel('measured - design [µm]\n(base circle = 0)')
     return fig
 
 
@@ -167,7 +171,10 @@ def _results_html(report: Mapping[str, Any]) -> str:
                     f'<td>{_n(err.get("rms"), ".2f")}</td>'
                     f'<td>{_n(f.get("base_circle_runout_um"), ".2f")}</td>'
                     f'<td class="l">{_e(status)}</td></tr>')
-    return ('<table><tr><th class="l">feature</th><th>angle deg</th><th>std arcsec</th>'
+    return ('<p>Lift errors here are the residual of the metrology fit (its lift offset '
+            'is fitted over the whole lobe); the verdict and the plots use the lift '
+            'referenced to the base circle alone.</p>'
+            '<table><tr><th class="l">feature</th><th>angle deg</th><th>std arcsec</th>'
             '<th>phase deg</th><th>phase error deg</th><th>lift error + µm</th>'
             '<th>lift error − µm</th><th>lift error rms µm</th><th>run-out TIR µm</th>'
             '<th class="l">status</th></tr>' + ''.join(rows) + '</table>')

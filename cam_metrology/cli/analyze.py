@@ -139,8 +139,10 @@ def run(args: argparse.Namespace) -> int:
 def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
                              args: argparse.Namespace) -> dict[str, Any]:
     """Add ``features.<id>.cam_card`` {measured, nominal} and ``provenance`` to the
-    report; returns the lift tables (feature id -> table) for the plots."""
+    report; returns the lift tables (feature id -> table) for the HTML plots, those of
+    lobes referenced to the base circle as the verdict uses them."""
     from cam_metrology.cli.card import heights_from, measured_cards
+    from cam_metrology.metrology.tolerances import base_referenced
     from cam_metrology.provenance import provenance
 
     results = getattr(metrology, 'results', {})
@@ -152,6 +154,10 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
                                getattr(metrology, '_design', {}), heights_from(args))
         for fid, card in cards.items():
             report['features'][fid]['cam_card'] = card
+        for fid, table in lobes.items():
+            ref, good = base_referenced(
+                table, bool(report['features'].get(fid, {}).get('runout_fitted')))
+            tables[fid] = ref[good]
     report['provenance'] = provenance(
         bag=args.bag, scene_text=scene.text if scene is not None else None,
         params=load_params(args.params) or None, command='analyze')
