@@ -13,8 +13,46 @@ from typing import Any
 from cam_design.follower import Follower
 from cam_design.lift_laws import LiftLaw
 
-__all__ = ['Follower', 'Lobe', 'DowelPin', 'Seat', 'ValveTrain', 'Scene', 'COMPUTE_ITEMS']
+__all__ = ['Follower', 'Lobe', 'DowelPin', 'Seat', 'ValveTrain', 'Scene', 'COMPUTE_ITEMS',
+           'Band', 'ToleranceZone', 'Tolerances']
 COMPUTE_ITEMS = ('nose', 'pin', 'asymmetry', 'reconstruction', 'dynamics')
+
+
+#: a tolerance band (lower, upper) around the nominal, in the unit of its key; lower <= 0 <= upper
+Band = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class ToleranceZone:
+    """A lift-error band [um] over the cam angles ``from_deg``..``to_deg`` (from the
+    lobe centreline, rise flank negative)."""
+
+    from_deg: float
+    to_deg: float
+    band_um: Band
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Acceptance limits of one lobe (docs/scene.md "tolerances"); None: not toleranced.
+
+    Units are in the names: lift error, max lift and run-out in um, angles in cam deg,
+    the checking height of the duration in mm."""
+
+    lift_error_um: Band | None = None
+    lift_error_zones: tuple[ToleranceZone, ...] = ()
+    centreline_deg: Band | None = None
+    phase_deg: Band | None = None
+    max_lift_um: Band | None = None
+    runout_max_um: float | None = None
+    duration_deg: Band | None = None
+    checking_height_mm: float = 1.0
+
+    def any(self) -> bool:
+        """True if at least one limit is set."""
+        limits = (self.lift_error_um, self.centreline_deg, self.phase_deg,
+                  self.max_lift_um, self.runout_max_um, self.duration_deg)
+        return any(v is not None for v in limits) or bool(self.lift_error_zones)
 
 
 @dataclass(frozen=True)
@@ -27,6 +65,7 @@ class Lobe:
     nominal_phase: float | None = None
     lift_spec: dict[str, Any] | None = None   # the scene's lift_law mapping, if any
     width: float | None = None                # m, cam width (Hertz contact line length)
+    tolerances: Tolerances | None = None      # defaults merged with the lobe's own
 
 
 @dataclass(frozen=True)
@@ -82,6 +121,7 @@ class Scene:
     valve_train: ValveTrain | None = None
     idle_timeout: float = 1.0                 # s
     text: str = ''
+    datum_tolerance_deg: Band | None = None   # pin centre angle vs its nominal_angle
     warnings: tuple[str, ...] = ()
 
     def wants(self, item: str) -> bool:

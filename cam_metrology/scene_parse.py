@@ -24,17 +24,20 @@ from cam_design.errors import InputError, require_finite, require_positive
 from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import design_table
 from cam_metrology.files import read_text_file
-from cam_metrology.scene import (COMPUTE_ITEMS, DowelPin, Follower, Lobe, Scene, Seat,
-                                 ValveTrain)
+from cam_metrology.scene import (COMPUTE_ITEMS, Band, DowelPin, Follower, Lobe, Scene, Seat,
+                                 ToleranceZone, Tolerances, ValveTrain)
 
 __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
-            'dowel_pin', 'compute', 'valve_train', 'idle_timeout')
+            'dowel_pin', 'compute', 'valve_train', 'idle_timeout', 'tolerances')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law',
-             'width')
+             'width', 'tolerances')
+#: tolerance keys of a lobe (units in the names); the top-level block adds datum_deg
+TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
+TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'runout_max_um', 'checking_height_mm')
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 VALVE_MODELS = ('sdof', 'mdof', 'hydraulic')
 #: valve_train keys the hydraulic model does not use, with the value it takes
@@ -122,8 +125,11 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
     if 'base_circle_radius' not in top:
         raise InputError('base_circle_radius', None, 'the base circle radius in m (> 0)')
     base = require_positive('base_circle_radius', top['base_circle_radius'])
-    lobes = _lobes(ctx, top.get('lobes', []), base)
+    defaults = _tolerance_block(ctx, 'tolerances', top.get('tolerances'), TOL_KEYS +
+                                ('datum_deg',))
+    lobes = _lobes(ctx, top.get('lobes', []), base, defaults)
     pin = _dowel_pin(ctx, top['dowel_pin']) if top.get('dowel_pin') is not None else None
+    datum = _datum_tolerance(defaults, pin)
     if not lobes and pin is None:
         raise InputError('lobes', top.get('lobes', []),
                          'at least one lobe (or a dowel_pin): nothing to measure')
@@ -138,7 +144,7 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
     return Scene(camshaft_id=camshaft_id, direction=direction, probe=probe,
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
-                 warnings=tuple(ctx.warnings))
+                 datum_tolerance_deg=datum, warnings=tuple(ctx.warnings))
 
 
 class _DuplicateKey(Exception):
@@ -221,7 +227,8 @@ def _probe(ctx: _Ctx, value: Any) -> Follower:
 
 # -------------------------------------------------------------------------- lobes
 
-def _lobes(ctx: _Ctx, value: Any, base: float) -> list[Lobe]:
+def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None = None
+           ) -> list[Lobe]:
     if value is None:
         return []
     if not isinstance(value, list):
@@ -263,8 +270,9 @@ def _lobes(ctx: _Ctx, value: Any, base: float) -> list[Lobe]:
         width = lobe.get('width')
         if width is not None:
             width = require_positive(f'{key}.width', width)
+        tol = _lobe_tolerances(ctx, key, lobe.get('tolerances'), defaults or {}, law, phase)
         lobes.append(Lobe(id=lobe_id, follower=follower, lift=law, nominal_phase=phase,
-                          lift_spec=spec, width=width))
+                          lift_spec=spec, width=width, tolerances=tol))
     return lobes
 
 
@@ -469,3 +477,105 @@ def _speeds(value: Any) -> tuple[float, ...]:
         raise InputError('valve_train.cam_speed_rpm', value, 'at least one camshaft speed')
     return tuple(require_positive(f'valve_train.cam_speed_rpm[{j}]', v)
                  for j, v in enumerate(value))
+
+
+# --------------------------------------------------------------------- tolerances
+
+def _band(key: str, value: Any) -> Band:
+    """``t`` (>= 0) -> (-t, t); ``[lower, upper]`` with lower <= 0 <= upper, lower < upper."""
+    if isinstance(value, (list, tuple)):
+        if len(value) != 2:
+            raise InputError(key, value, 'a band: one number t >= 0 (meaning +-t) or '
+                             '[lower, upper]')
+        lo = require_finite(f'{key}[0]', value[0])
+        hi = require_finite(f'{key}[1]', value[1])
+        if not lo < hi:
+            raise InputError(key, value, '[lower, upper] with lower < upper (the limits '
+                             'contradict each other)')
+        if not lo <= 0.0 <= hi:
+            raise InputError(key, value, '[lower, upper] with lower <= 0 <= upper (a band '
+                             'the nominal part is inside)')
+        return (lo, hi)
+    t = require_positive(key, value)
+    return (-t, t)
+
+
+def _zones(ctx: _Ctx, key: str, value: Any) -> tuple[ToleranceZone, ...]:
+    if not isinstance(value, list) or not value:
+        raise InputError(key, value, 'a list of {from_deg, to_deg, band_um}')
+    zones = []
+    for j, item in enumerate(value):
+        zk = f'{key}[{j}]'
+        z = ctx.mapping(zk, item, ('from_deg', 'to_deg', 'band_um'))
+        for part in ('from_deg', 'to_deg', 'band_um'):
+            if part not in z:
+                raise InputError(f'{zk}.{part}', None, 'a value (from_deg < to_deg in cam '
+                                 'deg from the lobe centreline, band_um t or [lower, upper])')
+        lo = require_finite(f'{zk}.from_deg', z['from_deg'])
+        hi = require_finite(f'{zk}.to_deg', z['to_deg'])
+        if not -180.0 <= lo < hi <= 180.0:
+            raise InputError(f'{zk}.to_deg', hi, f'an angle > from_deg ({lo:g}) within '
+                             '[-180, 180] deg')
+        zones.append(ToleranceZone(lo, hi, _band(f'{zk}.band_um', z['band_um'])))
+    ordered = sorted(zones, key=lambda zz: zz.from_deg)
+    for a, b in zip(ordered, ordered[1:]):
+        if b.from_deg < a.to_deg:
+            raise InputError(key, f'zones {a.from_deg:g}..{a.to_deg:g} and {b.from_deg:g}..'
+                             f'{b.to_deg:g} deg overlap', 'zones that do not overlap (two '
+                             'bands for one angle contradict each other)')
+    return tuple(ordered)
+
+
+def _tolerance_block(ctx: _Ctx, key: str, value: Any, known: tuple[str, ...]
+                     ) -> dict[str, Any]:
+    """The validated entries of one tolerances mapping (absent keys absent)."""
+    if value is None:
+        return {}
+    block = ctx.mapping(key, value, known)
+    out: dict[str, Any] = {}
+    for k in TOL_BANDS + ('datum_deg',):
+        if k in block and k in known:
+            out[k] = _band(f'{key}.{k}', block[k])
+    if 'lift_error_zones' in block:
+        out['lift_error_zones'] = _zones(ctx, f'{key}.lift_error_zones',
+                                         block['lift_error_zones'])
+    if 'runout_max_um' in block:
+        out['runout_max_um'] = require_positive(f'{key}.runout_max_um', block['runout_max_um'],
+                                                allow_zero=True)
+    if 'checking_height_mm' in block:
+        out['checking_height_mm'] = require_positive(f'{key}.checking_height_mm',
+                                                     block['checking_height_mm'])
+    return out
+
+
+def _lobe_tolerances(ctx: _Ctx, key: str, value: Any, defaults: dict[str, Any],
+                     law: LiftLaw, phase: float | None) -> Tolerances | None:
+    """Defaults overridden key by key by the lobe's own block; None if nothing is set."""
+    own = _tolerance_block(ctx, f'{key}.tolerances', value, TOL_KEYS)
+    merged = {k: v for k, v in defaults.items() if k != 'datum_deg'}
+    merged.update(own)
+    if not merged:
+        return None
+    tol = Tolerances(**merged)
+    where = f'{key}.tolerances' if own else 'tolerances'
+    if tol.phase_deg is not None and phase is None:
+        raise InputError(f'{where}.phase_deg', tol.phase_deg, f'a {key}.nominal_phase to '
+                         'check the phase against (or no phase tolerance for this lobe)')
+    if tol.duration_deg is not None or tol.centreline_deg is not None:
+        peak = law.max_lift() * 1e3
+        if not tol.checking_height_mm < peak:
+            hk = f'{key}.tolerances' if 'checking_height_mm' in own else 'tolerances'
+            raise InputError(f'{hk}.checking_height_mm', tol.checking_height_mm,
+                             f'a checking height below the max lift of {key} '
+                             f'({peak:.4f} mm)')
+    return tol
+
+
+def _datum_tolerance(defaults: dict[str, Any], pin: DowelPin | None) -> Band | None:
+    band = defaults.get('datum_deg')
+    if band is None:
+        return None
+    if pin is None or pin.nominal_angle is None:
+        raise InputError('tolerances.datum_deg', band, 'a dowel_pin with a nominal_angle to '
+                         'check the datum against (or no datum tolerance)')
+    return band

@@ -82,6 +82,8 @@ class SimParams:
     feature_gap: float = _doc(0.05, 's, pause between two features (stamps)')
     start_ns: int | None = _doc(None, 'ns, stamp of the first sample (None: 2026-01-01)')
     reverse: bool = _doc(False, 'shaft turned backwards: theta decreases with time')
+    lift_scale: float = _doc(1.0, 'true lift of every lobe = lift_scale x its design lift '
+                             '(a form error for acceptance tests; 1: the design)')
 
     def validated(self) -> SimParams:
         """Raise InputError for an impossible parameter; return self."""
@@ -109,6 +111,7 @@ class SimParams:
         require_positive('pin_stop_depth', self.pin_stop_depth, allow_zero=True)
         require_positive('runout', self.runout, allow_zero=True)
         require_positive('feature_gap', self.feature_gap, allow_zero=True)
+        require_positive('lift_scale', self.lift_scale)
         if self.true_angles is not None:
             if not isinstance(self.true_angles, dict):
                 raise InputError('true_angles', self.true_angles, 'a mapping id -> rad')
@@ -234,6 +237,7 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     start_ns = DEFAULT_START_NS if params.start_ns is None else int(params.start_ns)
     gap_ns = int(round(params.feature_gap * 1e9))
     zero = params.probe_zero_offset
+    scale = float(params.lift_scale)
     order: list[tuple[str, str]] = [(lobe.id, 'lobe') for lobe in scene.lobes]
     if scene.dowel_pin is not None:
         order.append((DOWEL_PIN, 'dowel_pin'))
@@ -250,7 +254,7 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
             lobe = scene.lobe(fid)
             conversions[fid] = ('identity' if law is lobe.lift else
                                 f'{lobe.follower.kind} -> {scene.probe.kind}')
-            s = zero + law(alpha)
+            s = zero + (law(alpha) if scale == 1.0 else scale * law(alpha))
         else:
             pin = scene.dowel_pin
             geo = DowelPinGeometry(pin.pin_radius, pin.circle_radius, pin.probe_radius)
@@ -300,6 +304,8 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
         feats[DOWEL_PIN] = {'kind': 'dowel_pin', 'angle_deg': pin_angle * deg,
                             'angle_rad': pin_angle, 'samples': n}
     p = asdict(params)
+    if p.get('lift_scale') == 1.0:   # the design itself: truth as before the option existed
+        del p['lift_scale']
     return {
         'camshaft_id': scene.camshaft_id,
         'direction': scene.direction,

@@ -32,12 +32,22 @@ COMMAND_MODULES = (
     'cam_metrology.cli.design',        # design law|profile|check|rocker
     'cam_metrology.cli.grind',         # grind table|master|errors|correct
     'cam_metrology.cli.scene_cmds',    # scene check, simulate
+    'cam_metrology.cli.card',          # card
 )
 
 EPILOG = """\
 Units: SI in files and messages (m, rad, kg, N, s); reports add _deg, _um, _mm, _rpm
 fields. Bad input exits with code 2 and a message naming the key, the value and what
 was expected. See README.md for the topics, the scene file and the report schema."""
+
+
+class _Version(argparse.Action):
+    """``--version``: the version and git commit (git is run only when asked)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: object) -> None:
+        from cam_metrology.provenance import version_text
+        print(version_text())
+        parser.exit(0)
 
 
 class CliError(Exception):
@@ -51,6 +61,8 @@ def build_parser() -> argparse.ArgumentParser:
         description='Camshaft metrology, profile reconstruction and valve-train dynamics '
                     'on ROS 2, with MCAP recording and replay.',
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('--version', action=_Version, nargs=0,
+                        help='print the version (and git commit) and exit')
     sub = parser.add_subparsers(dest='command', metavar='COMMAND')
     register_modules(sub, COMMAND_MODULES)
     return parser

@@ -35,6 +35,11 @@ def register(subparsers: Any) -> None:
                    '(node_name: ros__parameters: ...)')
     p.add_argument('--only-metrology', action='store_true',
                    help='run only the metrology core')
+    p.add_argument('--report', metavar='FILE.html', help='write a self-contained HTML report '
+                   '(verdict, cam card, results, plots, provenance)')
+    p.add_argument('--csv', metavar='FILE|-', help='write the per-feature results as CSV')
+    p.add_argument('--heights-mm', metavar='LIST', default=None,
+                   help='cam-card checking heights in mm (default 1,1.27,0.1)')
     p.set_defaults(func=run)
 
 
@@ -112,6 +117,7 @@ def run(args: argparse.Namespace) -> int:
         report['warnings'] = report.get('warnings', []) + warnings
         for line in warnings:
             print(f'cam-bench analyze: warning: {line}', file=sys.stderr)
+    tables = add_cards_and_provenance(report, metrology, args)
     if args.json:
         from cam_metrology.files import write_output
         write_output(args.json, json.dumps(report, indent=1) + '\n', '--json')
@@ -119,6 +125,14 @@ def run(args: argparse.Namespace) -> int:
         print(human_report(report))
     if args.plot:
         write_plots(outputs, Path(args.plot), report)
+    if args.report:
+        from cam_metrology.files import write_output
+        from cam_metrology.html_report import html_report
+        write_output(args.report, html_report(report, tables), '--report')
+    if args.csv:
+        from cam_metrology.files import write_output
+        from cam_metrology.html_report import csv_text
+        write_output(args.csv, csv_text(report), '--csv')
     if args.out_bag:
         from cam_metrology.files import atomic_dir
         from cam_metrology.replay import write_outputs
@@ -128,6 +142,58 @@ def run(args: argparse.Namespace) -> int:
         print(f'cam-bench analyze: error: nothing was measured in {args.bag}: no feature '
               f'of the scene was measured from its {JOINT_TOPIC} samples (see the '
               'report)', file=sys.stderr)
+        return 1
+    return verdict_exit_code(report)
+
+
+def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
+                             args: argparse.Namespace) -> dict[str, Any]:
+    """Add ``features.<id>.cam_card`` {measured, nominal} and ``provenance`` to the
+    report; returns the lift tables (feature id -> table) for the HTML plots, those of
+    lobes referenced to the base circle as the verdict uses them."""
+    from cam_metrology.cli.card import heights_from, measured_cards
+    from cam_metrology.metrology.tolerances import base_referenced
+    from cam_metrology.provenance import provenance
+
+    results = getattr(metrology, 'results', {})
+    tables = {f: r.table for f, r in results.items() if r.table is not None}
+    scene = getattr(metrology, 'scene', None)
+    if scene is not None:
+        lobes = {f: t for f, t in tables.items() if results[f].kind == 'lobe'}
+        cards = measured_cards(scene, report.get('features', {}), lobes,
+                               getattr(metrology, '_design', {}), heights_from(args))
+        for fid, card in cards.items():
+            report['features'][fid]['cam_card'] = card
+        for fid, table in lobes.items():
+            ref, good = base_referenced(
+                table, bool(report['features'].get(fid, {}).get('runout_fitted')))
+            tables[fid] = ref[good]
+    report['provenance'] = provenance(
+        bag=args.bag, scene_text=scene.text if scene is not None else None,
+        params=load_params(args.params) or None, command='analyze')
+    return tables
+
+
+#: exit status of analyze for a part rejected against its tolerances (docs/contract.md)
+EXIT_REJECTED = 3
+
+
+def verdict_exit_code(report: dict[str, Any]) -> int:
+    """3 for a rejected part, 1 when the scene has tolerances that could not all be
+    checked (never a silent 0), else 0; the reason goes to stderr."""
+    verdict = report.get('verdict') or {}
+    if verdict.get('result') == 'fail':
+        failed = verdict.get('failed') or []
+        first = failed[0] if failed else {}
+        print(f"cam-bench analyze: part rejected: {len(failed)} check(s) out of tolerance"
+              + (f" (first: {first.get('feature')} {first.get('quantity')} = "
+                 f"{first.get('value'):.4g} {first.get('unit')}, limit {first.get('limit'):g})"
+                 if first else ''), file=sys.stderr)
+        return EXIT_REJECTED
+    if verdict.get('result') == 'not checked' and verdict.get('checks', 0) + len(
+            [m for m in verdict.get('not_checked') or [] if m.get('feature') != '*']) > 0:
+        print('cam-bench analyze: verdict not checked: some toleranced quantities could not '
+              'be evaluated (see the report)', file=sys.stderr)
         return 1
     return 0
 
@@ -205,7 +271,9 @@ def human_report(report: dict[str, Any]) -> str:
                      f"{_fmt(f.get('asymmetry_deg'), '10.5f')}{_fmt(rms, '12.3f')}  {status}")
     for item in report.get('skipped', []):
         lines.append(f"skipped {item['what']}: {item['why']}")
-    return '\n'.join(lines)
+    from cam_metrology.html_report import card_lines
+    from cam_metrology.metrology.tolerances import verdict_lines
+    return '\n'.join(verdict_lines(report) + lines + card_lines(report))
 
 
 def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, Any]) -> None:

@@ -29,6 +29,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--csv', metavar='FILE|-', help='write the table as CSV')
     p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
     p.add_argument('--plot', metavar='PNG', help='plot h, h\', h\'\' and h\'\'\' to a PNG')
+    p.add_argument('--nominal', metavar='FILE', help='write a gauge nominal-profile file '
+                   '(-180..180 deg every --nominal-step-deg; with a scene: the lift as seen '
+                   'by its probe, whose radius heads the file)')
+    p.add_argument('--nominal-step-deg', type=float, default=0.5,
+                   help='angle step of --nominal [deg] (default 0.5)')
     p.set_defaults(func=cmd_law)
 
     p = sub.add_parser('check', help='run the design checks of Shang (1988) §2.1',
@@ -152,6 +157,9 @@ def cmd_law(args: argparse.Namespace) -> int:
                'continuity_order': int(law.continuity_order),
                'junctions_deg': [math.degrees(j) for j in law.junctions]}
     wrote = write_table(args, list(COLUMNS), table, summary)
+    if getattr(args, 'nominal', None):
+        write_nominal(args, law, key)
+        wrote = True
     if args.plot:
         _plot(args.plot, table, str(spec.get('family')))
     if not wrote:
@@ -162,6 +170,31 @@ def cmd_law(args: argparse.Namespace) -> int:
         for row in table:
             print(' '.join(f'{v:16.9g}' for v in row))
     return 0
+
+
+def write_nominal(args: argparse.Namespace, law: Any, key: str) -> None:
+    """``--nominal``: the gauge file of the law; for a scene lobe, converted to the
+    scene's probe (the gauge measures with it), else the law's own lift with probe
+    radius 0 and a comment naming that."""
+    from cam_metrology.files import write_output
+    from cam_metrology.nominal_file import law_gauge_text
+
+    doc = load_yaml(args.file)
+    radius, notes = 0.0, [f'nominal lift of {args.file} ({key}), deg and mm']
+    if isinstance(doc, dict) and isinstance(doc.get('lobes'), list) and 'probe' in doc:
+        from cam_metrology.metrology.analysis import seen_lift
+        from cam_metrology.scene_parse import load_scene
+
+        scene = load_scene(args.file)
+        lobe = scene.lobe(args.lobe) if args.lobe else scene.lobes[0]
+        law = seen_lift(lobe, scene.probe, scene.base_circle_radius, tabulate_step=None)
+        radius = scene.probe.radius if scene.probe.kind == 'roller' else 0.0
+        notes.append(f'as seen by the scene probe ({scene.probe.kind}); lobe {lobe.id} '
+                     f'designed for a {lobe.follower.kind} follower')
+    else:
+        notes.append('lift of the law as written (probe radius 0: not converted)')
+    write_output(args.nominal, law_gauge_text(law, args.nominal_step_deg, radius, notes),
+                 '--nominal')
 
 
 def _plot(path: str, table: Any, title: str) -> None:

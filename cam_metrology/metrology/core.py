@@ -366,8 +366,13 @@ class MetrologyCore:
             extra['scenes'] = [{'index': k, 'camshaft_id': sc.camshaft_id,
                                 'from_log_time_ns': t}
                                for k, (t, sc) in enumerate(self.scenes)]
+        from cam_metrology.metrology.tolerances import judge_part
+        verdict = judge_part(scene, features,
+                             {f: r.table for f, r in self.results.items() if r.kind == 'lobe'},
+                             self._design)
         return _json_safe({
             'camshaft_id': scene.camshaft_id,
+            'verdict': verdict,
             'direction': scene.direction,
             'features': features,
             'skipped': self.skipped(),

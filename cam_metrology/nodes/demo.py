@@ -194,7 +194,8 @@ def report_lines(report: dict[str, Any] | None, truth: dict[str, Any] | None) ->
     for item in report.get('skipped') or []:
         if isinstance(item, dict):
             lines.append(f'skipped: {item.get("what")} ({item.get("why")})')
-    return lines
+    from cam_metrology.metrology.tolerances import verdict_lines
+    return verdict_lines(report) + lines
 
 
 def _fmt(text: str, digits: int) -> str:

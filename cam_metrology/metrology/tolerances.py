@@ -1,0 +1,310 @@
+"""Acceptance of a measured camshaft against the scene's tolerances (docs/tolerances.md).
+
+Pure numerics (no rclpy). ``judge_part(scene, features, tables, designs)`` adds a
+``verdict`` to each feature of a metrology report and returns the part's verdict:
+
+* a check compares one measured quantity with its band ``[lower, upper]``; limits are
+  inclusive (a value at a limit, to ``LIMIT_RTOL`` for rounding, passes); ``margin``
+  is the distance to the nearer limit (negative when outside); when the quantity has a
+  standard uncertainty ``u`` and lies within ``2 u`` of a limit, the check says
+  ``uncertain: true`` (the
+  decision is still taken on the value: ISO 14253-1's conformance zone is not applied);
+* lift errors, max lift and events come from the lift table re-referenced to the base
+  circle alone (``base_referenced``), not from the fit's offset;
+* a feature ``verdict.result`` is ``fail`` if any check fails, else ``not checked`` if a
+  toleranced quantity could not be evaluated (or the feature has no tolerances), else
+  ``pass``;
+* the part is ``fail`` if any check fails, ``not checked`` if the scene has no
+  tolerances or a toleranced quantity of any feature could not be evaluated (a failed
+  feature, no dowel pin for a phase, ...), else ``pass``.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from cam_metrology.scene import Band, Scene, Tolerances
+
+__all__ = ['check', 'judge_lobe', 'judge_datum', 'judge_part', 'PASS', 'FAIL', 'NOT_CHECKED']
+
+PASS, FAIL, NOT_CHECKED = 'pass', 'fail', 'not checked'
+#: a value within this fraction of a limit's size (at least 1 unit) is at the limit: the
+#: quantities come out of floating-point arithmetic (1e-9 um on a 1 um band is rounding)
+LIMIT_RTOL = 1e-9
+DEG = math.pi / 180.0
+
+
+def check(quantity: str, value: float, band: tuple[float | None, float], unit: str,
+          std: float | None = None) -> dict[str, Any]:
+    """One check of ``value`` against ``band`` = (lower, upper), limits inclusive;
+    ``lower`` None: a maximum only (run-out)."""
+    lo, hi = band
+    eps = LIMIT_RTOL * max(abs(hi), abs(lo or 0.0), 1.0)   # floating-point rounding only
+    ok = (lo is None or lo - eps <= value) and value <= hi + eps
+    margin = hi - value if lo is None else min(value - lo, hi - value)
+    out: dict[str, Any] = {'quantity': quantity, 'value': float(value), 'lower': lo,
+                           'upper': hi, 'unit': unit, 'result': PASS if ok else FAIL,
+                           'margin': float(margin)}
+    if not ok:
+        out['limit'] = lo if lo is not None and value < lo else hi
+    if std is not None and math.isfinite(std):
+        out['std'] = float(std)
+        out['uncertain'] = bool(abs(margin) < 2.0 * std)
+    return out
+
+
+def _not(quantity: str, why: str) -> dict[str, str]:
+    return {'quantity': quantity, 'why': why}
+
+
+def _verdict(checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> dict[str, Any]:
+    failed = [{k: c[k] for k in ('quantity', 'value', 'limit', 'unit')}
+              for c in checks if c['result'] == FAIL]
+    result = FAIL if failed else (NOT_CHECKED if missing or not checks else PASS)
+    return {'result': result, 'checks': checks, 'failed': failed, 'not_checked': missing}
+
+
+#: base-circle samples are those at least this far [rad] outside the design's lobe
+BASE_MARGIN = 2.0 * DEG
+
+
+def base_referenced(table: Any, harmonic: bool) -> tuple[Any, Any]:
+    """The lift table with the measured lift referenced to the base circle alone, and
+    the mask of samples kept (isolated spikes dropped).
+
+    The metrology fit takes its lift offset (and the run-out harmonic) from every sample,
+    so a smooth form error of the lobe leaks into them (docs/tolerances.md). Here the
+    deviation measured - design on the base circle (design lift 0, ``BASE_MARGIN`` away
+    from the lobe) is fitted by ``c`` (+ ``a cos alpha + b sin alpha`` when ``harmonic``:
+    a once-per-revolution run-out is a first harmonic in alpha too) and subtracted from
+    the whole table. Spikes: deviation from the running median of 9 samples above 5 x
+    1.4826 x its median absolute value (floored at 0.1 um), unless more than 5 % are."""
+    from cam_metrology.metrology.analysis import local_deviation
+
+    a, m, d = (np.asarray(table[:, k], dtype=float) for k in range(3))
+    err = m - d
+    dev = np.abs(local_deviation(a, err))
+    bad = dev > 5.0 * max(1.4826 * float(np.median(dev)), 1e-7)
+    if np.mean(bad) > 0.05:
+        bad[:] = False
+    lobe = np.nonzero(d > 0)[0]
+    if lobe.size:
+        lo, hi = a[lobe[0]], a[lobe[-1]]
+        base = ((a < lo - BASE_MARGIN) | (a > hi + BASE_MARGIN)) & ~bad
+    else:
+        base = ~bad
+    if np.count_nonzero(base) < 10:
+        return table, ~bad
+    if harmonic:
+        cols = np.column_stack([np.ones(a.size), np.cos(a), np.sin(a)])
+        coef = np.linalg.lstsq(cols[base], err[base], rcond=None)[0]
+        model = cols @ coef
+    else:
+        model = np.full(a.size, float(np.median(err[base])))
+    return np.column_stack([a, m - model, d]), ~bad
+
+
+def _lift_error_checks(tol: Tolerances, table: Any, good: Any,
+                       checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> None:
+    """Global band (lobe region, design > 0) and the angle->band zones, from the
+    base-referenced table."""
+    if tol.lift_error_um is None and not tol.lift_error_zones:
+        return
+    if table is None:
+        missing.append(_not('lift_error_um', 'no lift table for this feature'))
+        return
+    alpha = np.degrees(table[:, 0])
+    err = (table[:, 1] - table[:, 2]) * 1e6
+    alpha, err, design = alpha[good], err[good], table[good, 2]
+    in_zone = np.zeros(alpha.size, dtype=bool)
+    for z in tol.lift_error_zones:
+        sel = (alpha >= z.from_deg) & (alpha <= z.to_deg)
+        in_zone |= sel
+        name = f'lift_error_um[{z.from_deg:g}..{z.to_deg:g} deg]'
+        if not np.any(sel):
+            missing.append(_not(name, 'no samples in this zone'))
+            continue
+        checks.append(check(f'{name}.max_plus', float(np.max(err[sel])), z.band_um, 'um'))
+        checks.append(check(f'{name}.max_minus', float(np.min(err[sel])), z.band_um, 'um'))
+    if tol.lift_error_um is not None:
+        sel = (design > 0) & ~in_zone
+        if np.any(sel):
+            checks.append(check('lift_error_max_plus_um', float(np.max(err[sel])),
+                                tol.lift_error_um, 'um'))
+            checks.append(check('lift_error_max_minus_um', float(np.min(err[sel])),
+                                tol.lift_error_um, 'um'))
+
+
+def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = None,
+               design: Callable[..., Any] | None = None, phase_std_deg: float | None = None
+               ) -> dict[str, Any]:
+    """The verdict of one lobe. ``feature``: its report entry; ``table``: its
+    /metrology/lift table (columns alpha [rad] from the fitted nose, measured and design
+    lift [m]); ``design``: the design lift as seen by the probe (a law);
+    ``phase_std_deg``: standard uncertainty of the phase (lobe and pin combined)."""
+    if tol is None or not tol.any():
+        return {'result': NOT_CHECKED, 'checks': [], 'failed': [],
+                'not_checked': [_not('*', 'no tolerances for this feature')]}
+    if feature.get('status') != 'ok':
+        why = f"feature {feature.get('status', 'missing')}: {feature.get('reason', '')}"
+        names = [n for n in ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um',
+                             'runout_max_um', 'duration_deg')
+                 if getattr(tol, n) is not None]
+        return _verdict([], [_not(n, why.strip().rstrip(':')) for n in names] or
+                        [_not('lift_error_zones', why)])
+    checks: list[dict[str, Any]] = []
+    missing: list[dict[str, str]] = []
+    good = None
+    if table is not None:
+        table, good = base_referenced(table, bool(feature.get('runout_fitted')))
+    _lift_error_checks(tol, table, good, checks, missing)
+    if tol.phase_deg is not None:
+        value = feature.get('phase_error_deg')
+        if value is None:
+            missing.append(_not('phase_error_deg', 'no phase (no dowel-pin angle or no '
+                                'nominal_phase)'))
+        else:
+            checks.append(check('phase_error_deg', value, tol.phase_deg, 'deg',
+                                phase_std_deg))
+    if tol.runout_max_um is not None:
+        value = feature.get('base_circle_runout_um')
+        if value is None:
+            missing.append(_not('base_circle_runout_um', 'too few base-circle samples'))
+        else:
+            checks.append(check('base_circle_runout_um', value, (None, tol.runout_max_um),
+                                'um'))
+    needs_table = (tol.max_lift_um, tol.duration_deg, tol.centreline_deg)
+    if any(v is not None for v in needs_table):
+        if table is None or design is None:
+            for n, v in zip(('max_lift_um', 'duration_deg', 'centreline_deg'), needs_table):
+                if v is not None:
+                    missing.append(_not(n, 'no lift table or design for this feature'))
+        else:
+            _table_checks(tol, table[good], design, checks, missing)
+    return _verdict(checks, missing)
+
+
+def _table_checks(tol: Tolerances, table: Any, design: Callable[..., Any],
+                  checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> None:
+    from cam_design.cam_card import law_events, law_peak, table_events, table_peak
+    from cam_design.errors import InputError
+
+    alpha, lift = table[:, 0], table[:, 1]
+    if tol.max_lift_um is not None:
+        try:
+            _, measured = table_peak(alpha, lift, design)
+            _, nominal = law_peak(design)
+            checks.append(check('max_lift_error_um', (measured - nominal) * 1e6,
+                                tol.max_lift_um, 'um'))
+        except InputError as exc:
+            missing.append(_not('max_lift_um', str(exc)))
+    if tol.duration_deg is None and tol.centreline_deg is None:
+        return
+    y = tol.checking_height_mm * 1e-3
+    try:
+        o, c = table_events(alpha, lift, y, design, key='checking_height_mm')
+        o0, c0 = law_events(design, y, 'checking_height_mm')
+    except InputError as exc:
+        for n in ('duration_deg', 'centreline_deg'):
+            if getattr(tol, n) is not None:
+                missing.append(_not(n, str(exc)))
+        return
+    at = f'@{tol.checking_height_mm:g}mm'
+    if tol.duration_deg is not None:
+        checks.append(check(f'duration_error_deg{at}', math.degrees((c - o) - (c0 - o0)),
+                            tol.duration_deg, 'deg'))
+    if tol.centreline_deg is not None:
+        checks.append(check(f'centreline_error_deg{at}',
+                            math.degrees(0.5 * (o + c) - 0.5 * (o0 + c0)),
+                            tol.centreline_deg, 'deg'))
+
+
+def judge_datum(band: Band | None, feature: Mapping[str, Any] | None,
+                nominal_angle_rad: float | None) -> dict[str, Any]:
+    """The verdict of the dowel pin: its centre angle minus ``nominal_angle`` [deg],
+    wrapped to (-180, 180]."""
+    if band is None or nominal_angle_rad is None:
+        return {'result': NOT_CHECKED, 'checks': [], 'failed': [],
+                'not_checked': [_not('*', 'no datum tolerance')]}
+    if not feature or feature.get('status') != 'ok' or feature.get('angle_deg') is None:
+        why = 'dowel pin not measured' if not feature else \
+            f"dowel pin {feature.get('status')}: {feature.get('reason', '')}"
+        return _verdict([], [_not('datum_error_deg', why)])
+    err = (feature['angle_deg'] - math.degrees(nominal_angle_rad) + 180.0) % 360.0 - 180.0
+    if err == -180.0:
+        err = 180.0
+    return _verdict([check('datum_error_deg', err, band, 'deg',
+                           feature.get('angle_std_deg'))], [])
+
+
+def judge_part(scene: Scene, features: dict[str, dict[str, Any]],
+               tables: Mapping[str, Any] | None = None,
+               designs: Mapping[str, Callable[..., Any]] | None = None) -> dict[str, Any]:
+    """Add ``verdict`` to every entry of ``features`` (in place) and return the part's
+    verdict ``{result, failed[{feature, quantity, value, limit, unit}],
+    not_checked[{feature, quantity, why}], checks}``."""
+    tables, designs = tables or {}, designs or {}
+    failed: list[dict[str, Any]] = []
+    missing: list[dict[str, Any]] = []
+    toleranced = False
+    n = 0
+    pin_std = (features.get('dowel_pin') or {}).get('angle_std_deg')
+    for lobe in scene.lobes:
+        has = lobe.tolerances is not None and lobe.tolerances.any()
+        toleranced |= has
+        feature = features.get(lobe.id)
+        if feature is None:
+            if has:
+                missing.append({'feature': lobe.id, 'quantity': '*',
+                                'why': 'lobe not measured (no samples)'})
+            continue
+        std = feature.get('angle_std_deg')
+        phase_std = (math.hypot(std, pin_std) if std is not None and pin_std is not None
+                     else None)
+        v = judge_lobe(lobe.tolerances, feature, tables.get(lobe.id), designs.get(lobe.id),
+                       phase_std)
+        feature['verdict'] = v
+        if has:
+            n += len(v['checks'])
+            failed += [{'feature': lobe.id, **f} for f in v['failed']]
+            missing += [{'feature': lobe.id, **m} for m in v['not_checked']]
+    pin = scene.dowel_pin
+    if scene.datum_tolerance_deg is not None:
+        toleranced = True
+        v = judge_datum(scene.datum_tolerance_deg, features.get('dowel_pin'),
+                        pin.nominal_angle if pin else None)
+        n += len(v['checks'])
+        failed += [{'feature': 'dowel_pin', **f} for f in v['failed']]
+        missing += [{'feature': 'dowel_pin', **m} for m in v['not_checked']]
+        if 'dowel_pin' in features:
+            features['dowel_pin']['verdict'] = v
+    elif 'dowel_pin' in features:
+        features['dowel_pin']['verdict'] = judge_datum(None, None, None)
+    if not toleranced:
+        return {'result': NOT_CHECKED, 'failed': [], 'not_checked':
+                [{'feature': '*', 'quantity': '*', 'why': 'the scene has no tolerances'}],
+                'checks': 0}
+    result = FAIL if failed else (NOT_CHECKED if missing else PASS)
+    return {'result': result, 'failed': failed, 'not_checked': missing, 'checks': n}
+
+
+def verdict_lines(report: Mapping[str, Any]) -> list[str]:
+    """Human lines of a report's verdict: the part first, then each failure / gap."""
+    v = report.get('verdict')
+    if not isinstance(v, Mapping):
+        return ['verdict: not checked (no verdict in the report)']
+    words = {PASS: 'PASS (accepted)', FAIL: 'FAIL (rejected)',
+             NOT_CHECKED: 'NOT CHECKED'}
+    lines = [f"verdict: {words.get(v.get('result'), v.get('result'))}  "
+             f"({v.get('checks', 0)} checks)"]
+    for f in v.get('failed') or []:
+        lines.append(f"  FAIL {f['feature']} {f['quantity']}: {f['value']:.4g} {f['unit']} "
+                     f"(limit {f['limit']:g} {f['unit']})")
+    for m in v.get('not_checked') or []:
+        if m.get('feature') != '*':
+            lines.append(f"  not checked {m['feature']} {m['quantity']}: {m['why']}")
+        else:
+            lines.append(f"  not checked: {m['why']}")
+    return lines

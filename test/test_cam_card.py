@@ -1,0 +1,149 @@
+"""The cam card against closed forms (constant-acceleration lobe), the crank-degree
+conversion and LSA against a hand-computed example, `cam-bench card`, and nominal-profile
+files written by `design law --nominal` read back by the gauge reader."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from cam_design import cam_card as cc
+from cam_design.errors import InputError
+from cam_design.lift_laws.registry import from_spec
+from cam_metrology.cli import main
+
+DEG = math.pi / 180.0
+# constant acceleration without ramps: H = 8 mm, alpha0 = 60 deg, phi1 = 20 deg
+H, A0, P1 = 8e-3, 60 * DEG, 20 * DEG
+P2 = A0 - P1
+A1 = 2 * H / (P1 * A0)          # m/rad^2, positive acceleration
+A2 = A1 * P1 / P2               # m/rad^2, magnitude of the negative one
+SPEC = {'family': 'constant_acceleration', 'ramp': 'none', 'rise': H, 'half_angle': A0,
+        'positive_width': P1}
+
+
+def closed_events(y: float) -> tuple[float, float]:
+    """Opening/closing [rad] at height y from the inverse of the closed-form lift:
+    h = A1 t^2 / 2 for t <= phi1, h = H - A2 (alpha0 - t)^2 / 2 after (t from the start)."""
+    t = math.sqrt(2 * y / A1) if y <= A1 * P1 ** 2 / 2 else A0 - math.sqrt(2 * (H - y) / A2)
+    return -A0 + t, A0 - t
+
+
+HEIGHTS = (1e-4, 1e-3, 1.27e-3, 4e-3, 7.9e-3)
+
+
+def test_design_card_against_closed_forms() -> None:
+    card = cc.card_from_law(from_spec(SPEC), HEIGHTS, rocker_ratio=1.5)
+    assert card['max_lift_m'] == pytest.approx(H, abs=1e-12)
+    assert card['max_valve_lift_m'] == pytest.approx(1.5 * H, abs=1e-12)
+    for entry, y in zip(card['heights'], HEIGHTS):
+        o, c = closed_events(y)
+        assert entry['height_m'] == y
+        assert entry['opening_deg'] == pytest.approx(math.degrees(o), abs=1e-8)
+        assert entry['closing_deg'] == pytest.approx(math.degrees(c), abs=1e-8)
+        assert entry['duration_cam_deg'] == pytest.approx(math.degrees(c - o), abs=1e-8)
+        assert entry['duration_crank_deg'] == pytest.approx(2 * math.degrees(c - o), abs=2e-8)
+        assert entry['centreline_deg'] == pytest.approx(0.0, abs=1e-8)
+    # area of one flank: A1 phi1^3 / 6 + H phi2 - A2 phi2^3 / 6, twice
+    area = 2 * (A1 * P1 ** 3 / 6 + H * P2 - A2 * P2 ** 3 / 6)
+    assert card['area_m_rad'] == pytest.approx(area, rel=1e-10)
+    assert card['fullness'] == pytest.approx(area / (H * 2 * A0), rel=1e-6)
+    assert card['velocity_max_si'] == pytest.approx(A1 * P1, rel=1e-3)   # on the grid
+    assert card['velocity_max_mm_per_deg'] == pytest.approx(A1 * P1 * 1e3 * DEG, rel=1e-3)
+    assert card['acceleration_max_si'] == pytest.approx(A1, rel=1e-9)
+    assert card['acceleration_min_mm_per_deg2'] == pytest.approx(-A2 * 1e3 * DEG ** 2,
+                                                                 rel=1e-9)
+
+
+def test_measured_card_of_a_shifted_noisy_table() -> None:
+    law = from_spec(SPEC)
+    shift = 0.3 * DEG
+    a = np.arange(-180, 180, 0.1) * DEG
+    rng = np.random.default_rng(5)
+    exact = cc.card_from_table(a, law(a - shift), HEIGHTS[:3], law)
+    for entry, y in zip(exact['heights'], HEIGHTS):
+        o, c = closed_events(y)
+        assert entry['opening_deg'] == pytest.approx(math.degrees(o + shift), abs=1e-7)
+        assert entry['closing_deg'] == pytest.approx(math.degrees(c + shift), abs=1e-7)
+    assert exact['max_lift_m'] == pytest.approx(H, abs=1e-10)
+    # 0.5 um of noise, no reference (a local quadratic): events to ~0.01 deg
+    noisy = cc.card_from_table(a, law(a) + rng.normal(0, 5e-7, a.size), (1e-3,))
+    o, c = closed_events(1e-3)
+    assert noisy['heights'][0]['opening_deg'] == pytest.approx(math.degrees(o), abs=0.01)
+    assert noisy['heights'][0]['closing_deg'] == pytest.approx(math.degrees(c), abs=0.01)
+    assert noisy['max_lift_m'] == pytest.approx(H, abs=1e-6)
+
+
+def test_height_above_max_lift_names_the_key() -> None:
+    with pytest.raises(InputError) as err:
+        cc.card_from_law(from_spec(SPEC), (1e-3, 9e-3), key='--heights-mm')
+    assert err.value.key == '--heights-mm[1]' and 'below the max lift (8.0000 mm)' in str(
+        err.value)
+    with pytest.raises(InputError):
+        cc.parse_heights_mm('1,-2')
+    assert cc.parse_heights_mm('1,1.27,0.1') == pytest.approx((1e-3, 1.27e-3, 1e-4))
+
+
+def test_crank_events_and_lsa_hand_example() -> None:
+    """Intake centreline 106 ATDC, exhaust 114 BTDC, both 240 crank deg at the height:
+    IVO 14 BTDC, IVC 46 ABDC, EVO 54 BBDC, EVC 6 ATDC, LSA 110 cam deg."""
+    card = {'centreline_deg': 0.0, 'heights': [
+        {'height_m': 1e-3, 'opening_deg': -60.0, 'closing_deg': 60.0,
+         'centreline_deg': 0.0}]}
+    intake = cc.crank_events(card, 'intake', 106.0)['events'][0]
+    assert intake['opens_btdc_deg'] == pytest.approx(14.0)
+    assert intake['closes_abdc_deg'] == pytest.approx(46.0)
+    exhaust = cc.crank_events(card, 'exhaust', 114.0)['events'][0]
+    assert exhaust['opens_bbdc_deg'] == pytest.approx(54.0)
+    assert exhaust['closes_atdc_deg'] == pytest.approx(6.0)
+    assert cc.lobe_separation_deg(106.0, 114.0) == pytest.approx(110.0)
+    with pytest.raises(InputError):
+        cc.crank_events(card, 'inlet', 106.0)
+
+
+def test_card_cli_on_the_default_scene(capsys) -> None:
+    assert main(['card', 'config/default_scene.yaml', '--pair', 'lobe_1,lobe_2',
+                 '--intake-centreline-deg', '106', '--heights-mm', '1', '--json', '-']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    lsa = doc['lobe_separation']
+    assert lsa['lobe_separation_deg'] == pytest.approx(110.0, abs=1e-9)   # 147 - 37
+    assert lsa['exhaust_centreline_btdc_deg'] == pytest.approx(114.0, abs=1e-9)
+    c1 = doc['cards']['lobe_1']
+    assert c1['max_lift_m'] == pytest.approx(8.5e-3, abs=1e-9)
+    dur = c1['heights'][0]['duration_crank_deg']
+    assert c1['crank']['events'][0]['opens_btdc_deg'] == pytest.approx(dur / 2 - 106, abs=1e-6)
+    assert main(['card', 'config/default_scene.yaml', '--pair', 'lobe_1,lobe_9']) == 2
+    assert '--pair' in capsys.readouterr().err
+
+
+@pytest.mark.parametrize('args,radius', [
+    (['test/_nominal_law.yaml'], 0.0),
+    (['config/default_scene.yaml', '--lobe', 'lobe_2'], 12.5e-3),
+])
+def test_nominal_file_round_trip(tmp_path, args, radius) -> None:
+    from cam_metrology.reconstruction.samples import read_gauge_file
+    from cam_metrology.scene_parse import load_scene
+
+    if args[0].startswith('test/_'):
+        path = tmp_path / 'law.yaml'
+        path.write_text('lift_law: ' + json.dumps(SPEC) + '\n')
+        args = [str(path)]
+        law = from_spec(SPEC)
+    else:
+        from cam_metrology.metrology.analysis import seen_lift
+        scene = load_scene(args[0])
+        law = seen_lift(scene.lobe('lobe_2'), scene.probe, scene.base_circle_radius,
+                        tabulate_step=None)
+    out = tmp_path / 'nominal.txt'
+    assert main(['design', 'law', *args, '--nominal', str(out),
+                 '--nominal-step-deg', '0.25']) == 0
+    table = read_gauge_file(out)
+    assert table.alpha.size == 1441
+    assert table.follower == (('roller', radius) if radius else ('knife', 0.0))
+    assert np.max(np.abs(table.lift - law(table.alpha))) < 1e-9
+    card = cc.card_from_table(table.alpha, table.lift, (1e-3,), source='table')
+    ref = cc.card_from_law(law, (1e-3,))
+    assert card['heights'][0]['duration_cam_deg'] == pytest.approx(
+        ref['heights'][0]['duration_cam_deg'], abs=2e-3)
