@@ -182,8 +182,8 @@ def one_rate(work: Path, env: dict[str, str], rate: float) -> dict[str, Any]:
         'rate': rate, 'sent': sent, 'achieved': achieved,
         'met_lost': sent - received, 'met_said': said_report if said_report is not None else said,
         'rec_lost': sent - recorded, 'rec_said': _recorder_loss(bag),
-        'cpu': {k: cpu.percent(k, t_start, t_end) for k in ('bench-sim', 'metrology',
-                                                          'recorder')},
+        'cpu': {k: cpu.percent(k, t_start, t_end)
+                for k in ('bench-sim', 'metrology', 'recorder')},
         'lat_med': lat[len(lat) // 2] if lat else float('nan'),
         'lat_max': lat[-1] if lat else float('nan'),
         'features': f'{len(results)}/{len(done)}',

@@ -106,6 +106,7 @@ class FeatureLoss:
     """Samples lost per feature (frame_id) of a sample stream."""
 
     lost: dict[str, int] = field(default_factory=dict)
+    seen: set[str] = field(default_factory=set)
     _last_feature: str | None = None
 
     def add(self, frame_ids: Sequence[Any], holes: Sequence[tuple[int, int]]) -> set[str]:
@@ -121,6 +122,10 @@ class FeatureLoss:
                 charged.add(fid)   # type: ignore[arg-type]
         if len(frame_ids):
             self._last_feature = str(frame_ids[-1])
+            if str(frame_ids[0]) == self._last_feature:
+                self.seen.add(self._last_feature)
+            else:
+                self.seen.update(str(f) for f in np.unique(np.asarray(frame_ids)))
         return charged
 
     def of(self, feature_id: str) -> int:
@@ -148,3 +153,59 @@ def loss_status(losses: Sequence[SequenceLoss], extra: str = '') -> tuple[int, s
     else:
         msg = f'no loss ({sum(x.received for x in losses)} messages received)'
     return level, msg + (f'; {extra}' if extra else '')
+
+
+def mark_partial(outputs: Sequence[Any], features: FeatureLoss, losses: Sequence[SequenceLoss],
+                 topic: str = '/bench/joint_states') -> list[Any]:
+    """Outputs of a core with the input loss made visible (``cam_metrology.outputs``):
+
+    * a Status named after a feature with lost samples: level at least WARN, message
+      prefixed ``partial data: lost N samples on TOPIC``, values ``samples_lost`` = N
+      and ``partial`` = True (N counts the holes in the feature or next to it); a
+      Status of a complete feature gets ``samples_lost`` = 0;
+    * a JSON report (TextOutput on ``*/report`` holding a dict with ``features``):
+      ``samples_lost`` and ``partial`` per feature, and ``input`` = received, lost and
+      missed-at-start counts per topic with the total ``samples_lost``.
+    """
+    import dataclasses
+    import json
+
+    from cam_metrology.outputs import StatusOutput, TextOutput
+    out: list[Any] = []
+    for o in outputs:
+        if isinstance(o, StatusOutput):
+            statuses = []
+            for st in o.statuses:
+                n = features.lost.get(st.name)
+                if n is None and st.name not in features.seen:
+                    statuses.append(st)
+                    continue
+                values = {**st.values, 'samples_lost': str(n or 0), 'partial': str(bool(n))}
+                if n:
+                    st = dataclasses.replace(
+                        st, level=max(int(st.level), WARN), values=values,
+                        message=f'partial data: lost {n} samples on {topic}; {st.message}')
+                else:
+                    st = dataclasses.replace(st, values=values)
+                statuses.append(st)
+            o = dataclasses.replace(o, statuses=tuple(statuses))
+        elif isinstance(o, TextOutput) and o.topic.endswith('/report'):
+            try:
+                doc = json.loads(o.text)
+            except ValueError:
+                doc = None
+            if isinstance(doc, dict) and isinstance(doc.get('features'), dict):
+                for fid, entry in doc['features'].items():
+                    if isinstance(entry, dict):
+                        n = features.of(fid)
+                        entry['samples_lost'] = n
+                        entry['partial'] = bool(n)
+                doc['input'] = {
+                    'samples_lost': sum(x.lost for x in losses),
+                    'missed_at_start': sum(x.missed_at_start for x in losses),
+                    'topics': {x.topic: {'received': x.received, 'lost': x.lost,
+                                         'missed_at_start': x.missed_at_start}
+                               for x in losses}}
+                o = dataclasses.replace(o, text=json.dumps(doc, indent=1))
+        out.append(o)
+    return out
