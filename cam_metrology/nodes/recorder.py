@@ -108,9 +108,11 @@ class RecorderNode(Node):
 
     def __init__(self, *, context: Any = None, output: str | Path | None = None,
                  topics: Sequence[str] | None = None, node_name: str = 'recorder',
-                 with_info: bool = True) -> None:
+                 with_info: bool = True,
+                 reader_qos: dict[str, QosSpec] | None = None) -> None:
         super().__init__(node_name, context=context)
         self._with_info = with_info
+        self._reader_qos = dict(reader_qos or {})   # tests: a shallow reader to overrun
         from cam_metrology.nodes.adapter import declare_parameters
         params = declare_parameters(self, PARAMETERS)
         self.params = params
@@ -155,6 +157,7 @@ class RecorderNode(Node):
         already), ``reader`` (default ``qos``) is the subscription's QoS."""
         if not self.writer.has_topic(topic):
             self.writer.add_topic(topic, type_name, qos.bag_yaml())
+        reader = reader or self._reader_qos.get(topic)
         self.counts.setdefault(topic, 0)
         if self._with_info and (reader or qos).depth > 1 and topic != DIAGNOSTICS:
             self.losses.setdefault(topic, SequenceLoss(topic))
@@ -222,7 +225,7 @@ class RecorderNode(Node):
                 if not self.writer.has_topic(DIAGNOSTICS):
                     self.writer.add_topic(DIAGNOSTICS, STATUS, qos_of(DIAGNOSTICS).bag_yaml())
                 self.writer.write(DIAGNOSTICS, stamp, encode_statuses([st], stamp))
-            if st.level != OK:
+            if st.level != OK and said != self._diag_said:
                 self.get_logger().warning(f'recorder: {st.message}')
         self._diag_said = said
 
