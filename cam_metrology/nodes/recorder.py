@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import functools
 import re
+import struct
 import time
 from pathlib import Path
 from typing import Any, Sequence
@@ -98,6 +99,68 @@ def parse_topic_specs(text: str | Sequence[str],
     return out
 
 
+_MCAP_MESSAGE = struct.Struct('<BQHIQQ')   # MCAP Message record: op, length, channel,
+#                                             sequence, log time, publish time
+
+
+class BatchWriter:
+    """Append many raw messages of one topic to a ``bagio.BagWriter`` at once.
+
+    The recorder's per-message cost was dominated by rosbags' pure-Python MCAP writer
+    (~10 us a message: a BytesIO and five int-to-bytes per record). This packs the
+    same MCAP Message records (op 0x05, length, channel id, sequence 0, log time =
+    publish time) with one ``struct`` call each, appends them to the open chunk in one
+    write and updates the chunk index and statistics exactly as rosbags' ``write``
+    does (``rosbags.rosbag2.storage_mcap.McapWriter``), so readers see an ordinary bag
+    (checked by the recorder tests with rosbags and with mcap). Any other storage or
+    compression mode than rosbags' MCAP writer with chunk (or no) compression falls
+    back to ``BagWriter.write`` per message.
+    """
+
+    def __init__(self, bag: BagWriter) -> None:
+        self.bag = bag
+        writer = getattr(bag, '_writer', None)
+        storage = getattr(writer, 'storage', None)
+        self._fast = (storage is not None and hasattr(storage, 'chunk')
+                      and hasattr(storage, 'close_chunk')
+                      and getattr(getattr(writer, 'compression_mode', None), 'name', '')
+                      != 'MESSAGE')
+        self._writer, self._storage = writer, storage
+
+    def write(self, topic: str, stamps: list[int], datas: list[Any]) -> None:
+        """Write ``datas`` (CDR) with log times ``stamps`` [ns] on ``topic``."""
+        bag = self.bag
+        conn = bag._connections.get(topic) if self._fast else None
+        if conn is None or bag.closed:
+            for t, d in zip(stamps, datas):
+                bag.write(topic, t, d)
+            return
+        st = self._storage
+        chunk = st.chunk
+        cid = conn.id
+        off = chunk.bio.tell()
+        index = chunk.msgs[cid]
+        pack = _MCAP_MESSAGE.pack
+        parts: list[Any] = []
+        for t, d in zip(stamps, datas):
+            n = len(d)
+            parts.append(pack(5, 22 + n, cid, 0, t, t))
+            parts.append(d)
+            index.append((t, off))
+            off += 31 + n
+        chunk.bio.write(b''.join(parts))
+        lo, hi = min(stamps), max(stamps)
+        st.message_start_time = min(lo, st.message_start_time)
+        st.message_end_time = max(hi, st.message_end_time)
+        st.channel_stats[cid] += len(stamps)
+        chunk.message_start_time = min(lo, chunk.message_start_time)
+        chunk.message_end_time = max(hi, chunk.message_end_time)
+        self._writer.counts[cid] += len(stamps)
+        bag.counts[topic] += len(stamps)
+        if chunk.bio.tell() > 2**20:
+            st.close_chunk()
+
+
 def default_output() -> Path:
     """out/rec_<UTC time> under the current directory (git-ignored)."""
     return Path('out') / time.strftime('rec_%Y%m%dT%H%M%SZ', time.gmtime())
@@ -124,6 +187,7 @@ class RecorderNode(Node):
         wanted.update(parse_topic_specs(topics or (), '--topics'))
         out.parent.mkdir(parents=True, exist_ok=True)
         self.writer = BagWriter(out, compression=bool(params['compression']))
+        self._batch = BatchWriter(self.writer)
         self.path = out
         self.counts: dict[str, int] = {}
         self.callbacks_run = 0
@@ -167,23 +231,30 @@ class RecorderNode(Node):
             (reader or qos).profile(), raw=True)
 
     def _on_message(self, topic: str, data: bytes, info: Any) -> None:
+        now = time.time_ns()
         seqs = [info.get('publication_sequence_number') or -1]
-        self._write_with_info(topic, data, info)
+        stamps = [info.get('source_timestamp') or now]
+        datas = [data]
         # batch: take what else is waiting on this topic now (up to TAKE_BATCH), which
         # skips the executor's ~95 us per message; the log times keep the bag ordered
         sub = self._subs.get(topic)
         if sub is not None:
-            take, msg_type, write = sub.handle.take_message, sub.msg_type, self._write_with_info
+            take, msg_type = sub.handle.take_message, sub.msg_type
             try:
                 with sub.handle:
                     for _ in range(TAKE_BATCH):
                         taken = take(msg_type, True)
                         if taken is None:
                             break
-                        write(topic, taken[0], taken[1])
-                        seqs.append(taken[1].get('publication_sequence_number') or -1)
+                        datas.append(taken[0])
+                        info = taken[1]
+                        stamps.append(info['source_timestamp'] or now)
+                        seqs.append(info['publication_sequence_number'] or -1)
             except Exception:  # noqa: BLE001 (destroyed at shutdown)
                 pass
+        self._batch.write(topic, stamps, datas)
+        self.counts[topic] += len(datas)
+        self.callbacks_run += len(datas)
         acc = self.losses.get(topic)
         if acc is not None and seqs[0] > 0 and acc.add(seqs):
             self._diag_last = 0.0   # a new hole: say it now
