@@ -172,22 +172,25 @@ def one_rate(work: Path, env: dict[str, str], rate: float) -> dict[str, Any]:
             sim.kill()
         proc.close()
     cpu.stop.set()
-    received = sum(int(v.get('samples_received', 0)) for _, v in results.values())
-    said = sum(int(v.get('samples_lost', 0)) for _, v in results.values())
     report = reports[-1] if reports else {}
+    feats = report.get('features', {})
+    # independent: the samples behind each feature's final result (a feature split by a
+    # pause shows up here too: only its last part is in the result)
+    received = sum(int(f.get('samples_received') or 0) for f in feats.values())
     said_report = report.get('input', {}).get('samples_lost')
+    split = sorted(f for f, v in feats.items() if 'parts' in str(v.get('partial_reason', '')))
     recorded = bagio.bag_topics(bag).get('/bench/joint_states', ('', 0))[1]
     lat = sorted(results[f][0] - t for f, t in done.items() if f in results)
     return {
         'rate': rate, 'sent': sent, 'achieved': achieved,
-        'met_lost': sent - received, 'met_said': said_report if said_report is not None else said,
+        'met_lost': sent - received, 'met_said': said_report, 'split': split,
         'rec_lost': sent - recorded, 'rec_said': _recorder_loss(bag),
         'cpu': {k: cpu.percent(k, t_start, t_end)
                 for k in ('bench-sim', 'metrology', 'recorder')},
         'lat_med': lat[len(lat) // 2] if lat else float('nan'),
         'lat_max': lat[-1] if lat else float('nan'),
         'features': f'{len(results)}/{len(done)}',
-        'statuses': sorted({v.get('status', '') for _, v in results.values()}),
+        'partial': sorted(f for f, v in feats.items() if v.get('partial')),
     }
 
 
@@ -216,16 +219,19 @@ def main(argv: list[str] | None = None) -> None:
              'no pause between features.', '',
              '| asked [samples/s] | achieved [samples/s] | metrology lost (says) | '
              'recorder lost (says) | CPU sim / metrology / recorder [% of a core] | '
-             'feature end -> result median / max [s] | features |',
+             'feature end -> result median / max [s] | features (partial) |',
              '|---|---|---|---|---|---|---|']
     for r in rows:
         c = r['cpu']
         lines.append(f'| {r["rate"]:.0f} | {r["achieved"]:.0f} | {r["met_lost"]} '
                      f'({r["met_said"]}) | {r["rec_lost"]} ({r["rec_said"]}) | '
                      f'{c["bench-sim"]:.0f} / {c["metrology"]:.0f} / {c["recorder"]:.0f} | '
-                     f'{r["lat_med"]:.2f} / {r["lat_max"]:.2f} | {r["features"]} |')
+                     f'{r["lat_med"]:.2f} / {r["lat_max"]:.2f} | {r["features"]} '
+                     f'({", ".join(r["partial"]) or "none"}) |')
     lines += ['', 'Lost = samples sent minus samples the node got (metrology: the sum of '
-              '`samples_received` of its feature results; recorder: the bag\'s '
+              '`samples_received` of the features of its final report, so a feature split '
+              'by a pause counts its missing parts here and is listed as partial; '
+              'recorder: the bag\'s '
               '/bench/joint_states count), counted here independently of the node; in '
               'brackets what the node itself reported (`input.samples_lost` of the '
               'metrology report, the recorder\'s loss record in its bag). Latency: from '

@@ -107,6 +107,8 @@ class FeatureLoss:
 
     lost: dict[str, int] = field(default_factory=dict)
     seen: set[str] = field(default_factory=set)
+    completed: set[str] = field(default_factory=set)   # a result was published
+    parts: dict[str, int] = field(default_factory=dict)   # > 1: the feature was split
     _last_feature: str | None = None
 
     def add(self, frame_ids: Sequence[Any], holes: Sequence[tuple[int, int]]) -> set[str]:
@@ -121,12 +123,32 @@ class FeatureLoss:
                 self.lost[fid] = self.lost.get(fid, 0) + n   # type: ignore[index]
                 charged.add(fid)   # type: ignore[arg-type]
         if len(frame_ids):
-            self._last_feature = str(frame_ids[-1])
-            if str(frame_ids[0]) == self._last_feature:
-                self.seen.add(self._last_feature)
-            else:
-                self.seen.update(str(f) for f in np.unique(np.asarray(frame_ids)))
+            first, last = str(frame_ids[0]), str(frame_ids[-1])
+            fids = {first} if first == last else {str(f) for f in np.unique(
+                np.asarray(frame_ids))}
+            for fid in fids & self.completed:   # samples of a feature already measured
+                self.parts[fid] = self.parts.get(fid, 1) + 1
+                self.completed.discard(fid)
+                charged.add(fid)
+            self.seen.update(fids)
+            self._last_feature = last
         return charged
+
+    def result_published(self, feature_id: str) -> None:
+        """A result of ``feature_id`` went out: more samples of it mean a split."""
+        if feature_id in self.seen:
+            self.completed.add(feature_id)
+
+    def problem(self, feature_id: str, topic: str = '/bench/joint_states') -> str:
+        """Why a feature's result rests on partial data ('' if it does not)."""
+        out = []
+        if self.of(feature_id):
+            out.append(f'lost {self.of(feature_id)} samples on {topic}')
+        if self.parts.get(feature_id, 1) > 1:
+            out.append(f'received in {self.parts[feature_id]} parts (a pause in the stream '
+                       'longer than the idle timeout ended it early; each part was analysed '
+                       'alone)')
+        return '; '.join(out)
 
     def of(self, feature_id: str) -> int:
         """Samples lost in or next to ``feature_id`` (0: complete)."""
@@ -159,12 +181,15 @@ def mark_partial(outputs: Sequence[Any], features: FeatureLoss, losses: Sequence
                  topic: str = '/bench/joint_states') -> list[Any]:
     """Outputs of a core with the input loss made visible (``cam_metrology.outputs``):
 
-    * a Status named after a feature with lost samples: level at least WARN, message
-      prefixed ``partial data: lost N samples on TOPIC``, values ``samples_lost`` = N
+    * a Status named after a feature with lost samples, or one split in parts (its
+      samples came again after its result: a pause longer than the idle timeout ended
+      it early): level at least WARN, message prefixed ``partial data: lost N samples
+      on TOPIC`` / ``received in K parts ...``, values ``samples_lost`` = N, ``parts``
       and ``partial`` = True (N counts the holes in the feature or next to it); a
       Status of a complete feature gets ``samples_lost`` = 0;
     * a JSON report (TextOutput on ``*/report`` holding a dict with ``features``):
-      ``samples_lost`` and ``partial`` per feature, and ``input`` = received, lost and
+      ``samples_lost``, ``partial`` (and ``partial_reason``) per feature, and ``input`` =
+      received, lost and
       missed-at-start counts per topic with the total ``samples_lost``.
     """
     import dataclasses
@@ -176,15 +201,18 @@ def mark_partial(outputs: Sequence[Any], features: FeatureLoss, losses: Sequence
         if isinstance(o, StatusOutput):
             statuses = []
             for st in o.statuses:
-                n = features.lost.get(st.name)
-                if n is None and st.name not in features.seen:
+                if st.name not in features.seen:
                     statuses.append(st)
                     continue
-                values = {**st.values, 'samples_lost': str(n or 0), 'partial': str(bool(n))}
-                if n:
+                why = features.problem(st.name, topic)
+                values = {**st.values, 'samples_lost': str(features.of(st.name)),
+                          'partial': str(bool(why))}
+                if features.parts.get(st.name, 1) > 1:
+                    values['parts'] = str(features.parts[st.name])
+                if why:
                     st = dataclasses.replace(
                         st, level=max(int(st.level), WARN), values=values,
-                        message=f'partial data: lost {n} samples on {topic}; {st.message}')
+                        message=f'partial data: {why}; {st.message}')
                 else:
                     st = dataclasses.replace(st, values=values)
                 statuses.append(st)
@@ -197,9 +225,11 @@ def mark_partial(outputs: Sequence[Any], features: FeatureLoss, losses: Sequence
             if isinstance(doc, dict) and isinstance(doc.get('features'), dict):
                 for fid, entry in doc['features'].items():
                     if isinstance(entry, dict):
-                        n = features.of(fid)
-                        entry['samples_lost'] = n
-                        entry['partial'] = bool(n)
+                        why = features.problem(fid, topic)
+                        entry['samples_lost'] = features.of(fid)
+                        entry['partial'] = bool(why)
+                        if why:
+                            entry['partial_reason'] = why
                 doc['input'] = {
                     'samples_lost': sum(x.lost for x in losses),
                     'missed_at_start': sum(x.missed_at_start for x in losses),

@@ -93,3 +93,34 @@ def test_feature_attribution_and_status_message() -> None:
     level, msg = loss_status([acc, SequenceLoss('/bench/feature_done')])
     assert level == ERROR and msg.startswith('lost 9 samples on /bench/joint_states')
     assert loss_status([SequenceLoss('/x')]) == (OK, 'no loss (0 messages received)')
+
+
+def test_split_feature_and_marking() -> None:
+    import json
+
+    from cam_metrology.loss import mark_partial
+    from cam_metrology.outputs import Status, StatusOutput, TextOutput
+
+    acc, feats = SequenceLoss('/bench/joint_states'), FeatureLoss()
+    feats.add(['lobe_1'] * 50, acc.add(range(1, 51)))
+    feats.result_published('lobe_1')          # an idle timeout ended it early
+    feats.add(['lobe_1'] * 30 + ['lobe_2'] * 5, acc.add(range(51, 86)))
+    feats.result_published('lobe_1')
+    assert feats.parts == {'lobe_1': 2} and acc.lost == 0
+    outs = mark_partial([
+        StatusOutput('/metrology/result', (Status('lobe_1', OK, 'measured'),
+                                           Status('lobe_2', OK, 'measured'),
+                                           Status('skipped/x', OK, 'n/a'))),
+        TextOutput('/metrology/report', json.dumps(
+            {'features': {'lobe_1': {'status': 'ok'}, 'lobe_2': {'status': 'ok'}}}))],
+        feats, [acc])
+    one, two, other = outs[0].statuses
+    assert one.level == WARN and one.message.startswith('partial data: received in 2 parts')
+    assert (one.values['parts'], one.values['partial'], one.values['samples_lost']) == \
+        ('2', 'True', '0')
+    assert two.level == OK and two.values == {'samples_lost': '0', 'partial': 'False'}
+    assert other == Status('skipped/x', OK, 'n/a')
+    doc = json.loads(outs[1].text)
+    assert doc['features']['lobe_1']['partial'] and not doc['features']['lobe_2']['partial']
+    assert doc['input'] == {'samples_lost': 0, 'missed_at_start': 0, 'topics': {
+        '/bench/joint_states': {'received': 85, 'lost': 0, 'missed_at_start': 0}}}

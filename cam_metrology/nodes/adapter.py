@@ -214,6 +214,10 @@ class CoreNode(Node):
         features computed on partial input are marked (``loss.mark_partial``)."""
         if outputs and (self.feature_loss.seen or self.losses):
             outputs = mark_partial(outputs, self.feature_loss, list(self.losses.values()))
+            for out in outputs:
+                if isinstance(out, StatusOutput):
+                    for st in out.statuses:
+                        self.feature_loss.result_published(st.name)
         for out in outputs or ():
             pub = self._publisher(out.topic, msgtype_of(out))
             pub.publish(convert.to_message(out, self.now_ns()))
@@ -259,7 +263,12 @@ class CoreNode(Node):
     def input_status(self) -> Status:
         """OK/WARN/ERROR status of what this node received ('lost N samples on TOPIC')."""
         losses = list(self.losses.values())
-        level, msg = loss_status(losses)
+        split = {f: n for f, n in self.feature_loss.parts.items() if n > 1}
+        level, msg = loss_status(losses, '; '.join(
+            f'feature {f} received in {n} parts (paused longer than the idle timeout)'
+            for f, n in split.items()))
+        if split:
+            level = max(level, 1)
         backlog = self._queue.qsize() if self._queue is not None else 0
         values = {**loss_values(losses), 'queue_items': str(backlog),
                   'callbacks': str(self.callbacks_run), 'core_errors': str(self.errors)}
