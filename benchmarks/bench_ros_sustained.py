@@ -157,7 +157,7 @@ def one_rate(work: Path, env: dict[str, str], rate: float) -> dict[str, Any]:
         cpu.start()
         proc.spin_until(lambda: sim.poll() is not None, 600.0)
         t_end = max(done.values()) if done else time.monotonic()
-        proc.spin_until(lambda: len(results) >= len(done) > 0, 60.0)
+        proc.spin_until(lambda: len(results) >= len(done) > 0 and bool(reports), 60.0)
         sent, achieved = _sim_stats(sim_log)
         t_start = t_end - sent / achieved
     finally:
