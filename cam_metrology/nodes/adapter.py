@@ -365,13 +365,30 @@ class CoreNode(Node):
     def _work(self) -> None:
         """Handle queued samples, held messages and ticks in arrival order."""
         assert self._queue is not None
+        pending: Any = None
         while True:
-            try:
-                kind, item = self._queue.get(timeout=0.05)
-            except queue.Empty:
-                with self.lock:
-                    self._release_quiet()
-                continue
+            if pending is not None:
+                kind, item, pending = pending[0], pending[1], None
+            else:
+                try:
+                    kind, item = self._queue.get(timeout=0.05)
+                except queue.Empty:
+                    with self.lock:
+                        self._release_quiet()
+                    continue
+            extra = 0
+            while kind == 'samples' and len(item) < TAKE_BATCH:
+                # merge the sample batches queued behind this one: one decode and one
+                # core call per merge instead of per receive callback
+                try:
+                    nxt = self._queue.get_nowait()
+                except queue.Empty:
+                    break
+                if nxt[0] != 'samples':
+                    pending = nxt
+                    break
+                item = item + nxt[1]
+                extra += 1
             self._busy = True
             try:
                 with self.lock:
@@ -387,8 +404,9 @@ class CoreNode(Node):
             finally:
                 self._busy = False
                 if kind != 'tick':
-                    self.worker_items += 1   # progress of the data (drain), not of ticks
-                self._queue.task_done()
+                    self.worker_items += 1 + extra   # data progress (drain), not ticks
+                for _ in range(1 + extra):
+                    self._queue.task_done()
 
     def _release_quiet(self) -> None:
         """Release held messages once no sample arrived for ``order_hold`` s."""
