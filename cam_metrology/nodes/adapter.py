@@ -50,7 +50,8 @@ from rclpy.node import Node
 
 from cam_metrology.loss import FeatureLoss, SequenceLoss, loss_status, loss_values, mark_partial
 from cam_metrology.nodes import convert
-from cam_metrology.nodes.topics import (BENCH_TOPICS, DIAGNOSTICS, JOINT_STATES, SCENE, STATUS,
+from cam_metrology.nodes.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
+                                        SCENE, STATUS,
                                         AdaptiveSubscriptions, QosSpec, message_class, qos_of)
 from cam_metrology.outputs import Output, Status, StatusOutput, msgtype_of
 
@@ -153,6 +154,7 @@ class CoreNode(Node):
         self._diag_last = 0.0
         self._diag_said: tuple[int, str] | None = None
         self.lock = threading.RLock()   # the core and the publishers: one user at a time
+        self._done_seen = False         # the bench announces the end of its features
         # the scene first: with several ready subscriptions, rclpy's executor takes
         # them in creation order, so the scene is handled before samples.
         topics = sorted(self.core.subscriptions.items(), key=lambda item: item[0] != SCENE)
@@ -304,6 +306,8 @@ class CoreNode(Node):
             self._take_waiting_samples()
 
     def _hold(self, topic: str, msg: Any, source_ns: int) -> None:
+        if topic == FEATURE_DONE:
+            self._done_seen = True
         self._seq += 1
         heapq.heappush(self._held, (source_ns, self._seq, topic, msg))
         self._last_held = time.monotonic()
@@ -397,7 +401,7 @@ class CoreNode(Node):
                     elif kind == 'held':
                         self._hold(item[1], item[2], item[0])
                     elif kind == 'tick':
-                        self._guarded('tick', self.core.tick, item)
+                        self._tick(item)
                         self.publish_diagnostics()
                     elif kind == 'stop':
                         return
@@ -494,8 +498,18 @@ class CoreNode(Node):
             self._queue.put(('tick', self.now_ns()))
             return
         with self.lock:
-            self._guarded('tick', self.core.tick, self.now_ns())
+            self._tick(self.now_ns())
             self.publish_diagnostics()
+
+    def _tick(self, now_ns: int) -> None:
+        """``core.tick`` (idle timeouts), except while a bench that announces the end of
+        its features (a /bench/feature_done was received) is still publishing samples:
+        then a pause in the stream (back-pressure, a busy machine) must not end a
+        feature early and split it; /bench/feature_done or the next feature ends it."""
+        sub = self._subs.get(JOINT_STATES)
+        if self._done_seen and sub is not None and sub.get_publisher_count() > 0:
+            return
+        self._guarded('tick', self.core.tick, now_ns)
 
     def finish(self, ack_timeout: float = 5.0) -> bool:
         """Release held messages, call ``core.finish()``, publish its outputs and the
