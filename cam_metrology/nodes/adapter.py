@@ -271,6 +271,8 @@ class CoreNode(Node):
             for f, n in split.items()))
         if split:
             level = max(level, 1)
+        if not self._with_info:   # EventsExecutor: no MessageInfo, no sequence numbers
+            level, msg = max(level, 1), 'loss not checked (EventsExecutor: no MessageInfo)'
         backlog = self._queue.qsize() if self._queue is not None else 0
         values = {**loss_values(losses), 'queue_items': str(backlog),
                   'callbacks': str(self.callbacks_run), 'core_errors': str(self.errors)}
