@@ -505,11 +505,13 @@ class CoreNode(Node):
 
     def _tick(self, now_ns: int) -> None:
         """``core.tick`` (idle timeouts), except while a bench that announces the end of
-        its features (a /bench/feature_done was received) is still publishing samples:
-        then a pause in the stream (back-pressure, a busy machine) must not end a
-        feature early and split it; /bench/feature_done or the next feature ends it."""
+        its features (it has a /bench/feature_done publisher, or one was received) is
+        still publishing samples: then a pause in the stream (back-pressure, a busy
+        machine) must not end a feature early and split it; its /bench/feature_done
+        or the next feature ends it (and ``finish`` at shutdown)."""
         sub = self._subs.get(JOINT_STATES)
-        if self._done_seen and sub is not None and sub.get_publisher_count() > 0:
+        if sub is not None and FEATURE_DONE in self._subs and sub.get_publisher_count() > 0 \
+                and (self._done_seen or self.count_publishers(FEATURE_DONE) > 0):
             return
         self._guarded('tick', self.core.tick, now_ns)
 
