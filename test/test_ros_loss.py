@@ -61,6 +61,7 @@ def test_overrun_node_and_recorder_report_the_exact_loss(ros_domain: int,
     import json
 
     from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.duration import Duration
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
     from std_msgs.msg import String
@@ -103,7 +104,8 @@ def test_overrun_node_and_recorder_report_the_exact_loss(ros_domain: int,
                                and rec.counts['/bench/joint_states'] == N1, 30.0)
         for f in frames[N1:]:          # neither node is spun meanwhile
             pub.publish(f)
-        assert pub.wait_for_all_acked()   # both readers hold the last DEPTH of them
+        # both readers hold the last DEPTH of them once everything is acknowledged
+        assert pub.wait_for_all_acked(Duration(seconds=30))
         done.publish(String(data='lobe_1'))
         assert proc.spin_until(lambda: node.core.counts.get('lobe_1') == N1 + DEPTH
                                and any(st.name == 'lobe_1' for st in got['result'])
