@@ -219,13 +219,16 @@ def main(argv: list[str] | None = None) -> None:
              'no pause between features.', '',
              '| asked [samples/s] | achieved [samples/s] | metrology lost (says) | '
              'recorder lost (says) | CPU sim / metrology / recorder [% of a core] | '
+             'CPU per sample sim / metrology / recorder [us] | '
              'feature end -> result median / max [s] | features (partial) |',
-             '|---|---|---|---|---|---|---|']
+             '|---|---|---|---|---|---|---|---|']
     for r in rows:
         c = r['cpu']
         lines.append(f'| {r["rate"]:.0f} | {r["achieved"]:.0f} | {r["met_lost"]} '
                      f'({r["met_said"]}) | {r["rec_lost"]} ({r["rec_said"]}) | '
                      f'{c["bench-sim"]:.0f} / {c["metrology"]:.0f} / {c["recorder"]:.0f} | '
+                     + ' / '.join(f'{c[k] * 1e4 / r["achieved"]:.0f}'
+                                  for k in ('bench-sim', 'metrology', 'recorder')) + ' | '
                      f'{r["lat_med"]:.2f} / {r["lat_max"]:.2f} | {r["features"]} '
                      f'({", ".join(r["partial"]) or "none"}) |')
     lines += ['', 'Lost = samples sent minus samples the node got (metrology: the sum of '
@@ -236,7 +239,10 @@ def main(argv: list[str] | None = None) -> None:
               'brackets what the node itself reported (`input.samples_lost` of the '
               'metrology report, the recorder\'s loss record in its bag). Latency: from '
               'this process receiving a feature\'s /bench/feature_done to receiving its '
-              '/metrology/result.']
+              '/metrology/result. CPU per sample = CPU time of the process over the '
+              'streaming window / samples: what a node costs whatever the load, so '
+              'the cores a given rate needs are rate x cost (20 000/s at 50 us = one '
+              'core).']
     text = '\n'.join(lines) + '\n'
     print(text)
     save_results(RESULTS, text)
