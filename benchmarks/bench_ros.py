@@ -149,7 +149,8 @@ def replay_rate(work: Path, env: dict[str, str], n: int = 20000) -> dict[str, An
         node.create_subscription(JointState, '/bench/joint_states',
                                  lambda _m: times.append(time.perf_counter()),
                                  QoSProfile(depth=1, history=HistoryPolicy.KEEP_ALL))
-        player = _cam_bench(['replay', str(bag), '--rate', '0', '--topics',
+        player = _cam_bench(['replay', str(bag), '--rate', '0', '--expect', 'replay_bench',
+                             '--topics',
                              '/bench/joint_states', '--match-timeout', '30'], env,
                             work / 'replay.log')
         proc.spin_until(lambda: len(times) >= n or player.poll() is not None, 120.0)

@@ -137,6 +137,9 @@ def test_replay_arguments(no_ros: None, bags_dir: Path,
     err = _error_line(capsys)
     assert "--topics: got '/nope'; expected a topic of the bag: " in err
     assert '/bench/joint_states' in err and '/bench/scene' in err
+    assert main(['replay', bag, '--expect', 'metrology:bench/joint_states']) == 2
+    assert _error_line(capsys).endswith("--expect: got 'metrology:bench/joint_states'; "
+                                        "expected a node name, NODE:/topic, or 'none'")
     for option, value in (('--match-timeout', '-1'), ('--match-timeout', 'nan'),
                           ('--wait-subscribers', '-2')):
         with pytest.raises(SystemExit) as exc:

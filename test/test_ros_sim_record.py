@@ -1,6 +1,7 @@
 """bench-sim (subprocess, `cam-bench run bench-sim`) -> RecorderNode (in-process) over
 live rclpy in this session's isolated domain: the bag holds exactly what
-``simulate()`` produced (theta, s, stamps, frame ids bit for bit), the scene and truth,
+``simulate()`` produced (theta, s, frame ids bit for bit; stamps shifted by one
+constant onto the system clock, inside the run's wall time), the scene and truth,
 one /bench/feature_done per feature after its last sample, in publication order.
 """
 from __future__ import annotations
@@ -46,6 +47,8 @@ def test_sim_to_recorder_bag_equals_simulation(ros_domain: int, tmp_path: Path,
         **SIM, 'scene_file': str(scene_file), 'wait_subscribers': 1,
         'match_timeout': 30.0}}}), encoding='utf-8')
     bag = tmp_path / 'bag'
+    import time
+    t_before = time.time_ns()
     proc = RosProcess(handle_signals=False)
     sim = None
     try:
@@ -57,6 +60,7 @@ def test_sim_to_recorder_bag_equals_simulation(ros_domain: int, tmp_path: Path,
         log = sim.communicate()[0]
         assert sim.returncode == 0, log
         proc.drain(lambda: rec.callbacks_run)
+        t_after = time.time_ns()
         rec.close()
     finally:
         if sim is not None and sim.poll() is None:
@@ -68,7 +72,13 @@ def test_sim_to_recorder_bag_equals_simulation(ros_domain: int, tmp_path: Path,
     assert len(got) == run.sample_count == 2 * 1800
     assert np.array_equal(got.theta, np.concatenate([f.theta for f in run.features]))
     assert np.array_equal(got.s, np.concatenate([f.s for f in run.features]))
-    assert np.array_equal(got.stamp_ns, np.concatenate([f.stamp_ns for f in run.features]))
+    # one time base: the simulated stamps shifted by one constant onto the system clock,
+    # within the run's wall time (they are the times the samples were due)
+    sim_stamps = np.concatenate([f.stamp_ns for f in run.features])
+    offset = int(got.stamp_ns[0] - sim_stamps[0])
+    assert np.array_equal(got.stamp_ns - offset, sim_stamps)
+    assert t_before <= got.stamp_ns[0] and got.stamp_ns[-1] <= t_after
+    assert f'stamps = simulated + {offset} ns (system clock)' in log
     assert list(got.features) == ['lobe_1', 'dowel_pin']
     assert list(got.frame_id[[0, 1799, 1800, -1]]) == ['lobe_1', 'lobe_1', 'dowel_pin',
                                                        'dowel_pin']

@@ -84,19 +84,27 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         'replay', formatter_class=fmt, help='republish a bag with its timing scaled by R',
         description='Republish the recorded CDR bytes of a bag (latched topics first, '
-                    'transient local), wait for subscribers of the sample stream (deadline), '
-                    'then stream the '
+                    'transient local), wait until every expected subscriber is matched '
+                    '(--expect, default: the metrology node and the recorder; deadline '
+                    '--match-timeout, then exit 4 with nothing streamed unless '
+                    '--start-anyway), then stream the '
                     'rest with the original timing divided by --rate.')
     p.add_argument('bag', help='rosbag2 directory')
     p.add_argument('--rate', type=_positive_or_zero, default=1.0,
                    help='time scale: 2 = twice as fast; 0 = as fast as possible (default 1)')
     p.add_argument('--loop', action='store_true', help='replay again until Ctrl-C')
     p.add_argument('--topics', nargs='+', metavar='TOPIC', help='only these topics')
+    p.add_argument('--expect', nargs='+', default=['metrology', 'recorder'], metavar='NODE',
+                   help='nodes that must subscribe before the first sample goes out: NODE '
+                        '(on the busiest topic, the samples) or NODE:/topic; "none" for no '
+                        'node (default: metrology recorder)')
     p.add_argument('--wait-subscribers', type=_count, default=1,
-                   help='subscriptions to wait for on the busiest topic (the samples) '
-                        'before streaming (default 1)')
+                   help='also at least this many subscriptions on the busiest topic '
+                        '(default 1)')
     p.add_argument('--match-timeout', type=_positive_or_zero, default=10.0,
-                   help='s to wait for them (then a warning, and replay anyway)')
+                   help='s to wait for them (default 10; then exit 4, nothing replayed)')
+    p.add_argument('--start-anyway', action='store_true',
+                   help='at the deadline replay anyway (with a warning naming who is missing)')
     p.set_defaults(func=_replay)
 
     p = subparsers.add_parser(
@@ -143,8 +151,11 @@ def _record(args: argparse.Namespace) -> int:
 
 def _replay(args: argparse.Namespace) -> int:
     from cam_metrology.nodes.replayer import run_replay
+    from cam_metrology.nodes.replayer import parse_expect
+    parse_expect(args.expect)   # a malformed name: one line, exit 2, before ROS starts
     return run_replay(args.bag, args.rate, loop=args.loop, topics=args.topics,
-                      wait_subscribers=args.wait_subscribers, match_timeout=args.match_timeout)
+                      wait_subscribers=args.wait_subscribers, match_timeout=args.match_timeout,
+                      expect=args.expect, start_anyway=args.start_anyway)
 
 
 def _demo(args: argparse.Namespace) -> int:

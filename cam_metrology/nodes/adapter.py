@@ -39,6 +39,8 @@ from __future__ import annotations
 
 import functools
 import heapq
+import queue
+import threading
 import time
 import traceback
 from typing import Any, Sequence
@@ -46,14 +48,24 @@ from typing import Any, Sequence
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
+from cam_metrology.loss import FeatureLoss, SequenceLoss, loss_status, loss_values, mark_partial
 from cam_metrology.nodes import convert
-from cam_metrology.nodes.topics import (BENCH_TOPICS, JOINT_STATES, SCENE,
+from cam_metrology.nodes.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
+                                        SCENE, STATUS,
                                         AdaptiveSubscriptions, QosSpec, message_class, qos_of)
-from cam_metrology.outputs import Output, msgtype_of
+from cam_metrology.outputs import Output, Status, StatusOutput, msgtype_of
 
 
-#: most raw samples handed to a core in one callback (keeps timers responsive)
+#: most raw samples handed to a core in one call (keeps the worker responsive)
 MAX_BATCH = 4000
+#: most raw samples taken from the reader in one callback of the receiving thread
+TAKE_BATCH = 20000
+#: bounded queue between the receiving thread and the worker [items of <= TAKE_BATCH]:
+#: when full the receiver stops taking, the keep-all reader fills and the publisher is
+#: held back (back-pressure; a keep-last publisher then loses samples, counted)
+QUEUE_ITEMS = 64
+#: s between /diagnostics statuses of the node's input
+DIAG_PERIOD = 1.0
 
 
 class CoreMissing(RuntimeError):
@@ -117,7 +129,8 @@ class CoreNode(Node):
 
     def __init__(self, core_cls: Any, *, context: Any = None, node_name: str | None = None,
                  tick_period: float = 0.1, order_hold: float = 0.5,
-                 with_info: bool = True) -> None:
+                 with_info: bool = True, samples_qos: QosSpec | None = None,
+                 threaded: bool = True) -> None:
         super().__init__(node_name or core_cls.name, context=context)
         self.params = declare_parameters(self, dict(getattr(core_cls, 'PARAMETERS', {})))
         self.core = core_cls(self.params)
@@ -133,9 +146,19 @@ class CoreNode(Node):
         self._order_hold = order_hold
         self._last_sample = 0.0        # monotonic s of the last sample handled
         self._last_held = 0.0          # monotonic s of the last message put on hold
+        self._samples_qos = samples_qos
+        # loss accounting (DDS publication sequence numbers, cam_metrology.loss)
+        self.losses: dict[str, SequenceLoss] = {}
+        self.feature_loss = FeatureLoss()
+        self._diag_pub: Any = None
+        self._diag_last = 0.0
+        self._diag_said: tuple[int, str] | None = None
+        self.lock = threading.RLock()   # the core and the publishers: one user at a time
+        self._done_seen = False         # the bench announces the end of its features
         # the scene first: with several ready subscriptions, rclpy's executor takes
         # them in creation order, so the scene is handled before samples.
         topics = sorted(self.core.subscriptions.items(), key=lambda item: item[0] != SCENE)
+        self._with_info = with_info
         self._ordered = with_info and JOINT_STATES in self.core.subscriptions
         self._bulk = self._ordered and callable(getattr(self.core, 'handle_samples', None))
         self._adaptive = AdaptiveSubscriptions(self, self._subscribe)
@@ -144,12 +167,25 @@ class CoreNode(Node):
                 self._subscribe(topic, type_name, qos_of(topic))
             else:   # another node's output: QoS from its publishers (late joiners)
                 self._adaptive.add(topic, type_name, qos_of(topic).depth)
+        # bulk samples: received on the executor's thread, handled by a worker thread
+        # (decode, core, analysis, publishing) fed through a bounded queue
+        self._queue: queue.Queue[Any] | None = None
+        self._worker: threading.Thread | None = None
+        self._busy = False
+        self.worker_items = 0
+        if self._bulk and threaded:
+            self._queue = queue.Queue(QUEUE_ITEMS)
+            self._worker = threading.Thread(target=self._work, name=f'{self.get_name()}-worker',
+                                            daemon=True)
+            self._worker.start()
         self._timer = self.create_timer(tick_period, self._on_tick)
         if self._ordered:
             self._order_timer = self.create_timer(0.05, self._on_order_timer)
 
     def _subscribe(self, topic: str, type_name: str, qos: QosSpec) -> None:
         raw = False
+        if topic == JOINT_STATES and self._samples_qos is not None:
+            qos = self._samples_qos
         if topic == JOINT_STATES and self._bulk:
             callback: Any = self._on_sample_raw
             raw = True
@@ -157,8 +193,12 @@ class CoreNode(Node):
             callback = self._on_sample
         elif self._ordered:
             callback = functools.partial(self._on_held, topic)
+        elif self._with_info:
+            callback = functools.partial(self._on_message_info, topic)
         else:
             callback = functools.partial(self._on_message, topic)
+        if self._with_info and qos.depth > 1 and topic not in self.losses:
+            self.losses[topic] = SequenceLoss(topic)   # latched depth-1 topics: not counted
         self._subs[topic] = self.create_subscription(
             message_class(type_name), topic, callback, qos.profile(), raw=raw)
 
@@ -172,7 +212,14 @@ class CoreNode(Node):
         return pub
 
     def publish_outputs(self, outputs: Sequence[Output] | None) -> None:
-        """Convert and publish core outputs (lazily creating undeclared publishers)."""
+        """Convert and publish core outputs (lazily creating undeclared publishers);
+        features computed on partial input are marked (``loss.mark_partial``)."""
+        if outputs and (self.feature_loss.seen or self.losses):
+            outputs = mark_partial(outputs, self.feature_loss, list(self.losses.values()))
+            for out in outputs:
+                if isinstance(out, StatusOutput):
+                    for st in out.statuses:
+                        self.feature_loss.result_published(st.name)
         for out in outputs or ():
             pub = self._publisher(out.topic, msgtype_of(out))
             pub.publish(convert.to_message(out, self.now_ns()))
@@ -197,19 +244,83 @@ class CoreNode(Node):
 
     def _on_message(self, topic: str, msg: Any) -> None:
         self.callbacks_run += 1
-        self._guarded(f'handle({topic})', self.core.handle, topic, msg, self.now_ns())
+        with self.lock:
+            self._guarded(f'handle({topic})', self.core.handle, topic, msg, self.now_ns())
+
+    def _on_message_info(self, topic: str, msg: Any, info: Any) -> None:
+        self._count(topic, [_seq(info)])
+        self._on_message(topic, msg)
+
+    def _count(self, topic: str, seqs: list[int]) -> list[tuple[int, int]]:
+        """Loss accounting of ``topic``; returns the holes (loss.SequenceLoss.add)."""
+        acc = self.losses.get(topic)
+        if acc is None or not seqs or seqs[0] < 0:
+            return []
+        holes = acc.add(seqs)
+        if holes:
+            self._diag_last = 0.0   # say it at the next tick
+        return holes
+
+    # -- /diagnostics: the node's input (received, lost) ------------------------------
+    def input_status(self) -> Status:
+        """OK/WARN/ERROR status of what this node received ('lost N samples on TOPIC')."""
+        losses = list(self.losses.values())
+        split = {f: n for f, n in self.feature_loss.parts.items() if n > 1}
+        level, msg = loss_status(losses, '; '.join(
+            f'feature {f} received in {n} parts (paused longer than the idle timeout)'
+            for f, n in split.items()))
+        if split:
+            level = max(level, 1)
+        if not self._with_info:   # EventsExecutor: no MessageInfo, no sequence numbers
+            level, msg = max(level, 1), 'loss not checked (EventsExecutor: no MessageInfo)'
+        backlog = self._queue.qsize() if self._queue is not None else 0
+        values = {**loss_values(losses), 'queue_items': str(backlog),
+                  'callbacks': str(self.callbacks_run), 'core_errors': str(self.errors)}
+        return Status(f'{self.get_name()}: input', level, msg, values, self.get_name())
+
+    def publish_diagnostics(self, force: bool = False) -> None:
+        """Publish ``input_status`` on /diagnostics (every DIAG_PERIOD s, or now)."""
+        now = time.monotonic()
+        if not force and now - self._diag_last < DIAG_PERIOD:
+            return
+        self._diag_last = now
+        st = self.input_status()
+        if self._diag_pub is None:
+            self._diag_pub = self.create_publisher(message_class(STATUS), DIAGNOSTICS,
+                                                   qos_of(DIAGNOSTICS).profile())
+        self._diag_pub.publish(convert.to_message(StatusOutput(DIAGNOSTICS, (st,)),
+                                                  self.now_ns()))
+        said = (st.level, st.message)
+        if st.level and said != self._diag_said:
+            self.get_logger().warning(f'{self.core.name}: {st.message}')
+        self._diag_said = said
 
     # -- cross-topic ordering (only when the core consumes /bench/joint_states) -------
     def _on_held(self, topic: str, msg: Any, info: Any) -> None:
         self.callbacks_run += 1
+        self._count(topic, [_seq(info)])
+        if self._queue is not None:   # threaded: the worker orders; samples first
+            self._enqueue_samples(self._drain_samples(TAKE_BATCH))
+            self._queue.put(('held', (_source_ns(info), topic, msg)))
+            return
+        with self.lock:
+            self._hold(topic, msg, _source_ns(info))
+            self._take_waiting_samples()
+
+    def _hold(self, topic: str, msg: Any, source_ns: int) -> None:
+        if topic == FEATURE_DONE:
+            self._done_seen = True
         self._seq += 1
-        heapq.heappush(self._held, (_source_ns(info), self._seq, topic, msg))
+        heapq.heappush(self._held, (source_ns, self._seq, topic, msg))
         self._last_held = time.monotonic()
-        self._take_waiting_samples()
 
     def _on_sample(self, msg: Any, info: Any) -> None:
         self.callbacks_run += 1
-        self._deliver_sample(msg, _source_ns(info))
+        holes = self._count(JOINT_STATES, [_seq(info)])
+        if holes:
+            self.feature_loss.add([msg.header.frame_id], holes)
+        with self.lock:
+            self._deliver_sample(msg, _source_ns(info))
 
     def _deliver_sample(self, msg: Any, source_ns: int) -> None:
         while self._held and self._held[0][0] <= source_ns:
@@ -220,28 +331,117 @@ class CoreNode(Node):
 
     def _on_sample_raw(self, data: bytes, info: Any) -> None:
         self.callbacks_run += 1
-        batch = [(data, _source_ns(info))]
+        batch = [(data, _source_ns(info), _seq(info))]
+        if self._queue is not None:
+            batch.extend(self._drain_samples(TAKE_BATCH - 1))
+            self._enqueue_samples(batch)
+            return
         batch.extend(self._drain_samples(MAX_BATCH - 1))
-        self._deliver_batch(batch)
+        with self.lock:
+            self._deliver_batch(batch)
 
-    def _drain_samples(self, limit: int) -> list[tuple[Any, int]]:
-        """Take up to ``limit`` samples already waiting in the reader, in order."""
+    def _drain_samples(self, limit: int) -> list[tuple[Any, int, int]]:
+        """Take up to ``limit`` samples already waiting in the reader, in order:
+        (raw CDR, source time [ns], publication sequence number)."""
         sub = self._subs.get(JOINT_STATES)
-        taken_all: list[tuple[Any, int]] = []
-        while sub is not None and len(taken_all) < limit:
-            try:
-                with sub.handle:
-                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
-            except Exception:  # noqa: BLE001 (destroyed handle at shutdown)
-                break
-            if taken is None:
-                break
-            taken_all.append((taken[0], _source_ns(taken[1])))
+        taken_all: list[tuple[Any, int, int]] = []
+        if sub is None:
+            return taken_all
+        take, msg_type, raw = sub.handle.take_message, sub.msg_type, sub.raw
+        append = taken_all.append
+        try:
+            with sub.handle:
+                while len(taken_all) < limit:
+                    taken = take(msg_type, raw)
+                    if taken is None:
+                        break
+                    info = taken[1]
+                    append((taken[0], info['source_timestamp'],
+                            info.get('publication_sequence_number') or -1))
+        except Exception:  # noqa: BLE001 (destroyed handle at shutdown)
+            pass
         return taken_all
 
-    def _deliver_batch(self, batch: list[tuple[bytes, int]]) -> None:
+    def _enqueue_samples(self, batch: list[tuple[Any, int, int]]) -> None:
+        """Receiving thread -> worker; blocks while the queue is full (back-pressure)."""
+        if batch and self._queue is not None:
+            self._queue.put(('samples', batch))
+
+    # -- the worker thread (threaded bulk path) ---------------------------------------
+    def _work(self) -> None:
+        """Handle queued samples, held messages and ticks in arrival order."""
+        assert self._queue is not None
+        pending: Any = None
+        while True:
+            if pending is not None:
+                kind, item, pending = pending[0], pending[1], None
+            else:
+                try:
+                    kind, item = self._queue.get(timeout=0.05)
+                except queue.Empty:
+                    with self.lock:
+                        self._release_quiet()
+                    continue
+            extra = 0
+            while kind == 'samples' and len(item) < TAKE_BATCH:
+                # merge the sample batches queued behind this one: one decode and one
+                # core call per merge instead of per receive callback
+                try:
+                    nxt = self._queue.get_nowait()
+                except queue.Empty:
+                    break
+                if nxt[0] != 'samples':
+                    pending = nxt
+                    break
+                item = item + nxt[1]
+                extra += 1
+            self._busy = True
+            try:
+                with self.lock:
+                    if kind == 'samples':
+                        self._deliver_batch(item)
+                    elif kind == 'held':
+                        self._hold(item[1], item[2], item[0])
+                    elif kind == 'tick':
+                        self._tick(item)
+                        self.publish_diagnostics()
+                    elif kind == 'stop':
+                        return
+            finally:
+                self._busy = False
+                if kind != 'tick':
+                    self.worker_items += 1 + extra   # data progress (drain), not ticks
+                for _ in range(1 + extra):
+                    self._queue.task_done()
+
+    def _release_quiet(self) -> None:
+        """Release held messages once no sample arrived for ``order_hold`` s."""
+        quiet = time.monotonic() - max(self._last_sample, self._last_held)
+        if self._held and quiet >= self._order_hold:
+            while self._held:
+                self._release_one()
+
+    def idle(self) -> bool:
+        """Nothing queued and the worker not busy (always true when not threaded)."""
+        return self._queue is None or (self._queue.unfinished_tasks == 0 and not self._busy)
+
+    def stop_worker(self, timeout: float = 30.0) -> None:
+        """Let the worker handle everything queued, then stop it."""
+        if self._worker is not None and self._worker.is_alive() and self._queue is not None:
+            self._queue.put(('stop', None))
+            self._worker.join(timeout)
+        self._worker = None
+
+    def _deliver_batch(self, batch: list[tuple[bytes, int, int]]) -> None:
         """Hand raw samples to the core in blocks, releasing each held message just
-        before the first sample published after it (the same order as one by one)."""
+        before the first sample published after it (the same order as one by one).
+        Losses (sequence holes) are counted and charged to features first, so a
+        feature that completes in this batch is already marked."""
+        from cam_metrology.bagio import decode_joint_states
+        js = decode_joint_states([b[0] for b in batch])
+        holes = self._count(JOINT_STATES, [b[2] for b in batch])
+        if holes or len(js.frame_id):
+            self.feature_loss.add(js.frame_id, holes)
         i = 0
         while i < len(batch):
             while self._held and self._held[0][0] <= batch[i][1]:
@@ -250,16 +450,13 @@ class CoreNode(Node):
             j = i + 1
             while j < len(batch) and (limit is None or batch[j][1] < limit):
                 j += 1
-            self._guarded(f'handle_samples({JOINT_STATES})', self._handle_block,
-                          [data for data, _ in batch[i:j]])
+            self._guarded(f'handle_samples({JOINT_STATES})', self._handle_block, js, i, j)
             i = j
         self._last_sample = time.monotonic()
 
-    def _handle_block(self, chunks: list[bytes]) -> list[Output]:
-        from cam_metrology.bagio import decode_joint_states
-        js = decode_joint_states(chunks)
-        return self.core.handle_samples(js.frame_id, js.stamp_ns, js.theta, js.s,
-                                        rx_ns=self.now_ns())
+    def _handle_block(self, js: Any, i: int, j: int) -> list[Output]:
+        return self.core.handle_samples(js.frame_id[i:j], js.stamp_ns[i:j], js.theta[i:j],
+                                        js.s[i:j], rx_ns=self.now_ns())
 
     def _release_one(self) -> None:
         _, _, topic, msg = heapq.heappop(self._held)
@@ -279,34 +476,68 @@ class CoreNode(Node):
                 self._deliver_sample(*batch[0])
 
     def _on_order_timer(self) -> None:
+        if self._queue is not None:   # threaded: take what waits; the worker orders
+            self._enqueue_samples(self._drain_samples(TAKE_BATCH))
+            return
         if not self._held:
             return
-        self._take_waiting_samples()
-        quiet = time.monotonic() - max(self._last_sample, self._last_held)
-        if self._held and quiet >= self._order_hold:
-            while self._held:
-                self._release_one()
+        with self.lock:
+            self._take_waiting_samples()
+            self._release_quiet()
 
     def release_held(self) -> None:
         """Hand every held message to the core (shutdown)."""
-        self._take_waiting_samples()
-        while self._held:
-            self._release_one()
+        if self._queue is not None:
+            self._enqueue_samples(self._drain_samples(TAKE_BATCH))
+            self.stop_worker()
+        with self.lock:
+            self._take_waiting_samples()
+            while self._held:
+                self._release_one()
 
     def _on_tick(self) -> None:
-        self._guarded('tick', self.core.tick, self.now_ns())
+        if self._queue is not None and self._worker is not None:
+            self._queue.put(('tick', self.now_ns()))
+            return
+        with self.lock:
+            self._tick(self.now_ns())
+            self.publish_diagnostics()
+
+    def _tick(self, now_ns: int) -> None:
+        """``core.tick`` (idle timeouts), except while a bench that announces the end of
+        its features (it has a /bench/feature_done publisher, or one was received) is
+        still publishing samples: then a pause in the stream (back-pressure, a busy
+        machine) must not end a feature early and split it; its /bench/feature_done
+        or the next feature ends it (and ``finish`` at shutdown)."""
+        sub = self._subs.get(JOINT_STATES)
+        if sub is not None and FEATURE_DONE in self._subs and sub.get_publisher_count() > 0 \
+                and (self._done_seen or self.count_publishers(FEATURE_DONE) > 0):
+            return
+        self._guarded('tick', self.core.tick, now_ns)
 
     def finish(self, ack_timeout: float = 5.0) -> bool:
-        """Release held messages, call ``core.finish()``, publish its outputs, and wait
-        (deadline) until they are acknowledged."""
+        """Release held messages, call ``core.finish()``, publish its outputs and the
+        final input status, and wait (deadline) until they are acknowledged."""
         self.release_held()
-        self._guarded('finish', self.core.finish)
-        return self.wait_acked(ack_timeout)
+        with self.lock:
+            self._guarded('finish', self.core.finish)
+            self.publish_diagnostics(force=True)
+        pubs = list(self._pubs.values()) + ([self._diag_pub] if self._diag_pub else [])
+        from cam_metrology.nodes.runtime import wait_all_acked
+        return wait_all_acked(pubs, ack_timeout)
 
     def wait_acked(self, timeout: float) -> bool:
         """Wait (deadline) until every matched subscriber acknowledged every message."""
         from cam_metrology.nodes.runtime import wait_all_acked
         return wait_all_acked(self._pubs.values(), timeout)
+
+
+def _seq(info: Any) -> int:
+    """DDS publication sequence number of a received message (-1 if absent)."""
+    try:
+        return int(info['publication_sequence_number'] or -1)
+    except (TypeError, KeyError):
+        return -1
 
 
 def _source_ns(info: Any) -> int:
@@ -339,11 +570,13 @@ def run_core_node(name: str, args: Sequence[str] | None = None, *,
         node.get_logger().info(f'{name} node up: subscribes {sorted(node.core.subscriptions)}'
                                f', publishes {sorted(node.core.publications)}')
         proc.spin_until()
-        proc.drain(lambda: node.callbacks_run)
+        proc.drain(lambda: node.callbacks_run + node.worker_items, limit=60.0)
         if not node.finish():
             node.get_logger().warning('not every subscriber acknowledged the last outputs')
-        node.get_logger().info(f'{name} node stopped ({proc.stop_reason}); published '
-                               f'{node.published}; errors {node.errors}')
+        st = node.input_status()
+        log = node.get_logger().warning if st.level else node.get_logger().info
+        log(f'{name} node stopped ({proc.stop_reason}); input: {st.message}; published '
+            f'{node.published}; errors {node.errors}')
         return 1 if node.errors else 0
     finally:
         proc.close()

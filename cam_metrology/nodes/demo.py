@@ -388,6 +388,10 @@ def run_demo(opts: DemoOptions) -> int:
     report = monitor.report if monitor is not None else None
     if code == 0 and 'metrology' in cores and report is None:
         code, reason = 1, 'the metrology node published no report'
+    lost = (report or {}).get('input', {}).get('samples_lost') if isinstance(report, dict) else 0
+    if code == 0 and lost:
+        code, reason = 1, (f'the metrology node lost {lost} samples on /bench/joint_states '
+                           '(features marked partial in the report)')
     bad = {n: c for n, c in exits.items() if c not in (0, -signal.SIGINT)}
     if code == 0 and bad:
         code = 1

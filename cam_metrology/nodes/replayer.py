@@ -5,10 +5,16 @@
   (/bench/scene, /bench/truth, /metrology/report, or any topic the bag recorded as
   transient local).
 * The latched topics' first messages are published first, then the player waits
-  (deadline) until ``wait_subscribers`` subscriptions matched the busiest topic (the
-  sample stream; other topics may legitimately have no subscriber) and acknowledged the
-  latched messages, then streams the rest in log-time order at
-  ``t_wall0 + (t_bag - t_bag0) / rate`` (``rate`` <= 0: as fast as possible).
+  (deadline ``match_timeout``) for **every subscriber the user expects**: each node
+  of ``expect`` (default ``metrology`` and ``recorder``; ``NODE:/topic`` for a node
+  that does not take the busiest topic) must show a subscription in the graph and be
+  matched by the player's publisher, and at least ``wait_subscribers`` subscriptions
+  must match the busiest topic (the sample stream); then until the latched messages
+  are acknowledged. A subscriber still missing at the deadline stops the replay before
+  the first sample (exit 4, naming it) unless ``start_anyway``: starting as soon as
+  *one* subscriber matched once left a recorder with 681 of 18 000 samples. Then the
+  rest streams in log-time order at ``t_wall0 + (t_bag - t_bag0) / rate`` (``rate``
+  <= 0: as fast as possible).
 * ``publish()`` of bytes sends them as a serialized message (nothing re-encoded); an
   ``RCLError`` from a blocked KEEP_ALL writer is retried until a deadline.
 """
@@ -38,6 +44,8 @@ class ReplayStats:
     max_late_s: float = 0.0
     retries: int = 0
     matched: bool = True
+    missing: list[str] = field(default_factory=list)   # expected, not there in time
+    streamed: bool = False
 
     @property
     def total(self) -> int:
@@ -72,6 +80,28 @@ def replay_qos(latched: bool) -> QoSProfile:
     return QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE,
                       durability=(DurabilityPolicy.TRANSIENT_LOCAL if latched
                                   else DurabilityPolicy.VOLATILE))
+
+
+#: nodes ``cam-bench replay`` waits for by default (the metrology node and the recorder)
+DEFAULT_EXPECT = ('metrology', 'recorder')
+
+
+def parse_expect(items: Sequence[str]) -> list[tuple[str, str | None]]:
+    """``['metrology', 'reconstruction:/metrology/lift']`` -> [(node, topic or None)];
+    ``['none']`` -> []. InputError('--expect', item, ...) on a malformed item."""
+    from cam_design.errors import InputError
+    out: list[tuple[str, str | None]] = []
+    for item in items:
+        for part in str(item).replace(',', ' ').split():
+            if part == 'none':
+                continue
+            node, sep, topic = part.partition(':')
+            node = node.lstrip('/')
+            if not node or not all(c.isalnum() or c in '_/' for c in node) or (
+                    sep and not topic.startswith('/')):
+                raise InputError('--expect', part, "a node name, NODE:/topic, or 'none'")
+            out.append((node, topic if sep else None))
+    return out
 
 
 def select_topics(available: Sequence[str], topics: Sequence[str] | None) -> set[str]:
@@ -113,10 +143,39 @@ class ReplayNode(Node):
         stats.retries += publish_retrying(self.pubs[topic], data, timeout)
         stats.counts[topic] = stats.counts.get(topic, 0) + 1
 
+    def missing_subscribers(self, expect: Sequence[tuple[str, str | None]],
+                            wait_subscribers: int) -> list[str]:
+        """Expected subscribers not (yet) matched: 'NODE on /topic' or 'N of M
+        subscriptions on /topic'."""
+        missing: list[str] = []
+        need: dict[str, int] = {}
+        for node, topic in expect:
+            topic = topic or self.main_topic
+            if topic not in self.pubs:
+                missing.append(f'{node} on {topic} (not a replayed topic)')
+                continue
+            names = {i.node_name for i in self.get_subscriptions_info_by_topic(topic)}
+            if node.split('/')[-1] not in names:
+                missing.append(f'{node} on {topic}')
+            need[topic] = need.get(topic, 0) + 1
+        if self.main_topic is not None:
+            need[self.main_topic] = max(need.get(self.main_topic, 0), wait_subscribers)
+        if missing:   # named ones first; the counts only once every name is there
+            return missing
+        for topic, n in need.items():
+            have = self.pubs[topic].get_subscription_count()
+            if have < n:
+                missing.append(f'{n - have} of {n} subscriptions on {topic} not matched')
+        return missing
+
     def play(self, rate: float = 1.0, wait_subscribers: int = 1, match_timeout: float = 10.0,
              should_stop: Callable[[], bool] | None = None,
-             progress: Callable[[ReplayStats], None] | None = None) -> ReplayStats:
-        """Replay the bag once; see the module docstring for the order and timing."""
+             progress: Callable[[ReplayStats], None] | None = None,
+             expect: Sequence[tuple[str, str | None]] = (),
+             start_anyway: bool = False) -> ReplayStats:
+        """Replay the bag once; see the module docstring for the order and timing.
+        ``stats.streamed`` is False when an expected subscriber was missing at the
+        deadline (and not ``start_anyway``): nothing after the latched messages went out."""
         from cam_metrology.bagio import iter_messages
 
         stats = ReplayStats()
@@ -131,18 +190,23 @@ class ReplayNode(Node):
                 continue
             held.append(item)
             break
-        # 2. wait for subscribers on every topic, and for the latched data to be taken
-        if wait_subscribers > 0:
+        # 2. wait for every expected subscriber, then for the latched data to be taken
+        if wait_subscribers > 0 or expect:
             deadline = time.monotonic() + match_timeout
-            main = self.pubs[self.main_topic] if self.main_topic else None
-            while main is not None and main.get_subscription_count() < wait_subscribers:
+            while True:
+                stats.missing = self.missing_subscribers(expect, wait_subscribers)
+                if not stats.missing:
+                    break
                 if time.monotonic() >= deadline or (should_stop and should_stop()):
                     stats.matched = False
                     break
                 time.sleep(0.01)
+            if not stats.matched and not start_anyway:
+                return stats
             for topic in first_done:
                 left = max(0.1, deadline - time.monotonic())
                 self.pubs[topic].wait_for_all_acked(Duration(seconds=left))
+        stats.streamed = True
         # 3. the stream, with the original timing scaled by ``rate``
         t_wall0 = time.monotonic()
         t_bag0: int | None = None
@@ -181,9 +245,11 @@ def _chain(first: list[Any], rest: Any) -> Any:
 def run_replay(bag: str | Path, rate: float = 1.0, *, loop: bool = False,
                wait_subscribers: int = 1, match_timeout: float = 10.0,
                topics: Sequence[str] | None = None, args: Sequence[str] | None = None,
-               quiet: bool = False) -> int:
-    """Replay ``bag`` (``loop``: again until SIGINT). Exit 0 (a missing subscriber is a
-    warning: replay publishes anyway, like ``ros2 bag play``)."""
+               quiet: bool = False, expect: Sequence[str] = DEFAULT_EXPECT,
+               start_anyway: bool = False) -> int:
+    """Replay ``bag`` (``loop``: again until SIGINT). Exit 0; 4 when an expected
+    subscriber was missing at the deadline (nothing streamed) unless ``start_anyway``
+    (then a warning naming it, and the replay)."""
     from cam_design.errors import InputError
     from cam_metrology.nodes.runtime import RosProcess
 
@@ -192,19 +258,35 @@ def run_replay(bag: str | Path, rate: float = 1.0, *, loop: bool = False,
     if wait_subscribers < 0:
         raise InputError('--wait-subscribers', wait_subscribers, 'a count >= 0')
     select_topics(list(bag_connections(bag)), topics)   # before any ROS set-up
+    expected = parse_expect(expect)
     proc = RosProcess(args)
     try:
         node = proc.add(ReplayNode(bag, context=proc.context, topics=topics))
         if not quiet:
             print(f'replaying {bag} ({len(node.pubs)} topics) at rate '
                   f'{rate if rate > 0 else "max"}', flush=True)
+        if not quiet and (expected or wait_subscribers):
+            print('waiting for ' + ', '.join(
+                [f'{n} on {t or node.main_topic}' for n, t in expected]
+                + ([f'{wait_subscribers} subscription(s) on {node.main_topic}']
+                   if wait_subscribers else [])) + f' (deadline {match_timeout:g} s)',
+                flush=True)
+        first = True
         while True:
-            stats = node.play(rate, wait_subscribers, match_timeout,
-                              should_stop=lambda: proc.stopping)
+            stats = node.play(rate, wait_subscribers if first else 0, match_timeout,
+                              should_stop=lambda: proc.stopping,
+                              expect=expected if first else (), start_anyway=start_anyway)
+            first = False
+            if not stats.streamed:
+                import sys
+                print(f'cam-bench replay: expected subscribers missing after '
+                      f'{match_timeout:g} s: {"; ".join(stats.missing)}; nothing replayed '
+                      '(start them, or change --expect / --wait-subscribers, or '
+                      '--start-anyway)', file=sys.stderr, flush=True)
+                return 4
             node.wait_acked(5.0)
             if not stats.matched:
-                print(f'replay: warning: fewer than {wait_subscribers} subscriber(s) on '
-                      f'{node.main_topic} after {match_timeout} s: {node.matched_counts()}',
+                print(f'replay: warning: started anyway without {"; ".join(stats.missing)}',
                       flush=True)
             if not quiet:
                 print(f'published {stats.total} messages in {stats.wall_s:.2f} s (bag span '

@@ -23,11 +23,13 @@ class QosSpec:
     reliable: bool = True
     transient_local: bool = False
     depth: int = 10
+    keep_all: bool = False   # subscriptions/publishers: KEEP_ALL (bags still say depth)
 
     def profile(self) -> QoSProfile:
-        """The rclpy QoS profile (keep last ``depth``)."""
+        """The rclpy QoS profile (keep last ``depth``, or keep all)."""
         return QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=self.depth,
+            history=HistoryPolicy.KEEP_ALL if self.keep_all else HistoryPolicy.KEEP_LAST,
+            depth=self.depth,
             reliability=(ReliabilityPolicy.RELIABLE if self.reliable
                          else ReliabilityPolicy.BEST_EFFORT),
             durability=(DurabilityPolicy.TRANSIENT_LOCAL if self.transient_local
@@ -48,7 +50,7 @@ LATCHED = QosSpec(reliable=True, transient_local=True, depth=1)
 #: falls behind, and the writer overwrites samples a starved reader process never
 #: received (Fast DDS re-sends only from the writer history). 20 000 samples (~3 MB)
 #: are 10 s of slack at 2 kHz.
-SAMPLES = QosSpec(reliable=True, transient_local=False, depth=20000)
+SAMPLES = QosSpec(reliable=True, transient_local=False, depth=20000, keep_all=True)
 EVENTS = QosSpec(reliable=True, transient_local=False, depth=10)
 #: node outputs: reliable depth 100 as in architecture.md, offered *transient local*
 #: (compatible with every volatile subscriber): a subscriber that matches late, e.g. the
@@ -67,6 +69,7 @@ FEATURE_DONE = '/bench/feature_done'
 TRUTH = '/bench/truth'
 METROLOGY_REPORT = '/metrology/report'
 METROLOGY_RESULT = '/metrology/result'
+DIAGNOSTICS = '/diagnostics'
 
 #: topic -> (ROS type name, QoS); the bench inputs first, then every node output.
 TOPICS: dict[str, tuple[str, QosSpec]] = {
@@ -82,13 +85,28 @@ TOPICS: dict[str, tuple[str, QosSpec]] = {
     '/dynamics/valve_motion': (TABLE, RESULTS),
     '/dynamics/result': (STATUS, RESULTS),
 }
+#: every node's own health (input received and lost) on /diagnostics, the ROS
+#: convention; not a bench topic or output of the contract's table, recorded too
+DIAGNOSTICS_QOS = QosSpec(reliable=True, transient_local=True, depth=10)
 
 BENCH_TOPICS = (SCENE, TRUTH, JOINT_STATES, FEATURE_DONE)
 OUTPUT_TOPICS = tuple(t for t in TOPICS if t not in BENCH_TOPICS)
 
 
+def keep_all_profile(transient_local: bool = False) -> QoSProfile:
+    """Reliable KEEP_ALL: nothing is overwritten; a full history blocks the writer
+    (back-pressure) instead (bounded by the Fast DDS resource limits of
+    ``runtime.FASTDDS_PROFILE``)."""
+    return QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1,
+                      reliability=ReliabilityPolicy.RELIABLE,
+                      durability=(DurabilityPolicy.TRANSIENT_LOCAL if transient_local
+                                  else DurabilityPolicy.VOLATILE))
+
+
 def qos_of(topic: str, default: QosSpec = RESULTS) -> QosSpec:
     """QoS of a known topic (as published and stored in bags), ``default`` for others."""
+    if topic == DIAGNOSTICS:
+        return DIAGNOSTICS_QOS
     return TOPICS[topic][1] if topic in TOPICS else default
 
 
