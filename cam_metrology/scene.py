@@ -65,6 +65,8 @@ class ValveTrain:
     seat: Seat = field(default_factory=Seat)
     cam_speed_rpm: tuple[float, ...] = (1500.0,)
     mdof: dict[str, Any] | None = None   # extra parameters of the 4+N1+N2 model
+    spring: dict[str, Any] | None = None   # spring geometry (coil bind), docs/scene.md
+    piston: dict[str, Any] | None = None   # crank-slider (dynamic valve-piston clearance)
 
 
 @dataclass(frozen=True)

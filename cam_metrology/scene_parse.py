@@ -406,7 +406,7 @@ def _compute(value: Any) -> frozenset[str] | None:
 
 
 def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
-    known = ('model', 'seat', 'cam_speed_rpm', 'mdof') + tuple(VALVE_KEYS)
+    known = ('model', 'seat', 'cam_speed_rpm', 'mdof', 'spring', 'piston') + tuple(VALVE_KEYS)
     vt = ctx.mapping('valve_train', value, known)
     model = vt.get('model', 'sdof')
     if model not in VALVE_MODELS:
@@ -425,8 +425,14 @@ def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
     if model == 'mdof' and mdof is None:
         ctx.warnings.append('valve_train.mdof: model mdof without an mdof block; the '
                             'dynamics node uses its defaults')
+    from cam_design.valve_train.physics import train_checks_from
+
+    train_checks_from(vt.get('spring'), vt.get('piston'))     # validated here, named keys
+    spring, piston = vt.get('spring'), vt.get('piston')
     return ValveTrain(model=model, seat=seat, cam_speed_rpm=speeds,
-                      mdof=dict(mdof) if mdof is not None else None, **params)
+                      mdof=dict(mdof) if mdof is not None else None,
+                      spring=dict(spring) if spring is not None else None,
+                      piston=dict(piston) if piston is not None else None, **params)
 
 
 def _seat(ctx: _Ctx, value: Any) -> Seat:

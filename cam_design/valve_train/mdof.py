@@ -227,7 +227,7 @@ METHODS = ('exact', 'LSODA', 'Radau', 'BDF')
 
 def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float = 0.1,
                   method: str = 'exact', max_revolutions: int = 8,
-                  periodic_tol: float = 1e-9, rtol: float = 1e-8, atol: float = 1e-12,
+                  periodic_tol: float = 1e-10, rtol: float = 1e-8, atol: float = 1e-12,
                   pre_deg: float = 1.0, span_deg: float = 360.0) -> MdofResult:
     """Valve motion from static equilibrium on the base circle ``pre_deg`` before the
     lobe, on the multiples of ``step_deg``.

@@ -275,6 +275,7 @@ class _Run:
         self.bounce_mass = bounce_mass
         self.preload = preload
         self.peak = 0.0            # largest valve lift since the last lift-off [m]
+        self.jac: NDArray | None = None   # d z / d z(start) when shooting
 
     # -- bulk ------------------------------------------------------------------------
     def bulk(self, k0: int, z: NDArray, r: int, want: int) -> tuple[int, NDArray]:
@@ -321,6 +322,11 @@ class _Run:
             bad = np.nonzero(np.any(flags, axis=1))[0]
             if bad.size and int(idx[bad[0]]) < clean:
                 clean = int(idx[bad[0]])
+        if self.jac is not None:
+            jac = self.jac
+            for i in range(clean):
+                jac = ends[invl[i]] @ jac
+            self.jac = jac
         return clean, zz[1:clean + 1]
 
     # -- one step with switches ----------------------------------------------------------
@@ -356,6 +362,8 @@ class _Run:
                     break
             if found is None:
                 self.peak = max(self.peak, float(np.max(zs[:, V])))
+                if self.jac is not None:
+                    self.jac = phis[-1] @ self.jac
                 z = zs[-1]
                 if not np.all(np.isfinite(z)):
                     raise SolverError('non-finite state')
@@ -369,7 +377,16 @@ class _Run:
                 t_out, np.polynomial.polynomial.polyder(u_loc))) / ds
             s_new = s0 + w * (j + t_out) / m
             alpha = float(cam.nodes[k] + la_step * s_new)
+            r_old = r
             z, r = self.switch(r, which, alpha, ze, uu, ud)
+            if self.jac is not None:
+                udd = float(np.polynomial.polynomial.polyval(
+                    t_out, np.polynomial.polynomial.polyder(u_loc, 2))) / (ds * ds)
+                loc = _horner_mat(self._taylor_phi(r_old, ds), t_out)
+                if j:
+                    loc = loc @ phis[j - 1]
+                sal = self._saltation(r_old, r, which, ze, z, uu, ud, udd)
+                self.jac = sal @ (loc @ self.jac)
             s0 = s_new
             self.ev.count += 1
             if self.ev.count > _MAX_EVENTS:
@@ -393,6 +410,69 @@ class _Run:
             c = rhs * (ds / (i + 1))
             cz[i + 1] = c
         return cz
+
+    def _taylor_phi(self, r: int, ds: float) -> NDArray:
+        """(ORDER+1, 2n, 2n) Taylor coefficients of Phi(t ds) = exp(A t ds)."""
+        am = self.model.mats(r)[3] * ds
+        out = np.empty((_TAYLOR + 1,) + am.shape)
+        out[0] = np.eye(am.shape[0])
+        for i in range(_TAYLOR):
+            out[i + 1] = am @ out[i] / (i + 1)
+        return out
+
+    def _field(self, r: int, z: NDArray, u: float, ud: float) -> NDArray:
+        """z' of regime r at state z with the cam at (u, ud)."""
+        model = self.model
+        am = model.mats(r)[3]
+        out = am @ z + model.const_rate(r)
+        if r & CAM:
+            out[model.n + T] += (model.asm.k_c * u + model.asm.b_c * ud) * model.minv[T]
+        return out
+
+    def _grad(self, r: int, which: int, z: NDArray, u: float, ud: float,
+              udd: float) -> tuple[NDArray, float]:
+        """(grad_z g, dg/dt) of the active switching component of ``which``."""
+        model = self.model
+        a = model.asm
+        n = model.n
+        e = np.eye(2 * n)
+        if which == CAM:
+            d = u - z[T]
+            gc = a.k_c * d + a.b_c * (ud - z[n + T])
+            if d <= gc:
+                return -e[T], ud
+            return -a.k_c * e[T] - a.b_c * e[n + T], a.k_c * ud + a.b_c * udd
+        if which == RV:
+            d2 = z[R] - z[V] - model.lash
+            g2 = a.k_rv * d2 + a.b_rv * (z[n + R] - z[n + V])
+            if d2 <= g2:
+                return e[R] - e[V], 0.0
+            return a.k_rv * (e[R] - e[V]) + a.b_rv * (e[n + R] - e[n + V]), 0.0
+        if model.hard:
+            if r & SEAT:
+                kk, cc, _, _, _ = model.mats(r)
+                return np.concatenate([kk[V], cc[V]]), 0.0
+            return e[V], 0.0
+        gs = -model.ks * z[V] - model.bs * z[n + V]
+        if -z[V] <= gs:
+            return -e[V], 0.0
+        return -model.ks * e[V] - model.bs * e[n + V], 0.0
+
+    def _saltation(self, r_old: int, r_new: int, which: int, zm: NDArray, zp: NDArray,
+                   u: float, ud: float, udd: float) -> NDArray:
+        """Jacobian of the state across a switch (reset map and switching time)."""
+        model = self.model
+        n = model.n
+        reset = np.eye(2 * n)
+        if model.hard and which == SEAT and not r_old & SEAT:      # impact
+            reset[n + V, n + V] = -model.e if zp[n + V] != 0.0 else 0.0
+        grad, gt = self._grad(r_old, which, zm, u, ud, udd)
+        fm = self._field(r_old, zm, u, ud)
+        fp = self._field(r_new, zp, u, ud)
+        den = float(grad @ fm) + gt
+        if abs(den) < 1e-300:
+            return reset
+        return reset + np.outer(fp - reset @ fm, grad) / den
 
     def _first_switch(self, r: int, cz: NDArray, u_loc: NDArray,
                       ds: float) -> tuple[float, int] | None:
@@ -556,6 +636,14 @@ def _dcoef(c: NDArray) -> NDArray:
     return out
 
 
+def _horner_mat(c: NDArray, t: float) -> NDArray:
+    """sum_i c_i t^i for matrix coefficients c (first axis)."""
+    acc = np.zeros(c.shape[1:])
+    for mat in c[::-1]:
+        acc = acc * t + mat
+    return acc
+
+
 def _horner_vec(c: NDArray, t: float) -> NDArray:
     """sum_i c_i t^i for vector coefficients c (rows)."""
     acc = np.zeros(c.shape[1])
@@ -594,6 +682,20 @@ def static_state(model: _Model, u0: float) -> tuple[NDArray, int]:
     raise SolverError('no consistent static state on the base circle')
 
 
+def _consistent(model: _Model, r: int, z: NDArray, u0: float) -> bool:
+    """z is a state of regime r at the start node (cam at rest on the base circle)."""
+    n = model.n
+    x, xd = z[:n], z[n:]
+    acc = model.accel(r, x, xd, model.asm.k_c * u0 if r & CAM else 0.0)
+    for sign, vals, _ in model.groups(r, x, xd, acc, u0, 0.0, 0.0):
+        if sign * min(float(v) for v in vals) < -1e-12 * max(1.0, max(
+                abs(float(v)) for v in vals)):
+            return False
+    if model.held(r) and (z[V] != 0.0 or z[n + V] != 0.0):
+        return False
+    return True
+
+
 @dataclass
 class ExactRevolutions:
     """Nodes (alpha rad), states (N+1, 2n), regimes of the last revolution; events."""
@@ -610,12 +712,19 @@ class ExactRevolutions:
 
 
 def run_exact(asm: Any, cam: CamInput, omega: float, *, max_revolutions: int = 1,
-              periodic_tol: float = 1e-9) -> ExactRevolutions:
+              periodic_tol: float = 1e-9, shooting: bool = True) -> ExactRevolutions:
     """Revolutions from the static state until the state at the start node repeats
     within ``periodic_tol`` [m] (positions; velocities divided by the lowest natural
-    angular frequency) or ``max_revolutions`` is reached."""
+    angular frequency) or ``max_revolutions`` revolutions have been simulated.
+
+    ``shooting``: after each revolution a Newton step on the one-revolution map
+    z -> P(z) (piecewise affine; its Jacobian is the product of the step propagators
+    and the saltation matrices of the switches) when the revolution ended in the regime
+    it started in and the Newton point is a consistent state; otherwise plain
+    repetition (z <- P(z))."""
     model = _Model(asm, omega)
-    z0, r0 = static_state(model, float(cam.coeffs[0, 0]))
+    u0 = float(cam.coeffs[0, 0])
+    z0, r0 = static_state(model, u0)
     n = model.n
     w1 = 2 * math.pi * float(max(asm.natural_frequencies()[0], 1e-3))
     mp = asm.mp
@@ -623,13 +732,28 @@ def run_exact(asm: Any, cam: CamInput, omega: float, *, max_revolutions: int = 1
     revs = 0
     run = None
     zs = rs = None
+    eye = np.eye(2 * n)
+
+    def metric(d: NDArray) -> float:
+        return float(max(np.max(np.abs(d[:n])), np.max(np.abs(d[n:])) / w1))
+
     for revs in range(1, max_revolutions + 1):
         run = _Run(model, cam, mp.masses[V], mp.base.spring_preload)
+        if shooting and revs < max_revolutions:
+            run.jac = eye.copy()
         zs, rs, z, r = run.revolution(z0, r0)
-        residual = float(max(np.max(np.abs(z[:n] - z0[:n])),
-                             np.max(np.abs(z[n:] - z0[n:])) / w1))
+        residual = metric(z - z0)
         if residual <= periodic_tol and r == r0:
             break
+        if run.jac is not None and r == r0:
+            try:
+                z_new = z0 - np.linalg.solve(run.jac - eye, z - z0)
+            except np.linalg.LinAlgError:
+                z_new = None
+            if z_new is not None and np.all(np.isfinite(z_new)) and _consistent(
+                    model, r0, z_new, u0):
+                z0 = z_new
+                continue
         z0, r0 = z, r
     u = np.concatenate([cam.coeffs[:, 0], [np.sum(cam.coeffs[-1])]])
     du = np.concatenate([cam.coeffs[:, 1] / cam.lengths,
