@@ -223,6 +223,8 @@ class MdofResult:
 
 
 METHODS = ('exact', 'LSODA', 'Radau', 'BDF')
+#: a valve lift above RUNAWAY times the rigid lift k h_max - x0: the valve has left the cam
+RUNAWAY = 1.1
 
 
 def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float = 0.1,
@@ -268,11 +270,14 @@ def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float =
     if ev.closing is not None:
         after = alpha > ev.closing
         bounce_h = float(max(0.0, np.max(y[after], initial=0.0)))
+    rigid = float(np.max(ex.u)) - mp.base.lash
+    runaway = bool(np.max(ex.z[:, V]) > RUNAWAY * max(rigid, 0.0) + 1e-6)
     events = {
         'opening_deg': _deg(ev.opening), 'closing_deg': _deg(ev.closing),
         'separations': [[math.degrees(a), math.degrees(b)] for a, b in ev.separations],
         'valve_toss': [[math.degrees(a), math.degrees(b)] for a, b in ev.valve_toss],
-        'jump': bool(ev.separations or ev.valve_toss),
+        'jump': bool(ev.separations or ev.valve_toss or runaway),
+        'valve_leaves_cam': runaway,
         'seating_velocity_m_s': ev.seating_velocity,
         'bounce_count': int(ev.bounce_count), 'bounce_height_m': bounce_h,
         'revolutions': int(ex.revolutions),

@@ -116,10 +116,11 @@ def _static(eq: _Eq) -> tuple[NDArray, int]:
 
 
 def reference_mdof(law: LiftLaw, mp: MdofParams, rpm: float, alpha: NDArray[np.float64], *,
-                   method: str = 'Radau', rtol: float = 1e-11,
-                   atol: float = 1e-16) -> MdofReference:
+                   method: str = 'Radau', rtol: float = 1e-11, atol: float = 1e-16,
+                   start: tuple[NDArray, int] | None = None) -> MdofReference:
     """States at the increasing angles ``alpha`` [rad] (one revolution at most) from the
-    static state at alpha[0]."""
+    static state at alpha[0], or from ``start`` = (state, regime bits CAM=1 RV=2
+    SEAT=4) there."""
     omega = omega_of_rpm(rpm)
     a0 = float(alpha[0])
     eq = _Eq(law, mp, omega, a0)
@@ -129,7 +130,7 @@ def reference_mdof(law: LiftLaw, mp: MdofParams, rpm: float, alpha: NDArray[np.f
     junctions = sorted({float(j) for j in (*law.junctions, *law.support)
                         if a0 < j < a0 + omega * t_end})
     breaks = [(j - a0) / omega for j in junctions] + [t_end]
-    z, r = _static(eq)
+    z, r = _static(eq) if start is None else (np.array(start[0], dtype=float), start[1])
     out = np.full((t_out.size, 2 * n), np.nan)
     out[0] = z
     t = 0.0
@@ -150,8 +151,13 @@ def reference_mdof(law: LiftLaw, mp: MdofParams, rpm: float, alpha: NDArray[np.f
             ev.direction = -1
             events.append(ev)
         sel = (t_out > t) & (t_out <= t1)
+        extra = {}
+        if method in ('Radau', 'BDF', 'LSODA'):
+            zero = eq.rhs(t, np.zeros(2 * n), r)
+            jac = np.column_stack([eq.rhs(t, e_i, r) - zero for e_i in np.eye(2 * n)])
+            extra['jac'] = jac                      # affine right-hand side
         sol = solve_ivp(lambda tt, zz: eq.rhs(tt, zz, r), (t, t1), z, method=method,
-                        rtol=rtol, atol=atol, events=events, dense_output=True)
+                        rtol=rtol, atol=atol, events=events, dense_output=True, **extra)
         if not sol.success:
             raise RuntimeError(sol.message)
         t_stop = float(sol.t[-1])
@@ -184,5 +190,12 @@ def reference_mdof(law: LiftLaw, mp: MdofParams, rpm: float, alpha: NDArray[np.f
         else:
             r ^= which
         res.switches.append((a0 + omega * t, which, r))
+        if eq.hard and which == SEAT:
+            # the velocity reset can leave the rocker-valve contact outside its domain
+            # (its dashpot force turns negative): it opens at once
+            vals = eq.inside(t, z, r)
+            if vals[1] < 0 and r & RV:
+                r ^= RV
+                res.switches.append((a0 + omega * t, RV, r))
     return res
 

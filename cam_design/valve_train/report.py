@@ -195,6 +195,10 @@ def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
     events.update(physics.run_checks(law, params, omega_of_rpm(rpm), alpha, lift,
                                      train_checks))
     note = events_note(events)
+    if events.get('valve_leaves_cam'):
+        away = (f"the valve leaves the cam at {rpm:g} rpm (max lift "
+                f"{float(np.max(lift)) * 1e3:.3f} mm, above the rigid lift)")
+        note = away if not note else note + '; ' + away
     if events.get('settled') is False:
         unsettled = (f"not settled: no periodic state after {events.get('revolutions')} "
                      f"revolutions (residual {events.get('periodic_residual_m', math.nan):.3g}"
