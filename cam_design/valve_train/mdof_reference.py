@@ -7,6 +7,8 @@ restarts in the new regime. Slow; the truth of the tests and the benchmark.
 """
 from __future__ import annotations
 
+import bisect
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,20 +45,42 @@ class _Eq:
         self.n = self.asm.n
         b = mp.base
         self.hard = b.hard_seat
+        self._t = math.nan
+        self._u = (0.0, 0.0)
+        # piecewise polynomial laws (breaks, pieces): Horner on Python floats, the
+        # same polynomials without numpy's per-call overhead
+        self._fast = None
+        if hasattr(law, 'breaks') and hasattr(law, 'pieces'):
+            self._fast = (np.asarray(law.breaks, dtype=float).tolist(),
+                          [(pc[0].convert().coef[::-1].tolist(),
+                            pc[1].convert().coef[::-1].tolist()) for pc in law.pieces])
 
-    def cam(self, t: float) -> tuple[float, float, float]:
+    def cam(self, t: float) -> tuple[float, float]:
+        """(u, du/dt) at time t (the last one cached: rhs and events share it)."""
+        if t == self._t:
+            return self._u
         a = self.a0 + self.omega * t
         k = self.mp.base.rocker_ratio
-        w = self.omega
-        return (k * float(self.law(a)), k * w * float(self.law(a, 1)),
-                k * w * w * float(self.law(a, 2)))
+        if self._fast is not None:
+            br, pcs = self._fast
+            h = h1 = 0.0
+            if br[0] <= a <= br[-1]:
+                i = min(max(bisect.bisect_right(br, a) - 1, 0), len(pcs) - 1)
+                for c in pcs[i][0]:
+                    h = h * a + c
+                for c in pcs[i][1]:
+                    h1 = h1 * a + c
+        else:
+            h, h1 = (float(v) for v in self.law.derivatives(np.array([a]))[:2, 0])
+        self._t, self._u = t, (k * h, k * self.omega * h1)
+        return self._u
 
     def forces(self, t: float, x: NDArray, xd: NDArray, r: int) -> NDArray:
         """Net force on every DOF in regime r (the unilateral ones as linear springs)."""
         a, b = self.asm, self.mp.base
         f = a.preload - a.k_lin @ x - a.c_lin @ xd
         if r & CAM:
-            u, ud, _ = self.cam(t)
+            u, ud = self.cam(t)
             f[T] += a.k_c * (u - x[T]) + a.b_c * (ud - xd[T])
         if r & RV:
             frv = a.k_rv * (x[R] - x[V] - b.lash) + a.b_rv * (xd[R] - xd[V])
@@ -80,7 +104,7 @@ class _Eq:
         a, b = self.asm, self.mp.base
         n = self.n
         x, xd = z[:n], z[n:]
-        u, ud, _ = self.cam(t)
+        u, ud = self.cam(t)
         d = u - x[T]
         gc = min(d, a.k_c * d + a.b_c * (ud - xd[T]))
         d2 = x[R] - x[V] - b.lash
