@@ -333,7 +333,6 @@ class _Run:
     def event_step(self, k: int, z: NDArray, r: int) -> tuple[NDArray, int]:
         """Step k from its start node to its end node, every switch inside handled."""
         model, cam = self.model, self.cam
-        n = model.n
         s0 = 0.0
         la_step = float(cam.lengths[k])
         lt_step = float(self.lt[k])
@@ -750,6 +749,8 @@ def run_exact(asm: Any, cam: CamInput, omega: float, *, max_revolutions: int = 1
                 z_new = z0 - np.linalg.solve(run.jac - eye, z - z0)
             except np.linalg.LinAlgError:
                 z_new = None
+            if z_new is not None and model.held(r0):
+                z_new[V] = z_new[n + V] = 0.0
             if z_new is not None and np.all(np.isfinite(z_new)) and _consistent(
                     model, r0, z_new, u0):
                 z0 = z_new
