@@ -13,7 +13,6 @@ Run: ``.venv/bin/python -m benchmarks.bench_mdof`` -> benchmarks/results/mdof.md
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import numpy as np
