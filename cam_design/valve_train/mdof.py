@@ -13,14 +13,17 @@ Elements (force > 0 pushes the valve open):
 * spring i (rate c_i, mass m_i, preload F0_i): N_i masses m_i/N_i joined by N_i + 1
   springs of rate (N_i + 1) c_i between the retainer (valve) and the head (fixed);
   the preload is a constant force on the valve;
-* the penalty seat of the ``sdof`` contract on the valve;
+* the penalty seat of the ``sdof`` contract on the valve, or the hard seat with
+  restitution (exact solver only);
 * (addition needed once the lash is open) a light follower spring keeping the tappet,
   push-rod and rocker on the cam: rate k_f and preload F_f on the tappet.
 Dashpots are stiffness-proportional, b = beta k, beta = b_t / c of the SDOF train, and
-beta_s for the coils. Integration: scipy ``solve_ivp`` (Radau, analytic piecewise
-Jacobian; LSODA by default, Radau or BDF on request) over one revolution, with the
-contact switches handled inside the right-hand side (no restart at events) and events
-located on the output grid (valve seat crossings exactly, by solve_ivp events).
+beta_s for the coils. Integration: by default the exact piecewise-linear solver of
+``mdof_exact`` (matrix exponentials per regime and step, switches located on the exact
+local solution, Newton shooting to the periodic state); ``method`` LSODA | Radau | BDF
+keeps the earlier scipy ``solve_ivp`` path (analytic piecewise Jacobian, one span from
+rest, contact switches inside the right-hand side, separations on the output grid) as a
+reference option.
 """
 from __future__ import annotations
 
