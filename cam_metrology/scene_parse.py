@@ -416,7 +416,8 @@ def _compute(value: Any) -> frozenset[str] | None:
 
 
 def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
-    known = ('model', 'seat', 'cam_speed_rpm', 'mdof', 'hydraulic') + tuple(VALVE_KEYS)
+    known = ('model', 'seat', 'cam_speed_rpm', 'mdof', 'hydraulic', 'spring',
+             'piston') + tuple(VALVE_KEYS)
     vt = ctx.mapping('valve_train', value, known)
     model = vt.get('model', 'sdof')
     if model not in VALVE_MODELS:
@@ -449,9 +450,15 @@ def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
     if model == 'mdof' and mdof is None:
         ctx.warnings.append('valve_train.mdof: model mdof without an mdof block; the '
                             'dynamics node uses its defaults')
+    from cam_design.valve_train.physics import train_checks_from
+
+    train_checks_from(vt.get('spring'), vt.get('piston'))     # validated here, named keys
+    spring, piston = vt.get('spring'), vt.get('piston')
     return ValveTrain(model=model, seat=seat, cam_speed_rpm=speeds,
                       mdof=dict(mdof) if mdof is not None else None,
-                      hydraulic=dict(block) if block is not None else None, **params)
+                      hydraulic=dict(block) if block is not None else None,
+                      spring=dict(spring) if spring is not None else None,
+                      piston=dict(piston) if piston is not None else None, **params)
 
 
 def _seat(ctx: _Ctx, value: Any) -> Seat:

@@ -13,14 +13,17 @@ Elements (force > 0 pushes the valve open):
 * spring i (rate c_i, mass m_i, preload F0_i): N_i masses m_i/N_i joined by N_i + 1
   springs of rate (N_i + 1) c_i between the retainer (valve) and the head (fixed);
   the preload is a constant force on the valve;
-* the penalty seat of the ``sdof`` contract on the valve;
+* the penalty seat of the ``sdof`` contract on the valve, or the hard seat with
+  restitution (exact solver only);
 * (addition needed once the lash is open) a light follower spring keeping the tappet,
   push-rod and rocker on the cam: rate k_f and preload F_f on the tappet.
 Dashpots are stiffness-proportional, b = beta k, beta = b_t / c of the SDOF train, and
-beta_s for the coils. Integration: scipy ``solve_ivp`` (Radau, analytic piecewise
-Jacobian; LSODA by default, Radau or BDF on request) over one revolution, with the
-contact switches handled inside the right-hand side (no restart at events) and events
-located on the output grid (valve seat crossings exactly, by solve_ivp events).
+beta_s for the coils. Integration: by default the exact piecewise-linear solver of
+``mdof_exact`` (matrix exponentials per regime and step, switches located on the exact
+local solution, Newton shooting to the periodic state); ``method`` LSODA | Radau | BDF
+keeps the earlier scipy ``solve_ivp`` path (analytic piecewise Jacobian, one span from
+rest, contact switches inside the right-hand side, separations on the output grid) as a
+reference option.
 """
 from __future__ import annotations
 
@@ -202,7 +205,11 @@ class _Assembly:
 
 @dataclass
 class MdofResult:
-    """Valve motion on the output grid (alpha rad) and the events."""
+    """Valve motion on the output grid (alpha rad) and the events.
+
+    ``settled``: the state at the start node repeated within the periodic tolerance
+    (always False for a single revolution of the LSODA/Radau/BDF path, which does not
+    check it); ``periodic_residual`` [m] and ``revolutions`` say how close it came."""
 
     alpha: NDArray[np.float64]
     y: NDArray[np.float64]                 # valve lift [m]
@@ -212,13 +219,96 @@ class MdofResult:
     surge_hz: list[list[float]]
     events: dict[str, Any] = field(default_factory=dict)
     nfev: int = 0
+    method: str = 'exact'
+    revolutions: int = 1
+    periodic_residual: float = math.inf
+    settled: bool = False
+
+
+METHODS = ('exact', 'LSODA', 'Radau', 'BDF')
+#: a valve lift above RUNAWAY times the rigid lift k h_max - x0: the valve has left the cam
+RUNAWAY = 1.1
 
 
 def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float = 0.1,
-                  rtol: float = 1e-8, atol: float = 1e-12, method: str = 'LSODA',
+                  method: str = 'exact', max_revolutions: int = 8,
+                  periodic_tol: float = 1e-10, rtol: float = 1e-8, atol: float = 1e-12,
                   pre_deg: float = 1.0, span_deg: float = 360.0) -> MdofResult:
-    """From static equilibrium on the base circle ``pre_deg`` before the lobe over
-    ``span_deg`` of cam angle (default one revolution)."""
+    """Valve motion from static equilibrium on the base circle ``pre_deg`` before the
+    lobe, on the multiples of ``step_deg``.
+
+    ``method`` 'exact' (default): the piecewise-exact solver of ``mdof_exact``,
+    revolutions repeated until periodic (``periodic_tol`` m, at most
+    ``max_revolutions``), penalty or hard seat; the last revolution is returned (cut
+    to ``span_deg``). 'LSODA' | 'Radau' | 'BDF': scipy ``solve_ivp`` over ``span_deg``
+    from rest with the contact switches inside the right-hand side (penalty seat only;
+    the earlier reference path, kept for comparison)."""
+    if method not in METHODS:
+        raise InputError('method', method, ' | '.join(METHODS))
+    if method != 'exact':
+        return _simulate_ivp(law, mp, rpm, step_deg=step_deg, rtol=rtol, atol=atol,
+                             method=method, pre_deg=pre_deg, span_deg=span_deg)
+    from cam_design.valve_train.mdof_exact import run_exact
+
+    omega = omega_of_rpm(rpm)
+    step = math.radians(require_step_deg('step_deg', step_deg))
+    span = math.radians(require_positive('span_deg', span_deg))
+    if span > 2 * math.pi + 1e-12:
+        raise InputError('span_deg', span_deg, 'at most 360')
+    if isinstance(max_revolutions, bool) or int(max_revolutions) < 1:
+        raise InputError('max_revolutions', max_revolutions, 'an integer >= 1')
+    asm = _Assembly(mp)
+    cam = build_cam_input(law, mp.base.rocker_ratio, 0.0, step,
+                          pre=math.radians(require_positive('pre_deg', pre_deg)))
+    ex = run_exact(asm, cam, omega, max_revolutions=int(max_revolutions),
+                   periodic_tol=periodic_tol)
+    n = asm.n
+    sel = cam.uniform & (cam.nodes <= cam.nodes[0] + span + 1e-9)
+    z = ex.z[sel]
+    alpha = cam.nodes[sel]
+    fc = _cam_force(asm, z, ex.u[sel], ex.ud[sel], (ex.regime[sel] & 1) > 0)
+    y = z[:, V]
+    ev = ex.events
+    bounce_h = 0.0
+    if ev.closing is not None:
+        after = alpha > ev.closing
+        bounce_h = float(max(0.0, np.max(y[after], initial=0.0)))
+    rigid = float(np.max(ex.u)) - mp.base.lash
+    runaway = bool(np.max(ex.z[:, V]) > RUNAWAY * max(rigid, 0.0) + 1e-6)
+    events = {
+        'opening_deg': _deg(ev.opening), 'closing_deg': _deg(ev.closing),
+        'separations': [[math.degrees(a), math.degrees(b)] for a, b in ev.separations],
+        'valve_toss': [[math.degrees(a), math.degrees(b)] for a, b in ev.valve_toss],
+        'jump': bool(ev.separations or ev.valve_toss or runaway),
+        'valve_leaves_cam': runaway,
+        'seating_velocity_m_s': ev.seating_velocity,
+        'bounce_count': int(ev.bounce_count), 'bounce_height_m': bounce_h,
+        'revolutions': int(ex.revolutions),
+        'periodic_residual_m': float(ex.periodic_residual),
+        'settled': bool(ex.settled), 'switches': int(ev.count)}
+    return MdofResult(alpha=alpha, y=y, v=z[:, n + V], cam_force=mp.base.rocker_ratio * fc,
+                      natural_frequencies_hz=asm.natural_frequencies(),
+                      surge_hz=asm.surge_hz, events=events, method='exact',
+                      revolutions=ex.revolutions, periodic_residual=ex.periodic_residual,
+                      settled=ex.settled)
+
+
+def _deg(x: float | None) -> float | None:
+    return None if x is None else math.degrees(x)
+
+
+def _cam_force(asm: '_Assembly', z: NDArray, u: NDArray, ud: NDArray,
+               contact: NDArray) -> NDArray:
+    """Valve-side cam contact force F_c [N] at the nodes (0 off contact)."""
+    d = u - z[:, T]
+    f = asm.k_c * d + asm.b_c * (ud - z[:, asm.n + T])
+    return np.where(contact & (d > 0), np.maximum(f, 0.0), 0.0)
+
+
+def _simulate_ivp(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float,
+                  rtol: float, atol: float, method: str, pre_deg: float,
+                  span_deg: float) -> MdofResult:
+    """The scipy path (one span from rest, switches inside the right-hand side)."""
     omega = omega_of_rpm(rpm)
     step = math.radians(require_step_deg('step_deg', step_deg))
     asm = _Assembly(mp)
@@ -238,7 +328,7 @@ def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float =
     hard = b.hard_seat
     if hard:
         raise InputError('valve_train.seat.restitution', b.restitution,
-                         'the penalty seat (mdof supports the penalty seat only)')
+                         f'the penalty seat with method {method} (or method exact)')
     ks, bs = b.seat_stiffness, b.seat_damping
 
     cam_in = build_cam_input(law, k, 0.0, min(step, math.radians(0.5)),
@@ -321,7 +411,9 @@ def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float =
                  if sol.y_events[0].size else np.zeros(0), float(alpha[int(np.argmax(y))]))
     return MdofResult(alpha=alpha, y=y, v=xd[V], cam_force=k * fc,
                       natural_frequencies_hz=asm.natural_frequencies(),
-                      surge_hz=asm.surge_hz, events=events, nfev=int(sol.nfev))
+                      surge_hz=asm.surge_hz, events=events, nfev=int(sol.nfev),
+                      method=method, revolutions=1, periodic_residual=math.inf,
+                      settled=False)
 
 
 def _static(asm: _Assembly, mp: MdofParams, uc: float) -> NDArray[np.float64]:

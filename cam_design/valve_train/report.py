@@ -16,7 +16,9 @@ from numpy.typing import NDArray
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.epsilon import assess
-from cam_design.valve_train.params import SdofParams
+from cam_design.valve_train import physics
+from cam_design.valve_train.params import SdofParams, omega_of_rpm
+from cam_design.valve_train.physics import TrainChecks
 from cam_design.valve_train.sdof import SdofResult, simulate
 
 COLUMNS = ('alpha_rad', 'valve_lift_m', 'valve_velocity_m_per_s', 'contact_force_n',
@@ -130,7 +132,8 @@ def sdof_events(res: SdofResult) -> dict[str, Any]:
 
 
 def run_sdof(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 0.1,
-             geometry: ContactGeometry | None = None, max_revolutions: int = 4) -> Run:
+             geometry: ContactGeometry | None = None, max_revolutions: int = 4,
+             train_checks: TrainChecks | None = None) -> Run:
     """SDOF run at ``rpm`` with arrays every ``step_deg`` and all report fields."""
     res = simulate(law, params, rpm, step_deg=step_deg, max_revolutions=max_revolutions)
     sel = res.uniform
@@ -138,7 +141,7 @@ def run_sdof(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 
     force = res.cam_force[sel]
     events = sdof_events(res)
     return finish_run(law, params, rpm, 'sdof', alpha, res.y[sel], res.v[sel], force,
-                      events, geometry)
+                      events, geometry, train_checks)
 
 
 def events_note(events: dict[str, Any]) -> str | None:
@@ -161,8 +164,10 @@ def events_note(events: dict[str, Any]) -> str | None:
 
 def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
                alpha: NDArray, lift: NDArray, velocity: NDArray, force: NDArray,
-               events: dict[str, Any], geometry: ContactGeometry | None) -> Run:
-    """Add stress, maxima and epsilon to a run."""
+               events: dict[str, Any], geometry: ContactGeometry | None,
+               train_checks: TrainChecks | None = None) -> Run:
+    """Add stress, maxima, epsilon, the spring margin and (with ``train_checks``) coil
+    bind and the dynamic valve-piston clearance to a run."""
     undercut = False
     if geometry is not None:
         stress = contact_stress(law, alpha, force, geometry)
@@ -187,7 +192,18 @@ def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
         'epsilon_recommendation': eps.recommendation,
         'cam_width_m': geometry.width if geometry is not None else None,
     })
+    events.update(physics.run_checks(law, params, omega_of_rpm(rpm), alpha, lift,
+                                     train_checks))
     note = events_note(events)
+    if events.get('valve_leaves_cam'):
+        away = (f"the valve leaves the cam at {rpm:g} rpm (max lift "
+                f"{float(np.max(lift)) * 1e3:.3f} mm, above the rigid lift)")
+        note = away if not note else note + '; ' + away
+    if events.get('settled') is False:
+        unsettled = (f"not settled: no periodic state after {events.get('revolutions')} "
+                     f"revolutions (residual {events.get('periodic_residual_m', math.nan):.3g}"
+                     ' m); the events are those of the last revolution simulated')
+        note = unsettled if not note else note + '; ' + unsettled
     if note:
         events['note'] = note
     return Run(rpm=float(rpm), model=model, alpha=alpha, lift=lift, velocity=velocity,

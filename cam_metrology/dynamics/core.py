@@ -300,6 +300,8 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
 
         return run_hydraulic(law, hydraulic_from_valve_train(vt), rpm, geom)
     params = SdofParams.from_valve_train(vt)
+    from cam_design.valve_train.physics import train_checks_from
+    tc = train_checks_from(getattr(vt, 'spring', None), getattr(vt, 'piston', None))
     if getattr(vt, 'model', 'sdof') == 'mdof':
         from cam_design.valve_train.mdof import mdof_from_mapping, simulate_mdof
 
@@ -309,6 +311,6 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
         events['natural_frequencies_hz'] = [float(f) for f in res.natural_frequencies_hz[:6]]
         events['spring_surge_hz'] = [float(s[0]) for s in res.surge_hz]
         return finish_run(law, params, rpm, 'mdof', res.alpha, res.y, res.v, res.cam_force,
-                          events, geom)
+                          events, geom, tc)
     return run_sdof(law, params, rpm, step_deg=step_deg, geometry=geom,
-                    max_revolutions=max_revolutions)
+                    max_revolutions=max_revolutions, train_checks=tc)
