@@ -105,6 +105,7 @@ class SdofResult:
     settled: bool = False
     left_cam: bool = False
     shooting_iterations: int = 0
+    unstable: bool = False
 
     @property
     def cam_force(self) -> NDArray[np.float64]:
@@ -896,7 +897,10 @@ def _one_rev(model: _Model, cam: CamInput, z0: tuple[float, float], r0: int,
              events_only: bool = False, first: bool = False) -> _Shot:
     run = _Run(model, cam)
     run.stop_after_bounce = events_only
-    if not first and not (r0 & SEAT):
+    u0 = float(cam.coeffs[0, 0])
+    umax = float(np.max(cam.coeffs[:, 0]))
+    if not first and not (r0 & SEAT) and (z0[0] > max(BOUNCE_TOL, 1e-3 * umax) or (
+            r0 & CONTACT and u0 > 0)):
         run.opened = True        # a periodic start off the seat: the valve is already open
     ys, vs, rs, z, r = run.revolution(z0, r0)
     return _Shot(run, ys, vs, rs, z0, r0, z, r)
@@ -934,12 +938,14 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
     shot = _one_rev(model, cam, z0, r0, events_only, first=True)
     revs = 1
     iters = 0
+    unstable = False
     if not events_only and (resid(shot) > periodic_tol or shot.r != r0):
         shot = _one_rev(model, cam, shot.z, shot.r)
         revs += 1
         if resid(shot) > periodic_tol and shooting:
-            shot, n_rev, iters = _shoot(model, cam, shot, wn, resid)
+            shot, n_rev, iters, radius = _shoot(model, cam, shot, wn, resid)
             revs += n_rev
+            unstable = radius > 1.0 + 1e-6
     if not events_only:
         extra = 0
         while resid(shot) > periodic_tol and extra < max_revolutions:
@@ -965,61 +971,64 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
         after = np.zeros(cam.nodes.size, dtype=bool)
         after[cam.nodes > ev.closing] = True
         ev.bounce_height = float(max(0.0, np.nanmax(ys[after], initial=0.0)))
-    settled = bool(residual <= periodic_tol)
+    settled = bool(residual <= periodic_tol) and not unstable
     umax = float(np.max(u))
-    in_air = not (shot.r & (CONTACT | SEAT)) and shot.z[0] > 0.0
-    left = bool(not events_only and (in_air or (
-        float(np.nanmax(ys)) > 1.5 * umax + 1e-4 and not settled)))
+    in_air = not (shot.r & (CONTACT | SEAT)) and shot.z[0] > max(1e-6, 0.05 * umax)
+    left = bool(not events_only and (in_air or float(np.nanmax(ys)) > 1.5 * umax + 1e-4))
     return SdofResult(alpha=cam.nodes.copy(), y=ys, v=vs, force=ft, u=u, regime=rs,
                       uniform=cam.uniform.copy(), events=ev, omega=omega, params=params,
                       revolutions=revs, periodic_residual=float(residual),
-                      settled=settled, left_cam=left, shooting_iterations=iters)
+                      settled=settled, left_cam=left, shooting_iterations=iters,
+                      unstable=unstable)
 
 
 def _shoot(model: _Model, cam: CamInput, shot: _Shot, wn: float,
-           resid: Any, max_iter: int = 12) -> tuple[_Shot, int, int]:
+           resid: Any, max_iter: int = 8) -> tuple[_Shot, int, int, float]:
     """Newton on F(z) = P(z) - z from ``shot`` (the last revolution). Returns the
-    best revolution found, revolutions simulated and Newton iterations."""
+    best revolution found, revolutions simulated, Newton iterations and the spectral
+    radius of the map's Jacobian dP/dz (> 1: an unstable periodic orbit, which
+    repeated revolutions would never reach)."""
     best = shot
     revs = 0
+    radius = math.nan
     scale = np.array([1.0, wn])       # work in (y, v / wn): both in m
     for it in range(1, max_iter + 1):
         z = np.array(best.z0, dtype=float)
         r = best.r0
-        base = best
-        f0 = (np.array(base.z) - z) / scale
+        f0 = (np.array(best.z) - z) / scale
         jac = np.empty((2, 2))
         for j in range(2):
-            hstep = max(1e-9, 1e-6 * float(np.max(np.abs(f0)))) * scale[j]
+            hs = max(1e-9, 1e-6 * float(np.max(np.abs(f0))))     # scaled step [m]
             zp = z.copy()
-            zp[j] += hstep
+            zp[j] += hs * scale[j]
             zm = z.copy()
-            zm[j] -= hstep
+            zm[j] -= hs * scale[j]
             sp = _one_rev(model, cam, tuple(zp), _regime_of(best.run, tuple(zp), r))
             sm = _one_rev(model, cam, tuple(zm), _regime_of(best.run, tuple(zm), r))
             revs += 2
             fp = (np.array(sp.z) - zp) / scale
             fm = (np.array(sm.z) - zm) / scale
-            jac[:, j] = (fp - fm) / (2 * hstep / scale[j])
+            jac[:, j] = (fp - fm) / (2 * hs)
+        if np.all(np.isfinite(jac)):
+            radius = float(np.max(np.abs(np.linalg.eigvals(jac + np.eye(2)))))
         try:
             dz = -np.linalg.solve(jac, f0) * scale
         except np.linalg.LinAlgError:
-            return best, revs, it
+            return best, revs, it, radius
         if not np.all(np.isfinite(dz)):
-            return best, revs, it
-        znew = z + dz
-        trial = _one_rev(model, cam, tuple(znew), _regime_of(best.run, tuple(znew), r))
-        revs += 1
+            return best, revs, it, radius
         lam = 1.0
-        while resid(trial) > resid(base) and lam > 1e-3:   # damped Newton
-            lam *= 0.5
+        trial = best
+        while lam > 0.05:                   # damped Newton
             znew = z + lam * dz
             trial = _one_rev(model, cam, tuple(znew), _regime_of(best.run, tuple(znew), r))
             revs += 1
-        if resid(trial) < resid(best):
-            best = trial
-        else:
-            return best, revs, it
+            if resid(trial) < resid(best):
+                break
+            lam *= 0.5
+        if resid(trial) >= resid(best):
+            return best, revs, it, radius
+        best = trial
         if resid(best) <= SHOOT_TOL:
-            return best, revs, it
-    return best, revs, max_iter
+            return best, revs, it, radius
+    return best, revs, max_iter, radius
