@@ -943,9 +943,13 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
         shot = _one_rev(model, cam, shot.z, shot.r)
         revs += 1
         if resid(shot) > periodic_tol and shooting:
-            shot, n_rev, iters, radius = _shoot(model, cam, shot, wn, resid)
+            shot_n, n_rev, iters, radius = _shoot(model, cam, shot, wn, resid)
             revs += n_rev
-            unstable = radius > 1.0 + 1e-6
+            unstable = radius > 1.0 + 1e-6 and resid(shot_n) <= periodic_tol
+            if not unstable:
+                shot = shot_n
+            # an unstable periodic orbit is not what the valve does: keep the physical
+            # trajectory (repeated revolutions below) and report it as not settled
     if not events_only:
         extra = 0
         while resid(shot) > periodic_tol and extra < max_revolutions:
