@@ -89,6 +89,8 @@ def build_cam_input(law: LiftLaw, rocker_ratio: float, lash: float, step: float,
         pre = max(2 * step, math.radians(0.5))
     # anchored on alpha = 0: every run with this step shares its grid (the nose is a node)
     start = math.floor((lo - pre) / step + 1e-9) * step
+    if hi > start + 2.0 * math.pi - pre:     # a wide lobe: start at (just before) lo
+        start = math.floor(lo / step + 1e-9) * step
     end = start + 2.0 * math.pi
     wraps = hi > end - 1e-12 or lo < start + 1e-12
     n = int(math.ceil(2.0 * math.pi / step - 1e-9))

@@ -897,10 +897,8 @@ def _one_rev(model: _Model, cam: CamInput, z0: tuple[float, float], r0: int,
              events_only: bool = False, first: bool = False) -> _Shot:
     run = _Run(model, cam)
     run.stop_after_bounce = events_only
-    u0 = float(cam.coeffs[0, 0])
     umax = float(np.max(cam.coeffs[:, 0]))
-    if not first and not (r0 & SEAT) and (z0[0] > max(BOUNCE_TOL, 1e-3 * umax) or (
-            r0 & CONTACT and u0 > 0)):
+    if not first and not (r0 & SEAT) and z0[0] > max(BOUNCE_TOL, 1e-3 * umax):
         run.opened = True        # a periodic start off the seat: the valve is already open
     ys, vs, rs, z, r = run.revolution(z0, r0)
     return _Shot(run, ys, vs, rs, z0, r0, z, r)

@@ -58,6 +58,13 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
     if rec is None:
         raise InputError(key, f'{a.size} points',
                          f'a lift table the reconstruction spline can fit ({out.error})')
+    limit = max(5.0 * (q or 0.0) / math.sqrt(12.0), 1e-3 * float(np.max(v)))
+    if rec.rms_residual > limit:
+        raise InputError(key, f'{a.size} points',
+                         'a table fine enough to define the lobe: neither its quintic '
+                         'interpolant nor the reconstruction spline follows it (rms '
+                         f'residual {rec.rms_residual:.3g} m > {limit:.3g} m); tabulate '
+                         'more points')
     n = max(4, int(math.ceil(math.degrees(rec.alpha[-1] - rec.alpha[0]) / GRID_DEG)) + 1)
     grid = np.linspace(rec.alpha[0], rec.alpha[-1], n)
     jets = np.stack([np.asarray(rec.evaluate(grid, nu), dtype=float) for nu in range(4)])
