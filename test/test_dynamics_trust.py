@@ -81,10 +81,10 @@ def test_circular_arc_knife_separates_at_closed_form_speed() -> None:
 # -- sweep <-> single runs ----------------------------------------------------------------
 def test_property_single_run_separation_is_seen_by_the_sweep() -> None:
     """Random asymmetric C3 cams, trains and speeds: every speed at which a single run
-    (0.1 deg output step) separates or fails to settle is not clean in the sweep (1 deg),
+    (0.25 deg output step) separates or fails to settle is not clean in the sweep (1 deg),
     and the refined bracket is confirmed by single runs."""
     rng = np.random.default_rng(20261124)
-    for _ in range(5):
+    for _ in range(4):
         rise, fall = rng.uniform(50, 90) * D, rng.uniform(50, 90) * D
         lift = rng.uniform(6e-3, 11e-3)
         law = PiecewisePolynomialLaw([-rise, 0.0, fall], [smoothstep(-rise, 0.0, 0.0, lift),
@@ -92,10 +92,10 @@ def test_property_single_run_separation_is_seen_by_the_sweep() -> None:
         p = SdofParams(mass=rng.uniform(0.08, 0.15), stiffness=rng.uniform(5e6, 3e7),
                        damping=rng.uniform(100, 800), spring_rate=rng.uniform(2e4, 4e4),
                        spring_preload=rng.uniform(150, 350), rocker_ratio=1.5, lash=2e-4)
-        speeds = np.sort(rng.uniform(1500, 4500, 4))
-        res = sweep(law, p, speeds, step_deg=1.0)
+        speeds = np.sort(rng.uniform(1500, 4000, 3))
+        res = sweep(law, p, speeds, step_deg=1.0, tol_rpm=5.0)
         for i, rpm in enumerate(speeds):
-            single = simulate(law, p, float(rpm), step_deg=0.1)
+            single = simulate(law, p, float(rpm), step_deg=0.25)
             if single.events.separations or not single.settled or single.left_cam:
                 assert res.status[i] != CLEAN, (rpm, res.status)
             else:

@@ -933,6 +933,14 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
     def resid(sh: _Shot) -> float:
         return max(abs(sh.z[0] - sh.z0[0]), abs(sh.z[1] - sh.z0[1]) / wn)
 
+    umax = float(np.max(cam.coeffs[:, 0]))
+
+    def runaway(sh: _Shot) -> bool:
+        """The valve has left the cam: far above the rigid lift, or in free flight
+        well above the seat at the end of the revolution."""
+        in_air = not (sh.r & (CONTACT | SEAT)) and sh.z[0] > max(1e-6, 0.05 * umax)
+        return in_air or float(np.nanmax(sh.ys)) > 1.5 * umax + 1e-4
+
     shot = _one_rev(model, cam, z0, r0, events_only, first=True)
     revs = 1
     iters = 0
@@ -940,7 +948,8 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
     if not events_only and (resid(shot) > periodic_tol or shot.r != r0):
         shot = _one_rev(model, cam, shot.z, shot.r)
         revs += 1
-        if resid(shot) > periodic_tol and shooting:
+        gone = runaway(shot)     # no periodic state to look for: it is what it is
+        if resid(shot) > periodic_tol and shooting and not gone:
             shot_n, n_rev, iters, radius = _shoot(model, cam, shot, wn, resid)
             revs += n_rev
             unstable = radius > 1.0 + 1e-6 and resid(shot_n) <= periodic_tol
@@ -948,7 +957,7 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
                 shot = shot_n
             # an unstable periodic orbit is not what the valve does: keep the physical
             # trajectory (repeated revolutions below) and report it as not settled
-    if not events_only:
+    if not events_only and not runaway(shot):
         extra = 0
         while resid(shot) > periodic_tol and extra < max_revolutions:
             shot = _one_rev(model, cam, shot.z, shot.r)
@@ -974,9 +983,7 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
         after[cam.nodes > ev.closing] = True
         ev.bounce_height = float(max(0.0, np.nanmax(ys[after], initial=0.0)))
     settled = bool(residual <= periodic_tol) and not unstable
-    umax = float(np.max(u))
-    in_air = not (shot.r & (CONTACT | SEAT)) and shot.z[0] > max(1e-6, 0.05 * umax)
-    left = bool(not events_only and (in_air or float(np.nanmax(ys)) > 1.5 * umax + 1e-4))
+    left = bool(not events_only and runaway(shot))
     return SdofResult(alpha=cam.nodes.copy(), y=ys, v=vs, force=ft, u=u, regime=rs,
                       uniform=cam.uniform.copy(), events=ev, omega=omega, params=params,
                       revolutions=revs, periodic_residual=float(residual),
@@ -1030,7 +1037,10 @@ def _shoot(model: _Model, cam: CamInput, shot: _Shot, wn: float,
             lam *= 0.5
         if resid(trial) >= resid(best):
             return best, revs, it, radius
+        slow = it >= 2 and resid(trial) > 0.3 * resid(best)
         best = trial
+        if slow:            # no Newton convergence (chaotic or non-smooth map): give up
+            return best, revs, it, radius
         if resid(best) <= SHOOT_TOL:
             return best, revs, it, radius
     return best, revs, max_iter, radius
