@@ -18,6 +18,11 @@ switching functions (delta, F_t, y, R_seat) are checked at sub-nodes spaced at m
 the Taylor series of the exact local solution (bracketing, so the new regime starts
 strictly inside its domain). The result is exact up to rounding and the Hermite
 interpolation of h (O(step^8)); the step only sets the output grid.
+
+Periodic state (``simulate_cam``): revolutions from the static state, then shooting
+(Newton on the one-revolution map z -> P(z), Jacobian by central differences), then
+more revolutions as the fallback; every result says ``settled``, ``left_cam`` and
+``unstable`` (docs/dynamics.md).
 """
 from __future__ import annotations
 

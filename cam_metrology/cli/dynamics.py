@@ -1,5 +1,5 @@
-"""`cam-bench dynamics SCENE|BAG`: valve motion, contact force and stress, events and
-jump speed of the scene's valve train (see docs/dynamics.md).
+"""`cam-bench dynamics SCENE|BAG|TABLE`: valve motion, contact force and stress, events
+and jump speed of a valve train (see docs/dynamics.md).
 
 * SCENE (YAML, docs/contract.md): the design lift of every lobe (``lift`` table or
   ``lift_law``) drives the scene's ``valve_train`` model.
@@ -7,17 +7,18 @@ jump speed of the scene's valve train (see docs/dynamics.md).
   reconstruction and dynamics cores (the live code path); the reconstructed profile of
   each lobe drives the model (the design law when a lobe has no profile: then the
   feature has a ``note`` and a warning goes to stderr).
+* TABLE (CSV, gauge nominal file, or the JSON of ``cam-bench reconstruct``) with
+  ``--valve-train`` (a scene or a YAML of the valve_train block): a CSV/gauge table goes
+  through the reconstruction spline (said in the feature's ``note``).
 
 JSON (``--json FILE`` or ``-``): ``{"input", "kind", "model", "features": {ID:
-{"source", "runs": [...], "jump_speed_rpm", "bounce_onset_rpm", "sweep" (null without
---sweep)}}, "skipped"}``. Each run has ``cam_speed_rpm``, ``alpha_deg``, ``valve_lift_m``,
-``valve_velocity_m_s``, ``contact_force_n``, ``contact_stress_pa`` (arrays on the
-uniform ``--step-deg`` grid), ``opening_deg``, ``closing_deg``, ``separations``
-([start_deg, end_deg] pairs), ``seating_velocity_m_s``, ``bounce_count``,
-``bounce_height_m``, ``max_contact_stress_pa``, ``cam_width_m`` (the scene's
-``lobes[].width`` or ``--cam-width``), ``epsilon`` and more; ``note`` when the valve
-never seats. ``sweep`` reports ``bounced`` per speed (the sweep stops after the first
-bounce). Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
+{"source", "runs": [...], "jump_speed_rpm", "jump_bracket_rpm", "bounce_onset_rpm",
+"bounce_bracket_rpm", "sweep" (null without --sweep)}}, "skipped"}``. Each run has
+``cam_speed_rpm``, the arrays on the ``--step-deg`` grid, the events, ``settled``,
+``left_cam``, ``periodic_residual_m`` and ``note`` when the reader must know something
+(no periodic state, the valve leaves the cam, no seating). ``sweep``: every speed a full
+periodic run at ``--step-deg``; ``status`` per speed clean | separated | unsettled.
+Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
 """
 from __future__ import annotations
 
