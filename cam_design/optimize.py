@@ -445,8 +445,10 @@ def dynamic_jump_rpm(law: Any, params: Any, guess_rpm: float, tol_rpm: float = 1
 
     top = min(1.6 * guess_rpm, RPM_MAX)
     speeds = np.linspace(min(0.2 * guess_rpm, 0.5 * top), top, 16)
-    res = sweep(law, params, speeds, step_deg=1.0, tol_rpm=tol_rpm)
-    return float(top if res.jump_speed_rpm is None else res.jump_speed_rpm)
+    res = sweep(law, params, speeds, step_deg=1.0, tol_rpm=tol_rpm, check=False)
+    if res.jump.speed is not None:
+        return float(res.jump.speed)
+    return float(speeds[0] if res.jump.bracket[0] is None else top)
 
 
 def metrics_of(spec: Spec, law: Any) -> dict[str, float]:

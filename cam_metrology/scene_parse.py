@@ -319,7 +319,16 @@ def _lift_table(ctx: _Ctx, key: str, value: Any) -> LiftLaw:
         j = int(bad[0]) + 1
         raise InputError(f'{key}.alpha[{j}]', float(alpha[j]),
                          f'strictly increasing angles in rad (previous is {alpha[j - 1]:g})')
-    return design_table(alpha, h, key)
+    try:
+        return design_table(alpha, h, key)
+    except InputError as exc:
+        if 'quintic interpolant' not in str(exc):
+            raise
+    # a coarse table whose interpolant rings: the reconstruction spline instead (said)
+    from cam_metrology.dynamics.tables import spline_law
+    law, note = spline_law(alpha, h, key)
+    ctx.warnings.append(f'{key}: {note} (its quintic interpolant dips below the base circle)')
+    return law
 
 
 def _registry() -> Any:

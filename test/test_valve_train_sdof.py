@@ -196,7 +196,10 @@ def test_stiff_edges_finite(law: PiecewisePolynomialLaw, changes: dict, rpm: flo
     assert np.all(np.isfinite(res.y)) and np.all(np.isfinite(res.force))
     assert np.all(res.force >= 0)
     if rpm <= 1500:
-        assert res.events.opening is not None
+        # with zero preload nothing stops the bouncing valve: there is no stable
+        # periodic state, the run says so, and its last revolution starts in the air
+        assert res.events.opening is not None or (
+            not res.settled and changes == {'spring_preload': 0.0})
         assert np.max(res.y) < 1.5 * law(0.0)
 
 
@@ -309,5 +312,5 @@ def test_jet_table_edges() -> None:
 def test_lobe_wider_than_revolution_rejected() -> None:
     from numpy.polynomial import Polynomial as P
     wide = PiecewisePolynomialLaw([-3.2, 3.2], [P([1e-3])])
-    with pytest.raises(InputError, match='lift.support'):
+    with pytest.raises(InputError, match=r'^lift: .*at most one revolution'):
         simulate(wide, SdofParams(**BASE), 1500.0)

@@ -70,26 +70,37 @@ class CamInput:
 
 
 def build_cam_input(law: LiftLaw, rocker_ratio: float, lash: float, step: float,
-                    pre: float | None = None) -> CamInput:
+                    pre: float | None = None, key: str = 'lift') -> CamInput:
     """Nodes every ``step`` rad over one revolution starting at least ``pre`` before
     the lobe, on the grid of multiples of ``step`` (alpha = 0 is a node).
 
     ``pre`` defaults to two steps (at least 0.5 deg). The window is [start, start +
-    2 pi], start = floor((lo - pre)/step) step; the lobe must be narrower than that.
+    2 pi], start = floor((lo - pre)/step) step. The cam is periodic: a lobe wider than
+    the window minus ``pre`` (up to a full revolution: eccentrics, long dwells) wraps
+    around, u(alpha) = k (h(alpha) + h(alpha - 2 pi) + h(alpha + 2 pi)) - x0. Only a
+    support longer than 2 pi is refused (InputError naming ``key``).
     """
     require_step_deg('step [deg]', round(math.degrees(require_positive('step', step)), 12))
     lo, hi = (float(v) for v in law.support)
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi - lo > 2.0 * math.pi + 1e-9:
+        raise InputError(key, f'support [{lo:g}, {hi:g}] rad',
+                         'a lobe at most one revolution (2 pi rad) wide')
     if pre is None:
         pre = max(2 * step, math.radians(0.5))
     # anchored on alpha = 0: every run with this step shares its grid (the nose is a node)
     start = math.floor((lo - pre) / step + 1e-9) * step
+    if hi > start + 2.0 * math.pi - pre:     # a wide lobe: start at (just before) lo
+        start = math.floor(lo / step + 1e-9) * step
     end = start + 2.0 * math.pi
-    if hi >= end - pre:
-        raise InputError('lift.support', (lo, hi), 'a lobe narrower than one revolution')
+    wraps = hi > end - 1e-12 or lo < start + 1e-12
     n = int(math.ceil(2.0 * math.pi / step - 1e-9))
     grid = start + step * np.arange(n + 1)
     grid[-1] = end
-    extra = [a for a in (lo, hi, *law.junctions) if start < a < end]
+    extra = []
+    for a in (lo, hi, *law.junctions):
+        for shift in (0.0, -2.0 * math.pi, 2.0 * math.pi):
+            if start < a + shift < end:
+                extra.append(a + shift)
     nodes = np.unique(np.concatenate([grid, np.asarray(extra, dtype=float)]))
     # merge nodes closer than 1e-9 rad (keep the uniform ones)
     uniform = np.isin(nodes, grid)
@@ -104,10 +115,21 @@ def build_cam_input(law: LiftLaw, rocker_ratio: float, lash: float, step: float,
     if jset.size:
         near = np.min(np.abs(nodes[:, None] - jset[None, :]), axis=1) < 1e-9
         junction |= near
-    left = law.derivatives(nodes[1:] - np.where(junction[1:], _ONE_SIDED, 0.0))
-    right = law.derivatives(nodes[:-1] + np.where(junction[:-1], _ONE_SIDED, 0.0))
+
+    def jets(a: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = law.derivatives(a)
+        if wraps:           # the periodic copies, strictly inside their support
+            for shift in (-2.0 * math.pi, 2.0 * math.pi):
+                b = a + shift
+                sel = (b > lo) & (b < hi)
+                if np.any(sel):
+                    out[:, sel] += law.derivatives(b[sel])
+        return out
+
+    left = jets(nodes[1:] - np.where(junction[1:], _ONE_SIDED, 0.0))
+    right = jets(nodes[:-1] + np.where(junction[:-1], _ONE_SIDED, 0.0))
     if not (np.all(np.isfinite(left)) and np.all(np.isfinite(right))):
-        raise InputError('lift', 'non-finite h or derivatives', 'a finite lift law')
+        raise InputError(key, 'non-finite h or derivatives', 'a finite lift law')
     scale = np.stack([lengths ** d for d in range(4)])   # (4, N): d/dsigma = L d/dalpha
     ends = np.concatenate([right * scale, left * scale])  # (8, N)
     coeffs = (HERMITE_INV @ ends).T * rocker_ratio

@@ -160,3 +160,80 @@ def acceleration_step_law(params: SdofParams, rpm: float, *, accel: float = 0.01
          smoothstep(0.0, span + lead, top, 0.0)])
     del rpm
     return law, a_star
+
+
+class EccentricFlatLaw(LiftLaw):
+    """Eccentric disc (eccentricity e) under a flat follower: h = e (1 + cos alpha) on
+    [-pi, pi] (nose at alpha = 0, base point at +-pi). A lobe over the whole revolution."""
+
+    continuity_order = 3
+
+    def __init__(self, eccentricity: float) -> None:
+        self.e = float(eccentricity)
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return -math.pi, math.pi
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        e = self.e
+        return [e * (1 + np.cos(alpha)), -e * np.sin(alpha), -e * np.cos(alpha),
+                e * np.sin(alpha)][nu]
+
+
+class CircularArcKnifeLaw(LiftLaw):
+    """Three-arc cam (base circle R0, flank arcs R1 tangent to it, nose arc rn at
+    distance d from the centre on the nose axis) under an in-line knife-edge follower.
+
+    h(alpha) = s(alpha) - R0, s = distance from the cam centre to the profile along the
+    ray at angle alpha; on an arc of centre (dc, psi) and radius rho
+    s = dc cos(x) + sqrt(rho^2 - dc^2 sin^2 x), x = alpha - psi. Only C1: h'' jumps at
+    the four arc junctions (reported as ``junctions``)."""
+
+    continuity_order = 1
+
+    def __init__(self, r0: float, r1: float, rn: float, d: float) -> None:
+        if not (0 < rn < r0 < r1 and d > 0 and d + rn > r0 and d + rn < r1):
+            raise InputError('arcs', (r0, r1, rn, d), 'rn < R0 < R1, R0 < d + rn < R1')
+        self.r0, self.r1, self.rn, self.d = r0, r1, rn, d
+        a = r1 - r0
+        cphi = (a * a + d * d - (r1 - rn) ** 2) / (2 * d * a)
+        self.phi = math.acos(cphi)             # flank centre (rise flank) at angle +phi
+        c1 = np.array([a * math.cos(self.phi), a * math.sin(self.phi)])
+        n = np.array([d, 0.0])
+        t2 = c1 + r1 * (n - c1) / np.linalg.norm(n - c1)
+        self.t_nose = abs(math.atan2(t2[1], t2[0]))       # |angle| of flank/nose tangency
+        self.t_base = math.pi - self.phi                  # |angle| of base/flank tangency
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return -self.t_base, self.t_base
+
+    @property
+    def junctions(self) -> tuple[float, ...]:
+        return (-self.t_nose, self.t_nose)
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        out = np.empty_like(alpha)
+        nose = np.abs(alpha) <= self.t_nose
+        a = self.r1 - self.r0
+        for sel, dc, psi, rho in ((nose, self.d, np.zeros_like(alpha), self.rn),
+                                  (~nose, a, -np.sign(alpha) * self.phi, self.r1)):
+            if not np.any(sel):
+                continue
+            x = alpha[sel] - (psi[sel] if np.ndim(psi) else psi)
+            # Taylor coefficients in t of s(x + t): cos part and sqrt(g) part
+            kk = np.arange(nu + 1)
+            fact = np.array([math.factorial(k) for k in kk], dtype=float)
+            cosc = np.cos(x[None, :] + kk[:, None] * math.pi / 2) / fact[:, None]
+            g = (dc * dc / 2) * (2.0 ** kk[:, None]) * np.cos(
+                2 * x[None, :] + kk[:, None] * math.pi / 2) / fact[:, None]
+            g[0] += rho * rho - dc * dc / 2
+            r = np.zeros_like(g)
+            r[0] = np.sqrt(g[0])
+            for n in range(1, nu + 1):
+                acc = g[n] - sum(r[j] * r[n - j] for j in range(1, n))
+                r[n] = acc / (2 * r[0])
+            s = fact[nu] * (dc * cosc[nu] + r[nu])
+            out[sel] = s - (self.r0 if nu == 0 else 0.0)
+        return out

@@ -127,15 +127,21 @@ def sdof_events(res: SdofResult) -> dict[str, Any]:
         'bounce_height_m': float(ev.bounce_height),
         'revolutions': int(res.revolutions),
         'periodic_residual_m': float(res.periodic_residual),
+        'settled': bool(res.settled),
+        'left_cam': bool(res.left_cam),
+        'unstable_orbit': bool(res.unstable),
+        'shooting_iterations': int(res.shooting_iterations),
         'switches': int(ev.count),
     }
 
 
 def run_sdof(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 0.1,
              geometry: ContactGeometry | None = None, max_revolutions: int = 4,
-             train_checks: TrainChecks | None = None) -> Run:
-    """SDOF run at ``rpm`` with arrays every ``step_deg`` and all report fields."""
-    res = simulate(law, params, rpm, step_deg=step_deg, max_revolutions=max_revolutions)
+             train_checks: TrainChecks | None = None, key: str = 'lift') -> Run:
+    """SDOF run at ``rpm`` with arrays every ``step_deg`` and all report fields
+    (``key``: the scene key of the lobe's lift, named in refusals)."""
+    res = simulate(law, params, rpm, step_deg=step_deg, max_revolutions=max_revolutions,
+                   key=key)
     sel = res.uniform
     alpha = res.alpha[sel]
     force = res.cam_force[sel]
@@ -144,20 +150,39 @@ def run_sdof(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 
                       events, geometry, train_checks)
 
 
-def events_note(events: dict[str, Any]) -> str | None:
-    """Why a run has no opening or no closing event (None when it has both).
-
-    Far above the jump speed the valve no longer returns to the seat within a
-    revolution: there is no periodic state and no opening/closing/seating to report.
-    """
+def events_note(events: dict[str, Any], rpm: float | None = None) -> str | None:
+    """What a reader must know about a run (None when nothing): the valve leaves the
+    cam, no periodic state, or no opening/closing event, said with its reason."""
+    at = f' at {rpm:g} rpm' if rpm is not None else ''
+    res, revs = events.get('periodic_residual_m'), events.get('revolutions')
+    state = (f'residual {res:.3g} m after {revs} revolutions'
+             if res is not None and revs is not None else '')
+    if events.get('left_cam'):
+        return (f'the valve leaves the cam{at}: it rises to '
+                f"{events.get('max_valve_lift_m', math.nan) * 1e3:.3f} mm (rigid lift "
+                f"{events.get('rigid_max_lift_m', math.nan) * 1e3:.3f} mm) or is still in "
+                'free flight at the end of the revolution; the valve train no longer '
+                'follows this cam' + ('' if events.get('settled') else
+                                      f' (no periodic state: {state})'))
+    if events.get('settled') is False:
+        why = ('an unstable periodic orbit only' if events.get('unstable_orbit')
+               else 'no periodic state')
+        return (f'not settled{at} ({why}: {state}): the events are those of the last '
+                'revolution simulated, not of a steady state')
     if events.get('opening_deg') is not None and events.get('closing_deg') is not None:
         return None
     if events.get('opening_deg') is None and events.get('max_valve_lift_m', 0.0) <= 1e-9:
         return 'the valve never lifts off the seat (train force below the preload)'
-    res, revs = events.get('periodic_residual_m'), events.get('revolutions')
-    state = (f' (no periodic state: residual {res:.3g} m after {revs} revolutions)'
-             if res is not None and revs is not None else '')
-    return ('the valve does not return to the seat within a revolution' + state
+    if events.get('settled'):
+        return ('periodic state reached, but the valve does not '
+                + ('lift off the seat' if events.get('opening_deg') is None and
+                   events.get('closing_deg') is not None else
+                   'return to the seat' if events.get('opening_deg') is not None else
+                   'touch the seat')
+                + ' within the revolution (e.g. a lobe over the whole revolution with '
+                  'no lash): opening/closing/seating events are undefined')
+    return ('the valve does not return to the seat within a revolution'
+            + (f' ({state})' if state else '')
             + ', so opening/closing/seating events are undefined: the speed is far above '
               'what this valve train follows')
 
@@ -185,7 +210,8 @@ def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
         'max_contact_stress_pa': float(stress[i_s]) if have_stress else None,
         'max_contact_stress_deg': math.degrees(float(alpha[i_s])) if have_stress else None,
         'profile_undercut': undercut,
-        'max_valve_lift_m': float(np.max(lift)),
+        'max_valve_lift_m': float(np.nanmax(lift)),
+        'rigid_max_lift_m': float(params.rocker_ratio * law.max_lift(4001) - params.lash),
         'epsilon': eps.eps,
         'epsilon_c': eps.eps_book_c,
         'epsilon_predicted_amplitude_m': eps.predicted_amplitude_m,
@@ -194,16 +220,9 @@ def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
     })
     events.update(physics.run_checks(law, params, omega_of_rpm(rpm), alpha, lift,
                                      train_checks))
-    note = events_note(events)
-    if events.get('valve_leaves_cam'):
-        away = (f"the valve leaves the cam at {rpm:g} rpm (max lift "
-                f"{float(np.max(lift)) * 1e3:.3f} mm, above the rigid lift)")
-        note = away if not note else note + '; ' + away
-    if events.get('settled') is False:
-        unsettled = (f"not settled: no periodic state after {events.get('revolutions')} "
-                     f"revolutions (residual {events.get('periodic_residual_m', math.nan):.3g}"
-                     ' m); the events are those of the last revolution simulated')
-        note = unsettled if not note else note + '; ' + unsettled
+    if events.get('valve_leaves_cam') and not events.get('left_cam'):
+        events['left_cam'] = True       # the MDOF model's flag: one note for both models
+    note = events_note(events, rpm)
     if note:
         events['note'] = note
     return Run(rpm=float(rpm), model=model, alpha=alpha, lift=lift, velocity=velocity,

@@ -1,18 +1,26 @@
 """Cam-speed sweeps: separation (jump) speed and bounce onset speed, and plots.
 
-The jump speed is the lowest cam speed with a separation (docs/contract.md event
-definitions); the bounce onset the lowest with a bounce. Both are bracketed on the
-sweep grid (first grid speed with the event, the previous one without) and refined by
-bisection to ``tol_rpm``. A sweep reuses one CamInput (the cam polynomial does not
-depend on speed) and simulates one revolution from rest per speed (enough for both
-events: the valve is at rest before the lobe at any speed where it still seats), stopped
-at the end of the first bounce (``simulate_cam(events_only=True)``).
+Every speed of a sweep is a full single run (``simulate_cam``, the same solver, the same
+cam polynomial and step as ``cam-bench dynamics --rpm``): the periodic state is reached
+by shooting, separations are the solver's exact contact-loss events (the contact force
+is bounded between sub-nodes, not sampled at the output nodes). A speed is ``clean``
+(settled, no separation), ``separated`` (settled with a separation, or the valve left
+the cam) or ``unsettled`` (no periodic state found: counted as failing, never clean).
+
+The jump speed is the lowest speed that is not clean: bracketed on the grid by the last
+clean speed and the first failing one, refined by bisection to ``tol_rpm`` and
+cross-checked by single runs (``simulate`` from the lift law) at both ends of the
+refined bracket. ``jump_bracket_rpm`` = [last_clean, first_failing], None for an open
+end: [None, LO] when the lowest speed already fails (the jump speed is below the range),
+[HI, None] when no speed fails (above the range); ``jump_speed_rpm`` is then None.
+The bounce onset is bracketed and refined the same way (bounce_count > 0 in the
+periodic state, or unsettled).
 """
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -22,38 +30,80 @@ from numpy.typing import NDArray
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.cam_input import CamInput, build_cam_input
-from cam_design.valve_train.params import SdofParams, require_rpm
-from cam_design.valve_train.sdof import SdofResult, simulate_cam
+from cam_design.valve_train.params import SdofParams, require_rpm, require_step_deg
+from cam_design.valve_train.sdof import SdofResult, simulate, simulate_cam
+
+CLEAN, SEPARATED, UNSETTLED = 'clean', 'separated', 'unsettled'
+
+
+@dataclass
+class Bracket:
+    """A refined event speed: ``speed`` (None unless bracketed inside the range) and
+    ``bracket`` [last_ok, first_failing] (None for an open end); ``checked``: the single
+    runs at both ends agree (None when not checked)."""
+
+    speed: float | None
+    bracket: list[float | None]
+    checked: bool | None = None
+
+    def text(self, lo: float, hi: float) -> str:
+        """Human wording: 'N rpm', 'below the sweep range (< LO rpm)', 'above ...'."""
+        if self.speed is not None:
+            return f'{self.speed:.1f} rpm (between {self.bracket[0]:.1f} and ' \
+                   f'{self.bracket[1]:.1f} rpm)'
+        if self.bracket[0] is None:
+            return f'below the sweep range (< {lo:g} rpm)'
+        return f'above the sweep range (> {hi:g} rpm)'
 
 
 @dataclass
 class SweepResult:
-    """Per-speed summary arrays and the refined event speeds (None: not reached).
+    """Per-speed summary arrays and the refined event speeds.
 
-    ``bounced``: the valve bounced at least once (the sweep stops at the end of the first
-    bounce, so it does not count bounces: a full run's ``bounce_count`` does).
+    ``status`` per speed: clean | separated | unsettled; ``bounced``: bounce_count > 0
+    in the periodic state.
     """
 
     rpm: NDArray[np.float64]
     separated: NDArray[np.bool_]
     bounced: NDArray[np.bool_]
+    settled: NDArray[np.bool_]
+    left_cam: NDArray[np.bool_]
+    status: list[str]
+    residual: NDArray[np.float64]
     seating_velocity: NDArray[np.float64]     # m/s (nan if the valve never seated)
     max_lift: NDArray[np.float64]             # m
-    jump_speed_rpm: float | None
-    bounce_onset_rpm: float | None
+    jump: Bracket
+    bounce: Bracket
     seconds: float                            # wall time of the grid sweep
+    step_deg: float = 0.1
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def jump_speed_rpm(self) -> float | None:
+        return self.jump.speed
+
+    @property
+    def bounce_onset_rpm(self) -> float | None:
+        return self.bounce.speed
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready summary."""
         return {
-            'sweep_rpm': self.rpm.tolist(), 'separated': self.separated.tolist(),
-            'bounced': self.bounced.tolist(),
+            'sweep_rpm': self.rpm.tolist(), 'status': list(self.status),
+            'separated': self.separated.tolist(), 'bounced': self.bounced.tolist(),
+            'settled': self.settled.tolist(), 'left_cam': self.left_cam.tolist(),
+            'periodic_residual_m': self.residual.tolist(),
             'seating_velocity_m_s': [None if not math.isfinite(v) else v
                                      for v in self.seating_velocity.tolist()],
             'max_valve_lift_m': self.max_lift.tolist(),
-            'jump_speed_rpm': self.jump_speed_rpm,
-            'bounce_onset_rpm': self.bounce_onset_rpm,
-            'sweep_seconds': self.seconds,
+            'jump_speed_rpm': self.jump.speed, 'jump_bracket_rpm': self.jump.bracket,
+            'jump_checked': self.jump.checked,
+            'bounce_onset_rpm': self.bounce.speed,
+            'bounce_bracket_rpm': self.bounce.bracket,
+            'bounce_checked': self.bounce.checked,
+            'step_deg': self.step_deg, 'sweep_seconds': self.seconds,
+            'notes': list(self.notes),
         }
 
 
@@ -77,59 +127,104 @@ def parse_range(text: str, key: str = '--sweep') -> NDArray[np.float64]:
     return lo + st * np.arange(n)
 
 
+def classify(res: SdofResult) -> str:
+    """clean | separated | unsettled of one run."""
+    if res.left_cam or res.events.separations:
+        return SEPARATED
+    if not res.settled:
+        return UNSETTLED
+    return CLEAN
+
+
 def _run(cam: CamInput, params: SdofParams, rpm: float) -> SdofResult:
-    return simulate_cam(cam, params, rpm * math.pi / 30.0, events_only=True)
+    return simulate_cam(cam, params, rpm * math.pi / 30.0)
 
 
-def _bisect(pred: Callable[[float], bool], lo: float, hi: float, tol: float) -> float:
-    """Smallest speed in (lo, hi] with pred true, given pred(lo) false, pred(hi) true."""
+def _bisect(pred: Callable[[float], bool], lo: float, hi: float,
+            tol: float) -> tuple[float, float]:
+    """Refined [lo, hi] (pred(lo) false, pred(hi) true) with hi - lo <= tol."""
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
         if pred(mid):
             hi = mid
         else:
             lo = mid
-    return hi
+    return lo, hi
 
 
 def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
-          step_deg: float = 1.0, tol_rpm: float = 0.5, refine: bool = True) -> SweepResult:
-    """Simulate every speed of ``rpms`` (increasing) and locate the event speeds."""
+          step_deg: float = 0.1, tol_rpm: float = 0.5, refine: bool = True,
+          key: str = 'lift', check: bool = True) -> SweepResult:
+    """Simulate every speed of ``rpms`` (increasing) to its periodic state and locate
+    the event speeds (module docstring)."""
     speeds = np.asarray(rpms, dtype=float)
     if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(
             speeds <= 0) or np.any(np.diff(speeds) <= 0):
         raise InputError('cam_speed_rpm', rpms, 'increasing speeds > 0')
     require_positive('tol_rpm', tol_rpm)
-    cam = build_cam_input(law, params.rocker_ratio, params.lash,
-                          math.radians(require_positive('step_deg', step_deg)))
+    step_deg = require_step_deg('step_deg', step_deg)
+    cam = build_cam_input(law, params.rocker_ratio, params.lash, math.radians(step_deg),
+                          key=key)
     t0 = time.perf_counter()
-    sep = np.zeros(speeds.size, dtype=bool)
-    bounce = np.zeros(speeds.size, dtype=bool)
-    vseat = np.full(speeds.size, np.nan)
-    ymax = np.zeros(speeds.size)
+    n = speeds.size
+    status: list[str] = []
+    bounce = np.zeros(n, dtype=bool)
+    settled = np.zeros(n, dtype=bool)
+    left = np.zeros(n, dtype=bool)
+    resid = np.zeros(n)
+    vseat = np.full(n, np.nan)
+    ymax = np.zeros(n)
     for i, rpm in enumerate(speeds):
         res = _run(cam, params, float(rpm))
-        sep[i] = bool(res.events.separations)
+        status.append(classify(res))
         bounce[i] = res.events.bounce_count > 0
+        settled[i] = res.settled
+        left[i] = res.left_cam
+        resid[i] = res.periodic_residual
         if res.events.seating_velocity is not None:
             vseat[i] = res.events.seating_velocity
         ymax[i] = float(np.nanmax(res.y))
     seconds = time.perf_counter() - t0
+    sep = np.array([s == SEPARATED for s in status], dtype=bool)
+    fails = np.array([s != CLEAN for s in status], dtype=bool)
+    notes = []
+    if not np.all(settled):
+        bad = speeds[~settled]
+        notes.append(f'{bad.size} speed(s) without a periodic state (counted as failing): '
+                     + ', '.join(f'{v:g}' for v in bad[:10]) + ' rpm')
+    if np.any(left):
+        notes.append(f'the valve leaves the cam from {speeds[np.argmax(left)]:g} rpm '
+                     '(no longer follows it)')
 
-    def first(flags: NDArray[np.bool_], pred: Callable[[float], bool]) -> float | None:
+    def locate(flags: NDArray[np.bool_], failing: Callable[[SdofResult], bool],
+               what: str) -> Bracket:
         hits = np.nonzero(flags)[0]
         if hits.size == 0:
-            return None
+            return Bracket(None, [float(speeds[-1]), None])
         i = int(hits[0])
-        if i == 0 or not refine:
-            return float(speeds[i])
-        return _bisect(pred, float(speeds[i - 1]), float(speeds[i]), tol_rpm)
+        if i == 0:
+            return Bracket(None, [None, float(speeds[0])])
+        lo, hi = float(speeds[i - 1]), float(speeds[i])
+        if refine:
+            lo, hi = _bisect(lambda r: failing(_run(cam, params, r)), lo, hi, tol_rpm)
+        checked = None
+        if check:       # single runs from the law, as `dynamics --rpm` does them
+            below = simulate(law, params, lo, step_deg=step_deg, key=key)
+            above = simulate(law, params, hi, step_deg=step_deg, key=key)
+            checked = (not failing(below)) and failing(above)
+            if not checked:
+                notes.append(f'{what}: the single runs at {lo:g} and {hi:g} rpm do not '
+                             'confirm the bracket')
+        return Bracket(hi, [lo, hi], checked)
 
-    jump = first(sep, lambda r: bool(_run(cam, params, r).events.separations))
-    onset = first(bounce, lambda r: _run(cam, params, r).events.bounce_count > 0)
-    return SweepResult(rpm=speeds, separated=sep, bounced=bounce, seating_velocity=vseat,
-                       max_lift=ymax, jump_speed_rpm=jump, bounce_onset_rpm=onset,
-                       seconds=seconds)
+    jump = locate(fails, lambda r: classify(r) != CLEAN, 'jump speed')
+    bfail = bounce | ~settled
+    onset = locate(bfail, lambda r: r.events.bounce_count > 0 or not r.settled,
+                   'bounce onset')
+    return SweepResult(rpm=speeds, separated=sep, bounced=bounce, settled=settled,
+                       left_cam=left, status=status, residual=resid,
+                       seating_velocity=vseat, max_lift=ymax, jump=jump, bounce=onset,
+                       seconds=seconds, step_deg=step_deg, notes=notes)
 
 
 def plot_runs(runs: Sequence[object], path: str | Path, title: str = '') -> Path:

@@ -1,5 +1,5 @@
-"""`cam-bench dynamics SCENE|BAG`: valve motion, contact force and stress, events and
-jump speed of the scene's valve train (see docs/dynamics.md).
+"""`cam-bench dynamics SCENE|BAG|TABLE`: valve motion, contact force and stress, events
+and jump speed of a valve train (see docs/dynamics.md).
 
 * SCENE (YAML, docs/contract.md): the design lift of every lobe (``lift`` table or
   ``lift_law``) drives the scene's ``valve_train`` model.
@@ -7,17 +7,18 @@ jump speed of the scene's valve train (see docs/dynamics.md).
   reconstruction and dynamics cores (the live code path); the reconstructed profile of
   each lobe drives the model (the design law when a lobe has no profile: then the
   feature has a ``note`` and a warning goes to stderr).
+* TABLE (CSV, gauge nominal file, or the JSON of ``cam-bench reconstruct``) with
+  ``--valve-train`` (a scene or a YAML of the valve_train block): a CSV/gauge table goes
+  through the reconstruction spline (said in the feature's ``note``).
 
 JSON (``--json FILE`` or ``-``): ``{"input", "kind", "model", "features": {ID:
-{"source", "runs": [...], "jump_speed_rpm", "bounce_onset_rpm", "sweep" (null without
---sweep)}}, "skipped"}``. Each run has ``cam_speed_rpm``, ``alpha_deg``, ``valve_lift_m``,
-``valve_velocity_m_s``, ``contact_force_n``, ``contact_stress_pa`` (arrays on the
-uniform ``--step-deg`` grid), ``opening_deg``, ``closing_deg``, ``separations``
-([start_deg, end_deg] pairs), ``seating_velocity_m_s``, ``bounce_count``,
-``bounce_height_m``, ``max_contact_stress_pa``, ``cam_width_m`` (the scene's
-``lobes[].width`` or ``--cam-width``), ``epsilon`` and more; ``note`` when the valve
-never seats. ``sweep`` reports ``bounced`` per speed (the sweep stops after the first
-bounce). Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
+{"source", "runs": [...], "jump_speed_rpm", "jump_bracket_rpm", "bounce_onset_rpm",
+"bounce_bracket_rpm", "sweep" (null without --sweep)}}, "skipped"}``. Each run has
+``cam_speed_rpm``, the arrays on the ``--step-deg`` grid, the events, ``settled``,
+``left_cam``, ``periodic_residual_m`` and ``note`` when the reader must know something
+(no periodic state, the valve leaves the cam, no seating). ``sweep``: every speed a full
+periodic run at ``--step-deg``; ``status`` per speed clean | separated | unsettled.
+Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
 """
 from __future__ import annotations
 
@@ -35,7 +36,17 @@ def register(subparsers: Any) -> None:
         description='Single-DOF (exact piecewise-linear solver, penalty or hard seat) or '
                     '4+N1+N2 valve-train dynamics of a scene\'s lobes, from the design '
                     'lift (SCENE) or the reconstructed measured profile (BAG).')
-    p.add_argument('input', metavar='SCENE|BAG', help='scene YAML, or rosbag2 directory/.mcap')
+    p.add_argument('input', metavar='SCENE|BAG|TABLE',
+                   help='scene YAML, rosbag2 directory/.mcap, or a lift TABLE (CSV, gauge '
+                        'nominal file, or the JSON of cam-bench reconstruct) with '
+                        '--valve-train')
+    p.add_argument('--valve-train', metavar='YAML',
+                   help='with a TABLE: the valve train, from a scene (its valve_train '
+                        'block) or a YAML holding only that block')
+    p.add_argument('--angle-unit', choices=('deg', 'rad'),
+                   help='angle unit of a gauge TABLE (default deg)')
+    p.add_argument('--length-unit', choices=('mm', 'um', 'm'),
+                   help='length unit of a gauge TABLE (default mm)')
     p.add_argument('--feature', metavar='ID', help='only this lobe (default: all lobes)')
     p.add_argument('--model', choices=('sdof', 'mdof', 'hydraulic'),
                    help="model (default: the scene's valve_train.model)")
@@ -43,8 +54,9 @@ def register(subparsers: Any) -> None:
                    help="camshaft speed [rpm]; repeat for several (default: the scene's "
                         'valve_train.cam_speed_rpm)')
     p.add_argument('--sweep', metavar='LO:HI:STEP',
-                   help='also sweep these speeds [rpm] (SDOF) and report jump_speed_rpm '
-                        'and bounce_onset_rpm')
+                   help='also sweep these speeds [rpm] (SDOF, full periodic runs at '
+                        '--step-deg) and report jump_speed_rpm and bounce_onset_rpm with '
+                        'their brackets')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
                    help='step of the output grid [deg], 0.01 to 5 (default 0.1)')
     p.add_argument('--cam-width', type=float, default=0.012, metavar='M',
@@ -86,7 +98,16 @@ def run(args: argparse.Namespace) -> int:
         from cam_design.valve_train.sweep import parse_range
         sweep_speeds = parse_range(args.sweep)
     from cam_metrology.bagio import looks_like_bag
-    if looks_like_bag(path):
+    is_bag = looks_like_bag(path)
+    if not is_bag and path.suffix.lower() not in ('.yaml', '.yml'):
+        core = _table_core(path, args)
+        kind = 'table'
+    elif args.valve_train or args.angle_unit or args.length_unit:
+        opt = ('--valve-train' if args.valve_train else
+               '--angle-unit' if args.angle_unit else '--length-unit')
+        raise InputError(opt, getattr(args, opt[2:].replace('-', '_')),
+                         'no value with a SCENE or BAG (only with a TABLE)')
+    elif is_bag:
         core = DynamicsCore(_core_params(args, 'auto'))
         _replay(path, core)
         kind = 'bag'
@@ -127,6 +148,50 @@ def run(args: argparse.Namespace) -> int:
                             dpi=110)
                 plt.close(fig)
     return 1 if any('failures' in e for e in result['features'].values()) else 0
+
+
+def _table_core(path: Path, args: argparse.Namespace) -> Any:
+    """A stand-in for the node core holding the runs of a TABLE (``--valve-train``)."""
+    from types import SimpleNamespace
+
+    from cam_design.errors import InputError
+    from cam_metrology.dynamics.core import compute_run, parse_speeds, rpm_label
+    from cam_metrology.dynamics.tables import table_input, valve_train_file
+
+    if not args.valve_train:
+        raise InputError('--valve-train', None, 'a scene or valve-train YAML with a TABLE '
+                         '(the table gives only the lift)')
+    vt, scene = valve_train_file(Path(args.valve_train))
+    if args.model:
+        from dataclasses import replace
+        vt = replace(vt, model=args.model)
+    feature, law, source, note = table_input(path, feature=args.feature,
+                                             angle_unit=args.angle_unit or 'deg',
+                                             length_unit=args.length_unit or 'mm')
+    geom = None
+    if scene is not None:
+        from cam_design.valve_train.report import ContactGeometry
+        lobe = next((lb for lb in scene.lobes if lb.id == feature), scene.lobes[0])
+        geom = ContactGeometry(base_radius=scene.base_circle_radius,
+                               follower=lobe.follower.kind, radius=lobe.follower.radius,
+                               width=lobe.width if getattr(lobe, 'width', None) else
+                               args.cam_width)
+    core = SimpleNamespace(
+        scene=SimpleNamespace(valve_train=vt, camshaft_id=getattr(scene, 'camshaft_id', None),
+                              wants=lambda what: True),
+        laws={feature: (law, source)}, runs={feature: []}, failures={},
+        notes={feature: note}, keys={feature: path.name}, table_note=True)
+    speeds = parse_speeds([float(r) for r in args.rpm], '--rpm') if args.rpm else \
+        tuple(vt.cam_speed_rpm)
+    for rpm in speeds:
+        try:
+            run = compute_run(law, vt, rpm, args.step_deg, geom, key=path.name)
+        except (InputError, RuntimeError, ValueError) as exc:
+            core.failures[f'{feature}/{rpm_label(rpm)}rpm'] = str(exc)
+            continue
+        run.events['source'] = source
+        core.runs[feature].append(run)
+    return core
 
 
 def _scene_text(scene: Any, feature: str | None) -> str:
@@ -178,14 +243,31 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
             from cam_design.valve_train.sweep import sweep
 
             res = sweep(law, SdofParams.from_valve_train(scene.valve_train), sweep_speeds,
-                        step_deg=max(args.step_deg, 1.0))
+                        step_deg=args.step_deg, key=_law_key(core, feature))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
+            entry['jump_bracket_rpm'] = res.jump.bracket
             entry['bounce_onset_rpm'] = res.bounce_onset_rpm
+            entry['bounce_bracket_rpm'] = res.bounce.bracket
             entry['sweep'] = res.as_dict()
+            entry['jump_text'] = res.jump.text(float(sweep_speeds[0]), float(sweep_speeds[-1]))
+            entry['bounce_text'] = res.bounce.text(float(sweep_speeds[0]),
+                                                   float(sweep_speeds[-1]))
         else:       # the documented keys are always there: null without --sweep
-            entry.update(jump_speed_rpm=None, bounce_onset_rpm=None, sweep=None)
+            entry.update(jump_speed_rpm=None, jump_bracket_rpm=None, bounce_onset_rpm=None,
+                         bounce_bracket_rpm=None, sweep=None)
         out['features'][feature] = entry
     return _json_safe(out)
+
+
+def _law_key(core: Any, feature: str) -> str:
+    """The key naming a feature's lift in refusals (scene key, table file, profile)."""
+    keys = getattr(core, 'keys', None)
+    if keys and feature in keys:
+        return keys[feature]
+    from cam_metrology.dynamics.core import lobe_key
+    if getattr(core, 'scene', None) is not None and hasattr(core.scene, 'lobes'):
+        return lobe_key(core.scene, feature)
+    return 'lift'
 
 
 def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
@@ -195,7 +277,9 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
         write_output(args.json, text + '\n', '--json')
     for feature, entry in result['features'].items():
         if 'note' in entry:         # stderr: seen also with --json -
-            print(f"warning: {feature}: {entry['note']}", file=sys.stderr)
+            word = 'note' if str(entry.get('source', '')).startswith(
+                ('table', 'reconstruct')) else 'warning'
+            print(f"{word}: {feature}: {entry['note']}", file=sys.stderr)
     if args.json != '-':
         for feature, entry in result['features'].items():
             for r in entry['runs']:
@@ -205,10 +289,12 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
             for name, why in entry.get('failures', {}).items():
                 print(f'{name}: FAILED: {why}')
             if entry.get('sweep') is not None:
-                speeds = (entry['jump_speed_rpm'], entry['bounce_onset_rpm'])
-                print(f"{feature}: jump speed {_q(speeds[0], '.1f', 'rpm')}, bounce onset "
-                      f"{_q(speeds[1], '.1f', 'rpm')}"
-                      + (' (none: not reached in the sweep)' if None in speeds else ''))
+                sw = entry['sweep']
+                print(f"{feature}: jump speed {entry['jump_text']}; bounce onset "
+                      f"{entry['bounce_text']} (sweep of {len(sw['sweep_rpm'])} speeds at "
+                      f"{sw['step_deg']:g} deg)")
+                for text in sw.get('notes', []):
+                    print(f'  note: {text}')
         for s in result['skipped']:
             print(f"skipped {s['what']}: {s['why']}")
 
@@ -235,6 +321,10 @@ def run_line(feature: str, r: dict[str, Any]) -> str:
             f"bounces {r['bounce_count']}")
     if r['bounce_count']:
         line += f" (max {_q(r['bounce_height_m'], '.2f', 'um', 1e6)})"
+    if r.get('left_cam'):
+        line += ', VALVE LEAVES THE CAM'
+    elif r.get('settled') is False:
+        line += f", NOT SETTLED (residual {r.get('periodic_residual_m', float('nan')):.3g} m)"
     line += f", max stress {_q(r['max_contact_stress_pa'], '.1f', 'MPa', 1e-6)}"
     if r.get('profile_undercut'):
         line += ' (profile undercut)'

@@ -227,10 +227,13 @@ class DynamicsCore:
                                width=width, youngs_modulus=self.youngs)
         out: list[Output] = []
         statuses = []
+        key = (lobe_key(self.scene, feature) if source == 'design'
+               else f'/reconstruction/profile {feature}/{source.split(":", 1)[-1]}')
         for rpm in speeds:
             name = f'{feature}/{rpm_label(rpm)}rpm'
             try:
-                run = compute_run(law, vt, rpm, self.step_deg, geom, self.max_revolutions)
+                run = compute_run(law, vt, rpm, self.step_deg, geom, self.max_revolutions,
+                                  key=key)
             except (InputError, RuntimeError, ValueError) as exc:
                 self.failures[name] = str(exc)
                 statuses.append(Status(name, ERROR, f'dynamics failed: {exc}',
@@ -245,8 +248,11 @@ class DynamicsCore:
                 out.append(TableOutput(MOTION, f'{name}/pressure', PRESSURE_COLUMNS,
                                        run.pressure_table()))
             ev = run.events
-            level = WARN if ev.get('jump') or ev.get('bounce_count') else OK
-            msg = ('separation' if ev.get('jump') else
+            level = WARN if (ev.get('jump') or ev.get('bounce_count') or ev.get('left_cam')
+                             or ev.get('settled') is False) else OK
+            msg = ('valve leaves the cam' if ev.get('left_cam') else
+                   'not settled' if ev.get('settled') is False else
+                   'separation' if ev.get('jump') else
                    'bounce' if ev.get('bounce_count') else 'ok')
             run.events['cam_width_source'] = width_source
             values = {'source': source, 'model': run.model}
@@ -292,9 +298,20 @@ def parse_speeds(value: Any, key: str) -> tuple[float, ...]:
     return tuple(out)
 
 
+def lobe_key(scene: Any, feature: str) -> str:
+    """The scene key of a lobe's design lift: ``lobes[i].lift_law`` or ``lobes[i].lift``."""
+    for i, lobe in enumerate(scene.lobes):
+        if lobe.id == feature:
+            spec = getattr(lobe, 'lift_spec', None)
+            return f'lobes[{i}].lift_law' if spec is not None else f'lobes[{i}].lift'
+    return 'lift'
+
+
 def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
-                geom: ContactGeometry | None, max_revolutions: int = 4) -> Run:
-    """One run of the scene's valve-train model (``vt``: scene ValveTrain)."""
+                geom: ContactGeometry | None, max_revolutions: int = 4,
+                key: str = 'lift') -> Run:
+    """One run of the scene's valve-train model (``vt``: scene ValveTrain); ``key``
+    names the lobe's lift in refusals."""
     if getattr(vt, 'model', 'sdof') == 'hydraulic':
         from cam_design.hydraulic.run import hydraulic_from_valve_train, run_hydraulic
 
@@ -313,4 +330,4 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
         return finish_run(law, params, rpm, 'mdof', res.alpha, res.y, res.v, res.cam_force,
                           events, geom, tc)
     return run_sdof(law, params, rpm, step_deg=step_deg, geometry=geom,
-                    max_revolutions=max_revolutions, train_checks=tc)
+                    max_revolutions=max_revolutions, train_checks=tc, key=key)
