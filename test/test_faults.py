@@ -29,7 +29,7 @@ BOMB = 'a: &a ["x","x","x","x","x","x","x","x","x"]\n' + ''.join(
     for p, c in zip('abcdefgh', 'bcdefghi'))
 
 
-def _cli(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+def _cli(*args: str, timeout: float = 300) -> subprocess.CompletedProcess[str]:
     return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=timeout,
                           cwd=REPO)
 
