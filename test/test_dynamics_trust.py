@@ -292,3 +292,27 @@ def test_table_without_valve_train_is_refused(tmp_path: Path, capsys) -> None:
     table.write_text('alpha_deg,lift_mm\n0,0\n')
     assert main(['dynamics', str(table)]) == 2
     assert '--valve-train' in capsys.readouterr().err
+
+
+def test_node_runs_a_full_revolution_lobe_like_the_cli(tmp_path: Path) -> None:
+    """The dynamics node core computes the eccentric scene lobe like the CLI: settled,
+    no separation at 3000 rpm, statuses OK with settled True; at 9500 rpm (above the
+    closed-form jump speed) the status is WARN 'separation'."""
+    from types import SimpleNamespace as NS
+
+    from cam_metrology.dynamics.core import DynamicsCore
+    from cam_metrology.outputs import OK, WARN, StatusOutput
+
+    e = 4.0e-3
+    a = np.linspace(-math.pi, math.pi, 25)
+    h = np.round(e * (1 + np.cos(a)) * 1e6) / 1e6
+    h[0] = h[-1] = 0.0
+    text = scene_file(tmp_path, a, h).read_text()
+    core = DynamicsCore({'source': 'design', 'step_deg': 1.0,
+                         'cam_speeds_rpm': '3000, 9500'})
+    outs = core.handle('/bench/scene', NS(data=text), 0)
+    statuses = [s for o in outs if isinstance(o, StatusOutput) for s in o.statuses]
+    assert [s.name for s in statuses] == ['lobe/3000rpm', 'lobe/9500rpm']
+    low, high = statuses
+    assert low.level == OK and low.values['settled'] == 'True'
+    assert high.level == WARN and high.message == 'separation'

@@ -222,4 +222,3 @@ def reference_mdof(law: LiftLaw, mp: MdofParams, rpm: float, alpha: NDArray[np.f
                 r ^= RV
                 res.switches.append((a0 + omega * t, RV, r))
     return res
-
