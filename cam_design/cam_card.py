@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 from cam_design.errors import InputError
 
 __all__ = ['DEFAULT_HEIGHTS_M', 'law_events', 'law_peak', 'table_events', 'table_peak',
+           'table_events_std', 'table_peak_std',
            'card_from_law', 'card_from_table', 'crank_events', 'lobe_separation_deg',
            'card_text', 'parse_heights_mm']
 
@@ -180,6 +181,46 @@ def table_events(alpha: Any, lift: Any, height: float, reference: Any = None, *,
         except ValueError:
             out.append(g)
     return out[0], out[1]
+
+
+def _fit_std(x: Any, y: Any, order: int, at: float) -> float:
+    """Standard error [units of y] of a least-squares polynomial of ``order`` evaluated
+    at ``at``, from its residual variance (0 when there are no spare degrees of freedom)."""
+    X = np.vander(np.asarray(x, dtype=float), order + 1)
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    dof = x.size - (order + 1)
+    if dof <= 0:
+        return 0.0
+    s2 = float(np.sum((y - X @ coef) ** 2)) / dof
+    v = np.vander(np.array([at]), order + 1)[0]
+    return math.sqrt(max(s2 * float(v @ np.linalg.pinv(X.T @ X) @ v), 0.0))
+
+
+def table_events_std(alpha: Any, lift: Any, height: float, events: tuple[float, float],
+                     reference: Any, *, half_window: float = 1.0 * DEG
+                     ) -> tuple[float, float]:
+    """Standard uncertainties [rad] of the events of ``table_events`` with a reference:
+    the standard error of the local deviation fit at the event over the slope there."""
+    a, h = _sorted(alpha, lift)
+    guess = law_events(reference, height)
+    dev = h - np.asarray(reference(a, 0), dtype=float)
+    out = []
+    for g, r in zip(guess, events):
+        sel = np.abs(a - g) <= half_window
+        p = np.polyfit(a[sel] - g, dev[sel], 1)
+        slope = float(reference(np.array([r]), 1)[0]) + p[0]
+        out.append(_fit_std(a[sel] - g, dev[sel], 1, r - g) / max(abs(slope), 1e-300))
+    return out[0], out[1]
+
+
+def table_peak_std(alpha: Any, lift: Any, reference: Any, peak_alpha: float, *,
+                   half_window: float = 3.0 * DEG) -> float:
+    """Standard uncertainty [m] of the max lift of ``table_peak`` with a reference."""
+    a, h = _sorted(alpha, lift)
+    g, _ = law_peak(reference)
+    sel = np.abs(a - g) <= half_window
+    dev = h - np.asarray(reference(a, 0), dtype=float)
+    return _fit_std(a[sel] - g, dev[sel], 2, peak_alpha - g)
 
 
 def table_peak(alpha: Any, lift: Any, reference: Any = None, *,

@@ -188,16 +188,18 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
 
 def _table_checks(tol: Tolerances, table: Any, design: Callable[..., Any],
                   checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> None:
-    from cam_design.cam_card import law_events, law_peak, table_events, table_peak
+    from cam_design.cam_card import (law_events, law_peak, table_events, table_events_std,
+                                     table_peak, table_peak_std)
     from cam_design.errors import InputError
 
     alpha, lift = table[:, 0], table[:, 1]
     if tol.max_lift_um is not None:
         try:
-            _, measured = table_peak(alpha, lift, design)
+            at, measured = table_peak(alpha, lift, design)
             _, nominal = law_peak(design)
+            std = table_peak_std(alpha, lift, design, at) * 1e6
             checks.append(check('max_lift_error_um', (measured - nominal) * 1e6,
-                                tol.max_lift_um, 'um'))
+                                tol.max_lift_um, 'um', std))
         except InputError as exc:
             missing.append(_not('max_lift_um', str(exc)))
     if tol.duration_deg is None and tol.centreline_deg is None:
@@ -211,14 +213,15 @@ def _table_checks(tol: Tolerances, table: Any, design: Callable[..., Any],
             if getattr(tol, n) is not None:
                 missing.append(_not(n, str(exc)))
         return
+    so, sc = table_events_std(alpha, lift, y, (o, c), design)
     at = f'@{tol.checking_height_mm:g}mm'
     if tol.duration_deg is not None:
         checks.append(check(f'duration_error_deg{at}', math.degrees((c - o) - (c0 - o0)),
-                            tol.duration_deg, 'deg'))
+                            tol.duration_deg, 'deg', math.degrees(math.hypot(so, sc))))
     if tol.centreline_deg is not None:
         checks.append(check(f'centreline_error_deg{at}',
                             math.degrees(0.5 * (o + c) - 0.5 * (o0 + c0)),
-                            tol.centreline_deg, 'deg'))
+                            tol.centreline_deg, 'deg', math.degrees(0.5 * math.hypot(so, sc))))
 
 
 def judge_datum(band: Band | None, feature: Mapping[str, Any] | None,
