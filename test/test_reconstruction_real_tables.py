@@ -135,8 +135,8 @@ def test_the_analytic_cams_are_what_they_claim():
     ('alpha_deg,lift_mm', DEG, 1e3, 'alpha_rad'),           # radians under alpha_deg
     ('alpha_deg,lift_mm', 2.0, 1e3, 'crank_deg'),           # crank degrees as cam
 ])
-def test_implausible_units_are_refused_naming_the_likely_unit(tmp_path, capsys, header,
-                                                               angle, lift, hint):
+def test_implausible_units_are_refused_naming_the_likely_unit(
+        tmp_path, capsys, header, angle, lift, hint):
     a = rows(1.0)
     shown = a * angle + (360.0 if angle == 2.0 else 0.0)
     p = write_table(tmp_path / 'u.csv', header, [shown, LOBE(a * DEG) * lift],
