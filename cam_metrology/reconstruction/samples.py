@@ -583,8 +583,9 @@ def step_warnings(steps: list[tuple[int, float, float, float, float]]) -> list[s
     """One warning per step found by ``find_steps`` (at most 5, then a count)."""
     out = [f'lift jumps by {jump * 1e3:.4g} mm between the rows at {math.degrees(a0):.3f} '
            f'and {math.degrees(a1):.3f} deg (the row on the base-circle side, or the rows '
-           f'next to them, change by at most {near * 1e3:.3g} mm): a step, e.g. a ramp cut off; the reconstruction '
-           'interpolates it, so velocity and acceleration there are not the cam\'s'
+           f'next to them, change by at most {near * 1e3:.3g} mm): a step, e.g. a ramp '
+           'cut off; the reconstruction interpolates it, so velocity and acceleration '
+           'there are not the cam\'s'
            for _, a0, a1, jump, near in steps[:5]]
     if len(steps) > 5:
         out.append(f'{len(steps) - 5} more step(s) in the table')
