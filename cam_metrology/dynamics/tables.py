@@ -59,6 +59,12 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
         raise InputError(key, f'{a.size} points',
                          f'a lift table the reconstruction spline can fit ({out.error})')
     limit = max(5.0 * (q or 0.0) / math.sqrt(12.0), 1e-3 * float(np.max(v)))
+    steps = [w for w in (rec.warnings or []) if w.startswith('lift jumps')]
+    if steps:   # a velocity step or a cut-off ramp: the dynamics would see an impulse
+        raise InputError(key, f'{a.size} points',
+                         'a table without steps (' + steps[0].split(':')[0] + '; a '
+                         'velocity step is an impact the dynamics cannot take from a '
+                         'smoothed table): tabulate the ramp finer or give the lift law')
     if rec.rms_residual > limit:
         raise InputError(key, f'{a.size} points',
                          'a table fine enough to define the lobe: neither its quintic '
