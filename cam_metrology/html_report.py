@@ -171,9 +171,8 @@ def _results_html(report: Mapping[str, Any]) -> str:
                     f'<td>{_n(err.get("rms"), ".2f")}</td>'
                     f'<td>{_n(f.get("base_circle_runout_um"), ".2f")}</td>'
                     f'<td class="l">{_e(status)}</td></tr>')
-    return ('<p>Lift errors here are the residual of the metrology fit (its lift offset '
-            'is fitted over the whole lobe); the verdict and the plots use the lift '
-            'referenced to the base circle alone.</p>'
+    return ('<p>Lift errors are measured minus design with the lift offset taken from '
+            'the base circle alone, as the verdict and the plots use them.</p>'
             '<table><tr><th class="l">feature</th><th>angle deg</th><th>std arcsec</th>'
             '<th>phase deg</th><th>phase error deg</th><th>lift error + µm</th>'
             '<th>lift error − µm</th><th>lift error rms µm</th><th>run-out TIR µm</th>'

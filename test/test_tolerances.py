@@ -292,6 +292,12 @@ def test_analyze_exit_status_accepts_and_rejects(bags, capsys) -> None:
         # the +-1 deg window: 0.003 deg off measured, 0.005 allowed (the card's 0.01 deg)
         assert checks['duration_error_deg@1mm'] == pytest.approx(
             math.degrees((c - o) - (c0 - o0)), abs=5e-3)
+        # the report's own lift error is base-referenced too: it shows the whole form
+        # error at the nose (the fit residual, which the offset absorbs, shows less)
+        feat = report['features'][lobe.id]
+        assert feat['lift_error_reference'] == 'base circle'
+        assert feat['lift_error_um']['max_plus'] == pytest.approx(0.004 * peak * 1e6, abs=1.0)
+        assert feat['fit_residual_um']['max_plus'] < 0.8 * feat['lift_error_um']['max_plus']
 
 
 def test_exit_code_rules(capsys) -> None:

@@ -152,7 +152,7 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
     lobes referenced to the base circle as the verdict uses them."""
     from cam_metrology.cli.card import heights_from, measured_cards
-    from cam_metrology.metrology.tolerances import base_referenced
+    from cam_metrology.metrology.lift_error import base_referenced
     from cam_metrology.provenance import provenance
 
     results = getattr(metrology, 'results', {})

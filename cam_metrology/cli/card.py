@@ -116,7 +116,7 @@ def measured_cards(scene: Any, features: dict[str, Any], tables: dict[str, Any],
         design = designs.get(fid)
         if table is None or design is None or (features.get(fid) or {}).get('status') != 'ok':
             continue
-        from cam_metrology.metrology.tolerances import base_referenced
+        from cam_metrology.metrology.lift_error import base_referenced
         table, good = base_referenced(table, bool(features[fid].get('runout_fitted')))
         table = table[good]
         _NOMINAL_DATA[fid] = (table[:, 0], table[:, 1],

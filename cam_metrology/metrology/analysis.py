@@ -20,12 +20,12 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.ndimage import median_filter
 
 from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.errors import InputError
 from cam_metrology.metrology.asymmetry import lift_spline, top_point
 from cam_metrology.metrology.features import FeatureSamples
+from cam_metrology.metrology.lift_error import base_referenced, lift_error_stats, local_deviation
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
 from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
@@ -212,16 +212,6 @@ OUTLIER_MAX_FRACTION = 0.05
 MEDIAN9_VARIANCE = 0.9435
 
 
-def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Residuals [m] minus their running median (9 samples in angle order): the noise
-    part of the residuals; isolated spikes stand out, a smooth real form error (or a
-    biased first fit) does not."""
-    order = np.argsort(x, kind='stable')
-    dev = np.empty_like(r)
-    dev[order] = r[order] - median_filter(r[order], size=9, mode='nearest')
-    return dev
-
-
 def _check_fit(fit: Any, settings: Settings, what: str) -> None:
     """Fail the feature when the fit is not credible: it moved far from the coarse
     estimate, or the measured lift does not match the design lift."""
@@ -344,12 +334,10 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     alpha = x - fit.d
     design = law(alpha, 0)
     measured = fs.s - fit.c - harmonic
-    err = measured - design
-    lobe = (design > 0) & good
-    if np.any(lobe):
-        values['lift_error_um'] = {'max_plus': float(np.max(err[lobe])) * UM,
-                                   'max_minus': float(np.min(err[lobe])) * UM,
-                                   'rms': float(np.sqrt(np.mean(err[lobe] ** 2))) * UM}
+    fit_table = np.column_stack([alpha, measured, design])
+    fit_error = lift_error_stats(fit_table, good)
+    if fit_error is not None:   # what the fit leaves; a smooth form error partly hides here
+        values['fit_residual_um'] = fit_error
     values['base_circle_runout_um'] = _runout_um(fs.theta[base & good],
                                                  (fs.s - fit.c)[base & good])
     values['runout_fitted'] = runout
@@ -371,6 +359,12 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
             skipped.append(('asymmetry', 'design lift is asymmetric: no symmetry axis'))
     order = np.argsort(alpha)
     table = np.column_stack([alpha[order], measured[order], design[order]])
+    # the lift error a gauge reports: offset (and run-out) from the base circle alone
+    ref, kept = base_referenced(table, runout)
+    stats = lift_error_stats(ref, kept & good[order])
+    if stats is not None:
+        values['lift_error_um'] = stats
+        values['lift_error_reference'] = 'base circle'
     return FeatureResult(fs.feature_id, 'lobe', {**values, **_common(fs)}, table,
                          float(np.radians(values['angle_deg'])), skipped=skipped)
 

@@ -25,6 +25,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from cam_metrology.metrology.lift_error import base_referenced
 from cam_metrology.scene import Band, Scene, Tolerances
 
 __all__ = ['check', 'judge_lobe', 'judge_datum', 'judge_part', 'PASS', 'FAIL', 'NOT_CHECKED']
@@ -67,43 +68,6 @@ def _verdict(checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> dic
 
 
 #: base-circle samples are those at least this far [rad] outside the design's lobe
-BASE_MARGIN = 2.0 * DEG
-
-
-def base_referenced(table: Any, harmonic: bool) -> tuple[Any, Any]:
-    """The lift table with the measured lift referenced to the base circle alone, and
-    the mask of samples kept (isolated spikes dropped).
-
-    The metrology fit takes its lift offset (and the run-out harmonic) from every sample,
-    so a smooth form error of the lobe leaks into them (docs/tolerances.md). Here the
-    deviation measured - design on the base circle (design lift 0, ``BASE_MARGIN`` away
-    from the lobe) is fitted by ``c`` (+ ``a cos alpha + b sin alpha`` when ``harmonic``:
-    a once-per-revolution run-out is a first harmonic in alpha too) and subtracted from
-    the whole table. Spikes: deviation from the running median of 9 samples above 5 x
-    1.4826 x its median absolute value (floored at 0.1 um), unless more than 5 % are."""
-    from cam_metrology.metrology.analysis import local_deviation
-
-    a, m, d = (np.asarray(table[:, k], dtype=float) for k in range(3))
-    err = m - d
-    dev = np.abs(local_deviation(a, err))
-    bad = dev > 5.0 * max(1.4826 * float(np.median(dev)), 1e-7)
-    if np.mean(bad) > 0.05:
-        bad[:] = False
-    lobe = np.nonzero(d > 0)[0]
-    if lobe.size:
-        lo, hi = a[lobe[0]], a[lobe[-1]]
-        base = ((a < lo - BASE_MARGIN) | (a > hi + BASE_MARGIN)) & ~bad
-    else:
-        base = ~bad
-    if np.count_nonzero(base) < 10:
-        return table, ~bad
-    if harmonic:
-        cols = np.column_stack([np.ones(a.size), np.cos(a), np.sin(a)])
-        coef = np.linalg.lstsq(cols[base], err[base], rcond=None)[0]
-        model = cols @ coef
-    else:
-        model = np.full(a.size, float(np.median(err[base])))
-    return np.column_stack([a, m - model, d]), ~bad
 
 
 def _lift_error_checks(tol: Tolerances, table: Any, good: Any,
