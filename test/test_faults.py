@@ -80,7 +80,7 @@ def test_bomb_scene_inside_a_bag_is_refused(tmp_path: Path) -> None:
         w.add_topic('/bench/scene', 'std_msgs/msg/String')
         w.write('/bench/scene', 1, encode_string(BOMB))
     proc = _cli('analyze', str(bag), timeout=30)
-    _one_line_error(proc, '/bench/scene')
+    _one_line_error(proc, '/bench/scene', 'alias')
 
 
 def test_bomb_in_bag_metadata_is_refused(tmp_path: Path) -> None:
