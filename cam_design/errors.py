@@ -25,7 +25,11 @@ class InputError(ValueError):
 
 
 def _short(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters; a string (a file path, an option's
+    text) is kept whole up to 300 so that a path in a message stays usable."""
     text = repr(value)
+    if isinstance(value, str):
+        limit = max(limit, 300)
     return text if len(text) <= limit else text[: limit - 3] + '...'
 
 
