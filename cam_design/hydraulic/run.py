@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError, require_finite
 from cam_design.hydraulic.actuation import HydraulicParams, simulate_hydraulic
-from cam_design.valve_train.report import ContactGeometry, Run, contact_stress
+from cam_design.valve_train.report import ContactGeometry, Run, stress_and_undercut
 
 #: keys of the ``valve_train.hydraulic`` block (the valve's mass, spring and damping are
 #: the ``valve_train`` keys of the same name)
@@ -114,12 +114,7 @@ def run_hydraulic(law: Any, prm: HydraulicParams, rpm: float,
     sel = np.arange(0, res.alpha.size, every)
     alpha = res.alpha[sel]
     force = np.maximum(prm.plunger_area * res.pump_pressure[sel], 0.0)
-    undercut = False
-    if geometry is not None:
-        stress = contact_stress(law, alpha, force, geometry)
-        undercut = bool(np.any(np.isnan(stress)))
-    else:
-        stress = np.zeros_like(force)
+    stress, undercut = stress_and_undercut(law, alpha, force, geometry)
     lift = res.valve_lift[sel]
     ratio = prm.plunger_area / prm.actuator_area
     rigid = ratio * float(np.max(law(alpha, 0)))

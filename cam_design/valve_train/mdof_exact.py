@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from cam_design.valve_train.cam_input import CamInput
 from cam_design.valve_train.sdof import (BOUNCE_TOL, NB, SolverError, _FACT, _GRID9,
                                          _VG9, _dips, _eval_min, _newton_bracket,
-                                         _shift, _vander0, expm)
+                                         _shift, expm, sub_node_jets)
 
 T, P, R, V = 0, 1, 2, 3
 CAM, RV, SEAT = 1, 2, 4
@@ -205,9 +205,6 @@ class _Model:
         return acc
 
 
-_VANDER0: dict[int, tuple[NDArray, NDArray, NDArray]] = {}
-
-
 def _flags(model: _Model, r: int, ucoef: NDArray, gmono: NDArray, la: NDArray,
            lt: NDArray, zall: NDArray) -> NDArray:
     """(q, m) True where sub-interval j of step q may hold a switch of regime r.
@@ -216,16 +213,7 @@ def _flags(model: _Model, r: int, ucoef: NDArray, gmono: NDArray, la: NDArray,
     and time; zall: (q, m+1, 2n) states at the sub-nodes j/m, j = 0..m."""
     n = model.n
     m = zall.shape[1] - 1
-    mats = _VANDER0.get(m)
-    if mats is None:
-        mats = _vander0(m)
-        if len(_VANDER0) < 256:
-            _VANDER0[m] = mats
-    v0, v1, v2 = mats
-    rate = (model.omega / la)[:, None]
-    u = ucoef @ v0
-    ud = (ucoef @ v1) * rate
-    udd = (ucoef @ v2) * rate * rate
+    u, ud, udd, v0 = sub_node_jets(ucoef, m, model.omega, la)
     g = gmono @ v0
     x, xd = zall[..., :n], zall[..., n:]
     xdd = model.accel(r, x, xd, g)

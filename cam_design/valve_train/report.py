@@ -187,18 +187,23 @@ def events_note(events: dict[str, Any], rpm: float | None = None) -> str | None:
               'what this valve train follows')
 
 
+def stress_and_undercut(law: LiftLaw, alpha: NDArray, force: NDArray,
+                        geometry: ContactGeometry | None) -> tuple[NDArray, bool]:
+    """Hertz stress [Pa] along a run (zeros without ``geometry``) and whether the
+    profile is undercut somewhere (stress undefined there: NaN)."""
+    if geometry is None:
+        return np.zeros_like(force), False
+    stress = contact_stress(law, alpha, force, geometry)
+    return stress, bool(np.any(np.isnan(stress)))
+
+
 def finish_run(law: LiftLaw, params: SdofParams, rpm: float, model: str,
                alpha: NDArray, lift: NDArray, velocity: NDArray, force: NDArray,
                events: dict[str, Any], geometry: ContactGeometry | None,
                train_checks: TrainChecks | None = None) -> Run:
     """Add stress, maxima, epsilon, the spring margin and (with ``train_checks``) coil
     bind and the dynamic valve-piston clearance to a run."""
-    undercut = False
-    if geometry is not None:
-        stress = contact_stress(law, alpha, force, geometry)
-        undercut = bool(np.any(np.isnan(stress)))
-    else:
-        stress = np.zeros_like(force)
+    stress, undercut = stress_and_undercut(law, alpha, force, geometry)
     have_stress = geometry is not None and not undercut
     i_s = int(np.argmax(stress)) if have_stress else 0
     i_f = int(np.argmax(force))

@@ -306,6 +306,21 @@ def _dips(f: NDArray, d: NDArray) -> NDArray:
 _VANDER0: dict[int, tuple[NDArray, NDArray, NDArray]] = {}
 
 
+def sub_node_jets(ucoef: NDArray, m: int, omega: float, la: NDArray
+                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """Cam input at the m + 1 sub-nodes j/m of each step: u [m], du/dt [m/s],
+    d2u/dt2 [m/s^2] from its (q, NB) monomials ``ucoef`` over step angles ``la`` [rad] at
+    ``omega`` [rad/s], and the value matrix (for other polynomials on the same nodes)."""
+    mats = _VANDER0.get(m)
+    if mats is None:
+        mats = _vander0(m)
+        if len(_VANDER0) < 256:
+            _VANDER0[m] = mats
+    v0, v1, v2 = mats
+    rate = (omega / la)[:, None]
+    return ucoef @ v0, (ucoef @ v1) * rate, (ucoef @ v2) * rate * rate, v0
+
+
 def _flags(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
            lt: NDArray, z0: NDArray, zs: NDArray) -> NDArray:
     """(q, m) True where sub-interval j of step q may hold a switch: the switching
@@ -317,16 +332,7 @@ def _flags(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
     """
     p = model.p
     m = zs.shape[1]
-    mats = _VANDER0.get(m)
-    if mats is None:
-        mats = _vander0(m)
-        if len(_VANDER0) < 256:
-            _VANDER0[m] = mats
-    v0, v1, v2 = mats
-    rate = (model.omega / la)[:, None]
-    u = ucoef @ v0
-    ud = (ucoef @ v1) * rate
-    udd = (ucoef @ v2) * rate * rate
+    u, ud, udd, v0 = sub_node_jets(ucoef, m, model.omega, la)
     f = (fco / _FACT) @ v0
     y = np.concatenate([z0[:, :1], zs[..., 0]], axis=1)
     v = np.concatenate([z0[:, 1:], zs[..., 1]], axis=1)
