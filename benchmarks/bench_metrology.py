@@ -120,7 +120,7 @@ def _decode_all(bag: Path) -> int:
 def speed() -> list[str]:
     """Markdown rows: decode vs analyze of a 200k-sample bag."""
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.cli.analyze import make_cores
+    from cam_metrology.offline import make_cores
     from cam_metrology.replay import run_offline
     from cam_metrology.simulate import SimParams, write_sim_bag
 

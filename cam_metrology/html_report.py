@@ -68,7 +68,7 @@ def feature_figure(fid: str, table: Any, feature: Mapping[str, Any]) -> Any:
     """The lift figure of ``analyze --plot`` with the tolerance band and zones drawn on
     the lift-error axis (scaled to the measured error and the band, at least +-0.5 um).
     For a lobe, ``table`` is the base-referenced table the verdict uses."""
-    from cam_metrology.cli.analyze import lift_figure
+    from cam_metrology.plots import lift_figure
 
     fig = lift_figure(fid, table, dict(feature))
     ax = fig.axes[1]

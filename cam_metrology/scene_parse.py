@@ -325,7 +325,7 @@ def _lift_table(ctx: _Ctx, key: str, value: Any) -> LiftLaw:
         if 'quintic interpolant' not in str(exc):
             raise
     # a coarse table whose interpolant rings: the reconstruction spline instead (said)
-    from cam_metrology.dynamics.tables import spline_law
+    from cam_metrology.reconstruction.table_law import spline_law
     law, note = spline_law(alpha, h, key)
     ctx.warnings.append(f'{key}: {note} (its quintic interpolant dips below the base circle)')
     return law
@@ -595,3 +595,28 @@ def _datum_tolerance(defaults: dict[str, Any], pin: DowelPin | None) -> Band | N
         raise InputError('tolerances.datum_deg', band, 'a dowel_pin with a nominal_angle to '
                          'check the datum against (or no datum tolerance)')
     return band
+
+
+def load_valve_train(path: Path) -> tuple[ValveTrain, Scene | None]:
+    """(ValveTrain, Scene or None) from a scene YAML or a YAML holding only the
+    ``valve_train`` block (with or without the ``valve_train:`` key): ``--valve-train``."""
+    from cam_metrology.yaml_input import load_yaml
+
+    if not path.is_file():
+        raise FileNotFoundError(f'no such valve-train file: {path}')
+    try:
+        text = path.read_text(encoding='utf-8')
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError('--valve-train', str(path), f'a readable YAML file ({exc})') from None
+    doc = load_yaml(text, '--valve-train')
+    if isinstance(doc, dict) and 'lobes' in doc:
+        scene = load_scene(path)
+        if scene.valve_train is None:
+            raise InputError('--valve-train', str(path), 'a scene with a valve_train block')
+        return scene.valve_train, scene
+    if isinstance(doc, dict) and 'valve_train' in doc:
+        doc = doc['valve_train']
+    if not isinstance(doc, dict):
+        raise InputError('--valve-train', str(path),
+                         'a YAML mapping with the valve_train keys (docs/scene.md)')
+    return _valve_train(_Ctx(), doc), None

@@ -180,7 +180,7 @@ def test_plot_legend_hides_no_data_and_x_label(fixture_tables, label, xlabel):
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from cam_metrology.cli.analyze import lift_figure
+    from cam_metrology.plots import lift_figure
 
     tables, report = fixture_tables
     fig = lift_figure(label, tables[label], report['features'][label])

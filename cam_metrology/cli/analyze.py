@@ -15,7 +15,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-REPORT_TOPIC = '/metrology/report'
+from cam_metrology.offline import final_report, make_cores, other_skips, replay
+from cam_metrology.plots import lift_figure
+
 LIFT_TOPIC = '/metrology/lift'
 JOINT_TOPIC = '/bench/joint_states'
 
@@ -62,31 +64,6 @@ def load_params(path: str | None) -> dict[str, dict[str, Any]]:
                              f'a node name: one of {", ".join(CORES)}')
     present = {str(node).lstrip('/') for node in doc}
     return {name: section_values(doc, path, name) for name in CORES if name in present}
-
-
-def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool,
-               ) -> tuple[list[Any], list[dict[str, str]]]:
-    """The metrology core first, then every other core of the registry that imports;
-    a core that is absent or fails to import is listed as skipped (with the reason)."""
-    from cam_metrology.registry import CORES, load_core_class
-
-    cores = [load_core_class('metrology')(params.get('metrology'))]
-    skipped = []
-    for node in ([] if only_metrology else [n for n in CORES if n != 'metrology']):
-        try:
-            cls = load_core_class(node)
-        except ImportError as exc:   # not written yet, or broken in this tree
-            skipped.append({'what': node, 'why': f'{node} core not available: {exc}'})
-            continue
-        cores.append(cls(params.get(node)))
-    return cores, skipped
-
-
-def replay(bag: str, cores: list[Any]) -> Any:
-    """Run the bag through the cores with ``replay.run_offline`` (the live code path)."""
-    from cam_metrology.replay import run_offline
-
-    return run_offline(bag, cores)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -215,33 +192,6 @@ def bag_warnings(bag: str) -> list[str]:
             'features.*.scene_index)']
 
 
-def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, Any]:
-    """The last report the metrology core published (its final one)."""
-    from cam_metrology.outputs import TextOutput
-
-    texts = [o.text for _, o in outputs if isinstance(o, TextOutput) and o.topic == REPORT_TOPIC]
-    if texts:
-        return json.loads(texts[-1])
-    if getattr(metrology, 'scene', None) is None:
-        from cam_metrology.cli import CliError
-        raise CliError('the bag has no /bench/scene message: nothing to analyse')
-    return metrology.report(final=True)
-
-
-def other_skips(outputs: list[tuple[int, Any]]) -> list[dict[str, str]]:
-    """``skipped/<what>`` statuses of the other cores' result topics."""
-    from cam_metrology.outputs import StatusOutput
-
-    out = []
-    for _, o in outputs:
-        if isinstance(o, StatusOutput) and not o.topic.startswith('/metrology/'):
-            for st in o.statuses:
-                if st.name.startswith('skipped/'):
-                    out.append({'what': st.name[len('skipped/'):], 'why': st.message,
-                                'node': o.topic.split('/')[1]})
-    return out
-
-
 def _fmt(value: Any, spec: str) -> str:
     """``value`` formatted with ``spec``; a right-aligned '-' of the same width if None."""
     width = int(spec.split('.')[0] or 0)
@@ -296,32 +246,6 @@ def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, 
                         bbox_inches='tight')
         finally:
             plt.close(fig)
-
-
-def lift_figure(label: str, table: Any, feature: dict[str, Any]) -> Any:
-    """The figure of one ``/metrology/lift`` table (columns alpha [rad], measured and
-    design lift [m]): lift [mm] on top, measured - design [um] below. The legend sits
-    outside the axes (above them), so it never hides data; the x axis is named after the
-    reference of alpha: the fitted nose (lobe) or the fitted pin centre (dowel pin)."""
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    alpha = np.degrees(table[:, 0])
-    fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6.5))
-    ax1.plot(alpha, table[:, 1] * 1e3, '.', ms=1.5, label='measured')
-    ax1.plot(alpha, table[:, 2] * 1e3, '-', lw=0.8, label='design (as seen by the probe)')
-    ax1.set_ylabel('lift [mm]')
-    ax1.legend(loc='lower center', bbox_to_anchor=(0.5, 1.0), ncol=2, frameon=False,
-               markerscale=6)
-    angle = feature.get('angle_deg')
-    fig.suptitle(f'{label}: angle {angle:.5f} deg' if angle is not None else label)
-    ax2.plot(alpha, (table[:, 1] - table[:, 2]) * 1e6, '.', ms=1.5)
-    ax2.set_ylabel('measured - design [um]')
-    pin = feature.get('kind') == 'dowel_pin' or (not feature and label == 'dowel_pin')
-    ax2.set_xlabel('alpha from the fitted pin centre [deg]' if pin
-                   else 'alpha from the fitted nose [deg]')
-    fig.tight_layout()
-    return fig
 
 
 if __name__ == '__main__':   # pragma: no cover

@@ -148,7 +148,7 @@ def exact_seen(scene: Any, fid: str, fallback: Any) -> Any:
 def bag_cards(bag: str, heights: tuple[float, ...], lobe: str | None
               ) -> tuple[dict[str, Any], dict[str, float | None]]:
     """Measured vs nominal cards of a bag (metrology core only) and measured phases."""
-    from cam_metrology.cli.analyze import final_report, make_cores, replay
+    from cam_metrology.offline import final_report, make_cores, replay
 
     cores, _ = make_cores({}, True)
     result = replay(bag, cores)

@@ -156,12 +156,13 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
 
     from cam_design.errors import InputError
     from cam_metrology.dynamics.core import compute_run, parse_speeds, rpm_label
-    from cam_metrology.dynamics.tables import table_input, valve_train_file
+    from cam_metrology.dynamics.tables import table_input
+    from cam_metrology.scene_parse import load_valve_train
 
     if not args.valve_train:
         raise InputError('--valve-train', None, 'a scene or valve-train YAML with a TABLE '
                          '(the table gives only the lift)')
-    vt, scene = valve_train_file(Path(args.valve_train))
+    vt, scene = load_valve_train(Path(args.valve_train))
     if args.model:
         from dataclasses import replace
         vt = replace(vt, model=args.model)

@@ -1,0 +1,63 @@
+"""The offline analysis of a bag: the cores of the registry, fed from the bag by
+``replay.run_offline`` (the live code path), and the final report they leave.
+Used by ``cam-bench analyze``, ``card``, ``golden``, ``batch`` and the pytest plugin.
+"""
+from __future__ import annotations
+
+import json
+from typing import Any
+
+#: topic of the metrology core's JSON report
+REPORT_TOPIC = '/metrology/report'
+
+
+def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool,
+               ) -> tuple[list[Any], list[dict[str, str]]]:
+    """The metrology core first, then every other core of the registry that imports;
+    a core that is absent or fails to import is listed as skipped (with the reason)."""
+    from cam_metrology.registry import CORES, load_core_class
+
+    cores = [load_core_class('metrology')(params.get('metrology'))]
+    skipped = []
+    for node in ([] if only_metrology else [n for n in CORES if n != 'metrology']):
+        try:
+            cls = load_core_class(node)
+        except ImportError as exc:   # not written yet, or broken in this tree
+            skipped.append({'what': node, 'why': f'{node} core not available: {exc}'})
+            continue
+        cores.append(cls(params.get(node)))
+    return cores, skipped
+
+
+def replay(bag: str, cores: list[Any]) -> Any:
+    """Run the bag through the cores with ``replay.run_offline`` (the live code path)."""
+    from cam_metrology.replay import run_offline
+
+    return run_offline(bag, cores)
+
+
+def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, Any]:
+    """The last report the metrology core published (its final one)."""
+    from cam_metrology.outputs import TextOutput
+
+    texts = [o.text for _, o in outputs if isinstance(o, TextOutput) and o.topic == REPORT_TOPIC]
+    if texts:
+        return json.loads(texts[-1])
+    if getattr(metrology, 'scene', None) is None:
+        from cam_metrology.cli import CliError
+        raise CliError('the bag has no /bench/scene message: nothing to analyse')
+    return metrology.report(final=True)
+
+
+def other_skips(outputs: list[tuple[int, Any]]) -> list[dict[str, str]]:
+    """``skipped/<what>`` statuses of the other cores' result topics."""
+    from cam_metrology.outputs import StatusOutput
+
+    out = []
+    for _, o in outputs:
+        if isinstance(o, StatusOutput) and not o.topic.startswith('/metrology/'):
+            for st in o.statuses:
+                if st.name.startswith('skipped/'):
+                    out.append({'what': st.name[len('skipped/'):], 'why': st.message,
+                                'node': o.topic.split('/')[1]})
+    return out
