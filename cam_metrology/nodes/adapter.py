@@ -66,6 +66,9 @@ TAKE_BATCH = 20000
 QUEUE_ITEMS = 64
 #: s between /diagnostics statuses of the node's input
 DIAG_PERIOD = 1.0
+#: s the receiving thread waits after the first sample of a callback before taking the
+#: rest (fewer, bigger batches; adds at most this to the latency)
+RX_LINGER = 0.005
 
 
 class CoreMissing(RuntimeError):
@@ -333,6 +336,10 @@ class CoreNode(Node):
         self.callbacks_run += 1
         batch = [(data, _source_ns(info), _seq(info))]
         if self._queue is not None:
+            # linger: let a batch gather (at 20 000/s, 100 samples in 5 ms) so that the
+            # executor wakes ~200 times a second, not once per burst of the publisher
+            # (each wake costs ~0.1-0.3 ms of Python); the keep-all reader holds them
+            time.sleep(RX_LINGER)
             batch.extend(self._drain_samples(TAKE_BATCH - 1))
             self._enqueue_samples(batch)
             return

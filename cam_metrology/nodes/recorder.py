@@ -55,7 +55,8 @@ from rclpy.node import Node
 
 from cam_metrology.bagio import BagWriter, encode_statuses
 from cam_metrology.loss import OK, WARN, SequenceLoss, loss_status, loss_values
-from cam_metrology.nodes.topics import (BENCH_TOPICS, DIAGNOSTICS, STATUS, TOPICS,
+from cam_metrology.nodes.adapter import RX_LINGER
+from cam_metrology.nodes.topics import (BENCH_TOPICS, DIAGNOSTICS, JOINT_STATES, STATUS, TOPICS,
                                         AdaptiveSubscriptions, QosSpec, message_class, qos_of)
 from cam_metrology.outputs import Status
 
@@ -239,6 +240,8 @@ class RecorderNode(Node):
         # batch: take what else is waiting on this topic now (up to TAKE_BATCH), which
         # skips the executor's ~95 us per message; the log times keep the bag ordered
         sub = self._subs.get(topic)
+        if sub is not None and topic == JOINT_STATES:
+            time.sleep(RX_LINGER)   # let a batch gather: fewer executor wakes (adapter)
         if sub is not None:
             take, msg_type = sub.handle.take_message, sub.msg_type
             try:
