@@ -24,6 +24,11 @@ class InputError(ValueError):
         super().__init__(f'{key}: got {_short(value)}; expected {expected}')
 
 
+class CliError(Exception):
+    """A user-facing error that is a whole sentence rather than a key and a value (the
+    command line prints it in one line and exits 2)."""
+
+
 def _short(value: Any, limit: int = 80) -> str:
     """``repr(value)`` cut to ``limit`` characters; a string (a file path, an option's
     text) is kept whole up to 300 so that a path in a message stays usable."""

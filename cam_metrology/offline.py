@@ -44,7 +44,7 @@ def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, An
     if texts:
         return json.loads(texts[-1])
     if getattr(metrology, 'scene', None) is None:
-        from cam_metrology.cli import CliError
+        from cam_design.errors import CliError
         raise CliError('the bag has no /bench/scene message: nothing to analyse')
     return metrology.report(final=True)
 

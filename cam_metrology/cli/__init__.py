@@ -19,6 +19,7 @@ import argparse  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
 from typing import Sequence  # noqa: E402
+from cam_design.errors import CliError  # noqa: E402,F401 (the CLI's sentence error)
 
 # Order here is the order in `cam-bench --help`.
 COMMAND_MODULES = (
@@ -48,10 +49,6 @@ class _Version(argparse.Action):
         from cam_metrology.provenance import version_text
         print(version_text())
         parser.exit(0)
-
-
-class CliError(Exception):
-    """A user-facing error with a message (exit code 2)."""
 
 
 def build_parser() -> argparse.ArgumentParser:

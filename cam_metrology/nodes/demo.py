@@ -41,7 +41,6 @@ from typing import Any, Callable, TextIO
 from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, METROLOGY_REPORT,
                                         OUTPUT_TOPICS, TOPICS, TRUTH, AdaptiveSubscriptions)
 
-CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
 STATUS_TOPICS = ('/metrology/result', '/reconstruction/result', '/dynamics/result')
 
 
@@ -98,8 +97,8 @@ def start_child(name: str, argv: list[str], env: dict[str, str], log_dir: Path) 
     demo, which then stops the children in order); SIGTERM if the demo dies."""
     log = log_dir / f'{name}.log'
     with open(log, 'wb') as handle:
-        proc = subprocess.Popen([sys.executable, '-c', CLI, 'run', name, *argv], env=env,
-                                stdout=handle, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+        proc = subprocess.Popen([sys.executable, '-m', 'cam_metrology', 'run', name, *argv],
+                                env=env, stdout=handle, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                 start_new_session=True, preexec_fn=_die_with_parent)
     return Child(name, proc, log)
 
