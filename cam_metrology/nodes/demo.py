@@ -98,8 +98,9 @@ def start_child(name: str, argv: list[str], env: dict[str, str], log_dir: Path) 
     log = log_dir / f'{name}.log'
     with open(log, 'wb') as handle:
         proc = subprocess.Popen([sys.executable, '-m', 'cam_metrology', 'run', name, *argv],
-                                env=env, stdout=handle, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                start_new_session=True, preexec_fn=_die_with_parent)
+                                env=env, stdout=handle, stderr=subprocess.STDOUT,
+                                stdin=subprocess.DEVNULL, start_new_session=True,
+                                preexec_fn=_die_with_parent)
     return Child(name, proc, log)
 
 
