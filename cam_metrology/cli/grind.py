@@ -69,9 +69,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     _common(p)
     _wheel_step(p)
     _probe(p)
-    p.add_argument('--measured', required=True, metavar='CSV',
+    p.add_argument('--measured', required=True, metavar='CSV|BAG',
                    help='CSV with alpha_rad and lift_error_m, or alpha_rad, lift_m and '
-                        'design_lift_m (the columns of /metrology/lift)')
+                        'design_lift_m (the columns of /metrology/lift); or a measurement '
+                        'bag: the lobe (--lobe, or the only/first lobe) is analysed as '
+                        '`analyze` does and its base-circle-referenced lift error is used '
+                        '(alpha from the fitted nose: an index error shows in the report\'s '
+                        'phase, not in this lift error)')
     p.add_argument('--sources', default='wheel_radius,index,run_out_x,run_out_y',
                    help='comma-separated error sources to fit (default: wheel_radius,index,'
                         'run_out_x,run_out_y)')
@@ -362,12 +366,40 @@ def cmd_errors(args: argparse.Namespace) -> int:
     return 0
 
 
-def _measured(path_text: str, key: str = '--measured') -> tuple[Any, Any]:
-    """(alpha [rad], lift error [m]) from a CSV with a header row."""
+def _measured_bag(bag: str, lobe: str | None, key: str = '--measured') -> tuple[Any, Any]:
+    """(alpha [rad] from the fitted nose, lift error [m] referenced to the base circle)
+    of one lobe of a measurement bag, through the offline metrology (as ``analyze``)."""
+    from cam_design.errors import InputError
+    from cam_metrology.metrology.lift_error import base_referenced
+    from cam_metrology.offline import make_cores, replay
+
+    cores, _ = make_cores({}, True)
+    replay(bag, cores)
+    results = {f: r for f, r in cores[0].results.items() if r.kind == 'lobe'}
+    if not results:
+        raise InputError(key, bag, 'a bag with at least one measured lobe')
+    fid = lobe if lobe is not None else next(iter(results))
+    if fid not in results:
+        raise InputError('--lobe', fid, 'one of the measured lobes: ' + ', '.join(results))
+    res = results[fid]
+    if res.table is None or res.failed is not None:
+        raise InputError(key, bag, f'a bag where lobe {fid} was measured '
+                         f'({res.failed or "no lift table"})')
+    table, good = base_referenced(res.table, bool(res.values.get('runout_fitted')))
+    return table[good, 0], table[good, 1] - table[good, 2]
+
+
+def _measured(path_text: str, key: str = '--measured',
+              lobe: str | None = None) -> tuple[Any, Any]:
+    """(alpha [rad], lift error [m]) from a CSV with a header row, or from a bag."""
     import numpy as np
 
     from cam_design.errors import InputError
+    from cam_metrology.bagio import looks_like_bag
     from cam_metrology.files import read_text_file
+
+    if looks_like_bag(path_text):
+        return _measured_bag(path_text, lobe, key)
 
     lines = [ln for ln in read_text_file(path_text, 'CSV file', key=key).splitlines()
              if ln.strip()]
@@ -409,7 +441,7 @@ def cmd_correct(args: argparse.Namespace) -> int:
     path = WheelPath(law, base, design, _one_wheel(args, section), key=args.file)
     _warn_bridged(path.wheel_radius, path.bridged)
     cradle, master = _machine(path, section)
-    alpha, error = _measured(args.measured)
+    alpha, error = _measured(args.measured, lobe=args.lobe)
     sources = tuple(s.strip() for s in args.sources.split(',') if s.strip())
     fit = fit_errors(path, alpha, error, sources=sources, cradle=cradle, master=master,
                      probe=_probe_follower(args), key=args.measured,
