@@ -30,11 +30,14 @@ class CliError(Exception):
 
 
 def _short(value: Any, limit: int = 80) -> str:
-    """``repr(value)`` cut to ``limit`` characters; a string (a file path, an option's
-    text) is kept whole up to 300 so that a path in a message stays usable."""
-    text = repr(value)
-    if isinstance(value, str):
-        limit = max(limit, 300)
+    """``repr(value)`` cut to ``limit`` characters; a file path (``os.PathLike``) is
+    shown as its text, whole up to 1000 characters, so the message names a usable path."""
+    import os
+
+    if isinstance(value, os.PathLike):
+        text, limit = repr(os.fspath(value)), max(limit, 1000)
+    else:
+        text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + '...'
 
 

@@ -64,7 +64,7 @@ def write_output(target: str | Path, data: str | bytes, key: str) -> None:
         return
     path = Path(target)
     if path.is_dir():
-        raise InputError(key, str(target), 'a file name, not a directory')
+        raise InputError(key, Path(target), 'a file name, not a directory')
     tmp = _partial(path)
     try:
         with open(tmp, 'wb') as f:
@@ -74,7 +74,7 @@ def write_output(target: str | Path, data: str | bytes, key: str) -> None:
         os.replace(tmp, path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
-        raise InputError(key, str(target), f'a writable file ({_os_reason(exc)})') from None
+        raise InputError(key, Path(target), f'a writable file ({_os_reason(exc)})') from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -84,11 +84,11 @@ def output_dir(folder: str | Path, key: str) -> Path:
     """The folder ``folder``, created if needed (InputError naming ``key`` if impossible)."""
     path = Path(folder)
     if path.exists() and not path.is_dir():
-        raise InputError(key, str(folder), 'a folder (a file of that name exists)')
+        raise InputError(key, Path(folder), 'a folder (a file of that name exists)')
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise InputError(key, str(folder), f'a folder that can be created '
+        raise InputError(key, Path(folder), f'a folder that can be created '
                          f'({_os_reason(exc)})') from None
     return path
 
@@ -126,11 +126,11 @@ class atomic_dir:
         self.target = Path(target)
         self.key = key
         if self.target.exists():
-            raise InputError(key, str(target), 'a path that does not exist yet (outputs are '
+            raise InputError(key, Path(target), 'a path that does not exist yet (outputs are '
                              'never overwritten)')
         parent = self.target.parent
         if not parent.is_dir():
-            raise InputError(key, str(target), f'a path in an existing folder ({parent} '
+            raise InputError(key, Path(target), f'a path in an existing folder ({parent} '
                              'does not exist)')
         self.holder = _partial(self.target)
         self.tmp = self.holder / self.target.name
@@ -139,7 +139,7 @@ class atomic_dir:
         try:
             self.holder.mkdir()
         except OSError as err:
-            raise InputError(self.key, str(self.target),
+            raise InputError(self.key, self.target,
                              f'a writable folder ({_os_reason(err)})') from None
         return self.tmp
 
@@ -153,11 +153,11 @@ class atomic_dir:
                 self.holder.rmdir()
             except OSError as err:
                 shutil.rmtree(self.holder, ignore_errors=True)
-                raise InputError(self.key, str(self.target),
+                raise InputError(self.key, self.target,
                                  f'a writable folder ({_os_reason(err)})') from None
             return False
         shutil.rmtree(self.holder, ignore_errors=True)
         if isinstance(exc, OSError):
-            raise InputError(self.key, str(self.target),
+            raise InputError(self.key, self.target,
                              f'a writable folder ({_os_reason(exc)})') from None
         return False
