@@ -316,3 +316,24 @@ def test_exit_code_rules(capsys) -> None:
                                                  'why': 'the scene has no tolerances'}]}}
     assert verdict_exit_code(untoleranced) == 0
     assert verdict_exit_code({'verdict': {'result': PASS, 'checks': 4}}) == 0
+
+
+def test_scene_check_prints_the_tolerances(tmp_path, capsys) -> None:
+    """`scene check` shows every lobe's limits (and says when a lobe has none)."""
+    from cam_metrology.cli import main
+
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / 'config' / 'default_scene.yaml'
+            ).read_text()
+    plain = tmp_path / 'plain.yaml'
+    plain.write_text(text)
+    assert main(['scene', 'check', str(plain)]) == 0
+    assert 'tolerances: none (no verdict for this lobe)' in capsys.readouterr().out
+    toleranced = tmp_path / 'tol.yaml'
+    toleranced.write_text(text + 'tolerances:\n  lift_error_um: 10\n  duration_deg: '
+                          '[-0.5, 0.3]\n  datum_deg: 1.5\n')
+    assert main(['scene', 'check', str(toleranced)]) == 0
+    out = capsys.readouterr().out
+    assert out.count('tolerances: lift error +-10 um; duration [-0.5, +0.3] deg at 1 mm') == 4
+    assert 'datum: pin centre +-1.5 deg' in out

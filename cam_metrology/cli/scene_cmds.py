@@ -129,6 +129,8 @@ def scene_summary(scene: Any) -> list[str]:
         lines.append(f'  {lobe.id}: {source}, design follower {follower}, '
                      f'max lift {lobe.lift.max_lift() * 1e3:.4f} mm, '
                      f'support [{lo * deg:.2f}, {hi * deg:.2f}] deg, nominal phase {phase}')
+        tol = getattr(lobe, 'tolerances', None)
+        lines.append(f'    tolerances: {tolerance_text(tol)}')
     pin = scene.dowel_pin
     if pin is None:
         lines.append('dowel_pin: none')
@@ -145,8 +147,43 @@ def scene_summary(scene: Any) -> list[str]:
         speeds = ', '.join(f'{v:g}' for v in vt.cam_speed_rpm)
         lines.append(f'valve_train: {vt.model}, rocker ratio {vt.rocker_ratio:g}, '
                      f'lash {vt.lash * 1e3:g} mm, cam speeds {speeds} rpm')
+    datum = getattr(scene, 'datum_tolerance_deg', None)
+    if datum is not None:
+        lines.append(f'datum: pin centre {_band(datum, "deg")}')
     lines.append(f'idle_timeout: {scene.idle_timeout:g} s')
     return lines
+
+
+def _band(band: Any, unit: str) -> str:
+    """'+-10 um' for a symmetric band (lower, upper), else '[-5, +10] um'."""
+    lo, hi = band
+    if lo == -hi:
+        return f'+-{hi:g} {unit}'
+    return f'[{lo:+g}, {hi:+g}] {unit}'
+
+
+def tolerance_text(tol: Any) -> str:
+    """The limits of one lobe in one line ('none' when it has none)."""
+    if tol is None or not tol.any():
+        return 'none (no verdict for this lobe)'
+    parts = []
+    if tol.lift_error_um is not None:
+        parts.append(f'lift error {_band(tol.lift_error_um, "um")}')
+    for z in tol.lift_error_zones:
+        parts.append(f'lift error {_band(z.band_um, "um")} over {z.from_deg:g}..{z.to_deg:g} deg')
+    if tol.max_lift_um is not None:
+        parts.append(f'max lift {_band(tol.max_lift_um, "um")}')
+    if tol.centreline_deg is not None:
+        parts.append(f'centreline {_band(tol.centreline_deg, "deg")} at '
+                     f'{tol.checking_height_mm:g} mm')
+    if tol.duration_deg is not None:
+        parts.append(f'duration {_band(tol.duration_deg, "deg")} at '
+                     f'{tol.checking_height_mm:g} mm')
+    if tol.phase_deg is not None:
+        parts.append(f'phase {_band(tol.phase_deg, "deg")}')
+    if tol.runout_max_um is not None:
+        parts.append(f'base-circle run-out <= {tol.runout_max_um:g} um')
+    return '; '.join(parts)
 
 
 def cmd_scene_check(args: argparse.Namespace) -> int:
