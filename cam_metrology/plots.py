@@ -23,8 +23,9 @@ def lift_figure(label: str, table: Any, feature: dict[str, Any]) -> Any:
     angle = feature.get('angle_deg')
     fig.suptitle(f'{label}: angle {angle:.5f} deg' if angle is not None else label)
     ax2.plot(alpha, (table[:, 1] - table[:, 2]) * 1e6, '.', ms=1.5)
-    ax2.set_ylabel('measured - design [um]')
     pin = feature.get('kind') == 'dowel_pin' or (not feature and label == 'dowel_pin')
+    ax2.set_ylabel('measured - design [µm]' if pin or feature.get('kind') != 'lobe'
+                   else 'lift error, from the base circle [µm]')
     ax2.set_xlabel('alpha from the fitted pin centre [deg]' if pin
                    else 'alpha from the fitted nose [deg]')
     fig.tight_layout()

@@ -236,11 +236,17 @@ def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, 
 
     from cam_metrology.files import output_dir, safe_name, save_figure
 
+    from cam_metrology.metrology.lift_error import base_referenced
+
     folder = output_dir(folder, '--plot')
     for _, o in outputs:
         if not (isinstance(o, TableOutput) and o.topic == LIFT_TOPIC):
             continue
-        fig = lift_figure(o.label, o.data, report.get('features', {}).get(o.label) or {})
+        feature = report.get('features', {}).get(o.label) or {}
+        table = o.data
+        if feature.get('kind') == 'lobe':   # the lift error the report gives: base-referenced
+            table = base_referenced(table, bool(feature.get('runout_fitted')))[0]
+        fig = lift_figure(o.label, table, feature)
         try:
             save_figure(fig, folder / f'{safe_name(o.label)}.png', '--plot', dpi=110,
                         bbox_inches='tight')
