@@ -311,7 +311,10 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     corr = np.zeros(n)
     r0 = r.copy()
     sweeps = 0
-    for sweeps in range(1, max_sweeps + 1):
+    # an exact (computed, noise-free) table is data, not a measurement: none of its
+    # points is moved or dropped (where a local fit misses one, the table has a junction
+    # the fit cannot follow, e.g. an acceleration step on a coarse grid)
+    for sweeps in range(1, 0 if exact else max_sweeps + 1):
         a = np.divide(np.abs(r), tol_i, out=np.zeros(n), where=interior & ~outlier)
         big = a > 1.0
         if not np.any(big):
@@ -838,7 +841,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     window[:, 3] = 0.0
     new = ((absk > fair.tolerance) & (absk > SECOND_LOOK_SIGMAS * fair.sigma)
            & (absk > 1e-9 * float(np.max(np.abs(y0))))
-           & (absk > 3.0 * window.max(axis=1)))
+           & (absk > 3.0 * window.max(axis=1)) & (not exact))   # exact: all points kept
     back = outlier & (absr < 3.0 * fair.sigma)
     if np.any(new) or np.any(back):
         outlier = (outlier | new) & ~back
