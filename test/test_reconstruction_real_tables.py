@@ -213,11 +213,14 @@ def test_rounded_tables_keep_every_point(tmp_path, cam, step):
     assert lift_err < (4e-6 if step <= 1.0 else 12e-6)     # 5 deg: interpolation error
 
 
-@pytest.mark.parametrize('step', [0.25, 0.5, 1.0, 2.0, 3.0])
+@pytest.mark.parametrize('step', [0.25, 0.5, 1.0, 2.0, 3.0, 5.0, 6.0])
 def test_exact_tables_keep_every_point(step):
     """Computed tables (no noise): the rebound of the lift itself near the junctions of
-    the law is not an outlier (12 points were removed from such a table before). At
-    4-6 deg single points near an h'' jump can still go (docs: Limitations)."""
+    the law is not an outlier (12 points were removed from such a table before). Above
+    4.5 deg no row is removed from any table: a row off the fit there cannot be told
+    from a junction of the law (an h'' jump between two rows); it is reported. At 4 deg
+    spikes are still caught, and a single row next to an h'' jump of an exact table can
+    still go (docs: Limitations)."""
     a = rows(step) * DEG
     for cam in (LOBE, ARC, ASYM):
         outcomes = reconstruct_table(LiftTable('exact', a, cam(a)))
@@ -376,3 +379,15 @@ def test_acceleration_beats_scipy_smoothing_spline(seed):
     ref = make_smoothing_spline(a, h)
     theirs = float(np.sqrt(np.mean((ref(rec.alpha, 2) - lobe(rec.alpha, 2)) ** 2)))
     assert ours <= 0.9 * theirs, (ours, theirs)
+
+
+def test_very_coarse_table_keeps_a_spike_and_names_its_row():
+    """At a 5 deg step a row 50 um off cannot be told from the lobe's shape: it is kept
+    (no data silently removed) and the warning names its angle."""
+    a = rows(5.0) * DEG
+    h = LOBE(a)
+    k = int(np.argmin(np.abs(a - (-30) * DEG)))
+    h[k] += 50e-6
+    rec = reconstruct_table(LiftTable('spiky', a, h))['spline'].reconstruction
+    assert rec.outliers_alpha.size == 0
+    assert any(f'{math.degrees(a[k]):.1f}' in w for w in rec.warnings), rec.warnings

@@ -243,6 +243,8 @@ REBOUND_L1_FACTOR = _rebound_l1_factor()
 #: a table whose rebound noise is below this fraction of its lift range is computed, not
 #: measured (8 nm on an 8 mm lobe; gauges resolve 0.1 um at best)
 EXACT_NOISE_REL = 1e-6
+#: table step [rad] above which no row is taken for an outlier (only reported)
+VERY_COARSE_RAD = math.radians(4.5)
 #: on such a table an outlier (a typing error) also misses by more than this multiple of
 #: the rebound floor (5 x 2e-5 = 1e-4 of the lift range: 0.8 um on an 8 mm lobe)
 EXACT_FLOOR = 5.0
@@ -314,7 +316,10 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     # an exact (computed, noise-free) table is data, not a measurement: none of its
     # points is moved or dropped (where a local fit misses one, the table has a junction
     # the fit cannot follow, e.g. an acceleration step on a coarse grid)
-    for sweeps in range(1, 0 if exact else max_sweeps + 1):
+    # nor on a table coarser than VERY_COARSE_RAD, where a single row off the fit cannot
+    # be told from the lobe's own shape (a junction of the law between two rows)
+    keep_all = exact or float(np.median(op.h)) > VERY_COARSE_RAD
+    for sweeps in range(1, 0 if keep_all else max_sweeps + 1):
         a = np.divide(np.abs(r), tol_i, out=np.zeros(n), where=interior & ~outlier)
         big = a > 1.0
         if not np.any(big):
@@ -841,7 +846,15 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     window[:, 3] = 0.0
     new = ((absk > fair.tolerance) & (absk > SECOND_LOOK_SIGMAS * fair.sigma)
            & (absk > 1e-9 * float(np.max(np.abs(y0))))
-           & (absk > 3.0 * window.max(axis=1)) & (not exact))   # exact: all points kept
+           & (absk > 3.0 * window.max(axis=1)))
+    if exact or step > VERY_COARSE_RAD:   # every row kept; say which stand out
+        if np.any(new):
+            rows = ', '.join(f'{math.degrees(v):.1f}' for v in x[new][:5])
+            warnings.append(f'rows at {rows} deg stand out of the fit by up to '
+                            f'{float(absk[new].max()) * 1e6:.3g} um; at a '
+                            f'{math.degrees(step):.3g} deg step an outlier cannot be told '
+                            'from the shape of the lobe, so they are kept: check them')
+        new = np.zeros_like(new)
     back = outlier & (absr < 3.0 * fair.sigma)
     if np.any(new) or np.any(back):
         outlier = (outlier | new) & ~back
