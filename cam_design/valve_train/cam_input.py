@@ -8,6 +8,8 @@ up to a degree on smooth laws, and the models integrate this polynomial exactly.
 """
 from __future__ import annotations
 
+from typing import Any
+
 import math
 from dataclasses import dataclass
 
@@ -50,6 +52,8 @@ class CamInput:
         coeffs: (N, 8) monomial coefficients of u(sigma) [m] on each step.
         uniform: (N+1,) True where a node is on the uniform output grid.
         rocker_ratio, lash: k and x0.
+        gas: (N, 8) monomial coefficients of an external force on the valve that opposes
+            its opening (cylinder gas) [N] on each step, or None (``with_gas``).
     """
 
     nodes: NDArray[np.float64]
@@ -58,6 +62,7 @@ class CamInput:
     uniform: NDArray[np.bool_]
     rocker_ratio: float
     lash: float
+    gas: NDArray[np.float64] | None = None   # (N, 8) monomials of a force on the valve [N]
 
     @property
     def start(self) -> float:
@@ -189,3 +194,26 @@ class JetTableLift(LiftLaw):
 
     def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
         return self._derivs[nu](alpha)
+
+
+#: points per step at which an external force is fitted (Chebyshev nodes)
+GAS_POINTS = 6
+
+
+def with_gas(cam: CamInput, force: Any) -> CamInput:
+    """The cam input with an external force on the valve, ``force(alpha)`` [N] of the cam
+    angle [rad] (positive: pushes the valve shut, as cylinder gas on an exhaust valve),
+    as a quintic per step fitted at ``GAS_POINTS`` Chebyshev nodes. A force that is
+    piecewise linear inside a step (a pressure table) is followed to O(step^2 F'')."""
+    import dataclasses
+
+    s = 0.5 - 0.5 * np.cos(np.pi * (np.arange(GAS_POINTS) + 0.5) / GAS_POINTS)
+    vand = s[:, None] ** np.arange(6)
+    pinv = np.linalg.pinv(vand)                           # (6, GAS_POINTS)
+    alpha = cam.nodes[:-1, None] + cam.lengths[:, None] * s[None, :]
+    values = np.vectorize(lambda a: float(force(float(a))), otypes=[float])(alpha)
+    if not np.all(np.isfinite(values)):
+        raise InputError('gas', 'non-finite force', 'a finite force at every cam angle')
+    coef = np.zeros_like(cam.coeffs)
+    coef[:, :6] = values @ pinv.T
+    return dataclasses.replace(cam, gas=coef)

@@ -6,6 +6,8 @@ integrator: the truth for tests and the baseline of the benchmark.
 """
 from __future__ import annotations
 
+from typing import Any
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,8 +35,10 @@ class ReferenceResult:
 
 
 class _Rhs:
-    def __init__(self, law: LiftLaw, p: SdofParams, omega: float, a0: float) -> None:
+    def __init__(self, law: LiftLaw, p: SdofParams, omega: float, a0: float,
+                 gas: Any = None) -> None:
         self.law, self.p, self.omega, self.a0 = law, p, omega, a0
+        self.gas = gas
         self.model = type('M', (), {'p': p})()
 
     def cam(self, t: float) -> tuple[float, float]:
@@ -48,6 +52,8 @@ class _Rhs:
         y, v = z
         u, ud = self.cam(t)
         force = -p.spring_preload - p.spring_rate * y - p.valve_damping * v
+        if self.gas is not None:
+            force -= float(self.gas(self.a0 + self.omega * t))
         if r & CONTACT:
             force += p.stiffness * (u - y) + p.damping * (ud - v)
         if r & SEAT and not p.hard_seat:
@@ -64,7 +70,7 @@ def reference_solve(law: LiftLaw, params: SdofParams, rpm: float,
                     alpha_out: NDArray[np.float64], *, method: str = 'Radau',
                     rtol: float = 1e-12, atol: float = 1e-15,
                     z0: tuple[float, float] | None = None,
-                    r0: int | None = None) -> ReferenceResult:
+                    r0: int | None = None, gas: Any = None) -> ReferenceResult:
     """Integrate from alpha_out[0] (valve at rest on the seat unless ``z0``) and
     return the state at every ``alpha_out`` (increasing, within one revolution)."""
     omega = omega_of_rpm(rpm)
@@ -72,7 +78,9 @@ def reference_solve(law: LiftLaw, params: SdofParams, rpm: float,
     if a_out.ndim != 1 or a_out.size < 2 or np.any(np.diff(a_out) <= 0):
         raise InputError('alpha_out', a_out.shape, 'increasing angles')
     p = params
-    rhs = _Rhs(law, p, omega, float(a_out[0]))
+    rhs = _Rhs(law, p, omega, float(a_out[0]), gas)
+    if gas is not None and z0 is None:
+        raise InputError('z0', None, 'a start state when a gas force is given')
     t_out = (a_out - a_out[0]) / omega
     t_end = float(t_out[-1])
     lo, hi = law.support

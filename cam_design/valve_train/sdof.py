@@ -36,7 +36,7 @@ from scipy.optimize import brentq
 
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.valve_train.cam_input import DEGREE, CamInput, build_cam_input
+from cam_design.valve_train.cam_input import DEGREE, CamInput, build_cam_input, with_gas
 from cam_design.valve_train.params import SdofParams, omega_of_rpm, require_step_deg
 
 NB = DEGREE + 1
@@ -186,10 +186,12 @@ class _Model:
         self.cache[key] = (phis, gams)
         return phis, gams
 
-    def forcing(self, r: int, ucoef: NDArray, la: NDArray | float) -> NDArray:
+    def forcing(self, r: int, ucoef: NDArray, la: NDArray | float,
+                gco: NDArray | None = None) -> NDArray:
         """Forcing coefficients (..., NB) in the basis sigma^j/j! for regime r.
 
-        ucoef: (..., NB) monomial coefficients of u(sigma); la: step angle(s) [rad].
+        ucoef: (..., NB) monomial coefficients of u(sigma); la: step angle(s) [rad];
+        gco: monomials of an external force pushing the valve shut [N] (gas), or None.
         """
         p = self.p
         out = np.zeros(np.shape(ucoef))
@@ -199,6 +201,8 @@ class _Model:
             rate = np.asarray(self.omega / np.asarray(la, dtype=float))[..., None]
             out = p.stiffness * ucoef + p.damping * rate * du
         out[..., 0] -= p.spring_preload
+        if gco is not None:
+            out = out - gco
         return out * _FACT
 
 
@@ -516,11 +520,12 @@ class _Run:
         """Static state on the base circle at the first node and its regime."""
         p = self.model.p
         u0 = float(self.cam.coeffs[0, 0])
+        g0 = 0.0 if self.cam.gas is None else float(self.cam.gas[0, 0])
         if p.hard_seat:
             return (0.0, 0.0), SEAT
         for r in (SEAT, SEAT | CONTACT, 0, CONTACT):
             k_, _ = self.model.coefs(r)
-            f = -p.spring_preload + (p.stiffness * u0 if r & CONTACT else 0.0)
+            f = -p.spring_preload - g0 + (p.stiffness * u0 if r & CONTACT else 0.0)
             y = f / k_ if k_ > 0 else 0.0
             ic, is_ = _inside(self.model, r, y, 0.0, u0, 0.0)
             if ic >= 0 and is_ >= 0 and (r & CONTACT or u0 - y <= 0) and (
@@ -537,7 +542,7 @@ class _Run:
         ks = np.arange(k0, min(k0 + n, cam.lengths.size))
         lt = self.lt[ks]
         la = cam.lengths[ks]
-        fco = model.forcing(r, cam.coeffs[ks], la)
+        fco = model.forcing(r, cam.coeffs[ks], la, None if cam.gas is None else cam.gas[ks])
         hard_held = model.p.hard_seat and r & SEAT
         rho = model.rho(r)
         out: list[tuple[float, float]] = []
@@ -620,7 +625,8 @@ class _Run:
                 continue
             m = min(max(2, int(math.ceil(model.rho(r) * lt / _SUB))), 4096)
             ds = lt / m
-            fco = model.forcing(r, uco, la)
+            fco = model.forcing(r, uco, la,
+                                None if cam.gas is None else _shift(cam.gas[k], s0, w))
             hint = self.hint
             if m <= 4 and s0 > 0:   # short rest after a switch: chain the Taylor series
                 zs = None
@@ -854,7 +860,7 @@ class _Run:
 
 def simulate(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 0.1,
              max_revolutions: int = 4, periodic_tol: float = 1e-10,
-             key: str = 'lift') -> SdofResult:
+             key: str = 'lift', gas: Any = None) -> SdofResult:
     """Simulate the valve at ``rpm`` (camshaft) until periodic; solution of the last
     revolution on nodes every ``step_deg`` (plus the law's junctions).
 
@@ -863,6 +869,8 @@ def simulate(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 
     velocity within periodic_tol * omega_n). A reopening after the first seating counts
     as a bounce when its free-flight height bound M v^2/(2 F0) is >= BOUNCE_TOL (1e-9 m);
     ``bounce_height`` is the largest lift after the first seating, sampled at the nodes.
+    ``gas(alpha)`` [N]: a force on the valve that pushes it shut (cylinder gas on an
+    exhaust valve), as a function of cam angle [rad]; penalty seat only.
     """
     if not isinstance(law, LiftLaw):
         raise InputError('lift', type(law).__name__, 'a cam_design LiftLaw')
@@ -871,6 +879,8 @@ def simulate(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 
     if int(max_revolutions) < 1:
         raise InputError('max_revolutions', max_revolutions, 'an integer >= 1')
     cam = build_cam_input(law, params.rocker_ratio, params.lash, step, key=key)
+    if gas is not None:
+        cam = with_gas(cam, gas)
     return simulate_cam(cam, params, omega, max_revolutions=int(max_revolutions),
                         periodic_tol=periodic_tol)
 
@@ -936,6 +946,9 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
     ``events_only`` (legacy): one revolution from rest, stopped at the end of the first
     bounce; later nodes are NaN (regime -1); never ``settled``.
     """
+    if cam.gas is not None and params.hard_seat:
+        raise InputError('valve_train.gas', 'with a hard seat',
+                         'the penalty seat (the hard seat does not take a gas force yet)')
     model = _Model(params, omega)
     wn = math.sqrt((params.stiffness + params.spring_rate) / params.mass)
     run = _Run(model, cam)
