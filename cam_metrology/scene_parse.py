@@ -426,7 +426,7 @@ def _compute(value: Any) -> frozenset[str] | None:
 
 def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
     known = ('model', 'seat', 'cam_speed_rpm', 'mdof', 'hydraulic', 'spring',
-             'piston') + tuple(VALVE_KEYS)
+             'piston', 'gas') + tuple(VALVE_KEYS)
     vt = ctx.mapping('valve_train', value, known)
     model = vt.get('model', 'sdof')
     if model not in VALVE_MODELS:
@@ -463,11 +463,54 @@ def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
 
     train_checks_from(vt.get('spring'), vt.get('piston'))     # validated here, named keys
     spring, piston = vt.get('spring'), vt.get('piston')
-    return ValveTrain(model=model, seat=seat, cam_speed_rpm=speeds,
+    gas = _gas(ctx, vt.get('gas'), model, seat)
+    return ValveTrain(model=model, seat=seat, cam_speed_rpm=speeds, gas=gas,
                       mdof=dict(mdof) if mdof is not None else None,
                       hydraulic=dict(block) if block is not None else None,
                       spring=dict(spring) if spring is not None else None,
                       piston=dict(piston) if piston is not None else None, **params)
+
+
+GAS_KEYS = ('crank_deg', 'pressure_pa', 'head_diameter', 'back_pressure_pa',
+            'lobe_start_crank_deg')
+
+
+def _gas(ctx: _Ctx, value: Any, model: str, seat: Seat) -> dict[str, Any] | None:
+    """``valve_train.gas``: cylinder pressure (gauge Pa) against crank angle [deg] over
+    720 deg, valve head diameter [m], port back pressure [Pa], and the crank angle [deg]
+    at which the lobe's lift starts (the timing)."""
+    if value is None:
+        return None
+    from cam_design.hydraulic.gas import gas_force
+
+    g = ctx.mapping('valve_train.gas', value, GAS_KEYS)
+    for k in ('crank_deg', 'pressure_pa', 'head_diameter', 'lobe_start_crank_deg'):
+        if k not in g:
+            raise InputError(f'valve_train.gas.{k}', None, 'a value (docs/scene.md)')
+    crank = _number_list('valve_train.gas.crank_deg', g['crank_deg'])
+    pressure = _number_list('valve_train.gas.pressure_pa', g['pressure_pa'])
+    if pressure.shape != crank.shape:
+        raise InputError('valve_train.gas.pressure_pa', f'{pressure.size} values',
+                         f'one pressure per crank angle ({crank.size})')
+    if crank.size and (crank.min() < 0 or crank.max() > 720):
+        raise InputError('valve_train.gas.crank_deg', f'[{crank.min():g}, {crank.max():g}]',
+                         'crank angles within [0, 720] deg (one four-stroke cycle)')
+    out = {'crank_deg': crank.tolist(), 'pressure_pa': pressure.tolist(),
+           'head_diameter': require_positive('valve_train.gas.head_diameter',
+                                             g['head_diameter']),
+           'back_pressure_pa': require_finite('valve_train.gas.back_pressure_pa',
+                                              g.get('back_pressure_pa', 0.0)),
+           'lobe_start_crank_deg': require_finite('valve_train.gas.lobe_start_crank_deg',
+                                                  g['lobe_start_crank_deg'])}
+    gas_force(out['crank_deg'], out['pressure_pa'], out['head_diameter'],
+              out['back_pressure_pa'])        # the table's own checks
+    if model != 'sdof':
+        raise InputError('valve_train.gas', f'with model {model}',
+                         'model sdof (the other models do not take a gas force yet)')
+    if seat.restitution is not None:
+        raise InputError('valve_train.gas', 'with a hard seat (seat.restitution)',
+                         'the penalty seat (the hard seat does not take a gas force yet)')
+    return out
 
 
 def _seat(ctx: _Ctx, value: Any) -> Seat:

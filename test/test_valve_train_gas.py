@@ -67,3 +67,62 @@ def test_hard_seat_with_gas_is_refused_by_key() -> None:
     with pytest.raises(InputError) as err:
         simulate(LAW, _params(restitution=0.5), 1500.0, gas=lambda a: 10.0)
     assert err.value.key == 'valve_train.gas'
+
+
+GAS_BLOCK = """  gas:
+    crank_deg: [0, 120, 140, 160, 200, 240, 720]
+    pressure_pa: [2.0e5, 2.0e5, 8.0e5, 6.0e5, 2.0e5, 1.2e5, 2.0e5]
+    head_diameter: 0.03
+    back_pressure_pa: 1.0e5
+    lobe_start_crank_deg: 140
+"""
+
+
+def _scene(tmp_path, block: str = GAS_BLOCK):
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / 'config' / 'default_scene.yaml'
+            ).read_text()
+    i = text.index('  cam_speed_rpm:')
+    path = tmp_path / 'gas.yaml'
+    path.write_text(text[:i] + block + text[i:])
+    return path
+
+
+def test_scene_gas_block_runs_through_the_cli(tmp_path) -> None:
+    import json
+
+    from cam_metrology.cli import main
+
+    scene = _scene(tmp_path)
+    out = tmp_path / 'g.json'
+    assert main(['dynamics', str(scene), '--feature', 'lobe_2', '--rpm', '2500',
+                 '--json', str(out)]) == 0
+    run = json.loads(out.read_text())['features']['lobe_2']['runs'][0]
+    assert run['gas_force_max_n'] == pytest.approx(7e5 * math.pi * 0.03 ** 2 / 4, rel=1e-9)
+    plain = tmp_path / 'p.json'
+    assert main(['dynamics', str(_scene(tmp_path, '')), '--feature', 'lobe_2', '--rpm',
+                 '2500', '--json', str(plain)]) == 0
+    free = json.loads(plain.read_text())['features']['lobe_2']['runs'][0]
+    assert run['opening_deg'] > free['opening_deg']      # opens later against the gas
+
+
+@pytest.mark.parametrize('edit, key', [
+    (('    head_diameter: 0.03\n', '    head_diameter: -0.03\n'),
+     'valve_train.gas.head_diameter'),
+    (('    lobe_start_crank_deg: 140\n', ''), 'valve_train.gas.lobe_start_crank_deg'),
+    (('pressure_pa: [2.0e5, ', 'pressure_pa: ['), 'valve_train.gas.pressure_pa'),
+])
+def test_bad_gas_block_names_the_key(tmp_path, edit, key) -> None:
+    from cam_metrology.scene_parse import load_scene
+
+    with pytest.raises(InputError) as err:
+        load_scene(_scene(tmp_path, GAS_BLOCK.replace(*edit)))
+    assert err.value.key == key
+
+
+def test_unknown_gas_key_is_a_warning_like_every_scene_key(tmp_path) -> None:
+    from cam_metrology.scene_parse import load_scene
+
+    scene = load_scene(_scene(tmp_path, GAS_BLOCK.replace('  gas:\n', '  gas:\n    bore: 0.08\n')))
+    assert any('valve_train.gas.bore' in w for w in scene.warnings)

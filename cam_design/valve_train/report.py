@@ -137,15 +137,24 @@ def sdof_events(res: SdofResult) -> dict[str, Any]:
 
 def run_sdof(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 0.1,
              geometry: ContactGeometry | None = None, max_revolutions: int = 4,
-             train_checks: TrainChecks | None = None, key: str = 'lift') -> Run:
+             train_checks: TrainChecks | None = None, key: str = 'lift',
+             gas: Any = None) -> Run:
     """SDOF run at ``rpm`` with arrays every ``step_deg`` and all report fields
-    (``key``: the scene key of the lobe's lift, named in refusals)."""
+    (``key``: the scene key of the lobe's lift, named in refusals; ``gas(alpha)`` [N]:
+    cylinder-gas force pushing the valve shut)."""
     res = simulate(law, params, rpm, step_deg=step_deg, max_revolutions=max_revolutions,
-                   key=key)
+                   key=key, gas=gas)
     sel = res.uniform
     alpha = res.alpha[sel]
     force = res.cam_force[sel]
     events = sdof_events(res)
+    if gas is not None:
+        g = np.array([float(gas(float(x))) for x in alpha])
+        i = int(np.argmax(g))
+        events.update({'gas_force_max_n': float(g[i]),
+                       'gas_force_max_deg': math.degrees(float(alpha[i])),
+                       'gas_force_at_opening_n': None if res.events.opening is None
+                       else float(gas(res.events.opening))})
     return finish_run(law, params, rpm, 'sdof', alpha, res.y[sel], res.v[sel], force,
                       events, geometry, train_checks)
 
