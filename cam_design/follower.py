@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, require_finite, require_positive
-from cam_design.lift_laws.base import LiftLaw
+from cam_design.lift_laws.base import LiftLaw, SolvedLift
 
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 
@@ -179,7 +179,7 @@ def _same_follower(a: Follower, b: Follower) -> bool:
     return a.kind == b.kind and _radius(a) == _radius(b)
 
 
-class ConvertedLift(LiftLaw):
+class ConvertedLift(SolvedLift):
     """The lift seen by follower ``target`` on the cam cut for ``law`` with ``source``.
 
     Built by :func:`convert_lift`. The source follower defines the cam profile through
@@ -592,22 +592,6 @@ class ConvertedLift(LiftLaw):
             for k in range(JET_ORDER):     # first-order correction for the residual angle
                 derivs[k] -= f * derivs[k + 1]
         return derivs, angle[1]
-
-    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
-        tag = alpha.tobytes()
-        if self._cache is None or self._cache[0] != tag:
-            self._cache = (tag, self.solve(alpha))
-        return self._cache[1][nu]
-
-    def derivatives(self, alpha: ArrayLike) -> NDArray[np.float64]:
-        """(4, n): h, h', h'', h''' at the flattened ``alpha`` (one solve for all orders)."""
-        a = np.asarray(alpha, dtype=float).reshape(-1)
-        out = np.zeros((JET_ORDER + 1, a.size))
-        lo, hi = self.support
-        inside = (a >= lo) & (a <= hi)
-        if np.any(inside):
-            out[:, inside] = self.solve(a[inside])
-        return out
 
 
 def convert_lift(law: LiftLaw, base_radius: float, source: Follower, target: Follower,

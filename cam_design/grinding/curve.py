@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from cam_design.errors import InputError
 from cam_design.follower import (JET_ORDER, _jet_atan2, _jet_const, _jet_inverse_compose,
                                  _jet_mul, _jet_sqrt, _wrap)
-from cam_design.lift_laws.base import LiftLaw
+from cam_design.lift_laws.base import LiftLaw, SolvedLift
 
 Jet = NDArray[np.float64]
 #: s [rad] -> jets (x, y) [m] of a curve point
@@ -66,7 +66,7 @@ def derivs_of(jet: Jet) -> NDArray[np.float64]:
     return np.stack([jet[k] * math.factorial(k) for k in range(JET_ORDER + 1)])
 
 
-class PolarCurveLift(LiftLaw):
+class PolarCurveLift(SolvedLift):
     """Radial-follower lift of a closed star-shaped curve: h(alpha) = |P(s)| - ``base``
     where the polar angle of P(s) is pi/2 + ``sense`` (alpha + ``shift``).
 
@@ -162,18 +162,3 @@ class PolarCurveLift(LiftLaw):
     @property
     def junctions(self) -> tuple[float, ...]:
         return self._junctions
-
-    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
-        tag = alpha.tobytes()
-        if self._cache is None or self._cache[0] != tag:
-            self._cache = (tag, self.solve(alpha))
-        return self._cache[1][nu]
-
-    def derivatives(self, alpha: ArrayLike) -> NDArray[np.float64]:
-        a = np.asarray(alpha, dtype=float).reshape(-1)
-        out = np.zeros((JET_ORDER + 1, a.size))
-        lo, hi = self.support
-        inside = (a >= lo) & (a <= hi)
-        if np.any(inside):
-            out[:, inside] = self.solve(a[inside])
-        return out

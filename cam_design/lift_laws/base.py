@@ -68,6 +68,35 @@ class LiftLaw(abc.ABC):
         return float(np.max(h))
 
 
+class SolvedLift(LiftLaw):
+    """A lift law whose lift and first three derivatives come from one ``solve(alpha)`` (a (4, n)
+    array on the support, e.g. a contact-point iteration): every order asked for the same
+    angles reuses that solve (cached on the angles' bytes)."""
+
+    _cache: tuple[bytes, NDArray[np.float64]] | None = None
+
+    @abc.abstractmethod
+    def solve(self, alpha: ArrayLike) -> NDArray[np.float64]:
+        """(4, n): lift and its derivatives 1..3 [m, m/rad^k] at ``alpha`` [rad] (support)."""
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        tag = alpha.tobytes()
+        if self._cache is None or self._cache[0] != tag:
+            self._cache = (tag, self.solve(alpha))
+        return self._cache[1][nu]
+
+    def derivatives(self, alpha: ArrayLike) -> NDArray[np.float64]:
+        """(4, n): lift and derivatives 1..3 at the flattened ``alpha`` (one solve for all;
+        zero outside the support)."""
+        a = np.asarray(alpha, dtype=float).reshape(-1)
+        out = np.zeros((4, a.size))
+        lo, hi = self.support
+        inside = (a >= lo) & (a <= hi)
+        if np.any(inside):
+            out[:, inside] = self.solve(a[inside])
+        return out
+
+
 class TabulatedLift(LiftLaw):
     """Lift from a table (alpha [rad] strictly increasing, h [m]).
 
