@@ -8,12 +8,11 @@ evaluated points of |h - h_exact| and of |h^(k) - h^(k)_exact| for k = 1..3.
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.machine import describe, save_results
+from benchmarks.machine import best_time, describe, save_results
 from cam_design.follower import EccentricDiscLift, Follower, convert_lift
 
 RC, E, R = 0.020, 0.005, 0.008
@@ -23,25 +22,16 @@ PAIRS = ((Follower('flat'), Follower('roller', R)), (Follower('flat'), Follower(
 RESULT = Path(__file__).resolve().parent / 'results' / 'follower.md'
 
 
-def _best(fn, repeats: int) -> tuple[float, object]:
-    best, out = math.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
-
-
 def run() -> list[str]:
     """The Markdown table rows (one per conversion and size)."""
     rows = []
     for source, target in PAIRS:
         law = EccentricDiscLift(RC, E, source)
         exact = EccentricDiscLift(RC, E, target)
-        build, conv = _best(lambda: convert_lift(law, RC - E, source, target), 15)
+        build, conv = best_time(lambda: convert_lift(law, RC - E, source, target), 15)
         for n in SIZES:
             alpha = np.linspace(-math.pi, math.pi, n, endpoint=False)
-            t_eval, got = _best(lambda: conv.derivatives(alpha), 15 if n < 36000 else 5)
+            t_eval, got = best_time(lambda: conv.derivatives(alpha), 15 if n < 36000 else 5)
             err = np.max(np.abs(got - exact.derivatives(alpha)), axis=1)
             rows.append(f'| {source.kind} -> {target.kind} | {n} | {build * 1e3:.2f} | '
                         f'{t_eval * 1e3:.2f} | {err[0]:.1e} | {err[1]:.1e} | {err[2]:.1e} | '
@@ -56,10 +46,10 @@ def realistic() -> list[str]:
     law = from_spec({'family': 'preset', 'name': 'flat_tappet_intake'}, 'bench')
     flat, ball = Follower('flat'), Follower('roller', 0.002)
     alpha = np.linspace(-math.pi, math.pi, 3600, endpoint=False)
-    build, conv = _best(lambda: convert_lift(law, 0.0165, flat, ball), 5)
-    t_eval, _ = _best(lambda: conv.derivatives(alpha), 5)
+    build, conv = best_time(lambda: convert_lift(law, 0.0165, flat, ball), 5)
+    t_eval, _ = best_time(lambda: conv.derivatives(alpha), 5)
     back = convert_lift(conv, 0.0165, ball, flat)
-    t_back, got = _best(lambda: back.derivatives(alpha), 3)
+    t_back, got = best_time(lambda: back.derivatives(alpha), 3)
     err = np.max(np.abs(got - law.derivatives(alpha)), axis=1)
     return [f'| preset flat_tappet_intake: flat -> ball 2 mm | 3600 | {build * 1e3:.2f} | '
             f'{t_eval * 1e3:.2f} | round trip (ball -> flat, {t_back * 1e3:.1f} ms): '
@@ -78,7 +68,7 @@ def brute_force() -> list[str]:
         for points in (2000, 20000):
             s = np.linspace(-math.pi, math.pi, points, endpoint=False)
             prof = flat_profile(law, RC - E, s)
-            t, got = _best(lambda: lift_from_profile(prof.x, prof.y, alpha, target, RC - E), 2)
+            t, got = best_time(lambda: lift_from_profile(prof.x, prof.y, alpha, target, RC - E), 2)
             err = np.max(np.abs(got - exact))
             rows.append(f'| baseline lift_from_profile ({points} profile points): flat -> '
                         f'{target.kind} | 3600 | - | {t * 1e3:.1f} | {err:.1e} | - | - | - |')

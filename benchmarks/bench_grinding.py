@@ -11,12 +11,11 @@ correction (exact regrind simulation).
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.machine import describe, save_results
+from benchmarks.machine import best_time, describe, save_results
 from cam_design.follower import EccentricDiscLift, Follower
 from cam_design.grinding.correction import corrected_curve, fit_errors
 from cam_design.grinding.machining_error import GroundCam, MachineErrors
@@ -24,15 +23,6 @@ from cam_design.grinding.wheel_path import Design, WheelPath
 
 RC, E, RW = 0.020, 0.005, 0.2
 RESULT = Path(__file__).resolve().parent / 'results' / 'grinding.md'
-
-
-def _best(fn, repeats: int) -> tuple[float, object]:
-    best, out = math.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def table_rows() -> list[str]:
@@ -44,7 +34,7 @@ def table_rows() -> list[str]:
 
             def build_and_table() -> dict:
                 return WheelPath(law, RC - E, Design(kind, r), RW).table(a)
-            t, tab = _best(build_and_table, 5)
+            t, tab = best_time(build_and_table, 5)
             exact = E * np.cos(a) + np.sqrt((RC + RW) ** 2 - E ** 2 * np.sin(a) ** 2)
             err = np.max(np.abs(tab['wheel_centre_distance_m'] - exact))
             rows.append(f'| wheel table, disc, {kind} design | {n} | {t * 1e3:.1f} | '
@@ -60,13 +50,13 @@ def fit_rows() -> list[str]:
     truth = MachineErrors(wheel_radius=-5e-3, index=math.radians(0.05), run_out_x=2e-6,
                           run_out_y=-1e-6)
     a = np.linspace(-math.pi, math.pi, 1440, endpoint=False)
-    t_sim, got = _best(lambda: GroundCam(path, truth).lift(a), 3)
+    t_sim, got = best_time(lambda: GroundCam(path, truth).lift(a), 3)
     before = got[0] - law(a)
     rows = []
     for noise, iters in ((0.0, 0), (0.0, 2), (2e-7, 0), (2e-7, 2), (1e-6, 2)):
         meas = before + np.random.default_rng(11).normal(0.0, noise, a.size)
-        t_fit, fit = _best(lambda: fit_errors(path, a, meas, exact_iterations=iters),
-                           3)
+        t_fit, fit = best_time(
+            lambda: fit_errors(path, a, meas, exact_iterations=iters), 3)
         curve, radius = corrected_curve(path, fit)
         after = GroundCam(path, truth, curve=curve, table_radius=radius).lift(a)[0] - law(a)
         est = ', '.join(f'{k} {fit.values[k]:.4g} ± {fit.std[k]:.2g} (true '

@@ -1,8 +1,11 @@
-"""One line describing the machine and its load, for benchmark tables."""
+"""What every benchmark shares: the machine line of its table, the best-of timer, saving
+the results."""
 from __future__ import annotations
 
+import math
 import os
 import platform
+import time
 from pathlib import Path
 
 
@@ -26,3 +29,13 @@ def save_results(path: Path, text: str) -> None:
     """Write a benchmark's Markdown results to ``path`` (UTF-8; folders created)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text, encoding='utf-8')
+
+
+def best_time(fn, repeats: int) -> tuple[float, object]:
+    """(smallest wall time [s] of ``repeats`` calls of ``fn``, the last result)."""
+    best, out = math.inf, None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
