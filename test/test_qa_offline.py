@@ -251,3 +251,18 @@ def test_analyze_and_run_read_parameter_files_alike(tmp_path, config_dir):
     value = load_params(str(p))['metrology']['outlier_sigma']
     assert value == read_params_file(p, 'metrology')['outlier_sigma']
     assert isinstance(value, float) and value == 5.0
+
+
+def test_commands_say_what_they_computed_and_wrote(tmp_path, capsys) -> None:
+    """`analyze` shows one line per other core it ran (reconstruction, dynamics), and
+    `reconstruct --json FILE` says what it wrote."""
+    from cam_metrology.cli import main
+
+    bag = str(CLEAN)
+    assert main(['analyze', bag]) == 0
+    out = capsys.readouterr().out
+    assert 'reconstruction: lobe_1/spline OK' in out
+    assert 'dynamics: lobe_1/1500rpm' in out and '(all of it: --json)' in out
+    target = tmp_path / 'r.json'
+    assert main(['reconstruct', bag, '--feature', 'lobe_1', '--json', str(target)]) == 0
+    assert capsys.readouterr().out.startswith(f'wrote {target}: lobe_1/spline')

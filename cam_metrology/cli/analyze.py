@@ -100,6 +100,8 @@ def run(args: argparse.Namespace) -> int:
         write_output(args.json, json.dumps(report, indent=1) + '\n', '--json')
     else:
         print(human_report(report))
+        for line in core_summaries(outputs):
+            print(line)
     if args.plot:
         write_plots(outputs, Path(args.plot), report)
     if args.report:
@@ -121,6 +123,29 @@ def run(args: argparse.Namespace) -> int:
               'report)', file=sys.stderr)
         return 1
     return verdict_exit_code(report)
+
+
+def core_summaries(outputs: list[tuple[int, Any]]) -> list[str]:
+    """One line per other core (reconstruction, dynamics): each result's name and level
+    (with its message when not OK), so what ``analyze`` computed is shown, not hidden."""
+    from cam_metrology.outputs import StatusOutput
+
+    levels = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
+    found: dict[str, list[str]] = {}
+    for _, o in outputs:
+        if not isinstance(o, StatusOutput) or not o.topic.endswith('/result') \
+                or o.topic.startswith('/metrology/'):
+            continue
+        core = o.topic.split('/')[1]
+        for st in o.statuses:
+            if st.name.startswith('skipped/'):
+                continue
+            level = levels.get(int(st.level), str(st.level))
+            why = st.message if len(st.message) <= 60 else st.message[:57] + '...'
+            found.setdefault(core, []).append(
+                f'{st.name} {level}' + ('' if level == 'OK' else f' ({why})'))
+    return [f'{core}: ' + ', '.join(items) + ' (all of it: --json)'
+            for core, items in found.items()]
 
 
 def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
@@ -203,7 +228,7 @@ def human_report(report: dict[str, Any]) -> str:
     lines = [f"camshaft {report.get('camshaft_id', '')}  direction "
              f"{report.get('direction', '')}"]
     head = (f"{'feature':<12}{'angle deg':>13}{'std arcsec':>11}{'SP - LSQ as':>12}"
-            f"{'phase deg':>11}{'phase err':>11}{'asym deg':>10}{'lift rms um':>12}  status")
+            f"{'phase deg':>11}{'phase err':>11}{'asym deg':>10}{'lift rms µm':>12}  status")
     lines += [head, '-' * len(head)]
     for fid, f in report.get('features', {}).items():
         std = None if f.get('angle_std_deg') is None else f['angle_std_deg'] * 3600

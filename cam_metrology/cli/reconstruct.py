@@ -132,6 +132,11 @@ def run(args: argparse.Namespace) -> int:
         from cam_metrology.files import write_output
         write_output(args.json, json.dumps(result, indent=1, allow_nan=False) + '\n',
                      '--json')
+        if args.json != '-':
+            done = [f'{fid}/{m}' for fid, ms in features.items() for m, v in ms.items()
+                    if isinstance(v, dict) and v.get('ok')]
+            print(f'wrote {args.json}: ' + (', '.join(done) or 'no reconstruction')
+                  + f' ({len(skipped)} skipped)' * bool(skipped))
     else:
         print(_human(result))
     if args.plot:
