@@ -315,7 +315,7 @@ def test_text_and_json_report_the_same_noise_sigma(tmp_path, capsys):
     p = write_table(tmp_path / 'n.csv', 'alpha_rad,lift_mm', [a, h * 1e3], ('%.9f', '%.6f'))
     assert main(['reconstruct', str(p)]) == 0
     text = capsys.readouterr().out
-    shown = {line.split(':')[0].strip(): float(line.split('noise sigma ')[1].split(' um')[0])
+    shown = {line.split(':')[0].strip(): float(line.split('noise sigma ')[1].split(' µm')[0])
              for line in text.splitlines() if 'noise sigma' in line and 'n/' in line}
     out = run_json(capsys, p)
     for method, r in out['features']['n'].items():

@@ -55,7 +55,7 @@ def test_truth_scoring_and_report_table() -> None:
         'skipped': [{'what': 'pin', 'why': 'no pin'}]}
     lines = report_lines(report, truth)
     row1 = next(ln for ln in lines if ln.startswith('lobe_1')).split()
-    assert row1[1:] == ['0.0200', '0.00100', '0.5000', '359.9900', '0.03000', '0.05000']
+    assert row1[1:] == ['0.0200', '3.60', '0.5000', '359.9900', '108.00', '180.00']   # arcsec
     assert 'FAILED: too few samples' in next(ln for ln in lines if ln.startswith('lobe_2'))
     assert lines[-1] == 'skipped: pin (no pin)'
     assert report_lines(None, truth) == ['no metrology report']

@@ -335,5 +335,5 @@ def test_scene_check_prints_the_tolerances(tmp_path, capsys) -> None:
                           '[-0.5, 0.3]\n  datum_deg: 1.5\n')
     assert main(['scene', 'check', str(toleranced)]) == 0
     out = capsys.readouterr().out
-    assert out.count('tolerances: lift error +-10 um; duration [-0.5, +0.3] deg at 1 mm') == 4
+    assert out.count('tolerances: lift error +-10 µm; duration [-0.5, +0.3] deg at 1 mm') == 4
     assert 'datum: pin centre +-1.5 deg' in out

@@ -305,7 +305,7 @@ def cmd_master(args: argparse.Namespace) -> int:
         print(f"master {master.kind}: magnification {master.magnification:.9f}, max lift "
               f"{summary['master_lift_max_m'] * 1e3:.6f} mm, cradle swing "
               f"{summary['cradle_swing_deg']:.4f} deg; small-swing copy error up to "
-              f"{summary['approx_error_max_m'] * 1e6:.3f} um")
+              f"{summary['approx_error_max_m'] * 1e6:.3f} µm")
         spans = ', '.join(f'{math.degrees(a):.3f} .. {math.degrees(b):.3f} deg'
                           for a, b in psum['undercut_intervals_rad'])
         tail = f'; UNDERCUT at {spans}' if psum['undercut'] else '; no undercut'
@@ -361,8 +361,8 @@ def cmd_errors(args: argparse.Namespace) -> int:
         for n, v in summary['max_abs_sensitivity'].items():
             print(f'{n}: max |d lift / d {n}| = {v:.6g} {unit[UNITS[n]].replace("_", " ")}')
         if 'errors' in summary:
-            print(f"lift error: predicted max {summary['predicted_error_max_m'] * 1e6:.4f} um, "
-                  f"simulated max {summary['simulated_error_max_m'] * 1e6:.4f} um")
+            print(f"lift error: predicted max {summary['predicted_error_max_m'] * 1e6:.4f} µm, "
+                  f"simulated max {summary['simulated_error_max_m'] * 1e6:.4f} µm")
     return 0
 
 
@@ -472,7 +472,7 @@ def cmd_correct(args: argparse.Namespace) -> int:
         for k, v in fit.values.items():
             s = fit.std[k]
             print(f'{k}: {v:.6g} +- {s:.3g}')
-        print(f'offset {fit.offset_m * 1e6:.4f} um, residual rms '
-              f'{fit.residual_rms_m * 1e6:.4f} um over {fit.points} points, condition '
+        print(f'offset {fit.offset_m * 1e6:.4f} µm, residual rms '
+              f'{fit.residual_rms_m * 1e6:.4f} µm over {fit.points} points, condition '
               f'{fit.condition:.3g}' + ('' if fit.settled else ' (NOT settled)'))
     return 0 if fit.settled and not fit.warnings else 1

@@ -267,12 +267,12 @@ def _human(result: dict[str, Any]) -> str:
             val = r[key]
             val_s = f'{val}' if key == 'order' else f'{val:.4g} rad^5'
             line = (f'  {fid}/{m}: {key} {val_s}; rms residual '
-                    f'{r["rms_residual_m"] * 1e6:.3f} um; noise sigma '
-                    f'{r["noise_sigma_m"] * 1e6:.4g} um; max lift '
+                    f'{r["rms_residual_m"] * 1e6:.3f} µm; noise sigma '
+                    f'{r["noise_sigma_m"] * 1e6:.4g} µm; max lift '
                     f'{max(r["lift_m"]) * 1e3:.4f} mm')
             err = r.get('design_errors')
             if err:
-                line += (f'; vs design: lift {err["rms_error_lift_m"] * 1e6:.3f} um, '
+                line += (f'; vs design: lift {err["rms_error_lift_m"] * 1e6:.3f} µm, '
                          f'acc {err["rms_error_acceleration_m_per_rad2"] * 1e3:.4f} '
                          'mm/rad^2 rms')
             lines.append(line)

@@ -168,11 +168,11 @@ def tolerance_text(tol: Any) -> str:
         return 'none (no verdict for this lobe)'
     parts = []
     if tol.lift_error_um is not None:
-        parts.append(f'lift error {_band(tol.lift_error_um, "um")}')
+        parts.append(f'lift error {_band(tol.lift_error_um, "µm")}')
     for z in tol.lift_error_zones:
-        parts.append(f'lift error {_band(z.band_um, "um")} over {z.from_deg:g}..{z.to_deg:g} deg')
+        parts.append(f'lift error {_band(z.band_um, "µm")} over {z.from_deg:g}..{z.to_deg:g} deg')
     if tol.max_lift_um is not None:
-        parts.append(f'max lift {_band(tol.max_lift_um, "um")}')
+        parts.append(f'max lift {_band(tol.max_lift_um, "µm")}')
     if tol.centreline_deg is not None:
         parts.append(f'centreline {_band(tol.centreline_deg, "deg")} at '
                      f'{tol.checking_height_mm:g} mm')
@@ -182,7 +182,7 @@ def tolerance_text(tol: Any) -> str:
     if tol.phase_deg is not None:
         parts.append(f'phase {_band(tol.phase_deg, "deg")}')
     if tol.runout_max_um is not None:
-        parts.append(f'base-circle run-out <= {tol.runout_max_um:g} um')
+        parts.append(f'base-circle run-out <= {tol.runout_max_um:g} µm')
     return '; '.join(parts)
 
 

@@ -165,18 +165,22 @@ def truth_phase_error_deg(truth: dict[str, Any], fid: str) -> float | None:
 
 
 def report_lines(report: dict[str, Any] | None, truth: dict[str, Any] | None) -> list[str]:
-    """The per-feature table [deg]: measured angle, its std, measured phase error, true
-    angle, angle error (measured - true), phase error minus the true phase error."""
+    """The per-feature table: measured angle, measured phase error and true angle [deg];
+    the angle's std, the angle error (measured - true) and the phase error minus the
+    true phase error in arc-seconds (the resolution the bench is about)."""
     if not report:
         return ['no metrology report']
-    lines = [f'camshaft {report.get("camshaft_id", "?")}   (all angles in degrees; '
-             'err = measured - /bench/truth)',
-             f'{"feature":<12}{"angle":>11}{"std":>10}{"phase_err":>11}'
-             f'{"true_angle":>12}{"angle_err":>11}{"phase_err_err":>15}']
+    lines = [f'camshaft {report.get("camshaft_id", "?")}   (angles in degrees; _as: in '
+             'arc-seconds; err = measured - /bench/truth)',
+             f'{"feature":<12}{"angle":>11}{"std_as":>10}{"phase_err":>11}'
+             f'{"true_angle":>12}{"angle_err_as":>14}{"phase_err_err_as":>18}']
 
     def num(value: Any, width: int, digits: int) -> str:
         return (f'{value:>{width}.{digits}f}' if isinstance(value, (int, float))
                 else f'{"-":>{width}}')
+
+    def arcsec(deg: Any) -> float | None:
+        return deg * 3600.0 if isinstance(deg, (int, float)) else None
 
     def diff(a: Any, b: float | None) -> float | None:
         return wrap180(a - b) if isinstance(a, (int, float)) and b is not None else None
@@ -185,9 +189,12 @@ def report_lines(report: dict[str, Any] | None, truth: dict[str, Any] | None) ->
         feat = feat if isinstance(feat, dict) else {}
         angle, phase_err = feat.get('angle_deg'), feat.get('phase_error_deg')
         true = truth_angle_deg(truth or {}, fid)
-        row = (f'{fid:<12}{num(angle, 11, 4)}{num(feat.get("angle_std_deg"), 10, 5)}'
-               f'{num(phase_err, 11, 4)}{num(true, 12, 4)}{num(diff(angle, true), 11, 5)}'
-               f'{num(diff(phase_err, truth_phase_error_deg(truth or {}, fid)), 15, 5)}')
+        std = feat.get('angle_std_deg')
+        err = diff(angle, true)
+        perr = diff(phase_err, truth_phase_error_deg(truth or {}, fid))
+        row = (f'{fid:<12}{num(angle, 11, 4)}{num(arcsec(std), 10, 2)}'
+               f'{num(phase_err, 11, 4)}{num(true, 12, 4)}{num(arcsec(err), 14, 2)}'
+               f'{num(arcsec(perr), 18, 2)}')
         if feat.get('error') or feat.get('reason'):
             row += f'  FAILED: {feat.get("error") or feat.get("reason")}'
         lines.append(row)
