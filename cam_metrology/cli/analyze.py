@@ -154,7 +154,7 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
     lobes referenced to the base circle as the verdict uses them."""
     from cam_metrology.cli.card import heights_from, measured_cards
-    from cam_metrology.metrology.lift_error import base_referenced
+    from cam_metrology.metrology.lift_error import feature_referenced
     from cam_metrology.provenance import provenance
 
     results = getattr(metrology, 'results', {})
@@ -167,8 +167,7 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
         for fid, card in cards.items():
             report['features'][fid]['cam_card'] = card
         for fid, table in lobes.items():
-            ref, good = base_referenced(
-                table, bool(report['features'].get(fid, {}).get('runout_fitted')))
+            ref, good = feature_referenced(table, report['features'].get(fid, {}))
             tables[fid] = ref[good]
     report['provenance'] = provenance(
         bag=args.bag, scene_text=scene.text if scene is not None else None,
@@ -261,7 +260,7 @@ def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, 
 
     from cam_metrology.files import output_dir, safe_name, save_figure
 
-    from cam_metrology.metrology.lift_error import base_referenced
+    from cam_metrology.metrology.lift_error import feature_referenced
 
     folder = output_dir(folder, '--plot')
     for _, o in outputs:
@@ -270,7 +269,7 @@ def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, 
         feature = report.get('features', {}).get(o.label) or {}
         table = o.data
         if feature.get('kind') == 'lobe':   # the lift error the report gives: base-referenced
-            table = base_referenced(table, bool(feature.get('runout_fitted')))[0]
+            table = feature_referenced(table, feature)[0]
         fig = lift_figure(o.label, table, feature)
         try:
             save_figure(fig, folder / f'{safe_name(o.label)}.png', '--plot', dpi=110,

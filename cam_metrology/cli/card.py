@@ -116,8 +116,8 @@ def measured_cards(scene: Any, features: dict[str, Any], tables: dict[str, Any],
         design = designs.get(fid)
         if table is None or design is None or (features.get(fid) or {}).get('status') != 'ok':
             continue
-        from cam_metrology.metrology.lift_error import base_referenced
-        table, good = base_referenced(table, bool(features[fid].get('runout_fitted')))
+        from cam_metrology.metrology.lift_error import feature_referenced
+        table, good = feature_referenced(table, features[fid])
         table = table[good]
         _NOMINAL_DATA[fid] = (table[:, 0], table[:, 1],
                               scene.probe.radius if scene.probe.kind == 'roller' else 0.0)

@@ -370,7 +370,7 @@ def _measured_bag(bag: str, lobe: str | None, key: str = '--measured') -> tuple[
     """(alpha [rad] from the fitted nose, lift error [m] referenced to the base circle)
     of one lobe of a measurement bag, through the offline metrology (as ``analyze``)."""
     from cam_design.errors import InputError
-    from cam_metrology.metrology.lift_error import base_referenced
+    from cam_metrology.metrology.lift_error import feature_referenced
     from cam_metrology.offline import make_cores, replay
 
     cores, _ = make_cores({}, True)
@@ -385,7 +385,7 @@ def _measured_bag(bag: str, lobe: str | None, key: str = '--measured') -> tuple[
     if res.table is None or res.failed is not None:
         raise InputError(key, bag, f'a bag where lobe {fid} was measured '
                          f'({res.failed or "no lift table"})')
-    table, good = base_referenced(res.table, bool(res.values.get('runout_fitted')))
+    table, good = feature_referenced(res.table, res.values)
     return table[good, 0], table[good, 1] - table[good, 2]
 
 

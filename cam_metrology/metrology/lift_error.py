@@ -9,7 +9,7 @@ median) separates noise and spikes from smooth form errors.
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,6 +62,13 @@ def base_referenced(table: Any, harmonic: bool) -> tuple[Any, Any]:
     else:
         model = np.full(a.size, float(np.median(err[base])))
     return np.column_stack([a, m - model, d]), ~bad
+
+
+def feature_referenced(table: Any, feature: Mapping[str, Any]) -> tuple[Any, Any]:
+    """``base_referenced`` of a lobe's (alpha, measured, design) table with the run-out
+    harmonic exactly when its report entry ``feature`` says the run-out was fitted (the
+    rule the report, the verdict, the cards and the plots share)."""
+    return base_referenced(table, bool(feature.get('runout_fitted')))
 
 
 def lift_error_stats(table: Any, good: NDArray[np.bool_]) -> dict[str, float] | None:

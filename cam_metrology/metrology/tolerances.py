@@ -25,7 +25,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from cam_metrology.metrology.lift_error import base_referenced
+from cam_metrology.metrology.lift_error import feature_referenced
 from cam_metrology.scene import Band, Scene, Tolerances
 
 __all__ = ['check', 'judge_lobe', 'judge_datum', 'judge_part', 'PASS', 'FAIL', 'NOT_CHECKED']
@@ -122,7 +122,7 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
     missing: list[dict[str, str]] = []
     good = None
     if table is not None:
-        table, good = base_referenced(table, bool(feature.get('runout_fitted')))
+        table, good = feature_referenced(table, feature)
     _lift_error_checks(tol, table, good, checks, missing)
     if tol.phase_deg is not None:
         value = feature.get('phase_error_deg')
