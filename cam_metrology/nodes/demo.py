@@ -213,6 +213,14 @@ def _fmt(text: str, digits: int) -> str:
         return text
 
 
+def _fmt_arcsec(text: str) -> str:
+    """An angle in degrees given as text, in arc-seconds with 2 decimals."""
+    try:
+        return f'{float(text) * 3600.0:.2f}'
+    except ValueError:
+        return text
+
+
 class DemoMonitor:
     """In-process rclpy node that watches progress and collects report and truth."""
 
@@ -270,11 +278,17 @@ class DemoMonitor:
             values = {kv.key: kv.value for kv in st.values}
             level = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}.get(
                 st.level[0] if isinstance(st.level, bytes) else int(st.level), '?')
+            if st.name.startswith('skipped/'):
+                what = st.name[len('skipped/'):].split('/')
+                subject = what[-1] if len(what) > 1 else what[0]
+                self.say(f'{node}: {subject} skipped'
+                         + (f' ({st.message})' if st.message else ''))
+                continue
             detail = ''
             if 'angle_deg' in values:
                 detail = f' angle {_fmt(values["angle_deg"], 4)} deg'
                 if 'angle_std_deg' in values:
-                    detail += f' +- {_fmt(values["angle_std_deg"], 5)}'
+                    detail += f' +- {_fmt_arcsec(values["angle_std_deg"])} arcsec'
             self.say(f'{node}: {st.name} {level}{detail}'
                      + (f' ({st.message})' if st.message and level != 'OK' else ''))
 
