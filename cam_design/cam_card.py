@@ -391,6 +391,8 @@ def card_text(cards: dict[str, dict[str, Any]]) -> str:
                         if card.get('max_valve_lift_mm') is not None else '')
                      + f', area {_num(card.get("area_mm_deg"), ".2f")} mm deg, fullness '
                      f'{_num(card.get("fullness"), ".4f")}')
+        if card.get('note'):
+            lines.append(f'  note: {card["note"]}')
         lines.append(f'  {"height mm":>10}{"opens deg":>11}{"closes deg":>11}'
                      f'{"dur cam":>10}{"dur crank":>11}{"centre deg":>11}')
         for e in card.get('heights', []):

@@ -196,13 +196,45 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
     write_output(args.nominal, text, '--nominal')
 
 
+#: median step [deg] above which a table's card is read from its reconstruction spline
+COARSE_TABLE_DEG = 1.0
+
+
+def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
+               ) -> dict[str, Any]:
+    """The card of a lift table [rad, m]. A table coarser than ``COARSE_TABLE_DEG``
+    (a gauge's 2-5 deg steps) has too few points around the nose and the events for
+    local fits: its card is that of the reconstruction spline (the same smoothing the
+    dynamics use), with ``source`` and ``note`` saying so."""
+    import numpy as np
+
+    from cam_design.cam_card import card_from_law, card_from_table
+    from cam_design.errors import InputError
+    from cam_metrology.reconstruction.table_law import spline_law
+
+    a = np.asarray(alpha, dtype=float)
+    step = float(np.degrees(np.median(np.diff(np.sort(a))))) if a.size > 1 else 0.0
+    if step <= COARSE_TABLE_DEG:
+        return card_from_table(a, lift, heights, key='--heights-mm', source='table')
+    try:
+        law, note = spline_law(a, np.asarray(lift, dtype=float), name)
+    except InputError as exc:
+        raise InputError(name, f'a table every {step:.3g} deg',
+                         'a table the reconstruction spline can follow (a coarse table is '
+                         f'read through it): {exc.expected}') from None
+    card = card_from_law(law, heights, key='--heights-mm')
+    card['source'] = 'table (reconstruction spline)'
+    card['note'] = note
+    return card
+
+
 #: lobe -> (alpha [rad], lift [m], probe radius [m]) of tables and bags, for --nominal
 _NOMINAL_DATA: dict[str, tuple[Any, Any, float]] = {}
 
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``cam-bench card``."""
-    from cam_design.cam_card import card_from_table, card_text
+    from cam_design.cam_card import card_text
     from cam_design.errors import InputError
 
     heights = heights_from(args)
@@ -229,8 +261,7 @@ def run(args: argparse.Namespace) -> int:
         from cam_metrology.reconstruction.samples import read_table_file
         kind = 'table'
         table = read_table_file(path)
-        cards = {table.feature: card_from_table(table.alpha, table.lift, heights,
-                                                key='--heights-mm', source='table')}
+        cards = {table.feature: table_card(table.alpha, table.lift, heights, path.name)}
         _NOMINAL_DATA[table.feature] = (table.alpha, table.lift,
                                         table.follower[1] if table.follower else 0.0)
         flat = cards
