@@ -307,7 +307,7 @@ def _q(value: Any, fmt: str, unit: str, scale: float = 1.0) -> str:
 
 def run_line(feature: str, r: dict[str, Any]) -> str:
     """One human-readable line per run: angles to 0.001 deg, velocity to 1 mm/s,
-    heights in um, stress in MPa, the contact width used in mm."""
+    heights in µm, stress in MPa, the contact width used in mm."""
     if r.get('model') == 'hydraulic':
         return (f"{feature} {r['cam_speed_rpm']:g} rpm (hydraulic): max valve lift "
                 f"{_q(r['max_valve_lift_m'], '.3f', 'mm', 1e3)} (rigid oil "
@@ -321,7 +321,7 @@ def run_line(feature: str, r: dict[str, Any]) -> str:
             f"{len(r['separations'])}, seating {_q(r['seating_velocity_m_s'], '.3f', 'm/s')}, "
             f"bounces {r['bounce_count']}")
     if r['bounce_count']:
-        line += f" (max {_q(r['bounce_height_m'], '.2f', 'um', 1e6)})"
+        line += f" (max {_q(r['bounce_height_m'], '.2f', 'µm', 1e6)})"
     if r.get('left_cam'):
         line += ', VALVE LEAVES THE CAM'
     elif r.get('settled') is False:
@@ -330,5 +330,6 @@ def run_line(feature: str, r: dict[str, Any]) -> str:
     if r.get('profile_undercut'):
         line += ' (profile undercut)'
     if r.get('cam_width_m') is not None:
-        line += f" (W {r['cam_width_m'] * 1e3:.1f} mm, {r.get('cam_width_source', '')})"
+        source = r.get('cam_width_source')
+        line += f" (W {r['cam_width_m'] * 1e3:.1f} mm" + (f', {source})' if source else ')')
     return line
