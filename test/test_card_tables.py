@@ -74,3 +74,24 @@ def test_card_cli_on_a_5_deg_gauge_table(tmp_path) -> None:
     truth = cc.card_from_law(law, (1e-3,))
     assert card['heights'][0]['duration_cam_deg'] == pytest.approx(
         truth['heights'][0]['duration_cam_deg'], abs=0.2)
+
+
+@pytest.mark.parametrize('step_deg', [0.5, 2.0])
+@pytest.mark.parametrize('peak_deg', [-90.0, 0.0, 100.0, 179.0])
+def test_eccentric_and_off_centre_lobes_keep_their_frame(step_deg: float,
+                                                         peak_deg: float) -> None:
+    """An eccentric (a full-revolution lobe, e (1 + cos(alpha - peak))) wherever its peak
+    lies, also across +-180 deg: durations 2 arccos(y/e - 1), centreline at the peak in
+    the table's own frame, area 2 pi e (closed forms)."""
+    e = 3e-3
+    a = np.arange(-180.0, 180.0, step_deg) * DEG
+    h = np.round(e * (1.0 + np.cos(a - peak_deg * DEG)) / 1e-6) * 1e-6   # 0.001 mm
+    card = table_card(a, h, HEIGHTS, 'eccentric.csv')
+    assert card['max_lift_m'] == pytest.approx(2 * e, abs=2e-6)
+    assert card['centreline_deg'] == pytest.approx(peak_deg, abs=0.01)
+    assert card['area_m_rad'] == pytest.approx(2 * math.pi * e, rel=1e-3)
+    for entry in card['heights']:
+        half = math.degrees(math.acos(entry['height_m'] / e - 1.0))
+        assert entry['duration_cam_deg'] == pytest.approx(2 * half, abs=0.02)
+        assert entry['opening_deg'] == pytest.approx(peak_deg - half, abs=0.02)
+        assert entry['closing_deg'] == pytest.approx(peak_deg + half, abs=0.02)

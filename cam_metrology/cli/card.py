@@ -213,18 +213,41 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
     from cam_metrology.reconstruction.table_law import spline_law
 
     a = np.asarray(alpha, dtype=float)
+    h = np.asarray(lift, dtype=float)
+    ok = np.isfinite(a) & np.isfinite(h)
+    a, h = a[ok], h[ok]
+    # Work in the frame of the table's highest point, so that a lobe across +-180 deg
+    # (a nose far from 0, an eccentric) is not cut in two; the angles are shifted back.
+    shift = float(a[int(np.argmax(h))]) if a.size else 0.0
+    a = np.mod(a - shift + np.pi, 2.0 * np.pi) - np.pi
     step = float(np.degrees(np.median(np.diff(np.sort(a))))) if a.size > 1 else 0.0
     if step <= COARSE_TABLE_DEG:
-        return card_from_table(a, lift, heights, key='--heights-mm', source='table')
-    try:
-        law, note = spline_law(a, np.asarray(lift, dtype=float), name)
-    except InputError as exc:
-        raise InputError(name, f'a table every {step:.3g} deg',
-                         'a table the reconstruction spline can follow (a coarse table is '
-                         f'read through it): {exc.expected}') from None
-    card = card_from_law(law, heights, key='--heights-mm')
-    card['source'] = 'table (reconstruction spline)'
-    card['note'] = note
+        card = card_from_table(a, h, heights, key='--heights-mm', source='table')
+    else:
+        try:
+            law, note = spline_law(a, h, name)
+        except InputError as exc:
+            raise InputError(name, f'a table every {step:.3g} deg',
+                             'a table the reconstruction spline can follow (a coarse table '
+                             f'is read through it): {exc.expected}') from None
+        card = card_from_law(law, heights, key='--heights-mm')
+        card['source'] = 'table (reconstruction spline)'
+        card['note'] = note
+    return _shifted(card, math.degrees(shift))
+
+
+def _shifted(card: dict[str, Any], shift_deg: float) -> dict[str, Any]:
+    """``card`` with every angle moved by ``shift_deg``, then by whole turns so that the
+    centreline lies in (-180, 180] (events stay on either side of it)."""
+    centre = card.get('centreline_deg')
+    turns = 0.0 if centre is None else _wrap180(centre + shift_deg) - (centre + shift_deg)
+    move = shift_deg + turns
+    for key in ('centreline_deg', 'max_lift_alpha_deg'):
+        if card.get(key) is not None:
+            card[key] += move
+    for entry in card.get('heights', []):
+        for key in ('opening_deg', 'closing_deg', 'centreline_deg'):
+            entry[key] += move
     return card
 
 
