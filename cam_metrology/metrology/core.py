@@ -23,6 +23,7 @@ from cam_metrology.core import merged_parameters
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_lobe, analyze_pin, seen_lift)
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
+                                              encoder_units_hint, probe_units_problem,
                                               joint_positions, stamp_of)
 from cam_metrology.outputs import (ERROR, OK, WARN, Output, Status, StatusOutput,
                                    TableOutput, TextOutput)
@@ -235,6 +236,9 @@ class MetrologyCore:
         kind = 'dowel_pin' if fs.feature_id == PIN_ID else 'lobe'
         counts = {'samples_received': fs.received, 'samples_nan_dropped': fs.nan_dropped}
         try:
+            units = probe_units_problem(fs)
+            if units:
+                raise FeatureFailed(units)
             if kind == 'dowel_pin':
                 if scene.dowel_pin is None:
                     raise FeatureFailed('scene has no dowel_pin')
@@ -257,7 +261,11 @@ class MetrologyCore:
                                 asymmetry=scene.wants('asymmetry'))
         except (FeatureFailed, InputError) as exc:
             return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
-                                 failed=str(exc))
+                                 failed=str(exc) + encoder_units_hint(fs))
+        except (np.linalg.LinAlgError, FloatingPointError) as exc:
+            return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
+                                 failed=f'numerical failure of the fit ({exc}): check the '
+                                 'samples (units: m and rad)' + encoder_units_hint(fs))
 
     def _pin_angle(self) -> float | None:
         pin = self.results.get(PIN_ID)

@@ -177,3 +177,36 @@ def clean_feature(feature_id: str, stamp_ns: NDArray[np.int64], theta: NDArray[n
     st, th, pr = st[keep], th[keep], pr[keep]
     revs = float(np.ptp(np.unwrap(th)) / (2 * np.pi)) if th.size > 1 else 0.0
     return FeatureSamples(feature_id, th, pr, st, received, nan_dropped, dup, revs)
+
+
+#: largest plausible probe span over one feature [m] (a cam lift of 250 mm)
+MAX_PROBE_SPAN_M = 0.25
+
+
+def probe_units_problem(fs: FeatureSamples) -> str | None:
+    """Why the probe readings [m] cannot be a cam lift (a span above
+    ``MAX_PROBE_SPAN_M``, naming the unit they look like), or None."""
+    if fs.s.size < 2:
+        return None
+    span = float(np.ptp(fs.s))
+    if span <= MAX_PROBE_SPAN_M:
+        return None
+    for unit, scale in (('millimetres', 1e-3), ('micrometres', 1e-6)):
+        if 2e-4 <= span * scale <= MAX_PROBE_SPAN_M:
+            return (f'the probe readings span {span:.6g} m, not a cam lift; they look like '
+                    f'{unit} ({span * scale * 1e3:.4g} mm): the probe joint position must '
+                    'be in metres')
+    return f'the probe readings span {span:.6g} m, not a cam lift (metres expected)'
+
+
+def encoder_units_hint(fs: FeatureSamples) -> str:
+    """A hint for a failed feature whose camshaft angles span a whole number of 360s (an
+    encoder in degrees; radians are expected), or ''."""
+    if fs.theta.size < 2:
+        return ''
+    span = float(np.ptp(fs.theta))
+    turns = span / 360.0
+    if span > 100.0 and round(turns) >= 1 and abs(turns - round(turns)) < 0.02 * turns:
+        return (f'; the camshaft angles span {span:.1f} = {round(turns)} x 360: they look '
+                'like degrees (the camshaft joint position must be in radians)')
+    return ''
