@@ -524,12 +524,15 @@ class _Criterion:
 
 
 def choose_smoothing(values: NDArray[np.float64], step: float, *, criterion: str = 'risk',
-                     sigma: float | None = None, gamma: float = 1.0) -> SmoothingChoice:
+                     sigma: float | None = None, gamma: float = 1.0,
+                     sigma_floor: float = 0.0) -> SmoothingChoice:
     """Automatic smoothing level for uniform samples ``values`` [m] at ``step`` [rad].
 
     ``risk``: minimise the unbiased estimate of the summed squared error of the second
     difference (acceleration) given the noise sigma [m] (from the upper half of the
-    DCT spectrum when None). ``gcv``: generalised cross-validation.
+    DCT spectrum when None, but at least ``sigma_floor``: a known noise such as the
+    rounding of a table, which the spectrum of a smooth lobe rounded at a fine step
+    underestimates). ``gcv``: generalised cross-validation.
     """
     if criterion not in CRITERIA:
         raise InputError('criterion', criterion, ' | '.join(CRITERIA))
@@ -537,7 +540,7 @@ def choose_smoothing(values: NDArray[np.float64], step: float, *, criterion: str
     coef = dct(values, norm='ortho')
     mu = _spectrum(n)
     if sigma is None:
-        sigma = MAD_TO_SIGMA * float(np.median(np.abs(coef[n // 2:])))
+        sigma = max(MAD_TO_SIGMA * float(np.median(np.abs(coef[n // 2:]))), sigma_floor)
     score = _Criterion(coef, mu, sigma, criterion, gamma)
     grid = np.arange(-6.0, 18.01, 1.0)
     s = [score(v) for v in grid]
@@ -806,15 +809,21 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     # minimum is then the interpolant
     exact = fair.sigma <= EXACT_NOISE_REL * float(np.ptp(y0))
     gamma = 1.0 if exact else GCV_GAMMA
+    # known noise per grid value: the caller's sigma or the rounding q/sqrt(12), over the
+    # square root of the samples per node
+    known = opt.sigma if opt.sigma is not None else fair.quantum / math.sqrt(12.0)
+    floor = known / math.sqrt(max(density, 1.0))
     if opt.smoothing is None:
-        choice = choose_smoothing(values, step, criterion=opt.criterion, gamma=gamma)
+        choice = choose_smoothing(values, step, criterion=opt.criterion, gamma=gamma,
+                                  sigma_floor=floor)
         gap_nodes = bool(np.any(missing[:-2] & missing[1:-1] & missing[2:]))
         for _ in range(3 if gap_nodes or not uniform else 0):
             # filled nodes are not data: refill them with the weighted solution and
             # choose again, so that the fill looks like the smooth fit, not like an
             # interpolant through the noisy samples at the gap ends
             values = np.where(missing, smooth_grid(values, missing, choice.lam_d), values)
-            choice = choose_smoothing(values, step, criterion=opt.criterion, gamma=gamma)
+            choice = choose_smoothing(values, step, criterion=opt.criterion, gamma=gamma,
+                                      sigma_floor=floor)
     else:
         lam = require_positive('smoothing', opt.smoothing, allow_zero=True)
         lam_d = lam / step ** 5

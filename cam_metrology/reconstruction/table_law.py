@@ -27,6 +27,9 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
 
     a = np.asarray(alpha, dtype=float)
     v = np.asarray(h, dtype=float)
+    turn = seam_turn(a, v)
+    if turn:   # the lobe crosses +-180 deg: fit it with its lowest point at the seam
+        a = np.mod(a - turn + math.pi, 2.0 * math.pi) - math.pi
     q = quantisation_step(v) or None   # a gauge's rounding: noise of sigma q/sqrt(12)
     opts = SplineOptions(criterion='risk', sigma=q / math.sqrt(12.0) if q else None)
     out = reconstruct_table(LiftTable(key, a, v), methods=('spline',), spline=opts)['spline']
@@ -47,12 +50,61 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
                          'interpolant nor the reconstruction spline follows it (rms '
                          f'residual {rec.rms_residual:.3g} m > {limit:.3g} m); tabulate '
                          'more points')
-    n = max(4, int(math.ceil(math.degrees(rec.alpha[-1] - rec.alpha[0]) / GRID_DEG)) + 1)
-    grid = np.linspace(rec.alpha[0], rec.alpha[-1], n)
+    step = float(np.median(np.diff(np.sort(a))))
+    lo, hi = float(rec.alpha[0]), float(rec.alpha[-1])
+    if turn:   # whole turn: keep clear of the spline's free ends, bridge the seam below
+        if hi - lo < 2.0 * math.pi - 2.5 * step:
+            raise InputError(key, f'a table over {math.degrees(hi - lo):.1f} deg',
+                             'a table that ends on the base circle at both ends, or one '
+                             'over the whole revolution (the lift at its ends is above '
+                             'the base circle)')
+        edge = max(2.0 * step, math.radians(2.0))
+        lo, hi = -math.pi + edge, math.pi - edge
+    n = max(4, int(math.ceil(math.degrees(hi - lo) / GRID_DEG)) + 1)
+    grid = np.linspace(lo, hi, n)
     jets = np.stack([np.asarray(rec.evaluate(grid, nu), dtype=float) for nu in range(4)])
-    law = JetTableLift(grid, jets, key=key)
-    step = float(np.median(np.diff(a)))
+    if turn:   # periodic: the last interval is the Hermite bridge across the seam
+        # lift from the base circle: 0 at the lowest point of the smoothed turn (the
+        # smoothing leaves it a fraction of a um off, a seat contact the valve would feel)
+        grid = np.append(grid, lo + 2.0 * math.pi)
+        jets = np.concatenate([jets, jets[:, :1]], axis=1)
+        ring = JetTableLift(grid, jets, key=key, trim=-1.0)
+        # resampled on the turn that starts at the seam (the lowest point), so that the
+        # revolution the dynamics integrate starts and ends on the base of the lobe
+        seam = np.linspace(-math.pi, math.pi, n + 1)
+        inner = np.where(seam < lo, seam + 2.0 * math.pi, seam)
+        jets = np.asarray(ring.derivatives(inner), dtype=float)
+        jets[0] -= float(np.min(jets[0]))
+        law = JetTableLift(seam + turn, jets, key=key, trim=-1.0)
+    else:
+        law = JetTableLift(grid, jets, key=key)
     note = (f'table of {a.size} points every {math.degrees(step):.3g} deg smoothed by the '
             f'reconstruction spline ({rec.why}; rms residual {rec.rms_residual:.3g} m'
-            + (f', lifts quantised to {q * 1e3:g} mm' if q else '') + ')')
+            + (f', lifts quantised to {q * 1e3:g} mm' if q else '') + ')'
+            + (f'; the lobe crosses +-180 deg: fitted on the turn from its lowest point '
+               f'({math.degrees(wrap(turn + math.pi)):.1f} deg), bridged there by the '
+               'Hermite interpolant of the jets 2 steps either side' if turn else ''))
     return law, note
+
+
+def wrap(angle: float) -> float:
+    """``angle`` [rad] in (-pi, pi]."""
+    out = math.remainder(angle, 2.0 * math.pi)
+    return math.pi if out == -math.pi else out
+
+
+def seam_turn(alpha: NDArray[np.float64], h: NDArray[np.float64],
+              trim: float = 1e-3) -> float:
+    """0 when the lobe of a table [rad, m] lies inside (-pi, pi] with base circle at both
+    ends; else the angle [rad] to subtract so that the table's lowest point lands on
+    +-pi (a lobe across the seam, an eccentric: lift above ``trim`` x max at the ends)."""
+    ok = np.isfinite(alpha) & np.isfinite(h)
+    a = np.mod(alpha[ok] + math.pi, 2.0 * math.pi) - math.pi
+    v = h[ok]
+    if v.size < 2 or float(np.max(v)) <= 0:
+        return 0.0
+    order = np.argsort(a)
+    ends = v[order][[0, -1]]
+    if float(np.max(ends)) <= trim * float(np.max(v)):
+        return 0.0
+    return wrap(float(a[int(np.argmin(v))]) + math.pi)
