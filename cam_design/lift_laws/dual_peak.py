@@ -71,7 +71,7 @@ def dual_peak_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
     if ramp1.is_empty:
         raise InputError(f'{key}.ramp', spec.get('ramp'),
                          'a main ramp (the connection starts on it)')
-    rise = P.positive(spec, key, 'rise')
+    rise = P.lift(spec, key, 'rise')
     alpha0 = P.angle(spec, key, 'half_angle')
     exps = P.integers(spec, key, 'exponents', [2, 6, 10, 14])
     main = polynomial_flank(ramp1, rise, alpha0, exps, key=key)
@@ -109,7 +109,7 @@ def dual_peak_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
     if abs(v5 - ramp6.velocity) > 1e-12 * ramp6.velocity:
         raise InputError(f'{sk}.velocity', v5, f'v5 = v6 = {ramp6.velocity:.9g} m/rad '
                          '(otherwise h\' jumps where h5 meets h6)')
-    h5_rise = P.positive(sec, sk, 'rise')
+    h5_rise = P.lift(sec, sk, 'rise')
     a5 = P.angle(sec, sk, 'half_angle')
     exps5 = P.integers(sec, sk, 'exponents', [2, 6, 10, 14])
 

@@ -134,7 +134,7 @@ def harmonic_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
     phi = P.positive(spec, key, 'half_angle')
     if phi > math.pi:
         raise InputError(f'{key}.half_angle', phi, 'a half-angle <= pi rad')
-    hmax = P.positive(spec, key, 'max_lift')
+    hmax = P.lift(spec, key, 'max_lift')
     target = None
     if spec.get('target') is not None:
         target = from_spec(spec['target'], f'{key}.target')

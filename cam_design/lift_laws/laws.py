@@ -18,8 +18,8 @@ def rise_from(spec: Mapping, key: str, ramp_height: float) -> float:
         raise InputError(f'{key}.rise', spec.get('rise'),
                          'exactly one of rise (base-section rise) or max_lift (total lift)')
     if has_rise:
-        return P.positive(spec, key, 'rise')
-    total = P.positive(spec, key, 'max_lift')
+        return P.lift(spec, key, 'rise')
+    total = P.lift(spec, key, 'max_lift')
     if total <= ramp_height:
         raise InputError(f'{key}.max_lift', total,
                          f'a total lift above the ramp height {ramp_height:.6g} m')

@@ -32,6 +32,22 @@ def positive(spec: Mapping, key: str, name: str, default: Any = MISSING, *,
                             allow_zero=allow_zero)
 
 
+#: largest plausible cam lift [m]: a larger value is almost always millimetres
+MAX_LIFT_M = 0.25
+
+
+def lift(spec: Mapping, key: str, name: str, default: Any = MISSING) -> float:
+    """A lift or height [m], > 0 and at most ``MAX_LIFT_M`` (the error of a value given
+    in mm or um names the unit it looks like)."""
+    out = positive(spec, key, name, default)
+    if out > MAX_LIFT_M:
+        unit = ('millimetres' if out * 1e-3 <= MAX_LIFT_M else 'micrometres')
+        scale = 1e-3 if unit == 'millimetres' else 1e-6
+        raise InputError(f'{key}.{name}', out, f'a lift in metres (at most {MAX_LIFT_M:g} '
+                         f'm); {out:g} looks like {unit}: write {out * scale:.6g}')
+    return out
+
+
 def angle(spec: Mapping, key: str, name: str, default: Any = MISSING, *,
           allow_zero: bool = False, limit: float = math.pi) -> float:
     """An angle [rad] in (0, limit] ([0, limit] with ``allow_zero``); default limit pi."""

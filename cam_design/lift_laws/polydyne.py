@@ -196,7 +196,7 @@ def polydyne_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
             coeffs.append((int(pair[0]), float(pair[1])))
         seg = PowerSegment(0.0, angle, 0.0, angle, coefficients=tuple(coeffs))
         return polydyne_law([seg], train, key=key, nose_required=1)
-    seg = practical_valve_motion(train, P.positive(spec, key, 'valve_lift'),
+    seg = practical_valve_motion(train, P.lift(spec, key, 'valve_lift'),
                                  P.angle(spec, key, 'half_angle'), v_r,
                                  P.integers(spec, key, 'exponents', [2, 6, 10, 14, 18]),
                                  start, key=key)

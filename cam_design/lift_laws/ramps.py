@@ -109,10 +109,10 @@ def ramp_from_spec(spec: Any, key: str, *, default_kind: str | None = None) -> R
         return no_ramp()
     if kind == 'constant_velocity':
         P.reject_unknown(spec, key, ('kind', 'height', 'velocity'))
-        return constant_velocity_ramp(P.positive(spec, key, 'height'),
+        return constant_velocity_ramp(P.lift(spec, key, 'height'),
                                       P.positive(spec, key, 'velocity'), key=key)
     P.reject_unknown(spec, key, ('kind', 'height', 'velocity', 'angle'))
-    return acceleration_velocity_ramp(P.positive(spec, key, 'height'),
+    return acceleration_velocity_ramp(P.lift(spec, key, 'height'),
                                       P.positive(spec, key, 'velocity'),
                                       P.angle(spec, key, 'angle'), key=key)
 
