@@ -56,6 +56,21 @@ def require_finite(key: str, value: Any) -> float:
     return out
 
 
+def require_length(key: str, value: Any, limit: float, *, allow_zero: bool = False
+                   ) -> float:
+    """``value`` [m] as float if it is finite, > 0 (>= 0 with ``allow_zero``) and at most
+    ``limit`` [m]; above it the message names the unit the number looks like (a radius
+    of 16.5 given for 16.5 mm) and the value in metres."""
+    out = require_positive(key, value, allow_zero=allow_zero)
+    if out > limit:
+        for unit, scale in (('millimetres', 1e-3), ('micrometres', 1e-6)):
+            if out * scale <= limit:
+                raise InputError(key, value, f'a length in metres (at most {limit:g} m); '
+                                 f'{out:g} looks like {unit}: write {out * scale:.6g}')
+        raise InputError(key, value, f'a length in metres (at most {limit:g} m)')
+    return out
+
+
 def require_positive(key: str, value: Any, *, allow_zero: bool = False) -> float:
     """Return ``value`` as float if it is finite and > 0 (>= 0 with ``allow_zero``)."""
     out = require_finite(key, value)

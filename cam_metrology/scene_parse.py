@@ -20,7 +20,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.errors import InputError, require_finite, require_length, require_positive
 from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import design_table
 from cam_metrology.files import read_text_file
@@ -55,9 +55,19 @@ def _nonneg(key: str, value: Any) -> float:
     return require_positive(key, value, allow_zero=True)
 
 
+#: largest plausible camshaft length [m] (radii, widths): more is a unit slip
+GEOMETRY_MAX_M = 0.5
+#: largest plausible valve lash [m]
+LASH_MAX_M = 0.005
+
+
+def _lash(key: str, value: Any) -> float:
+    return require_length(key, value, LASH_MAX_M, allow_zero=True)
+
+
 VALVE_KEYS: dict[str, tuple[bool, Callable[[str, Any], float]]] = {
     'rocker_ratio': (True, _POS),
-    'lash': (True, _nonneg),
+    'lash': (True, _lash),
     'mass': (True, _POS),
     'stiffness': (True, _POS),
     'damping': (True, _nonneg),
@@ -124,7 +134,7 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
     probe = _probe(ctx, top['probe'])
     if 'base_circle_radius' not in top:
         raise InputError('base_circle_radius', None, 'the base circle radius in m (> 0)')
-    base = require_positive('base_circle_radius', top['base_circle_radius'])
+    base = require_length('base_circle_radius', top['base_circle_radius'], GEOMETRY_MAX_M)
     defaults = _tolerance_block(ctx, 'tolerances', top.get('tolerances'), TOL_KEYS +
                                 ('datum_deg',))
     lobes = _lobes(ctx, top.get('lobes', []), base, defaults)
@@ -210,7 +220,8 @@ def _follower(kind_key: str, radius_key: str, kind: Any, radius: Any,
         raise InputError(kind_key, kind, ' | '.join(kinds))
     if kind == 'ball':
         kind = 'roller'
-    r = require_positive(radius_key, radius if radius is not None else 0.0, allow_zero=True)
+    r = require_length(radius_key, radius if radius is not None else 0.0, GEOMETRY_MAX_M,
+                       allow_zero=True)
     if kind == 'roller' and r == 0.0:
         raise InputError(radius_key, radius,
                          'a roller/ball radius > 0 in m (kind knife for a point)')
@@ -269,7 +280,7 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         _check_law(f'{key}.lift_law' if spec is not None else f'{key}.lift', law)
         width = lobe.get('width')
         if width is not None:
-            width = require_positive(f'{key}.width', width)
+            width = require_length(f'{key}.width', width, GEOMETRY_MAX_M)
         tol = _lobe_tolerances(ctx, key, lobe.get('tolerances'), defaults or {}, law, phase)
         lobes.append(Lobe(id=lobe_id, follower=follower, lift=law, nominal_phase=phase,
                           lift_spec=spec, width=width, tolerances=tol))
@@ -404,7 +415,8 @@ def _dowel_pin(ctx: _Ctx, value: Any) -> DowelPin:
     for k in PIN_KEYS[:3]:
         if k not in pin:
             raise InputError(f'dowel_pin.{k}', None, 'a radius in m')
-    radii = {k: require_positive(f'dowel_pin.{k}', pin[k], allow_zero=k == 'probe_radius')
+    radii = {k: require_length(f'dowel_pin.{k}', pin[k], GEOMETRY_MAX_M,
+                               allow_zero=k == 'probe_radius')
              for k in PIN_KEYS[:3]}
     DowelPinGeometry(**radii)   # raises InputError('dowel_pin.circle_radius', ...)
     return DowelPin(nominal_angle=_optional_angle('dowel_pin.nominal_angle',
