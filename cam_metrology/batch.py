@@ -37,8 +37,9 @@ def cam_bench_version() -> str:
 
 
 def find_bags(inputs: Iterable[str]) -> list[Path]:
-    """Bags named by ``inputs``: a bag folder, a folder searched for bags (any depth), a
-    glob pattern, or ``@FILE`` with one such input per line. Sorted, without repeats."""
+    """Bags named by ``inputs``: a bag folder, a folder searched for bags (any depth: bag
+    folders and loose ``.mcap`` files outside them), a glob pattern, or ``@FILE`` with one
+    such input per line. Sorted, without repeats."""
     found: list[Path] = []
     for item in inputs:
         if item.startswith('@'):
@@ -57,7 +58,10 @@ def find_bags(inputs: Iterable[str]) -> list[Path]:
             if (m / 'metadata.yaml').is_file() or m.suffix == '.mcap':
                 found.append(m)
             elif m.is_dir():
-                found += sorted(p.parent for p in m.rglob('metadata.yaml'))
+                dirs = sorted(p.parent for p in m.rglob('metadata.yaml'))
+                loose = [p for p in sorted(m.rglob('*.mcap'))   # .mcap outside bag folders
+                         if not any(d == p.parent or d in p.parents for d in dirs)]
+                found += sorted(dirs + loose)
             else:
                 found.append(m)          # analysed, and reported as failed with the reason
     out, seen = [], set()

@@ -89,3 +89,19 @@ def test_inputs_globs_and_lists(archive: Path, tmp_path: Path) -> None:
         find_bags([str(archive / 'nothing_*')])
     with pytest.raises(InputError):
         find_bags([f'@{tmp_path / "missing.txt"}'])
+
+
+def test_folder_search_finds_loose_mcap_files(tmp_path: Path) -> None:
+    """A folder holds bag folders (metadata.yaml + .mcap) and loose .mcap files (as other
+    recorders write them): both are found; the .mcap inside a bag folder is not counted
+    twice."""
+    bag = tmp_path / 'day' / 'part_a'
+    bag.mkdir(parents=True)
+    (bag / 'metadata.yaml').write_text('rosbag2_bagfile_information: {}\n')
+    (bag / 'part_a_0.mcap').write_bytes(b'')
+    (tmp_path / 'day' / 'foreign.mcap').write_bytes(b'')
+    (tmp_path / 'day' / 'sub').mkdir()
+    (tmp_path / 'day' / 'sub' / 'other.mcap').write_bytes(b'')
+    found = find_bags([str(tmp_path / 'day')])
+    assert [p.relative_to(tmp_path / 'day').as_posix() for p in found] == [
+        'foreign.mcap', 'part_a', 'sub/other.mcap']
