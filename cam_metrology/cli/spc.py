@@ -240,6 +240,8 @@ def run(args: argparse.Namespace) -> int:
                          f"  rules fired {len(c['violations'])}")
             if 'capability' in e:
                 line += f"  Cpk {e['capability']['cpk']:.3f}  Ppk {e['capability']['ppk']:.3f}"
+            if e.get('note'):
+                line += f"  ({e['note']})"
             print(line)
         for g in grr:
             print(f"{g['feature']:<12}{g['quantity']:<18} %GRR {g['percent_grr']:.2f} %  "
