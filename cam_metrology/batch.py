@@ -36,6 +36,10 @@ def cam_bench_version() -> str:
         return 'unknown'
 
 
+#: columns of a gauge R&R study, from the scene keys of the same names (report 'study')
+STUDY_COLUMNS = ('part_id', 'operator', 'trial')
+
+
 def find_bags(inputs: Iterable[str]) -> list[Path]:
     """Bags named by ``inputs``: a bag folder, a folder searched for bags (any depth: bag
     folders and loose ``.mcap`` files outside them), a glob pattern, or ``@FILE`` with one
@@ -113,6 +117,7 @@ def rows_of_report(bag: str, sha: str, report: dict[str, Any], start_ns: int | N
     common = {'bag': bag, 'bag_sha256': sha, 'bag_start_utc_ns': start_ns,
               'camshaft_id': str(report.get('camshaft_id', '')),
               'cam_bench_version': cam_bench_version(),
+              **{k: (report.get('study') or {}).get(k) for k in STUDY_COLUMNS},
               'analyzed_utc': time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())}
     rows = []
     for fid, feat in (report.get('features') or {}).items():

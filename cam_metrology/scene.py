@@ -126,6 +126,7 @@ class Scene:
     text: str = ''
     datum_tolerance_deg: Band | None = None   # pin centre angle vs its nominal_angle
     warnings: tuple[str, ...] = ()
+    study: dict[str, str] = field(default_factory=dict)   # part_id, operator, trial
 
     def wants(self, item: str) -> bool:
         """True if ``compute`` asks for ``item`` (or does not restrict)."""

@@ -30,7 +30,10 @@ from cam_metrology.scene import (COMPUTE_ITEMS, Band, DowelPin, Follower, Lobe, 
 __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
-            'dowel_pin', 'compute', 'valve_train', 'idle_timeout', 'tolerances')
+            'dowel_pin', 'compute', 'valve_train', 'idle_timeout', 'tolerances') + (
+                'part_id', 'operator', 'trial')
+#: top-level keys of a gauge R&R study (carried into the report and the batch table)
+STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law',
@@ -151,10 +154,11 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
     if pin is None and any(lobe.nominal_phase is not None for lobe in lobes):
         ctx.warnings.append('lobes[].nominal_phase: given but the scene has no dowel_pin; '
                             'phases cannot be measured')
+    study = {k: _text(k, top[k]) for k in STUDY_KEYS if top.get(k) is not None}
     return Scene(camshaft_id=camshaft_id, direction=direction, probe=probe,
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
-                 datum_tolerance_deg=datum, warnings=tuple(ctx.warnings))
+                 datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), study=study)
 
 
 class _DuplicateKey(Exception):

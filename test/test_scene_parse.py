@@ -142,7 +142,7 @@ def test_lift_law_is_built_by_the_registry():
 
 def test_unknown_keys_warn_with_path_and_are_ignored():
     doc = _base()
-    doc['operator'] = 'ann'
+    doc['shift_leader'] = 'ann'
     doc['lobes'][1]['colour'] = 'red'
     doc['probe']['tip'] = 'ruby'
     doc['dowel_pin']['material'] = 'steel'
@@ -151,7 +151,7 @@ def test_unknown_keys_warn_with_path_and_are_ignored():
     doc['lobes'][0]['lift']['units'] = 'SI'
     scene = _parse(doc)
     joined = '\n'.join(scene.warnings)
-    for path in ('operator', 'lobes[1].colour', 'probe.tip', 'dowel_pin.material',
+    for path in ('shift_leader', 'lobes[1].colour', 'probe.tip', 'dowel_pin.material',
                  'valve_train.seat.wear', 'valve_train.oil', 'lobes[0].lift.units'):
         assert any(w.startswith(f'{path}: unknown key') for w in scene.warnings), joined
     assert len(scene.warnings) == 7
@@ -465,13 +465,13 @@ def _run(capsys, *args: str) -> tuple[int, str, str]:
 
 def test_cli_scene_check_valid_and_warnings(tmp_path, capsys):
     doc = _base()
-    doc['operator'] = 'ann'
+    doc['shift_leader'] = 'ann'
     p = tmp_path / 's.yaml'
     p.write_text(yaml.safe_dump(doc))
     code, out, err = _run(capsys, 'scene', 'check', str(p))
     assert code == 0, err
     assert 'valid scene' in out and 'lobe_2' in out
-    assert 'warning: operator: unknown key' in out
+    assert 'warning: shift_leader: unknown key' in out
 
 
 def test_cli_scene_check_invalid_exits_2(tmp_path):

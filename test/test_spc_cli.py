@@ -81,3 +81,26 @@ def test_bad_input_is_one_line(table: Path, argv: list, word: str, capsys) -> No
     assert main(['spc', str(table)] + argv) == 2
     err = capsys.readouterr().err
     assert err.count('\n') == 1 and word in err
+
+
+def test_capability_against_the_scene_limits(tmp_path: Path) -> None:
+    """Without --tolerance, Cpk uses the limits the scene gave the verdict (the rows'
+    verdict.checks), here [-0.002, 0.018] deg: hand-computed as in the first test."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    vals = [0.010, 0.012, 0.011, 0.013, 0.012]
+    checks = json.dumps([{'quantity': 'phase_error_deg', 'value': 0.0, 'lower': -0.002,
+                          'upper': 0.018, 'unit': 'deg', 'result': 'pass'}])
+    path = tmp_path / 'r.parquet'
+    pq.write_table(pa.table({'bag': [f'bag{i}' for i in range(5)],
+                             'bag_start_utc_ns': list(range(5)),
+                             'feature': ['lobe_1'] * 5, 'status': ['ok'] * 5,
+                             'phase_error_deg': vals, 'verdict.checks': [checks] * 5}), path)
+    out = tmp_path / 'spc.json'
+    assert main(['spc', str(path), '--quantity', 'phase_error_deg', '--json', str(out)]) == 0
+    (entry,) = json.loads(out.read_text())['spc']
+    sigma = 0.0015 / 1.128
+    assert entry['tolerance'] == [-0.002, 0.018]
+    assert entry['tolerance_source'].startswith('scene')
+    assert entry['capability']['cpk'] == pytest.approx((0.018 - 0.0116) / (3 * sigma))

@@ -33,7 +33,8 @@ def register(subparsers: Any) -> None:
                    '(repeatable; default angle_deg and phase_error_deg)')
     p.add_argument('--feature', action='append', metavar='ID', help='only these features')
     p.add_argument('--tolerance', action='append', default=[], metavar='NAME=LSL:USL',
-                   help='specification limits of a quantity (either side may be empty)')
+                   help='specification limits of a quantity (either side may be empty); '
+                        'default: the limits the scene tolerances gave the verdict')
     p.add_argument('--grr', action='store_true', help='gauge R&R study (needs part_id, '
                    'operator, trial columns)')
     p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
@@ -80,6 +81,23 @@ def _tolerances(items: list[str]) -> dict[str, tuple[float | None, float | None]
     return out
 
 
+def scene_limits(rows: list[dict[str, Any]], quantity: str
+                 ) -> tuple[float | None, float | None] | None:
+    """The specification limits of ``quantity`` that the scene's tolerances gave the
+    verdict (``verdict.checks`` of the latest row that checked it), or None."""
+    for r in reversed(_ordered(rows)):
+        raw = r.get('verdict.checks')
+        try:
+            checks = json.loads(raw) if isinstance(raw, str) else (raw or [])
+        except ValueError:
+            continue
+        for c in checks:
+            if isinstance(c, dict) and c.get('quantity') == quantity and (
+                    c.get('lower') is not None or c.get('upper') is not None):
+                return c.get('lower'), c.get('upper')
+    return None
+
+
 def _ordered(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return sorted(rows, key=lambda r: (r.get('bag_start_utc_ns') or 0, str(r.get('bag'))))
 
@@ -109,11 +127,18 @@ def spc_results(rows: list[dict[str, Any]], quantities: list[str], features: lis
             if len(vals) >= 3:
                 chart = individuals(entry['values'], key=f'{fid}.{q}')
                 entry['chart'] = chart.as_dict()
-                if q in tolerances:
-                    lsl, usl = tolerances[q]
+                limits = tolerances.get(q)
+                entry['tolerance_source'] = '--tolerance'
+                if limits is None:
+                    limits = scene_limits(frs, q)
+                    entry['tolerance_source'] = 'scene (the verdict\'s limits)'
+                if limits is not None:
+                    lsl, usl = limits
                     entry['capability'] = capability(entry['values'], lsl, usl,
                                                      sigma_within=chart.sigma_within).as_dict()
                     entry['tolerance'] = [lsl, usl]
+                else:
+                    del entry['tolerance_source']
             else:
                 entry['note'] = 'fewer than 3 parts: no chart'
             out.append(entry)
@@ -129,10 +154,12 @@ def grr_results(rows: list[dict[str, Any]], quantities: list[str],
     from cam_metrology.quality.gauge_rr import gauge_rr
 
     ok = [r for r in rows if r.get('status') == 'ok']
-    missing = [c for c in ('part_id', 'operator', 'trial') if not ok or c not in ok[0]]
+    missing = [c for c in ('part_id', 'operator', 'trial')
+               if not ok or any(r.get(c) in (None, '') for r in ok)]
     if missing:
-        raise InputError('--grr', ', '.join(missing), 'columns part_id, operator and trial in '
-                         'the table (one row per measurement)')
+        raise InputError('--grr', ', '.join(missing), 'columns part_id, operator and trial '
+                         'filled in every row (scene keys of the same names, or added to '
+                         'the table; one row per measurement)')
     out = []
     for fid in sorted({r['feature'] for r in ok}):
         if features and fid not in features:

@@ -374,6 +374,8 @@ class MetrologyCore:
             extra['scenes'] = [{'index': k, 'camshaft_id': sc.camshaft_id,
                                 'from_log_time_ns': t}
                                for k, (t, sc) in enumerate(self.scenes)]
+        if scene.study:
+            extra['study'] = dict(scene.study)
         from cam_metrology.metrology.tolerances import judge_part
         verdict = judge_part(scene, features,
                              {f: r.table for f, r in self.results.items() if r.kind == 'lobe'},
