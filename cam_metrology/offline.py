@@ -7,8 +7,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
-#: topic of the metrology core's JSON report
-REPORT_TOPIC = '/metrology/report'
+from cam_metrology.wire.topics import METROLOGY_REPORT as REPORT_TOPIC
 
 
 def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool,

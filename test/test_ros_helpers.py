@@ -85,11 +85,12 @@ def test_downstream_subscriptions() -> None:
 def test_qos_and_message_classes() -> None:
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 
-    from cam_metrology.nodes.topics import TOPICS, message_class, qos_of, type_name_of
+    from cam_metrology.nodes.topics import message_class, profile, type_name_of
+    from cam_metrology.wire.topics import TOPICS, qos_of
 
-    scene = qos_of('/bench/scene').profile()
+    scene = profile(qos_of('/bench/scene'))
     assert (scene.durability, scene.depth) == (DurabilityPolicy.TRANSIENT_LOCAL, 1)
-    samples = qos_of('/bench/joint_states').profile()
+    samples = profile(qos_of('/bench/joint_states'))
     # keep-all (back-pressure, nothing overwritten) or keep-last deep enough
     assert samples.history == HistoryPolicy.KEEP_ALL or (
         samples.history == HistoryPolicy.KEEP_LAST and samples.depth >= 1000)

@@ -74,14 +74,14 @@ def validate_parameters(name: str, params_file: str | Path | None,
     """Check the parameter file and the ``-p`` items of node ``name`` before rclpy reads
     them: InputError (one line) instead of rclpy's RCLError or
     InvalidParameterTypeException tracebacks."""
-    from cam_metrology.nodes.params import check_params, parse_assignments, read_params_file
+    from cam_metrology.params import check_params, parse_assignments, read_params_file
     table = parameter_table(name)
     if table is None:
         return
     node_name = NODE_NAMES[name]
     if params_file is not None:
         check_params(node_name, read_params_file(params_file, node_name), table)
-    from cam_metrology.nodes.params import BUILTIN_PARAMETERS
+    from cam_metrology.params import BUILTIN_PARAMETERS
     items = [item for item in cli_assignments(ros_args)
              if item.partition(':=')[0] not in BUILTIN_PARAMETERS]
     parse_assignments(items, node_name, table, '-p')

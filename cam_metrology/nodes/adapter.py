@@ -9,8 +9,9 @@
   (``topics.AdaptiveSubscriptions``: a node that matched late still gets the last 100
   outputs); every callback calls ``core.handle(topic, msg, receive_time_ns)``;
 * publishes the returned outputs on their topics, reliable, transient local (depth 1
-  for the report, 100 for the others: ``topics.RESULTS``), converted by
-  ``convert.to_message``;
+  for the report, 100 for the others: ``wire.topics.RESULTS``), encoded by
+  ``wire.layouts.encode_output`` and published as serialized bytes, each with its plot
+  views (``wire.plots``: curves, per-part values, statuses on /diagnostics);
 * cross-topic order: ROS keeps order within a topic only, so a /bench/feature_done
   can overtake the last samples of its feature (seen live: the feature was split in
   two). When the core consumes /bench/joint_states, every other message is held and
@@ -49,11 +50,12 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
 from cam_metrology.loss import FeatureLoss, SequenceLoss, loss_status, loss_values, mark_partial
-from cam_metrology.nodes import convert
-from cam_metrology.nodes.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
-                                        SCENE, STATUS,
-                                        AdaptiveSubscriptions, QosSpec, message_class, qos_of)
+from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
 from cam_metrology.outputs import Output, Status, StatusOutput, msgtype_of
+from cam_metrology.wire.layouts import encode_output
+from cam_metrology.wire.plots import plot_messages
+from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
+                                       SCENE, STATUS, QosSpec, qos_of)
 
 
 #: most raw samples handed to a core in one call (keeps the worker responsive)
@@ -110,7 +112,7 @@ def declare_parameters(node: Node, table: dict[str, tuple[Any, str]]) -> dict[st
     """
     from rclpy.exceptions import InvalidParameterTypeException
 
-    from cam_metrology.nodes.params import check_value, expected_type
+    from cam_metrology.params import check_value, expected_type
 
     values: dict[str, Any] = {}
     for name, (default, description) in table.items():
@@ -203,14 +205,14 @@ class CoreNode(Node):
         if self._with_info and qos.depth > 1 and topic not in self.losses:
             self.losses[topic] = SequenceLoss(topic)   # latched depth-1 topics: not counted
         self._subs[topic] = self.create_subscription(
-            message_class(type_name), topic, callback, qos.profile(), raw=raw)
+            message_class(type_name), topic, callback, profile(qos), raw=raw)
 
     # -- publishing -----------------------------------------------------------------
     def _publisher(self, topic: str, type_name: str) -> Any:
         pub = self._pubs.get(topic)
         if pub is None:
             pub = self.create_publisher(message_class(type_name), topic,
-                                        qos_of(topic).profile())
+                                        profile(qos_of(topic)))
             self._pubs[topic] = pub
         return pub
 
@@ -224,9 +226,12 @@ class CoreNode(Node):
                     for st in out.statuses:
                         self.feature_loss.result_published(st.name)
         for out in outputs or ():
-            pub = self._publisher(out.topic, msgtype_of(out))
-            pub.publish(convert.to_message(out, self.now_ns()))
+            now = self.now_ns()
+            self._publisher(out.topic, msgtype_of(out)).publish(encode_output(out, now))
             self.published[out.topic] = self.published.get(out.topic, 0) + 1
+            for view in plot_messages(out, now):   # curves, values, /diagnostics
+                self._publisher(view.topic, view.msgtype).publish(view.cdr)
+                self.published[view.topic] = self.published.get(view.topic, 0) + 1
 
     def subscription_count(self, topic: str) -> int:
         """Matched subscriptions of this node's publisher on ``topic`` (0 if none)."""
@@ -288,11 +293,9 @@ class CoreNode(Node):
             return
         self._diag_last = now
         st = self.input_status()
-        if self._diag_pub is None:
-            self._diag_pub = self.create_publisher(message_class(STATUS), DIAGNOSTICS,
-                                                   qos_of(DIAGNOSTICS).profile())
-        self._diag_pub.publish(convert.to_message(StatusOutput(DIAGNOSTICS, (st,)),
-                                                  self.now_ns()))
+        if self._diag_pub is None:   # the same publisher as the results' statuses
+            self._diag_pub = self._publisher(DIAGNOSTICS, STATUS)
+        self._diag_pub.publish(encode_output(StatusOutput(DIAGNOSTICS, (st,)), self.now_ns()))
         said = (st.level, st.message)
         if st.level and said != self._diag_said:
             self.get_logger().warning(f'{self.core.name}: {st.message}')
@@ -529,7 +532,7 @@ class CoreNode(Node):
         with self.lock:
             self._guarded('finish', self.core.finish)
             self.publish_diagnostics(force=True)
-        pubs = list(self._pubs.values()) + ([self._diag_pub] if self._diag_pub else [])
+        pubs = list(self._pubs.values())   # /diagnostics included (_publisher)
         from cam_metrology.nodes.runtime import wait_all_acked
         return wait_all_acked(pubs, ack_timeout)
 

@@ -38,10 +38,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, TextIO
 
-from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, METROLOGY_REPORT,
-                                        OUTPUT_TOPICS, TOPICS, TRUTH, AdaptiveSubscriptions)
+from cam_metrology.nodes.topics import AdaptiveSubscriptions, profile
+from cam_metrology.wire.topics import (DYNAMICS_RESULT, FEATURE_DONE, JOINT_STATES,
+                                       METROLOGY_REPORT, METROLOGY_RESULT, OUTPUT_TOPICS,
+                                       RECONSTRUCTION_RESULT, TOPICS, TRUTH)
 
-STATUS_TOPICS = ('/metrology/result', '/reconstruction/result', '/dynamics/result')
+STATUS_TOPICS = (METROLOGY_RESULT, RECONSTRUCTION_RESULT, DYNAMICS_RESULT)
 
 
 @dataclass
@@ -228,9 +230,9 @@ class DemoMonitor:
         self.statuses: dict[str, int] = {t: 0 for t in STATUS_TOPICS}
         self.callbacks_run = 0
         sub = self.node.create_subscription
-        sub(String, FEATURE_DONE, self._on_done, TOPICS[FEATURE_DONE][1].profile())
-        sub(String, TRUTH, self._on_truth, TOPICS[TRUTH][1].profile())
-        sub(String, METROLOGY_REPORT, self._on_report, TOPICS[METROLOGY_REPORT][1].profile())
+        sub(String, FEATURE_DONE, self._on_done, profile(TOPICS[FEATURE_DONE][1]))
+        sub(String, TRUTH, self._on_truth, profile(TOPICS[TRUTH][1]))
+        sub(String, METROLOGY_REPORT, self._on_report, profile(TOPICS[METROLOGY_REPORT][1]))
         self._adaptive = AdaptiveSubscriptions(self.node, self._subscribe_status)
         for topic in STATUS_TOPICS:
             self._adaptive.add(topic, TOPICS[topic][0])
@@ -238,7 +240,7 @@ class DemoMonitor:
     def _subscribe_status(self, topic: str, _type: str, qos: Any) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
         self.node.create_subscription(DiagnosticArray, topic,
-                                      lambda m, t=topic: self._on_status(t, m), qos.profile())
+                                      lambda m, t=topic: self._on_status(t, m), profile(qos))
 
     def _on_done(self, msg: Any) -> None:
         self.callbacks_run += 1

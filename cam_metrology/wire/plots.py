@@ -1,0 +1,178 @@
+"""Plot views of the node outputs: what Foxglove and PlotJuggler plot with no set-up.
+
+The node cores publish tables (``Float64MultiArray``, thousands of doubles row by
+row), statuses on their own topics and a JSON report: right for programs, awkward in
+a plotting tool (PlotJuggler clamps arrays to 500 elements by default; a row-major
+table is a sawtooth in Foxglove). Every output is therefore also published as:
+
+* **curves**, one ``sensor_msgs/JointState`` per point (``/plot/lift``,
+  ``/plot/profile``, ``/plot/valve_motion``): ``header.frame_id`` = the table's
+  label (``lobe_1``, ``lobe_1/spline``, ``lobe_1/3000rpm``), ``name[i]`` =
+  ``<label>/<quantity>`` with the unit in the name, ``position[i]`` its value. The
+  x-axis is ``<label>/alpha_deg`` (cam angle from the lobe centreline). At most
+  ``MAX_POINTS`` points per curve (every k-th row; the full table stays on its own
+  topic). Points are stamped ``POINT_SPACING_NS`` apart from the output's time.
+  PlotJuggler names the series ``/plot/lift/lobe_1/alpha_deg/position`` (one series
+  per feature: an XY curve with no array at all); Foxglove plots
+  ``/plot/lift{header.frame_id=="lobe_1"}.position[3]`` against ``.position[0]``.
+* **values**, one ``sensor_msgs/JointState`` per final report (``/metrology/values``),
+  ``name[i]`` = ``<feature>/<quantity>``: the nose/pin angles, their uncertainty,
+  phases, lift errors and verdicts (1 pass, 0 fail; absent when not checked) as time
+  series across parts.
+* **statuses on /diagnostics**: each result status again, named ``<node>: <name>``
+  (the ROS convention: rqt_runtime_monitor, Foxglove's Diagnostics panel and
+  PlotJuggler's diagnostic parser read ``/diagnostics``).
+
+Units are in the names (``_deg``, ``_mm``, ``_um``, ``_mpa``): plot topics are for
+people; the SI tables stay on the output topics.
+"""
+from __future__ import annotations
+
+import json
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from cam_metrology.outputs import Output, Status, StatusOutput, TableOutput, TextOutput
+from cam_metrology.wire.cdr import encode_named_values
+from cam_metrology.wire.layouts import encode_statuses
+from cam_metrology.wire.topics import (DIAGNOSTICS, DYNAMICS_MOTION, DYNAMICS_RESULT,
+                                       JOINT_STATE, METROLOGY_LIFT, METROLOGY_REPORT,
+                                       METROLOGY_RESULT, METROLOGY_VALUES, PLOT_LIFT,
+                                       PLOT_MOTION, PLOT_PROFILE, RECONSTRUCTION_PROFILE,
+                                       RECONSTRUCTION_RESULT, STATUS)
+
+__all__ = ['PlotMessage', 'plot_messages', 'curve_columns', 'report_values',
+           'MAX_POINTS', 'POINT_SPACING_NS', 'CURVE_TOPICS']
+
+#: points per curve at most (every k-th row of the table)
+MAX_POINTS = 720
+#: stamps of successive points of a curve [ns]: 10 us stays distinct in a double of
+#: seconds since 1970 (PlotJuggler's time axis), 720 points span 7.2 ms
+POINT_SPACING_NS = 10_000
+#: table topic -> its curve topic
+CURVE_TOPICS = {METROLOGY_LIFT: PLOT_LIFT, RECONSTRUCTION_PROFILE: PLOT_PROFILE,
+                DYNAMICS_MOTION: PLOT_MOTION}
+#: result topic -> node name of its statuses on /diagnostics
+STATUS_NODES = {METROLOGY_RESULT: 'metrology', RECONSTRUCTION_RESULT: 'reconstruction',
+                DYNAMICS_RESULT: 'dynamics'}
+
+_DEG = math.pi / 180.0
+#: column suffix -> (plot suffix, factor): SI column -> unit people read
+_UNITS = (
+    ('_m_per_rad3', '_mm_per_deg3', 1e3 * _DEG ** 3),
+    ('_m_per_rad2', '_mm_per_deg2', 1e3 * _DEG ** 2),
+    ('_m_per_rad', '_mm_per_deg', 1e3 * _DEG),
+    ('_rad', '_deg', 1.0 / _DEG),
+    ('_pa', '_mpa', 1e-6),
+    ('_m', '_mm', 1e3),
+)
+
+
+class PlotMessage(NamedTuple):
+    """One plot message: topic, ROS type, log time [ns], CDR bytes."""
+
+    topic: str
+    msgtype: str
+    stamp_ns: int
+    cdr: bytes
+
+
+def _plot_name(column: str) -> tuple[str, float]:
+    for suffix, new, factor in _UNITS:
+        if column.endswith(suffix):
+            return column[:-len(suffix)] + new, factor
+    return column, 1.0
+
+
+def curve_columns(columns: tuple[str, ...], data: Any) -> tuple[list[str], np.ndarray]:
+    """(quantity names, values rows x names) of a table in the units of the plots:
+    angles deg, lifts mm, derivatives per deg, stresses MPa; a lift table also gets
+    ``lift_error_um`` = measured - design."""
+    arr = np.asarray(data, dtype=np.float64)
+    names, cols = [], []
+    for k, column in enumerate(columns):
+        name, factor = _plot_name(column)
+        names.append(name)
+        cols.append(arr[:, k] * factor)
+    if 'lift_m' in columns and 'design_lift_m' in columns:
+        names.append('lift_error_um')
+        cols.append((arr[:, columns.index('lift_m')] - arr[:, columns.index('design_lift_m')])
+                    * 1e6)
+    return names, (np.column_stack(cols) if cols else np.zeros((arr.shape[0], 0)))
+
+
+def _curve(topic: str, out: TableOutput, stamp_ns: int) -> list[PlotMessage]:
+    names, values = curve_columns(out.columns, out.data)
+    if not len(values) or not names:
+        return []
+    if names[0] == 'alpha_deg':   # a curve against angle: in angle order
+        values = values[np.argsort(values[:, 0], kind='stable')]
+    step = max(1, math.ceil(len(values) / MAX_POINTS))
+    values = values[::step]
+    stamps = stamp_ns + POINT_SPACING_NS * np.arange(len(values), dtype=np.int64)
+    cdrs = encode_named_values(out.label, stamps, [f'{out.label}/{n}' for n in names], values)
+    return [PlotMessage(topic, JOINT_STATE, int(t), c) for t, c in zip(stamps.tolist(), cdrs)]
+
+
+def _verdict_value(verdict: Any) -> float | None:
+    result = verdict.get('result') if isinstance(verdict, dict) else None
+    return {'pass': 1.0, 'fail': 0.0}.get(result) if isinstance(result, str) else None
+
+
+def report_values(report: dict[str, Any]) -> tuple[list[str], list[float]]:
+    """(names, values) of the numbers of a report a user plots across parts."""
+    names: list[str] = []
+    values: list[float] = []
+
+    def put(name: str, value: Any, factor: float = 1.0) -> None:
+        if isinstance(value, (int, float)) and not isinstance(value, bool) \
+                and math.isfinite(float(value)):
+            names.append(name)
+            values.append(float(value) * factor)
+
+    features = report.get('features') or {}
+    for fid in sorted(features):
+        f = features[fid]
+        if not isinstance(f, dict):
+            continue
+        put(f'{fid}/ok', 1.0 if f.get('status') == 'ok' else 0.0)
+        put(f'{fid}/angle_deg', f.get('angle_deg'))
+        put(f'{fid}/angle_std_arcsec', f.get('angle_std_deg'), 3600.0)
+        put(f'{fid}/phase_deg', f.get('phase_deg'))
+        put(f'{fid}/phase_error_deg', f.get('phase_error_deg'))
+        put(f'{fid}/asymmetry_deg', f.get('asymmetry_deg'))
+        err = f.get('lift_error_um')
+        if isinstance(err, dict):
+            for key in ('max_plus', 'max_minus', 'rms'):
+                put(f'{fid}/lift_error_{key}_um', err.get(key))
+        put(f'{fid}/verdict', _verdict_value(f.get('verdict')))
+    put('part/verdict', _verdict_value(report.get('verdict')))
+    return names, values
+
+
+def plot_messages(output: Output, stamp_ns: int) -> list[PlotMessage]:
+    """The plot messages derived from one core output published at ``stamp_ns``."""
+    if isinstance(output, TableOutput) and output.topic in CURVE_TOPICS:
+        return _curve(CURVE_TOPICS[output.topic], output, stamp_ns)
+    if isinstance(output, StatusOutput) and output.topic in STATUS_NODES:
+        node = STATUS_NODES[output.topic]
+        statuses = [Status(f'{node}: {s.name}', s.level, s.message, dict(s.values),
+                           s.hardware_id) for s in output.statuses]
+        return [PlotMessage(DIAGNOSTICS, STATUS, stamp_ns,
+                            encode_statuses(statuses, output.stamp_ns or stamp_ns))]
+    if isinstance(output, TextOutput) and output.topic == METROLOGY_REPORT:
+        try:
+            report = json.loads(output.text)
+        except ValueError:
+            return []
+        if not isinstance(report, dict) or report.get('final') is False:
+            return []
+        names, values = report_values(report)
+        if not names:
+            return []
+        cdr = encode_named_values(str(report.get('camshaft_id') or 'part'), stamp_ns, names,
+                                  np.asarray([values]))[0]
+        return [PlotMessage(METROLOGY_VALUES, JOINT_STATE, stamp_ns, cdr)]
+    return []
