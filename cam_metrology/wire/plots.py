@@ -15,10 +15,13 @@ table is a sawtooth in Foxglove). Every output is therefore also published as:
   PlotJuggler names the series ``/plot/lift/lobe_1/alpha_deg/position`` (one series
   per feature: an XY curve with no array at all); Foxglove plots
   ``/plot/lift{header.frame_id=="lobe_1"}.position[3]`` against ``.position[0]``.
-* **values**, one ``sensor_msgs/JointState`` per final report (``/metrology/values``),
-  ``name[i]`` = ``<feature>/<quantity>``: the nose/pin angles, their uncertainty,
-  phases, lift errors and verdicts (1 pass, 0 fail; absent when not checked) as time
-  series across parts.
+* **values** (``/metrology/values``), at each final report one ``sensor_msgs/JointState``
+  per feature (``header.frame_id`` = the feature id) and one for the part (``part``):
+  ``name[i]`` = ``<feature>/<quantity>`` in the fixed order of ``VALUE_NAMES``
+  (nose/pin angle, its standard uncertainty, phase, phase error, asymmetry, lift
+  errors, ok, verdict; NaN where a quantity does not apply or was not checked): time
+  series across parts. Foxglove: ``/metrology/values{header.frame_id=="lobe_1"}
+  .position[0]``; PlotJuggler: ``/metrology/values/lobe_1/angle_deg/position``.
 * **statuses on /diagnostics**: each result status again, named ``<node>: <name>``
   (the ROS convention: rqt_runtime_monitor, Foxglove's Diagnostics panel and
   PlotJuggler's diagnostic parser read ``/diagnostics``).
@@ -44,7 +47,7 @@ from cam_metrology.wire.topics import (DIAGNOSTICS, DYNAMICS_MOTION, DYNAMICS_RE
                                        RECONSTRUCTION_RESULT, STATUS)
 
 __all__ = ['PlotMessage', 'plot_messages', 'curve_columns', 'report_values',
-           'MAX_POINTS', 'POINT_SPACING_NS', 'CURVE_TOPICS']
+           'MAX_POINTS', 'POINT_SPACING_NS', 'CURVE_TOPICS', 'VALUE_NAMES', 'PART_NAMES']
 
 #: points per curve at most (every k-th row of the table)
 MAX_POINTS = 720
@@ -116,40 +119,49 @@ def _curve(topic: str, out: TableOutput, stamp_ns: int) -> list[PlotMessage]:
     return [PlotMessage(topic, JOINT_STATE, int(t), c) for t, c in zip(stamps.tolist(), cdrs)]
 
 
-def _verdict_value(verdict: Any) -> float | None:
+#: quantities of a feature on /metrology/values, in this order (NaN where they do not
+#: apply: a pin has no phase); ``ok`` 1 for a measured feature, 0 for a failed one;
+#: ``verdict`` 1 pass, 0 fail, NaN not checked
+VALUE_NAMES = ('angle_deg', 'angle_std_arcsec', 'phase_deg', 'phase_error_deg',
+               'asymmetry_deg', 'lift_error_max_plus_um', 'lift_error_max_minus_um',
+               'lift_error_rms_um', 'ok', 'verdict')
+#: frame of the part's own values (``part/verdict``, ``part/complete``)
+PART = 'part'
+PART_NAMES = ('verdict', 'complete')
+
+
+def _number(value: Any, factor: float = 1.0) -> float:
+    if isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and math.isfinite(float(value)):
+        return float(value) * factor
+    return math.nan
+
+
+def _verdict_value(verdict: Any) -> float:
     result = verdict.get('result') if isinstance(verdict, dict) else None
-    return {'pass': 1.0, 'fail': 0.0}.get(result) if isinstance(result, str) else None
+    return {'pass': 1.0, 'fail': 0.0}.get(result, math.nan) if isinstance(result, str) \
+        else math.nan
 
 
-def report_values(report: dict[str, Any]) -> tuple[list[str], list[float]]:
-    """(names, values) of the numbers of a report a user plots across parts."""
-    names: list[str] = []
-    values: list[float] = []
-
-    def put(name: str, value: Any, factor: float = 1.0) -> None:
-        if isinstance(value, (int, float)) and not isinstance(value, bool) \
-                and math.isfinite(float(value)):
-            names.append(name)
-            values.append(float(value) * factor)
-
+def report_values(report: dict[str, Any]) -> list[tuple[str, list[float]]]:
+    """[(frame, values in the order of VALUE_NAMES (PART_NAMES for the part))] of a
+    report: the numbers a user plots across parts, one record per feature."""
+    out = []
     features = report.get('features') or {}
     for fid in sorted(features):
         f = features[fid]
         if not isinstance(f, dict):
             continue
-        put(f'{fid}/ok', 1.0 if f.get('status') == 'ok' else 0.0)
-        put(f'{fid}/angle_deg', f.get('angle_deg'))
-        put(f'{fid}/angle_std_arcsec', f.get('angle_std_deg'), 3600.0)
-        put(f'{fid}/phase_deg', f.get('phase_deg'))
-        put(f'{fid}/phase_error_deg', f.get('phase_error_deg'))
-        put(f'{fid}/asymmetry_deg', f.get('asymmetry_deg'))
-        err = f.get('lift_error_um')
-        if isinstance(err, dict):
-            for key in ('max_plus', 'max_minus', 'rms'):
-                put(f'{fid}/lift_error_{key}_um', err.get(key))
-        put(f'{fid}/verdict', _verdict_value(f.get('verdict')))
-    put('part/verdict', _verdict_value(report.get('verdict')))
-    return names, values
+        err = f.get('lift_error_um') if isinstance(f.get('lift_error_um'), dict) else {}
+        out.append((str(fid), [
+            _number(f.get('angle_deg')), _number(f.get('angle_std_deg'), 3600.0),
+            _number(f.get('phase_deg')), _number(f.get('phase_error_deg')),
+            _number(f.get('asymmetry_deg')), _number(err.get('max_plus')),
+            _number(err.get('max_minus')), _number(err.get('rms')),
+            1.0 if f.get('status') == 'ok' else 0.0, _verdict_value(f.get('verdict'))]))
+    out.append((PART, [_verdict_value(report.get('verdict')),
+                       1.0 if report.get('complete') else 0.0]))
+    return out
 
 
 def plot_messages(output: Output, stamp_ns: int) -> list[PlotMessage]:
@@ -169,10 +181,11 @@ def plot_messages(output: Output, stamp_ns: int) -> list[PlotMessage]:
             return []
         if not isinstance(report, dict) or report.get('final') is False:
             return []
-        names, values = report_values(report)
-        if not names:
-            return []
-        cdr = encode_named_values(str(report.get('camshaft_id') or 'part'), stamp_ns, names,
-                                  np.asarray([values]))[0]
-        return [PlotMessage(METROLOGY_VALUES, JOINT_STATE, stamp_ns, cdr)]
+        out = []
+        for frame, values in report_values(report):
+            names = PART_NAMES if frame == PART else VALUE_NAMES
+            cdr = encode_named_values(frame, stamp_ns, [f'{frame}/{n}' for n in names],
+                                      np.asarray([values]))[0]
+            out.append(PlotMessage(METROLOGY_VALUES, JOINT_STATE, stamp_ns, cdr))
+        return out
     return []
