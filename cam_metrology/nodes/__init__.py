@@ -48,14 +48,10 @@ def ros_arguments(params_file: str | Path | None, ros_args: Sequence[str] = ()) 
 
 
 def parameter_table(name: str) -> dict[str, Any] | None:
-    """``{parameter: (default, description)}`` of node ``name`` (None: its core is missing,
-    which ``run_node`` reports itself)."""
+    """``{parameter: (default, description)}`` of node ``name`` (None for an unknown name)."""
     if name in CORE_NODES:
-        from cam_metrology.nodes.adapter import CoreMissing, load_core
-        try:
-            return dict(getattr(load_core(name), 'PARAMETERS', {}))
-        except CoreMissing:
-            return None
+        from cam_metrology.registry import CORES
+        return dict(getattr(CORES[name], 'PARAMETERS', {}))
     if name == 'bench-sim':
         from cam_metrology.nodes import bench_sim
         return {**bench_sim.PARAMETERS, **bench_sim.sim_param_table()}

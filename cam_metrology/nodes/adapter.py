@@ -73,26 +73,12 @@ DIAG_PERIOD = 1.0
 RX_LINGER = 0.005
 
 
-class CoreMissing(RuntimeError):
-    """The core of a node is not written yet (registry entry without a module)."""
-
-
 def load_core(name: str) -> Any:
-    """The core class registered for node ``name``; CoreMissing if absent."""
-    from cam_metrology.registry import CORES, load_core_class
+    """The core class registered for node ``name`` (ValueError for another name)."""
+    from cam_metrology.registry import CORES
     if name not in CORES:
-        raise CoreMissing(f'no core registered for node {name!r}; known: {sorted(CORES)}')
-    try:
-        return load_core_class(name)
-    except ModuleNotFoundError as exc:
-        module = CORES[name].split(':')[0]
-        if exc.name and module.startswith(exc.name):
-            raise CoreMissing(f'core of node {name!r} is missing: {CORES[name]} '
-                              'is not in this tree') from None
-        raise
-    except AttributeError:
-        raise CoreMissing(f'core of node {name!r} is missing: {CORES[name]} '
-                          'has no such class') from None
+        raise ValueError(f'no core registered for node {name!r}; known: {sorted(CORES)}')
+    return CORES[name]
 
 
 def descriptor(name: str, default: Any, description: str) -> ParameterDescriptor:
@@ -562,16 +548,10 @@ def run_core_node(name: str, args: Sequence[str] | None = None, *,
                   events_executor: bool = False) -> int:
     """Run node ``name`` (metrology | reconstruction | dynamics) until SIGINT/SIGTERM.
 
-    Returns 0, 1 if the core raised, 3 if the core is missing (printed, never faked).
+    Returns 0, or 1 if the core raised.
     """
-    import sys
-
     from cam_metrology.nodes.runtime import RosProcess
-    try:
-        core_cls = load_core(name)
-    except CoreMissing as exc:
-        print(f'cam-bench run {name}: {exc}', file=sys.stderr)
-        return 3
+    core_cls = load_core(name)
     proc = RosProcess(args, events_executor=events_executor)
     node = None
     try:

@@ -26,7 +26,6 @@ one with SIGINT in data-flow order, which is what makes the shutdown lossless:
 from __future__ import annotations
 
 import json
-import math
 import os
 import shutil
 import signal
@@ -126,30 +125,12 @@ def stop_child(child: Child, sigint_wait: float = 20.0, term_wait: float = 5.0,
 
 
 def truth_angle_deg(truth: dict[str, Any], fid: str) -> float | None:
-    """The true encoder angle [deg, 0..360) of feature ``fid`` in the /bench/truth JSON.
-
-    Accepts ``features.<id>.angle_deg``/``angle`` [rad], ``nose_angles.<id>`` [rad] and
-    ``pin_angle`` [rad] for the dowel pin.
-    """
+    """The true encoder angle [deg, 0..360) of feature ``fid`` in the /bench/truth JSON
+    (``features.<id>.angle_deg``, as ``simulate`` writes it), None if it has none."""
     feats = truth.get('features')
     entry = feats.get(fid) if isinstance(feats, dict) else None
-    if isinstance(feats, list):
-        entry = next((f for f in feats if isinstance(f, dict) and f.get('id') == fid), None)
-    if isinstance(entry, dict):
-        for key, scale in (('angle_deg', 1.0), ('angle', 180 / math.pi),
-                           ('nose_angle', 180 / math.pi), ('center_angle', 180 / math.pi),
-                           ('centre_angle', 180 / math.pi)):
-            if isinstance(entry.get(key), (int, float)):
-                return float(entry[key]) * scale % 360.0
-    for key in ('nose_angles', 'nose_angle', 'angles'):
-        table = truth.get(key)
-        if isinstance(table, dict) and isinstance(table.get(fid), (int, float)):
-            return math.degrees(float(table[fid])) % 360.0
-    if fid == 'dowel_pin':
-        for key in ('pin_angle', 'dowel_pin_angle', 'pin_centre_angle', 'pin_center_angle'):
-            if isinstance(truth.get(key), (int, float)):
-                return math.degrees(float(truth[key])) % 360.0
-    return None
+    value = entry.get('angle_deg') if isinstance(entry, dict) else None
+    return float(value) % 360.0 if isinstance(value, (int, float)) else None
 
 
 def wrap180(deg: float) -> float:
@@ -302,7 +283,7 @@ def downstream_subscriptions(core_classes: list[Any]) -> dict[str, int]:
 def run_demo(opts: DemoOptions) -> int:
     """Run the demo; returns the exit code (0 ok, 1 failure with the reason printed)."""
     from cam_metrology.isolation import claim_domain, isolated_env
-    from cam_metrology.nodes.adapter import CoreMissing, load_core
+    from cam_metrology.registry import CORES
     from cam_metrology.nodes.runtime import RosProcess
     from cam_metrology.paths import default_scene_path
 
@@ -337,12 +318,7 @@ def run_demo(opts: DemoOptions) -> int:
     cores: list[str] = []
     core_classes: list[Any] = []
     need_samples = 1   # the recorder
-    for name in ('metrology', 'reconstruction', 'dynamics'):
-        try:
-            cls = load_core(name)
-        except CoreMissing as exc:
-            say(f'{name}: MISSING ({exc}); not started')
-            continue
+    for name, cls in CORES.items():
         cores.append(name)
         core_classes.append(cls)
         need_samples += JOINT_STATES in getattr(cls, 'subscriptions', {})
