@@ -46,7 +46,7 @@ from cam_metrology.outputs import Output, TextOutput, msgtype_of
 from cam_metrology.wire.cdr import decode
 from cam_metrology.wire.layouts import encode_output
 from cam_metrology.wire.plots import plot_messages
-from cam_metrology.wire.topics import JOINT_STATES, METROLOGY_REPORT, TOPIC_TYPES
+from cam_metrology.wire.topics import JOINT_STATES, METROLOGY_REPORT, PLOT_TOPICS
 
 __all__ = ['StampedOutput', 'OfflineResult', 'run_offline', 'write_outputs',
            'order_cores', 'TICK_PERIOD_NS', 'MAX_TICKS_PER_GAP']
@@ -265,8 +265,7 @@ def write_outputs(result: OfflineResult, out_bag: str | Path, *,
     with bagio.BagWriter(out_bag, compression=compression) as writer:
         regenerated = set(result.regenerated_topics)
         if plots:   # the plot views of a recorded live run are regenerated too
-            regenerated |= {t for t in TOPIC_TYPES if t.startswith('/plot/')
-                            or t == '/metrology/values'}
+            regenerated |= set(PLOT_TOPICS)
         topics = bagio.add_topics_like(writer, result.bag, [
             t for t in bagio.bag_topics(result.bag) if t not in regenerated])
         inputs = ((m.stamp_ns, 0, i, (m.topic, m.msg)) for i, m in enumerate(

@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from cam_design.errors import InputError
 from cam_metrology.files import read_text_file
 from cam_metrology.wire.layouts import table_from_msg
+from cam_metrology.wire.topics import METROLOGY_LIFT
 
 ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
 LENGTH_UNITS = {'m': 1.0, 'mm': 1.0e-3, 'um': 1.0e-6}
@@ -519,7 +520,7 @@ def lift_table_from_message(msg: Any) -> LiftTable:
             raise InputError(f'{label}.columns', ','.join(columns), 'alpha_rad,lift_m[,...]')
     design = data[:, index['design_lift_m']].copy() if 'design_lift_m' in index else None
     return LiftTable(label, data[:, index['alpha_rad']].copy(),
-                     data[:, index['lift_m']].copy(), design, None, '/metrology/lift')
+                     data[:, index['lift_m']].copy(), design, None, METROLOGY_LIFT)
 
 
 #: a step: one row-to-row change this many times the changes (per angle) next to it
