@@ -28,12 +28,13 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError
 from cam_metrology.bagcheck import require_intact
-from cam_metrology.outputs import Output, msgtype_of
+from cam_metrology.outputs import Output
 from cam_metrology.wire.cdr import (decode, encode_joint_state,  # noqa: F401 (re-exported)
                                     encode_joint_state_positions, encode_joint_states,
                                     encode_string, typestore)
 from cam_metrology.wire.layouts import (encode_output, encode_statuses,  # noqa: F401
-                                        encode_table, statuses_from_msg, table_from_msg)
+                                        encode_table, msgtype_of, statuses_from_msg,
+                                        table_from_msg)
 from cam_metrology.wire.topics import (CAMSHAFT_JOINT, JOINT_STATES,  # noqa: F401
                                        LATCHED_TOPICS, PROBE_JOINT, SCENE, TOPIC_TYPES,
                                        default_qos_yaml, qos_yaml)

@@ -42,9 +42,9 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_metrology import bagio
-from cam_metrology.outputs import Output, TextOutput, msgtype_of
+from cam_metrology.outputs import Output, TextOutput
 from cam_metrology.wire.cdr import decode
-from cam_metrology.wire.layouts import encode_output
+from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages
 from cam_metrology.wire.topics import JOINT_STATES, METROLOGY_REPORT, PLOT_TOPICS
 

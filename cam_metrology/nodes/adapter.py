@@ -51,8 +51,8 @@ from rclpy.node import Node
 
 from cam_metrology.loss import FeatureLoss, SequenceLoss, loss_status, loss_values, mark_partial
 from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
-from cam_metrology.outputs import Output, Status, StatusOutput, msgtype_of
-from cam_metrology.wire.layouts import encode_output
+from cam_metrology.outputs import Output, Status, StatusOutput
+from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages
 from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
                                        SCENE, STATUS, QosSpec, qos_of)

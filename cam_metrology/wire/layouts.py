@@ -27,9 +27,13 @@ from cam_design.errors import InputError
 from cam_metrology.outputs import Output, StatusOutput, TableOutput, TextOutput
 from cam_metrology.wire.cdr import (encode_float64_array, encode_named_values,
                                     encode_string, typestore)
+from cam_metrology.wire.topics import STATUS, STRING, TABLE
 
 __all__ = ['encode_table', 'table_from_msg', 'encode_statuses', 'statuses_from_msg',
-           'encode_values', 'values_from_msg', 'encode_output']
+           'encode_values', 'values_from_msg', 'encode_output', 'msgtype_of']
+
+#: ROS type of each neutral core output
+MSGTYPE = {TableOutput: TABLE, StatusOutput: STATUS, TextOutput: STRING}
 
 
 def encode_table(label: str, columns: Sequence[str], data: Any) -> bytes:
@@ -116,3 +120,8 @@ def encode_output(output: Output, stamp_ns: int | None = None) -> bytes:
         return encode_string(output.text)
     raise InputError('output', type(output).__name__,
                      'TableOutput, StatusOutput or TextOutput')
+
+
+def msgtype_of(output: Output) -> str:
+    """ROS 2 type name (``pkg/msg/Type``) of a neutral core output."""
+    return MSGTYPE[type(output)]
