@@ -2,9 +2,9 @@
 
 * declares the core's ``PARAMETERS`` as ROS parameters (with descriptors) and builds
   the core from their values (so ``--params-file config/<node>.yaml`` sets them);
-* subscribes to ``core.subscriptions``: bench topics with the QoS of ``topics.TOPICS``
+* subscribes to ``core.subscriptions``: bench topics with the QoS of ``wire.topics``
   (/bench/scene transient local depth 1, created first; /bench/joint_states reliable
-  keep-last 20 000, see ``topics.SAMPLES``), other nodes' outputs once their
+  keep all, ``wire.topics.SAMPLES``), other nodes' outputs once their
   publisher is in the graph, transient local when it offers it
   (``topics.AdaptiveSubscriptions``: a node that matched late still gets the last 100
   outputs); every callback calls ``core.handle(topic, msg, receive_time_ns)``;

@@ -4,11 +4,12 @@
   came off the wire and writes them unchanged with ``bagio.BagWriter`` (never
   ``serialize_message``, docs/ros.md).
 * Topics: the bench inputs (/bench/scene, /bench/truth, /bench/joint_states,
-  /bench/feature_done) and every output topic of architecture.md, plus extras
+  /bench/feature_done), every output and plot topic of ``wire.topics`` (not
+  /diagnostics: the recorder writes its own status there), plus extras
   (``/topic`` or ``/topic:pkg/msg/Type``).
-* QoS: the bench topics from ``topics.TOPICS`` (transient local for /bench/scene and
-  /bench/truth, so a late recorder still gets the latched scene; reliable keep-last
-  20 000 for samples, ``topics.SAMPLES``: a busy machine must not overrun it). Output
+* QoS: the bench topics from ``wire.topics`` (transient local for /bench/scene and
+  /bench/truth, so a late recorder still gets the latched scene; reliable keep all
+  for samples, ``wire.topics.SAMPLES``: a busy machine must not overrun it). Output
   and extra topics are subscribed once a publisher is in the graph, transient local
   if every publisher offers it (``topics.AdaptiveSubscriptions``, as ``ros2 bag
   record`` does): our nodes offer their outputs transient local depth 100, so a
