@@ -237,6 +237,7 @@ def test_values_and_diagnostics_repeat_the_report(demo_bag: Path) -> None:
         assert got[f'{fid}/angle_std_arcsec'] == pytest.approx(
             3600 * feat['angle_std_deg'], rel=1e-12)
         assert got[f'{fid}/ok'] == (1.0 if feat['status'] == 'ok' else 0.0)
+        assert got[f'{fid}/partial'] == 0.0   # offline: nothing lost
         if 'phase_error_deg' in feat:
             assert got[f'{fid}/phase_error_deg'] == pytest.approx(feat['phase_error_deg'],
                                                                   abs=1e-12)
@@ -257,6 +258,18 @@ def test_plot_views_of_other_outputs_are_empty_or_exact() -> None:
     assert plots.plot_messages(TextOutput(topics.METROLOGY_REPORT, '{"final": false}'), 5) == []
     assert plots.plot_messages(TextOutput(topics.METROLOGY_REPORT, 'not json'), 5) == []
     assert plots.plot_messages(TableOutput('/other', 'x', ('a',), np.zeros((2, 1))), 5) == []
+    # a feature computed on partial data says so on /metrology/values too
+    report = {'final': True, 'features': {'lobe_1': {
+        'status': 'ok', 'angle_deg': 10.5, 'partial': True,
+        'verdict': {'result': 'fail'}}}, 'verdict': {'result': 'fail'}}
+    views = plots.plot_messages(TextOutput(topics.METROLOGY_REPORT, json.dumps(report)), 5)
+    values = dict(layouts.values_from_msg(cdr.decode(v.cdr, topics.JOINT_STATE))
+                  for v in views)
+    assert values['lobe_1']['lobe_1/partial'] == 1.0
+    assert values['lobe_1']['lobe_1/verdict'] == 0.0
+    assert values['lobe_1']['lobe_1/angle_deg'] == 10.5
+    assert math.isnan(values['lobe_1']['lobe_1/phase_deg'])
+    assert values['part'] == {'part/verdict': 0.0, 'part/complete': 0.0}
     # units: derivative per rad -> per deg; stress Pa -> MPa
     names, vals = plots.curve_columns(
         ('alpha_rad', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'contact_stress_pa'),

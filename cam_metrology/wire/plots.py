@@ -121,10 +121,11 @@ def _curve(topic: str, out: TableOutput, stamp_ns: int) -> list[PlotMessage]:
 
 #: quantities of a feature on /metrology/values, in this order (NaN where they do not
 #: apply: a pin has no phase); ``ok`` 1 for a measured feature, 0 for a failed one;
-#: ``verdict`` 1 pass, 0 fail, NaN not checked
+#: ``verdict`` 1 pass, 0 fail, NaN not checked; ``partial`` 1 when the feature was
+#: computed on partial data (lost samples, live), 0 otherwise
 VALUE_NAMES = ('angle_deg', 'angle_std_arcsec', 'phase_deg', 'phase_error_deg',
                'asymmetry_deg', 'lift_error_max_plus_um', 'lift_error_max_minus_um',
-               'lift_error_rms_um', 'ok', 'verdict')
+               'lift_error_rms_um', 'ok', 'verdict', 'partial')
 #: frame of the part's own values (``part/verdict``, ``part/complete``)
 PART = 'part'
 PART_NAMES = ('verdict', 'complete')
@@ -158,7 +159,8 @@ def report_values(report: dict[str, Any]) -> list[tuple[str, list[float]]]:
             _number(f.get('phase_deg')), _number(f.get('phase_error_deg')),
             _number(f.get('asymmetry_deg')), _number(err.get('max_plus')),
             _number(err.get('max_minus')), _number(err.get('rms')),
-            1.0 if f.get('status') == 'ok' else 0.0, _verdict_value(f.get('verdict'))]))
+            1.0 if f.get('status') == 'ok' else 0.0, _verdict_value(f.get('verdict')),
+            1.0 if f.get('partial') else 0.0]))
     out.append((PART, [_verdict_value(report.get('verdict')),
                        1.0 if report.get('complete') else 0.0]))
     return out
