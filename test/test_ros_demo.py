@@ -77,6 +77,14 @@ def test_demo_end_to_end(ros_domain: int, tmp_path: Path, config_dir: Path) -> N
     from cam_metrology import bagio
     from cam_metrology.wire.topics import PLOT_TOPICS, TOPICS, qos_of
     assert set(PLOT_TOPICS) <= set(counts), sorted(counts)
+    for topic in PLOT_TOPICS:
+        assert counts[topic] >= 1, topic
+    # one values message per feature and one for the part at each final report
+    import json
+    finals = sum(json.loads(m.msg.data).get('final') is True
+                 for m in bagio.iter_messages(bag, ['/metrology/report']))
+    assert finals >= 1
+    assert counts['/metrology/values'] == 3 * finals
     qos = bagio.topic_qos_yaml(bag)
     for topic in TOPICS:
         if topic in qos:

@@ -286,6 +286,12 @@ def test_plot_views_of_other_outputs_are_empty_or_exact() -> None:
     assert len(msgs) <= plots.MAX_POINTS
     stamps = [m.stamp_ns for m in msgs]
     assert stamps == sorted(set(stamps)) and stamps[0] == 10**18
+    # the views a node publishes, for the publishers it creates at start
+    assert plots.view_topics(topics.METROLOGY_REPORT) == {topics.METROLOGY_VALUES:
+                                                          topics.JOINT_STATE}
+    assert plots.view_topics(topics.METROLOGY_LIFT) == {topics.PLOT_LIFT: topics.JOINT_STATE}
+    assert plots.view_topics(topics.DYNAMICS_RESULT) == {topics.DIAGNOSTICS: topics.STATUS}
+    assert plots.view_topics(topics.SCENE) == {}
     status = StatusOutput(topics.DYNAMICS_RESULT, (Status('lobe_1/3000rpm', OK, 'ok'),), 7)
     (diag,) = plots.plot_messages(status, 9)
     msg = cdr.decode(diag.cdr, topics.STATUS)

@@ -53,7 +53,7 @@ from cam_metrology.loss import FeatureLoss, SequenceLoss, loss_status, loss_valu
 from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
 from cam_metrology.outputs import Output, Status, StatusOutput
 from cam_metrology.wire.layouts import encode_output, msgtype_of
-from cam_metrology.wire.plots import plot_messages
+from cam_metrology.wire.plots import plot_messages, view_topics
 from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
                                        SCENE, STATUS, QosSpec, qos_of)
 
@@ -131,6 +131,8 @@ class CoreNode(Node):
         self._pubs: dict[str, Any] = {}
         for topic, type_name in self.core.publications.items():
             self._publisher(topic, type_name)
+            for view, view_type in view_topics(topic).items():   # matched before use
+                self._publisher(view, view_type)
         self._subs: dict[str, Any] = {}
         self._held: list[tuple[int, int, str, Any]] = []   # (source ns, seq, topic, msg)
         self._seq = 0

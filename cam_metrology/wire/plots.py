@@ -46,7 +46,7 @@ from cam_metrology.wire.topics import (DIAGNOSTICS, DYNAMICS_MOTION, DYNAMICS_RE
                                        PLOT_MOTION, PLOT_PROFILE, RECONSTRUCTION_PROFILE,
                                        RECONSTRUCTION_RESULT, STATUS)
 
-__all__ = ['PlotMessage', 'plot_messages', 'curve_columns', 'report_values',
+__all__ = ['PlotMessage', 'plot_messages', 'view_topics', 'curve_columns', 'report_values',
            'MAX_POINTS', 'POINT_SPACING_NS', 'CURVE_TOPICS', 'VALUE_NAMES', 'PART_NAMES']
 
 #: points per curve at most (every k-th row of the table)
@@ -164,6 +164,19 @@ def report_values(report: dict[str, Any]) -> list[tuple[str, list[float]]]:
     out.append((PART, [_verdict_value(report.get('verdict')),
                        1.0 if report.get('complete') else 0.0]))
     return out
+
+
+def view_topics(topic: str) -> dict[str, str]:
+    """{plot topic: ROS type} of the views derived from outputs on ``topic`` (a node
+    creates these publishers with its own, so that subscribers match them before the
+    first view is published)."""
+    if topic in CURVE_TOPICS:
+        return {CURVE_TOPICS[topic]: JOINT_STATE}
+    if topic in STATUS_NODES:
+        return {DIAGNOSTICS: STATUS}
+    if topic == METROLOGY_REPORT:
+        return {METROLOGY_VALUES: JOINT_STATE}
+    return {}
 
 
 def plot_messages(output: Output, stamp_ns: int) -> list[PlotMessage]:
