@@ -14,6 +14,8 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
+        # Foxglove and PlotJuggler layouts of the plot topics (docs/ros.md)
+        ('share/' + package_name + '/layouts', glob('layouts/*')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

@@ -79,7 +79,7 @@ def make_no_pin(out: Path) -> Any:
                           'two lobes, no dowel pin, no valve_train (bags/scenes)')
     params = SimParams(samples_per_rev=3600, probe_noise=0.5e-6, seed=3,
                        start_theta=math.radians(-75.0))
-    return write_sim_bag(out, scene, params)   # the uncompressed fixture
+    return write_sim_bag(out, scene, params, compression=False)   # the uncompressed fixture
 
 
 def make_runout(out: Path) -> Any:

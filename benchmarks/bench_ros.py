@@ -179,7 +179,8 @@ def metrology_ceiling(work: Path, env: dict[str, str], scene: Path,
 
     from cam_metrology.nodes.adapter import CoreMissing, load_core
     from cam_metrology.nodes.runtime import RosProcess
-    from cam_metrology.nodes.topics import qos_of
+    from cam_metrology.nodes.topics import profile
+    from cam_metrology.wire.topics import qos_of
 
     try:
         load_core('metrology')
@@ -196,12 +197,12 @@ def metrology_ceiling(work: Path, env: dict[str, str], scene: Path,
     try:
         node = proc.add(Node('metrology_bench', context=proc.context))
         node.create_subscription(JointState, '/bench/joint_states', on_sample,
-                                 qos_of('/bench/joint_states').profile())
+                                 profile(qos_of('/bench/joint_states')))
         for topic in ('/bench/scene', '/bench/feature_done'):   # so that need=2 holds
-            node.create_subscription(String, topic, lambda _m: None, qos_of(topic).profile())
+            node.create_subscription(String, topic, lambda _m: None, profile(qos_of(topic)))
         node.create_subscription(DiagnosticArray, '/metrology/result',
                                  lambda m: result.append((time.perf_counter(), m)),
-                                 qos_of('/metrology/result').profile())
+                                 profile(qos_of('/metrology/result')))
         assert proc.spin_until(lambda: node.count_publishers('/metrology/result') >= 1, 60.0)
         sim_log = work / 'sim_metrology.log'
         sim = _cam_bench(['run', 'bench-sim', '--params',

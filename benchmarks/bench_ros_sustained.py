@@ -121,7 +121,8 @@ def one_rate(work: Path, env: dict[str, str], rate: float) -> dict[str, Any]:
 
     from cam_metrology import bagio
     from cam_metrology.nodes.runtime import RosProcess
-    from cam_metrology.nodes.topics import qos_of
+    from cam_metrology.nodes.topics import profile
+    from cam_metrology.wire.topics import qos_of
 
     tag = f'{int(rate)}'
     bag = work / f'bag_{tag}'
@@ -144,12 +145,12 @@ def one_rate(work: Path, env: dict[str, str], rate: float) -> dict[str, Any]:
         node = proc.add(Node('sustained_bench', context=proc.context))
         node.create_subscription(String, '/bench/feature_done',
                                  lambda m: done.setdefault(m.data, time.monotonic()),
-                                 qos_of('/bench/feature_done').profile())
+                                 profile(qos_of('/bench/feature_done')))
         node.create_subscription(DiagnosticArray, '/metrology/result', on_result,
-                                 qos_of('/metrology/result').profile())
+                                 profile(qos_of('/metrology/result')))
         node.create_subscription(String, '/metrology/report',
                                  lambda m: reports.append(json.loads(m.data)),
-                                 qos_of('/metrology/report').profile())
+                                 profile(qos_of('/metrology/report')))
         sim_log = work / f'sim_{tag}.log'
         sim = _cam_bench(['run', 'bench-sim', '--params', str(_sim_params(work, rate, 2))],
                          env, sim_log)

@@ -28,8 +28,16 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError
 from cam_metrology.bagcheck import require_intact
-from cam_metrology.outputs import (Output, StatusOutput, TableOutput, TextOutput,
-                                   msgtype_of)
+from cam_metrology.outputs import Output
+from cam_metrology.wire.cdr import (decode, encode_joint_state,  # noqa: F401 (re-exported)
+                                    encode_joint_state_positions, encode_joint_states,
+                                    encode_string, typestore)
+from cam_metrology.wire.layouts import (encode_output, encode_statuses,  # noqa: F401
+                                        encode_table, msgtype_of, statuses_from_msg,
+                                        table_from_msg)
+from cam_metrology.wire.topics import (CAMSHAFT_JOINT, JOINT_STATES,  # noqa: F401
+                                       LATCHED_TOPICS, PROBE_JOINT, SCENE, TOPIC_TYPES,
+                                       default_qos_yaml, qos_yaml)
 
 __all__ = [
     'JOINT_STATES', 'CAMSHAFT_JOINT', 'PROBE_JOINT', 'TOPIC_TYPES', 'BagWriter',
@@ -44,71 +52,7 @@ __all__ = [
     'topic_definitions',
 ]
 
-JOINT_STATES = '/bench/joint_states'
 MCAP_MAGIC = b'\x89MCAP0\r\n'
-CAMSHAFT_JOINT = 'camshaft'
-PROBE_JOINT = 'probe'
-
-#: ROS type of every topic of architecture.md (outputs are recorded too).
-TOPIC_TYPES: dict[str, str] = {
-    '/bench/scene': 'std_msgs/msg/String',
-    '/bench/joint_states': 'sensor_msgs/msg/JointState',
-    '/bench/feature_done': 'std_msgs/msg/String',
-    '/bench/truth': 'std_msgs/msg/String',
-    '/metrology/result': 'diagnostic_msgs/msg/DiagnosticArray',
-    '/metrology/lift': 'std_msgs/msg/Float64MultiArray',
-    '/metrology/report': 'std_msgs/msg/String',
-    '/reconstruction/profile': 'std_msgs/msg/Float64MultiArray',
-    '/reconstruction/result': 'diagnostic_msgs/msg/DiagnosticArray',
-    '/dynamics/valve_motion': 'std_msgs/msg/Float64MultiArray',
-    '/dynamics/result': 'diagnostic_msgs/msg/DiagnosticArray',
-}
-
-#: topics published latched (reliable, transient local, depth 1) by architecture.md.
-LATCHED_TOPICS = frozenset({'/bench/scene', '/bench/truth', '/metrology/report'})
-#: depth of the keep-last history of the other topics (architecture.md table).
-TOPIC_DEPTH = {'/bench/joint_states': 1000, '/bench/feature_done': 10}
-
-_TYPESTORE: Any = None
-
-
-def typestore() -> Any:
-    """The rosbags ROS2_JAZZY typestore (created once)."""
-    global _TYPESTORE
-    if _TYPESTORE is None:
-        from rosbags.typesys import Stores, get_typestore
-
-        _TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
-    return _TYPESTORE
-
-
-# ---------------------------------------------------------------------------- QoS
-
-def qos_yaml(*, transient_local: bool = False, depth: int = 10,
-             reliable: bool = True) -> str:
-    """rosbag2 v9 ``offered_qos_profiles`` YAML for one publisher with this QoS.
-
-    This is the text ``ros2 bag record`` stores per topic; ``ros2 bag play`` reads it
-    to offer the same durability (transient local topics are latched on replay).
-    """
-    from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness,
-                                    QosReliability, QosTime)
-
-    return _dump_qos([Qos(
-        history=QosHistory.KEEP_LAST, depth=int(depth),
-        reliability=QosReliability.RELIABLE if reliable else QosReliability.BEST_EFFORT,
-        durability=(QosDurability.TRANSIENT_LOCAL if transient_local
-                    else QosDurability.VOLATILE),
-        deadline=QosTime(0, 0), lifespan=QosTime(0, 0),
-        liveliness=QosLiveliness.AUTOMATIC, liveliness_lease_duration=QosTime(0, 0),
-        avoid_ros_namespace_conventions=False)])
-
-
-def default_qos_yaml(topic: str) -> str:
-    """The QoS YAML of ``topic`` per architecture.md (reliable; latched topics depth 1)."""
-    if topic in LATCHED_TOPICS:
-        return qos_yaml(transient_local=True, depth=1)
-    return qos_yaml(depth=TOPIC_DEPTH.get(topic, 100))
 
 
 def _dump_qos(profiles: list[Any]) -> str:
@@ -139,13 +83,14 @@ def _parse_qos(text: str) -> list[Any]:
 class BagWriter:
     """A new rosbag2 directory (MCAP storage, format version 9) written from CDR bytes.
 
-    ``BagWriter(path, compression=False)``; ``compression=True`` turns on zstd chunk
-    compression (readable by rosbags, mcap and ros2 bag). Use it as a context manager
+    ``BagWriter(path, compression=True)``: zstd chunk compression by default (readable
+    by rosbags, mcap and ros2 bag; about 3-6x smaller); ``compression=False`` writes
+    plain chunks. Use it as a context manager
     or call ``close()``: ``metadata.yaml`` is written on close only (docs/ros.md).
     An existing ``path`` is never overwritten (InputError).
     """
 
-    def __init__(self, path: str | Path, compression: bool = False) -> None:
+    def __init__(self, path: str | Path, compression: bool = True) -> None:
         from rosbags.rosbag2 import StoragePlugin, Writer
 
         self.path = Path(path)
@@ -266,159 +211,7 @@ def _crc_chunks_inline(writer: Any) -> bool:
     return True
 
 
-# ------------------------------------------------------------------------ encoders
-
 _U32 = struct.Struct('<I')
-
-
-def _cdr_string(out: bytearray, text: str) -> None:
-    """Append a CDR string (4-aligned length incl. NUL, bytes, NUL) to ``out``."""
-    pad = (-(len(out) - 4)) % 4
-    if pad:
-        out += b'\0' * pad
-    raw = text.encode('utf-8')
-    out += _U32.pack(len(raw) + 1)
-    out += raw
-    out += b'\0'
-
-
-def encode_joint_state(frame_id: str, stamp_ns: int, theta: float, s: float,
-                       names: Sequence[str] = (CAMSHAFT_JOINT, PROBE_JOINT)) -> bytes:
-    """CDR of a ``sensor_msgs/JointState`` sample: theta [rad], s [m] at ``stamp_ns``.
-
-    ``name`` = ``names`` (camshaft, probe), ``position`` = (theta, s), no velocity or
-    effort. Byte-identical to the rosbags typestore's ``serialize_cdr``.
-    """
-    return encode_joint_state_positions(frame_id, stamp_ns, names, (theta, s))
-
-
-def encode_joint_states(frame_id: str, stamp_ns: Any, theta: Any, s: Any) -> list[bytes]:
-    """CDR of many JointState samples of one feature at once (vectorised).
-
-    Same bytes as ``encode_joint_state(frame_id, stamp_ns[k], theta[k], s[k])`` for
-    every k; stamps [ns] as int64, theta [rad], s [m] as float64 arrays of one length.
-    """
-    st = np.asarray(stamp_ns, dtype=np.int64).reshape(-1)
-    th = np.asarray(theta, dtype='<f8').reshape(-1)
-    sv = np.asarray(s, dtype='<f8').reshape(-1)
-    if not st.size == th.size == sv.size:
-        raise InputError('encode_joint_states', (st.size, th.size, sv.size),
-                         'stamps, theta and s of the same length')
-    template = np.frombuffer(encode_joint_state(frame_id, 0, 0.0, 0.0), dtype=np.uint8)
-    size = template.size
-    mat = np.empty((st.size, size), dtype=np.uint8)
-    mat[:] = template
-    sec, nsec = np.divmod(st, 1_000_000_000)
-    mat[:, 4:8] = sec.astype('<i4').view(np.uint8).reshape(-1, 4)
-    mat[:, 8:12] = nsec.astype('<u4').view(np.uint8).reshape(-1, 4)
-    mat[:, size - 24:size - 16] = th.view(np.uint8).reshape(-1, 8)
-    mat[:, size - 16:size - 8] = sv.view(np.uint8).reshape(-1, 8)
-    return [row.tobytes() for row in mat]
-
-
-def encode_joint_state_positions(frame_id: str, stamp_ns: int, names: Sequence[str],
-                                 positions: Sequence[float]) -> bytes:
-    """CDR of a JointState with arbitrary ``names`` and ``positions`` (same length or not:
-    used to build irregular test bags)."""
-    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
-    out = bytearray(b'\x00\x01\x00\x00')
-    out += struct.pack('<iI', sec, nanosec)
-    _cdr_string(out, frame_id)
-    out += b'\0' * ((-(len(out) - 4)) % 4)
-    out += _U32.pack(len(names))
-    for name in names:
-        _cdr_string(out, name)
-    out += b'\0' * ((-(len(out) - 4)) % 4)
-    out += _U32.pack(len(positions))
-    if len(positions):
-        out += b'\0' * ((-(len(out) - 4)) % 8)
-        out += struct.pack(f'<{len(positions)}d', *positions)
-    out += b'\0\0\0\0\0\0\0\0'   # empty velocity and effort sequences
-    return bytes(out)
-
-
-def encode_string(text: str) -> bytes:
-    """CDR of a ``std_msgs/String``."""
-    out = bytearray(b'\x00\x01\x00\x00')
-    _cdr_string(out, text)
-    return bytes(out)
-
-
-def encode_table(label: str, columns: Sequence[str], data: Any) -> bytes:
-    """CDR of a ``std_msgs/Float64MultiArray`` in the layout of architecture.md.
-
-    ``dim[0] = (label, rows, rows*cols)``, ``dim[1] = (','.join(columns), cols, cols)``,
-    ``data`` row-major float64 of shape (rows, len(columns)).
-    """
-    store = typestore()
-    arr = np.ascontiguousarray(data, dtype=np.float64)
-    cols = len(columns)
-    if arr.ndim != 2 or arr.shape[1] != cols:
-        raise InputError(f'table {label}.data', arr.shape, f'shape (rows, {cols})')
-    rows = arr.shape[0]
-    dim_t = store.types['std_msgs/msg/MultiArrayDimension']
-    layout = store.types['std_msgs/msg/MultiArrayLayout'](
-        dim=[dim_t(label=label, size=rows, stride=rows * cols),
-             dim_t(label=','.join(columns), size=cols, stride=cols)],
-        data_offset=0)
-    msg = store.types['std_msgs/msg/Float64MultiArray'](layout=layout, data=arr.reshape(-1))
-    return bytes(store.serialize_cdr(msg, 'std_msgs/msg/Float64MultiArray'))
-
-
-def encode_statuses(statuses: Iterable[Any], stamp_ns: int = 0) -> bytes:
-    """CDR of a ``diagnostic_msgs/DiagnosticArray`` of ``outputs.Status`` objects."""
-    store = typestore()
-    status_t = store.types['diagnostic_msgs/msg/DiagnosticStatus']
-    kv_t = store.types['diagnostic_msgs/msg/KeyValue']
-    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
-    header = store.types['std_msgs/msg/Header'](
-        stamp=store.types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec),
-        frame_id='')
-    msg = store.types['diagnostic_msgs/msg/DiagnosticArray'](header=header, status=[
-        status_t(level=int(st.level), name=st.name, message=st.message,
-                 hardware_id=st.hardware_id,
-                 values=[kv_t(key=str(k), value=str(v)) for k, v in st.values.items()])
-        for st in statuses])
-    return bytes(store.serialize_cdr(msg, 'diagnostic_msgs/msg/DiagnosticArray'))
-
-
-def encode_output(output: Output, stamp_ns: int | None = None) -> bytes:
-    """CDR of a neutral output (TableOutput, StatusOutput, TextOutput).
-
-    A StatusOutput's header stamp is its ``stamp_ns`` unless ``stamp_ns`` is given.
-    """
-    if isinstance(output, TableOutput):
-        return encode_table(output.label, output.columns, output.data)
-    if isinstance(output, StatusOutput):
-        stamp = output.stamp_ns if stamp_ns is None or output.stamp_ns else stamp_ns
-        return encode_statuses(output.statuses, stamp)
-    if isinstance(output, TextOutput):
-        return encode_string(output.text)
-    raise InputError('output', type(output).__name__,
-                     'TableOutput, StatusOutput or TextOutput')
-
-
-def decode(cdr: bytes | memoryview, msgtype: str) -> Any:
-    """Decode CDR bytes of ROS type ``msgtype`` into a rosbags message object."""
-    return typestore().deserialize_cdr(cdr, msgtype)
-
-
-def table_from_msg(msg: Any) -> tuple[str, tuple[str, ...], NDArray[np.float64]]:
-    """(label, columns, data (rows, cols)) of a Float64MultiArray in our layout."""
-    dims = msg.layout.dim
-    if len(dims) != 2:
-        raise InputError('layout.dim', len(dims), '2 dimensions (rows, columns)')
-    columns = tuple(dims[1].label.split(',')) if dims[1].label else ()
-    data = np.asarray(msg.data, dtype=np.float64)[msg.layout.data_offset:]
-    return dims[0].label, columns, data[: dims[0].size * dims[1].size].reshape(
-        dims[0].size, dims[1].size)
-
-
-def statuses_from_msg(msg: Any) -> list[dict[str, Any]]:
-    """The statuses of a DiagnosticArray as dicts (name, level, message, values)."""
-    return [{'name': st.name, 'level': int(st.level), 'message': st.message,
-             'hardware_id': st.hardware_id,
-             'values': {kv.key: kv.value for kv in st.values}} for st in msg.status]
 
 
 # ------------------------------------------------------------------------- readers
@@ -685,7 +478,7 @@ def iter_messages(path: str | Path, topics: Iterable[str] | None = None,
         reader.close()
 
 
-SCENE_TOPIC = '/bench/scene'
+SCENE_TOPIC = SCENE
 
 
 class BagScene(NamedTuple):

@@ -31,6 +31,8 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
+from cam_metrology.wire.topics import JOINT_STATES
+
 OK, WARN, ERROR = 0, 1, 2   # diagnostic_msgs/DiagnosticStatus levels
 
 
@@ -139,7 +141,7 @@ class FeatureLoss:
         if feature_id in self.seen:
             self.completed.add(feature_id)
 
-    def problem(self, feature_id: str, topic: str = '/bench/joint_states') -> str:
+    def problem(self, feature_id: str, topic: str = JOINT_STATES) -> str:
         """Why a feature's result rests on partial data ('' if it does not)."""
         out = []
         if self.of(feature_id):
@@ -178,7 +180,7 @@ def loss_status(losses: Sequence[SequenceLoss], extra: str = '') -> tuple[int, s
 
 
 def mark_partial(outputs: Sequence[Any], features: FeatureLoss, losses: Sequence[SequenceLoss],
-                 topic: str = '/bench/joint_states') -> list[Any]:
+                 topic: str = JOINT_STATES) -> list[Any]:
     """Outputs of a core with the input loss made visible (``cam_metrology.outputs``):
 
     * a Status named after a feature with lost samples, or one split in parts (its

@@ -7,26 +7,17 @@ from __future__ import annotations
 import json
 from typing import Any
 
-#: topic of the metrology core's JSON report
-REPORT_TOPIC = '/metrology/report'
+from cam_metrology.wire.topics import METROLOGY_REPORT as REPORT_TOPIC
 
 
 def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool,
                ) -> tuple[list[Any], list[dict[str, str]]]:
-    """The metrology core first, then every other core of the registry that imports;
-    a core that is absent or fails to import is listed as skipped (with the reason)."""
-    from cam_metrology.registry import CORES, load_core_class
+    """The metrology core first, then (unless ``only_metrology``) every other core of the
+    registry; the second item (what was skipped) is empty: every core is in the tree."""
+    from cam_metrology.registry import CORES
 
-    cores = [load_core_class('metrology')(params.get('metrology'))]
-    skipped = []
-    for node in ([] if only_metrology else [n for n in CORES if n != 'metrology']):
-        try:
-            cls = load_core_class(node)
-        except ImportError as exc:   # not written yet, or broken in this tree
-            skipped.append({'what': node, 'why': f'{node} core not available: {exc}'})
-            continue
-        cores.append(cls(params.get(node)))
-    return cores, skipped
+    nodes = ['metrology'] + ([] if only_metrology else [n for n in CORES if n != 'metrology'])
+    return [CORES[node](params.get(node)) for node in nodes], []
 
 
 def replay(bag: str, cores: list[Any]) -> Any:

@@ -1,8 +1,9 @@
 """Transport-neutral outputs of the node cores.
 
-A node core (see ``core.NodeCore``) returns these plain objects; the ROS adapter turns
-them into rclpy messages and the offline path into CDR for a bag (``bagio``). Each maps
-onto one standard ROS message type:
+A node core (see ``core.NodeCore``) returns these plain objects; ``wire.layouts``
+encodes them (the one encoder: the live nodes publish its bytes, the bag writer stores
+them) and ``wire.plots`` derives their plot views. Each maps onto one standard ROS
+message type:
 
 * ``TableOutput``  -> ``std_msgs/msg/Float64MultiArray``: ``layout.dim[0]`` has
   ``label`` = the table's ``label`` (e.g. ``lobe_1`` or ``lobe_1/spline``) and
@@ -61,14 +62,3 @@ class TextOutput:
 
 
 Output = Union[TableOutput, StatusOutput, TextOutput]
-
-MSGTYPE = {
-    TableOutput: 'std_msgs/msg/Float64MultiArray',
-    StatusOutput: 'diagnostic_msgs/msg/DiagnosticArray',
-    TextOutput: 'std_msgs/msg/String',
-}
-
-
-def msgtype_of(output: Output) -> str:
-    """ROS 2 type name (``pkg/msg/Type``) of an output."""
-    return MSGTYPE[type(output)]

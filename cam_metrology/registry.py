@@ -1,28 +1,24 @@
-"""Node cores by node name, as ``'module:Class'`` strings (imported on demand)."""
+"""The node cores by node name (the pure-Python cores the ROS nodes and ``analyze`` run)."""
 from __future__ import annotations
 
-import importlib
 from typing import Any
 
-CORES: dict[str, str] = {
-    'metrology': 'cam_metrology.metrology.core:MetrologyCore',
-    'reconstruction': 'cam_metrology.reconstruction.core:ReconstructionCore',
-    'dynamics': 'cam_metrology.dynamics.core:DynamicsCore',
+from cam_metrology.dynamics.core import DynamicsCore
+from cam_metrology.metrology.core import MetrologyCore
+from cam_metrology.reconstruction.core import ReconstructionCore
+
+CORES: dict[str, Any] = {
+    'metrology': MetrologyCore,
+    'reconstruction': ReconstructionCore,
+    'dynamics': DynamicsCore,
 }
 
 
 def load_core_class(node: str) -> Any:
-    """The core class of ``node``; ModuleNotFoundError if it is not written yet."""
-    module_name, class_name = CORES[node].split(':')
-    return getattr(importlib.import_module(module_name), class_name)
+    """The core class of node ``node`` (KeyError for a name not in ``CORES``)."""
+    return CORES[node]
 
 
 def available_cores() -> dict[str, Any]:
-    """Node name -> core class, for every core that exists in this tree."""
-    found = {}
-    for node in CORES:
-        try:
-            found[node] = load_core_class(node)
-        except ModuleNotFoundError:
-            continue
-    return found
+    """Node name -> core class, for every core."""
+    return dict(CORES)

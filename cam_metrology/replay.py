@@ -42,7 +42,11 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_metrology import bagio
-from cam_metrology.outputs import Output, TextOutput, msgtype_of
+from cam_metrology.outputs import Output, TextOutput
+from cam_metrology.wire.cdr import decode
+from cam_metrology.wire.layouts import encode_output, msgtype_of
+from cam_metrology.wire.plots import plot_messages
+from cam_metrology.wire.topics import JOINT_STATES, METROLOGY_REPORT, PLOT_TOPICS
 
 __all__ = ['StampedOutput', 'OfflineResult', 'run_offline', 'write_outputs',
            'order_cores', 'TICK_PERIOD_NS', 'MAX_TICKS_PER_GAP']
@@ -81,7 +85,7 @@ class OfflineResult:
         """The outputs published on ``topic``, in order."""
         return [o.output for o in self.outputs if o.output.topic == topic]
 
-    def report(self, topic: str = '/metrology/report') -> dict[str, Any] | None:
+    def report(self, topic: str = METROLOGY_REPORT) -> dict[str, Any] | None:
         """The last JSON report published on ``topic`` (None if there is none)."""
         texts = [o for o in self.by_topic(topic) if isinstance(o, TextOutput)]
         return json.loads(texts[-1].text) if texts else None
@@ -134,7 +138,7 @@ class _Router:
             self.routed += 1
             if self.routed > MAX_ROUTED:
                 raise InputError('cores', out.topic, 'cores whose outputs do not loop')
-            msg = bagio.decode(bagio.encode_output(out, stamp_ns), msgtype_of(out))
+            msg = decode(encode_output(out, stamp_ns), msgtype_of(out))
             for core in targets:
                 queue += [(core, o) for o in (core.handle(out.topic, msg, stamp_ns) or ())]
 
@@ -174,7 +178,7 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     topics = bagio.bag_topics(bag)
     result = OfflineResult(bag=bag, regenerated_topics=tuple(sorted(published & set(topics))))
     router = _Router(cores, result)
-    joints = bagio.JOINT_STATES
+    joints = JOINT_STATES
     samples = (bagio.read_joint_states(bag) if joints in wanted and joints in topics
                else bagio.decode_joint_states([]))
     others = list(bagio.iter_messages(bag, sorted(wanted - {joints}))) \
@@ -250,22 +254,35 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
 
 
 def write_outputs(result: OfflineResult, out_bag: str | Path, *,
-                  compression: bool = False) -> int:
+                  compression: bool = True, plots: bool = True) -> int:
     """A new bag with every message of the input bag (bytes unchanged, except topics
     the cores regenerated) and every output, merged in log-time order (an output after
-    the input messages of the same log time); returns the number of outputs written."""
+    the input messages of the same log time); with ``plots`` also the plot views of
+    every output (``wire.plots``: curves, per-part values, statuses on /diagnostics),
+    as the live nodes publish them. Returns the number of outputs written."""
     import heapq
 
     with bagio.BagWriter(out_bag, compression=compression) as writer:
+        regenerated = set(result.regenerated_topics)
+        if plots:   # the plot views of a recorded live run are regenerated too
+            regenerated |= set(PLOT_TOPICS)
         topics = bagio.add_topics_like(writer, result.bag, [
-            t for t in bagio.bag_topics(result.bag) if t not in result.regenerated_topics])
-        inputs = ((m.stamp_ns, 0, i, m) for i, m in enumerate(
+            t for t in bagio.bag_topics(result.bag) if t not in regenerated])
+        inputs = ((m.stamp_ns, 0, i, (m.topic, m.msg)) for i, m in enumerate(
             bagio.iter_messages(result.bag, list(topics), raw=True)))
         outputs = ((o.stamp_ns, 1, i, o) for i, o in enumerate(result.outputs))
-        for stamp, kind, _, item in heapq.merge(inputs, outputs,
+        views = ((p.stamp_ns, 2, i, (p.topic, p.cdr)) for i, p in enumerate(
+            p for o in (result.outputs if plots else ()) for p in plot_messages(
+                o.output, o.stamp_ns)))
+        for stamp, kind, _, item in heapq.merge(inputs, outputs, _sorted(views),
                                                 key=lambda x: (x[0], x[1], x[2])):
-            if kind == 0:
-                writer.write(item.topic, stamp, item.msg)
-            else:
+            if kind == 1:
                 writer.write_output(item.output, stamp)
+            else:
+                writer.write(item[0], stamp, item[1])
     return len(result.outputs)
+
+
+def _sorted(items: Iterable[tuple[int, int, int, Any]]) -> list[tuple[int, int, int, Any]]:
+    """The plot messages in log-time order (curve points run past their output's time)."""
+    return sorted(items, key=lambda x: (x[0], x[2]))

@@ -332,7 +332,7 @@ def iter_joint_state_messages(run: BenchRun) -> Iterator[tuple[int, str, float, 
 
 
 def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = None, *,
-                  compression: bool = False,
+                  compression: bool = True,
                   progress: Callable[[int, int], None] | None = None) -> BenchRun:
     """Simulate and record a bag as the bench + recorder would (returns the run).
 
@@ -341,31 +341,30 @@ def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = Non
     ``/bench/feature_done`` after each feature's last sample. ``progress(done, total)``
     is called every 10 000 samples.
     """
-    from cam_metrology import bagio
+    from cam_metrology.bagio import BagWriter
+    from cam_metrology.wire.cdr import encode_joint_states, encode_string
+    from cam_metrology.wire.topics import FEATURE_DONE, JOINT_STATES, SCENE, TOPIC_TYPES, TRUTH
 
     run = simulate(scene, params)
     total = run.sample_count
     first = int(run.features[0].stamp_ns[0]) if run.features else DEFAULT_START_NS
-    with bagio.BagWriter(path, compression=compression) as writer:
-        for topic in ('/bench/scene', '/bench/truth', bagio.JOINT_STATES,
-                      '/bench/feature_done'):
-            writer.add_topic(topic, bagio.TOPIC_TYPES[topic])
-        writer.write('/bench/scene', first - 2_000_000, bagio.encode_string(scene.text))
-        writer.write('/bench/truth', first - 1_000_000,
-                     bagio.encode_string(json.dumps(run.truth, sort_keys=True)))
+    with BagWriter(path, compression=compression) as writer:
+        for topic in (SCENE, TRUTH, JOINT_STATES, FEATURE_DONE):
+            writer.add_topic(topic, TOPIC_TYPES[topic])
+        writer.write(SCENE, first - 2_000_000, encode_string(scene.text))
+        writer.write(TRUTH, first - 1_000_000,
+                     encode_string(json.dumps(run.truth, sort_keys=True)))
         done = 0
         write = writer.write
-        topic = bagio.JOINT_STATES
         for feat in run.features:
             stamps = feat.stamp_ns.tolist()
-            cdrs = bagio.encode_joint_states(feat.id, feat.stamp_ns, feat.theta, feat.s)
+            cdrs = encode_joint_states(feat.id, feat.stamp_ns, feat.theta, feat.s)
             for stamp, cdr in zip(stamps, cdrs):
-                write(topic, stamp, cdr)
+                write(JOINT_STATES, stamp, cdr)
                 done += 1
                 if progress is not None and done % 10_000 == 0:
                     progress(done, total)
-            writer.write('/bench/feature_done', stamps[-1] + 1000,
-                         bagio.encode_string(feat.id))
+            writer.write(FEATURE_DONE, stamps[-1] + 1000, encode_string(feat.id))
     if progress is not None:
         progress(total, total)
     return run

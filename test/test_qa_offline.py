@@ -242,7 +242,7 @@ def test_analyze_and_run_read_parameter_files_alike(tmp_path, config_dir):
     """`analyze --params` and `run --params` share one reader (rcl's YAML typing): the
     shipped files and a YAML-1.1 exponent without a dot give the same values to both."""
     from cam_metrology.cli.analyze import load_params
-    from cam_metrology.nodes.params import read_params_file
+    from cam_metrology.params import read_params_file
     for node in ('metrology', 'reconstruction', 'dynamics'):
         path = config_dir / f'{node}.yaml'
         assert load_params(str(path))[node] == read_params_file(path, node)

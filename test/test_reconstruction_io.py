@@ -11,9 +11,9 @@ import pytest
 
 from cam_design.errors import InputError
 from cam_metrology.cli import main
-from cam_metrology.reconstruction.samples import (read_csv_table, read_gauge_file,
-                                                  read_table_file, table_from_message)
+from cam_metrology.reconstruction.samples import read_csv_table, read_gauge_file, read_table_file
 from cam_metrology.reconstruction.synthetic import DEG, PolynomialLobe, simulate
+from cam_metrology.wire.layouts import table_from_msg
 
 LOBE = PolynomialLobe()
 REPO = Path(__file__).resolve().parent.parent
@@ -115,13 +115,13 @@ def test_gauge_bad_units_and_missing_file(tmp_path):
 
 def test_message_tables():
     data = np.column_stack([np.arange(4.0), np.arange(4.0) * 2, np.zeros(4)])
-    label, cols, arr = table_from_message(msg('lobe_1', ('alpha_rad', 'lift_m', 'x'), data))
+    label, cols, arr = table_from_msg(msg('lobe_1', ('alpha_rad', 'lift_m', 'x'), data))
     assert label == 'lobe_1' and cols == ('alpha_rad', 'lift_m', 'x')
     assert np.array_equal(arr, data)
     bad = msg('lobe_1', ('alpha_rad', 'lift_m', 'x'), data)
     bad.data = bad.data[:-1]
     with pytest.raises(InputError, match='lobe_1.data'):
-        table_from_message(bad)
+        table_from_msg(bad)
 
 
 # --- CLI ---------------------------------------------------------------------------------

@@ -4,7 +4,7 @@ Checks: parameters declared with descriptors and passed to the core; the scene a
 samples reach ``handle`` with the right types; TableOutput / StatusOutput /
 TextOutput come out as Float64MultiArray / DiagnosticArray / String with the layout
 of architecture.md; ``finish`` publishes a transient-local report that a late
-subscriber still receives; the topic table agrees with bagio's.
+subscriber still receives.
 """
 from __future__ import annotations
 
@@ -60,18 +60,6 @@ class FakeCore:
         return [TextOutput('/metrology/report', f'{{"n": {len(self.rows)}}}')]
 
 
-def test_topic_table_agrees_with_bagio() -> None:
-    from cam_metrology import bagio
-    from cam_metrology.nodes.topics import TOPICS
-
-    assert {t: ty for t, (ty, _) in TOPICS.items()} == bagio.TOPIC_TYPES
-    # every latched topic of architecture.md is transient local here too; the other
-    # outputs are offered transient local on purpose (late joiners; topics.RESULTS)
-    assert bagio.LATCHED_TOPICS <= {t for t, (_, q) in TOPICS.items() if q.transient_local}
-    for topic in ('/bench/scene', '/bench/truth', '/bench/feature_done', '/metrology/report'):
-        assert TOPICS[topic][1].bag_yaml() == bagio.default_qos_yaml(topic)
-
-
 def test_adapter_publishes_core_outputs(ros_domain: int) -> None:
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.parameter import Parameter
@@ -80,7 +68,8 @@ def test_adapter_publishes_core_outputs(ros_domain: int) -> None:
 
     from cam_metrology.nodes.adapter import CoreNode
     from cam_metrology.nodes.runtime import RosProcess
-    from cam_metrology.nodes.topics import TOPICS
+    from cam_metrology.nodes.topics import profile
+    from cam_metrology.wire.topics import TOPICS
 
     proc = RosProcess(['x', '--ros-args', '-p', 'fake_metrology:gain:=10.0'],
                       handle_signals=False)
@@ -94,11 +83,11 @@ def test_adapter_publishes_core_outputs(ros_domain: int) -> None:
         got: dict[str, list[Any]] = {'/metrology/lift': [], '/metrology/result': []}
         for topic, cls in (('/metrology/lift', Float64MultiArray),
                            ('/metrology/result', DiagnosticArray)):
-            probe.create_subscription(cls, topic, got[topic].append, TOPICS[topic][1].profile())
+            probe.create_subscription(cls, topic, got[topic].append, profile(TOPICS[topic][1]))
         scene_pub = probe.create_publisher(String, '/bench/scene',
-                                           TOPICS['/bench/scene'][1].profile())
+                                           profile(TOPICS['/bench/scene'][1]))
         js_pub = probe.create_publisher(JointState, '/bench/joint_states',
-                                        TOPICS['/bench/joint_states'][1].profile())
+                                        profile(TOPICS['/bench/joint_states'][1]))
         scene_pub.publish(String(data='camshaft_id: fake'))
         assert proc.spin_until(lambda: js_pub.get_subscription_count() >= 1
                                and node.core.scene is not None
@@ -124,7 +113,7 @@ def test_adapter_publishes_core_outputs(ros_domain: int) -> None:
         # a subscriber created after the report still gets it (transient local)
         reports: list[Any] = []
         probe.create_subscription(String, '/metrology/report', reports.append,
-                                  TOPICS['/metrology/report'][1].profile())
+                                  profile(TOPICS['/metrology/report'][1]))
         assert proc.spin_until(lambda: bool(reports), 10.0)
         assert reports[0].data == '{"n": 6}'
         assert node.errors == 0

@@ -102,7 +102,7 @@ def test_run_params_file_malformed_or_mistyped(no_ros: None, tmp_path: Path,
 
 def test_default_parameter_files_pass(config_dir: Path) -> None:
     from cam_metrology.nodes import NODES, NODE_NAMES, parameter_table, validate_parameters
-    from cam_metrology.nodes.params import read_params_file
+    from cam_metrology.params import read_params_file
 
     for name in NODES:
         path = config_dir / f'{NODE_NAMES[name]}.yaml'
@@ -116,7 +116,7 @@ def test_default_parameter_files_pass(config_dir: Path) -> None:
 
 
 def test_parameter_type_messages() -> None:
-    from cam_metrology.nodes.params import check_value, expected_type
+    from cam_metrology.params import check_value, expected_type
 
     assert expected_type(3) == 'an integer'
     assert expected_type(True) == 'true or false'

@@ -3,7 +3,8 @@
 The demo claims its own domain (flock) and runs every node as a subprocess; the bag
 it leaves must open with rosbags and with mcap (no part of this package) and hold
 /bench/scene, /bench/joint_states (every sample) and the output topics of every core
-that exists; the printed report scores each feature against /bench/truth.
+that exists and their plot views, each topic with the wire table's QoS; the printed
+report scores each feature against /bench/truth.
 """
 from __future__ import annotations
 
@@ -71,6 +72,23 @@ def test_demo_end_to_end(ros_domain: int, tmp_path: Path, config_dir: Path) -> N
         for fid in ('lobe_1', 'dowel_pin'):
             line = next(ln for ln in out.stdout.splitlines() if ln.startswith(fid))
             assert 'FAILED' not in line, line
+    # the plot views of every output are published live and recorded, and every topic
+    # of the wire table is stored with the table's QoS (as simulate and analyze store it)
+    from cam_metrology import bagio
+    from cam_metrology.wire.topics import PLOT_TOPICS, TOPICS, qos_of
+    assert set(PLOT_TOPICS) <= set(counts), sorted(counts)
+    for topic in PLOT_TOPICS:
+        assert counts[topic] >= 1, topic
+    # one values message per feature and one for the part at each final report
+    import json
+    finals = sum(json.loads(m.msg.data).get('final') is True
+                 for m in bagio.iter_messages(bag, ['/metrology/report']))
+    assert finals >= 1
+    assert counts['/metrology/values'] == 3 * finals
+    qos = bagio.topic_qos_yaml(bag)
+    for topic in TOPICS:
+        if topic in qos:
+            assert qos[topic] == qos_of(topic).bag_yaml(), topic
     # the mcap library reads the same bag with no part of this package
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory

@@ -2,7 +2,6 @@
 the demo's truth scoring and readiness counts, QoS conversion."""
 from __future__ import annotations
 
-import math
 
 import pytest
 
@@ -41,11 +40,11 @@ def test_truth_scoring_and_report_table() -> None:
     from cam_metrology.nodes.demo import report_lines, truth_angle_deg, wrap180
 
     truth = {'features': {'lobe_1': {'angle_deg': 359.99, 'phase_error_deg': 0.45},
-                          'dowel_pin': {'angle_rad': 1.0}},
-             'nose_angles': {'lobe_2': -math.pi / 2}}
+                          'lobe_2': {'angle_deg': -90.0}, 'dowel_pin': {'angle_rad': 1.0}}}
     assert truth_angle_deg(truth, 'lobe_1') == pytest.approx(359.99)
     assert truth_angle_deg(truth, 'lobe_2') == pytest.approx(270.0)
-    assert truth_angle_deg({'pin_angle': math.pi}, 'dowel_pin') == pytest.approx(180.0)
+    # one spelling, the one simulate writes (features.<id>.angle_deg)
+    assert truth_angle_deg(truth, 'dowel_pin') is None
     assert truth_angle_deg(truth, 'lobe_9') is None
     assert wrap180(0.02 - 359.99) == pytest.approx(0.03)
     assert wrap180(-180.0) == 180.0
@@ -85,11 +84,12 @@ def test_downstream_subscriptions() -> None:
 def test_qos_and_message_classes() -> None:
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 
-    from cam_metrology.nodes.topics import TOPICS, message_class, qos_of, type_name_of
+    from cam_metrology.nodes.topics import message_class, profile, type_name_of
+    from cam_metrology.wire.topics import TOPICS, qos_of
 
-    scene = qos_of('/bench/scene').profile()
+    scene = profile(qos_of('/bench/scene'))
     assert (scene.durability, scene.depth) == (DurabilityPolicy.TRANSIENT_LOCAL, 1)
-    samples = qos_of('/bench/joint_states').profile()
+    samples = profile(qos_of('/bench/joint_states'))
     # keep-all (back-pressure, nothing overwritten) or keep-last deep enough
     assert samples.history == HistoryPolicy.KEEP_ALL or (
         samples.history == HistoryPolicy.KEEP_LAST and samples.depth >= 1000)

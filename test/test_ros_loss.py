@@ -70,7 +70,8 @@ def test_overrun_node_and_recorder_report_the_exact_loss(ros_domain: int,
     from cam_metrology.nodes.adapter import CoreNode
     from cam_metrology.nodes.recorder import RecorderNode
     from cam_metrology.nodes.runtime import RosProcess
-    from cam_metrology.nodes.topics import QosSpec, qos_of
+    from cam_metrology.nodes.topics import profile
+    from cam_metrology.wire.topics import QosSpec, qos_of
 
     shallow = QosSpec(reliable=True, depth=DEPTH)
     proc = RosProcess(handle_signals=False)
@@ -81,19 +82,19 @@ def test_overrun_node_and_recorder_report_the_exact_loss(ros_domain: int,
                                     reader_qos={'/bench/joint_states': shallow}))
         test = proc.add(Node('loss_test', context=proc.context))
         pub = test.create_publisher(JointState, '/bench/joint_states',
-                                    QosSpec(reliable=True, depth=10_000).profile())
+                                    profile(QosSpec(reliable=True, depth=10_000)))
         done = test.create_publisher(String, '/bench/feature_done',
-                                     qos_of('/bench/feature_done').profile())
+                                     profile(qos_of('/bench/feature_done')))
         got: dict[str, list[Any]] = {'diag': [], 'result': [], 'report': []}
         test.create_subscription(DiagnosticArray, '/diagnostics',
                                  lambda m: got['diag'].extend(m.status),
-                                 qos_of('/diagnostics').profile())
+                                 profile(qos_of('/diagnostics')))
         test.create_subscription(DiagnosticArray, '/metrology/result',
                                  lambda m: got['result'].extend(m.status),
-                                 qos_of('/metrology/result').profile())
+                                 profile(qos_of('/metrology/result')))
         test.create_subscription(String, '/metrology/report',
                                  lambda m: got['report'].append(json.loads(m.data)),
-                                 qos_of('/metrology/report').profile())
+                                 profile(qos_of('/metrology/report')))
         assert proc.spin_until(lambda: pub.get_subscription_count() == 2
                                and done.get_subscription_count() == 2, 30.0)
         frames = bagio.encode_joint_states('lobe_1', np.arange(N1 + N2, dtype=np.int64),

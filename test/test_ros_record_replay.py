@@ -51,16 +51,17 @@ def test_record_stop_signal_leaves_complete_bag(ros_domain: int, tmp_path: Path,
 
     from cam_metrology import bagio
     from cam_metrology.nodes.runtime import RosProcess
-    from cam_metrology.nodes.topics import TOPICS
+    from cam_metrology.nodes.topics import profile
+    from cam_metrology.wire.topics import TOPICS
 
     out = tmp_path / 'rec'
     proc = RosProcess(handle_signals=False)
     rec = None
     try:
         node = proc.add(Node('record_test', context=proc.context))
-        scene = node.create_publisher(String, '/bench/scene', TOPICS['/bench/scene'][1].profile())
+        scene = node.create_publisher(String, '/bench/scene', profile(TOPICS['/bench/scene'][1]))
         samples = node.create_publisher(JointState, '/bench/joint_states',
-                                        TOPICS['/bench/joint_states'][1].profile())
+                                        profile(TOPICS['/bench/joint_states'][1]))
         extra = node.create_publisher(String, '/extra/notes', 10)
         scene.publish(String(data='camshaft_id: rec-test\n'))   # before the recorder exists
         rec = cam_bench('record', str(out), '--topics', '/extra/notes:std_msgs/msg/String')
@@ -117,7 +118,8 @@ def test_record_stops_promptly_while_samples_keep_coming(
     from cam_metrology import bagio
     from cam_metrology.nodes.recorder import STOP_DRAIN_S
     from cam_metrology.nodes.runtime import RosProcess
-    from cam_metrology.nodes.topics import TOPICS
+    from cam_metrology.nodes.topics import profile
+    from cam_metrology.wire.topics import TOPICS
 
     out = tmp_path / 'rec'
     proc = RosProcess(handle_signals=False)
@@ -125,7 +127,7 @@ def test_record_stops_promptly_while_samples_keep_coming(
     try:
         node = proc.add(Node('record_flood', context=proc.context))
         samples = node.create_publisher(JointState, '/bench/joint_states',
-                                        TOPICS['/bench/joint_states'][1].profile())
+                                        profile(TOPICS['/bench/joint_states'][1]))
         rec = cam_bench('record', str(out))
         assert proc.spin_until(lambda: samples.get_subscription_count() >= 1
                                or rec.poll() is not None, 30.0), 'recorder never matched'
@@ -184,7 +186,8 @@ def test_replay_delivers_everything_in_order_with_scaled_timing(ros_domain: int,
     from std_msgs.msg import String
 
     from cam_metrology.nodes.runtime import RosProcess
-    from cam_metrology.nodes.topics import TOPICS
+    from cam_metrology.nodes.topics import profile
+    from cam_metrology.wire.topics import TOPICS
 
     bag = tmp_path / 'fixture'
     span_ns = write_fixture_bag(bag)
@@ -197,7 +200,7 @@ def test_replay_delivers_everything_in_order_with_scaled_timing(ros_domain: int,
         keep_all = QoSProfile(depth=1, history=HistoryPolicy.KEEP_ALL)
         node.create_subscription(String, '/bench/scene',
                                  lambda m: events.append(('scene', time.monotonic(), m.data)),
-                                 TOPICS['/bench/scene'][1].profile())
+                                 profile(TOPICS['/bench/scene'][1]))
         node.create_subscription(JointState, '/bench/joint_states',
                                  lambda m: events.append(('js', time.monotonic(), m)), keep_all)
         node.create_subscription(String, '/bench/feature_done',

@@ -2,7 +2,8 @@
 live rclpy in this session's isolated domain: the bag holds exactly what
 ``simulate()`` produced (theta, s, frame ids bit for bit; stamps shifted by one
 constant onto the system clock, inside the run's wall time), the scene and truth,
-one /bench/feature_done per feature after its last sample, in publication order.
+one /bench/feature_done per feature after its last sample, in publication order; every
+topic stored with the QoS of the wire table, as ``simulate`` stores it.
 """
 from __future__ import annotations
 
@@ -95,3 +96,11 @@ def test_sim_to_recorder_bag_equals_simulation(ros_domain: int, tmp_path: Path,
     done = [i for i, (t, _) in enumerate(order) if t == '/bench/feature_done']
     assert [order[i][1] for i in done] == ['lobe_1', 'dowel_pin']
     assert done[0] == 2 + 1800 and done[1] == len(order) - 1
+    # one QoS per topic: the recorder stores what simulate and the bag writer store,
+    # the wire table's (transient local scene and truth, keep last 1000 samples, ...)
+    from cam_metrology.simulate import write_sim_bag
+    from cam_metrology.wire.topics import BENCH_TOPICS, qos_of
+    write_sim_bag(tmp_path / 'offline', load_scene(scene_file), SimParams(**SIM))
+    recorded, offline = bagio.topic_qos_yaml(bag), bagio.topic_qos_yaml(tmp_path / 'offline')
+    for topic in BENCH_TOPICS:
+        assert recorded[topic] == offline[topic] == qos_of(topic).bag_yaml(), topic

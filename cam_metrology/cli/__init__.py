@@ -66,15 +66,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def register_modules(sub: argparse._SubParsersAction, module_names: Sequence[str]) -> None:
-    """Call ``register(sub)`` of each module; a module not written yet is skipped."""
+    """Call ``register(sub)`` of each command module."""
     for name in module_names:
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as exc:
-            if exc.name != name:
-                raise
-            continue
-        module.register(sub)
+        importlib.import_module(name).register(sub)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -17,9 +17,8 @@ from typing import Any
 
 from cam_metrology.offline import final_report, make_cores, other_skips, replay
 from cam_metrology.plots import lift_figure
-
-LIFT_TOPIC = '/metrology/lift'
-JOINT_TOPIC = '/bench/joint_states'
+from cam_metrology.wire.topics import JOINT_STATES as JOINT_TOPIC
+from cam_metrology.wire.topics import METROLOGY_LIFT as LIFT_TOPIC
 
 
 def register(subparsers: Any) -> None:
@@ -54,7 +53,7 @@ def load_params(path: str | None) -> dict[str, dict[str, Any]]:
     if path is None:
         return {}
     from cam_design.errors import InputError
-    from cam_metrology.nodes.params import load_params_doc, section_values
+    from cam_metrology.params import load_params_doc, section_values
     from cam_metrology.registry import CORES
 
     doc = load_params_doc(path)   # the reader `cam-bench run --params` uses

@@ -125,7 +125,8 @@ def run(args: argparse.Namespace) -> int:
         core = DynamicsCore(_core_params(args, 'design'))
         if scene.valve_train is None:
             raise InputError('valve_train', None, 'a valve_train block in the scene')
-        core.handle('/bench/scene', SimpleNamespace(data=_scene_text(scene, args.feature)), 0)
+        from cam_metrology.wire.topics import SCENE
+        core.handle(SCENE, SimpleNamespace(data=_scene_text(scene, args.feature)), 0)
         kind = 'scene'
     result = _result(core, args, kind, sweep_speeds)
     _write(result, args)

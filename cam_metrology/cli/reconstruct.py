@@ -204,9 +204,11 @@ def _bag(path: Path, core: Any) -> tuple[dict[str, Any], list[str]]:
     from cam_metrology.bagio import bag_topics
     from cam_metrology.metrology.core import MetrologyCore
     from cam_metrology.replay import run_offline
+    from cam_metrology.wire.topics import (JOINT_STATES, METROLOGY_RESULT,
+                                           RECONSTRUCTION_RESULT, SCENE)
 
     topics = bag_topics(path)
-    for topic in ('/bench/scene', '/bench/joint_states'):
+    for topic in (SCENE, JOINT_STATES):
         if topics.get(topic, ('', 0))[1] <= 0:
             raise InputError(str(path), f'no {topic} messages', BAG_NEEDS)
     result = run_offline(path, [MetrologyCore(), core])
@@ -214,7 +216,7 @@ def _bag(path: Path, core: Any) -> tuple[dict[str, Any], list[str]]:
     if scene is None:
         raise InputError(str(path), 'no valid scene', BAG_NEEDS)
     problems = [f"{s['name']}: {s['message']}"
-                for topic in ('/metrology/result', '/reconstruction/result')
+                for topic in (METROLOGY_RESULT, RECONSTRUCTION_RESULT)
                 for out in result.by_topic(topic)
                 for s in _statuses(out) if s['level'] == 'ERROR']
     follower = {'probe': {'kind': scene.probe.kind, 'radius_m': scene.probe.radius}}

@@ -76,7 +76,8 @@ def register(subparsers: Any) -> None:
                         'graph when omitted)')
     p.add_argument('--only', action='store_true',
                    help='record only --topics, not the default bench/output topics')
-    p.add_argument('--compression', action='store_true', help='zstd chunk compression')
+    p.add_argument('--compression', action=argparse.BooleanOptionalAction, default=True,
+                   help='zstd chunk compression (default on; --no-compression: plain chunks)')
     p.add_argument('--events-executor', action='store_true',
                    help='use rclpy.experimental.EventsExecutor (5-7x cheaper per message)')
     p.set_defaults(func=_record)
@@ -161,7 +162,7 @@ def _replay(args: argparse.Namespace) -> int:
 def _demo(args: argparse.Namespace) -> int:
     from cam_metrology.nodes.bench_sim import sim_param_table
     from cam_metrology.nodes.demo import DemoOptions, run_demo
-    from cam_metrology.nodes.params import parse_assignments
+    from cam_metrology.params import parse_assignments
     # names and types checked before anything starts (bench-sim would ignore an unknown name)
     parse_assignments(args.sim, 'SimParams', sim_param_table(), '--sim')
     return run_demo(DemoOptions(scene=args.scene, out=args.out, rate=args.rate,

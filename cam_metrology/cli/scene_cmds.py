@@ -60,7 +60,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help='base-circle run-out amplitude, micrometres (default 0)')
     sim.add_argument('--rate', type=float, default=1000.0, metavar='HZ',
                      help='sample rate for the stamps, samples/s (default 1000)')
-    sim.add_argument('--compress', action='store_true', help='zstd chunk compression')
+    sim.add_argument('--compress', action=argparse.BooleanOptionalAction, default=True,
+                     help='zstd chunk compression (default on; --no-compress: plain chunks)')
     sim.add_argument('--quiet', action='store_true', help='no progress output')
     sim.set_defaults(func=cmd_simulate)
 

@@ -34,9 +34,11 @@ from cam_design.valve_train.report import (COLUMNS, ContactGeometry, Run, finish
                                            run_sdof)
 from cam_metrology.core import merged_parameters
 from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
+from cam_metrology.wire.layouts import table_from_msg
+from cam_metrology.wire.topics import (DYNAMICS_MOTION, DYNAMICS_RESULT, RECONSTRUCTION_PROFILE,
+                                       SCENE)
 
-SCENE, PROFILE = '/bench/scene', '/reconstruction/profile'
-MOTION, RESULT = '/dynamics/valve_motion', '/dynamics/result'
+PROFILE, MOTION, RESULT = RECONSTRUCTION_PROFILE, DYNAMICS_MOTION, DYNAMICS_RESULT
 PROFILE_COLUMNS = ('alpha_rad', 'lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
                    'jerk_m_per_rad3')
 SOURCES = ('auto', 'profile', 'design')
@@ -58,20 +60,6 @@ def _fmt(value: Any) -> str:
     if isinstance(value, list):
         return repr([[round(x, 6) for x in v] if isinstance(v, list) else v for v in value])
     return str(value)
-
-
-def table_of(msg: Any) -> tuple[str, tuple[str, ...], np.ndarray]:
-    """(label, columns, data rows x cols) of a Float64MultiArray (duck-typed)."""
-    dims = msg.layout.dim
-    if len(dims) < 2:
-        raise InputError('layout.dim', len(dims), 'two dimensions (rows, columns)')
-    label = dims[0].label
-    cols = tuple(c.strip() for c in dims[1].label.split(','))
-    rows, ncol = int(dims[0].size), int(dims[1].size)
-    data = np.asarray(msg.data, dtype=float)
-    if data.size != rows * ncol or ncol != len(cols):
-        raise InputError(f'{label}.data', data.size, f'{rows} x {ncol} values')
-    return label, cols, data.reshape(rows, ncol)
 
 
 def law_from_profile(cols: tuple[str, ...], data: np.ndarray, key: str) -> JetTableLift:
@@ -165,7 +153,7 @@ class DynamicsCore:
         self.notes.clear()
         self.active = False
         try:
-            scene = parse_scene(text, '/bench/scene')
+            scene = parse_scene(text, SCENE)
         except InputError as exc:
             return [self._status(Status('skipped/dynamics', ERROR,
                                         f'invalid scene: {exc}'), stamp_ns)]
@@ -186,7 +174,7 @@ class DynamicsCore:
         if not self.active or self.source == 'design':
             return []
         try:
-            label, cols, data = table_of(msg)
+            label, cols, data = table_from_msg(msg)
         except InputError as exc:
             return [self._status(Status('dynamics/profile', ERROR, str(exc)), stamp_ns)]
         parts = label.split('/')
@@ -228,7 +216,7 @@ class DynamicsCore:
         out: list[Output] = []
         statuses = []
         key = (lobe_key(self.scene, feature) if source == 'design'
-               else f'/reconstruction/profile {feature}/{source.split(":", 1)[-1]}')
+               else f'{PROFILE} {feature}/{source.split(":", 1)[-1]}')
         for rpm in speeds:
             name = f'{feature}/{rpm_label(rpm)}rpm'
             try:

@@ -27,9 +27,10 @@ from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
                                               joint_positions, stamp_of)
 from cam_metrology.outputs import (ERROR, OK, WARN, Output, Status, StatusOutput,
                                    TableOutput, TextOutput)
+from cam_metrology.wire import topics as wt
 
-RESULT, LIFT, REPORT = '/metrology/result', '/metrology/lift', '/metrology/report'
-SCENE, JOINTS, DONE = '/bench/scene', '/bench/joint_states', '/bench/feature_done'
+RESULT, LIFT, REPORT = wt.METROLOGY_RESULT, wt.METROLOGY_LIFT, wt.METROLOGY_REPORT
+SCENE, JOINTS, DONE = wt.SCENE, wt.JOINT_STATES, wt.FEATURE_DONE
 PIN_ID = 'dowel_pin'
 LIFT_COLUMNS = ('alpha_rad', 'lift_m', 'design_lift_m')
 

@@ -2,15 +2,16 @@
 
 * declares the core's ``PARAMETERS`` as ROS parameters (with descriptors) and builds
   the core from their values (so ``--params-file config/<node>.yaml`` sets them);
-* subscribes to ``core.subscriptions``: bench topics with the QoS of ``topics.TOPICS``
+* subscribes to ``core.subscriptions``: bench topics with the QoS of ``wire.topics``
   (/bench/scene transient local depth 1, created first; /bench/joint_states reliable
-  keep-last 20 000, see ``topics.SAMPLES``), other nodes' outputs once their
+  keep all, ``wire.topics.SAMPLES``), other nodes' outputs once their
   publisher is in the graph, transient local when it offers it
   (``topics.AdaptiveSubscriptions``: a node that matched late still gets the last 100
   outputs); every callback calls ``core.handle(topic, msg, receive_time_ns)``;
 * publishes the returned outputs on their topics, reliable, transient local (depth 1
-  for the report, 100 for the others: ``topics.RESULTS``), converted by
-  ``convert.to_message``;
+  for the report, 100 for the others: ``wire.topics.RESULTS``), encoded by
+  ``wire.layouts.encode_output`` and published as serialized bytes, each with its plot
+  views (``wire.plots``: curves, per-part values, statuses on /diagnostics);
 * cross-topic order: ROS keeps order within a topic only, so a /bench/feature_done
   can overtake the last samples of its feature (seen live: the feature was split in
   two). When the core consumes /bench/joint_states, every other message is held and
@@ -49,11 +50,12 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
 from cam_metrology.loss import FeatureLoss, SequenceLoss, loss_status, loss_values, mark_partial
-from cam_metrology.nodes import convert
-from cam_metrology.nodes.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
-                                        SCENE, STATUS,
-                                        AdaptiveSubscriptions, QosSpec, message_class, qos_of)
-from cam_metrology.outputs import Output, Status, StatusOutput, msgtype_of
+from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
+from cam_metrology.outputs import Output, Status, StatusOutput
+from cam_metrology.wire.layouts import encode_output, msgtype_of
+from cam_metrology.wire.plots import plot_messages, view_topics
+from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
+                                       SCENE, STATUS, QosSpec, qos_of)
 
 
 #: most raw samples handed to a core in one call (keeps the worker responsive)
@@ -71,26 +73,12 @@ DIAG_PERIOD = 1.0
 RX_LINGER = 0.005
 
 
-class CoreMissing(RuntimeError):
-    """The core of a node is not written yet (registry entry without a module)."""
-
-
 def load_core(name: str) -> Any:
-    """The core class registered for node ``name``; CoreMissing if absent."""
-    from cam_metrology.registry import CORES, load_core_class
+    """The core class registered for node ``name`` (ValueError for another name)."""
+    from cam_metrology.registry import CORES
     if name not in CORES:
-        raise CoreMissing(f'no core registered for node {name!r}; known: {sorted(CORES)}')
-    try:
-        return load_core_class(name)
-    except ModuleNotFoundError as exc:
-        module = CORES[name].split(':')[0]
-        if exc.name and module.startswith(exc.name):
-            raise CoreMissing(f'core of node {name!r} is missing: {CORES[name]} '
-                              'is not in this tree') from None
-        raise
-    except AttributeError:
-        raise CoreMissing(f'core of node {name!r} is missing: {CORES[name]} '
-                          'has no such class') from None
+        raise ValueError(f'no core registered for node {name!r}; known: {sorted(CORES)}')
+    return CORES[name]
 
 
 def descriptor(name: str, default: Any, description: str) -> ParameterDescriptor:
@@ -110,7 +98,7 @@ def declare_parameters(node: Node, table: dict[str, tuple[Any, str]]) -> dict[st
     """
     from rclpy.exceptions import InvalidParameterTypeException
 
-    from cam_metrology.nodes.params import check_value, expected_type
+    from cam_metrology.params import check_value, expected_type
 
     values: dict[str, Any] = {}
     for name, (default, description) in table.items():
@@ -143,6 +131,8 @@ class CoreNode(Node):
         self._pubs: dict[str, Any] = {}
         for topic, type_name in self.core.publications.items():
             self._publisher(topic, type_name)
+            for view, view_type in view_topics(topic).items():   # matched before use
+                self._publisher(view, view_type)
         self._subs: dict[str, Any] = {}
         self._held: list[tuple[int, int, str, Any]] = []   # (source ns, seq, topic, msg)
         self._seq = 0
@@ -203,14 +193,14 @@ class CoreNode(Node):
         if self._with_info and qos.depth > 1 and topic not in self.losses:
             self.losses[topic] = SequenceLoss(topic)   # latched depth-1 topics: not counted
         self._subs[topic] = self.create_subscription(
-            message_class(type_name), topic, callback, qos.profile(), raw=raw)
+            message_class(type_name), topic, callback, profile(qos), raw=raw)
 
     # -- publishing -----------------------------------------------------------------
     def _publisher(self, topic: str, type_name: str) -> Any:
         pub = self._pubs.get(topic)
         if pub is None:
             pub = self.create_publisher(message_class(type_name), topic,
-                                        qos_of(topic).profile())
+                                        profile(qos_of(topic)))
             self._pubs[topic] = pub
         return pub
 
@@ -224,9 +214,12 @@ class CoreNode(Node):
                     for st in out.statuses:
                         self.feature_loss.result_published(st.name)
         for out in outputs or ():
-            pub = self._publisher(out.topic, msgtype_of(out))
-            pub.publish(convert.to_message(out, self.now_ns()))
+            now = self.now_ns()
+            self._publisher(out.topic, msgtype_of(out)).publish(encode_output(out, now))
             self.published[out.topic] = self.published.get(out.topic, 0) + 1
+            for view in plot_messages(out, now):   # curves, values, /diagnostics
+                self._publisher(view.topic, view.msgtype).publish(view.cdr)
+                self.published[view.topic] = self.published.get(view.topic, 0) + 1
 
     def subscription_count(self, topic: str) -> int:
         """Matched subscriptions of this node's publisher on ``topic`` (0 if none)."""
@@ -288,11 +281,9 @@ class CoreNode(Node):
             return
         self._diag_last = now
         st = self.input_status()
-        if self._diag_pub is None:
-            self._diag_pub = self.create_publisher(message_class(STATUS), DIAGNOSTICS,
-                                                   qos_of(DIAGNOSTICS).profile())
-        self._diag_pub.publish(convert.to_message(StatusOutput(DIAGNOSTICS, (st,)),
-                                                  self.now_ns()))
+        if self._diag_pub is None:   # the same publisher as the results' statuses
+            self._diag_pub = self._publisher(DIAGNOSTICS, STATUS)
+        self._diag_pub.publish(encode_output(StatusOutput(DIAGNOSTICS, (st,)), self.now_ns()))
         said = (st.level, st.message)
         if st.level and said != self._diag_said:
             self.get_logger().warning(f'{self.core.name}: {st.message}')
@@ -529,7 +520,7 @@ class CoreNode(Node):
         with self.lock:
             self._guarded('finish', self.core.finish)
             self.publish_diagnostics(force=True)
-        pubs = list(self._pubs.values()) + ([self._diag_pub] if self._diag_pub else [])
+        pubs = list(self._pubs.values())   # /diagnostics included (_publisher)
         from cam_metrology.nodes.runtime import wait_all_acked
         return wait_all_acked(pubs, ack_timeout)
 
@@ -559,16 +550,10 @@ def run_core_node(name: str, args: Sequence[str] | None = None, *,
                   events_executor: bool = False) -> int:
     """Run node ``name`` (metrology | reconstruction | dynamics) until SIGINT/SIGTERM.
 
-    Returns 0, 1 if the core raised, 3 if the core is missing (printed, never faked).
+    Returns 0, or 1 if the core raised.
     """
-    import sys
-
     from cam_metrology.nodes.runtime import RosProcess
-    try:
-        core_cls = load_core(name)
-    except CoreMissing as exc:
-        print(f'cam-bench run {name}: {exc}', file=sys.stderr)
-        return 3
+    core_cls = load_core(name)
     proc = RosProcess(args, events_executor=events_executor)
     node = None
     try:

@@ -35,8 +35,8 @@ from std_msgs.msg import String
 
 from cam_metrology.nodes.adapter import declare_parameters
 from cam_metrology.nodes.runtime import publish_retrying, wait_all_acked
-from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, SCENE, TOPICS, TRUTH,
-                                        keep_all_profile)
+from cam_metrology.nodes.topics import keep_all_profile, profile
+from cam_metrology.wire.topics import FEATURE_DONE, JOINT_STATES, SCENE, TOPICS, TRUTH
 
 SAMPLES_WRITER = keep_all_profile()
 
@@ -153,7 +153,7 @@ class BenchSimNode(Node):
         # publish once full (Fast DDS drops its oldest sample from the front of a
         # vector); keep-all holds only the unacknowledged samples (heartbeat 0.1 s).
         self.pub = {topic: self.create_publisher(
-            cls, topic, (SAMPLES_WRITER if topic == JOINT_STATES else TOPICS[topic][1].profile()))
+            cls, topic, (SAMPLES_WRITER if topic == JOINT_STATES else profile(TOPICS[topic][1])))
             for topic, cls in ((SCENE, String), (TRUTH, String),
                                (JOINT_STATES, JointState), (FEATURE_DONE, String))}
         self.sent = 0

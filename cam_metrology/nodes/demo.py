@@ -26,7 +26,6 @@ one with SIGINT in data-flow order, which is what makes the shutdown lossless:
 from __future__ import annotations
 
 import json
-import math
 import os
 import shutil
 import signal
@@ -38,10 +37,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, TextIO
 
-from cam_metrology.nodes.topics import (FEATURE_DONE, JOINT_STATES, METROLOGY_REPORT,
-                                        OUTPUT_TOPICS, TOPICS, TRUTH, AdaptiveSubscriptions)
+from cam_metrology.nodes.topics import AdaptiveSubscriptions, profile
+from cam_metrology.wire.topics import (DYNAMICS_RESULT, FEATURE_DONE, JOINT_STATES,
+                                       METROLOGY_REPORT, METROLOGY_RESULT, OUTPUT_TOPICS,
+                                       RECONSTRUCTION_RESULT, TOPICS, TRUTH)
 
-STATUS_TOPICS = ('/metrology/result', '/reconstruction/result', '/dynamics/result')
+STATUS_TOPICS = (METROLOGY_RESULT, RECONSTRUCTION_RESULT, DYNAMICS_RESULT)
 
 
 @dataclass
@@ -124,30 +125,12 @@ def stop_child(child: Child, sigint_wait: float = 20.0, term_wait: float = 5.0,
 
 
 def truth_angle_deg(truth: dict[str, Any], fid: str) -> float | None:
-    """The true encoder angle [deg, 0..360) of feature ``fid`` in the /bench/truth JSON.
-
-    Accepts ``features.<id>.angle_deg``/``angle`` [rad], ``nose_angles.<id>`` [rad] and
-    ``pin_angle`` [rad] for the dowel pin.
-    """
+    """The true encoder angle [deg, 0..360) of feature ``fid`` in the /bench/truth JSON
+    (``features.<id>.angle_deg``, as ``simulate`` writes it), None if it has none."""
     feats = truth.get('features')
     entry = feats.get(fid) if isinstance(feats, dict) else None
-    if isinstance(feats, list):
-        entry = next((f for f in feats if isinstance(f, dict) and f.get('id') == fid), None)
-    if isinstance(entry, dict):
-        for key, scale in (('angle_deg', 1.0), ('angle', 180 / math.pi),
-                           ('nose_angle', 180 / math.pi), ('center_angle', 180 / math.pi),
-                           ('centre_angle', 180 / math.pi)):
-            if isinstance(entry.get(key), (int, float)):
-                return float(entry[key]) * scale % 360.0
-    for key in ('nose_angles', 'nose_angle', 'angles'):
-        table = truth.get(key)
-        if isinstance(table, dict) and isinstance(table.get(fid), (int, float)):
-            return math.degrees(float(table[fid])) % 360.0
-    if fid == 'dowel_pin':
-        for key in ('pin_angle', 'dowel_pin_angle', 'pin_centre_angle', 'pin_center_angle'):
-            if isinstance(truth.get(key), (int, float)):
-                return math.degrees(float(truth[key])) % 360.0
-    return None
+    value = entry.get('angle_deg') if isinstance(entry, dict) else None
+    return float(value) % 360.0 if isinstance(value, (int, float)) else None
 
 
 def wrap180(deg: float) -> float:
@@ -236,9 +219,9 @@ class DemoMonitor:
         self.statuses: dict[str, int] = {t: 0 for t in STATUS_TOPICS}
         self.callbacks_run = 0
         sub = self.node.create_subscription
-        sub(String, FEATURE_DONE, self._on_done, TOPICS[FEATURE_DONE][1].profile())
-        sub(String, TRUTH, self._on_truth, TOPICS[TRUTH][1].profile())
-        sub(String, METROLOGY_REPORT, self._on_report, TOPICS[METROLOGY_REPORT][1].profile())
+        sub(String, FEATURE_DONE, self._on_done, profile(TOPICS[FEATURE_DONE][1]))
+        sub(String, TRUTH, self._on_truth, profile(TOPICS[TRUTH][1]))
+        sub(String, METROLOGY_REPORT, self._on_report, profile(TOPICS[METROLOGY_REPORT][1]))
         self._adaptive = AdaptiveSubscriptions(self.node, self._subscribe_status)
         for topic in STATUS_TOPICS:
             self._adaptive.add(topic, TOPICS[topic][0])
@@ -246,7 +229,7 @@ class DemoMonitor:
     def _subscribe_status(self, topic: str, _type: str, qos: Any) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
         self.node.create_subscription(DiagnosticArray, topic,
-                                      lambda m, t=topic: self._on_status(t, m), qos.profile())
+                                      lambda m, t=topic: self._on_status(t, m), profile(qos))
 
     def _on_done(self, msg: Any) -> None:
         self.callbacks_run += 1
@@ -314,7 +297,7 @@ def downstream_subscriptions(core_classes: list[Any]) -> dict[str, int]:
 def run_demo(opts: DemoOptions) -> int:
     """Run the demo; returns the exit code (0 ok, 1 failure with the reason printed)."""
     from cam_metrology.isolation import claim_domain, isolated_env
-    from cam_metrology.nodes.adapter import CoreMissing, load_core
+    from cam_metrology.registry import CORES
     from cam_metrology.nodes.runtime import RosProcess
     from cam_metrology.paths import default_scene_path
 
@@ -349,12 +332,7 @@ def run_demo(opts: DemoOptions) -> int:
     cores: list[str] = []
     core_classes: list[Any] = []
     need_samples = 1   # the recorder
-    for name in ('metrology', 'reconstruction', 'dynamics'):
-        try:
-            cls = load_core(name)
-        except CoreMissing as exc:
-            say(f'{name}: MISSING ({exc}); not started')
-            continue
+    for name, cls in CORES.items():
         cores.append(name)
         core_classes.append(cls)
         need_samples += JOINT_STATES in getattr(cls, 'subscriptions', {})

@@ -4,11 +4,12 @@
   came off the wire and writes them unchanged with ``bagio.BagWriter`` (never
   ``serialize_message``, docs/ros.md).
 * Topics: the bench inputs (/bench/scene, /bench/truth, /bench/joint_states,
-  /bench/feature_done) and every output topic of architecture.md, plus extras
+  /bench/feature_done), every output and plot topic of ``wire.topics`` (not
+  /diagnostics: the recorder writes its own status there), plus extras
   (``/topic`` or ``/topic:pkg/msg/Type``).
-* QoS: the bench topics from ``topics.TOPICS`` (transient local for /bench/scene and
-  /bench/truth, so a late recorder still gets the latched scene; reliable keep-last
-  20 000 for samples, ``topics.SAMPLES``: a busy machine must not overrun it). Output
+* QoS: the bench topics from ``wire.topics`` (transient local for /bench/scene and
+  /bench/truth, so a late recorder still gets the latched scene; reliable keep all
+  for samples, ``wire.topics.SAMPLES``: a busy machine must not overrun it). Output
   and extra topics are subscribed once a publisher is in the graph, transient local
   if every publisher offers it (``topics.AdaptiveSubscriptions``, as ``ros2 bag
   record`` does): our nodes offer their outputs transient local depth 100, so a
@@ -53,11 +54,13 @@ from typing import Any, Sequence
 
 from rclpy.node import Node
 
-from cam_metrology.bagio import BagWriter, encode_statuses
+from cam_metrology.bagio import BagWriter
 from cam_metrology.loss import OK, WARN, SequenceLoss, loss_status, loss_values
 from cam_metrology.nodes.adapter import RX_LINGER
-from cam_metrology.nodes.topics import (BENCH_TOPICS, DIAGNOSTICS, JOINT_STATES, STATUS, TOPICS,
-                                        AdaptiveSubscriptions, QosSpec, message_class, qos_of)
+from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
+from cam_metrology.wire.layouts import encode_statuses
+from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, JOINT_STATES, STATUS, TOPICS,
+                                       QosSpec, qos_of)
 from cam_metrology.outputs import Status
 
 PARAMETERS: dict[str, tuple[Any, str]] = {
@@ -66,7 +69,7 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     'topics': ('', 'extra topics, comma or space separated, each /topic or '
                    '/topic:pkg/msg/Type'),
     'record_defaults': (True, 'record the bench topics and every node output topic'),
-    'compression': (False, 'zstd chunk compression of the MCAP file'),
+    'compression': (True, 'zstd chunk compression of the MCAP file'),
     'events_executor': (False, 'spin with rclpy.experimental.EventsExecutor '
                                '(5-7x cheaper per message; experimental)'),
     'status_period': (0.0, 'log a line with the message counts every N s (0: never)'),
@@ -184,7 +187,10 @@ class RecorderNode(Node):
         out = Path(output or params['output'] or default_output())
         wanted: dict[str, str | None] = {}
         if params['record_defaults']:
-            wanted.update({topic: type_name for topic, (type_name, _) in TOPICS.items()})
+            # /diagnostics: the recorder writes its own status into the bag itself (the
+            # last one at close); subscribing too would store it twice
+            wanted.update({topic: type_name for topic, (type_name, _) in TOPICS.items()
+                           if topic != DIAGNOSTICS})
         wanted.update(parse_topic_specs(params['topics'], f'{node_name}.topics'))
         wanted.update(parse_topic_specs(topics or (), '--topics'))
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -195,7 +201,7 @@ class RecorderNode(Node):
         self.callbacks_run = 0
         self.losses: dict[str, SequenceLoss] = {}
         self._diag_pub = self.create_publisher(message_class(STATUS), DIAGNOSTICS,
-                                               qos_of(DIAGNOSTICS).profile())
+                                               profile(qos_of(DIAGNOSTICS)))
         self._diag_last = 0.0
         self._diag_said: tuple[int, str] | None = None
         self._subs: dict[str, Any] = {}
@@ -230,7 +236,7 @@ class RecorderNode(Node):
         callback = self._on_message if self._with_info else self._on_message_no_info
         self._subs[topic] = self.create_subscription(
             message_class(type_name), topic, functools.partial(callback, topic),
-            (reader or qos).profile(), raw=True)
+            profile((reader or qos)), raw=True)
 
     def _on_message(self, topic: str, data: bytes, info: Any) -> None:
         now = time.time_ns()
@@ -292,9 +298,7 @@ class RecorderNode(Node):
         st = self.input_status()
         said = (st.level, st.message)
         stamp = time.time_ns()
-        from cam_metrology.nodes.convert import to_message
-        from cam_metrology.outputs import StatusOutput
-        self._diag_pub.publish(to_message(StatusOutput(DIAGNOSTICS, (st,)), stamp))
+        self._diag_pub.publish(encode_statuses((st,), stamp))
         if force or said != self._diag_said:
             if not self.writer.closed:
                 if not self.writer.has_topic(DIAGNOSTICS):

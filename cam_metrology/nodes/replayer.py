@@ -31,7 +31,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from cam_metrology.nodes.runtime import publish_retrying, wait_all_acked
-from cam_metrology.nodes.topics import TOPICS, message_class
+from cam_metrology.nodes.topics import message_class
+from cam_metrology.wire.topics import TOPICS
 
 
 @dataclass

@@ -29,14 +29,15 @@ import numpy as np
 from cam_design.errors import InputError, require_positive
 from cam_metrology.core import merged_parameters
 from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
+from cam_metrology.wire import topics as wire_topics
 from cam_metrology.reconstruction.harmonic import MIN_ORDER, ORDER_EXPECTED, HarmonicOptions
 from cam_metrology.reconstruction.profile import (Conversion, MethodOutcome, check_options,
                                                   reconstruct_table)
 from cam_metrology.reconstruction.samples import LiftTable, lift_table_from_message
 from cam_metrology.reconstruction.spline import SplineOptions
 
-SCENE, LIFT = '/bench/scene', '/metrology/lift'
-PROFILE, RESULT = '/reconstruction/profile', '/reconstruction/result'
+SCENE, LIFT = wire_topics.SCENE, wire_topics.METROLOGY_LIFT
+PROFILE, RESULT = wire_topics.RECONSTRUCTION_PROFILE, wire_topics.RECONSTRUCTION_RESULT
 PROFILE_COLUMNS = ('alpha_rad', 'lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
                    'jerk_m_per_rad3')
 PIN_ID = 'dowel_pin'
@@ -173,7 +174,7 @@ class ReconstructionCore:
         from cam_metrology.scene_parse import parse_scene
 
         try:
-            self.scene = parse_scene(text, '/bench/scene')
+            self.scene = parse_scene(text, SCENE)
         except InputError as exc:
             return [StatusOutput(RESULT, (Status('scene', ERROR, str(exc)),), stamp_ns)]
         out: list[Output] = []

@@ -29,6 +29,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
 from cam_metrology.files import read_text_file
+from cam_metrology.wire.layouts import table_from_msg
+from cam_metrology.wire.topics import METROLOGY_LIFT
 
 ANGLE_UNITS = {'rad': 1.0, 'deg': math.pi / 180.0}
 LENGTH_UNITS = {'m': 1.0, 'mm': 1.0e-3, 'um': 1.0e-6}
@@ -509,32 +511,16 @@ def _read_text(path: Path) -> str:
     return read_text_file(path, 'text table: ' + TABLE_FORMATS, key=path.name)
 
 
-def table_from_message(msg: Any) -> tuple[str, tuple[str, ...], NDArray[np.float64]]:
-    """(label, columns, data rows x cols) of a duck-typed Float64MultiArray."""
-    dims = list(msg.layout.dim)
-    if len(dims) < 2:
-        raise InputError('layout.dim', len(dims), '2 dimensions (rows, columns)')
-    label = str(dims[0].label)
-    columns = tuple(c for c in str(dims[1].label).split(',') if c)
-    rows, cols = int(dims[0].size), int(dims[1].size)
-    data = np.asarray(msg.data, dtype=float)
-    offset = int(getattr(msg.layout, 'data_offset', 0) or 0)
-    if cols != len(columns) or data.size < offset + rows * cols:
-        raise InputError(f'{label}.data', f'{data.size} values, {len(columns)} names',
-                         f'{rows} x {cols} values with {cols} column names')
-    return label, columns, data[offset:offset + rows * cols].reshape(rows, cols)
-
-
 def lift_table_from_message(msg: Any) -> LiftTable:
     """A /metrology/lift table as a LiftTable (feature = the label)."""
-    label, columns, data = table_from_message(msg)
+    label, columns, data = table_from_msg(msg)
     index = {c: i for i, c in enumerate(columns)}
     for need in ('alpha_rad', 'lift_m'):
         if need not in index:
             raise InputError(f'{label}.columns', ','.join(columns), 'alpha_rad,lift_m[,...]')
     design = data[:, index['design_lift_m']].copy() if 'design_lift_m' in index else None
     return LiftTable(label, data[:, index['alpha_rad']].copy(),
-                     data[:, index['lift_m']].copy(), design, None, '/metrology/lift')
+                     data[:, index['lift_m']].copy(), design, None, METROLOGY_LIFT)
 
 
 #: a step: one row-to-row change this many times the changes (per angle) next to it
