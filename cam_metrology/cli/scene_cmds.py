@@ -131,12 +131,23 @@ def scene_summary(scene: Any) -> list[str]:
                      f'support [{lo * deg:.2f}, {hi * deg:.2f}] deg, nominal phase {phase}')
         tol = getattr(lobe, 'tolerances', None)
         lines.append(f'    tolerances: {tolerance_text(tol)}')
-    pin = scene.dowel_pin
-    if pin is None:
+    pin, kw = scene.dowel_pin, getattr(scene, 'keyway', None)
+    if kw is not None:
+        depth = 'ball wider than the slot' if kw.depth is None else \
+            f'depth {kw.depth * 1e3:g} mm'
+        lines.append(f'keyway: width {kw.width * 1e3:g} mm, shaft r={kw.shaft_radius * 1e3:g} '
+                     f'mm, ball r={kw.probe_radius * 1e3:g} mm, {depth}')
+    elif pin is None:
         lines.append('dowel_pin: none')
     else:
         lines.append(f'dowel_pin: pin r={pin.pin_radius * 1e3:g} mm, circle '
                      f'r={pin.circle_radius * 1e3:g} mm, ball r={pin.probe_radius * 1e3:g} mm')
+    crank = getattr(scene, 'crank', None)
+    if crank is not None:
+        roles = ', '.join(f'{lb.id} {lb.role} cyl {lb.cylinder}' for lb in scene.lobes
+                          if lb.role) or 'no lobe has a role'
+        lines.append(f'crank: cylinder 1 TDC {crank.tdc_deg:g} cam deg from the '
+                     f'{scene.datum_id.replace("_", " ")}; {roles}')
     compute = 'all the data allows' if scene.compute is None else ', '.join(
         sorted(scene.compute))
     lines.append(f'compute: {compute}')
@@ -274,7 +285,7 @@ def cmd_bag_info(args: argparse.Namespace) -> int:
                 continue
             scene = sc.scene
             print(f'scene: {scene.camshaft_id or "(no id)"}, {len(scene.lobes)} lobes, '
-                  f'{"a" if scene.dowel_pin else "no"} dowel pin, '
+                  f'datum {(scene.datum_id or "none").replace("_", " ")}, '
                   f'direction {scene.direction:+d} (log time {sc.stamp_ns / 1e9:.6f} s)')
     if bagio.JOINT_STATES in topics:
         js = bagio.read_joint_states(args.bag)
