@@ -70,8 +70,8 @@ def test_lift_derivatives_match_finite_differences(geo):
 # ---------------------------------------------------------------- estimator
 
 @pytest.mark.parametrize('geo', [FALL_IN, WIDE_BALL])
-@pytest.mark.parametrize('direction,turn,wrapped,revs', [(1, 1, False, 1.0),
-                                                          (-1, -1, True, 2.0)])
+@pytest.mark.parametrize('direction,turn,wrapped,revs',
+                         [(1, 1, False, 1.0), (-1, -1, True, 2.0)])
 def test_noise_free_centre_exact(geo, direction, turn, wrapped, revs):
     """Any start, probe zero, either direction, wrapped angles and a 3 um run-out:
     the centre to < 0.001 arcsec and the run-out fitted."""
