@@ -154,6 +154,41 @@ def _card_html(report: Mapping[str, Any]) -> str:
             '<th>max lift mm</th><th>area mm deg</th></tr>' + ''.join(rows) + '</table>')
 
 
+def _crank_html(report: Mapping[str, Any]) -> str:
+    """Valve events in crank degrees and the lobe separations (scene crank datum)."""
+    crank = report.get('crank') or {}
+    if not crank:
+        return ''
+    rows = []
+    for fid, f in (report.get('features') or {}).items():
+        card = f.get('cam_card') or {}
+        cm = (card.get('measured') or {}).get('crank')
+        cn = (card.get('nominal') or {}).get('crank')
+        if not cm or not cn:
+            continue
+        side = 'ATDC' if cm['role'] == 'intake' else 'BTDC'
+        for em, en in zip(cm['events'], cn['events']):
+            ev = ', '.join(f'{k.split("_")[0]} {em[k]:.2f} / {en[k]:.2f} '
+                           f'{k.split("_")[1].upper()}' for k in em if k != 'height_m')
+            rows.append(f'<tr><td class="l">{_e(fid)}</td><td class="l">{_e(cm["role"])} '
+                        f'(cyl {_e(cm.get("cylinder"))})</td>'
+                        f'<td>{cm["centreline_crank_deg"]:.2f} / '
+                        f'{cn["centreline_crank_deg"]:.2f} {side}</td>'
+                        f'<td>{em["height_m"] * 1e3:.3f}</td><td class="l">{_e(ev)}</td></tr>')
+    pairs = ''.join(
+        f'<li>cylinder {_e(p["cylinder"])} {_e(p["intake"])}/{_e(p["exhaust"])}: lobe '
+        f'separation {p["lobe_separation_deg"]:.3f} cam deg measured'
+        + ''.join(f' / {q["lobe_separation_deg"]:.3f} nominal'
+                  for q in (crank.get('nominal') or {}).get('pairs', [])
+                  if q['intake'] == p['intake'] and q['exhaust'] == p['exhaust'])
+        + '</li>' for p in (crank.get('measured') or {}).get('pairs', []))
+    return (f'<h3>Crank timing</h3><p>Cylinder 1 TDC {crank.get("tdc_deg"):g} cam deg from '
+            'the datum; measured / nominal, crank degrees (four-stroke: crank = 2 x cam).</p>'
+            '<table><tr><th class="l">lobe</th><th class="l">role</th><th>centreline</th>'
+            '<th>height mm</th><th class="l">events</th></tr>' + ''.join(rows) + '</table>'
+            + (f'<ul>{pairs}</ul>' if pairs else ''))
+
+
 def _results_html(report: Mapping[str, Any]) -> str:
     rows = []
     for fid, f in (report.get('features') or {}).items():
@@ -189,7 +224,7 @@ def html_report(report: Mapping[str, Any], tables: Mapping[str, Any]) -> str:
     parts = ['<!DOCTYPE html>', '<html lang="en"><head><meta charset="utf-8">',
              f'<title>{_e(title)}</title><style>{_STYLE}</style></head><body>',
              f'<h1>{_e(title)}</h1>', '<h2>Verdict</h2>', _verdict_html(report),
-             '<h2>Cam card</h2>', _card_html(report),
+             '<h2>Cam card</h2>', _card_html(report), _crank_html(report),
              '<h2>Results</h2>', _results_html(report), '<h2>Plots</h2>']
     features = report.get('features') or {}
     for fid, table in tables.items():
@@ -255,4 +290,22 @@ def card_lines(report: Mapping[str, Any]) -> list[str]:
                      f'{em["opening_deg"]:.2f}/{en["opening_deg"]:.2f} .. '
                      f'{em["closing_deg"]:.2f}/{en["closing_deg"]:.2f} deg, duration '
                      f'{em["duration_cam_deg"]:.3f}/{en["duration_cam_deg"]:.3f}')
+        if m.get('crank') and n.get('crank'):
+            cm, cn = m['crank'], n['crank']
+            words = [k.split('_')[:2] for k in cm['events'][0] if k != 'height_m']
+            ev = ', '.join(f'{w[0]} {cm["events"][0]["_".join(w) + "_deg"]:.2f}/'
+                           f'{cn["events"][0]["_".join(w) + "_deg"]:.2f} {w[1].upper()}'
+                           for w in words)
+            side = 'ATDC' if cm['role'] == 'intake' else 'BTDC'
+            lines.append(f'crank {fid:<9} measured/nominal: {cm["role"]} centreline '
+                         f'{cm["centreline_crank_deg"]:.2f}/{cn["centreline_crank_deg"]:.2f} '
+                         f'{side}; @{em["height_mm"]:g} mm {ev}')
+    crank = report.get('crank') or {}
+    for pm in (crank.get('measured') or {}).get('pairs', []):
+        pn = next((p for p in (crank.get('nominal') or {}).get('pairs', [])
+                   if p['intake'] == pm['intake'] and p['exhaust'] == pm['exhaust']), None)
+        nominal = '-' if pn is None else f"{pn['lobe_separation_deg']:.3f}"
+        lines.append(f"lobe separation {pm['intake']}/{pm['exhaust']} (cylinder "
+                     f"{pm['cylinder']}) measured/nominal: {pm['lobe_separation_deg']:.3f}/"
+                     f'{nominal} cam deg')
     return lines

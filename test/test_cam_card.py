@@ -103,6 +103,51 @@ def test_crank_events_and_lsa_hand_example() -> None:
         cc.crank_events(card, 'inlet', 106.0)
 
 
+def test_centreline_crank_hand_example() -> None:
+    """Datum-relative timing by hand: TDC 10 cam deg after the datum; an intake nose at
+    phase 63 -> 2 (63 - 10) = 106 ATDC; an exhaust at -47 -> 2 (-47 - 10) = -114 (114
+    BTDC); a centreline 0.5 cam deg after the nose adds 1 crank deg; cylinder 2 (TDC
+    360 crank deg after cylinder 1's) with its intake 180 cam deg later -> 106 again;
+    direction -1 with the signs of phases and TDC reversed -> the same engine."""
+    f = cc.centreline_crank_atdc
+    assert f(63.0, 0.0, 1, 10.0) == pytest.approx(106.0, abs=1e-12)
+    assert f(-47.0, 0.0, 1, 10.0) == pytest.approx(-114.0, abs=1e-12)
+    assert f(63.0, 0.5, 1, 10.0) == pytest.approx(107.0, abs=1e-12)
+    assert f(63.0 + 180.0 - 360.0, 0.0, 1, 10.0, 360.0) == pytest.approx(106.0, abs=1e-12)
+    assert f(-63.0, 0.0, -1, -10.0) == pytest.approx(106.0, abs=1e-12)
+    assert f(190.0, 0.0, 1, 0.0) == pytest.approx(-340.0, abs=1e-12)   # 380 - 720
+
+
+@pytest.mark.parametrize('direction', [1, -1])
+def test_card_of_a_scene_with_a_crank_datum(tmp_path, capsys, direction) -> None:
+    """config/keyway_scene.yaml: intake 106 ATDC, exhaust 114 BTDC, LSA 110 cam deg; the
+    events at 1 mm are the centreline -+ half the crank duration (hand rule). With the
+    other direction, phases and TDC negated describe the same engine."""
+    text = open('config/keyway_scene.yaml', encoding='utf-8').read()
+    if direction == -1:
+        text = (text.replace('direction: 1 ', 'direction: -1 ')
+                .replace('1.0995574287564276', '-1.0995574287564276')
+                .replace('-0.8203047484373349', '0.8203047484373349')
+                .replace('tdc_deg: 10.0', 'tdc_deg: -10.0'))
+    path = tmp_path / 'kw.yaml'
+    path.write_text(text, encoding='utf-8')
+    assert main(['card', str(path), '--heights-mm', '1', '--json', '-']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    pair = doc['crank']['pairs'][0]
+    assert pair['intake_centreline_atdc_deg'] == pytest.approx(106.0, abs=1e-9)
+    assert pair['exhaust_centreline_btdc_deg'] == pytest.approx(114.0, abs=1e-9)
+    assert pair['lobe_separation_deg'] == pytest.approx(110.0, abs=1e-9)
+    half = doc['cards']['intake_1']['heights'][0]['duration_crank_deg'] / 2
+    ev_in = doc['cards']['intake_1']['crank']['events'][0]
+    ev_ex = doc['cards']['exhaust_1']['crank']['events'][0]
+    assert ev_in['opens_btdc_deg'] == pytest.approx(half - 106.0, abs=1e-6)
+    assert ev_in['closes_abdc_deg'] == pytest.approx(106.0 + half - 180.0, abs=1e-6)
+    assert ev_ex['opens_bbdc_deg'] == pytest.approx(114.0 + half - 180.0, abs=1e-6)
+    assert ev_ex['closes_atdc_deg'] == pytest.approx(half - 114.0, abs=1e-6)
+    assert main(['card', str(path), '--heights-mm', '1']) == 0
+    assert 'lobe separation 110.000 cam deg' in capsys.readouterr().out
+
+
 def test_card_cli_on_the_default_scene(capsys) -> None:
     assert main(['card', 'config/default_scene.yaml', '--pair', 'lobe_1,lobe_2',
                  '--intake-centreline-deg', '106', '--heights-mm', '1', '--json', '-']) == 0

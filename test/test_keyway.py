@@ -193,3 +193,16 @@ def test_analyze_keyway_camshaft_end_to_end(tmp_path):
         std = np.hypot(f['angle_std_deg'], kw['angle_std_deg'])
         assert abs(f['phase_deg'] - truth[fid]['phase_deg']) < 4 * std
         assert abs(f['phase_error_deg'] - truth[fid]['phase_error_deg']) < 4 * std
+    # crank timing against the keyway: the lobe separation is the difference of the
+    # measured centrelines (phase + card centreline at 1 mm, from the nose), and within
+    # 0.01 deg of the true phase difference (symmetric lobes)
+    pair = rep['crank']['measured']['pairs'][0]
+    cl = {f: rep['features'][f]['phase_deg'] +
+          rep['features'][f]['cam_card']['measured']['centreline_deg']
+          for f in ('intake_1', 'exhaust_1')}
+    assert pair['lobe_separation_deg'] == pytest.approx(cl['intake_1'] - cl['exhaust_1'],
+                                                        abs=1e-9)
+    true_lsa = truth['intake_1']['phase_deg'] - truth['exhaust_1']['phase_deg']
+    assert abs(pair['lobe_separation_deg'] - true_lsa) < 0.01
+    assert rep['crank']['nominal']['pairs'][0]['lobe_separation_deg'] == \
+        pytest.approx(110.0, abs=1e-9)

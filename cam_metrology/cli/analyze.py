@@ -153,7 +153,7 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
     """Add ``features.<id>.cam_card`` {measured, nominal} and ``provenance`` to the
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
     lobes referenced to the base circle as the verdict uses them."""
-    from cam_metrology.cli.card import heights_from, measured_cards
+    from cam_metrology.cli.card import both_crank_timings, heights_from, measured_cards
     from cam_metrology.metrology.lift_error import feature_referenced
     from cam_metrology.provenance import provenance
 
@@ -164,6 +164,9 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
         lobes = {f: t for f, t in tables.items() if results[f].kind == 'lobe'}
         cards = measured_cards(scene, report.get('features', {}), lobes,
                                getattr(metrology, '_design', {}), heights_from(args))
+        crank = both_crank_timings(scene, report.get('features', {}), cards)
+        if crank is not None:
+            report['crank'] = crank
         for fid, card in cards.items():
             report['features'][fid]['cam_card'] = card
         for fid, table in lobes.items():
