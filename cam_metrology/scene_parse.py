@@ -35,11 +35,13 @@ TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law',
-             'width', 'tolerances', 'role', 'cylinder')
+             'width', 'tolerances', 'role', 'cylinder', 'nominal_file')
 #: tolerance keys of a lobe (units in the names); the top-level block adds datum_deg
 TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
 TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'runout_max_um', 'checking_height_mm')
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
+#: lift [m] above which a nominal file's row is on the lobe, not the base circle
+NOMINAL_BASE_LEVEL = 1e-7
 KEYWAY_KEYS = ('width', 'shaft_radius', 'probe_radius', 'depth', 'nominal_angle')
 CRANK_KEYS = ('tdc_deg', 'cylinder_tdc_deg')
 #: feature ids of the datums (no lobe may take them)
@@ -75,8 +77,9 @@ VALVE_KEYS: dict[str, tuple[bool, Callable[[str, Any], float]]] = {
 class _Ctx:
     """Collects warnings while a document is validated."""
 
-    def __init__(self) -> None:
+    def __init__(self, base_dir: Path | None = None) -> None:
         self.warnings: list[str] = []
+        self.base_dir = base_dir   # folder of the scene file: relative nominal_file paths
 
     def mapping(self, key: str, value: Any, known: tuple[str, ...]) -> Mapping[str, Any]:
         """``value`` as a mapping; unknown keys become warnings."""
@@ -92,10 +95,13 @@ class _Ctx:
         return value
 
 
-def parse_scene(text: str, source: str = '<scene>') -> Scene:
+def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None = None
+                ) -> Scene:
     """Validate a scene YAML document and return the Scene (InputError if invalid).
 
-    ``source`` names the document in YAML syntax errors (a file name).
+    ``source`` names the document in YAML syntax errors (a file name); ``base_dir`` is
+    the folder relative ``lobes[i].nominal_file`` paths start from (default: the
+    working directory).
     """
     import yaml
 
@@ -117,7 +123,7 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
         raise InputError('scene', source, f'valid YAML ({problem}{where})') from None
     if doc is None:
         raise InputError('scene', source, 'a YAML mapping with the scene keys (file is empty)')
-    ctx = _Ctx()
+    ctx = _Ctx(None if base_dir is None else Path(base_dir))
     top = ctx.mapping('', doc, TOP_KEYS) if isinstance(doc, Mapping) else None
     if top is None:
         raise InputError('scene', type(doc).__name__,
@@ -185,7 +191,8 @@ def _unique_key_loader() -> Any:
 
 def load_scene(path: str | Path) -> Scene:
     """Read and validate the scene file at ``path`` (see ``parse_scene``)."""
-    return parse_scene(read_text_file(path, 'scene file'), source=str(path))
+    return parse_scene(read_text_file(path, 'scene file'), source=str(path),
+                       base_dir=Path(path).parent)
 
 
 # ------------------------------------------------------------------------- scalars
@@ -266,10 +273,15 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         phase = _optional_angle(f'{key}.nominal_phase', lobe.get('nominal_phase'))
         has_table = lobe.get('lift') is not None
         has_law = lobe.get('lift_law') is not None
-        if has_table == has_law:
-            raise InputError(f'{key}.lift', 'both' if has_table else None,
-                             'exactly one of lift (alpha/h table) or lift_law')
-        if has_table:
+        has_file = lobe.get('nominal_file') is not None
+        if has_table + has_law + has_file != 1:
+            raise InputError(f'{key}.lift', 'more than one' if has_table + has_law + has_file
+                             else None, 'exactly one of lift (alpha/h table), lift_law or '
+                             'nominal_file')
+        if has_file:
+            law, follower = _nominal_file(ctx, key, lobe, follower)
+            spec = None
+        elif has_table:
             law: LiftLaw = _lift_table(ctx, f'{key}.lift', lobe['lift'])
             spec = None
         else:
@@ -278,7 +290,8 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
                                  'a mapping {family: NAME, ...parameters}')
             spec = dict(lobe['lift_law'])   # the registry rejects unknown parameters
             law = lift_law_from_spec(spec, f'{key}.lift_law')
-        _check_law(f'{key}.lift_law' if spec is not None else f'{key}.lift', law)
+        _check_law(f'{key}.lift_law' if spec is not None else
+                   f'{key}.nominal_file' if has_file else f'{key}.lift', law)
         width = lobe.get('width')
         if width is not None:
             width = require_positive(f'{key}.width', width)
@@ -291,6 +304,40 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
                           lift_spec=spec, width=width, tolerances=tol, role=role,
                           cylinder=cylinder))
     return lobes
+
+
+def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follower
+                  ) -> tuple[LiftLaw, Follower]:
+    """The design lift of a gauge nominal-profile file (docs/cam_card.md: probe radius,
+    steps, rows ``angle_deg lift_mm``) and the follower it is written for (a roller of
+    the file's probe radius, a knife for 0); a lobe ``follower`` that differs is an
+    error. Relative paths start from the scene file's folder."""
+    from cam_metrology.reconstruction.samples import read_gauge_file
+
+    raw = _text(f'{key}.nominal_file', lobe['nominal_file'])
+    path = Path(raw).expanduser()
+    if not path.is_absolute() and ctx.base_dir is not None:
+        path = ctx.base_dir / path
+    if not path.is_file():
+        raise InputError(f'{key}.nominal_file', raw, f'an existing gauge nominal-profile file '
+                         f'(looked for {path}; relative paths start from the scene file\'s '
+                         'folder, or the working directory for a scene from a bag)')
+    table = read_gauge_file(path, feature=_text(f'{key}.id', lobe['id']))
+    kind, radius = table.follower or ('knife', 0.0)
+    own = Follower(kind, radius)
+    if 'follower' in lobe and (follower.kind != own.kind or
+                               abs(follower.radius - own.radius) > 1e-12):
+        raise InputError(f'{key}.follower', lobe['follower'],
+                         f'no follower, or the file\'s ({kind}, radius {radius:g} m): the '
+                         'nominal file says which follower its lift is for')
+    # the file covers the whole turn: the lobe is where it rises off the base circle
+    # (one base-circle row kept on each side), so that the base circle stays base circle
+    up = np.nonzero(table.lift > NOMINAL_BASE_LEVEL)[0]
+    if up.size == 0:
+        raise InputError(f'{key}.nominal_file', raw, 'a lift profile (every lift is 0)')
+    i0, i1 = max(int(up[0]) - 1, 0), min(int(up[-1]) + 1, table.lift.size - 1)
+    alpha, lift = table.alpha[i0:i1 + 1], table.lift[i0:i1 + 1]
+    return _table_law(ctx, f'{key}.nominal_file', alpha, lift), own
 
 
 def _lobe_follower(key: str, lobe: Mapping[str, Any]) -> Follower:
@@ -336,6 +383,12 @@ def _lift_table(ctx: _Ctx, key: str, value: Any) -> LiftLaw:
         j = int(bad[0]) + 1
         raise InputError(f'{key}.alpha[{j}]', float(alpha[j]),
                          f'strictly increasing angles in rad (previous is {alpha[j - 1]:g})')
+    return _table_law(ctx, key, alpha, h)
+
+
+def _table_law(ctx: _Ctx, key: str, alpha: np.ndarray, h: np.ndarray) -> LiftLaw:
+    """The quintic interpolant of a design table, or (a coarse table whose interpolant
+    rings) the reconstruction spline, with a warning."""
     try:
         return design_table(alpha, h, key)
     except InputError as exc:

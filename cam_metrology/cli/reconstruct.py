@@ -67,6 +67,10 @@ def register(subparsers: Any) -> None:
                         'zero is not the nose)')
     p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
     p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
+    p.add_argument('--nominal', metavar='FILE',
+                   help='write the reconstructed lift of --feature (or the only lobe) as a '
+                        'gauge nominal-profile file, -180..180 deg every --step-deg, from '
+                        'the first method that succeeded (--method to choose)')
     p.set_defaults(func=run)
 
 
@@ -141,8 +145,49 @@ def run(args: argparse.Namespace) -> int:
         print(_human(result))
     if args.plot:
         _plots(core, Path(args.plot), args.feature)
+    if getattr(args, 'nominal', None):
+        write_nominal(core, args, follower)
     ok = any(m.get('ok') for f in features.values() for m in f.values())
     return 0 if ok else 1
+
+
+def write_nominal(core: Any, args: argparse.Namespace, follower: dict[str, Any]) -> None:
+    """``--nominal``: the reconstructed lift (as seen by the measuring probe) as a gauge
+    nominal-profile file (cam_metrology.nominal_file); the gauge format knows a roller
+    (its radius) or a point (radius 0), not a flat follower."""
+    import numpy as np
+
+    from cam_design.errors import InputError
+    from cam_metrology.files import write_output
+    from cam_metrology.nominal_file import gauge_text
+
+    ids = [f for f in core.results if args.feature is None or f == args.feature]
+    if len(ids) != 1:
+        raise InputError('--nominal', args.nominal, 'one feature: --feature ID (one of '
+                         + ', '.join(ids) + ')')
+    fid = ids[0]
+    outcome = next((o for o in core.results[fid].values()
+                    if o.reconstruction is not None), None)
+    if outcome is None:
+        raise InputError('--nominal', args.nominal, f'a reconstruction of {fid} (none '
+                         'succeeded)')
+    probe = follower.get('probe') or follower
+    kind, radius = probe.get('kind'), float(probe.get('radius_m') or 0.0)
+    if kind == 'flat':
+        raise InputError('--nominal', args.nominal, 'a roller or knife probe: the gauge '
+                         'nominal-profile format has no flat follower')
+    n = 360.0 / args.step_deg
+    if abs(n - round(n)) > 1e-9 * n:
+        raise InputError('--step-deg', args.step_deg, 'a step that divides 360 deg for '
+                         '--nominal (e.g. 0.1, 0.25, 0.5)')
+    rec = outcome.reconstruction
+    grid = np.linspace(-180.0, 180.0, int(round(n)) + 1)
+    lift = np.interp(grid, np.degrees(rec.alpha), rec.derivatives()[0], period=360.0)
+    method = next(m for m, o in core.results[fid].items() if o is outcome)
+    text = gauge_text(grid, lift, radius if kind == 'roller' else 0.0,
+                      [f'reconstructed lift of {fid} from {args.input} ({method}), as seen '
+                       f'by the measuring {kind}; deg and mm'])
+    write_output(args.nominal, text, '--nominal')
 
 
 #: options that describe a TABLE (a bag's scene gives the probe and the angles)
