@@ -14,7 +14,6 @@ import html
 import io
 from typing import Any, Mapping
 
-import numpy as np
 
 __all__ = ['html_report', 'csv_text', 'card_lines', 'CSV_COLUMNS']
 
@@ -57,42 +56,13 @@ def _png(fig: Any) -> str:
     return 'data:image/png;base64,' + base64.b64encode(buf.getvalue()).decode('ascii')
 
 
-def _band_of(feature: Mapping[str, Any]) -> tuple[float, float] | None:
-    for c in (feature.get('verdict') or {}).get('checks', []):
-        if c['quantity'] == 'lift_error_max_plus_um':
-            return (c['lower'], c['upper'])
-    return None
-
-
 def feature_figure(fid: str, table: Any, feature: Mapping[str, Any]) -> Any:
-    """The lift figure of ``analyze --plot`` with the tolerance band and zones drawn on
-    the lift-error axis (scaled to the measured error and the band, at least +-0.5 um).
-    For a lobe, ``table`` is the base-referenced table the verdict uses."""
+    """The lift figure of ``analyze --plot`` (``plots.lift_figure``: tolerance band and
+    zones on the lift-error axis). For a lobe, ``table`` is the base-referenced table
+    the verdict uses."""
     from cam_metrology.plots import lift_figure
 
-    fig = lift_figure(fid, table, dict(feature))
-    ax = fig.axes[1]
-    band = _band_of(feature)
-    err = (table[:, 1] - table[:, 2]) * 1e6
-    span = [float(np.min(err)), float(np.max(err))]
-    if band is not None:
-        for y in band:
-            ax.axhline(y, color='tab:red', lw=1.0, ls='--')
-        span += list(band)
-        ax.text(0.01, 0.95, f'tolerance {band[0]:g} .. {band[1]:g} µm (on the lobe)',
-                color='tab:red', transform=ax.transAxes, va='top', fontsize=8)
-    for c in (feature.get('verdict') or {}).get('checks', []):
-        q = c['quantity']
-        if q.startswith('lift_error_um[') and q.endswith('.max_plus'):
-            a0, a1 = (float(v) for v in q[len('lift_error_um['):q.index(' deg]')].split('..'))
-            ax.fill_between([a0, a1], c['lower'], c['upper'], color='tab:red', alpha=0.12)
-            span += [c['lower'], c['upper']]
-    mid = 0.5 * (max(span) + min(span))
-    half = max(0.5 * (max(span) - min(span)) * 1.1, 0.5)   # at least +-0.5 um shown
-    ax.set_ylim(mid - half, mid + half)
-    if feature.get('kind', 'lobe') == 'lobe':
-        ax.set_ylabel('measured - design [µm]\n(base circle = 0)')
-    return fig
+    return lift_figure(fid, table, dict(feature))
 
 
 def _verdict_html(report: Mapping[str, Any]) -> str:

@@ -605,10 +605,16 @@ def analyze_keyway(fs: FeatureSamples, geo: KeywayGeometry, direction: int,
     values['lift_error_um'] = {'max_plus': float(np.max(err)) * UM,
                                'max_minus': float(np.min(err)) * UM,
                                'rms': float(np.sqrt(np.mean(err ** 2))) * UM}
-    near = np.abs(alpha) < beta + 5 * DEG   # the table shows the slot, not the whole shaft
-    order = np.argsort(alpha[near])
-    table = np.column_stack([alpha[near][order], measured[near][order],
-                             design[near][order]])
+    # the table shows the slot (every sample within 5 deg of its edges, also those the
+    # fit leaves out: the bottom, the drop), not the whole shaft
+    a_all = x - fit.d
+    near = (np.abs(a_all) < beta + 5 * DEG) & ~outliers
+    d_all = law(a_all[near])
+    keep = np.isfinite(d_all)
+    a_near = a_all[near][keep]
+    order = np.argsort(a_near)
+    table = np.column_stack([a_near[order], (fs.s - fit.c - harmonic)[near][keep][order],
+                             d_all[keep][order]])
     skipped = [('sensitive_point', 'not applied to a keyway: its centre comes from the two '
                                    'edge flanks by least squares')]
     if settings.fit_runout and not runout:
