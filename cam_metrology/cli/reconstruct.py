@@ -335,6 +335,21 @@ def _human(result: dict[str, Any]) -> str:
     return '\n'.join(lines)
 
 
+def _clip_to(ax: Any, values: Any) -> None:
+    """Y limits from the reconstructed curve (10 % margin), so that the design's
+    derivative spikes at its junctions (a tabulated or piecewise design has jumps of h''
+    there, hence jerk spikes) do not squash the measured curve; says so when it clips."""
+    import numpy as np
+
+    lo, hi = float(np.min(values)), float(np.max(values))
+    pad = 0.1 * max(hi - lo, 1e-12)
+    y0, y1 = ax.get_ylim()
+    ax.set_ylim(lo - pad, hi + pad)
+    if y0 < lo - pad or y1 > hi + pad:
+        ax.text(0.99, 0.03, 'scaled to the reconstruction; design spikes clipped',
+                transform=ax.transAxes, ha='right', va='bottom', fontsize=7, color='0.3')
+
+
 def _plots(core: Any, folder: Path, feature: str | None) -> None:
     import matplotlib
     matplotlib.use('Agg')
@@ -350,10 +365,11 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
         if feature is not None and fid != feature:
             continue
         fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True)
+        spans: dict[int, list[float]] = {}
         table = core.tables.get(fid)
         if table is not None:
-            axes[0].plot(np.degrees(table.alpha), table.lift * 1e3, '.', ms=2, color='0.6',
-                         label='measured')
+            axes[0].plot(np.degrees(table.alpha), table.lift * 1e3, 'o', ms=1.5, mew=0,
+                         color='0.35', zorder=4, label='measured')
             design = design_from_table(table)
             first = next((o.reconstruction for o in outcomes.values()
                           if o.reconstruction is not None), None)
@@ -365,16 +381,19 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
             rec = o.reconstruction
             if rec is None:
                 continue
-            for ax, values in zip(axes, rec.derivatives()):
+            for k, (ax, values) in enumerate(zip(axes, rec.derivatives())):
                 ax.plot(np.degrees(rec.alpha), values * 1e3, lw=1, label=m)
+                spans.setdefault(k, []).extend([float(np.min(values)), float(np.max(values))])
             if rec.outliers_alpha.size and m == next(iter(outcomes)):
                 axes[0].plot(np.degrees(rec.outliers_alpha),
                              np.interp(rec.outliers_alpha, table.alpha, table.lift) * 1e3
                              if table is not None else np.zeros(rec.outliers_alpha.size),
                              'rx', label='outliers')
-        for ax, name in zip(axes, names):
+        for k, (ax, name) in enumerate(zip(axes, names)):
             ax.set_ylabel(name)
             ax.grid(True, lw=0.3)
+            if k and spans.get(k):   # derivatives scaled to the reconstruction
+                _clip_to(ax, np.array(spans[k]) * 1e3)
         axes[0].legend(fontsize=8)
         axes[-1].set_xlabel('cam angle from the lobe centre [deg]')
         fig.suptitle(f'{fid}: reconstruction')
