@@ -364,8 +364,8 @@ PHASE = math.radians(37.0)
     ('phase at limit', {'phase_deg': 0.25}, {'probe_noise': 0.0, 'true_angles': {
         'dowel_pin': 0.1, 'lobe_1': 0.1 + PHASE + math.radians(0.25)}},
      'phase_error_deg', 'at limit'),
-    ('lift at limit', {'max_lift_um': 20}, {'probe_noise': 0.0,
-                                             'lift_scale': 1 + 20e-6 / 8.5e-3},
+    ('lift at limit', {'max_lift_um': 20},
+     {'probe_noise': 0.0, 'lift_scale': 1 + 20e-6 / 8.5e-3},
      'max_lift_error_um', 'at limit'),
     # max lift: the true lobe 0.3 % too high / too low (+-25.5 um), limit +-20 um
     ('lift+', {'max_lift_um': 20}, {'lift_scale': 1.003}, 'max_lift_error_um', FAIL),
