@@ -179,9 +179,13 @@ def test_analyze_keyway_camshaft_end_to_end(tmp_path):
     run = write_sim_bag(bag, load_scene(REPO / 'config' / 'keyway_scene.yaml'),
                         SimParams(samples_per_rev=3600, probe_noise=0.5e-6, runout=2e-6,
                                   seed=11, wrapped=True))
-    out = tmp_path / 'r.json'
-    assert main(['analyze', str(bag), '--json', str(out), '--only-metrology']) == 0
+    out, page = tmp_path / 'r.json', tmp_path / 'r.html'
+    assert main(['analyze', str(bag), '--json', str(out), '--only-metrology',
+                 '--report', str(page)]) == 0
     rep = json.loads(out.read_text())
+    html = page.read_text()
+    assert 'Crank timing' in html and 'alt="keyway lift' in html
+    assert html.count('<img class="plot"') == 3
     kw = rep['features']['keyway']
     truth = run.truth['features']
     assert rep['datum'] == {'feature': 'keyway', 'angle_deg': kw['angle_deg']}
