@@ -87,9 +87,10 @@ def _verdict_html(report: Mapping[str, Any]) -> str:
                    '<th class="l">result</th></tr>' + ''.join(rows) + '</table>')
     gaps = [m for m in v.get('not_checked') or []]
     if gaps:
-        out.append('<ul>' + ''.join(f'<li>not checked: {_e(m.get("feature"))} '
-                                    f'{_e(m.get("quantity"))}: {_e(m.get("why"))}</li>'
-                                    for m in gaps) + '</ul>')
+        out.append('<ul>' + ''.join(
+            f'<li>not checked: {_e(m.get("why"))}</li>' if m.get('feature') == '*' else
+            f'<li>not checked: {_e(m.get("feature"))} {_e(m.get("quantity"))}: '
+            f'{_e(m.get("why"))}</li>' for m in gaps) + '</ul>')
     return '\n'.join(out)
 
 
