@@ -160,7 +160,8 @@ def scene_summary(scene: Any) -> list[str]:
                      f'lash {vt.lash * 1e3:g} mm, cam speeds {speeds} rpm')
     datum = getattr(scene, 'datum_tolerance_deg', None)
     if datum is not None:
-        lines.append(f'datum: pin centre {_band(datum, "deg")}')
+        centre = 'keyway' if getattr(scene, 'keyway', None) is not None else 'pin'
+        lines.append(f'datum: {centre} centre {_band(datum, "deg")}')
     lines.append(f'idle_timeout: {scene.idle_timeout:g} s')
     return lines
 
