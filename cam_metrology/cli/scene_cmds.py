@@ -286,7 +286,7 @@ def cmd_bag_info(args: argparse.Namespace) -> int:
                 continue
             scene = sc.scene
             print(f'scene: {scene.camshaft_id or "(no id)"}, {len(scene.lobes)} lobes, '
-                  f'datum {(scene.datum_id or "none").replace("_", " ")}, '
+                  f'{_datum_words(scene)}, '
                   f'direction {scene.direction:+d} (log time {sc.stamp_ns / 1e9:.6f} s)')
     if bagio.JOINT_STATES in topics:
         js = bagio.read_joint_states(args.bag)
@@ -342,3 +342,10 @@ def cmd_bag_recover(args: argparse.Namespace) -> int:
     for d in counts.damaged:   # an empty range: nothing dropped, only the end missing
         print(f'{"dropped" if d.end > d.start else "note"}: {describe(d)}')
     return 0
+
+
+def _datum_words(scene: Any) -> str:
+    """'a dowel pin', 'a keyway' or 'no dowel pin' (bag info)."""
+    if getattr(scene, 'keyway', None) is not None:
+        return 'a keyway'
+    return 'a dowel pin' if scene.dowel_pin is not None else 'no dowel pin'
