@@ -136,6 +136,23 @@ def _scene(extra: str):
     return parse_scene(BASE + extra)
 
 
+def test_scene_role_must_be_intake_or_exhaust():
+    from cam_metrology.scene_parse import parse_scene
+
+    with pytest.raises(InputError) as exc:
+        parse_scene(BASE.replace('role: intake', 'role: inlet'))
+    assert exc.value.key == 'lobes[0].role'
+
+
+def test_scene_check_names_the_keyway_and_the_crank(capsys):
+    from cam_metrology.cli import main
+
+    assert main(['scene', 'check', str(REPO / 'config' / 'keyway_scene.yaml')]) == 0
+    out = capsys.readouterr().out
+    assert 'keyway: width 5 mm, shaft r=12 mm, ball r=1.5 mm, depth 3 mm' in out
+    assert 'crank: cylinder 1 TDC 10 cam deg from the keyway' in out
+
+
 def test_scene_keyway_and_crank_parsed():
     sc = _scene('keyway: {width: 0.005, shaft_radius: 0.012, probe_radius: 0.0015, '
                 'depth: 0.003, nominal_angle: 0.1}\ncrank: {tdc_deg: 10, '
@@ -158,6 +175,9 @@ def test_scene_keyway_and_crank_parsed():
      'crank.tdc_deg'),
     ('keyway: {width: 0.004, shaft_radius: 0.012, probe_radius: 0.0025}\n'
      'crank: {tdc_deg: 10, cylinder_tdc_deg: {2: 360}}', 'lobes[0].cylinder'),
+    ('keyway: {width: 0.004, shaft_radius: 0.012, probe_radius: 0.0025}\n'
+     'crank: {tdc_deg: 400}', 'crank.tdc_deg'),
+    ('keyway: {width: 0.004, shaft_radius: 0.012, probe_radius: 0.015}', 'keyway.probe_radius'),
 ])
 def test_scene_bad_datum_names_the_key(extra, key):
     with pytest.raises(InputError) as exc:
