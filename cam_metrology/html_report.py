@@ -185,8 +185,12 @@ def _results_html(report: Mapping[str, Any]) -> str:
             '<th class="l">status</th></tr>' + ''.join(rows) + '</table>')
 
 
-def html_report(report: Mapping[str, Any], tables: Mapping[str, Any]) -> str:
-    """The HTML document (module doc). ``tables``: feature id -> /metrology/lift table."""
+def html_report(report: Mapping[str, Any], tables: Mapping[str, Any],
+                profiles: Mapping[str, Any] | None = None,
+                designs: Mapping[str, Any] | None = None) -> str:
+    """The HTML document (module doc). ``tables``: feature id -> /metrology/lift table;
+    ``profiles``: feature id -> (columns, data) of a /reconstruction/profile table (its
+    velocity and acceleration are plotted, beside ``designs[id]``'s when given)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -205,6 +209,14 @@ def html_report(report: Mapping[str, Any], tables: Mapping[str, Any]) -> str:
                          f'lift error" src="{_png(fig)}">')
         finally:
             plt.close(fig)
+        if profiles and fid in profiles:
+            from cam_metrology.plots import derivative_figure
+            fig = derivative_figure(fid, *profiles[fid], (designs or {}).get(fid))
+            try:
+                parts.append(f'<img class="plot" alt="{_e(fid)} velocity and acceleration" '
+                             f'src="{_png(fig)}">')
+            finally:
+                plt.close(fig)
     skipped = report.get('skipped') or []
     if skipped:
         parts.append('<h2>Skipped</h2><ul>' + ''.join(

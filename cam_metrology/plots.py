@@ -104,3 +104,45 @@ def lift_figure(label: str, table: Any, feature: Mapping[str, Any]) -> Any:
                         kind, 'alpha from the fitted nose [deg]'))
     fig.tight_layout()
     return fig
+
+
+def scale_to_curve(ax: Any, values: Any, what: str = 'the reconstruction') -> None:
+    """Y limits of ``ax`` from ``values`` (a measured or reconstructed curve, 10 %
+    margin), so that a design's derivative spikes at its junctions (jumps of h'' give
+    jerk spikes) do not squash the curve; says so on the axes when it clips."""
+    lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
+    pad = 0.1 * max(hi - lo, 1e-12)
+    y0, y1 = ax.get_ylim()
+    ax.set_ylim(lo - pad, hi + pad)
+    if y0 < lo - pad or y1 > hi + pad:
+        ax.text(0.99, 0.03, f'scaled to {what}; design spikes clipped',
+                transform=ax.transAxes, ha='right', va='bottom', fontsize=7, color='0.3')
+
+
+def derivative_figure(label: str, columns: Any, data: Any, design: Any = None) -> Any:
+    """Velocity [mm/deg] and acceleration [mm/deg^2] of a ``/reconstruction/profile``
+    table (columns alpha_rad, lift_m, velocity_m_per_rad, acceleration_m_per_rad2, ...)
+    with the design's (``design(alpha, nu)`` as seen by the probe, dashed) beneath;
+    the axes are scaled to the reconstruction."""
+    import matplotlib.pyplot as plt
+
+    cols = list(columns)
+    alpha = np.asarray(data[:, cols.index('alpha_rad')])
+    deg = np.pi / 180.0
+    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(8, 5))
+    for ax, (name, nu, unit) in zip(axes, (('velocity_m_per_rad', 1, 'mm/deg'),
+                                           ('acceleration_m_per_rad2', 2, 'mm/deg²'))):
+        values = np.asarray(data[:, cols.index(name)]) * 1e3 * deg ** nu
+        if design is not None:
+            ax.plot(np.degrees(alpha), np.asarray(design(alpha, nu)) * 1e3 * deg ** nu, '--',
+                    lw=0.8, color=DESIGN, zorder=1, label='design (as seen by the probe)')
+        ax.plot(np.degrees(alpha), values, '-', lw=1.0, color=MEASURED, zorder=3,
+                label='measured (reconstructed)')
+        ax.set_ylabel(f'{name.split("_")[0]} [{unit}]')
+        ax.grid(True, alpha=0.3)
+        scale_to_curve(ax, values)
+    axes[0].legend(loc='lower center', bbox_to_anchor=(0.5, 1.0), ncol=2, frameon=False)
+    axes[1].set_xlabel('alpha from the fitted nose [deg]')
+    fig.suptitle(f'{label}: velocity and acceleration')
+    fig.tight_layout()
+    return fig

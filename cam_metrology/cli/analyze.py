@@ -107,7 +107,8 @@ def run(args: argparse.Namespace) -> int:
     if args.report:
         from cam_metrology.files import write_output
         from cam_metrology.html_report import html_report
-        write_output(args.report, html_report(report, tables), '--report')
+        write_output(args.report, html_report(report, tables, profiles(outputs),
+                                              getattr(metrology, '_design', {})), '--report')
     if args.csv:
         from cam_metrology.files import write_output
         from cam_metrology.html_report import csv_text
@@ -123,6 +124,23 @@ def run(args: argparse.Namespace) -> int:
               'report)', file=sys.stderr)
         return 1
     return verdict_exit_code(report)
+
+
+def profiles(outputs: list[tuple[int, Any]]) -> dict[str, tuple[Any, Any]]:
+    """feature id -> (columns, data) of its first /reconstruction/profile table as seen
+    by the probe (label ``<id>/<method>/probe`` when the design follower differs from
+    the probe, else ``<id>/<method>``): the velocity and acceleration of the HTML
+    report, drawn beside the design as seen by the probe."""
+    from cam_metrology.outputs import TableOutput
+
+    probe: dict[str, tuple[Any, Any]] = {}
+    plain: dict[str, tuple[Any, Any]] = {}
+    for _, o in outputs:
+        if isinstance(o, TableOutput) and o.topic == '/reconstruction/profile':
+            parts = o.label.split('/')
+            target = probe if parts[-1] == 'probe' and len(parts) == 3 else plain
+            target.setdefault(parts[0], (o.columns, o.data))
+    return {**plain, **probe}
 
 
 def core_summaries(outputs: list[tuple[int, Any]]) -> list[str]:

@@ -335,21 +335,6 @@ def _human(result: dict[str, Any]) -> str:
     return '\n'.join(lines)
 
 
-def _clip_to(ax: Any, values: Any) -> None:
-    """Y limits from the reconstructed curve (10 % margin), so that the design's
-    derivative spikes at its junctions (a tabulated or piecewise design has jumps of h''
-    there, hence jerk spikes) do not squash the measured curve; says so when it clips."""
-    import numpy as np
-
-    lo, hi = float(np.min(values)), float(np.max(values))
-    pad = 0.1 * max(hi - lo, 1e-12)
-    y0, y1 = ax.get_ylim()
-    ax.set_ylim(lo - pad, hi + pad)
-    if y0 < lo - pad or y1 > hi + pad:
-        ax.text(0.99, 0.03, 'scaled to the reconstruction; design spikes clipped',
-                transform=ax.transAxes, ha='right', va='bottom', fontsize=7, color='0.3')
-
-
 def _plots(core: Any, folder: Path, feature: str | None) -> None:
     import matplotlib
     matplotlib.use('Agg')
@@ -357,6 +342,7 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
     import numpy as np
 
     from cam_metrology.files import output_dir, safe_name, save_figure
+    from cam_metrology.plots import scale_to_curve
     from cam_metrology.reconstruction.profile import design_from_table
 
     folder = output_dir(folder, '--plot')
@@ -393,7 +379,7 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
             ax.set_ylabel(name)
             ax.grid(True, lw=0.3)
             if k and spans.get(k):   # derivatives scaled to the reconstruction
-                _clip_to(ax, np.array(spans[k]) * 1e3)
+                scale_to_curve(ax, np.array(spans[k]) * 1e3)
         axes[0].legend(fontsize=8)
         axes[-1].set_xlabel('cam angle from the lobe centre [deg]')
         fig.suptitle(f'{fid}: reconstruction')
