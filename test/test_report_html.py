@@ -165,3 +165,21 @@ def test_velocity_acceleration_plot_scaled_to_the_measured_curve() -> None:
     table = np.column_stack([a, law(a), law(a)])
     page = html_report(report, {'lobe': table}, {'lobe': (cols, data)}, {'lobe': law})
     assert page.count('<img class="plot"') == 2 and 'lobe velocity and acceleration' in page
+
+
+def test_seating_window_finds_the_bounces() -> None:
+    """A lobe closing at 60 deg, then two bounces of 5 and 2 um ending at 75 deg: the
+    inset window of the dynamics plot spans first seating to the last bounce."""
+    import numpy as np
+
+    from cam_design.valve_train.sweep import seating_window
+
+    a = np.radians(np.arange(-90.0, 270.0, 0.1))
+    lift = np.where(np.abs(a) < np.radians(60), 8e-3 * np.cos(1.5 * a) ** 2, 0.0)
+    bounce = (a > np.radians(62)) & (a < np.radians(68))
+    lift = lift + np.where(bounce, 5e-6 * np.sin((a - np.radians(62)) * 30) ** 2, 0.0)
+    second = (a > np.radians(70)) & (a < np.radians(75))
+    lift = lift + np.where(second, 2e-6 * np.sin((a - np.radians(70)) * 36) ** 2, 0.0)
+    seat, end = np.degrees(seating_window(a, lift))
+    assert 55.0 < seat < 60.0 and 74.0 < end < 75.0
+    assert seating_window(a, 8e-3 + 0 * a) is None
