@@ -68,6 +68,7 @@ class Lobe:
     tolerances: Tolerances | None = None      # defaults merged with the lobe's own
     role: str | None = None                   # 'intake' | 'exhaust' (crank events)
     cylinder: str = '1'                       # cylinder the lobe serves (crank datum)
+    nominal_file: str | None = None           # gauge file the design came from (resolved)
 
 
 @dataclass(frozen=True)

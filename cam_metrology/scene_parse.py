@@ -278,8 +278,9 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
             raise InputError(f'{key}.lift', 'more than one' if has_table + has_law + has_file
                              else None, 'exactly one of lift (alpha/h table), lift_law or '
                              'nominal_file')
+        nominal_path = None
         if has_file:
-            law, follower = _nominal_file(ctx, key, lobe, follower)
+            law, follower, nominal_path = _nominal_file(ctx, key, lobe, follower)
             spec = None
         elif has_table:
             law: LiftLaw = _lift_table(ctx, f'{key}.lift', lobe['lift'])
@@ -302,12 +303,12 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         cylinder = _text(f'{key}.cylinder', lobe.get('cylinder', 1))
         lobes.append(Lobe(id=lobe_id, follower=follower, lift=law, nominal_phase=phase,
                           lift_spec=spec, width=width, tolerances=tol, role=role,
-                          cylinder=cylinder))
+                          cylinder=cylinder, nominal_file=nominal_path))
     return lobes
 
 
 def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follower
-                  ) -> tuple[LiftLaw, Follower]:
+                  ) -> tuple[LiftLaw, Follower, str]:
     """The design lift of a gauge nominal-profile file (docs/cam_card.md: probe radius,
     steps, rows ``angle_deg lift_mm``) and the follower it is written for (a roller of
     the file's probe radius, a knife for 0); a lobe ``follower`` that differs is an
@@ -337,7 +338,7 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
         raise InputError(f'{key}.nominal_file', raw, 'a lift profile (every lift is 0)')
     i0, i1 = max(int(up[0]) - 1, 0), min(int(up[-1]) + 1, table.lift.size - 1)
     alpha, lift = table.alpha[i0:i1 + 1], table.lift[i0:i1 + 1]
-    return _table_law(ctx, f'{key}.nominal_file', alpha, lift), own
+    return _table_law(ctx, f'{key}.nominal_file', alpha, lift), own, str(path)
 
 
 def _lobe_follower(key: str, lobe: Mapping[str, Any]) -> Follower:

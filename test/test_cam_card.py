@@ -234,6 +234,7 @@ def test_scene_lobe_from_a_nominal_file(tmp_path, capsys) -> None:
     (tmp_path / 's.yaml').write_text(text)
     lobe = load_scene(tmp_path / 's.yaml').lobe('lobe_2')
     assert (lobe.follower.kind, lobe.follower.radius) == ('roller', 0.0125)
+    assert lobe.nominal_file == str(out)
     a = np.radians(np.linspace(-179.9, 179.9, 7197))
     assert np.max(np.abs(lobe.lift(a) - law(a))) < 1e-7
     lo, hi = lobe.lift.support

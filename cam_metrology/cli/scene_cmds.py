@@ -121,6 +121,7 @@ def scene_summary(scene: Any) -> list[str]:
     for lobe in scene.lobes:
         lo, hi = lobe.lift.support
         source = (f'lift_law {lobe.lift_spec.get("family")}' if lobe.lift_spec
+                  else f'nominal file {lobe.nominal_file}' if lobe.nominal_file
                   else 'table')
         phase = ('-' if lobe.nominal_phase is None
                  else f'{lobe.nominal_phase * deg:.3f} deg')
