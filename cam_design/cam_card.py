@@ -375,6 +375,24 @@ def lobe_separation_deg(intake_centreline_atdc: float, exhaust_centreline_btdc: 
     return 0.5 * (intake_centreline_atdc + exhaust_centreline_btdc)
 
 
+def centreline_crank_atdc(phase_deg: float, centreline_alpha_deg: float, direction: int,
+                          tdc_deg: float, cylinder_tdc_crank_deg: float = 0.0) -> float:
+    """Crank degrees after the cylinder's TDC of the overlap of a lobe centreline,
+    wrapped to (-360, 360] (a four-stroke cycle; an exhaust centreline is then negative,
+    its BTDC value is minus this).
+
+    ``phase_deg``: nose minus datum [cam deg, encoder frame]; ``centreline_alpha_deg``:
+    the card's centreline from the nose [cam deg, alpha frame, which runs with the
+    engine]; ``direction``: the scene's (engine time = direction x encoder angle);
+    ``tdc_deg``: cylinder 1's TDC of the overlap from the datum, like a phase;
+    ``cylinder_tdc_crank_deg``: this cylinder's TDC after cylinder 1's [crank deg].
+    crank = 2 (direction (phase - tdc) + centreline_alpha) - cylinder offset."""
+    crank = 2.0 * (direction * (phase_deg - tdc_deg) + centreline_alpha_deg) \
+        - cylinder_tdc_crank_deg
+    out = 360.0 - (360.0 - crank) % 720.0
+    return out
+
+
 def _num(value: Any, spec: str) -> str:
     width = int(spec.split('.')[0] or 0)
     return '-'.rjust(width) if value is None else format(value, spec)

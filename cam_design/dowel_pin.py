@@ -60,28 +60,39 @@ class DowelPinGeometry:
         Units: m, m/rad, m/rad^2, m/rad^3. The derivatives are analytic (methods.md
         §5.4, with the cos(alpha) factor the seed's printed h' lacks).
         """
-        a = np.asarray(alpha, dtype=float)
-        rz, rho = self.circle_radius, self.pin_radius + self.probe_radius
-        sin_a, cos_a = np.sin(a), np.cos(a)
-        radicand = rho * rho - (rz * sin_a) ** 2
-        # cos(alpha) > 0: the pin is on the probe's side of the axis (rho < R_z, so the
-        # radicand alone would also admit the mirror region behind the axis).
-        contact = (radicand > 0.0) & (cos_a > 0.0)
-        s = np.sqrt(np.where(contact, radicand, np.nan))
-        s2a, c2a = np.sin(2 * a), np.cos(2 * a)
-        if nu == 0:
-            out = rz * cos_a + s - self.probe_radius
-        elif nu == 1:
-            out = -rz * sin_a * (1.0 + rz * cos_a / s)
-        elif nu == 2:
-            out = -rz * cos_a - rz**2 * c2a / s - 0.25 * rz**4 * s2a**2 / s**3
-        elif nu == 3:
-            out = (rz * sin_a + 2 * rz**2 * s2a / s - 1.5 * rz**4 * s2a * c2a / s**3
-                   - 0.375 * rz**6 * s2a**3 / s**5)
-        else:
-            raise InputError('nu', nu, 'a derivative order 0..3')
-        # alpha = +-alpha_max exactly: h is finite (radicand 0), the slope is not.
-        edge = (radicand == 0.0) & (cos_a > 0.0)
-        if nu == 0 and np.any(edge):
-            out = np.where(edge, rz * cos_a - self.probe_radius, out)
-        return np.asarray(out, dtype=float)
+        out = centre_distance(alpha, nu, self.circle_radius, self.pin_radius + self.probe_radius)
+        return out - self.probe_radius if nu == 0 else out
+
+
+def centre_distance(alpha: ArrayLike, nu: int, circle_radius: float,
+                    rho: float) -> NDArray[np.float64]:
+    """nu-th derivative (0..3) of L(alpha) = R_z cos(alpha) + sqrt(rho^2 - R_z^2 sin^2(alpha))
+    [m, m/rad^nu]: the distance from the shaft axis of a ball centre that moves radially
+    and touches, at distance ``rho`` [m], a point (a pin axis, or a sharp edge with
+    rho = the ball radius) on the circle ``circle_radius`` [m] at angle ``alpha`` [rad]
+    from the ball's line; NaN where there is no contact (also behind the axis)."""
+    a = np.asarray(alpha, dtype=float)
+    rz = circle_radius
+    sin_a, cos_a = np.sin(a), np.cos(a)
+    radicand = rho * rho - (rz * sin_a) ** 2
+    # cos(alpha) > 0: the point is on the ball's side of the axis (rho < R_z, so the
+    # radicand alone would also admit the mirror region behind the axis).
+    contact = (radicand > 0.0) & (cos_a > 0.0)
+    s = np.sqrt(np.where(contact, radicand, np.nan))
+    s2a, c2a = np.sin(2 * a), np.cos(2 * a)
+    if nu == 0:
+        out = rz * cos_a + s
+    elif nu == 1:
+        out = -rz * sin_a * (1.0 + rz * cos_a / s)
+    elif nu == 2:
+        out = -rz * cos_a - rz**2 * c2a / s - 0.25 * rz**4 * s2a**2 / s**3
+    elif nu == 3:
+        out = (rz * sin_a + 2 * rz**2 * s2a / s - 1.5 * rz**4 * s2a * c2a / s**3
+               - 0.375 * rz**6 * s2a**3 / s**5)
+    else:
+        raise InputError('nu', nu, 'a derivative order 0..3')
+    # alpha = +-alpha_max exactly: L is finite (radicand 0), the slope is not.
+    edge = (radicand == 0.0) & (cos_a > 0.0)
+    if nu == 0 and np.any(edge):
+        out = np.where(edge, rz * cos_a, out)
+    return np.asarray(out, dtype=float)

@@ -14,7 +14,6 @@ import html
 import io
 from typing import Any, Mapping
 
-import numpy as np
 
 __all__ = ['html_report', 'csv_text', 'card_lines', 'CSV_COLUMNS']
 
@@ -57,42 +56,13 @@ def _png(fig: Any) -> str:
     return 'data:image/png;base64,' + base64.b64encode(buf.getvalue()).decode('ascii')
 
 
-def _band_of(feature: Mapping[str, Any]) -> tuple[float, float] | None:
-    for c in (feature.get('verdict') or {}).get('checks', []):
-        if c['quantity'] == 'lift_error_max_plus_um':
-            return (c['lower'], c['upper'])
-    return None
-
-
 def feature_figure(fid: str, table: Any, feature: Mapping[str, Any]) -> Any:
-    """The lift figure of ``analyze --plot`` with the tolerance band and zones drawn on
-    the lift-error axis (scaled to the measured error and the band, at least +-0.5 um).
-    For a lobe, ``table`` is the base-referenced table the verdict uses."""
+    """The lift figure of ``analyze --plot`` (``plots.lift_figure``: tolerance band and
+    zones on the lift-error axis). For a lobe, ``table`` is the base-referenced table
+    the verdict uses."""
     from cam_metrology.plots import lift_figure
 
-    fig = lift_figure(fid, table, dict(feature))
-    ax = fig.axes[1]
-    band = _band_of(feature)
-    err = (table[:, 1] - table[:, 2]) * 1e6
-    span = [float(np.min(err)), float(np.max(err))]
-    if band is not None:
-        for y in band:
-            ax.axhline(y, color='tab:red', lw=1.0, ls='--')
-        span += list(band)
-        ax.text(0.01, 0.95, f'tolerance {band[0]:g} .. {band[1]:g} µm (on the lobe)',
-                color='tab:red', transform=ax.transAxes, va='top', fontsize=8)
-    for c in (feature.get('verdict') or {}).get('checks', []):
-        q = c['quantity']
-        if q.startswith('lift_error_um[') and q.endswith('.max_plus'):
-            a0, a1 = (float(v) for v in q[len('lift_error_um['):q.index(' deg]')].split('..'))
-            ax.fill_between([a0, a1], c['lower'], c['upper'], color='tab:red', alpha=0.12)
-            span += [c['lower'], c['upper']]
-    mid = 0.5 * (max(span) + min(span))
-    half = max(0.5 * (max(span) - min(span)) * 1.1, 0.5)   # at least +-0.5 um shown
-    ax.set_ylim(mid - half, mid + half)
-    if feature.get('kind', 'lobe') == 'lobe':
-        ax.set_ylabel('measured - design [µm]\n(base circle = 0)')
-    return fig
+    return lift_figure(fid, table, dict(feature))
 
 
 def _verdict_html(report: Mapping[str, Any]) -> str:
@@ -117,9 +87,10 @@ def _verdict_html(report: Mapping[str, Any]) -> str:
                    '<th class="l">result</th></tr>' + ''.join(rows) + '</table>')
     gaps = [m for m in v.get('not_checked') or []]
     if gaps:
-        out.append('<ul>' + ''.join(f'<li>not checked: {_e(m.get("feature"))} '
-                                    f'{_e(m.get("quantity"))}: {_e(m.get("why"))}</li>'
-                                    for m in gaps) + '</ul>')
+        out.append('<ul>' + ''.join(
+            f'<li>not checked: {_e(m.get("why"))}</li>' if m.get('feature') == '*' else
+            f'<li>not checked: {_e(m.get("feature"))} {_e(m.get("quantity"))}: '
+            f'{_e(m.get("why"))}</li>' for m in gaps) + '</ul>')
     return '\n'.join(out)
 
 
@@ -154,6 +125,41 @@ def _card_html(report: Mapping[str, Any]) -> str:
             '<th>max lift mm</th><th>area mm deg</th></tr>' + ''.join(rows) + '</table>')
 
 
+def _crank_html(report: Mapping[str, Any]) -> str:
+    """Valve events in crank degrees and the lobe separations (scene crank datum)."""
+    crank = report.get('crank') or {}
+    if not crank:
+        return ''
+    rows = []
+    for fid, f in (report.get('features') or {}).items():
+        card = f.get('cam_card') or {}
+        cm = (card.get('measured') or {}).get('crank')
+        cn = (card.get('nominal') or {}).get('crank')
+        if not cm or not cn:
+            continue
+        side = 'ATDC' if cm['role'] == 'intake' else 'BTDC'
+        for em, en in zip(cm['events'], cn['events']):
+            ev = ', '.join(f'{k.split("_")[0]} {em[k]:.2f} / {en[k]:.2f} '
+                           f'{k.split("_")[1].upper()}' for k in em if k != 'height_m')
+            rows.append(f'<tr><td class="l">{_e(fid)}</td><td class="l">{_e(cm["role"])} '
+                        f'(cyl {_e(cm.get("cylinder"))})</td>'
+                        f'<td>{cm["centreline_crank_deg"]:.2f} / '
+                        f'{cn["centreline_crank_deg"]:.2f} {side}</td>'
+                        f'<td>{em["height_m"] * 1e3:.3f}</td><td class="l">{_e(ev)}</td></tr>')
+    pairs = ''.join(
+        f'<li>cylinder {_e(p["cylinder"])} {_e(p["intake"])}/{_e(p["exhaust"])}: lobe '
+        f'separation {p["lobe_separation_deg"]:.3f} cam deg measured'
+        + ''.join(f' / {q["lobe_separation_deg"]:.3f} nominal'
+                  for q in (crank.get('nominal') or {}).get('pairs', [])
+                  if q['intake'] == p['intake'] and q['exhaust'] == p['exhaust'])
+        + '</li>' for p in (crank.get('measured') or {}).get('pairs', []))
+    return (f'<h3>Crank timing</h3><p>Cylinder 1 TDC {crank.get("tdc_deg"):g} cam deg from '
+            'the datum; measured / nominal, crank degrees (four-stroke: crank = 2 x cam).</p>'
+            '<table><tr><th class="l">lobe</th><th class="l">role</th><th>centreline</th>'
+            '<th>height mm</th><th class="l">events</th></tr>' + ''.join(rows) + '</table>'
+            + (f'<ul>{pairs}</ul>' if pairs else ''))
+
+
 def _results_html(report: Mapping[str, Any]) -> str:
     rows = []
     for fid, f in (report.get('features') or {}).items():
@@ -179,8 +185,12 @@ def _results_html(report: Mapping[str, Any]) -> str:
             '<th class="l">status</th></tr>' + ''.join(rows) + '</table>')
 
 
-def html_report(report: Mapping[str, Any], tables: Mapping[str, Any]) -> str:
-    """The HTML document (module doc). ``tables``: feature id -> /metrology/lift table."""
+def html_report(report: Mapping[str, Any], tables: Mapping[str, Any],
+                profiles: Mapping[str, Any] | None = None,
+                designs: Mapping[str, Any] | None = None) -> str:
+    """The HTML document (module doc). ``tables``: feature id -> /metrology/lift table;
+    ``profiles``: feature id -> (columns, data) of a /reconstruction/profile table (its
+    velocity and acceleration are plotted, beside ``designs[id]``'s when given)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -189,7 +199,7 @@ def html_report(report: Mapping[str, Any], tables: Mapping[str, Any]) -> str:
     parts = ['<!DOCTYPE html>', '<html lang="en"><head><meta charset="utf-8">',
              f'<title>{_e(title)}</title><style>{_STYLE}</style></head><body>',
              f'<h1>{_e(title)}</h1>', '<h2>Verdict</h2>', _verdict_html(report),
-             '<h2>Cam card</h2>', _card_html(report),
+             '<h2>Cam card</h2>', _card_html(report), _crank_html(report),
              '<h2>Results</h2>', _results_html(report), '<h2>Plots</h2>']
     features = report.get('features') or {}
     for fid, table in tables.items():
@@ -199,6 +209,14 @@ def html_report(report: Mapping[str, Any], tables: Mapping[str, Any]) -> str:
                          f'lift error" src="{_png(fig)}">')
         finally:
             plt.close(fig)
+        if profiles and fid in profiles:
+            from cam_metrology.plots import derivative_figure
+            fig = derivative_figure(fid, *profiles[fid], (designs or {}).get(fid))
+            try:
+                parts.append(f'<img class="plot" alt="{_e(fid)} velocity and acceleration" '
+                             f'src="{_png(fig)}">')
+            finally:
+                plt.close(fig)
     skipped = report.get('skipped') or []
     if skipped:
         parts.append('<h2>Skipped</h2><ul>' + ''.join(
@@ -255,4 +273,22 @@ def card_lines(report: Mapping[str, Any]) -> list[str]:
                      f'{em["opening_deg"]:.2f}/{en["opening_deg"]:.2f} .. '
                      f'{em["closing_deg"]:.2f}/{en["closing_deg"]:.2f} deg, duration '
                      f'{em["duration_cam_deg"]:.3f}/{en["duration_cam_deg"]:.3f}')
+        if m.get('crank') and n.get('crank'):
+            cm, cn = m['crank'], n['crank']
+            words = [k.split('_')[:2] for k in cm['events'][0] if k != 'height_m']
+            ev = ', '.join(f'{w[0]} {cm["events"][0]["_".join(w) + "_deg"]:.2f}/'
+                           f'{cn["events"][0]["_".join(w) + "_deg"]:.2f} {w[1].upper()}'
+                           for w in words)
+            side = 'ATDC' if cm['role'] == 'intake' else 'BTDC'
+            lines.append(f'crank {fid:<9} measured/nominal: {cm["role"]} centreline '
+                         f'{cm["centreline_crank_deg"]:.2f}/{cn["centreline_crank_deg"]:.2f} '
+                         f'{side}; @{em["height_mm"]:g} mm {ev}')
+    crank = report.get('crank') or {}
+    for pm in (crank.get('measured') or {}).get('pairs', []):
+        pn = next((p for p in (crank.get('nominal') or {}).get('pairs', [])
+                   if p['intake'] == pm['intake'] and p['exhaust'] == pm['exhaust']), None)
+        nominal = '-' if pn is None else f"{pn['lobe_separation_deg']:.3f}"
+        lines.append(f"lobe separation {pm['intake']}/{pm['exhaust']} (cylinder "
+                     f"{pm['cylinder']}) measured/nominal: {pm['lobe_separation_deg']:.3f}/"
+                     f'{nominal} cam deg')
     return lines

@@ -13,8 +13,8 @@ from typing import Any
 from cam_design.follower import Follower
 from cam_design.lift_laws import LiftLaw
 
-__all__ = ['Follower', 'Lobe', 'DowelPin', 'Seat', 'ValveTrain', 'Scene', 'COMPUTE_ITEMS',
-           'Band', 'ToleranceZone', 'Tolerances']
+__all__ = ['Follower', 'Lobe', 'DowelPin', 'Keyway', 'Crank', 'Seat', 'ValveTrain', 'Scene',
+           'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances']
 COMPUTE_ITEMS = ('nose', 'pin', 'asymmetry', 'reconstruction', 'dynamics')
 
 
@@ -66,6 +66,9 @@ class Lobe:
     lift_spec: dict[str, Any] | None = None   # the scene's lift_law mapping, if any
     width: float | None = None                # m, cam width (Hertz contact line length)
     tolerances: Tolerances | None = None      # defaults merged with the lobe's own
+    role: str | None = None                   # 'intake' | 'exhaust' (crank events)
+    cylinder: str = '1'                       # cylinder the lobe serves (crank datum)
+    nominal_file: str | None = None           # gauge file the design came from (resolved)
 
 
 @dataclass(frozen=True)
@@ -76,6 +79,29 @@ class DowelPin:
     circle_radius: float
     probe_radius: float
     nominal_angle: float | None = None
+
+
+@dataclass(frozen=True)
+class Keyway:
+    """Keyway datum (a slot in the shaft, cam_design.keyway): slot width, shaft radius,
+    probe ball radius, slot depth (None: the ball is wider than the slot) in m;
+    ``nominal_angle`` rad (optional)."""
+
+    width: float
+    shaft_radius: float
+    probe_radius: float
+    depth: float | None = None
+    nominal_angle: float | None = None
+
+
+@dataclass(frozen=True)
+class Crank:
+    """Crank datum: ``tdc_deg`` cam degrees from the angular datum (pin or keyway
+    centre) to cylinder 1's TDC of the overlap, measured like a phase (encoder frame);
+    ``cylinder_tdc_deg`` cylinder -> crank degrees of its TDC after cylinder 1's."""
+
+    tdc_deg: float
+    cylinder_tdc_deg: dict[str, float] = field(default_factory=lambda: {'1': 0.0})
 
 
 @dataclass(frozen=True)
@@ -124,9 +150,23 @@ class Scene:
     valve_train: ValveTrain | None = None
     idle_timeout: float = 1.0                 # s
     text: str = ''
-    datum_tolerance_deg: Band | None = None   # pin centre angle vs its nominal_angle
+    datum_tolerance_deg: Band | None = None   # datum centre angle vs its nominal_angle
     warnings: tuple[str, ...] = ()
+    keyway: Keyway | None = None              # the other datum (never with a dowel_pin)
+    crank: Crank | None = None                # crank datum (needs a pin or keyway)
     study: dict[str, str] = field(default_factory=dict)   # part_id, operator, trial
+
+    @property
+    def datum_id(self) -> str | None:
+        """Feature id of the angular datum: 'dowel_pin', 'keyway' or None."""
+        if self.dowel_pin is not None:
+            return 'dowel_pin'
+        return 'keyway' if self.keyway is not None else None
+
+    @property
+    def datum(self) -> DowelPin | Keyway | None:
+        """The datum feature's scene entry (dowel pin or keyway), or None."""
+        return self.dowel_pin if self.dowel_pin is not None else self.keyway
 
     def wants(self, item: str) -> bool:
         """True if ``compute`` asks for ``item`` (or does not restrict)."""

@@ -24,24 +24,30 @@ from cam_design.errors import InputError, require_finite, require_length, requir
 from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import design_table
 from cam_metrology.files import read_text_file
-from cam_metrology.scene import (COMPUTE_ITEMS, Band, DowelPin, Follower, Lobe, Scene, Seat,
-                                 ToleranceZone, Tolerances, ValveTrain)
+from cam_metrology.scene import (COMPUTE_ITEMS, Band, Crank, DowelPin, Follower, Keyway, Lobe,
+                                 Scene, Seat, ToleranceZone, Tolerances, ValveTrain)
 
 __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
-            'dowel_pin', 'compute', 'valve_train', 'idle_timeout', 'tolerances') + (
-                'part_id', 'operator', 'trial')
+            'dowel_pin', 'keyway', 'crank', 'compute', 'valve_train', 'idle_timeout',
+            'tolerances', 'part_id', 'operator', 'trial')
 #: top-level keys of a gauge R&R study (carried into the report and the batch table)
 STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law',
-             'width', 'tolerances')
+             'width', 'tolerances', 'role', 'cylinder', 'nominal_file')
 #: tolerance keys of a lobe (units in the names); the top-level block adds datum_deg
 TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
 TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'runout_max_um', 'checking_height_mm')
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
+#: lift [m] above which a nominal file's row is on the lobe, not the base circle
+NOMINAL_BASE_LEVEL = 1e-7
+KEYWAY_KEYS = ('width', 'shaft_radius', 'probe_radius', 'depth', 'nominal_angle')
+CRANK_KEYS = ('tdc_deg', 'cylinder_tdc_deg')
+#: feature ids of the datums (no lobe may take them)
+DATUM_IDS = ('dowel_pin', 'keyway')
 VALVE_MODELS = ('sdof', 'mdof', 'hydraulic')
 #: valve_train keys the hydraulic model does not use, with the value it takes
 HYDRAULIC_UNUSED = {'rocker_ratio': 1.0, 'lash': 0.0, 'stiffness': 1.0e12, 'damping': 0.0}
@@ -83,8 +89,9 @@ VALVE_KEYS: dict[str, tuple[bool, Callable[[str, Any], float]]] = {
 class _Ctx:
     """Collects warnings while a document is validated."""
 
-    def __init__(self) -> None:
+    def __init__(self, base_dir: Path | None = None) -> None:
         self.warnings: list[str] = []
+        self.base_dir = base_dir   # folder of the scene file: relative nominal_file paths
 
     def mapping(self, key: str, value: Any, known: tuple[str, ...]) -> Mapping[str, Any]:
         """``value`` as a mapping; unknown keys become warnings."""
@@ -100,10 +107,13 @@ class _Ctx:
         return value
 
 
-def parse_scene(text: str, source: str = '<scene>') -> Scene:
+def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None = None
+                ) -> Scene:
     """Validate a scene YAML document and return the Scene (InputError if invalid).
 
-    ``source`` names the document in YAML syntax errors (a file name).
+    ``source`` names the document in YAML syntax errors (a file name); ``base_dir`` is
+    the folder relative ``lobes[i].nominal_file`` paths start from (default: the
+    working directory).
     """
     import yaml
 
@@ -125,7 +135,7 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
         raise InputError('scene', source, f'valid YAML ({problem}{where})') from None
     if doc is None:
         raise InputError('scene', source, 'a YAML mapping with the scene keys (file is empty)')
-    ctx = _Ctx()
+    ctx = _Ctx(None if base_dir is None else Path(base_dir))
     top = ctx.mapping('', doc, TOP_KEYS) if isinstance(doc, Mapping) else None
     if top is None:
         raise InputError('scene', type(doc).__name__,
@@ -142,23 +152,30 @@ def parse_scene(text: str, source: str = '<scene>') -> Scene:
                                 ('datum_deg',))
     lobes = _lobes(ctx, top.get('lobes', []), base, defaults)
     pin = _dowel_pin(ctx, top['dowel_pin']) if top.get('dowel_pin') is not None else None
-    datum = _datum_tolerance(defaults, pin)
-    if not lobes and pin is None:
+    keyway = _keyway(ctx, top['keyway']) if top.get('keyway') is not None else None
+    if pin is not None and keyway is not None:
+        raise InputError('keyway', 'given with a dowel_pin',
+                         'one angular datum: either dowel_pin or keyway, not both')
+    datum = _datum_tolerance(defaults, pin or keyway)
+    if not lobes and pin is None and keyway is None:
         raise InputError('lobes', top.get('lobes', []),
-                         'at least one lobe (or a dowel_pin): nothing to measure')
+                         'at least one lobe (or a dowel_pin or keyway): nothing to measure')
+    crank = _crank(ctx, top.get('crank'), pin or keyway, lobes)
     compute = _compute(top.get('compute'))
     valve = _valve_train(ctx, top['valve_train']) \
         if top.get('valve_train') is not None else None
     idle = require_positive('idle_timeout', top.get('idle_timeout', 1.0))
     _check_conversions(ctx, lobes, base, probe)
-    if pin is None and any(lobe.nominal_phase is not None for lobe in lobes):
-        ctx.warnings.append('lobes[].nominal_phase: given but the scene has no dowel_pin; '
-                            'phases cannot be measured')
+    if pin is None and keyway is None and any(lobe.nominal_phase is not None
+                                              for lobe in lobes):
+        ctx.warnings.append('lobes[].nominal_phase: given but the scene has no dowel_pin or '
+                            'keyway; phases cannot be measured')
     study = {k: _text(k, top[k]) for k in STUDY_KEYS if top.get(k) is not None}
     return Scene(camshaft_id=camshaft_id, direction=direction, probe=probe,
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
-                 datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), study=study)
+                 datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
+                 crank=crank, study=study)
 
 
 class _DuplicateKey(Exception):
@@ -187,7 +204,8 @@ def _unique_key_loader() -> Any:
 
 def load_scene(path: str | Path) -> Scene:
     """Read and validate the scene file at ``path`` (see ``parse_scene``)."""
-    return parse_scene(read_text_file(path, 'scene file'), source=str(path))
+    return parse_scene(read_text_file(path, 'scene file'), source=str(path),
+                       base_dir=Path(path).parent)
 
 
 # ------------------------------------------------------------------------- scalars
@@ -256,9 +274,9 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         if 'id' not in lobe:
             raise InputError(f'{key}.id', None, 'a feature id such as lobe_1')
         lobe_id = _text(f'{key}.id', lobe['id'])
-        if lobe_id == 'dowel_pin':
-            raise InputError(f'{key}.id', lobe_id, 'a lobe id other than dowel_pin '
-                             '(reserved for the dowel pin feature)')
+        if lobe_id in DATUM_IDS:
+            raise InputError(f'{key}.id', lobe_id, 'a lobe id other than dowel_pin and '
+                             'keyway (reserved for the datum features)')
         if any(c.isspace() for c in lobe_id):
             raise InputError(f'{key}.id', lobe_id, 'an id without white space')
         if lobe_id in seen:
@@ -269,10 +287,16 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         phase = _optional_angle(f'{key}.nominal_phase', lobe.get('nominal_phase'))
         has_table = lobe.get('lift') is not None
         has_law = lobe.get('lift_law') is not None
-        if has_table == has_law:
-            raise InputError(f'{key}.lift', 'both' if has_table else None,
-                             'exactly one of lift (alpha/h table) or lift_law')
-        if has_table:
+        has_file = lobe.get('nominal_file') is not None
+        if has_table + has_law + has_file != 1:
+            raise InputError(f'{key}.lift', 'more than one' if has_table + has_law + has_file
+                             else None, 'exactly one of lift (alpha/h table), lift_law or '
+                             'nominal_file')
+        nominal_path = None
+        if has_file:
+            law, follower, nominal_path = _nominal_file(ctx, key, lobe, follower)
+            spec = None
+        elif has_table:
             law: LiftLaw = _lift_table(ctx, f'{key}.lift', lobe['lift'])
             spec = None
         else:
@@ -281,14 +305,54 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
                                  'a mapping {family: NAME, ...parameters}')
             spec = dict(lobe['lift_law'])   # the registry rejects unknown parameters
             law = lift_law_from_spec(spec, f'{key}.lift_law')
-        _check_law(f'{key}.lift_law' if spec is not None else f'{key}.lift', law)
+        _check_law(f'{key}.lift_law' if spec is not None else
+                   f'{key}.nominal_file' if has_file else f'{key}.lift', law)
         width = lobe.get('width')
         if width is not None:
             width = require_length(f'{key}.width', width, GEOMETRY_MAX_M)
         tol = _lobe_tolerances(ctx, key, lobe.get('tolerances'), defaults or {}, law, phase)
+        role = lobe.get('role')
+        if role is not None and role not in ('intake', 'exhaust'):
+            raise InputError(f'{key}.role', role, 'intake | exhaust')
+        cylinder = _text(f'{key}.cylinder', lobe.get('cylinder', 1))
         lobes.append(Lobe(id=lobe_id, follower=follower, lift=law, nominal_phase=phase,
-                          lift_spec=spec, width=width, tolerances=tol))
+                          lift_spec=spec, width=width, tolerances=tol, role=role,
+                          cylinder=cylinder, nominal_file=nominal_path))
     return lobes
+
+
+def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follower
+                  ) -> tuple[LiftLaw, Follower, str]:
+    """The design lift of a gauge nominal-profile file (docs/cam_card.md: probe radius,
+    steps, rows ``angle_deg lift_mm``) and the follower it is written for (a roller of
+    the file's probe radius, a knife for 0); a lobe ``follower`` that differs is an
+    error. Relative paths start from the scene file's folder."""
+    from cam_metrology.reconstruction.samples import read_gauge_file
+
+    raw = _text(f'{key}.nominal_file', lobe['nominal_file'])
+    path = Path(raw).expanduser()
+    if not path.is_absolute() and ctx.base_dir is not None:
+        path = ctx.base_dir / path
+    if not path.is_file():
+        raise InputError(f'{key}.nominal_file', raw, f'an existing gauge nominal-profile file '
+                         f'(looked for {path}; relative paths start from the scene file\'s '
+                         'folder, or the working directory for a scene from a bag)')
+    table = read_gauge_file(path, feature=_text(f'{key}.id', lobe['id']))
+    kind, radius = table.follower or ('knife', 0.0)
+    own = Follower(kind, radius)
+    if 'follower' in lobe and (follower.kind != own.kind or
+                               abs(follower.radius - own.radius) > 1e-12):
+        raise InputError(f'{key}.follower', lobe['follower'],
+                         f'no follower, or the file\'s ({kind}, radius {radius:g} m): the '
+                         'nominal file says which follower its lift is for')
+    # the file covers the whole turn: the lobe is where it rises off the base circle
+    # (one base-circle row kept on each side), so that the base circle stays base circle
+    up = np.nonzero(table.lift > NOMINAL_BASE_LEVEL)[0]
+    if up.size == 0:
+        raise InputError(f'{key}.nominal_file', raw, 'a lift profile (every lift is 0)')
+    i0, i1 = max(int(up[0]) - 1, 0), min(int(up[-1]) + 1, table.lift.size - 1)
+    alpha, lift = table.alpha[i0:i1 + 1], table.lift[i0:i1 + 1]
+    return _table_law(ctx, f'{key}.nominal_file', alpha, lift), own, str(path)
 
 
 def _lobe_follower(key: str, lobe: Mapping[str, Any]) -> Follower:
@@ -334,6 +398,12 @@ def _lift_table(ctx: _Ctx, key: str, value: Any) -> LiftLaw:
         j = int(bad[0]) + 1
         raise InputError(f'{key}.alpha[{j}]', float(alpha[j]),
                          f'strictly increasing angles in rad (previous is {alpha[j - 1]:g})')
+    return _table_law(ctx, key, alpha, h)
+
+
+def _table_law(ctx: _Ctx, key: str, alpha: np.ndarray, h: np.ndarray) -> LiftLaw:
+    """The quintic interpolant of a design table, or (a coarse table whose interpolant
+    rings) the reconstruction spline, with a warning."""
     try:
         return design_table(alpha, h, key)
     except InputError as exc:
@@ -425,6 +495,52 @@ def _dowel_pin(ctx: _Ctx, value: Any) -> DowelPin:
     DowelPinGeometry(**radii)   # raises InputError('dowel_pin.circle_radius', ...)
     return DowelPin(nominal_angle=_optional_angle('dowel_pin.nominal_angle',
                                                   pin.get('nominal_angle')), **radii)
+
+
+def _keyway(ctx: _Ctx, value: Any) -> Keyway:
+    from cam_design.keyway import KeywayGeometry
+
+    kw = ctx.mapping('keyway', value, KEYWAY_KEYS)
+    for k in KEYWAY_KEYS[:3]:
+        if k not in kw:
+            raise InputError(f'keyway.{k}', None, 'a length in m (> 0)')
+    dims = {k: require_positive(f'keyway.{k}', kw[k]) for k in KEYWAY_KEYS[:3]}
+    depth = None if kw.get('depth') is None else require_positive('keyway.depth', kw['depth'])
+    KeywayGeometry(depth=depth, **dims)   # raises InputError('keyway.<key>', ...)
+    return Keyway(depth=depth, nominal_angle=_optional_angle('keyway.nominal_angle',
+                                                             kw.get('nominal_angle')), **dims)
+
+
+def _crank(ctx: _Ctx, value: Any, datum: Any, lobes: list[Lobe]) -> Crank | None:
+    """The crank datum: cylinder 1's TDC [cam deg from the datum, like a phase] and the
+    other cylinders' TDC [crank deg after cylinder 1's]; needs a pin or keyway datum."""
+    if value is None:
+        if any(lobe.role for lobe in lobes):
+            ctx.warnings.append('lobes[].role: given but the scene has no crank datum; '
+                                'no crank-degree events')
+        return None
+    if datum is None:
+        raise InputError('crank', 'given without a datum', 'a dowel_pin or keyway in the '
+                         'scene: TDC is placed relative to it (or no crank block)')
+    crank = ctx.mapping('crank', value, CRANK_KEYS)
+    if 'tdc_deg' not in crank:
+        raise InputError('crank.tdc_deg', None, 'the cam angle [deg] from the datum to '
+                         'cylinder 1 TDC (of the overlap), measured like a phase')
+    tdc = require_finite('crank.tdc_deg', crank['tdc_deg'])
+    if abs(tdc) > 360.0:
+        raise InputError('crank.tdc_deg', tdc, 'cam degrees within [-360, 360]')
+    raw = crank.get('cylinder_tdc_deg', {1: 0.0})
+    if not isinstance(raw, Mapping) or not raw:
+        raise InputError('crank.cylinder_tdc_deg', raw, 'a mapping cylinder -> crank deg of '
+                         "its TDC after cylinder 1's, e.g. {1: 0, 2: 360}")
+    cyl = {str(k): require_finite(f'crank.cylinder_tdc_deg.{k}', v) for k, v in raw.items()}
+    for lobe in lobes:
+        if lobe.role and lobe.cylinder not in cyl:
+            i = lobes.index(lobe)
+            raise InputError(f'lobes[{i}].cylinder', lobe.cylinder,
+                             'one of the cylinders of crank.cylinder_tdc_deg: '
+                             + ', '.join(cyl))
+    return Crank(tdc_deg=tdc, cylinder_tdc_deg=cyl)
 
 
 def _compute(value: Any) -> frozenset[str] | None:
@@ -646,13 +762,14 @@ def _lobe_tolerances(ctx: _Ctx, key: str, value: Any, defaults: dict[str, Any],
     return tol
 
 
-def _datum_tolerance(defaults: dict[str, Any], pin: DowelPin | None) -> Band | None:
+def _datum_tolerance(defaults: dict[str, Any], pin: DowelPin | Keyway | None
+                     ) -> Band | None:
     band = defaults.get('datum_deg')
     if band is None:
         return None
     if pin is None or pin.nominal_angle is None:
-        raise InputError('tolerances.datum_deg', band, 'a dowel_pin with a nominal_angle to '
-                         'check the datum against (or no datum tolerance)')
+        raise InputError('tolerances.datum_deg', band, 'a dowel_pin or keyway with a '
+                         'nominal_angle to check the datum against (or no datum tolerance)')
     return band
 
 

@@ -1,8 +1,9 @@
 """A simulated camshaft measuring bench (pure numpy; no rclpy).
 
 ``simulate(scene, params)`` measures every feature of a scene in turn (the lobes in
-scene order, then the dowel pin) the way the bench does: the shaft turns, the encoder
-gives ``theta`` [rad] and the probe gives ``s`` [m] with an arbitrary zero. The truth
+scene order, then the datum: dowel pin or keyway) the way the bench does: the shaft
+turns, the encoder gives ``theta`` [rad] and the probe gives ``s`` [m] with an
+arbitrary zero. The truth
 (true nose and pin angles, phases, probe zero, noise) comes with the samples so that
 the analysis can be scored. ``iter_joint_state_messages`` gives the sample stream the
 live ``bench-sim`` node publishes, and ``write_sim_bag`` records it into a bag exactly
@@ -18,6 +19,8 @@ Model (conventions of docs/contract.md):
 * dowel pin: ``s = zero + DowelPinGeometry.lift(alpha)`` (Liu's absolute lift)
   inside contact; outside it the probe rests on its stop ``pin_stop_depth`` below the
   lowest contact lift;
+* keyway: ``s = zero + KeywayGeometry.lift(alpha)`` (0 on the shaft, negative over the
+  slot; ``cam_design.keyway``) plus run-out and noise like a lobe;
 * ``theta`` reported = ``theta_true + encoder noise``; the shaft turns continuously
   from ``start_theta`` through all features (unwrapped, or wrapped to [0, 2 pi)),
   theta increasing with time (decreasing with ``reverse``);
@@ -43,6 +46,7 @@ __all__ = ['SimParams', 'SimFeature', 'BenchRun', 'simulate', 'probe_lift',
            'scene_with_direction']
 
 DOWEL_PIN = 'dowel_pin'
+KEYWAY = 'keyway'
 TWO_PI = 2.0 * math.pi
 #: bag/stream start when SimParams.start_ns is None: 2026-01-01T00:00:00Z [ns]
 DEFAULT_START_NS = 1_767_225_600 * 1_000_000_000
@@ -125,7 +129,7 @@ class SimFeature:
     """The samples of one feature: encoder ``theta`` [rad], probe ``s`` [m], stamps [ns]."""
 
     id: str
-    kind: str                     # 'lobe' | 'dowel_pin'
+    kind: str                     # 'lobe' | 'dowel_pin' | 'keyway'
     true_angle: float             # rad, true nose / pin-centre encoder angle
     theta: NDArray[np.float64]
     s: NDArray[np.float64]
@@ -203,8 +207,9 @@ def _true_angles(scene: Scene, params: SimParams) -> dict[str, float]:
     pin_draw = rng.uniform(-1.0, 1.0) * deg
     lobe_draws = [(rng.uniform(-0.5, 0.5) * deg, rng.uniform(0.0, TWO_PI))
                   for _ in scene.lobes]
-    pin = scene.dowel_pin
-    pin_angle = given.get(DOWEL_PIN, ((pin.nominal_angle or 0.0) if pin else 0.0) + pin_draw)
+    pin = scene.datum   # dowel pin or keyway
+    datum_id = scene.datum_id or DOWEL_PIN
+    pin_angle = given.get(datum_id, ((pin.nominal_angle or 0.0) if pin else 0.0) + pin_draw)
     out: dict[str, float] = {}
     for lobe, (err, uniform) in zip(scene.lobes, lobe_draws):
         if lobe.id in given:
@@ -215,7 +220,7 @@ def _true_angles(scene: Scene, params: SimParams) -> dict[str, float]:
             angle = uniform
         out[lobe.id] = _wrap_2pi(angle)
     if pin is not None:
-        out[DOWEL_PIN] = _wrap_2pi(pin_angle)
+        out[datum_id] = _wrap_2pi(pin_angle)
     unknown = set(given) - set(out)
     if unknown:
         raise InputError('true_angles', sorted(unknown),
@@ -226,6 +231,7 @@ def _true_angles(scene: Scene, params: SimParams) -> dict[str, float]:
 def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     """Simulate the bench measuring every feature of ``scene`` (see the module doc)."""
     from cam_design.dowel_pin import DowelPinGeometry
+    from cam_design.keyway import KeywayGeometry
 
     params = (params or SimParams()).validated()
     angles = _true_angles(scene, params)
@@ -239,8 +245,8 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     zero = params.probe_zero_offset
     scale = float(params.lift_scale)
     order: list[tuple[str, str]] = [(lobe.id, 'lobe') for lobe in scene.lobes]
-    if scene.dowel_pin is not None:
-        order.append((DOWEL_PIN, 'dowel_pin'))
+    if scene.datum_id is not None:
+        order.append((scene.datum_id, scene.datum_id))
     features: list[SimFeature] = []
     k0 = 0
     t0 = start_ns
@@ -255,6 +261,11 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
             conversions[fid] = ('identity' if law is lobe.lift else
                                 f'{lobe.follower.kind} -> {scene.probe.kind}')
             s = zero + (law(alpha) if scale == 1.0 else scale * law(alpha))
+        elif kind == KEYWAY:
+            kw = scene.keyway
+            kgeo = KeywayGeometry(kw.width, kw.shaft_radius, kw.probe_radius, kw.depth)
+            h = kgeo.lift(alpha)   # 0 on the shaft, negative over the slot
+            s = zero + np.where(np.isfinite(h), h, kgeo.depth_seen)
         else:
             pin = scene.dowel_pin
             geo = DowelPinGeometry(pin.pin_radius, pin.circle_radius, pin.probe_radius)
@@ -288,7 +299,8 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
     """The JSON-able truth of a run (angles in deg, wrapped like the report's)."""
     deg = 180.0 / math.pi
     feats: dict[str, Any] = {}
-    pin_angle = angles.get(DOWEL_PIN)
+    datum_id = scene.datum_id or DOWEL_PIN
+    pin_angle = angles.get(datum_id)
     for lobe in scene.lobes:
         a = angles[lobe.id]
         entry: dict[str, Any] = {'kind': 'lobe', 'angle_deg': a * deg, 'angle_rad': a,
@@ -301,8 +313,8 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
                 entry['phase_error_deg'] = _wrap_deg_pm180(phase - lobe.nominal_phase * deg)
         feats[lobe.id] = entry
     if pin_angle is not None:
-        feats[DOWEL_PIN] = {'kind': 'dowel_pin', 'angle_deg': pin_angle * deg,
-                            'angle_rad': pin_angle, 'samples': n}
+        feats[datum_id] = {'kind': datum_id, 'angle_deg': pin_angle * deg,
+                           'angle_rad': pin_angle, 'samples': n}
     p = asdict(params)
     if p.get('lift_scale') == 1.0:   # the design itself: truth as before the option existed
         del p['lift_scale']

@@ -6,6 +6,7 @@ import csv
 import hashlib
 import io
 import json
+import math
 import re
 import shutil
 import subprocess
@@ -125,3 +126,60 @@ def test_card_of_a_bag_and_its_measured_profile_file(analysed, tmp_path, capsys)
     assert again['max_lift_mm'] == pytest.approx(measured['max_lift_mm'], abs=1e-4)
     assert again['heights'][0]['duration_cam_deg'] == pytest.approx(
         measured['heights'][0]['duration_cam_deg'], abs=0.01)
+
+
+def test_velocity_acceleration_plot_scaled_to_the_measured_curve() -> None:
+    """The HTML report's derivative figure: both curves drawn, the axes scaled to the
+    reconstructed (measured) curve even when the design has a spike 1000x larger."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from cam_design.lift_laws.registry import from_spec
+    from cam_metrology.html_report import html_report
+    from cam_metrology.plots import derivative_figure
+
+    law = from_spec({'family': 'constant_acceleration', 'ramp': 'none', 'rise': 8e-3,
+                     'half_angle': math.radians(60), 'positive_width': math.radians(20)})
+    a = np.radians(np.arange(-180, 180, 0.5))
+    data = np.column_stack([a] + [law(a, nu) for nu in range(4)])
+    cols = ('alpha_rad', 'lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
+            'jerk_m_per_rad3')
+
+    def spiky(x, nu=0):
+        return law(x, nu) + (1000 * np.max(np.abs(law(a, 2))) * (np.abs(x) < 0.01)
+                             if nu == 2 else 0.0)
+
+    fig = derivative_figure('lobe', cols, data, spiky)
+    try:
+        acc = data[:, 3] * 1e3 * (math.pi / 180) ** 2
+        lo, hi = fig.axes[1].get_ylim()
+        span = acc.max() - acc.min()
+        assert lo == pytest.approx(acc.min() - 0.1 * span) and \
+            hi == pytest.approx(acc.max() + 0.1 * span)
+        assert len(fig.axes[1].lines) == 2
+    finally:
+        plt.close(fig)
+    report = {'camshaft_id': 'x', 'features': {'lobe': {'kind': 'lobe', 'status': 'ok'}}}
+    table = np.column_stack([a, law(a), law(a)])
+    page = html_report(report, {'lobe': table}, {'lobe': (cols, data)}, {'lobe': law})
+    assert page.count('<img class="plot"') == 2 and 'lobe velocity and acceleration' in page
+
+
+def test_seating_window_finds_the_bounces() -> None:
+    """A lobe closing at 60 deg, then two bounces of 5 and 2 um ending at 75 deg: the
+    inset window of the dynamics plot spans first seating to the last bounce."""
+    import numpy as np
+
+    from cam_design.valve_train.sweep import seating_window
+
+    a = np.radians(np.arange(-90.0, 270.0, 0.1))
+    lift = np.where(np.abs(a) < np.radians(60), 8e-3 * np.cos(1.5 * a) ** 2, 0.0)
+    bounce = (a > np.radians(62)) & (a < np.radians(68))
+    lift = lift + np.where(bounce, 5e-6 * np.sin((a - np.radians(62)) * 30) ** 2, 0.0)
+    second = (a > np.radians(70)) & (a < np.radians(75))
+    lift = lift + np.where(second, 2e-6 * np.sin((a - np.radians(70)) * 36) ** 2, 0.0)
+    seat, end = np.degrees(seating_window(a, lift))
+    assert 55.0 < seat < 60.0 and 74.0 < end < 75.0
+    assert seating_window(a, 8e-3 + 0 * a) is None

@@ -337,3 +337,74 @@ def test_scene_check_prints_the_tolerances(tmp_path, capsys) -> None:
     out = capsys.readouterr().out
     assert out.count('tolerances: lift error +-10 µm; duration [-0.5, +0.3] deg at 1 mm') == 4
     assert 'datum: pin centre +-1.5 deg' in out
+
+
+# ------------------------------- one limit at a time, on simulated bags (true profile)
+def _one_lobe_doc(tolerances: dict) -> dict:
+    doc = _scene_doc()
+    doc['lobes'] = doc['lobes'][:1]            # lobe_1 (37 deg nominal phase) + the pin
+    doc['tolerances'] = tolerances
+    return doc
+
+
+PHASE = math.radians(37.0)
+
+
+@pytest.mark.parametrize('name,tol,params,quantity,expect', [
+    # phase error of the true part -0.3 / +0.3 / +0.2 / exactly +0.25 deg, limit +-0.25
+    ('phase+', {'phase_deg': 0.25}, {'true_angles': {'dowel_pin': 0.0, 'lobe_1':
+                                                     PHASE + math.radians(0.3)}},
+     'phase_error_deg', FAIL),
+    ('phase-', {'phase_deg': 0.25}, {'true_angles': {'dowel_pin': 0.0, 'lobe_1':
+                                                     PHASE - math.radians(0.3)}},
+     'phase_error_deg', FAIL),
+    ('phase ok', {'phase_deg': 0.25}, {'true_angles': {'dowel_pin': 0.0, 'lobe_1':
+                                                       PHASE + math.radians(0.2)}},
+     'phase_error_deg', PASS),
+    ('phase at limit', {'phase_deg': 0.25}, {'probe_noise': 0.0, 'true_angles': {
+        'dowel_pin': 0.1, 'lobe_1': 0.1 + PHASE + math.radians(0.25)}},
+     'phase_error_deg', 'at limit'),
+    ('lift at limit', {'max_lift_um': 20},
+     {'probe_noise': 0.0, 'lift_scale': 1 + 20e-6 / 8.5e-3},
+     'max_lift_error_um', 'at limit'),
+    # max lift: the true lobe 0.3 % too high / too low (+-25.5 um), limit +-20 um
+    ('lift+', {'max_lift_um': 20}, {'lift_scale': 1.003}, 'max_lift_error_um', FAIL),
+    ('lift-', {'max_lift_um': 20}, {'lift_scale': 0.997}, 'max_lift_error_um', FAIL),
+    ('lift ok', {'max_lift_um': 30}, {'lift_scale': 1.003}, 'max_lift_error_um', PASS),
+    # base-circle run-out: TIR 6 um (amplitude 3 um) against a maximum of 5, and of 7
+    ('runout', {'runout_max_um': 5}, {'runout': 3e-6}, 'base_circle_runout_um', FAIL),
+    ('runout ok', {'runout_max_um': 7}, {'runout': 3e-6}, 'base_circle_runout_um', PASS),
+    # datum: the pin 1.2 deg either side of its nominal angle (0), limit +-1 deg
+    ('datum+', {'datum_deg': 1.0}, {'true_angles': {'dowel_pin': math.radians(1.2)}},
+     'datum_error_deg', FAIL),
+    ('datum-', {'datum_deg': 1.0}, {'true_angles': {'dowel_pin': math.radians(-1.2)}},
+     'datum_error_deg', FAIL),
+])
+def test_bag_violating_one_limit(tmp_path, capsys, name, tol, params, quantity, expect):
+    """The true profile of a simulated bag violates one limit (either side), stays
+    inside it, or sits exactly on it (noise-free: the measured value is then on the
+    limit to the estimator's exactness, and the check's margin is that small): analyze's
+    verdict, exit status and the failing quantity follow."""
+    from cam_metrology.cli import main
+    from cam_metrology.simulate import SimParams, write_sim_bag
+
+    scene = _parse(_one_lobe_doc(tol))
+    bag = tmp_path / 'bag'
+    write_sim_bag(bag, scene, SimParams(**{'samples_per_rev': 1440, 'probe_noise': 2e-7,
+                                           'seed': 5, **params}))
+    code = main(['analyze', str(bag), '--only-metrology', '--json', '-'])
+    report = json.loads(capsys.readouterr().out)
+    feature = 'dowel_pin' if quantity == 'datum_error_deg' else 'lobe_1'
+    checks = {c['quantity']: c for c in report['features'][feature]['verdict']['checks']}
+    assert list(checks) == [quantity]                 # one limit at a time
+    c = checks[quantity]
+    if expect == 'at limit':   # 1e-5 deg = 0.04 arcsec; 0.01 um
+        assert abs(c['value'] - c['upper']) < (1e-5 if c['unit'] == 'deg' else 1e-2)
+        assert abs(c['margin']) < (1e-5 if c['unit'] == 'deg' else 1e-2)
+        assert code == (3 if c['result'] == FAIL else 0)
+        return
+    assert report['verdict']['result'] == expect
+    assert code == (3 if expect == FAIL else 0)
+    if expect == FAIL:
+        assert [f['quantity'] for f in report['verdict']['failed']] == [quantity]
+        assert c['limit'] == (c['upper'] if c['value'] > 0 else c['lower'])

@@ -22,7 +22,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -227,6 +227,47 @@ def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
                        seconds=seconds, step_deg=step_deg, notes=notes)
 
 
+def seating_window(alpha: NDArray[np.float64], lift: NDArray[np.float64],
+                   level: float = 1e-6) -> tuple[float, float] | None:
+    """(first seating, end of the last bounce) [rad]: after the peak, the first angle
+    where the valve lift falls to ``level`` [m] and the last angle where it is above
+    ``level / 10`` (the bounces); None if the valve never seats in the run."""
+    k = int(np.argmax(lift))
+    after = np.nonzero(lift[k:] <= level)[0]
+    if after.size == 0:
+        return None
+    seat = k + int(after[0])
+    up = np.nonzero(lift[seat:] > 0.1 * level)[0]
+    end = seat + int(up[-1]) if up.size else seat
+    return float(alpha[seat]), float(alpha[end])
+
+
+def _seating_inset(ax: Any, runs: Sequence[Any]) -> None:
+    """A zoom of the valve lift around seating, in um on a symmetric-log axis (linear
+    below 1 um), so that a bounce of a few um shows beside one of hundreds."""
+    windows = [w for w in (seating_window(r.alpha, r.lift) for r in runs) if w]
+    if not windows:
+        return
+    lo = np.degrees(min(w[0] for w in windows)) - 3.0
+    hi = np.degrees(max(w[1] for w in windows)) + 3.0
+    hi = max(hi, lo + 10.0)
+    ins = ax.inset_axes([0.58, 0.42, 0.4, 0.52])
+    top = 1.0
+    for run in runs:
+        a = np.degrees(run.alpha)
+        sel = (a >= lo) & (a <= hi)
+        ins.plot(a[sel], run.lift[sel] * 1e6, lw=0.9)
+        if np.any(sel):
+            top = max(top, float(np.max(run.lift[sel])) * 1e6)
+    ins.set_yscale('symlog', linthresh=1.0)
+    ins.set_ylim(-1.0, top * 1.5)
+    ins.set_xlim(lo, hi)
+    ins.axhline(0.0, color='0.5', lw=0.6)
+    ins.set_title('seating (zoom, µm, log above 1 µm)', fontsize=7)
+    ins.tick_params(labelsize=7)
+    ins.grid(True, alpha=0.3)
+
+
 def plot_runs(runs: Sequence[object], path: str | Path, title: str = '') -> Path:
     """Valve lift and contact force over cam angle for several runs (report.Run)."""
     import matplotlib
@@ -242,7 +283,8 @@ def plot_runs(runs: Sequence[object], path: str | Path, title: str = '') -> Path
     ax1.set_ylabel('valve lift [mm]')
     ax2.set_ylabel('cam contact force [N]')
     ax2.set_xlabel('cam angle alpha [deg]')
-    ax1.legend(loc='upper right', fontsize='small')
+    ax1.legend(loc='upper left', fontsize='small')
+    _seating_inset(ax1, runs)
     if title:
         ax1.set_title(title)
     for ax in (ax1, ax2):

@@ -106,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
     if args.report:
         from cam_metrology.files import write_output
         from cam_metrology.html_report import html_report
-        write_output(args.report, html_report(report, tables), '--report')
+        write_output(args.report, html_report(report, tables, profiles(outputs),
+                                              getattr(metrology, '_design', {})), '--report')
     if args.csv:
         from cam_metrology.files import write_output
         from cam_metrology.html_report import csv_text
@@ -122,6 +123,23 @@ def run(args: argparse.Namespace) -> int:
               'report)', file=sys.stderr)
         return 1
     return verdict_exit_code(report)
+
+
+def profiles(outputs: list[tuple[int, Any]]) -> dict[str, tuple[Any, Any]]:
+    """feature id -> (columns, data) of its first /reconstruction/profile table as seen
+    by the probe (label ``<id>/<method>/probe`` when the design follower differs from
+    the probe, else ``<id>/<method>``): the velocity and acceleration of the HTML
+    report, drawn beside the design as seen by the probe."""
+    from cam_metrology.outputs import TableOutput
+
+    probe: dict[str, tuple[Any, Any]] = {}
+    plain: dict[str, tuple[Any, Any]] = {}
+    for _, o in outputs:
+        if isinstance(o, TableOutput) and o.topic == '/reconstruction/profile':
+            parts = o.label.split('/')
+            target = probe if parts[-1] == 'probe' and len(parts) == 3 else plain
+            target.setdefault(parts[0], (o.columns, o.data))
+    return {**plain, **probe}
 
 
 def core_summaries(outputs: list[tuple[int, Any]]) -> list[str]:
@@ -152,7 +170,7 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
     """Add ``features.<id>.cam_card`` {measured, nominal} and ``provenance`` to the
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
     lobes referenced to the base circle as the verdict uses them."""
-    from cam_metrology.cli.card import heights_from, measured_cards
+    from cam_metrology.cli.card import both_crank_timings, heights_from, measured_cards
     from cam_metrology.metrology.lift_error import feature_referenced
     from cam_metrology.provenance import provenance
 
@@ -163,6 +181,9 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
         lobes = {f: t for f, t in tables.items() if results[f].kind == 'lobe'}
         cards = measured_cards(scene, report.get('features', {}), lobes,
                                getattr(metrology, '_design', {}), heights_from(args))
+        crank = both_crank_timings(scene, report.get('features', {}), cards)
+        if crank is not None:
+            report['crank'] = crank
         for fid, card in cards.items():
             report['features'][fid]['cam_card'] = card
         for fid, table in lobes.items():

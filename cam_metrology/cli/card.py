@@ -81,6 +81,58 @@ def _lsa(phases: dict[str, float | None], pair: str, cards: dict[str, Any],
     return out
 
 
+def crank_timing(scene: Any, cards: dict[str, dict[str, Any]],
+                 phases: dict[str, float | None]) -> dict[str, Any] | None:
+    """With a crank datum in the scene (docs/scene.md ``crank``): ``card['crank']`` for
+    every lobe card whose lobe has a ``role`` and a phase [deg] (valve events in crank
+    degrees around its centreline, ``crank_events``), and the lobe separation of each
+    cylinder's intake/exhaust pair (in scene order). None without a crank datum."""
+    from cam_design.cam_card import centreline_crank_atdc, crank_events, lobe_separation_deg
+
+    crank = getattr(scene, 'crank', None)
+    if crank is None:
+        return None
+    placed: dict[str, tuple[str, str, float]] = {}
+    missing = []
+    for lobe in scene.lobes:
+        card, phase = cards.get(lobe.id), phases.get(lobe.id)
+        if not lobe.role or card is None:
+            continue
+        if 'error' in card or phase is None or card.get('centreline_deg') is None:
+            missing.append({'lobe': lobe.id, 'why': 'no phase (datum not measured or no '
+                            'nominal_phase)' if phase is None else 'no card'})
+            continue
+        atdc = centreline_crank_atdc(phase, card['centreline_deg'], scene.direction,
+                                     crank.tdc_deg, crank.cylinder_tdc_deg[lobe.cylinder])
+        centre = atdc if lobe.role == 'intake' else -atdc
+        card['crank'] = {**crank_events(card, lobe.role, centre), 'cylinder': lobe.cylinder}
+        placed[lobe.id] = (lobe.role, lobe.cylinder, centre)
+    pairs = []
+    for cyl in crank.cylinder_tdc_deg:
+        ins = [k for k, (r, c, _) in placed.items() if r == 'intake' and c == cyl]
+        exs = [k for k, (r, c, _) in placed.items() if r == 'exhaust' and c == cyl]
+        for i, e in zip(ins, exs):
+            pairs.append({'cylinder': cyl, 'intake': i, 'exhaust': e,
+                          'intake_centreline_atdc_deg': placed[i][2],
+                          'exhaust_centreline_btdc_deg': placed[e][2],
+                          'lobe_separation_deg': lobe_separation_deg(placed[i][2],
+                                                                     placed[e][2])})
+    return {'tdc_deg': crank.tdc_deg, 'cylinder_tdc_deg': dict(crank.cylinder_tdc_deg),
+            'pairs': pairs, 'not_placed': missing}
+
+
+def crank_text(doc: dict[str, Any] | None, label: str = '') -> list[str]:
+    """Human lines of ``crank_timing``'s pairs."""
+    if not doc:
+        return []
+    lines = [f"crank{label}: cylinder {p['cylinder']} {p['intake']}/{p['exhaust']}: intake "
+             f"centreline {p['intake_centreline_atdc_deg']:.2f} ATDC, exhaust "
+             f"{p['exhaust_centreline_btdc_deg']:.2f} BTDC, lobe separation "
+             f"{p['lobe_separation_deg']:.3f} cam deg" for p in doc['pairs']]
+    lines += [f"crank{label}: {m['lobe']} not placed: {m['why']}" for m in doc['not_placed']]
+    return lines
+
+
 def scene_cards(path: str, heights: tuple[float, ...], lobe: str | None
                 ) -> tuple[dict[str, Any], dict[str, float | None]]:
     """Design cards of a scene's lobes (design follower) and their nominal phases [deg]."""
@@ -100,6 +152,7 @@ def scene_cards(path: str, heights: tuple[float, ...], lobe: str | None
             cards[lb.id] = card_from_law(lb.lift, heights, rocker_ratio=rocker,
                                          key='--heights-mm')
             cards[lb.id]['follower'] = lb.follower.kind
+    _CRANK['doc'] = crank_timing(scene, cards, phases)
     return cards, phases
 
 
@@ -162,7 +215,28 @@ def bag_cards(bag: str, heights: tuple[float, ...], lobe: str | None
                            metrology._design, heights)
     phases = {f: v.get('phase_deg') for f, v in report['features'].items()
               if v.get('kind') == 'lobe'}
+    _CRANK['doc'] = both_crank_timings(metrology.scene, report['features'], cards)
     return cards, phases
+
+
+def both_crank_timings(scene: Any, features: dict[str, Any], cards: dict[str, Any]
+                       ) -> dict[str, Any] | None:
+    """``crank_timing`` of the measured cards (measured phases) and of the nominal cards
+    (nominal phases): {tdc_deg, measured, nominal} or None without a crank datum."""
+    if getattr(scene, 'crank', None) is None:
+        return None
+    measured = crank_timing(scene, {f: c['measured'] for f, c in cards.items()
+                                    if 'measured' in c},
+                            {f: (features.get(f) or {}).get('phase_deg') for f in cards})
+    nominal = crank_timing(scene, {f: c['nominal'] for f, c in cards.items()
+                                   if 'nominal' in c},
+                           {lb.id: None if lb.nominal_phase is None else
+                            math.degrees(lb.nominal_phase) for lb in scene.lobes})
+    return {'tdc_deg': scene.crank.tdc_deg, 'measured': measured, 'nominal': nominal}
+
+
+#: the crank timing of the last scene_cards / bag_cards call (for run)
+_CRANK: dict[str, Any] = {}
 
 
 def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) -> None:
@@ -262,6 +336,7 @@ def run(args: argparse.Namespace) -> int:
 
     heights = heights_from(args)
     _NOMINAL_DATA.clear()
+    _CRANK.clear()
     path = Path(args.input)
     if not path.exists():
         raise InputError('input', args.input, 'an existing scene, lift table or bag')
@@ -292,6 +367,8 @@ def run(args: argparse.Namespace) -> int:
         write_nominal(args, kind, cards)
     doc: dict[str, Any] = {'input': str(path), 'kind': kind,
                            'heights_m': list(heights), 'cards': cards}
+    if _CRANK.get('doc'):
+        doc['crank'] = _CRANK['doc']
     if args.pair:
         target = cards if kind != 'bag' else {k: v.get('measured') for k, v in cards.items()}
         doc['lobe_separation'] = _lsa(phases, args.pair, target, args.intake_centreline_deg)
@@ -306,6 +383,12 @@ def run(args: argparse.Namespace) -> int:
     print(card_text({k: v for k, v in flat.items() if 'error' not in v}))
     for k, e in errors.items():
         print(f'{k}: card not computed: {e}')
+    crank = doc.get('crank') or {}
+    if 'measured' in crank:
+        for label in ('measured', 'nominal'):
+            print('\n'.join(crank_text(crank[label], ' ' + label)))
+    elif crank:
+        print('\n'.join(crank_text(crank)))
     if 'lobe_separation' in doc:
         s = doc['lobe_separation']
         print(f"lobe separation {s['intake']}/{s['exhaust']}: "

@@ -67,6 +67,10 @@ def register(subparsers: Any) -> None:
                         'zero is not the nose)')
     p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
     p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
+    p.add_argument('--nominal', metavar='FILE',
+                   help='write the reconstructed lift of --feature (or the only lobe) as a '
+                        'gauge nominal-profile file, -180..180 deg every --step-deg, from '
+                        'the first method that succeeded (--method to choose)')
     p.set_defaults(func=run)
 
 
@@ -141,8 +145,49 @@ def run(args: argparse.Namespace) -> int:
         print(_human(result))
     if args.plot:
         _plots(core, Path(args.plot), args.feature)
+    if getattr(args, 'nominal', None):
+        write_nominal(core, args, follower)
     ok = any(m.get('ok') for f in features.values() for m in f.values())
     return 0 if ok else 1
+
+
+def write_nominal(core: Any, args: argparse.Namespace, follower: dict[str, Any]) -> None:
+    """``--nominal``: the reconstructed lift (as seen by the measuring probe) as a gauge
+    nominal-profile file (cam_metrology.nominal_file); the gauge format knows a roller
+    (its radius) or a point (radius 0), not a flat follower."""
+    import numpy as np
+
+    from cam_design.errors import InputError
+    from cam_metrology.files import write_output
+    from cam_metrology.nominal_file import gauge_text
+
+    ids = [f for f in core.results if args.feature is None or f == args.feature]
+    if len(ids) != 1:
+        raise InputError('--nominal', args.nominal, 'one feature: --feature ID (one of '
+                         + ', '.join(ids) + ')')
+    fid = ids[0]
+    outcome = next((o for o in core.results[fid].values()
+                    if o.reconstruction is not None), None)
+    if outcome is None:
+        raise InputError('--nominal', args.nominal, f'a reconstruction of {fid} (none '
+                         'succeeded)')
+    probe = follower.get('probe') or follower
+    kind, radius = probe.get('kind'), float(probe.get('radius_m') or 0.0)
+    if kind == 'flat':
+        raise InputError('--nominal', args.nominal, 'a roller or knife probe: the gauge '
+                         'nominal-profile format has no flat follower')
+    n = 360.0 / args.step_deg
+    if abs(n - round(n)) > 1e-9 * n:
+        raise InputError('--step-deg', args.step_deg, 'a step that divides 360 deg for '
+                         '--nominal (e.g. 0.1, 0.25, 0.5)')
+    rec = outcome.reconstruction
+    grid = np.linspace(-180.0, 180.0, int(round(n)) + 1)
+    lift = np.interp(grid, np.degrees(rec.alpha), rec.derivatives()[0], period=360.0)
+    method = next(m for m, o in core.results[fid].items() if o is outcome)
+    text = gauge_text(grid, lift, radius if kind == 'roller' else 0.0,
+                      [f'reconstructed lift of {fid} from {args.input} ({method}), as seen '
+                       f'by the measuring {kind}; deg and mm'])
+    write_output(args.nominal, text, '--nominal')
 
 
 #: options that describe a TABLE (a bag's scene gives the probe and the angles)
@@ -299,6 +344,7 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
     import numpy as np
 
     from cam_metrology.files import output_dir, safe_name, save_figure
+    from cam_metrology.plots import scale_to_curve
     from cam_metrology.reconstruction.profile import design_from_table
 
     folder = output_dir(folder, '--plot')
@@ -307,10 +353,11 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
         if feature is not None and fid != feature:
             continue
         fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True)
+        spans: dict[int, list[float]] = {}
         table = core.tables.get(fid)
         if table is not None:
-            axes[0].plot(np.degrees(table.alpha), table.lift * 1e3, '.', ms=2, color='0.6',
-                         label='measured')
+            axes[0].plot(np.degrees(table.alpha), table.lift * 1e3, 'o', ms=1.5, mew=0,
+                         color='0.35', zorder=4, label='measured')
             design = design_from_table(table)
             first = next((o.reconstruction for o in outcomes.values()
                           if o.reconstruction is not None), None)
@@ -322,16 +369,19 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
             rec = o.reconstruction
             if rec is None:
                 continue
-            for ax, values in zip(axes, rec.derivatives()):
+            for k, (ax, values) in enumerate(zip(axes, rec.derivatives())):
                 ax.plot(np.degrees(rec.alpha), values * 1e3, lw=1, label=m)
+                spans.setdefault(k, []).extend([float(np.min(values)), float(np.max(values))])
             if rec.outliers_alpha.size and m == next(iter(outcomes)):
                 axes[0].plot(np.degrees(rec.outliers_alpha),
                              np.interp(rec.outliers_alpha, table.alpha, table.lift) * 1e3
                              if table is not None else np.zeros(rec.outliers_alpha.size),
                              'rx', label='outliers')
-        for ax, name in zip(axes, names):
+        for k, (ax, name) in enumerate(zip(axes, names)):
             ax.set_ylabel(name)
             ax.grid(True, lw=0.3)
+            if k and spans.get(k):   # derivatives scaled to the reconstruction
+                scale_to_curve(ax, np.array(spans[k]) * 1e3)
         axes[0].legend(fontsize=8)
         axes[-1].set_xlabel('cam angle from the lobe centre [deg]')
         fig.suptitle(f'{fid}: reconstruction')

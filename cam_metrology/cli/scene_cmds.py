@@ -122,6 +122,7 @@ def scene_summary(scene: Any) -> list[str]:
     for lobe in scene.lobes:
         lo, hi = lobe.lift.support
         source = (f'lift_law {lobe.lift_spec.get("family")}' if lobe.lift_spec
+                  else f'nominal file {lobe.nominal_file}' if lobe.nominal_file
                   else 'table')
         phase = ('-' if lobe.nominal_phase is None
                  else f'{lobe.nominal_phase * deg:.3f} deg')
@@ -132,12 +133,23 @@ def scene_summary(scene: Any) -> list[str]:
                      f'support [{lo * deg:.2f}, {hi * deg:.2f}] deg, nominal phase {phase}')
         tol = getattr(lobe, 'tolerances', None)
         lines.append(f'    tolerances: {tolerance_text(tol)}')
-    pin = scene.dowel_pin
-    if pin is None:
+    pin, kw = scene.dowel_pin, getattr(scene, 'keyway', None)
+    if kw is not None:
+        depth = 'ball wider than the slot' if kw.depth is None else \
+            f'depth {kw.depth * 1e3:g} mm'
+        lines.append(f'keyway: width {kw.width * 1e3:g} mm, shaft r={kw.shaft_radius * 1e3:g} '
+                     f'mm, ball r={kw.probe_radius * 1e3:g} mm, {depth}')
+    elif pin is None:
         lines.append('dowel_pin: none')
     else:
         lines.append(f'dowel_pin: pin r={pin.pin_radius * 1e3:g} mm, circle '
                      f'r={pin.circle_radius * 1e3:g} mm, ball r={pin.probe_radius * 1e3:g} mm')
+    crank = getattr(scene, 'crank', None)
+    if crank is not None:
+        roles = ', '.join(f'{lb.id} {lb.role} cyl {lb.cylinder}' for lb in scene.lobes
+                          if lb.role) or 'no lobe has a role'
+        lines.append(f'crank: cylinder 1 TDC {crank.tdc_deg:g} cam deg from the '
+                     f'{scene.datum_id.replace("_", " ")}; {roles}')
     compute = 'all the data allows' if scene.compute is None else ', '.join(
         sorted(scene.compute))
     lines.append(f'compute: {compute}')
@@ -150,7 +162,8 @@ def scene_summary(scene: Any) -> list[str]:
                      f'lash {vt.lash * 1e3:g} mm, cam speeds {speeds} rpm')
     datum = getattr(scene, 'datum_tolerance_deg', None)
     if datum is not None:
-        lines.append(f'datum: pin centre {_band(datum, "deg")}')
+        centre = 'keyway' if getattr(scene, 'keyway', None) is not None else 'pin'
+        lines.append(f'datum: {centre} centre {_band(datum, "deg")}')
     lines.append(f'idle_timeout: {scene.idle_timeout:g} s')
     return lines
 
@@ -275,7 +288,7 @@ def cmd_bag_info(args: argparse.Namespace) -> int:
                 continue
             scene = sc.scene
             print(f'scene: {scene.camshaft_id or "(no id)"}, {len(scene.lobes)} lobes, '
-                  f'{"a" if scene.dowel_pin else "no"} dowel pin, '
+                  f'{_datum_words(scene)}, '
                   f'direction {scene.direction:+d} (log time {sc.stamp_ns / 1e9:.6f} s)')
     if bagio.JOINT_STATES in topics:
         js = bagio.read_joint_states(args.bag)
@@ -331,3 +344,10 @@ def cmd_bag_recover(args: argparse.Namespace) -> int:
     for d in counts.damaged:   # an empty range: nothing dropped, only the end missing
         print(f'{"dropped" if d.end > d.start else "note"}: {describe(d)}')
     return 0
+
+
+def _datum_words(scene: Any) -> str:
+    """'a dowel pin', 'a keyway' or 'no dowel pin' (bag info)."""
+    if getattr(scene, 'keyway', None) is not None:
+        return 'a keyway'
+    return 'a dowel pin' if scene.dowel_pin is not None else 'no dowel pin'

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.errors import InputError
+from cam_design.keyway import KeywayGeometry
 from cam_metrology.metrology.asymmetry import lift_spline, top_point
 from cam_metrology.metrology.features import FeatureSamples
 from cam_metrology.metrology.lift_error import base_referenced, lift_error_stats, local_deviation
@@ -528,3 +529,96 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
     return FeatureResult(fs.feature_id, 'dowel_pin', {**values, **_common(fs)}, table,
                          float(np.radians(values['angle_deg'])),
                          skipped=[('sensitive_point', sp)] if isinstance(sp, str) else [])
+
+
+def keyway_used(geo: KeywayGeometry, alpha: NDArray[np.float64],
+                margin: float) -> NDArray[np.bool_]:
+    """Samples [alpha from the slot centre, rad] the keyway fit uses: the shaft, and the
+    two edge arcs except within ``margin`` [rad] of their inner end (where the arcs meet,
+    the ball drops to the bottom or leaves the edge with an infinite slope); the bottom
+    and free fall are left out."""
+    from cam_design.keyway import EDGE_MINUS, EDGE_PLUS, SHAFT
+
+    which = geo.branch(alpha)
+    inner = geo.edge_angle - geo.edge_span() + margin   # |alpha| above this on an arc
+    edge = ((which == EDGE_PLUS) | (which == EDGE_MINUS)) & (np.abs(alpha) > inner)
+    return (which == SHAFT) | edge
+
+
+def analyze_keyway(fs: FeatureSamples, geo: KeywayGeometry, direction: int,
+                   settings: Settings) -> FeatureResult:
+    """Measure the keyway centre angle: least squares of ``s = c + h(x - d)`` (plus the
+    run-out harmonic when the samples cover the revolution) with h the keyway lift of
+    ``cam_design.keyway`` on the shaft and the two edge flanks (``keyway_used``)."""
+    if fs.theta.size < 4 * settings.min_flank_samples:
+        raise FeatureFailed(f'{fs.theta.size} valid samples (need >= '
+                            f'{4 * settings.min_flank_samples})')
+    margin = settings.pin_edge_margin_deg * DEG
+    beta, span = geo.edge_angle, geo.edge_span()
+    if span <= 2 * margin:
+        raise InputError('metrology.pin_edge_margin_deg', settings.pin_edge_margin_deg,
+                         f'a margin well below the edge flank width {np.degrees(span):.3f} deg')
+
+    def law(a: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
+        return geo.lift(a, nu)
+
+    xraw = direction * fs.theta
+    x0 = coarse_align(xraw, fs.s, law)
+    x = wrap_pi(xraw - x0)
+    for flank, zone in (('rise', (-beta, -beta + span - margin)),
+                        ('fall', (beta - span + margin, beta))):
+        _zone_check(x, zone, flank, settings)
+    runout = settings.fit_runout and covers_circle(fs.theta)
+    d, fit = 0.0, None
+    outliers = np.zeros(x.size, bool)
+    noise: dict[str, float] = {}
+    for _ in range(4):   # mask from the current estimate, then refit
+        used = keyway_used(geo, x - d, margin)
+        fit, outliers, noise = robust_fit(x, fs.s, law, settings, d0=d, used=used,
+                                          theta=fs.theta if runout else None,
+                                          c0=None if fit is None else fit.c)
+        done = abs(fit.d - d) < 1e-13
+        d = fit.d
+        if done:
+            break
+    assert fit is not None
+    _check_fit(fit, settings, 'keyway centre')
+    harmonic = fit.runout[0] * np.cos(fs.theta) + fit.runout[1] * np.sin(fs.theta)
+    values: dict[str, Any] = {'kind': 'keyway',
+                              'angle_deg': _encoder_deg(direction, x0, fit.d),
+                              'angle_std_deg': float(np.degrees(fit.d_std)),
+                              'edge_angle_deg': float(np.degrees(beta)),
+                              'edge_flank_deg': float(np.degrees(span)),
+                              'lift_offset_mm': fit.c * 1e3,
+                              'residual_rms_um': fit.sigma * UM,
+                              'samples_outliers_rejected': int(np.count_nonzero(outliers)),
+                              'runout_fitted': runout,
+                              **noise,
+                              'iterations': fit.iterations}
+    if runout:
+        values['fitted_runout_amplitude_um'] = float(np.hypot(*fit.runout)) * UM
+    used = fit.used
+    alpha = (x - fit.d)[used]
+    measured = (fs.s - fit.c - harmonic)[used]
+    design = law(alpha)
+    err = measured - design
+    values['lift_error_um'] = {'max_plus': float(np.max(err)) * UM,
+                               'max_minus': float(np.min(err)) * UM,
+                               'rms': float(np.sqrt(np.mean(err ** 2))) * UM}
+    # the table shows the slot (every sample within 5 deg of its edges, also those the
+    # fit leaves out: the bottom, the drop), not the whole shaft
+    a_all = x - fit.d
+    near = (np.abs(a_all) < beta + 5 * DEG) & ~outliers
+    d_all = law(a_all[near])
+    keep = np.isfinite(d_all)
+    a_near = a_all[near][keep]
+    order = np.argsort(a_near)
+    table = np.column_stack([a_near[order], (fs.s - fit.c - harmonic)[near][keep][order],
+                             d_all[keep][order]])
+    skipped = [('sensitive_point', 'not applied to a keyway: its centre comes from the two '
+                                   'edge flanks by least squares')]
+    if settings.fit_runout and not runout:
+        skipped.append(('runout_fit', 'the samples do not cover the revolution (need 30 '
+                                      'of 36 sectors of 10 deg)'))
+    return FeatureResult(fs.feature_id, 'keyway', {**values, **_common(fs)}, table,
+                         float(np.radians(values['angle_deg'])), skipped=skipped)

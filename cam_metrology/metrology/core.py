@@ -18,10 +18,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from cam_design.dowel_pin import DowelPinGeometry
+from cam_design.keyway import KeywayGeometry
 from cam_design.errors import InputError, require_positive
 from cam_metrology.core import merged_parameters
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
-                                              analyze_lobe, analyze_pin, seen_lift)
+                                              analyze_keyway, analyze_lobe, analyze_pin,
+                                              seen_lift)
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
                                               encoder_units_hint, probe_units_problem,
                                               joint_positions, stamp_of)
@@ -32,6 +34,8 @@ from cam_metrology.wire import topics as wt
 RESULT, LIFT, REPORT = wt.METROLOGY_RESULT, wt.METROLOGY_LIFT, wt.METROLOGY_REPORT
 SCENE, JOINTS, DONE = wt.SCENE, wt.JOINT_STATES, wt.FEATURE_DONE
 PIN_ID = 'dowel_pin'
+KEYWAY_ID = 'keyway'
+DATUM_IDS = (PIN_ID, KEYWAY_ID)
 LIFT_COLUMNS = ('alpha_rad', 'lift_m', 'design_lift_m')
 
 
@@ -223,7 +227,7 @@ class MetrologyCore:
         out: list[Output] = [self._feature_status(result, stamp_ns)]
         if result.table is not None:
             out.append(TableOutput(LIFT, fs.feature_id, LIFT_COLUMNS, result.table))
-        if fs.feature_id == PIN_ID and self._pin_angle() is not None:
+        if fs.feature_id == self._datum_id() and self._pin_angle() is not None:
             # lobes measured before the pin: publish them again, now with their phase
             out += [self._feature_status(r, stamp_ns) for r in self.results.values()
                     if r.kind == 'lobe' and r.angle_rad is not None]
@@ -234,18 +238,22 @@ class MetrologyCore:
 
     def _analyze(self, fs: FeatureSamples) -> FeatureResult:
         scene = self.scene
-        kind = 'dowel_pin' if fs.feature_id == PIN_ID else 'lobe'
+        kind = fs.feature_id if fs.feature_id in DATUM_IDS else 'lobe'
         counts = {'samples_received': fs.received, 'samples_nan_dropped': fs.nan_dropped}
         try:
             units = probe_units_problem(fs)
             if units:
                 raise FeatureFailed(units)
-            if kind == 'dowel_pin':
-                if scene.dowel_pin is None:
-                    raise FeatureFailed('scene has no dowel_pin')
+            if kind != 'lobe':
+                if getattr(scene, kind, None) is None:
+                    raise FeatureFailed(f'scene has no {kind}')
                 if not scene.wants('pin'):
                     return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
                                          skipped=[('pin', 'compute does not ask for pin')])
+                if kind == KEYWAY_ID:
+                    k = scene.keyway
+                    kgeo = KeywayGeometry(k.width, k.shaft_radius, k.probe_radius, k.depth)
+                    return analyze_keyway(fs, kgeo, scene.direction, self.settings)
                 p = scene.dowel_pin
                 geo = DowelPinGeometry(p.pin_radius, p.circle_radius, p.probe_radius)
                 return analyze_pin(fs, geo, scene.direction, self.settings)
@@ -268,8 +276,13 @@ class MetrologyCore:
                                  failed=f'numerical failure of the fit ({exc}): check the '
                                  'samples (units: m and rad)' + encoder_units_hint(fs))
 
+    def _datum_id(self) -> str:
+        """Feature id of the scene's angular datum (dowel_pin when it has none)."""
+        return (self.scene.datum_id if self.scene is not None else None) or PIN_ID
+
     def _pin_angle(self) -> float | None:
-        pin = self.results.get(PIN_ID)
+        """Encoder angle [rad] of the measured datum (dowel pin or keyway centre)."""
+        pin = self.results.get(self._datum_id())
         return pin.angle_rad if pin is not None and pin.failed is None else None
 
     def _phase(self, result: FeatureResult) -> dict[str, Any]:
@@ -277,7 +290,7 @@ class MetrologyCore:
         pin = self._pin_angle()
         index = self._scene_of.get(result.feature_id, len(self.scenes) - 1)
         if result.angle_rad is None or pin is None or \
-                index != self._scene_of.get(PIN_ID, index):
+                index != self._scene_of.get(self._datum_id(), index):
             return {'phase_deg': None, 'phase_error_deg': None}
         phase = wrap_deg(np.degrees(result.angle_rad - pin))
         nominal = self.scenes[index][1].lobe(result.feature_id).nominal_phase \
@@ -311,8 +324,8 @@ class MetrologyCore:
     def _expected(self) -> list[str]:
         scene = self.scene
         ids = [lobe.id for lobe in scene.lobes] if scene.wants('nose') else []
-        if scene.dowel_pin is not None and scene.wants('pin'):
-            ids.append(PIN_ID)
+        if scene.datum_id is not None and scene.wants('pin'):
+            ids.append(scene.datum_id)
         return ids
 
     def _missing(self) -> list[str]:
@@ -324,16 +337,18 @@ class MetrologyCore:
         out: list[dict[str, str]] = []
         if not scene.wants('nose'):
             out.append({'what': 'nose', 'why': 'compute does not ask for nose'})
-        if scene.dowel_pin is None:
-            out.append({'what': 'pin', 'why': 'scene has no dowel_pin'})
+        datum = scene.datum_id
+        if datum is None:
+            out.append({'what': 'pin', 'why': 'scene has no dowel_pin'})   # nor keyway
         elif not scene.wants('pin'):
             out.append({'what': 'pin', 'why': 'compute does not ask for pin'})
-        elif PIN_ID not in self.results:
-            out.append({'what': 'pin', 'why': 'no dowel_pin samples in the data'})
-        elif self.results[PIN_ID].failed:
-            out.append({'what': 'pin', 'why': f'dowel_pin failed: {self.results[PIN_ID].failed}'})
+        elif datum not in self.results:
+            out.append({'what': 'pin', 'why': f'no {datum} samples in the data'})
+        elif self.results[datum].failed:
+            out.append({'what': 'pin', 'why': f'{datum} failed: {self.results[datum].failed}'})
         if scene.wants('nose') and self._pin_angle() is None:
-            out.append({'what': 'phase', 'why': 'no dowel-pin angle (see pin)'})
+            out.append({'what': 'phase', 'why': f'no {(datum or "dowel_pin").replace("_", "-")} '
+                                                'angle (see pin)'})
         if not scene.wants('asymmetry'):
             out.append({'what': 'asymmetry', 'why': 'compute does not ask for asymmetry'})
         for lobe in scene.lobes:
@@ -344,9 +359,10 @@ class MetrologyCore:
         for res in self.results.values():
             out += [{'what': f'{what}/{res.feature_id}', 'why': why} for what, why in res.skipped]
             if res.kind == 'lobe' and self._pin_angle() is not None and \
-                    self._scene_of.get(res.feature_id) != self._scene_of.get(PIN_ID):
+                    self._scene_of.get(res.feature_id) != self._scene_of.get(self._datum_id()):
                 out.append({'what': f'phase/{res.feature_id}',
-                            'why': 'measured under another scene than the dowel pin'})
+                            'why': f'measured under another scene than the '
+                                   f'{self._datum_id().replace("_", " ")}'})
         return out
 
     def report(self, final: bool = True) -> dict[str, Any]:
@@ -389,7 +405,10 @@ class MetrologyCore:
             'skipped': self.skipped(),
             'complete': not self._missing(),
             'final': final,
-            'dowel_pin_angle_deg': None if pin is None else float(np.degrees(pin)),
+            'dowel_pin_angle_deg': None if pin is None or self._datum_id() != PIN_ID
+            else float(np.degrees(pin)),
+            'datum': {'feature': scene.datum_id,
+                      'angle_deg': None if pin is None else float(np.degrees(pin))},
             'units': {'angles': 'deg (encoder frame, [0, 360))', 'lift_error': 'um'},
             **extra,
         })

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.dowel_pin import DowelPinGeometry
+from cam_design.keyway import KeywayGeometry
 from cam_design.lift_laws.base import LiftLaw
 
 TWO_PI = 2.0 * np.pi
@@ -130,5 +131,22 @@ def sample_pin(pin: DowelPinGeometry, centre: float, *, n_per_rev: int = 3600,
     h = np.where(np.isfinite(h), h, pin.lift_min - stop_drop)
     rng = np.random.default_rng(seed)
     s = zero + h + noise * rng.standard_normal(theta.size)
+    stamps = (np.arange(theta.size) * (1e9 / rate_hz)).astype(np.int64)
+    return Samples(theta, s, stamps)
+
+
+def sample_keyway(keyway: KeywayGeometry, centre: float, direction: int = 1, *,
+                  n_per_rev: int = 3600, revolutions: float = 1.0, start: float = 0.3,
+                  turn: int = 1, wrapped: bool = False, zero: float = 0.0,
+                  runout: float = 0.0, noise: float = 0.0, seed: int = 0,
+                  rate_hz: float = 1000.0) -> Samples:
+    """Probe readings over a keyway whose centre is at ``centre`` [rad]:
+    ``zero + h(alpha) + runout cos(theta) + noise`` with ``alpha = direction (theta -
+    centre)``, h of ``KeywayGeometry.lift`` (0 on the shaft, negative over the slot)."""
+    theta = encoder_angles(n_per_rev, revolutions, start, turn, wrapped)
+    alpha = np.angle(np.exp(1j * direction * (theta - centre)))
+    rng = np.random.default_rng(seed)
+    s = zero + keyway.lift(alpha) + runout * np.cos(theta) + \
+        noise * rng.standard_normal(theta.size)
     stamps = (np.arange(theta.size) * (1e9 / rate_hz)).astype(np.int64)
     return Samples(theta, s, stamps)

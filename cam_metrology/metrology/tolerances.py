@@ -189,15 +189,15 @@ def _table_checks(tol: Tolerances, table: Any, design: Callable[..., Any],
 
 
 def judge_datum(band: Band | None, feature: Mapping[str, Any] | None,
-                nominal_angle_rad: float | None) -> dict[str, Any]:
-    """The verdict of the dowel pin: its centre angle minus ``nominal_angle`` [deg],
-    wrapped to (-180, 180]."""
+                nominal_angle_rad: float | None, name: str = 'dowel pin') -> dict[str, Any]:
+    """The verdict of the datum (dowel pin or keyway, ``name``): its centre angle minus
+    ``nominal_angle`` [deg], wrapped to (-180, 180]."""
     if band is None or nominal_angle_rad is None:
         return {'result': NOT_CHECKED, 'checks': [], 'failed': [],
                 'not_checked': [_not('*', 'no datum tolerance')]}
     if not feature or feature.get('status') != 'ok' or feature.get('angle_deg') is None:
-        why = 'dowel pin not measured' if not feature else \
-            f"dowel pin {feature.get('status')}: {feature.get('reason', '')}"
+        why = f'{name} not measured' if not feature else \
+            f"{name} {feature.get('status')}: {feature.get('reason', '')}"
         return _verdict([], [_not('datum_error_deg', why)])
     err = (feature['angle_deg'] - math.degrees(nominal_angle_rad) + 180.0) % 360.0 - 180.0
     if err == -180.0:
@@ -217,7 +217,8 @@ def judge_part(scene: Scene, features: dict[str, dict[str, Any]],
     missing: list[dict[str, Any]] = []
     toleranced = False
     n = 0
-    pin_std = (features.get('dowel_pin') or {}).get('angle_std_deg')
+    datum = getattr(scene, 'datum_id', None) or 'dowel_pin'
+    pin_std = (features.get(datum) or {}).get('angle_std_deg')
     for lobe in scene.lobes:
         has = lobe.tolerances is not None and lobe.tolerances.any()
         toleranced |= has
@@ -237,18 +238,18 @@ def judge_part(scene: Scene, features: dict[str, dict[str, Any]],
             n += len(v['checks'])
             failed += [{'feature': lobe.id, **f} for f in v['failed']]
             missing += [{'feature': lobe.id, **m} for m in v['not_checked']]
-    pin = scene.dowel_pin
+    pin = scene.dowel_pin if datum == 'dowel_pin' else getattr(scene, 'keyway', None)
     if scene.datum_tolerance_deg is not None:
         toleranced = True
-        v = judge_datum(scene.datum_tolerance_deg, features.get('dowel_pin'),
-                        pin.nominal_angle if pin else None)
+        v = judge_datum(scene.datum_tolerance_deg, features.get(datum),
+                        pin.nominal_angle if pin else None, datum.replace('_', ' '))
         n += len(v['checks'])
-        failed += [{'feature': 'dowel_pin', **f} for f in v['failed']]
-        missing += [{'feature': 'dowel_pin', **m} for m in v['not_checked']]
-        if 'dowel_pin' in features:
-            features['dowel_pin']['verdict'] = v
-    elif 'dowel_pin' in features:
-        features['dowel_pin']['verdict'] = judge_datum(None, None, None)
+        failed += [{'feature': datum, **f} for f in v['failed']]
+        missing += [{'feature': datum, **m} for m in v['not_checked']]
+        if datum in features:
+            features[datum]['verdict'] = v
+    elif datum in features:
+        features[datum]['verdict'] = judge_datum(None, None, None)
     if not toleranced:
         return {'result': NOT_CHECKED, 'failed': [], 'not_checked':
                 [{'feature': '*', 'quantity': '*', 'why': 'the scene has no tolerances'}],

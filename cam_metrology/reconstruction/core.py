@@ -41,6 +41,7 @@ PROFILE, RESULT = wire_topics.RECONSTRUCTION_PROFILE, wire_topics.RECONSTRUCTION
 PROFILE_COLUMNS = ('alpha_rad', 'lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
                    'jerk_m_per_rad3')
 PIN_ID = 'dowel_pin'
+DATUM_IDS = (PIN_ID, 'keyway')
 #: allowed step [deg] of the uniform output grid: 10 deg still resolves a lobe of 60 deg
 #: and more; 1e-3 deg is 360 000 points per revolution (far below any measured step)
 STEP_DEG_RANGE = (1e-3, 10.0)
@@ -225,16 +226,16 @@ class ReconstructionCore:
             if not self.scene.wants('reconstruction'):
                 return self._skip(feature, 'compute does not ask for reconstruction',
                                   stamp_ns)
-            if feature == PIN_ID:
-                return self._skip(feature, 'the dowel pin is not a cam lobe to reconstruct',
-                                  stamp_ns)
+            if feature in DATUM_IDS:
+                return self._skip(feature, f'the {feature.replace("_", " ")} is not a cam '
+                                  'lobe to reconstruct', stamp_ns)
             try:
                 design, conv, extra = self._design(feature)
             except KeyError:
                 return self._skip(feature, 'no lobe with this id in the scene', stamp_ns)
-        elif feature == PIN_ID:
-            return self._skip(feature, 'the dowel pin is not a cam lobe to reconstruct',
-                              stamp_ns)
+        elif feature in DATUM_IDS:
+            return self._skip(feature, f'the {feature.replace("_", " ")} is not a cam lobe '
+                              'to reconstruct', stamp_ns)
         try:
             outcomes = reconstruct_table(table, methods=self.methods,
                                          spline=self.spline_options,
