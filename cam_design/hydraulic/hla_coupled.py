@@ -38,7 +38,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.errors import InputError, require_finite
 from cam_design.hydraulic.lash_adjuster import LashAdjuster
 from cam_design.hydraulic.oil import P_ATM, effective_bulk_modulus, orifice_flow
 from cam_design.valve_train.cam_input import build_cam_input
@@ -337,3 +337,40 @@ def simulate_hla(law: Any, base: SdofParams, hla: LashAdjuster, rpm: float, *,
         'hla_revolutions': int(revolutions),
     }
     return res
+
+
+def run_with_hla(law: Any, params: SdofParams, hla_spec: Mapping[str, Any], rpm: float, *,
+                 mdof: Any = None, step_deg: float = 0.5,
+                 gas: Callable[[float], float] | None = None,
+                 geometry: Any = None, train_checks: Any = None) -> Any:
+    """A ``Run`` of the SDOF (``mdof`` None) or MDOF train with the coupled HLA of the
+    scene block ``hla_spec``: the last revolution's arrays, the usual events (opening,
+    closing, separations, seating velocity on the sampled solution) and the HLA's
+    (``hla_*``; pump-up also in the ``note``). ``settled`` is the HLA's: its extension
+    no longer changes from one revolution to the next."""
+    from cam_design.valve_train.mdof import _events
+    from cam_design.valve_train.report import finish_run
+
+    hla, revs = hla_from_mapping(hla_spec)
+    res = simulate_hla(law, params, hla, rpm, mdof=mdof, revolutions=revs,
+                       step_deg=max(step_deg, 0.05), gas=gas)
+    u = params.rocker_ratio * law(res.alpha)
+    contact = res.element_force if mdof is None else res.cam_force
+    events = _events(res.alpha, res.y, res.v, contact, u)
+    events.update(res.events)
+    events.update({'revolutions': revs, 'settled': res.settled,
+                   'periodic_residual_m': abs(res.events['hla_extension_change_last_rev_m']),
+                   'left_cam': False})
+    run = finish_run(law, params, rpm, 'mdof' if mdof is not None else 'sdof', res.alpha,
+                     res.y, res.v, res.cam_force, events, geometry, train_checks)
+    if res.pumped_up:
+        gained = sum(res.per_revolution)
+        full = res.extension[-1] >= hla.max_stroke - 2 * STOP_RAMP
+        text = (f'HLA pump-up at {rpm:g} rpm: the lash adjuster extended by '
+                f'{gained * 1e6:.1f} um over {revs} revolutions'
+                + (' (to the end of its stroke)' if full else '')
+                + f' and the valve is {res.base_circle_lift * 1e3:.3f} mm off its seat on '
+                'the base circle (lash lost: the valve cannot close)')
+        old = run.events.get('note')
+        run.events['note'] = text if not old else f'{text}; {old}'
+    return run

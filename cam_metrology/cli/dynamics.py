@@ -326,6 +326,10 @@ def run_line(feature: str, r: dict[str, Any]) -> str:
         line += ', VALVE LEAVES THE CAM'
     elif r.get('settled') is False:
         line += f", NOT SETTLED (residual {r.get('periodic_residual_m', float('nan')):.3g} m)"
+    if 'hla_pump_up' in r:
+        line += (f", HLA {'PUMP-UP' if r['hla_pump_up'] else 'no pump-up'} (leak-down "
+                 f"{r['hla_leak_down_m'] * 1e6:.2f} um, refill {r['hla_refill_m'] * 1e6:.2f} um"
+                 f" per revolution)")
     line += f", max stress {_q(r['max_contact_stress_pa'], '.1f', 'MPa', 1e-6)}"
     if r.get('profile_undercut'):
         line += ' (profile undercut)'
