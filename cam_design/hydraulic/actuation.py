@@ -317,8 +317,7 @@ def simulate_hydraulic(law: Any, prm: HydraulicParams, rpm: float, *,
                          f'a time step that does not need {steps:.3g} steps for one lobe '
                          f'(dt = {dt:.3g} s; use a longer pipe, fewer reaches or a '
                          'lower bulk modulus)')
-    ap, ar, b, mass = prm.plunger_area, prm.actuator_area, pipe.impedance, prm.mass
-    c_rate, f0, damp = prm.spring_rate, prm.spring_preload, prm.valve_damping
+    ap, ar, b = prm.plunger_area, prm.actuator_area, pipe.impedance
     pipe.fill(prm.supply_pressure)
     p_pump = p_act = p_pump_prev = p_act_prev = prm.supply_pressure
     act = _Actuator(p=p_act, q=0.0, y=0.0, v=0.0)
