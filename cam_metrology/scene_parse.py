@@ -517,9 +517,10 @@ def _gas(ctx: _Ctx, value: Any, model: str, seat: Seat) -> dict[str, Any] | None
                                                   g['lobe_start_crank_deg'])}
     gas_force(out['crank_deg'], out['pressure_pa'], out['head_diameter'],
               out['back_pressure_pa'])        # the table's own checks
-    if model != 'sdof':
+    if model not in ('sdof', 'mdof'):
         raise InputError('valve_train.gas', f'with model {model}',
-                         'model sdof (the other models do not take a gas force yet)')
+                         'model sdof or mdof (the hydraulic gear takes it in the library '
+                         'only)')
     if seat.restitution is not None:
         raise InputError('valve_train.gas', 'with a hard seat (seat.restitution)',
                          'the penalty seat (the hard seat does not take a gas force yet)')

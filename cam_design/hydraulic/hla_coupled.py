@@ -102,10 +102,11 @@ class HlaResult:
 class _Train:
     """Linear parts, unilateral elements and the HLA of one train (SDOF or MDOF)."""
 
-    def __init__(self, base: SdofParams, hla: LashAdjuster, mdof: Any = None) -> None:
+    def __init__(self, base: SdofParams, hla: LashAdjuster | None, mdof: Any = None) -> None:
         if base.hard_seat:
-            raise InputError('valve_train.hla', 'with a hard seat (seat.restitution)',
-                             'the penalty seat (the coupled HLA uses it)')
+            what = 'valve_train.hla' if hla is not None else 'valve_train.gas'
+            raise InputError(what, 'with a hard seat (seat.restitution)',
+                             'the penalty seat (this integration path uses it)')
         self.base, self.hla = base, hla
         if mdof is None:
             self.n, self.iv, self.ia = 1, 0, None
@@ -125,6 +126,9 @@ class _Train:
             self.preload = asm.preload
             self.k_e, self.b_e = asm.k_rv, asm.b_rv
             self.k_c, self.b_c = asm.k_c, asm.b_c
+        if hla is None:         # the plain lash element (gas-force path without HLA)
+            self.k_oil, self.den, self.f_eq = math.inf, 1.0, 0.0
+            return
         k_eff = effective_bulk_modulus(hla.bulk_modulus, hla.air_fraction,
                                        hla.gallery_pressure + P_ATM)
         self.k_oil = k_eff * hla.area ** 2 / hla.chamber_volume
@@ -135,6 +139,8 @@ class _Train:
     def element(self, delta0: float, d_delta0: float, x: float) -> float:
         """HLA element force F [N] (valve side) for the opening delta0 [m], its rate and
         the extension X [m]."""
+        if self.hla is None:
+            return max(0.0, self.k_e * delta0 + self.b_e * d_delta0) if delta0 > 0 else 0.0
         h, r = self.hla, self.hla.ratio
         spring = self.k_e * (delta0 + r * x + r * h.spring_force / self.k_oil)
         if spring <= 0.0:
@@ -144,11 +150,15 @@ class _Train:
     def pressure(self, f: float) -> float:
         """HLA chamber pressure [Pa gauge] under the element force ``f``."""
         h = self.hla
+        if h is None:
+            return 0.0
         return max((h.ratio * f - h.spring_force) / h.area, VAPOUR)
 
     def plunger_rate(self, p: float, x: float) -> float:
         """X' [m/s]: refill through the check valve, leakage through the gap."""
         h = self.hla
+        if h is None:
+            return 0.0
         q = -h.gap_conductance * (p - h.gallery_pressure)
         if p < h.gallery_pressure:
             q += orifice_flow(h.gallery_pressure - p, h.check_area, h.oil_density)
@@ -243,12 +253,14 @@ def _rhs_factory(tr: _Train, u: Callable[[float], tuple[float, float]],
     return rhs, forces
 
 
-def _initial_state(tr: _Train, uc: float) -> NDArray[np.float64]:
-    """Base-circle equilibrium: the HLA element carries F_eq, the valve on its seat."""
+def _initial_state(tr: _Train, uc: float, gas0: float = 0.0) -> NDArray[np.float64]:
+    """Base-circle equilibrium: the HLA element carries F_eq, the valve on its seat
+    (``gas0``: the gas force there [N])."""
     n, iv, ia, it = tr.n, tr.iv, tr.ia, tr.it
     b = tr.base
     kk = tr.k_lin.copy()
     f = tr.preload.copy()
+    f[iv] -= gas0
     kk[iv, iv] += b.seat_stiffness
     f[iv] += tr.f_eq
     if it is not None:
@@ -258,7 +270,9 @@ def _initial_state(tr: _Train, uc: float) -> NDArray[np.float64]:
     x = np.linalg.solve(kk, f)
     if x[iv] > 0:           # the preload does not hold the valve shut: no seat force
         kk[iv, iv] -= b.seat_stiffness
-        x = np.linalg.solve(kk + np.eye(n) * 0.0, f)
+        x = np.linalg.solve(kk, f)
+    if tr.hla is None:      # lash element open on the base circle (checked by the run)
+        return np.concatenate([x, np.zeros(n), [0.0]])
     d0 = (uc if it is None else x[ia]) - x[iv] - b.lash
     r = tr.hla.ratio
     e = (r * tr.f_eq - tr.hla.spring_force) / tr.k_oil
@@ -305,7 +319,8 @@ def simulate_hla(law: Any, base: SdofParams, hla: LashAdjuster, rpm: float, *,
     per_rev = int(round(2 * math.pi / step))
     t_rev = 2 * math.pi / omega
     t_out = np.linspace(0.0, revolutions * t_rev, revolutions * per_rev + 1)
-    z, fe, fc = integrate(tr, u, t_out, _initial_state(tr, u(0.0)[0]), gas=gas, a0=a0,
+    state0 = _initial_state(tr, u(0.0)[0], 0.0 if gas is None else gas(a0))
+    z, fe, fc = integrate(tr, u, t_out, state0, gas=gas, a0=a0,
                           omega=omega, max_step=t_rev / per_rev)
     hx = z[2 * tr.n]
     starts = hx[::per_rev]
@@ -353,11 +368,13 @@ def run_with_hla(law: Any, params: SdofParams, hla_spec: Mapping[str, Any], rpm:
 
     hla, revs = hla_from_mapping(hla_spec)
     res = simulate_hla(law, params, hla, rpm, mdof=mdof, revolutions=revs,
-                       step_deg=max(step_deg, 0.05), gas=gas)
+                       step_deg=max(step_deg, 0.5), gas=gas)
     u = params.rocker_ratio * law(res.alpha)
     contact = res.element_force if mdof is None else res.cam_force
     events = _events(res.alpha, res.y, res.v, contact, u)
     events.update(res.events)
+    if gas is not None:
+        events.update(gas_events(gas, res.alpha, events.get('opening_deg')))
     events.update({'revolutions': revs, 'settled': res.settled,
                    'periodic_residual_m': abs(res.events['hla_extension_change_last_rev_m']),
                    'left_cam': False})
@@ -374,3 +391,63 @@ def run_with_hla(law: Any, params: SdofParams, hla_spec: Mapping[str, Any], rpm:
         old = run.events.get('note')
         run.events['note'] = text if not old else f'{text}; {old}'
     return run
+
+
+def simulate_gas_train(law: Any, base: SdofParams, rpm: float, *, mdof: Any,
+                       gas: Callable[[float], float], revolutions: int = 4,
+                       step_deg: float = 0.5) -> dict[str, Any]:
+    """The MDOF train (penalty seat, no HLA) with a cylinder-gas force ``gas(alpha)``
+    [N] on the valve, by the same ODE path (LSODA, rtol 1e-9) over ``revolutions``
+    from the base-circle equilibrium; the exact MDOF solver has no time-varying
+    external force. Returns the last revolution (alpha, y, v, cam force) and
+    ``settled`` (the valve motion of the last two revolutions agrees to 1e-8 m)."""
+    omega = omega_of_rpm(rpm)
+    step = math.radians(require_step_deg('step_deg', step_deg))
+    tr = _Train(base, None, mdof)
+    u, a0 = _cam_function(law, base.rocker_ratio, omega, step)
+    per_rev = int(round(2 * math.pi / step))
+    t_rev = 2 * math.pi / omega
+    t_out = np.linspace(0.0, revolutions * t_rev, revolutions * per_rev + 1)
+    z, _, fc = integrate(tr, u, t_out, _initial_state(tr, u(0.0)[0], gas(a0)), gas=gas, a0=a0,
+                         omega=omega, max_step=t_rev / per_rev)
+    last = slice((revolutions - 1) * per_rev, revolutions * per_rev + 1)
+    y = z[tr.iv]
+    residual = math.inf
+    if revolutions > 1:
+        prev = slice((revolutions - 2) * per_rev, (revolutions - 1) * per_rev + 1)
+        residual = float(np.max(np.abs(y[last] - y[prev])))
+    return {'alpha': a0 + np.linspace(0.0, 2 * math.pi, per_rev + 1), 'y': y[last],
+            'v': z[tr.n + tr.iv, last], 'cam_force': base.rocker_ratio * fc[last],
+            'settled': residual <= 1e-8, 'periodic_residual_m': residual,
+            'revolutions': revolutions}
+
+
+def gas_events(gas: Callable[[float], float], alpha: NDArray,
+               opening_deg: float | None) -> dict[str, Any]:
+    """Gas-force fields of a run: largest force and where, the force at the opening."""
+    g = np.array([float(gas(float(x))) for x in alpha])
+    i = int(np.argmax(g))
+    return {'gas_force_max_n': float(g[i]), 'gas_force_max_deg': math.degrees(float(alpha[i])),
+            'gas_force_at_opening_n': None if opening_deg is None
+            else float(gas(math.radians(opening_deg)))}
+
+
+def run_gas_mdof(law: Any, params: SdofParams, mdof: Any, rpm: float, *,
+                 gas: Callable[[float], float], step_deg: float = 0.5,
+                 geometry: Any = None, train_checks: Any = None,
+                 revolutions: int = 4) -> Any:
+    """A ``Run`` of the MDOF train with the cylinder-gas force (``simulate_gas_train``):
+    events on the sampled last revolution, ``settled`` when two revolutions agree."""
+    from cam_design.valve_train.mdof import _events
+    from cam_design.valve_train.report import finish_run
+
+    res = simulate_gas_train(law, params, rpm, mdof=mdof, gas=gas, revolutions=revolutions,
+                             step_deg=max(step_deg, 0.5))
+    u = params.rocker_ratio * law(res['alpha'])
+    events = _events(res['alpha'], res['y'], res['v'], res['cam_force'], u)
+    events.update({'revolutions': revolutions, 'settled': res['settled'],
+                   'periodic_residual_m': res['periodic_residual_m'], 'left_cam': False,
+                   'integration': 'LSODA (gas force on the MDOF train)'})
+    events.update(gas_events(gas, res['alpha'], events.get('opening_deg')))
+    return finish_run(law, params, rpm, 'mdof', res['alpha'], res['y'], res['v'],
+                      res['cam_force'], events, geometry, train_checks)

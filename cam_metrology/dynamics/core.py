@@ -330,8 +330,12 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
         return run_with_hla(law, params, vt.hla, rpm, mdof=mp, step_deg=step_deg,
                             gas=_gas_of(vt, law), geometry=geom, train_checks=tc)
     if getattr(vt, 'model', 'sdof') == 'mdof' and getattr(vt, 'gas', None) is not None:
-        raise InputError('valve_train.gas', 'with model mdof',
-                         'model sdof (the MDOF model does not take a gas force yet)')
+        from cam_design.hydraulic.hla_coupled import run_gas_mdof
+        from cam_design.valve_train.mdof import mdof_from_mapping
+
+        return run_gas_mdof(law, params, mdof_from_mapping(vt.mdof, params), rpm,
+                            gas=_gas_of(vt, law), step_deg=step_deg, geometry=geom,
+                            train_checks=tc)
     if getattr(vt, 'model', 'sdof') == 'mdof':
         from cam_design.valve_train.mdof import mdof_from_mapping, simulate_mdof
 
