@@ -45,7 +45,7 @@ def test_rigid_oil_limit_valve_follows_the_plunger_volume() -> None:
                   friction=0.0)
     res = simulate_hydraulic(LAW, prm, 300.0)
     expected = prm.plunger_area / prm.actuator_area * LAW(res.alpha, 0)
-    assert np.max(np.abs(res.valve_lift - expected)) / expected.max() < 1e-4
+    assert np.max(np.abs(res.valve_lift - expected)) / expected.max() < 1e-5   # seen 2.4e-6
     assert not res.cavitation
 
 
@@ -218,6 +218,9 @@ def test_constant_gas_pressure_acts_as_a_preload_increase() -> None:
 @pytest.mark.parametrize('kw, key', [
     ({'relief_pressure': 1e5}, 'relief_pressure'),
     ({'pump_volume': -1.0}, 'pump_volume'),
+    ({'actuator_volume': -1e-6}, 'actuator_volume'),
+    ({'supply_pressure': 5e7}, 'relief_pressure'),         # relief below the supply
+    ({'pipe_length': 1e-7}, 'pipe_length'),   # a step so short a pass needs > 5e6 of them
     ({'air_fraction': 1.5}, 'air_fraction'),
     ({'restitution': 2.0}, 'restitution'),
 ])
