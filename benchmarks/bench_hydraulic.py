@@ -9,9 +9,9 @@ pure oil; the product's pass from 10 deg before to 10 deg after the lobe (200 de
 whole revolution makes the reference's check-valve chatter after the closing cost
 hours). Reference: the method of lines on 40 and 80 finite volumes (Radau, rtol 1e-9),
 extrapolated to zero cell length
-(Richardson, second order); its own error is estimated by the 160-volume solution's
+(Richardson, second order); its own error is estimated by the 80-volume solution's
 distance to the extrapolation (upper bound). Errors: largest valve-lift difference over
-the revolution / peak lift, largest pump-pressure difference / peak pump pressure.
+the pass / peak lift, largest pump-pressure difference / peak pump pressure.
 "MOC 256+512 Richardson" combines the two finest MOC runs as (4 y_512 - y_256) / 3.
 
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python -m benchmarks.bench_hydraulic``

@@ -521,9 +521,6 @@ def _gas(ctx: _Ctx, value: Any, model: str, seat: Seat) -> dict[str, Any] | None
         raise InputError('valve_train.gas', f'with model {model}',
                          'model sdof or mdof (the hydraulic gear takes it in the library '
                          'only)')
-    if seat.restitution is not None:
-        raise InputError('valve_train.gas', 'with a hard seat (seat.restitution)',
-                         'the penalty seat (the hard seat does not take a gas force yet)')
     return out
 
 

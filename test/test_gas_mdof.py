@@ -72,3 +72,20 @@ def test_scene_gas_on_the_mdof_model_runs_through_the_cli(tmp_path) -> None:
     assert abs(gas['gas_force_max_n'] - 7e5 * math.pi * 0.03 ** 2 / 4) < 1e-9
     assert gas['opening_deg'] > plain['opening_deg']
     assert gas['gas_force_at_opening_n'] > 0
+
+
+def test_constant_gas_with_the_hard_seat_is_a_preload_increase() -> None:
+    """SDOF with the hard seat (restitution 0.3, bouncing): the ODE path with a constant
+    gas force equals the exact solver's first revolution with F0 + G (measured 1e-13 m)."""
+    from cam_design.valve_train.sdof import simulate
+
+    g = 120.0
+    hard = _params(restitution=0.3)
+    res = simulate_gas_train(LAW, hard, 2000.0, gas=lambda a: g, revolutions=1,
+                             step_deg=0.5)
+    ex = simulate(LAW, _params(restitution=0.3, spring_preload=250.0 + g), 2000.0,
+                  step_deg=0.5, max_revolutions=1)
+    a, y = ex.alpha[ex.uniform], ex.y[ex.uniform]
+    assert ex.events.bounce_count > 0
+    assert np.allclose(res['alpha'], a, atol=1e-12, rtol=0.0)
+    assert np.max(np.abs(res['y'] - y)) < 1e-9 * float(np.max(y))

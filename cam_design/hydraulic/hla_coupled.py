@@ -103,10 +103,10 @@ class _Train:
     """Linear parts, unilateral elements and the HLA of one train (SDOF or MDOF)."""
 
     def __init__(self, base: SdofParams, hla: LashAdjuster | None, mdof: Any = None) -> None:
-        if base.hard_seat:
-            what = 'valve_train.hla' if hla is not None else 'valve_train.gas'
-            raise InputError(what, 'with a hard seat (seat.restitution)',
-                             'the penalty seat (this integration path uses it)')
+        if base.hard_seat and hla is not None:
+            raise InputError('valve_train.hla', 'with a hard seat (seat.restitution)',
+                             'the penalty seat (the coupled HLA uses it)')
+        self.hard = base.hard_seat
         self.base, self.hla = base, hla
         if mdof is None:
             self.n, self.iv, self.ia = 1, 0, None
@@ -218,13 +218,13 @@ def _rhs_factory(tr: _Train, u: Callable[[float], tuple[float, float]],
         f[iv] += fe
         if ia is not None:
             f[ia] -= fe
-        if x[iv] < 0:
+        if x[iv] < 0 and not tr.hard:
             f[iv] += max(0.0, -ks * x[iv] - bs * xd[iv])
         if gas is not None:
             f[iv] -= gas(a0 + omega * t)
         return f, fe, (fe if it is None else fc)
 
-    if it is None:      # SDOF: the same equations on floats (a 1x1 matrix costs)
+    if it is None and not tr.hard:      # SDOF: the same equations on floats
         m, c_s, b_v, f0 = float(tr.m[0]), float(tr.k_lin[0, 0]), float(tr.c_lin[0, 0]), \
             -float(tr.preload[0])
         lash = b.lash
@@ -267,6 +267,14 @@ def _initial_state(tr: _Train, uc: float, gas0: float = 0.0) -> NDArray[np.float
         kk[it, it] += tr.k_c
         f[it] += tr.k_c * uc
         f[ia] -= tr.f_eq
+    if tr.hard:             # held on the hard seat: x_V = 0
+        keep = [i for i in range(n) if i != iv]
+        x = np.zeros(n)
+        if keep:
+            x[keep] = np.linalg.solve(tr.k_lin[np.ix_(keep, keep)]
+                                      + np.diag([tr.k_c if i == it else 0.0 for i in keep]),
+                                      f[keep])
+        return np.concatenate([x, np.zeros(n), [0.0]])
     x = np.linalg.solve(kk, f)
     if x[iv] > 0:           # the preload does not hold the valve shut: no seat force
         kk[iv, iv] -= b.seat_stiffness
@@ -307,7 +315,8 @@ def integrate(tr: _Train, u: Callable[[float], tuple[float, float]], t_out: NDAr
 
 def simulate_hla(law: Any, base: SdofParams, hla: LashAdjuster, rpm: float, *,
                  mdof: Any = None, revolutions: int = 6, step_deg: float = 0.5,
-                 gas: Callable[[float], float] | None = None) -> HlaResult:
+                 gas: Callable[[float], float] | None = None,
+                 rtol: float = 1e-9) -> HlaResult:
     """Run the train with the coupled HLA for ``revolutions`` camshaft revolutions at
     ``rpm`` from the base-circle equilibrium; report the last one, the HLA's change of
     extension per revolution, leak-down and refill, and pump-up (the valve held off its
@@ -321,7 +330,7 @@ def simulate_hla(law: Any, base: SdofParams, hla: LashAdjuster, rpm: float, *,
     t_out = np.linspace(0.0, revolutions * t_rev, revolutions * per_rev + 1)
     state0 = _initial_state(tr, u(0.0)[0], 0.0 if gas is None else gas(a0))
     z, fe, fc = integrate(tr, u, t_out, state0, gas=gas, a0=a0,
-                          omega=omega, max_step=t_rev / per_rev)
+                          omega=omega, max_step=t_rev / per_rev, rtol=rtol)
     hx = z[2 * tr.n]
     starts = hx[::per_rev]
     changes = np.diff(starts).tolist()
@@ -393,13 +402,90 @@ def run_with_hla(law: Any, params: SdofParams, hla_spec: Mapping[str, Any], rpm:
     return run
 
 
-def simulate_gas_train(law: Any, base: SdofParams, rpm: float, *, mdof: Any,
+def integrate_hard_seat(tr: _Train, u: Callable[[float], tuple[float, float]],
+                        t_out: NDArray, state0: NDArray, *,
+                        gas: Callable[[float], float] | None, a0: float, omega: float,
+                        max_step: float, rtol: float = 1e-9
+                        ) -> tuple[NDArray, NDArray, list[tuple[float, float]]]:
+    """The train (no HLA) with the hard seat: held on the seat (the valve frozen) while
+    the net force on it does not open it, free otherwise; the lift-off and the impact
+    are located as events of the integrator (DOP853 for the SDOF, Radau for the MDOF;
+    LSODA's dense output is too coarse for the event roots), the impact reverses the
+    valve speed times the restitution (below 1e-9 m/s it stays held). Starts held.
+    Returns the states on ``t_out``, the cam (SDOF: element) force and the impacts
+    (time, speed)."""
+    from scipy.integrate import solve_ivp
+
+    rhs_free, forces = _rhs_factory(tr, u, gas, a0, omega)
+    n, iv = tr.n, tr.iv
+    e = float(tr.base.restitution or 0.0)
+
+    def net(t: float, s: NDArray) -> float:
+        return float(forces(t, s)[0][iv])
+
+    def rhs_held(t: float, s: NDArray) -> NDArray:
+        out = rhs_free(t, s)
+        out[iv] = out[n + iv] = 0.0
+        return out
+
+    def lift(t: float, s: NDArray) -> float:
+        return net(t, s)
+
+    def hit(t: float, s: NDArray) -> float:
+        return float(s[iv])
+
+    method = 'DOP853' if n == 1 else 'Radau'       # the coil chains are stiff
+    lift.terminal, lift.direction = True, 1        # type: ignore[attr-defined]
+    hit.terminal, hit.direction = True, -1         # type: ignore[attr-defined]
+    atol = np.concatenate([np.full(n, 1e-12), np.full(n, 1e-9), [1e-13]])
+    out = np.zeros((2 * n + 1, t_out.size))
+    state, t, t_end, held = state0.copy(), 0.0, float(t_out[-1]), True
+    impacts: list[tuple[float, float]] = []
+    count = 0
+    while t < t_end:
+        count += 1
+        if count > 100000:
+            raise RuntimeError('hard seat: more than 100000 impacts (chatter)')
+        sol = solve_ivp(rhs_held if held else rhs_free, (t, t_end), state, method=method,
+                        rtol=rtol, atol=atol, max_step=max_step, dense_output=True,
+                        events=lift if held else hit)
+        if not sol.success:
+            raise RuntimeError(f'hard-seat integration failed: {sol.message}')
+        t_stop = float(sol.t[-1])
+        sel = (t_out >= t) & (t_out <= t_stop)
+        if np.any(sel):
+            out[:, sel] = sol.sol(t_out[sel])
+            if held:
+                out[iv, sel] = out[n + iv, sel] = 0.0
+        state = sol.y[:, -1].copy()
+        if sol.status == 1:
+            if held:
+                held = False
+            else:
+                v_hit = float(state[n + iv])
+                impacts.append((t_stop, -v_hit))
+                state[iv] = 0.0
+                state[n + iv] = -e * v_hit
+                held = state[n + iv] <= 1e-9 and net(t_stop, state) <= 0.0
+                if held:
+                    state[n + iv] = 0.0
+            t = t_stop + 1e-12 * max_step * 1e3 if math.isfinite(max_step) else t_stop + 1e-12
+            if held and net(t, state) > 0.0:   # lifts off again at once
+                held = False
+        else:
+            t = t_end
+    fc = np.array([forces(t, out[:, i])[2] for i, t in enumerate(t_out)])
+    return out, fc, impacts
+
+
+def simulate_gas_train(law: Any, base: SdofParams, rpm: float, *, mdof: Any = None,
                        gas: Callable[[float], float], revolutions: int = 4,
                        step_deg: float = 0.5) -> dict[str, Any]:
-    """The MDOF train (penalty seat, no HLA) with a cylinder-gas force ``gas(alpha)``
-    [N] on the valve, by the same ODE path (LSODA, rtol 1e-9) over ``revolutions``
-    from the base-circle equilibrium; the exact MDOF solver has no time-varying
-    external force. Returns the last revolution (alpha, y, v, cam force) and
+    """The MDOF (or, ``mdof`` None, SDOF) train without HLA, penalty or hard seat, with
+    a cylinder-gas force ``gas(alpha)`` [N] on the valve, by the same ODE path (LSODA,
+    rtol 1e-9; the hard seat by ``integrate_hard_seat``) over ``revolutions`` from the
+    base-circle equilibrium; the exact solvers take no gas force with the hard seat
+    and the exact MDOF solver none at all. Returns the last revolution (alpha, y, v, cam force) and
     ``settled`` (the valve motion of the last two revolutions agrees to 1e-8 m)."""
     omega = omega_of_rpm(rpm)
     step = math.radians(require_step_deg('step_deg', step_deg))
@@ -408,8 +494,13 @@ def simulate_gas_train(law: Any, base: SdofParams, rpm: float, *, mdof: Any,
     per_rev = int(round(2 * math.pi / step))
     t_rev = 2 * math.pi / omega
     t_out = np.linspace(0.0, revolutions * t_rev, revolutions * per_rev + 1)
-    z, _, fc = integrate(tr, u, t_out, _initial_state(tr, u(0.0)[0], gas(a0)), gas=gas, a0=a0,
-                         omega=omega, max_step=t_rev / per_rev)
+    state0 = _initial_state(tr, u(0.0)[0], gas(a0))
+    if tr.hard:
+        z, fc, _ = integrate_hard_seat(tr, u, t_out, state0, gas=gas, a0=a0, omega=omega,
+                                       max_step=t_rev / per_rev)
+    else:
+        z, _, fc = integrate(tr, u, t_out, state0, gas=gas, a0=a0, omega=omega,
+                             max_step=t_rev / per_rev)
     last = slice((revolutions - 1) * per_rev, revolutions * per_rev + 1)
     y = z[tr.iv]
     residual = math.inf
@@ -432,12 +523,13 @@ def gas_events(gas: Callable[[float], float], alpha: NDArray,
             else float(gas(math.radians(opening_deg)))}
 
 
-def run_gas_mdof(law: Any, params: SdofParams, mdof: Any, rpm: float, *,
-                 gas: Callable[[float], float], step_deg: float = 0.5,
-                 geometry: Any = None, train_checks: Any = None,
-                 revolutions: int = 4) -> Any:
-    """A ``Run`` of the MDOF train with the cylinder-gas force (``simulate_gas_train``):
-    events on the sampled last revolution, ``settled`` when two revolutions agree."""
+def run_gas_ode(law: Any, params: SdofParams, mdof: Any, rpm: float, *,
+                gas: Callable[[float], float], step_deg: float = 0.5,
+                geometry: Any = None, train_checks: Any = None,
+                revolutions: int = 4) -> Any:
+    """A ``Run`` of the MDOF train (any seat) or of the SDOF train with the hard seat
+    (``mdof`` None) with the cylinder-gas force (``simulate_gas_train``): events on the
+    sampled last revolution, ``settled`` when two revolutions agree."""
     from cam_design.valve_train.mdof import _events
     from cam_design.valve_train.report import finish_run
 
@@ -447,7 +539,8 @@ def run_gas_mdof(law: Any, params: SdofParams, mdof: Any, rpm: float, *,
     events = _events(res['alpha'], res['y'], res['v'], res['cam_force'], u)
     events.update({'revolutions': revolutions, 'settled': res['settled'],
                    'periodic_residual_m': res['periodic_residual_m'], 'left_cam': False,
-                   'integration': 'LSODA (gas force on the MDOF train)'})
+                   'integration': 'ODE path (gas force, docs/hydraulic.md)'})
     events.update(gas_events(gas, res['alpha'], events.get('opening_deg')))
-    return finish_run(law, params, rpm, 'mdof', res['alpha'], res['y'], res['v'],
-                      res['cam_force'], events, geometry, train_checks)
+    return finish_run(law, params, rpm, 'sdof' if mdof is None else 'mdof', res['alpha'],
+                      res['y'], res['v'], res['cam_force'], events, geometry,
+                      train_checks)

@@ -329,13 +329,15 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
             mp = mdof_from_mapping(vt.mdof, params)
         return run_with_hla(law, params, vt.hla, rpm, mdof=mp, step_deg=step_deg,
                             gas=_gas_of(vt, law), geometry=geom, train_checks=tc)
-    if getattr(vt, 'model', 'sdof') == 'mdof' and getattr(vt, 'gas', None) is not None:
-        from cam_design.hydraulic.hla_coupled import run_gas_mdof
+    if getattr(vt, 'gas', None) is not None and (
+            getattr(vt, 'model', 'sdof') == 'mdof' or params.hard_seat):
+        from cam_design.hydraulic.hla_coupled import run_gas_ode
         from cam_design.valve_train.mdof import mdof_from_mapping
 
-        return run_gas_mdof(law, params, mdof_from_mapping(vt.mdof, params), rpm,
-                            gas=_gas_of(vt, law), step_deg=step_deg, geometry=geom,
-                            train_checks=tc)
+        mp = (mdof_from_mapping(vt.mdof, params) if getattr(vt, 'model', 'sdof') == 'mdof'
+              else None)
+        return run_gas_ode(law, params, mp, rpm, gas=_gas_of(vt, law), step_deg=step_deg,
+                           geometry=geom, train_checks=tc)
     if getattr(vt, 'model', 'sdof') == 'mdof':
         from cam_design.valve_train.mdof import mdof_from_mapping, simulate_mdof
 
