@@ -8,9 +8,12 @@ falls below the supply pressure, the relief valve spills above its opening press
 A_r y): (V_a / K) dp/dt = Q_pipe - A_r y' - g p. Valve: M y'' = A_r p - F0 - c' y -
 b y' - F_gas + R_seat, seated (y = 0) with restitution at impact. The pipe couples the
 two chambers by its characteristics (pipe.py); every step is dt = dx / a. The chambers
-and the valve are advanced implicitly (backward Euler, exact for the flow balance).
-K is the effective bulk modulus with entrained air at the chamber pressure (lagged one
-step). Pressures are gauge [Pa]; the vapour pressure is therefore about -1e5 Pa.
+and the valve are advanced by the trapezoidal rule on the mid-step volume (second order;
+the chambers exchange exactly the volume the pipe's balance sees), the lift-off and the
+seat impact located inside the step; the actuator chamber is held at the vapour
+pressure while a vapour volume takes up its imbalance. K is the effective bulk modulus
+with entrained air at the mid-step pressure (extrapolated from the last two steps).
+Pressures are gauge [Pa]; the vapour pressure is therefore about -1e5 Pa.
 """
 from __future__ import annotations
 
