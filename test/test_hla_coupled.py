@@ -163,3 +163,14 @@ def test_hla_refused_with_the_hard_seat_and_the_hydraulic_model(tmp_path) -> Non
     with pytest.raises(InputError) as err:
         hla_from_mapping({'bore': 1.0})
     assert err.value.key == 'valve_train.hla.bore'
+
+
+def test_sweep_refuses_a_train_with_an_hla(tmp_path, capsys) -> None:
+    """The speed sweep runs the plain SDOF train: with an HLA it would be silently wrong,
+    so it is refused naming the option."""
+    from cam_metrology.cli import main
+
+    rc = main(['dynamics', str(_scene(tmp_path)), '--feature', 'lobe_2', '--sweep',
+               '1000:2000:500'])
+    assert rc != 0
+    assert '--sweep' in capsys.readouterr().err

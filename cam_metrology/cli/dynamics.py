@@ -243,6 +243,14 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
             from cam_design.valve_train.params import SdofParams
             from cam_design.valve_train.sweep import sweep
 
+            from cam_design.errors import InputError
+
+            for extra in ('hla', 'gas'):        # the sweep runs the plain exact SDOF
+                if getattr(scene.valve_train, extra, None) is not None:
+                    raise InputError('--sweep', f'with valve_train.{extra}',
+                                     f'single speeds (--rpm) for a train with {extra}; '
+                                     'the sweep does not take it yet')
+
             res = sweep(law, SdofParams.from_valve_train(scene.valve_train), sweep_speeds,
                         step_deg=args.step_deg, key=_law_key(core, feature))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
