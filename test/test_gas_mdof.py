@@ -58,6 +58,9 @@ def test_scene_gas_on_the_mdof_model_runs_through_the_cli(tmp_path) -> None:
 
     text = (REPO / 'config' / 'default_scene.yaml').read_text()
     text = text.replace('  model: sdof ', '  model: mdof ')
+    i = text.index('  cam_speed_rpm:')      # one coil mass per spring: seconds, not minutes
+    text = (text[:i] + '  mdof:\n    springs: [{rate: 3.0e4, mass: 0.05, coils: 1, '
+            'preload_share: 1.0}]\n' + text[i:])
     i = text.index('  cam_speed_rpm:')
     scene = tmp_path / 'gas.yaml'
     scene.write_text(text[:i] + GAS_BLOCK + text[i:])

@@ -92,8 +92,9 @@ def test_pump_up_is_detected_at_overspeed() -> None:
 def test_mdof_train_with_hla_pumps_up_only_at_overspeed() -> None:
     from cam_design.valve_train.mdof import mdof_from_mapping
 
-    mp = mdof_from_mapping(None, _params())
-    low = simulate_hla(LAW, _params(), LashAdjuster(), 1500.0, mdof=mp, revolutions=2,
+    mp = mdof_from_mapping({'springs': [{'rate': 3.0e4, 'mass': 0.05, 'coils': 2,
+                                         'preload_share': 1.0}]}, _params())   # 6 DOF
+    low = simulate_hla(LAW, _params(), LashAdjuster(), 1500.0, mdof=mp, revolutions=3,
                        step_deg=1.0)
     high = simulate_hla(LAW, _params(), LashAdjuster(), 4000.0, mdof=mp, revolutions=2,
                         step_deg=1.0)

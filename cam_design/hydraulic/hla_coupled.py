@@ -322,7 +322,8 @@ def simulate_hla(law: Any, base: SdofParams, hla: LashAdjuster, rpm: float, *,
     """Run the train with the coupled HLA for ``revolutions`` camshaft revolutions at
     ``rpm`` from the base-circle equilibrium; report the last one, the HLA's change of
     extension per revolution, leak-down and refill, and pump-up (the valve held off its
-    seat on the base circle, or the extension still growing)."""
+    seat on the base circle at the end); ``settled`` False while the extension still
+    changes by more than GROWTH_TOL over the last revolution."""
     omega = omega_of_rpm(rpm)
     step = math.radians(require_step_deg('step_deg', step_deg))
     tr = _Train(base, hla, mdof)
@@ -342,8 +343,8 @@ def simulate_hla(law: Any, base: SdofParams, hla: LashAdjuster, rpm: float, *,
     cam_force = fc[last] * (base.rocker_ratio if mdof is not None else 1.0)
     base_lift = float(y[-1])
     growth = changes[-1]
-    pumped = base_lift > SEAT_TOL or growth > GROWTH_TOL
-    settled = abs(growth) <= GROWTH_TOL or base_lift > SEAT_TOL
+    pumped = base_lift > SEAT_TOL
+    settled = abs(growth) <= GROWTH_TOL or pumped
     p = np.array([tr.pressure(f) for f in fe[last]])
     res = HlaResult(alpha=a0 + np.linspace(0.0, 2 * math.pi, per_rev + 1), y=y,
                     v=z[tr.n + tr.iv, last], cam_force=cam_force, element_force=fe[last],
@@ -399,6 +400,12 @@ def run_with_hla(law: Any, params: SdofParams, hla_spec: Mapping[str, Any], rpm:
                 + (' (to the end of its stroke)' if full else '')
                 + f' and the valve is {res.base_circle_lift * 1e3:.3f} mm off its seat on '
                 'the base circle (lash lost: the valve cannot close)')
+        old = run.events.get('note')
+        run.events['note'] = text if not old else f'{text}; {old}'
+    elif not res.settled:
+        text = (f'the HLA still changes its extension by {growth * 1e6:.2f} um per '
+                f'revolution after {revs} revolutions at {rpm:g} rpm: pump-up is not '
+                'excluded (raise valve_train.hla.revolutions)')
         old = run.events.get('note')
         run.events['note'] = text if not old else f'{text}; {old}'
     return run
