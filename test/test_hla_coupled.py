@@ -175,3 +175,15 @@ def test_sweep_refuses_a_train_with_an_hla(tmp_path, capsys) -> None:
                '1000:2000:500'])
     assert rc != 0
     assert '--sweep' in capsys.readouterr().err
+
+
+def test_a_still_changing_extension_is_not_settled_and_said(monkeypatch) -> None:
+    """With a tolerance below the measured change (5e-9 m in the second revolution) the
+    run says it is not settled and why, without claiming pump-up."""
+    import cam_design.hydraulic.hla_coupled as hc
+
+    monkeypatch.setattr(hc, 'GROWTH_TOL', 1e-12)
+    run = hc.run_with_hla(LAW, _params(), {'revolutions': 2}, 1500.0)
+    assert run.events['settled'] is False and run.events['hla_pump_up'] is False
+    assert 'pump-up is not excluded' in run.events['note']
+    assert abs(run.events['hla_extension_change_last_rev_m']) > 1e-12

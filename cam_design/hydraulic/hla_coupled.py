@@ -403,6 +403,7 @@ def run_with_hla(law: Any, params: SdofParams, hla_spec: Mapping[str, Any], rpm:
         old = run.events.get('note')
         run.events['note'] = text if not old else f'{text}; {old}'
     elif not res.settled:
+        growth = res.events['hla_extension_change_last_rev_m']
         text = (f'the HLA still changes its extension by {growth * 1e6:.2f} um per '
                 f'revolution after {revs} revolutions at {rpm:g} rpm: pump-up is not '
                 'excluded (raise valve_train.hla.revolutions)')
