@@ -132,6 +132,7 @@ class ValveTrain:
     mdof: dict[str, Any] | None = None   # extra parameters of the 4+N1+N2 model
     hydraulic: dict[str, Any] | None = None   # block of the hydraulic model
     gas: dict[str, Any] | None = None   # cylinder-gas force on the valve (sdof)
+    hla: dict[str, Any] | None = None   # hydraulic lash adjuster (sdof, mdof)
     spring: dict[str, Any] | None = None   # spring geometry (coil bind), docs/scene.md
     piston: dict[str, Any] | None = None   # crank-slider (dynamic valve-piston clearance)
 

@@ -558,7 +558,7 @@ def _compute(value: Any) -> frozenset[str] | None:
 
 def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
     known = ('model', 'seat', 'cam_speed_rpm', 'mdof', 'hydraulic', 'spring',
-             'piston', 'gas') + tuple(VALVE_KEYS)
+             'piston', 'gas', 'hla') + tuple(VALVE_KEYS)
     vt = ctx.mapping('valve_train', value, known)
     model = vt.get('model', 'sdof')
     if model not in VALVE_MODELS:
@@ -596,7 +596,20 @@ def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
     train_checks_from(vt.get('spring'), vt.get('piston'))     # validated here, named keys
     spring, piston = vt.get('spring'), vt.get('piston')
     gas = _gas(ctx, vt.get('gas'), model, seat)
-    return ValveTrain(model=model, seat=seat, cam_speed_rpm=speeds, gas=gas,
+    hla = vt.get('hla')
+    if hla is not None:
+        from cam_design.hydraulic.hla_coupled import HLA_KEYS, hla_from_mapping
+
+        hla = {k: v for k, v in ctx.mapping('valve_train.hla', hla, HLA_KEYS).items()
+               if k in HLA_KEYS}
+        hla_from_mapping(hla)                       # validated here, named keys
+        if model == 'hydraulic':
+            raise InputError('valve_train.hla', 'with model hydraulic',
+                             'model sdof or mdof (the hydraulic gear has no lash adjuster)')
+        if seat.restitution is not None:
+            raise InputError('valve_train.hla', 'with a hard seat (seat.restitution)',
+                             'the penalty seat (the coupled HLA uses it)')
+    return ValveTrain(model=model, seat=seat, cam_speed_rpm=speeds, gas=gas, hla=hla,
                       mdof=dict(mdof) if mdof is not None else None,
                       hydraulic=dict(block) if block is not None else None,
                       spring=dict(spring) if spring is not None else None,
@@ -636,12 +649,10 @@ def _gas(ctx: _Ctx, value: Any, model: str, seat: Seat) -> dict[str, Any] | None
                                                   g['lobe_start_crank_deg'])}
     gas_force(out['crank_deg'], out['pressure_pa'], out['head_diameter'],
               out['back_pressure_pa'])        # the table's own checks
-    if model != 'sdof':
+    if model not in ('sdof', 'mdof'):
         raise InputError('valve_train.gas', f'with model {model}',
-                         'model sdof (the other models do not take a gas force yet)')
-    if seat.restitution is not None:
-        raise InputError('valve_train.gas', 'with a hard seat (seat.restitution)',
-                         'the penalty seat (the hard seat does not take a gas force yet)')
+                         'model sdof or mdof (the hydraulic gear takes it in the library '
+                         'only)')
     return out
 
 

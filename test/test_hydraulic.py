@@ -6,9 +6,9 @@
   L / a (a = sqrt(K / rho)) and doubles there (reflection at a closed end).
 * Joukowsky: stopping a steady flow v0 at once raises the pressure by rho a v0.
 * Steady friction: the pressure drop is Darcy-Weisbach rho f L v^2 / (2 D); a transient
-  with friction converges at first order in the reach length.
+  with friction converges at second order in the reach length, and so does the whole gear.
 * Oil volume over a lobe: plunger displacement + refill - relief - leakage - actuator
-  swept volume - compression storage = 0, to 1e-6 of the displaced volume.
+  swept volume - compression storage = 0, to 1e-7 of the displaced volume.
 * HLA leak-down under a constant load: t = 12 mu L s A / (pi d c^3 p) (laminar annulus);
   no net pump-up without separation, pump-up when the train separates.
 * Gas force: a constant pressure on the valve head acts as a preload increase.
@@ -45,7 +45,7 @@ def test_rigid_oil_limit_valve_follows_the_plunger_volume() -> None:
                   friction=0.0)
     res = simulate_hydraulic(LAW, prm, 300.0)
     expected = prm.plunger_area / prm.actuator_area * LAW(res.alpha, 0)
-    assert np.max(np.abs(res.valve_lift - expected)) / expected.max() < 1e-4
+    assert np.max(np.abs(res.valve_lift - expected)) / expected.max() < 1e-5   # seen 2.4e-6
     assert not res.cavitation
 
 
@@ -96,28 +96,52 @@ def test_steady_friction_is_darcy_weisbach() -> None:
 
 
 def _closure_with_friction(reaches: int) -> float:
+    """Far-end pressure 1.5 round trips after a valve closes a steady flow smoothly (a
+    half-cosine over one round trip), with Darcy friction."""
     a = wave_speed(1.5e9, RHO)
     pipe = Pipe(length=1.0, diameter=0.006, wave_speed=a, density=RHO, friction=0.05,
                 reaches=reaches)
     q = 3.0 * pipe.area
     pipe.fill(0.0, q)
     pipe.p[:] = -pipe.resistance * q * q * np.arange(reaches + 1)
-    t_end = 3.0 / a                                      # 1.5 round trips
-    hist = _run_step(pipe, 0.0, int(round(t_end / pipe.dt)))
+    t_close = 2.0 / a
+
+    def closing(i: int) -> float:
+        return q * 0.5 * (1.0 + math.cos(math.pi * min((i + 1) * pipe.dt / t_close, 1.0)))
+
+    hist = _run_step(pipe, 0.0, int(round(3.0 / a / pipe.dt)), q_right_at=closing)
     return float(hist[-1])
 
 
-def test_friction_transient_converges_at_first_order() -> None:
-    ref = _closure_with_friction(512)
-    errs = [abs(_closure_with_friction(n) - ref) for n in (8, 16, 32)]
+def test_friction_transient_converges_at_second_order() -> None:
+    """Trapezoidal friction along the characteristics: second order (measured 1.80 and
+    1.91 between 16, 32 and 64 reaches against 1024)."""
+    ref = _closure_with_friction(1024)
+    errs = [abs(_closure_with_friction(n) - ref) for n in (16, 32, 64)]
     orders = [math.log2(errs[i] / errs[i + 1]) for i in range(2)]
-    assert min(orders) > 0.8, (errs, orders)
+    assert min(orders) > 1.7, (errs, orders)
+
+
+def test_valve_gear_converges_at_second_order() -> None:
+    """Grid convergence of the whole gear (pipe, trapezoidal chambers and valve, lift-off
+    and seat impact inside the step): halving the step divides the change of the valve
+    lift and of both pressures by about 4 (measured 3.82, 3.91, 3.94 between 16, 32 and
+    64 reaches; a first-order coupling gives 2)."""
+    prm = {n: _params(actuator_diameter=0.02, pipe_length=0.3, spring_preload=300.0,
+                      reaches=n) for n in (16, 32, 64)}
+    runs = {n: simulate_hydraulic(LAW, p, 600.0) for n, p in prm.items()}
+    grid = runs[16].alpha
+    assert runs[64].seating_velocity is not None and not runs[64].cavitation
+    for key in ('valve_lift', 'pump_pressure', 'actuator_pressure'):
+        on = {n: np.interp(grid, r.alpha, getattr(r, key)) for n, r in runs.items()}
+        ratio = np.abs(on[16] - on[32]).max() / np.abs(on[32] - on[64]).max()
+        assert 3.3 < ratio < 4.8, (key, ratio)
 
 
 def test_oil_volume_is_conserved_over_a_lobe() -> None:
-    """Without cavitation the balance closes to 1e-5 of the displaced volume (measured
-    9e-7); the pipe's boundary flows are integrated at first order in dt, so the balance
-    error falls with the reach length (docs/hydraulic.md)."""
+    """Without cavitation the balance closes to roundoff: the chambers' trapezoidal
+    balance uses the same boundary flows as the pipe (measured 9e-9 of the displaced
+    volume; the issue asks 1e-6)."""
     prm = _params(leak_conductance=2e-13, check_area=2e-5, supply_pressure=2e5,
                   spring_preload=250.0, spring_rate=4e4)
     res = simulate_hydraulic(LAW, prm, 600.0,
@@ -126,16 +150,20 @@ def test_oil_volume_is_conserved_over_a_lobe() -> None:
     displaced = prm.plunger_area * LAW(np.array([0.0]), 0)[0]
     assert vol['leak_out'] > 0 and vol['check_in'] > 0 and not res.cavitation
     assert res.valve_lift[-1] == 0.0 and res.seating_velocity is not None   # closed again
-    assert abs(vol['residual']) < 1e-5 * displaced
+    assert abs(vol['residual']) < 1e-7 * displaced
 
 
 def test_relief_valve_caps_the_pump_pressure_and_conserves_oil() -> None:
+    """Here the valve overshoots when the relief caps the pressure and the actuator
+    chamber cavitates: held at the vapour pressure, flagged; the collapse of a vapour
+    cavity is not volume-exact (measured 2e-4 of the displaced volume)."""
     prm = _params(check_area=2e-5, supply_pressure=2e5, spring_preload=250.0,
                   spring_rate=4e4, relief_pressure=1.2e6, relief_area=2e-5)
     res = simulate_hydraulic(LAW, prm, 600.0,
                              alpha_range=(LAW.support[0] - 0.2, LAW.support[1] + 0.6))
     assert res.volumes['relief_out'] > 0
     assert res.pump_pressure.max() < 1.2e6 * 1.06          # fully open at +5 %
+    assert res.cavitation and res.actuator_pressure.min() >= prm.vapour_pressure - 1e-6
     displaced = prm.plunger_area * LAW(np.array([0.0]), 0)[0]
     assert abs(res.volumes['residual']) < 1e-3 * displaced
 
@@ -190,6 +218,9 @@ def test_constant_gas_pressure_acts_as_a_preload_increase() -> None:
 @pytest.mark.parametrize('kw, key', [
     ({'relief_pressure': 1e5}, 'relief_pressure'),
     ({'pump_volume': -1.0}, 'pump_volume'),
+    ({'actuator_volume': -1e-6}, 'actuator_volume'),
+    ({'supply_pressure': 5e7}, 'relief_pressure'),         # relief below the supply
+    ({'pipe_length': 1e-7}, 'pipe_length'),   # a step so short a pass needs > 5e6 of them
     ({'air_fraction': 1.5}, 'air_fraction'),
     ({'restitution': 2.0}, 'restitution'),
 ])

@@ -4,7 +4,8 @@
 * A pressure table versus crank angle (piecewise linear, blow-down shape) gives the
   same valve motion as scipy DOP853 (rtol 1e-11) of the same equation with the force
   evaluated exactly, started from the exact solver's periodic state.
-* The hard seat does not take a gas force yet: refused with the key.
+* The exact solver does not take a gas force with the hard seat: refused with the key
+  (the scene runs that case by the ODE path, test/test_gas_mdof.py).
 """
 from __future__ import annotations
 
@@ -63,7 +64,9 @@ def test_blow_down_table_matches_a_scipy_reference() -> None:
     assert res.events.opening > free.events.opening
 
 
-def test_hard_seat_with_gas_is_refused_by_key() -> None:
+def test_hard_seat_exact_solver_refuses_gas_by_key() -> None:
+    """The exact SDOF solver has no gas force with the hard seat (the scene routes that
+    case to the ODE path, test/test_gas_mdof.py)."""
     with pytest.raises(InputError) as err:
         simulate(LAW, _params(restitution=0.5), 1500.0, gas=lambda a: 10.0)
     assert err.value.key == 'valve_train.gas'

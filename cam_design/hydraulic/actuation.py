@@ -8,9 +8,12 @@ falls below the supply pressure, the relief valve spills above its opening press
 A_r y): (V_a / K) dp/dt = Q_pipe - A_r y' - g p. Valve: M y'' = A_r p - F0 - c' y -
 b y' - F_gas + R_seat, seated (y = 0) with restitution at impact. The pipe couples the
 two chambers by its characteristics (pipe.py); every step is dt = dx / a. The chambers
-and the valve are advanced implicitly (backward Euler, exact for the flow balance).
-K is the effective bulk modulus with entrained air at the chamber pressure (lagged one
-step). Pressures are gauge [Pa]; the vapour pressure is therefore about -1e5 Pa.
+and the valve are advanced by the trapezoidal rule on the mid-step volume (second order;
+the chambers exchange exactly the volume the pipe's balance sees), the lift-off and the
+seat impact located inside the step; the actuator chamber is held at the vapour
+pressure while a vapour volume takes up its imbalance. K is the effective bulk modulus
+with entrained air at the mid-step pressure (extrapolated from the last two steps).
+Pressures are gauge [Pa]; the vapour pressure is therefore about -1e5 Pa.
 """
 from __future__ import annotations
 
@@ -109,17 +112,19 @@ class HydraulicResult:
                 'volume_balance_m3': self.volumes}
 
 
-def _pump_pressure(p_old: float, cm: float, b: float, coef: float, q_in: float,
-                   prm: HydraulicParams) -> tuple[float, float, float, float]:
-    """Backward-Euler pressure of the pump chamber (node 0 of the pipe) and its flows:
-    coef (p - p_old) = q_in - (p - cm)/b - g p + Q_check(p) - Q_relief(p)."""
+def _pump_pressure(p_old: float, cm: float, b: float, coef: float, known: float,
+                   prm: HydraulicParams) -> float:
+    """Pressure of the pump chamber (node 0 of the pipe) at the end of a step, from its
+    trapezoidal balance coef (p - p_old) = known - (p - cm)/(2b) - g p/2
+    + Q_check(p)/2 - Q_relief(p)/2 (``known`` holds the plunger flow and the halves of
+    the flows at the start of the step)."""
     g = prm.leak_conductance
 
     def residual(p: float) -> float:
-        return (q_in - (p - cm) / b - g * p + _check(p, prm) - _relief(p, prm)
-                - coef * (p - p_old))
+        return (known - 0.5 * (p - cm) / b - 0.5 * g * p + 0.5 * _check(p, prm)
+                - 0.5 * _relief(p, prm) - coef * (p - p_old))
 
-    p = (q_in + cm / b + coef * p_old) / (1.0 / b + g + coef)      # valves closed
+    p = (known + 0.5 * cm / b + coef * p_old) / (0.5 / b + 0.5 * g + coef)   # valves shut
     if not (prm.supply_pressure <= p <= prm.relief_pressure):
         lo, hi = min(p, prm.supply_pressure) - 1.0, max(p, prm.relief_pressure) + 1.0
         while residual(lo) < 0:
@@ -128,7 +133,7 @@ def _pump_pressure(p_old: float, cm: float, b: float, coef: float, q_in: float,
             hi += 2.0 * abs(hi) + 1e5
         from scipy.optimize import brentq
         p = brentq(residual, lo, hi, xtol=1e-9, rtol=1e-14)
-    return p, _check(p, prm), _relief(p, prm), g * p
+    return p
 
 
 def _check(p: float, prm: HydraulicParams) -> float:
@@ -149,6 +154,147 @@ def _relief(p: float, prm: HydraulicParams) -> float:
         return 0.0
     opening = min(1.0, dp / (RELIEF_OVERRIDE * prm.relief_pressure))
     return orifice_flow(p, prm.relief_area * opening, prm.oil_density)
+
+
+@dataclass
+class _Actuator:
+    """State of the actuator chamber and the valve at a (sub-)step boundary."""
+
+    p: float        # chamber pressure [Pa gauge]
+    q: float        # pipe flow into the chamber [m^3/s]
+    y: float        # valve lift [m]
+    v: float        # valve velocity [m/s]
+    cav: float = 0.0      # vapour volume in the chamber [m^3]
+    stored: float = 0.0   # oil stored by compression so far [m^3]
+    leak: float = 0.0     # leakage so far [m^3]
+
+
+def _actuator_substep(st: _Actuator, d: float, c1: float, f_old: float, fg1: float,
+                      seated: bool, k: float, b: float, prm: HydraulicParams) -> _Actuator:
+    """Advance the actuator chamber and the valve by ``d`` seconds with the trapezoidal
+    rule: (V_mid/K)(p1 - p0) = d/2 (Q0 + Q1) - d g (p0 + p1)/2 - A_r (y1 - y0)
+    + (Vc1 - Vc0) and M (v1 - v0) = d/2 (F0 + F1), y1 = y0 + d (v0 + v1)/2, with the
+    pipe's characteristic Q1 = (c1 - p1)/B at the end of the step. ``f_old`` is the net
+    force on the valve at the start (0 on the seat); seated, the valve does not move.
+    Vc is the vapour volume of the chamber: below the vapour pressure the pressure is
+    held there and the vapour volume takes up the imbalance until it collapses."""
+    ar, g, mass = prm.actuator_area, prm.leak_conductance, prm.mass
+    c_rate, f0, damp = prm.spring_rate, prm.spring_preload, prm.valve_damping
+    y_pred = 0.0 if seated else max(st.y + d * st.v, 0.0)
+    vmid = prm.actuator_volume + ar * 0.5 * (st.y + y_pred)
+    coef = vmid / (k * d)
+    lhs = coef + 0.5 / b + 0.5 * g
+    den = 1.0 + 0.5 * d * damp / mass + 0.25 * d * d * c_rate / mass
+    v0 = (st.v + 0.5 * d / mass * (-f0 - c_rate * (st.y + 0.5 * d * st.v) - fg1
+                                   + f_old)) / den
+    gain = 0.5 * d * ar / (mass * den)
+
+    def motion(p1: float) -> tuple[float, float]:
+        if seated:
+            return 0.0, 0.0
+        v1 = v0 + gain * p1
+        return st.y + 0.5 * d * (st.v + v1), v1
+
+    vap = prm.vapour_pressure
+    cav1 = 0.0
+    if st.cav > 0.0:            # vapour in the chamber: held at the vapour pressure
+        y1, v1 = motion(vap)
+        cav1 = (st.cav + ar * (y1 - st.y) - 0.5 * d * (st.q + (c1 - vap) / b)
+                + 0.5 * g * d * (st.p + vap) + vmid / k * (vap - st.p))
+        p1 = vap
+    if cav1 <= 0.0:
+        rhs = coef * st.p + 0.5 * c1 / b + 0.5 * st.q - 0.5 * g * st.p - st.cav / d
+        p1 = (rhs if seated else rhs - 0.5 * ar * (v0 + st.v)) \
+            / (lhs if seated else lhs + 0.5 * ar * gain)
+        cav1 = 0.0
+        if p1 < vap:            # cavitates within the step
+            y1, v1 = motion(vap)
+            cav1 = (st.cav + ar * (y1 - st.y) - 0.5 * d * (st.q + (c1 - vap) / b)
+                    + 0.5 * g * d * (st.p + vap) + vmid / k * (vap - st.p))
+            p1 = vap
+            cav1 = max(cav1, 0.0)
+        y1, v1 = motion(p1)
+    return _Actuator(p=p1, q=(c1 - p1) / b, y=y1, v=v1, cav=cav1,
+                     stored=st.stored + vmid / k * (p1 - st.p) - (cav1 - st.cav),
+                     leak=st.leak + 0.5 * g * (st.p + p1) * d)
+
+
+def _valve_force(st: _Actuator, fg: float, prm: HydraulicParams) -> float:
+    """Net force on the free valve [N] (opening positive)."""
+    return (prm.actuator_area * st.p - prm.spring_preload - prm.spring_rate * st.y
+            - prm.valve_damping * st.v - fg)
+
+
+def _actuator_step(st: _Actuator, dt: float, c0: float, c1: float, fg0: float, fg1: float,
+                   seated: bool, k: float, b: float,
+                   prm: HydraulicParams) -> tuple[_Actuator, bool, float | None, bool]:
+    """One pipe step of the actuator and the valve, with the lift-off and the seat impact
+    located inside the step (the step is split there, the pipe's characteristic and the
+    gas force interpolated linearly), so that the events cost no order of accuracy.
+    Returns the new state, whether the valve is seated, the impact speed (or None) and
+    whether the step was split."""
+    if seated:
+        end = _actuator_substep(st, dt, c1, 0.0, fg1, True, k, b, prm)
+        f_start = _valve_force(st, fg0, prm)
+        f_end = _valve_force(end, fg1, prm)
+        if f_end <= 0.0:
+            return end, True, None, False
+        theta = f_start / (f_start - f_end) if f_start < 0.0 else 0.0
+        mid = st
+        if theta > 0.0:
+            mid = _actuator_substep(st, theta * dt, c0 + theta * (c1 - c0), 0.0,
+                                    fg0 + theta * (fg1 - fg0), True, k, b, prm)
+        end = _actuator_substep(mid, (1.0 - theta) * dt, c1, 0.0, fg1, False, k, b, prm)
+        if end.y <= 0.0:
+            end.y = end.v = 0.0
+            return end, True, None, True
+        return end, False, None, True
+    f_start = _valve_force(st, fg0, prm)
+    end = _actuator_substep(st, dt, c1, f_start, fg1, False, k, b, prm)
+    if end.y >= 0.0:
+        return end, False, None, False
+    # impact: y(s) = y0 + s v0 + s^2 (v1 - v0)/(2 dt) on the trapezoidal path
+    y0, v0, dv = st.y, st.v, end.v - st.v
+    disc = v0 * v0 - 2.0 * dv * y0 / dt
+    if abs(dv) > 1e-300 and disc >= 0.0:
+        theta = (-v0 - math.sqrt(disc)) / dv
+    else:
+        theta = y0 / (y0 - end.y)
+    if not 0.0 < theta <= 1.0:
+        theta = y0 / (y0 - end.y)
+    c_hit, fg_hit = c0 + theta * (c1 - c0), fg0 + theta * (fg1 - fg0)
+    hit = _actuator_substep(st, theta * dt, c_hit, f_start, fg_hit, False, k, b, prm)
+    v_hit = min(hit.v, 0.0)
+    hit.y, hit.v = 0.0, -prm.restitution * v_hit
+    rest = (1.0 - theta) * dt
+    if hit.v <= 1e-9:
+        hit.v = 0.0
+        return (_actuator_substep(hit, rest, c1, 0.0, fg1, True, k, b, prm) if rest > 0.0
+                else hit), True, -v_hit, True
+    end = _actuator_substep(hit, rest, c1, _valve_force(hit, fg_hit, prm), fg1, False, k, b,
+                            prm) if rest > 0.0 else hit
+    if end.y < 0.0:
+        end.y = end.v = 0.0
+        return end, True, -v_hit, True
+    return end, False, -v_hit, True
+
+
+def _whole_step_balance(st: _Actuator, end: _Actuator, dt: float, c1: float, k: float,
+                        b: float, prm: HydraulicParams) -> _Actuator:
+    """The chamber pressure at the end of a split step from the balance over the whole
+    step with the valve's swept volume of the split solution: the pipe exchanges
+    dt (Q0 + Q1)/2 with the chamber (its own conservation), so the oil volume balance
+    stays exact; the change to the split solution is O(dt^3) in volume."""
+    ar, g = prm.actuator_area, prm.leak_conductance
+    if st.cav > 0.0 or end.cav > 0.0:
+        return end
+    vmid = prm.actuator_volume + ar * 0.5 * (st.y + end.y)
+    coef = vmid / (k * dt)
+    p1 = ((coef * st.p + 0.5 * st.q + 0.5 * c1 / b - 0.5 * g * st.p
+           - ar * (end.y - st.y) / dt) / (coef + 0.5 / b + 0.5 * g))
+    return _Actuator(p=p1, q=(c1 - p1) / b, y=end.y, v=end.v,
+                     stored=st.stored + vmid / k * (p1 - st.p),
+                     leak=st.leak + 0.5 * g * (st.p + p1) * dt)
 
 
 def simulate_hydraulic(law: Any, prm: HydraulicParams, rpm: float, *,
@@ -174,80 +320,78 @@ def simulate_hydraulic(law: Any, prm: HydraulicParams, rpm: float, *,
                          f'a time step that does not need {steps:.3g} steps for one lobe '
                          f'(dt = {dt:.3g} s; use a longer pipe, fewer reaches or a '
                          'lower bulk modulus)')
-    ap, ar, b, mass = prm.plunger_area, prm.actuator_area, pipe.impedance, prm.mass
+    ap, ar, b = prm.plunger_area, prm.actuator_area, pipe.impedance
     pipe.fill(prm.supply_pressure)
-    p_pump = p_act = prm.supply_pressure
-    y = v = 0.0
+    p_pump = p_act = p_pump_prev = p_act_prev = prm.supply_pressure
+    act = _Actuator(p=p_act, q=0.0, y=0.0, v=0.0)
     seated = True
     opened = False
     v_seat: float | None = None
     cav = False
     alphas = lo + omega * dt * np.arange(steps + 1)
     h_all = law(alphas, 0)
-    h1_all = law(alphas, 1)
+    if float(h_all.max()) * ap >= prm.pump_volume:
+        raise InputError('pump_volume', prm.pump_volume,
+                         f'a dead volume larger than the plunger displacement '
+                         f'({ap * float(h_all.max()):.3g} m^3)')
+    fg_all = np.array([gas_force(float(a)) for a in alphas]) if gas_force is not None \
+        else np.zeros(steps + 1)
     n_rec = steps // record_every + 1
-    rec = np.zeros((n_rec, 5))
-    rec[0] = (y, v, p_pump, p_act, 0.0)
+    rec = np.zeros((n_rec, 4))
+    rec[0] = (act.y, act.v, p_pump, p_act)
     vol = {'plunger_in': 0.0, 'check_in': 0.0, 'relief_out': 0.0, 'leak_out': 0.0,
            'actuator_swept': 0.0}
     pipe_stored0 = pipe.stored_volume(k0)
     chamber_stored = 0.0
     g = prm.leak_conductance
+    air = prm.air_fraction > 0.0
+    k_p = k_a = k0
+    chk_old, rel_old = _check(p_pump, prm), _relief(p_pump, prm)
     for i in range(1, steps + 1):
         cp, cm = pipe.c_plus(), pipe.c_minus()
-        h, h1 = float(h_all[i]), float(h1_all[i])
-        k_p = effective_bulk_modulus(prm.bulk_modulus, prm.air_fraction, p_pump + P_ATM)
-        k_a = effective_bulk_modulus(prm.bulk_modulus, prm.air_fraction, p_act + P_ATM)
-        vp = prm.pump_volume - ap * h
-        if vp <= 0:
-            raise InputError('pump_volume', prm.pump_volume,
-                             f'a dead volume larger than the plunger displacement '
-                             f'({ap * float(h_all.max()):.3g} m^3)')
-        q_plunger = ap * omega * h1
-        p_new, q_chk, q_rel, q_lp = _pump_pressure(p_pump, float(cm[0]), b, vp / (k_p * dt),
-                                                   q_plunger, prm)
+        q0_old, qn_old = float(pipe.q[0]), float(pipe.q[-1])
+        p_act = act.p
+        h_old, h = float(h_all[i - 1]), float(h_all[i])
+        if air:     # K at the mid-step pressure, extrapolated from the last two steps
+            k_p = effective_bulk_modulus(prm.bulk_modulus, prm.air_fraction,
+                                         1.5 * p_pump - 0.5 * p_pump_prev + P_ATM)
+            k_a = effective_bulk_modulus(prm.bulk_modulus, prm.air_fraction,
+                                         1.5 * p_act - 0.5 * p_act_prev + P_ATM)
+        # pump chamber: trapezoidal balance on the mid-step volume (conservative)
+        vp_mid = prm.pump_volume - ap * 0.5 * (h_old + h)
+        coef_p = vp_mid / (k_p * dt)
+        q_plunger = ap * (h - h_old) / dt
+        known = q_plunger + 0.5 * (-q0_old - g * p_pump + chk_old - rel_old)
+        p_new = _pump_pressure(p_pump, float(cm[0]), b, coef_p, known, prm)
+        chk_new, rel_new = _check(p_new, prm), _relief(p_new, prm)
         q0 = (p_new - float(cm[0])) / b
-        # actuator chamber + valve, backward Euler (linear in p, v)
-        fg = gas_force(float(alphas[i])) if gas_force is not None else 0.0
-        va = prm.actuator_volume + ar * y
-        coef = va / (k_a * dt)
+        # actuator chamber + valve: trapezoidal, events located inside the step
         c_end = float(cp[-1])
-        a_den = 1.0 + dt * prm.valve_damping / mass + dt * dt * prm.spring_rate / mass
-        v0 = (v + dt / mass * (-prm.spring_preload - prm.spring_rate * y - fg)) / a_den
-        gain = dt * ar / (mass * a_den)
-        rhs = coef * p_act + c_end / b
-        lhs = coef + 1.0 / b + g
-        p_a = (rhs - ar * v0) / (lhs + ar * gain)
-        v_new = v0 + gain * p_a
-        if seated and v_new <= 0.0:            # stays on the seat: no motion
-            v_new = 0.0
-            p_a = rhs / lhs
-        y_new = y + dt * v_new
-        if y_new < 0.0:                          # seat impact within the step
-            if opened and v_seat is None:
-                v_seat = -v_new
-            y_new = 0.0
-            v_new = -prm.restitution * v_new
-            seated = v_new <= 1e-9
-            if seated:
-                v_new = 0.0
-            p_a = (rhs - ar * (y_new - y) / dt) / lhs     # the volume really swept
-        elif y_new > 0.0:
-            seated = False
-            opened = True
-        chamber_stored += vp / k_p * (p_new - p_pump) + va / k_a * (p_a - p_act)
-        q_n = (c_end - p_a) / b
-        pipe.step(p_new, q0, p_a, q_n, cp, cm)
-        cav = cav or bool(np.any(pipe.cavity > 0)) or p_a <= prm.vapour_pressure \
+        y_old = act.y
+        act0 = _Actuator(p=act.p, q=qn_old, y=act.y, v=act.v, cav=act.cav)
+        act, seated, hit, split = _actuator_step(act0, dt, act.p + b * qn_old, c_end,
+                                                 float(fg_all[i - 1]), float(fg_all[i]),
+                                                 seated, k_a, b, prm)
+        if split:       # balance the chamber over the whole step, as the pipe sees it
+            act = _whole_step_balance(act0, act, dt, c_end, k_a, b, prm)
+        if hit is not None and opened and v_seat is None:
+            v_seat = hit
+        opened = opened or act.y > 0.0
+        p_a = act.p
+        chamber_stored += coef_p * dt * (p_new - p_pump) + act.stored
+        pipe.step(p_new, q0, p_a, act.q, cp, cm)
+        cav = cav or bool(np.any(pipe.cavity > 0)) or act.cav > 0.0 \
             or p_new <= prm.vapour_pressure
         vol['plunger_in'] += q_plunger * dt
-        vol['check_in'] += q_chk * dt
-        vol['relief_out'] += q_rel * dt
-        vol['leak_out'] += (q_lp + g * p_a) * dt
-        vol['actuator_swept'] += ar * (y_new - y)
-        p_pump, p_act, y, v = p_new, p_a, y_new, v_new
+        vol['check_in'] += 0.5 * (chk_old + chk_new) * dt
+        vol['relief_out'] += 0.5 * (rel_old + rel_new) * dt
+        vol['leak_out'] += 0.5 * g * (p_pump + p_new) * dt + act.leak
+        vol['actuator_swept'] += ar * (act.y - y_old)
+        p_pump_prev, p_act_prev = p_pump, p_act
+        p_pump = p_new
+        chk_old, rel_old = chk_new, rel_new
         if i % record_every == 0:
-            rec[i // record_every] = (y, v, p_pump, p_act, 0.0)
+            rec[i // record_every] = (act.y, act.v, p_pump, act.p)
     vol['stored_change'] = chamber_stored + pipe.stored_volume(k0) - pipe_stored0
     vol['residual'] = (vol['plunger_in'] + vol['check_in'] - vol['relief_out']
                        - vol['leak_out'] - vol['actuator_swept'] - vol['stored_change'])

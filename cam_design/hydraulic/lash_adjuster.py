@@ -36,12 +36,24 @@ class LashAdjuster:
     gallery_pressure: float = 2.0e5     # Pa (gauge), oil supply
     refill_rate: float = 2.0e-3         # m/s, largest extension speed the check valve feeds
     max_stroke: float = 3.0e-3          # m
+    # used by the coupled model (hla_coupled.py)
+    check_area: float = 1.0e-6          # m^2, check-valve orifice
+    chamber_volume: float = 2.0e-7      # m^3, high-pressure chamber
+    bulk_modulus: float = 1.5e9         # Pa, pure oil
+    air_fraction: float = 0.0           # free air at atmospheric pressure
+    oil_density: float = 850.0          # kg/m^3
+    ratio: float = 1.0                  # valve-side displacement per HLA displacement
 
     def __post_init__(self) -> None:
         for name in ('plunger_diameter', 'clearance', 'gap_length', 'viscosity',
-                     'refill_rate', 'max_stroke'):
+                     'refill_rate', 'max_stroke', 'check_area', 'chamber_volume',
+                     'bulk_modulus', 'oil_density', 'ratio'):
             require_positive(f'hla.{name}', getattr(self, name))
         require_positive('hla.spring_force', self.spring_force, allow_zero=True)
+        require_positive('hla.gallery_pressure', self.gallery_pressure, allow_zero=True)
+        if not 0.0 <= self.air_fraction < 1.0:
+            raise InputError('hla.air_fraction', self.air_fraction,
+                             'a volume fraction in [0, 1)')
 
     @property
     def area(self) -> float:

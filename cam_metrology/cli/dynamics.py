@@ -244,6 +244,14 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
             from cam_design.valve_train.params import SdofParams
             from cam_design.valve_train.sweep import sweep
 
+            from cam_design.errors import InputError
+
+            for extra in ('hla', 'gas'):        # the sweep runs the plain exact SDOF
+                if getattr(scene.valve_train, extra, None) is not None:
+                    raise InputError('--sweep', f'with valve_train.{extra}',
+                                     f'single speeds (--rpm) for a train with {extra}; '
+                                     'the sweep does not take it yet')
+
             res = sweep(law, SdofParams.from_valve_train(scene.valve_train), sweep_speeds,
                         step_deg=args.step_deg, key=_law_key(core, feature))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
@@ -327,6 +335,10 @@ def run_line(feature: str, r: dict[str, Any]) -> str:
         line += ', VALVE LEAVES THE CAM'
     elif r.get('settled') is False:
         line += f", NOT SETTLED (residual {r.get('periodic_residual_m', float('nan')):.3g} m)"
+    if 'hla_pump_up' in r:
+        line += (f", HLA {'PUMP-UP' if r['hla_pump_up'] else 'no pump-up'} (leak-down "
+                 f"{r['hla_leak_down_m'] * 1e6:.2f} um, refill {r['hla_refill_m'] * 1e6:.2f} um"
+                 f" per revolution)")
     line += f", max stress {_q(r['max_contact_stress_pa'], '.1f', 'MPa', 1e-6)}"
     if r.get('profile_undercut'):
         line += ' (profile undercut)'
