@@ -603,7 +603,7 @@ class _Run:
         y, v = z
         yl = [y]
         vl = [v]
-        pos, win = 0, 16
+        pos, win = 0, 32
         clean = q
         while pos < q:
             hi = min(q, pos + win)
@@ -641,7 +641,7 @@ class _Run:
             if clean < q:
                 break
             pos = hi
-            win *= 2
+            win *= 4
         return clean, np.asarray(yl[1:clean + 1]), np.asarray(vl[1:clean + 1])
 
     # -- one step with events --------------------------------------------------------
