@@ -263,6 +263,7 @@ class _Run:
         self.bounce_mass = bounce_mass
         self.preload = preload
         self.peak = 0.0            # largest valve lift since the last lift-off [m]
+        self.lift_off: float | None = None  # angle of the last lift-off not yet seated
         self.jac: NDArray | None = None   # d z / d z(start) when shooting
 
     # -- bulk ------------------------------------------------------------------------
@@ -563,6 +564,7 @@ class _Run:
         """Lift-off: the opening, or a bounce after the first seating when its
         free-flight height bound m_V v^2 / (2 F0) reaches BOUNCE_TOL."""
         self.peak = 0.0
+        self.lift_off = alpha
         if not self.opened:
             self.opened = True
             self.ev.opening = alpha
@@ -573,6 +575,7 @@ class _Run:
                 self.ev.bounce_count += 1
 
     def _seat(self, alpha: float, vdown: float) -> None:
+        self.lift_off = None
         if self.opened and not self.seated_once and self.peak < OPEN_TOL:
             self.opened = False     # seat chatter before the opening, not a closing
             return
@@ -724,8 +727,22 @@ def run_exact(asm: Any, cam: CamInput, omega: float, *, max_revolutions: int = 1
     def metric(d: NDArray) -> float:
         return float(max(np.max(np.abs(d[:n])), np.max(np.abs(d[n:])) / w1))
 
+    umax = float(np.max(cam.coeffs[:, 0]))
     for revs in range(1, max_revolutions + 1):
+        prev = run
         run = _Run(model, cam, mp.masses[V], mp.base.spring_preload)
+        if revs > 1 and not r0 & SEAT:
+            # a periodic start off the seat: the valve is already open when the previous
+            # revolution ended after a lift-off that rose above OPEN_TOL (a lobe over
+            # the whole revolution opens at the end of the window and the open phase
+            # wraps around) or when it starts well above the seat (as in the SDOF model)
+            if prev is not None and prev.lift_off is not None and prev.opened:
+                run.opened = True
+                run.ev.opening = prev.lift_off - 2 * math.pi
+                run.peak = prev.peak
+            elif z0[V] > max(BOUNCE_TOL, 1e-3 * umax):
+                run.opened = True
+                run.peak = float(z0[V])
         if shooting and revs < max_revolutions:
             run.jac = eye.copy()
         zs, rs, z, r = run.revolution(z0, r0)

@@ -54,7 +54,7 @@ def register(subparsers: Any) -> None:
                    help="camshaft speed [rpm]; repeat for several (default: the scene's "
                         'valve_train.cam_speed_rpm)')
     p.add_argument('--sweep', metavar='LO:HI:STEP',
-                   help='also sweep these speeds [rpm] (SDOF, full periodic runs at '
+                   help='also sweep these speeds [rpm] (SDOF or MDOF, full periodic runs at '
                         '--step-deg) and report jump_speed_rpm and bounce_onset_rpm with '
                         'their brackets')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
@@ -240,10 +240,9 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
         if failed:
             entry['failures'] = failed
         if sweep_speeds is not None:
-            from cam_design.valve_train.params import SdofParams
             from cam_design.valve_train.sweep import sweep
 
-            res = sweep(law, SdofParams.from_valve_train(scene.valve_train), sweep_speeds,
+            res = sweep(law, _sweep_params(scene.valve_train, args), sweep_speeds,
                         step_deg=args.step_deg, key=_law_key(core, feature))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
             entry['jump_bracket_rpm'] = res.jump.bracket
@@ -258,6 +257,23 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
                          bounce_bracket_rpm=None, sweep=None)
         out['features'][feature] = entry
     return _json_safe(out)
+
+
+def _sweep_params(vt: Any, args: argparse.Namespace) -> Any:
+    """The model a sweep runs: SdofParams (sdof) or MdofParams (mdof, the scene's
+    ``valve_train.mdof`` block); the hydraulic model has no sweep (refused by option)."""
+    from cam_design.errors import InputError
+    from cam_design.valve_train.params import SdofParams
+
+    model = args.model or getattr(vt, 'model', None) or 'sdof'
+    base = SdofParams.from_valve_train(vt)
+    if model == 'mdof':
+        from cam_design.valve_train.mdof import mdof_from_mapping
+        return mdof_from_mapping(getattr(vt, 'mdof', None), base)
+    if model != 'sdof':
+        raise InputError('--sweep', args.sweep, f'model sdof or mdof (model {model} has no '
+                         'sweep; use --rpm)')
+    return base
 
 
 def _law_key(core: Any, feature: str) -> str:
