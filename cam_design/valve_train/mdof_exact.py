@@ -727,22 +727,18 @@ def run_exact(asm: Any, cam: CamInput, omega: float, *, max_revolutions: int = 1
     def metric(d: NDArray) -> float:
         return float(max(np.max(np.abs(d[:n])), np.max(np.abs(d[n:])) / w1))
 
-    umax = float(np.max(cam.coeffs[:, 0]))
     for revs in range(1, max_revolutions + 1):
         prev = run
         run = _Run(model, cam, mp.masses[V], mp.base.spring_preload)
-        if revs > 1 and not r0 & SEAT:
-            # a periodic start off the seat: the valve is already open when the previous
-            # revolution ended after a lift-off that rose above OPEN_TOL (a lobe over
-            # the whole revolution opens at the end of the window and the open phase
-            # wraps around) or when it starts well above the seat (as in the SDOF model)
-            if prev is not None and prev.lift_off is not None and prev.opened:
-                run.opened = True
+        if revs > 1 and not r0 & SEAT and z0[V] > BOUNCE_TOL:
+            # a periodic start off the seat: the valve is in the air, already open (a
+            # lobe over the whole revolution, a valve still bouncing or flying from the
+            # last lobe); landing without rising OPEN_TOL ends a bounce (``_seat``).
+            # The opening angle is known when the last revolution ended after a lift-off
+            run.opened = True
+            run.peak = float(z0[V])
+            if prev is not None and prev.lift_off is not None:
                 run.ev.opening = prev.lift_off - 2 * math.pi
-                run.peak = prev.peak
-            elif z0[V] > max(BOUNCE_TOL, 1e-3 * umax):
-                run.opened = True
-                run.peak = float(z0[V])
         if shooting and revs < max_revolutions:
             run.jac = eye.copy()
         zs, rs, z, r = run.revolution(z0, r0)

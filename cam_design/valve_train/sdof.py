@@ -44,6 +44,7 @@ _FACT = np.array([math.factorial(j) for j in range(NB)], dtype=float)
 _SUB = math.pi / 4.0          # max |lambda| * sub-step
 _TAYLOR = 22                  # order of the local Taylor series ((pi/4)^22/22! ~ 1e-23)
 _MAX_EVENTS = 20000
+OPEN_TOL = 1e-6              # m: a lift-off is the opening once the valve rises this high
 BOUNCE_TOL = 1e-9             # m: smallest bounce (height bound) that is counted
 CONTACT, SEAT = 1, 2          # regime bits: cam contact, seat contact (held if hard seat)
 
@@ -521,6 +522,9 @@ class _Run:
         self.ev = Events()
         self.seated_once = False
         self.opened = False
+        self.peak = 0.0            # largest node lift since the last lift-off [m]
+        self.start_open = False    # the revolution starts inside an open phase
+        self.next_cycle: list[list[float]] | None = None   # [start, end, u' - y']
         self.sep_open: list[float] | None = None
         self.stop_after_bounce = False
         self.hint: tuple[int, int, NDArray, NDArray] | None = None
@@ -749,6 +753,9 @@ class _Run:
         if after the first seating and its free-flight height bound M v^2 / (2 F0)
         reaches ``BOUNCE_TOL`` (reopenings of 1e-10 m on the penalty seat at crawl
         speed are not reported as bounces)."""
+        self.peak = 0.0
+        if self.start_open and self.seated_once:
+            self.next_cycle = []    # an open phase of the next cycle may start here
         if not self.opened:
             self.opened = True
             self.ev.opening = alpha
@@ -835,12 +842,16 @@ class _Run:
             if r & CONTACT:       # contact lost
                 if self.opened and not self.seated_once and u > 0:
                     self.sep_open = [alpha, alpha]
+                elif self.next_cycle is not None and u > 0:
+                    self.next_cycle.append([alpha, alpha, math.nan])
                 return z, r & ~CONTACT
             if self.sep_open is not None:    # contact regained after a separation
                 self.sep_open[1] = alpha
                 ev.separations.append(self.sep_open)
                 ev.recontact_velocities.append(ud - v)
                 self.sep_open = None
+            elif self.next_cycle and math.isnan(self.next_cycle[-1][2]):
+                self.next_cycle[-1][1:] = [alpha, ud - v]
             return z, r | CONTACT
         # seat
         if p.hard_seat:
@@ -862,7 +873,30 @@ class _Run:
         ev.impacts.append((alpha, -v))
         return z, r | SEAT
 
+    def commit_next_cycle(self, alpha: float) -> None:
+        """A periodic revolution that starts inside an open phase (the valve lands
+        after the window start) holds the next cycle's open phase after its closing:
+        its separations are this orbit's too (they were recorded in ``next_cycle``
+        since the last lift-off) when the valve rose OPEN_TOL in it."""
+        cyc, self.next_cycle = self.next_cycle, None
+        if not cyc or self.peak < OPEN_TOL:
+            return
+        for a0, a1, vrel in cyc:
+            self.ev.separations.append([a0, alpha if math.isnan(vrel) else a1])
+            if not math.isnan(vrel):
+                self.ev.recontact_velocities.append(vrel)
+
     def _seat(self, alpha: float, vdown: float) -> None:
+        if self.next_cycle is not None:
+            self.commit_next_cycle(alpha)
+        if self.opened and not self.seated_once and self.peak < OPEN_TOL:
+            # the valve never rose OPEN_TOL since it left the seat: seat chatter (or the
+            # end of a bounce that was still in the air at the window start), not an
+            # opening and closing
+            self.opened = False
+            self.ev.opening = None
+            self.sep_open = None
+            return
         if self.opened and not self.seated_once:
             self.seated_once = True
             self.ev.closing = alpha
@@ -882,22 +916,30 @@ class _Run:
         rs = np.empty(n + 1, dtype=np.int64)
         ys[0], vs[0], rs[0] = z[0], z[1], r
         k = 0
+        chunk = 64      # steps asked of bulk: small after a switch (switches cluster)
         while k < n:
             if self.stop_after_bounce and self.seated_once and len(self.ev.impacts) >= 2:
                 ys[k + 1:], vs[k + 1:], rs[k + 1:] = np.nan, np.nan, -1
                 break
-            clean, yb, vb = self.bulk(k, z, r, n - k)
+            want = min(chunk, n - k)
+            clean, yb, vb = self.bulk(k, z, r, want)
             if clean:
                 ys[k + 1:k + 1 + clean] = yb
                 vs[k + 1:k + 1 + clean] = vb
                 rs[k + 1:k + 1 + clean] = r
                 z = (float(yb[-1]), float(vb[-1]))
                 k += clean
+                self.peak = max(self.peak, float(yb.max()))
             if k >= n:
                 break
+            if clean == want:
+                chunk = min(4 * chunk, 4096)
+                continue
+            chunk = 64
             z, r = self.event_step(k, z, r)
             k += 1
             ys[k], vs[k], rs[k] = z[0], z[1], r
+            self.peak = max(self.peak, z[0])
         return ys, vs, rs, z, r
 
 
@@ -961,10 +1003,16 @@ def _one_rev(model: _Model, cam: CamInput, z0: tuple[float, float], r0: int,
              events_only: bool = False, first: bool = False) -> _Shot:
     run = _Run(model, cam)
     run.stop_after_bounce = events_only
-    umax = float(np.max(cam.coeffs[:, 0]))
-    if not first and not (r0 & SEAT) and z0[0] > max(BOUNCE_TOL, 1e-3 * umax):
-        run.opened = True        # a periodic start off the seat: the valve is already open
+    if not first and not (r0 & SEAT) and z0[0] > BOUNCE_TOL:
+        # a periodic start off the seat: the valve is in the air, already open (a lobe
+        # over the whole revolution, a valve still bouncing or flying from the last
+        # lobe); if it lands without rising OPEN_TOL it was a bounce ending (``_seat``)
+        run.opened = True
+        run.start_open = True
+        run.peak = float(z0[0])
     ys, vs, rs, z, r = run.revolution(z0, r0)
+    if run.next_cycle is not None:       # the next open phase runs past the window end
+        run.commit_next_cycle(float(cam.nodes[-1]))
     return _Shot(run, ys, vs, rs, z0, r0, z, r)
 
 

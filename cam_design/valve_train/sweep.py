@@ -187,20 +187,10 @@ def _bisect(pred: Callable[[float], bool], lo: float, hi: float,
     return lo, hi
 
 
-def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
-          step_deg: float = 0.1, tol_rpm: float = 0.5, refine: bool = True,
-          key: str = 'lift', check: bool = True) -> SweepResult:
-    """Simulate every speed of ``rpms`` (increasing) to its periodic state and locate
-    the event speeds (module docstring). ``params``: ``SdofParams`` (the SDOF model) or
-    ``MdofParams`` (the exact 4+N1+N2 model, ``simulate_mdof``'s runs)."""
-    speeds = np.asarray(rpms, dtype=float)
-    if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(
-            speeds <= 0) or np.any(np.diff(speeds) <= 0):
-        raise InputError('cam_speed_rpm', rpms, 'increasing speeds > 0')
-    require_positive('tol_rpm', tol_rpm)
-    step_deg = require_step_deg('step_deg', step_deg)
-    run_at: Callable[[float], _Outcome]
-    single: Callable[[float], _Outcome]
+def runners(law: LiftLaw, params: Any, step_deg: float, key: str = 'lift'
+            ) -> tuple[Callable[[float], _Outcome], Callable[[float], _Outcome]]:
+    """(run at rpm on a cam prepared once, single run from the law as ``dynamics --rpm``
+    does it) for ``SdofParams`` or ``MdofParams``."""
     if isinstance(params, MdofParams):
         runner = MdofRunner(law, params, step_deg=step_deg)
 
@@ -221,6 +211,22 @@ def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
     else:
         raise InputError('valve_train', type(params).__name__,
                          'SdofParams or MdofParams (model sdof | mdof)')
+    return run_at, single
+
+
+def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
+          step_deg: float = 0.1, tol_rpm: float = 0.5, refine: bool = True,
+          key: str = 'lift', check: bool = True) -> SweepResult:
+    """Simulate every speed of ``rpms`` (increasing) to its periodic state and locate
+    the event speeds (module docstring). ``params``: ``SdofParams`` (the SDOF model) or
+    ``MdofParams`` (the exact 4+N1+N2 model, ``simulate_mdof``'s runs)."""
+    speeds = np.asarray(rpms, dtype=float)
+    if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(
+            speeds <= 0) or np.any(np.diff(speeds) <= 0):
+        raise InputError('cam_speed_rpm', rpms, 'increasing speeds > 0')
+    require_positive('tol_rpm', tol_rpm)
+    step_deg = require_step_deg('step_deg', step_deg)
+    run_at, single = runners(law, params, step_deg, key)
     t0 = time.perf_counter()
     n = speeds.size
     status: list[str] = []

@@ -13,7 +13,8 @@ and jump speed of a valve train (see docs/dynamics.md).
 
 JSON (``--json FILE`` or ``-``): ``{"input", "kind", "model", "features": {ID:
 {"source", "runs": [...], "jump_speed_rpm", "jump_bracket_rpm", "bounce_onset_rpm",
-"bounce_bracket_rpm", "sweep" (null without --sweep)}}, "skipped"}``. Each run has
+"bounce_bracket_rpm", "sweep" (null without --sweep), "jump_speed_uncertainty_rpm" (a
+table's: the jump speed's uncertainty from its noise; null otherwise)}}, "skipped"}``. Each run has
 ``cam_speed_rpm``, the arrays on the ``--step-deg`` grid, the events, ``settled``,
 ``left_cam``, ``periodic_residual_m`` and ``note`` when the reader must know something
 (no periodic state, the valve leaves the cam, no seating). ``sweep``: every speed a full
@@ -242,9 +243,17 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
         if sweep_speeds is not None:
             from cam_design.valve_train.sweep import sweep
 
-            res = sweep(law, _sweep_params(scene.valve_train, args), sweep_speeds,
-                        step_deg=args.step_deg, key=_law_key(core, feature))
+            params = _sweep_params(scene.valve_train, args)
+            res = sweep(law, params, sweep_speeds, step_deg=args.step_deg,
+                        key=_law_key(core, feature))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
+            unc = None
+            if str(source).startswith('table:') and res.jump_speed_rpm is not None:
+                from cam_metrology.dynamics.tables import jump_uncertainty
+                unc = jump_uncertainty(law, params, res.jump_speed_rpm, args.step_deg)
+            entry['jump_speed_uncertainty_rpm'] = None if unc is None else unc[0]
+            if unc is not None:
+                entry['jump_uncertainty_note'] = unc[1]
             entry['jump_bracket_rpm'] = res.jump.bracket
             entry['bounce_onset_rpm'] = res.bounce_onset_rpm
             entry['bounce_bracket_rpm'] = res.bounce.bracket
@@ -254,7 +263,7 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
                                                    float(sweep_speeds[-1]))
         else:       # the documented keys are always there: null without --sweep
             entry.update(jump_speed_rpm=None, jump_bracket_rpm=None, bounce_onset_rpm=None,
-                         bounce_bracket_rpm=None, sweep=None)
+                         bounce_bracket_rpm=None, sweep=None, jump_speed_uncertainty_rpm=None)
         out['features'][feature] = entry
     return _json_safe(out)
 
@@ -307,9 +316,13 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
                 print(f'{name}: FAILED: {why}')
             if entry.get('sweep') is not None:
                 sw = entry['sweep']
-                print(f"{feature}: jump speed {entry['jump_text']}; bounce onset "
+                unc = entry.get('jump_speed_uncertainty_rpm')
+                pm = f' +- {unc:.0f} rpm from the table' if unc is not None else ''
+                print(f"{feature}: jump speed {entry['jump_text']}{pm}; bounce onset "
                       f"{entry['bounce_text']} (sweep of {len(sw['sweep_rpm'])} speeds at "
                       f"{sw['step_deg']:g} deg)")
+                if entry.get('jump_uncertainty_note'):
+                    print(f"  note: {entry['jump_uncertainty_note']}")
                 for text in sw.get('notes', []):
                     print(f'  note: {text}')
         for s in result['skipped']:

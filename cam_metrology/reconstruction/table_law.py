@@ -51,6 +51,9 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
     grid = np.linspace(rec.alpha[0], rec.alpha[-1], n)
     jets = np.stack([np.asarray(rec.evaluate(grid, nu), dtype=float) for nu in range(4)])
     law = JetTableLift(grid, jets, key=key)
+    # what a replica of the table needs (dynamics.tables.jump_uncertainty): the rows,
+    # the gauge step q (None: not quantised) and the noise the spline assumed [m]
+    law.table = (a.copy(), v.copy(), q, float(rec.sigma))
     step = float(np.median(np.diff(a)))
     note = (f'table of {a.size} points every {math.degrees(step):.3g} deg smoothed by the '
             f'reconstruction spline ({rec.why}; rms residual {rec.rms_residual:.3g} m'
