@@ -416,3 +416,30 @@ def test_mdof_sweep_open_ends_and_bad_params() -> None:
     assert 'below the sweep range' in above.jump.text(1.02 * truth, 1.05 * truth)
     with pytest.raises(InputError, match='valve_train'):
         sweep(law, {'mass': 1.0}, [1000.0])
+
+
+def test_valve_in_the_air_at_the_window_start_is_not_clean() -> None:
+    """Far above the jump speed of a lobe over the whole revolution the valve lands
+    just after the window start and the cam lifts it again at once: the periodic
+    revolution starts inside an open phase. Its separations (after the landing) were
+    not counted and the run read clean; SDOF and MDOF now report them. A normal lobe
+    whose valve still bounces at the window start gives the same status at 1 and 0.5
+    deg output steps."""
+    from cam_design.valve_train.mdof import simulate_mdof
+    from cam_design.valve_train.sweep import _mdof_outcome, _sdof_outcome
+
+    e = 4.0e-3
+    law = EccentricFlatLaw(e)
+    p = rigid(1.0)
+    w = 1.3 * math.sqrt((F0 + 2 * K * e) / (M * e))
+    res = simulate(law, p, rpm_of(w), step_deg=1.0)
+    assert res.settled and res.y[0] > 0 and res.events.separations
+    assert _sdof_outcome(res).status != CLEAN
+    mp, m_eff = stiff_mdof()
+    wm = 1.3 * math.sqrt((F0 + 2 * K * e) / (m_eff * e))
+    assert _mdof_outcome(simulate_mdof(law, mp, rpm_of(wm), step_deg=2.0)).status != CLEAN
+    poly = PiecewisePolynomialLaw([-70 * D, 0.0, 70 * D], [
+        smoothstep(-70 * D, 0.0, 0.0, 9e-3), smoothstep(70 * D, 0.0, 0.0, 9e-3)])
+    fine, coarse = (simulate(poly, TABLE_TRAIN, 3150.0, step_deg=s) for s in (0.5, 1.0))
+    assert _sdof_outcome(fine).status == _sdof_outcome(coarse).status
+    assert bool(fine.events.separations) == bool(coarse.events.separations)
