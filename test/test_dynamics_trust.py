@@ -443,3 +443,23 @@ def test_valve_in_the_air_at_the_window_start_is_not_clean() -> None:
     fine, coarse = (simulate(poly, TABLE_TRAIN, 3150.0, step_deg=s) for s in (0.5, 1.0))
     assert _sdof_outcome(fine).status == _sdof_outcome(coarse).status
     assert bool(fine.events.separations) == bool(coarse.events.separations)
+
+
+def test_sweep_takes_the_gas_force_of_the_single_runs() -> None:
+    """A constant cylinder-gas force G is exactly a preload increase F0 + G: the sweep
+    with the gas force (as `dynamics --sweep` passes the scene's valve_train.gas, which
+    it used to drop) finds the jump speed of the train with that preload."""
+    from dataclasses import replace
+
+    law = PiecewisePolynomialLaw([-80 * D, 0.0, 100 * D], [
+        smoothstep(-80 * D, 0.0, 0.0, 10e-3), smoothstep(100 * D, 0.0, 0.0, 10e-3)])
+    g = 120.0
+    grid = [2000.0, 3000.0, 4000.0]
+    with_gas = sweep(law, TABLE_TRAIN, grid, step_deg=1.0, tol_rpm=0.5,
+                     gas=lambda a: np.full(np.shape(a), g))
+    heavier = sweep(law, replace(TABLE_TRAIN, spring_preload=TABLE_TRAIN.spring_preload + g),
+                    grid, step_deg=1.0, tol_rpm=0.5)
+    plain = sweep(law, TABLE_TRAIN, grid, step_deg=1.0, tol_rpm=0.5, check=False)
+    assert with_gas.jump.checked is True
+    assert with_gas.jump.speed == pytest.approx(heavier.jump.speed, abs=0.6)
+    assert with_gas.jump.speed > plain.jump.speed + 50.0

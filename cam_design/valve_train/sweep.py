@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.valve_train.cam_input import CamInput, build_cam_input
+from cam_design.valve_train.cam_input import CamInput, build_cam_input, with_gas
 from cam_design.valve_train.mdof import MdofParams, MdofRunner, simulate_mdof
 from cam_design.valve_train.params import SdofParams, require_rpm, require_step_deg
 from cam_design.valve_train.sdof import SdofResult, simulate, simulate_cam
@@ -187,11 +187,16 @@ def _bisect(pred: Callable[[float], bool], lo: float, hi: float,
     return lo, hi
 
 
-def runners(law: LiftLaw, params: Any, step_deg: float, key: str = 'lift'
+def runners(law: LiftLaw, params: Any, step_deg: float, key: str = 'lift',
+            gas: Any = None
             ) -> tuple[Callable[[float], _Outcome], Callable[[float], _Outcome]]:
     """(run at rpm on a cam prepared once, single run from the law as ``dynamics --rpm``
-    does it) for ``SdofParams`` or ``MdofParams``."""
+    does it) for ``SdofParams`` or ``MdofParams``; ``gas(alpha)`` [N]: the cylinder-gas
+    force of ``simulate`` (SDOF only)."""
     if isinstance(params, MdofParams):
+        if gas is not None:
+            raise InputError('valve_train.gas', 'with model mdof',
+                             'model sdof (the MDOF model does not take a gas force yet)')
         runner = MdofRunner(law, params, step_deg=step_deg)
 
         def run_at(rpm: float) -> _Outcome:
@@ -202,12 +207,15 @@ def runners(law: LiftLaw, params: Any, step_deg: float, key: str = 'lift'
     elif isinstance(params, SdofParams):
         cam = build_cam_input(law, params.rocker_ratio, params.lash,
                               math.radians(step_deg), key=key)
+        if gas is not None:
+            cam = with_gas(cam, gas)
 
         def run_at(rpm: float) -> _Outcome:
             return _sdof_outcome(_run(cam, params, rpm))
 
         def single(rpm: float) -> _Outcome:
-            return _sdof_outcome(simulate(law, params, rpm, step_deg=step_deg, key=key))
+            return _sdof_outcome(simulate(law, params, rpm, step_deg=step_deg, key=key,
+                                          gas=gas))
     else:
         raise InputError('valve_train', type(params).__name__,
                          'SdofParams or MdofParams (model sdof | mdof)')
@@ -216,17 +224,18 @@ def runners(law: LiftLaw, params: Any, step_deg: float, key: str = 'lift'
 
 def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
           step_deg: float = 0.1, tol_rpm: float = 0.5, refine: bool = True,
-          key: str = 'lift', check: bool = True) -> SweepResult:
+          key: str = 'lift', check: bool = True, gas: Any = None) -> SweepResult:
     """Simulate every speed of ``rpms`` (increasing) to its periodic state and locate
     the event speeds (module docstring). ``params``: ``SdofParams`` (the SDOF model) or
-    ``MdofParams`` (the exact 4+N1+N2 model, ``simulate_mdof``'s runs)."""
+    ``MdofParams`` (the exact 4+N1+N2 model, ``simulate_mdof``'s runs); ``gas``: the
+    cylinder-gas force of the single runs (SDOF)."""
     speeds = np.asarray(rpms, dtype=float)
     if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(
             speeds <= 0) or np.any(np.diff(speeds) <= 0):
         raise InputError('cam_speed_rpm', rpms, 'increasing speeds > 0')
     require_positive('tol_rpm', tol_rpm)
     step_deg = require_step_deg('step_deg', step_deg)
-    run_at, single = runners(law, params, step_deg, key)
+    run_at, single = runners(law, params, step_deg, key, gas)
     t0 = time.perf_counter()
     n = speeds.size
     status: list[str] = []

@@ -244,8 +244,9 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
             from cam_design.valve_train.sweep import sweep
 
             params = _sweep_params(scene.valve_train, args)
+            from cam_metrology.dynamics.core import gas_of
             res = sweep(law, params, sweep_speeds, step_deg=args.step_deg,
-                        key=_law_key(core, feature))
+                        key=_law_key(core, feature), gas=gas_of(scene.valve_train, law))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
             unc = None
             if str(source).startswith('table:') and res.jump_speed_rpm is not None:

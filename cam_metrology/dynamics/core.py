@@ -307,6 +307,19 @@ def lobe_key(scene: Any, feature: str) -> str:
     return 'lift'
 
 
+def gas_of(vt: Any, law: Any) -> Any:
+    """The scene's cylinder-gas force on the valve as a function of cam angle [N], or
+    None (``valve_train.gas``; docs/dynamics.md)."""
+    if getattr(vt, 'gas', None) is None:
+        return None
+    from cam_design.hydraulic.gas import gas_force, on_cam_angle
+
+    g = vt.gas
+    return on_cam_angle(gas_force(g['crank_deg'], g['pressure_pa'], g['head_diameter'],
+                                  g.get('back_pressure_pa', 0.0)),
+                        g['lobe_start_crank_deg'], float(law.support[0]))
+
+
 def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
                 geom: ContactGeometry | None, max_revolutions: int = 4,
                 key: str = 'lift') -> Run:
@@ -332,13 +345,6 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
         events['spring_surge_hz'] = [float(s[0]) for s in res.surge_hz]
         return finish_run(law, params, rpm, 'mdof', res.alpha, res.y, res.v, res.cam_force,
                           events, geom, tc)
-    gas = None
-    if getattr(vt, 'gas', None) is not None:
-        from cam_design.hydraulic.gas import gas_force, on_cam_angle
-
-        g = vt.gas
-        gas = on_cam_angle(gas_force(g['crank_deg'], g['pressure_pa'], g['head_diameter'],
-                                     g.get('back_pressure_pa', 0.0)),
-                           g['lobe_start_crank_deg'], float(law.support[0]))
+    gas = gas_of(vt, law)
     return run_sdof(law, params, rpm, step_deg=step_deg, geometry=geom, gas=gas,
                     max_revolutions=max_revolutions, train_checks=tc, key=key)
