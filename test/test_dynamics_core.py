@@ -190,6 +190,35 @@ def test_cli_mdof_model(tmp_path: Path) -> None:
     assert len(run['spring_surge_hz']) == 2
 
 
+def test_cli_mdof_sweep_and_hydraulic_refused(tmp_path: Path, capsys) -> None:
+    """`--model mdof --sweep`: the MDOF model's speeds with the SDOF rules (brackets with
+    null open ends, statuses, notes); the hydraulic model has no sweep: refused by option."""
+    from cam_metrology.cli import main
+
+    scene = tmp_path / 'scene.yaml'
+    scene.write_text(scene_text())
+    out = tmp_path / 'mdof_sweep.json'
+    assert main(['dynamics', str(scene), '--model', 'mdof', '--rpm', '1500', '--step-deg',
+                 '2', '--sweep', '1500:1600:100', '--json', str(out)]) == 0
+    res = json.loads(out.read_text())
+    feat = res['features']['lobe_1']
+    sw = feat['sweep']
+    run = feat['runs'][0]
+    assert res['model'] == 'mdof' and sw['sweep_rpm'] == [1500.0, 1600.0]
+    # the sweep's 1500 rpm is the --rpm 1500 run (the same MDOF computation)
+    assert sw['status'][0] == ('separated' if run['jump'] else
+                               'clean' if run['settled'] else 'unsettled')
+    assert sw['max_valve_lift_m'][0] == pytest.approx(run['max_valve_lift_m'], rel=1e-9)
+    assert sw['settled'][0] == run['settled']
+    if 'clean' not in sw['status']:
+        assert feat['jump_bracket_rpm'] == [None, 1500.0]
+    elif sw['status'] == ['clean', 'clean']:
+        assert feat['jump_bracket_rpm'] == [1600.0, None] and feat['jump_speed_rpm'] is None
+    assert main(['dynamics', str(scene), '--model', 'hydraulic', '--sweep',
+                 '1500:3000:1500']) == 2
+    assert '--sweep' in capsys.readouterr().err
+
+
 # -- QA findings (notes/qa.md #3, #6, #11, #16, #23) and the scene's lobes[].width ------
 
 def _run_values(core: DynamicsCore, outs: list) -> tuple[np.ndarray, dict]:

@@ -196,10 +196,12 @@ def test_stiff_edges_finite(law: PiecewisePolynomialLaw, changes: dict, rpm: flo
     assert np.all(np.isfinite(res.y)) and np.all(np.isfinite(res.force))
     assert np.all(res.force >= 0)
     if rpm <= 1500:
-        # with zero preload nothing stops the bouncing valve: there is no stable
-        # periodic state, the run says so, and its last revolution starts in the air
+        # with zero preload (or an elastic seat and no damping) nothing stops the
+        # bouncing valve: there is no stable periodic state, the run says so, and its
+        # last revolution starts in the air (already open: no opening inside it)
         assert res.events.opening is not None or (
-            not res.settled and changes == {'spring_preload': 0.0})
+            not res.settled and res.y[0] > 0 and changes in (
+                {'spring_preload': 0.0}, {'restitution': 1.0, 'damping': 0.0}))
         assert np.max(res.y) < 1.5 * law(0.0)
 
 

@@ -115,6 +115,9 @@ def build_cam_input(law: LiftLaw, rocker_ratio: float, lash: float, step: float,
         keep[i + 1 if uniform[i] else i] = False
     nodes, uniform = nodes[keep], uniform[keep]
     lengths = np.diff(nodes)
+    # the uniform steps differ by rounding only (1e-15 rad): one length, so the solvers
+    # share one propagator for all of them (the node angles stay as they are)
+    lengths[np.abs(lengths - step) <= 1e-12 * step] = step
     junction = ~uniform.copy()
     jset = np.asarray(extra, dtype=float)
     if jset.size:

@@ -237,3 +237,70 @@ class CircularArcKnifeLaw(LiftLaw):
             s = fact[nu] * (dc * cosc[nu] + r[nu])
             out[sel] = s - (self.r0 if nu == 0 else 0.0)
         return out
+
+
+class CycloidalLobe(LiftLaw):
+    """Cycloidal rise over ``rise`` rad to ``lift`` at the nose (alpha = 0) and cycloidal
+    fall over ``fall`` rad: h = H (s - sin(2 pi s) / (2 pi)), s the flank fraction from
+    the base circle (C2: h''' steps at the ends and at the nose)."""
+
+    continuity_order = 2
+
+    def __init__(self, lift: float, rise: float, fall: float) -> None:
+        self.lift, self.rise, self.fall = float(lift), float(rise), float(fall)
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return -self.rise, self.fall
+
+    @property
+    def junctions(self) -> tuple[float, ...]:
+        return (0.0,)
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        a = np.asarray(alpha, dtype=float)
+        beta = np.where(a < 0, self.rise, self.fall)
+        s = np.where(a < 0, (a + self.rise) / self.rise, (self.fall - a) / self.fall)
+        sign = np.where(a < 0, 1.0, -1.0) ** nu       # ds/dalpha = +-1/beta
+        w = 2 * math.pi
+        if nu == 0:
+            out = s - np.sin(w * s) / w
+        elif nu == 1:
+            out = 1 - np.cos(w * s)
+        else:
+            out = w ** (nu - 1) * (np.sin(w * s) if nu == 2 else np.cos(w * s))
+        out = self.lift * out * sign / beta ** nu
+        inside = (a >= -self.rise) & (a <= self.fall)
+        return np.where(inside, out, 0.0)
+
+
+class HarmonicLobe(LiftLaw):
+    """Simple-harmonic (cosine) flanks: h = H (1 - cos(pi s)) / 2, s the flank fraction
+    from the base circle over ``rise`` / ``fall`` rad (C1: h'' steps at the base circle,
+    smooth through the nose only when rise = fall)."""
+
+    continuity_order = 1
+
+    def __init__(self, lift: float, rise: float, fall: float) -> None:
+        self.lift, self.rise, self.fall = float(lift), float(rise), float(fall)
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return -self.rise, self.fall
+
+    @property
+    def junctions(self) -> tuple[float, ...]:
+        return (0.0,)
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        a = np.asarray(alpha, dtype=float)
+        beta = np.where(a < 0, self.rise, self.fall)
+        s = np.where(a < 0, (a + self.rise) / self.rise, (self.fall - a) / self.fall)
+        sign = np.where(a < 0, 1.0, -1.0) ** nu
+        # d^nu/ds^nu of (1 - cos(pi s)) / 2
+        phase = [np.cos, np.sin, np.cos, np.sin][nu % 4](math.pi * s)
+        lead = [-1.0, 1.0, 1.0, -1.0][nu % 4] if nu else -1.0
+        out = (0.5 if nu == 0 else 0.0) + lead * 0.5 * math.pi ** nu * phase
+        out = self.lift * out * sign / beta ** nu
+        inside = (a >= -self.rise) & (a <= self.fall)
+        return np.where(inside, out, 0.0)

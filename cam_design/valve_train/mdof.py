@@ -248,49 +248,74 @@ def simulate_mdof(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float =
     if method != 'exact':
         return _simulate_ivp(law, mp, rpm, step_deg=step_deg, rtol=rtol, atol=atol,
                              method=method, pre_deg=pre_deg, span_deg=span_deg)
-    from cam_design.valve_train.mdof_exact import run_exact
-
-    omega = omega_of_rpm(rpm)
-    step = math.radians(require_step_deg('step_deg', step_deg))
-    span = math.radians(require_positive('span_deg', span_deg))
-    if span > 2 * math.pi + 1e-12:
-        raise InputError('span_deg', span_deg, 'at most 360')
     if isinstance(max_revolutions, bool) or int(max_revolutions) < 1:
         raise InputError('max_revolutions', max_revolutions, 'an integer >= 1')
-    asm = _Assembly(mp)
-    cam = build_cam_input(law, mp.base.rocker_ratio, 0.0, step,
-                          pre=math.radians(require_positive('pre_deg', pre_deg)))
-    ex = run_exact(asm, cam, omega, max_revolutions=int(max_revolutions),
-                   periodic_tol=periodic_tol)
-    n = asm.n
-    sel = cam.uniform & (cam.nodes <= cam.nodes[0] + span + 1e-9)
-    z = ex.z[sel]
-    alpha = cam.nodes[sel]
-    fc = _cam_force(asm, z, ex.u[sel], ex.ud[sel], (ex.regime[sel] & 1) > 0)
-    y = z[:, V]
-    ev = ex.events
-    bounce_h = 0.0
-    if ev.closing is not None:
-        after = alpha > ev.closing
-        bounce_h = float(max(0.0, np.max(y[after], initial=0.0)))
-    rigid = float(np.max(ex.u)) - mp.base.lash
-    runaway = bool(np.max(ex.z[:, V]) > RUNAWAY * max(rigid, 0.0) + 1e-6)
-    events = {
-        'opening_deg': _deg(ev.opening), 'closing_deg': _deg(ev.closing),
-        'separations': [[math.degrees(a), math.degrees(b)] for a, b in ev.separations],
-        'valve_toss': [[math.degrees(a), math.degrees(b)] for a, b in ev.valve_toss],
-        'jump': bool(ev.separations or ev.valve_toss or runaway),
-        'valve_leaves_cam': runaway,
-        'seating_velocity_m_s': ev.seating_velocity,
-        'bounce_count': int(ev.bounce_count), 'bounce_height_m': bounce_h,
-        'revolutions': int(ex.revolutions),
-        'periodic_residual_m': float(ex.periodic_residual),
-        'settled': bool(ex.settled), 'switches': int(ev.count)}
-    return MdofResult(alpha=alpha, y=y, v=z[:, n + V], cam_force=mp.base.rocker_ratio * fc,
-                      natural_frequencies_hz=asm.natural_frequencies(),
-                      surge_hz=asm.surge_hz, events=events, method='exact',
-                      revolutions=ex.revolutions, periodic_residual=ex.periodic_residual,
-                      settled=ex.settled)
+    return MdofRunner(law, mp, step_deg=step_deg, max_revolutions=int(max_revolutions),
+                      periodic_tol=periodic_tol, pre_deg=pre_deg, span_deg=span_deg)(rpm)
+
+
+class MdofRunner:
+    """Exact MDOF runs of one lobe at many speeds: the assembly and the cam polynomial
+    are built once (``simulate_mdof`` is one call of a fresh runner, so a sweep and the
+    single runs compute exactly the same thing)."""
+
+    def __init__(self, law: LiftLaw, mp: MdofParams, *, step_deg: float = 0.1,
+                 max_revolutions: int = 8, periodic_tol: float = 1e-10,
+                 pre_deg: float = 1.0, span_deg: float = 360.0) -> None:
+        step = math.radians(require_step_deg('step_deg', step_deg))
+        span = math.radians(require_positive('span_deg', span_deg))
+        if span > 2 * math.pi + 1e-12:
+            raise InputError('span_deg', span_deg, 'at most 360')
+        if isinstance(max_revolutions, bool) or int(max_revolutions) < 1:
+            raise InputError('max_revolutions', max_revolutions, 'an integer >= 1')
+        self.mp = mp
+        self.span = span
+        self.max_revolutions = int(max_revolutions)
+        self.periodic_tol = periodic_tol
+        self.asm = _Assembly(mp)
+        self.cam = build_cam_input(law, mp.base.rocker_ratio, 0.0, step,
+                                   pre=math.radians(require_positive('pre_deg', pre_deg)))
+
+    def __call__(self, rpm: float) -> 'MdofResult':
+        from cam_design.valve_train.mdof_exact import run_exact
+
+        omega = omega_of_rpm(rpm)
+        return self._finish(run_exact(self.asm, self.cam, omega,
+                                      max_revolutions=self.max_revolutions,
+                                      periodic_tol=self.periodic_tol))
+
+    def _finish(self, ex: Any) -> 'MdofResult':
+        asm, cam, mp, span = self.asm, self.cam, self.mp, self.span
+        n = asm.n
+        sel = cam.uniform & (cam.nodes <= cam.nodes[0] + span + 1e-9)
+        z = ex.z[sel]
+        alpha = cam.nodes[sel]
+        fc = _cam_force(asm, z, ex.u[sel], ex.ud[sel], (ex.regime[sel] & 1) > 0)
+        y = z[:, V]
+        ev = ex.events
+        bounce_h = 0.0
+        if ev.closing is not None:
+            after = alpha > ev.closing
+            bounce_h = float(max(0.0, np.max(y[after], initial=0.0)))
+        rigid = float(np.max(ex.u)) - mp.base.lash
+        runaway = bool(np.max(ex.z[:, V]) > RUNAWAY * max(rigid, 0.0) + 1e-6)
+        events = {
+            'opening_deg': _deg(ev.opening), 'closing_deg': _deg(ev.closing),
+            'separations': [[math.degrees(a), math.degrees(b)] for a, b in ev.separations],
+            'valve_toss': [[math.degrees(a), math.degrees(b)] for a, b in ev.valve_toss],
+            'jump': bool(ev.separations or ev.valve_toss or runaway),
+            'valve_leaves_cam': runaway,
+            'seating_velocity_m_s': ev.seating_velocity,
+            'bounce_count': int(ev.bounce_count), 'bounce_height_m': bounce_h,
+            'revolutions': int(ex.revolutions),
+            'periodic_residual_m': float(ex.periodic_residual),
+            'settled': bool(ex.settled), 'switches': int(ev.count)}
+        return MdofResult(alpha=alpha, y=y, v=z[:, n + V],
+                          cam_force=mp.base.rocker_ratio * fc,
+                          natural_frequencies_hz=asm.natural_frequencies(),
+                          surge_hz=asm.surge_hz, events=events, method='exact',
+                          revolutions=ex.revolutions, periodic_residual=ex.periodic_residual,
+                          settled=ex.settled)
 
 
 def _deg(x: float | None) -> float | None:

@@ -263,6 +263,9 @@ class _Run:
         self.bounce_mass = bounce_mass
         self.preload = preload
         self.peak = 0.0            # largest valve lift since the last lift-off [m]
+        self.lift_off: float | None = None  # angle of the last lift-off not yet seated
+        self.start_open = False            # the revolution starts inside an open phase
+        self.next_cycle: list[list[float]] | None = None   # [CAM | RV, start, end]
         self.jac: NDArray | None = None   # d z / d z(start) when shooting
 
     # -- bulk ------------------------------------------------------------------------
@@ -514,21 +517,29 @@ class _Run:
             if r & CAM:
                 if self.opened and not self.seated_once and u > 0:
                     self.sep_open = [alpha, alpha]
+                elif self.next_cycle is not None and u > 0:
+                    self.next_cycle.append([CAM, alpha, math.nan])
                 return z, r & ~CAM
             if self.sep_open is not None:
                 self.sep_open[1] = alpha
                 ev.separations.append(self.sep_open)
                 self.sep_open = None
+            else:
+                self._close_next(CAM, alpha)
             return z, r | CAM
         if which == RV:
             if r & RV:
                 if self.opened and not self.seated_once and z[V] > 0:
                     self.toss_open = [alpha, alpha]
+                elif self.next_cycle is not None and z[V] > 0:
+                    self.next_cycle.append([RV, alpha, math.nan])
                 return z, r & ~RV
             if self.toss_open is not None:
                 self.toss_open[1] = alpha
                 ev.valve_toss.append(self.toss_open)
                 self.toss_open = None
+            else:
+                self._close_next(RV, alpha)
             return z, r | RV
         v = float(z[n + V])
         if model.hard:
@@ -563,6 +574,9 @@ class _Run:
         """Lift-off: the opening, or a bounce after the first seating when its
         free-flight height bound m_V v^2 / (2 F0) reaches BOUNCE_TOL."""
         self.peak = 0.0
+        self.lift_off = alpha
+        if self.start_open and self.seated_once:
+            self.next_cycle = []    # an open phase of the next cycle may start here
         if not self.opened:
             self.opened = True
             self.ev.opening = alpha
@@ -572,7 +586,27 @@ class _Run:
             if height >= BOUNCE_TOL or (force and self.model.hard):
                 self.ev.bounce_count += 1
 
+    def _close_next(self, which: int, alpha: float) -> None:
+        for item in reversed(self.next_cycle or []):
+            if item[0] == which and math.isnan(item[2]):
+                item[2] = alpha
+                return
+
+    def commit_next_cycle(self, alpha: float) -> None:
+        """As ``sdof._Run.commit_next_cycle``: a periodic revolution that starts inside
+        an open phase holds the next cycle's open phase after its closing; its
+        separations and tosses are this orbit's when the valve rose OPEN_TOL in it."""
+        cyc, self.next_cycle = self.next_cycle, None
+        if not cyc or self.peak < OPEN_TOL:
+            return
+        for which, a0, a1 in cyc:
+            lst = self.ev.separations if which == CAM else self.ev.valve_toss
+            lst.append([a0, alpha if math.isnan(a1) else a1])
+
     def _seat(self, alpha: float, vdown: float) -> None:
+        self.lift_off = None
+        if self.next_cycle is not None:
+            self.commit_next_cycle(alpha)
         if self.opened and not self.seated_once and self.peak < OPEN_TOL:
             self.opened = False     # seat chatter before the opening, not a closing
             return
@@ -725,10 +759,23 @@ def run_exact(asm: Any, cam: CamInput, omega: float, *, max_revolutions: int = 1
         return float(max(np.max(np.abs(d[:n])), np.max(np.abs(d[n:])) / w1))
 
     for revs in range(1, max_revolutions + 1):
+        prev = run
         run = _Run(model, cam, mp.masses[V], mp.base.spring_preload)
+        if revs > 1 and not r0 & SEAT and z0[V] > BOUNCE_TOL:
+            # a periodic start off the seat: the valve is in the air, already open (a
+            # lobe over the whole revolution, a valve still bouncing or flying from the
+            # last lobe); landing without rising OPEN_TOL ends a bounce (``_seat``).
+            # The opening angle is known when the last revolution ended after a lift-off
+            run.opened = True
+            run.start_open = True
+            run.peak = float(z0[V])
+            if prev is not None and prev.lift_off is not None:
+                run.ev.opening = prev.lift_off - 2 * math.pi
         if shooting and revs < max_revolutions:
             run.jac = eye.copy()
         zs, rs, z, r = run.revolution(z0, r0)
+        if run.next_cycle is not None:   # the next open phase runs past the window end
+            run.commit_next_cycle(float(cam.nodes[-1]))
         residual = metric(z - z0)
         if residual <= periodic_tol and r == r0:
             break

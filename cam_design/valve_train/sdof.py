@@ -20,7 +20,7 @@ strictly inside its domain). The result is exact up to rounding and the Hermite
 interpolation of h (O(step^8)); the step only sets the output grid.
 
 Periodic state (``simulate_cam``): revolutions from the static state, then shooting
-(Newton on the one-revolution map z -> P(z), Jacobian by central differences), then
+(Newton on the one-revolution map z -> P(z), Jacobian by forward differences), then
 more revolutions as the fallback; every result says ``settled``, ``left_cam`` and
 ``unstable`` (docs/dynamics.md).
 """
@@ -44,6 +44,7 @@ _FACT = np.array([math.factorial(j) for j in range(NB)], dtype=float)
 _SUB = math.pi / 4.0          # max |lambda| * sub-step
 _TAYLOR = 22                  # order of the local Taylor series ((pi/4)^22/22! ~ 1e-23)
 _MAX_EVENTS = 20000
+OPEN_TOL = 1e-6              # m: a lift-off is the opening once the valve rises this high
 BOUNCE_TOL = 1e-9             # m: smallest bounce (height bound) that is counted
 CONTACT, SEAT = 1, 2          # regime bits: cam contact, seat contact (held if hard seat)
 
@@ -383,10 +384,17 @@ _BINOM = np.array([[math.comb(j, n) for j in range(NB)] for n in range(NB)], dty
 _POW = np.array([[j - n if j >= n else 0 for j in range(NB)] for n in range(NB)])
 
 
+_SHIFT: dict[tuple[float, float], NDArray] = {}
+
+
 def _shift(c: NDArray, a: float, w: float) -> NDArray:
     """Monomial coefficients of p(a + w t) from those of p(sigma) (last axis)."""
-    mat = _BINOM * np.power(a, _POW) * (w ** np.arange(NB))[:, None]
-    return c @ mat.T
+    mat = _SHIFT.get((a, w))
+    if mat is None:
+        mat = (_BINOM * np.power(a, _POW) * (w ** np.arange(NB))[:, None]).T
+        if len(_SHIFT) < 4096:      # sub-step starts j/m and widths 1/m repeat
+            _SHIFT[(a, w)] = mat
+    return c @ mat
 
 
 def _taylor(model: _Model, r: int, z: tuple[float, float], fcoef: NDArray,
@@ -397,14 +405,14 @@ def _taylor(model: _Model, r: int, z: tuple[float, float], fcoef: NDArray,
     """
     k_, b_ = model.coefs(r)
     M = model.p.mass
-    c = np.zeros(_TAYLOR + 1)
-    c[0] = z[0]
-    c[1] = z[1] * ds
+    f = fcoef.tolist() + [0.0] * (_TAYLOR + 1 - fcoef.size)
+    c = [float(z[0]), float(z[1]) * ds]
+    kk = k_ * ds * ds / M
+    bb = b_ * ds / M
+    fs = ds * ds / M
     for n in range(_TAYLOR - 1):
-        a_n = fcoef[n] if n < fcoef.size else 0.0
-        c[n + 2] = (a_n - k_ * c[n] - b_ * (n + 1) * c[n + 1] / ds) * ds * ds / (
-            M * (n + 2) * (n + 1))
-    return c
+        c.append((f[n] * fs - kk * c[n] - bb * (n + 1) * c[n + 1]) / ((n + 2) * (n + 1)))
+    return np.array(c)
 
 
 def _eval_min(comp: tuple[float, list[list[float]]], t: float) -> tuple[float, float]:
@@ -439,6 +447,8 @@ def _poly_root(c: list[float], a: float, b: float, fa: float) -> float:
         if not a <= x <= b:
             x = 0.5 * (a + b)
         f, d = ev(x)
+        if f == 0.0:
+            return x
         if (f < 0) == up:
             a = x
         else:
@@ -508,9 +518,13 @@ class _Run:
         self.model = model
         self.cam = cam
         self.lt = cam.lengths / model.omega
+        self._groups()
         self.ev = Events()
         self.seated_once = False
         self.opened = False
+        self.peak = 0.0            # largest node lift since the last lift-off [m]
+        self.start_open = False    # the revolution starts inside an open phase
+        self.next_cycle: list[list[float]] | None = None   # [start, end, u' - y']
         self.sep_open: list[float] | None = None
         self.stop_after_bounce = False
         self.hint: tuple[int, int, NDArray, NDArray] | None = None
@@ -534,70 +548,105 @@ class _Run:
         raise SolverError('no consistent static state on the base circle')
 
     # -- bulk propagation ----------------------------------------------------------
+    def _groups(self) -> None:
+        """Steps of equal length share one propagator: group index per step."""
+        uniq, inv = np.unique(self.lt, return_inverse=True)
+        self.g_len = uniq.tolist()
+        self.g_inv = inv
+        self.g_invl = inv.tolist()
+        self.g_run = np.concatenate([[0], np.cumsum(np.diff(inv) != 0)])  # changes so far
+        self.g_props: dict[int, list[tuple[int, NDArray, NDArray, list[float]]]] = {}
+
+    def _props(self, r: int) -> list[tuple[int, NDArray, NDArray, list[float]]]:
+        """Per step-length group: (sub-nodes m, Phi, Gamma, end Phi as 4 floats)."""
+        hit = self.g_props.get(r)
+        if hit is None:
+            rho = self.model.rho(r)
+            hit = []
+            for L in self.g_len:
+                m = min(max(2, int(math.ceil(rho * L / _SUB))), 4096)
+                phis, gams = self.model.propagator(r, L, m)
+                hit.append((m, phis, gams, phis[-1].ravel().tolist()))
+            self.g_props[r] = hit
+        return hit
+
     def bulk(self, k0: int, z: tuple[float, float], r: int,
-             n: int) -> tuple[int, list[tuple[float, float]]]:
+             n: int) -> tuple[int, NDArray, NDArray]:
         """Propagate steps k0..k0+n-1 in regime r; stop before the first step with a
-        switch. Returns (number of clean steps, states at nodes k0+1..)."""
+        switch. Returns (number of clean steps, y and v at nodes k0+1..k0+clean).
+
+        The linear recurrence runs in windows of growing size (16, 32, ...), each
+        checked for switches at its sub-nodes before the next is propagated, so a
+        switch early in a long stretch costs little waste."""
         model, cam = self.model, self.cam
-        ks = np.arange(k0, min(k0 + n, cam.lengths.size))
-        lt = self.lt[ks]
-        la = cam.lengths[ks]
-        fco = model.forcing(r, cam.coeffs[ks], la, None if cam.gas is None else cam.gas[ks])
-        hard_held = model.p.hard_seat and r & SEAT
-        rho = model.rho(r)
-        out: list[tuple[float, float]] = []
-        if hard_held:
+        k1 = min(k0 + n, cam.lengths.size)
+        q = k1 - k0
+        la = cam.lengths[k0:k1]
+        if model.p.hard_seat and r & SEAT:
             vand, dvand = _vander(4)
-            uu = cam.coeffs[ks] @ vand
-            ud = (cam.coeffs[ks] @ dvand) * (model.omega / la)[:, None]
+            uu = cam.coeffs[k0:k1] @ vand
+            ud = (cam.coeffs[k0:k1] @ dvand) * (model.omega / la)[:, None]
             _, ins = _inside(model, r, 0.0, 0.0, uu, ud)
             bad = np.nonzero(np.any(ins < 0, axis=1))[0]
-            clean = int(bad[0]) if bad.size else ks.size
-            return clean, [(0.0, 0.0)] * clean
-        # unique step lengths -> propagators with sub-nodes
-        uniq, inv = np.unique(lt, return_inverse=True)
-        props = []
-        for L in uniq:
-            m = max(2, int(math.ceil(rho * L / _SUB)))
-            if m > 4096:
-                m = 4096
-            props.append((m, *model.propagator(r, float(L), m)))
+            clean = int(bad[0]) if bad.size else q
+            return clean, np.zeros(clean), np.zeros(clean)
+        lt = self.lt[k0:k1]
+        fco = model.forcing(r, cam.coeffs[k0:k1], la,
+                            None if cam.gas is None else cam.gas[k0:k1])
+        props = self._props(r)
+        inv = self.g_inv[k0:k1]
+        invl = self.g_invl
+        if self.g_run[k0] == self.g_run[k1 - 1]:
+            wl = (fco @ props[invl[k0]][2][-1].T).tolist()
+        else:
+            w = np.empty((q, 2))
+            for g in np.unique(inv).tolist():
+                idx = np.nonzero(inv == g)[0]
+                w[idx] = fco[idx] @ props[g][2][-1].T
+            wl = w.tolist()
         y, v = z
-        w = np.empty((ks.size, 2))
-        for g, (m, phis, gams) in enumerate(props):
-            idx = np.nonzero(inv == g)[0]
-            w[idx] = fco[idx] @ gams[-1].T
-        wl = w.tolist()
-        ends = [p_[1][-1].ravel().tolist() for p_ in props]
-        invl = inv.tolist()
         yl = [y]
         vl = [v]
-        for i in range(ks.size):
-            a, b, c, d = ends[invl[i]]
-            wy, wv = wl[i]
-            y, v = a * y + b * v + wy, c * y + d * v + wv
-            yl.append(y)
-            vl.append(v)
-        ys = np.asarray(yl)
-        vs = np.asarray(vl)
-        if not (math.isfinite(y) and math.isfinite(v)):
-            raise SolverError('non-finite state in bulk propagation')
-        # detection at sub-nodes
-        clean = ks.size
-        for g, (m, phis, gams) in enumerate(props):
-            idx = np.nonzero(inv == g)[0]
-            if idx.size == 0:
-                continue
-            z0 = np.stack([ys[idx], vs[idx]], axis=1)          # (q, 2)
-            zs = np.einsum('mab,qb->qma', phis, z0) + np.einsum('mab,qb->qma', gams, fco[idx])
-            flags = _flags(model, r, cam.coeffs[ks[idx]], fco[idx], la[idx], lt[idx], z0, zs)
-            bad = np.nonzero(np.any(flags, axis=1))[0]
-            if bad.size and int(idx[bad[0]]) < clean:
-                clean = int(idx[bad[0]])
-                # hand the sub-node states and flags of that step to event_step
-                self.hint = (int(ks[clean]), r, zs[bad[0]].copy(), flags[bad[0]].copy())
-        out = list(zip(ys[1:clean + 1].tolist(), vs[1:clean + 1].tolist()))
-        return clean, out
+        pos, win = 0, 32
+        clean = q
+        while pos < q:
+            hi = min(q, pos + win)
+            for i in range(pos, hi):
+                a, b, c, d = props[invl[k0 + i]][3]
+                wy, wv = wl[i]
+                y, v = a * y + b * v + wy, c * y + d * v + wv
+                yl.append(y)
+                vl.append(v)
+            if not (math.isfinite(y) and math.isfinite(v)):
+                raise SolverError('non-finite state in bulk propagation')
+            ys = np.asarray(yl[pos:hi])
+            vs = np.asarray(vl[pos:hi])
+            if self.g_run[k0 + pos] == self.g_run[k0 + hi - 1]:
+                parts = [(invl[k0 + pos], None)]
+            else:
+                gw = inv[pos:hi]
+                parts = [(g, np.nonzero(gw == g)[0]) for g in np.unique(gw).tolist()]
+            for g, sub in parts:
+                m, phis, gams, _ = props[g]
+                if sub is None:
+                    idx = np.arange(pos, hi)
+                    z0 = np.stack([ys, vs], axis=1)
+                else:
+                    idx = pos + sub
+                    z0 = np.stack([ys[sub], vs[sub]], axis=1)       # (q, 2)
+                fi = fco[idx]
+                zs = np.einsum('mab,qb->qma', phis, z0) + np.einsum('mab,qb->qma', gams, fi)
+                flags = _flags(model, r, cam.coeffs[k0 + idx], fi, la[idx], lt[idx], z0, zs)
+                bad = np.nonzero(np.any(flags, axis=1))[0]
+                if bad.size and int(idx[bad[0]]) < clean:
+                    clean = int(idx[bad[0]])
+                    # hand the sub-node states and flags of that step to event_step
+                    self.hint = (k0 + clean, r, zs[bad[0]].copy(), flags[bad[0]].copy())
+            if clean < q:
+                break
+            pos = hi
+            win *= 4
+        return clean, np.asarray(yl[1:clean + 1]), np.asarray(vl[1:clean + 1])
 
     # -- one step with events --------------------------------------------------------
     def event_step(self, k: int, z: tuple[float, float],
@@ -704,6 +753,9 @@ class _Run:
         if after the first seating and its free-flight height bound M v^2 / (2 F0)
         reaches ``BOUNCE_TOL`` (reopenings of 1e-10 m on the penalty seat at crawl
         speed are not reported as bounces)."""
+        self.peak = 0.0
+        if self.start_open and self.seated_once:
+            self.next_cycle = []    # an open phase of the next cycle may start here
         if not self.opened:
             self.opened = True
             self.ev.opening = alpha
@@ -725,18 +777,34 @@ class _Run:
         uu = np.zeros(n)
         uu[:u_loc.size] = u_loc
         dd = uu - yy
+        scale = _ARANGE[1:n] / ds
         ddot = np.zeros(n)
-        ddot[:-1] = dd[1:] * np.arange(1, n) / ds
-        ydot = np.zeros(n)
-        ydot[:-1] = yy[1:] * np.arange(1, n) / ds
-        gc = p.stiffness * dd + p.damping * ddot
+        ddot[:-1] = dd[1:] * scale
         sc = 1.0 if r & CONTACT else -1.0
-        comps = [(sc, [dd.tolist()[::-1], gc.tolist()[::-1]])]
         if p.hard_seat:
-            comps.append((1.0, [yy.tolist()[::-1]]))
+            rows = np.stack([dd, p.stiffness * dd + p.damping * ddot, yy])
         else:
-            gs = -p.seat_stiffness * yy - p.seat_damping * ydot
-            comps.append((1.0 if r & SEAT else -1.0, [(-yy).tolist()[::-1], gs.tolist()[::-1]]))
+            ydot = np.zeros(n)
+            ydot[:-1] = yy[1:] * scale
+            rows = np.stack([dd, p.stiffness * dd + p.damping * ddot, -yy,
+                             -p.seat_stiffness * yy - p.seat_damping * ydot])
+        vals = rows @ _VG9[:n]                       # (components, grid)
+        ic = sc * np.minimum(vals[0], vals[1])
+        if p.hard_seat:
+            is_ = vals[2]
+        else:
+            is_ = (1.0 if r & SEAT else -1.0) * np.minimum(vals[2], vals[3])
+        bad = (ic < 0) | (is_ < 0)
+        bad[0] = False
+        if not bad.any():
+            return None
+        grid = _GRID9
+        rl = rows[:, ::-1].tolist()
+        comps = [(sc, rl[:2])]
+        if p.hard_seat:
+            comps.append((1.0, rl[2:]))
+        else:
+            comps.append((1.0 if r & SEAT else -1.0, rl[2:]))
 
         def scalar(t: float, pos: int) -> float:
             sign, polys = comps[pos]
@@ -749,19 +817,6 @@ class _Run:
                     best = acc
             return sign * best
 
-        grid = _GRID9
-        vg = _VG9[:n]
-        vals = []
-        for sign, polys in comps:
-            low = np.full(grid.size, np.inf)
-            for c in polys:
-                low = np.minimum(low, np.asarray(c[::-1]) @ vg)
-            vals.append(sign * low)
-        ic, is_ = vals
-        bad = (ic < 0) | (is_ < 0)
-        bad[0] = False
-        if not np.any(bad):
-            return None
         i = int(np.argmax(bad))
         a, b = float(grid[i - 1]), float(grid[i])
         best = None
@@ -787,12 +842,16 @@ class _Run:
             if r & CONTACT:       # contact lost
                 if self.opened and not self.seated_once and u > 0:
                     self.sep_open = [alpha, alpha]
+                elif self.next_cycle is not None and u > 0:
+                    self.next_cycle.append([alpha, alpha, math.nan])
                 return z, r & ~CONTACT
             if self.sep_open is not None:    # contact regained after a separation
                 self.sep_open[1] = alpha
                 ev.separations.append(self.sep_open)
                 ev.recontact_velocities.append(ud - v)
                 self.sep_open = None
+            elif self.next_cycle and math.isnan(self.next_cycle[-1][2]):
+                self.next_cycle[-1][1:] = [alpha, ud - v]
             return z, r | CONTACT
         # seat
         if p.hard_seat:
@@ -814,7 +873,30 @@ class _Run:
         ev.impacts.append((alpha, -v))
         return z, r | SEAT
 
+    def commit_next_cycle(self, alpha: float) -> None:
+        """A periodic revolution that starts inside an open phase (the valve lands
+        after the window start) holds the next cycle's open phase after its closing:
+        its separations are this orbit's too (they were recorded in ``next_cycle``
+        since the last lift-off) when the valve rose OPEN_TOL in it."""
+        cyc, self.next_cycle = self.next_cycle, None
+        if not cyc or self.peak < OPEN_TOL:
+            return
+        for a0, a1, vrel in cyc:
+            self.ev.separations.append([a0, alpha if math.isnan(vrel) else a1])
+            if not math.isnan(vrel):
+                self.ev.recontact_velocities.append(vrel)
+
     def _seat(self, alpha: float, vdown: float) -> None:
+        if self.next_cycle is not None:
+            self.commit_next_cycle(alpha)
+        if self.opened and not self.seated_once and self.peak < OPEN_TOL:
+            # the valve never rose OPEN_TOL since it left the seat: seat chatter (or the
+            # end of a bounce that was still in the air at the window start), not an
+            # opening and closing
+            self.opened = False
+            self.ev.opening = None
+            self.sep_open = None
+            return
         if self.opened and not self.seated_once:
             self.seated_once = True
             self.ev.closing = alpha
@@ -834,27 +916,30 @@ class _Run:
         rs = np.empty(n + 1, dtype=np.int64)
         ys[0], vs[0], rs[0] = z[0], z[1], r
         k = 0
-        chunk = 16
+        chunk = 64      # steps asked of bulk: small after a switch (switches cluster)
         while k < n:
             if self.stop_after_bounce and self.seated_once and len(self.ev.impacts) >= 2:
                 ys[k + 1:], vs[k + 1:], rs[k + 1:] = np.nan, np.nan, -1
                 break
             want = min(chunk, n - k)
-            clean, states = self.bulk(k, z, r, want)
+            clean, yb, vb = self.bulk(k, z, r, want)
             if clean:
-                arr = np.asarray(states)
-                ys[k + 1:k + 1 + clean] = arr[:, 0]
-                vs[k + 1:k + 1 + clean] = arr[:, 1]
+                ys[k + 1:k + 1 + clean] = yb
+                vs[k + 1:k + 1 + clean] = vb
                 rs[k + 1:k + 1 + clean] = r
-                z = states[-1]
+                z = (float(yb[-1]), float(vb[-1]))
                 k += clean
+                self.peak = max(self.peak, float(yb.max()))
+            if k >= n:
+                break
             if clean == want:
-                chunk = min(chunk * 2, 256)
+                chunk = min(4 * chunk, 4096)
                 continue
+            chunk = 64
             z, r = self.event_step(k, z, r)
             k += 1
             ys[k], vs[k], rs[k] = z[0], z[1], r
-            chunk = 16
+            self.peak = max(self.peak, z[0])
         return ys, vs, rs, z, r
 
 
@@ -918,10 +1003,16 @@ def _one_rev(model: _Model, cam: CamInput, z0: tuple[float, float], r0: int,
              events_only: bool = False, first: bool = False) -> _Shot:
     run = _Run(model, cam)
     run.stop_after_bounce = events_only
-    umax = float(np.max(cam.coeffs[:, 0]))
-    if not first and not (r0 & SEAT) and z0[0] > max(BOUNCE_TOL, 1e-3 * umax):
-        run.opened = True        # a periodic start off the seat: the valve is already open
+    if not first and not (r0 & SEAT) and z0[0] > BOUNCE_TOL:
+        # a periodic start off the seat: the valve is in the air, already open (a lobe
+        # over the whole revolution, a valve still bouncing or flying from the last
+        # lobe); if it lands without rising OPEN_TOL it was a bounce ending (``_seat``)
+        run.opened = True
+        run.start_open = True
+        run.peak = float(z0[0])
     ys, vs, rs, z, r = run.revolution(z0, r0)
+    if run.next_cycle is not None:       # the next open phase runs past the window end
+        run.commit_next_cycle(float(cam.nodes[-1]))
     return _Shot(run, ys, vs, rs, z0, r0, z, r)
 
 
@@ -937,7 +1028,7 @@ def simulate_cam(cam: CamInput, params: SdofParams, omega: float, *,
     Periodic state: revolutions from the static state on the base circle; when two
     successive start states differ by more than ``periodic_tol`` (m; velocity scaled by
     1/omega_n), Newton's method on the one-revolution map z -> P(z) (shooting, Jacobian
-    by central differences: the map is piecewise linear in z between switch-time
+    by forward differences: the map is piecewise linear in z between switch-time
     changes), then repeated revolutions up to ``max_revolutions`` more as the fallback.
     ``settled`` says whether the final revolution starts and ends in the same state
     within ``periodic_tol``; ``left_cam`` whether the valve ends the revolution in free
@@ -1030,18 +1121,14 @@ def _shoot(model: _Model, cam: CamInput, shot: _Shot, wn: float,
         r = best.r0
         f0 = (np.array(best.z) - z) / scale
         jac = np.empty((2, 2))
-        for j in range(2):
+        for j in range(2):       # forward differences: the map is affine piecewise
             hs = max(1e-9, 1e-6 * float(np.max(np.abs(f0))))     # scaled step [m]
             zp = z.copy()
             zp[j] += hs * scale[j]
-            zm = z.copy()
-            zm[j] -= hs * scale[j]
             sp = _one_rev(model, cam, tuple(zp), _regime_of(best.run, tuple(zp), r))
-            sm = _one_rev(model, cam, tuple(zm), _regime_of(best.run, tuple(zm), r))
-            revs += 2
+            revs += 1
             fp = (np.array(sp.z) - zp) / scale
-            fm = (np.array(sm.z) - zm) / scale
-            jac[:, j] = (fp - fm) / (2 * hs)
+            jac[:, j] = (fp - f0) / hs
         if np.all(np.isfinite(jac)):
             radius = float(np.max(np.abs(np.linalg.eigvals(jac + np.eye(2)))))
         try:

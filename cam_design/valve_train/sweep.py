@@ -29,7 +29,8 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.valve_train.cam_input import CamInput, build_cam_input
+from cam_design.valve_train.cam_input import CamInput, build_cam_input, with_gas
+from cam_design.valve_train.mdof import MdofParams, MdofRunner, simulate_mdof
 from cam_design.valve_train.params import SdofParams, require_rpm, require_step_deg
 from cam_design.valve_train.sdof import SdofResult, simulate, simulate_cam
 
@@ -136,6 +137,40 @@ def classify(res: SdofResult) -> str:
     return CLEAN
 
 
+@dataclass
+class _Outcome:
+    """What a sweep keeps of one run (SDOF or MDOF)."""
+
+    status: str
+    bounced: bool
+    settled: bool
+    left_cam: bool
+    residual: float
+    seating_velocity: float | None
+    max_lift: float
+
+
+def _sdof_outcome(res: SdofResult) -> _Outcome:
+    return _Outcome(classify(res), res.events.bounce_count > 0, res.settled, res.left_cam,
+                    res.periodic_residual, res.events.seating_velocity,
+                    float(np.nanmax(res.y)))
+
+
+def _mdof_outcome(res: Any) -> _Outcome:
+    """The MDOF run's events: a separation at the cam, a valve toss at the rocker or the
+    valve leaving the cam make it separated (``jump``), else not settled -> unsettled."""
+    ev = res.events
+    if ev['jump']:
+        status = SEPARATED
+    elif not ev['settled']:
+        status = UNSETTLED
+    else:
+        status = CLEAN
+    return _Outcome(status, ev['bounce_count'] > 0, bool(ev['settled']),
+                    bool(ev['valve_leaves_cam']), float(ev['periodic_residual_m']),
+                    ev['seating_velocity_m_s'], float(np.nanmax(res.y)))
+
+
 def _run(cam: CamInput, params: SdofParams, rpm: float) -> SdofResult:
     return simulate_cam(cam, params, rpm * math.pi / 30.0)
 
@@ -152,19 +187,55 @@ def _bisect(pred: Callable[[float], bool], lo: float, hi: float,
     return lo, hi
 
 
-def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
+def runners(law: LiftLaw, params: Any, step_deg: float, key: str = 'lift',
+            gas: Any = None
+            ) -> tuple[Callable[[float], _Outcome], Callable[[float], _Outcome]]:
+    """(run at rpm on a cam prepared once, single run from the law as ``dynamics --rpm``
+    does it) for ``SdofParams`` or ``MdofParams``; ``gas(alpha)`` [N]: the cylinder-gas
+    force of ``simulate`` (SDOF only)."""
+    if isinstance(params, MdofParams):
+        if gas is not None:
+            raise InputError('valve_train.gas', 'with model mdof',
+                             'model sdof (the MDOF model does not take a gas force yet)')
+        runner = MdofRunner(law, params, step_deg=step_deg)
+
+        def run_at(rpm: float) -> _Outcome:
+            return _mdof_outcome(runner(rpm))
+
+        def single(rpm: float) -> _Outcome:
+            return _mdof_outcome(simulate_mdof(law, params, rpm, step_deg=step_deg))
+    elif isinstance(params, SdofParams):
+        cam = build_cam_input(law, params.rocker_ratio, params.lash,
+                              math.radians(step_deg), key=key)
+        if gas is not None:
+            cam = with_gas(cam, gas)
+
+        def run_at(rpm: float) -> _Outcome:
+            return _sdof_outcome(_run(cam, params, rpm))
+
+        def single(rpm: float) -> _Outcome:
+            return _sdof_outcome(simulate(law, params, rpm, step_deg=step_deg, key=key,
+                                          gas=gas))
+    else:
+        raise InputError('valve_train', type(params).__name__,
+                         'SdofParams or MdofParams (model sdof | mdof)')
+    return run_at, single
+
+
+def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
           step_deg: float = 0.1, tol_rpm: float = 0.5, refine: bool = True,
-          key: str = 'lift', check: bool = True) -> SweepResult:
+          key: str = 'lift', check: bool = True, gas: Any = None) -> SweepResult:
     """Simulate every speed of ``rpms`` (increasing) to its periodic state and locate
-    the event speeds (module docstring)."""
+    the event speeds (module docstring). ``params``: ``SdofParams`` (the SDOF model) or
+    ``MdofParams`` (the exact 4+N1+N2 model, ``simulate_mdof``'s runs); ``gas``: the
+    cylinder-gas force of the single runs (SDOF)."""
     speeds = np.asarray(rpms, dtype=float)
     if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(
             speeds <= 0) or np.any(np.diff(speeds) <= 0):
         raise InputError('cam_speed_rpm', rpms, 'increasing speeds > 0')
     require_positive('tol_rpm', tol_rpm)
     step_deg = require_step_deg('step_deg', step_deg)
-    cam = build_cam_input(law, params.rocker_ratio, params.lash, math.radians(step_deg),
-                          key=key)
+    run_at, single = runners(law, params, step_deg, key, gas)
     t0 = time.perf_counter()
     n = speeds.size
     status: list[str] = []
@@ -175,15 +246,15 @@ def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
     vseat = np.full(n, np.nan)
     ymax = np.zeros(n)
     for i, rpm in enumerate(speeds):
-        res = _run(cam, params, float(rpm))
-        status.append(classify(res))
-        bounce[i] = res.events.bounce_count > 0
+        res = run_at(float(rpm))
+        status.append(res.status)
+        bounce[i] = res.bounced
         settled[i] = res.settled
         left[i] = res.left_cam
-        resid[i] = res.periodic_residual
-        if res.events.seating_velocity is not None:
-            vseat[i] = res.events.seating_velocity
-        ymax[i] = float(np.nanmax(res.y))
+        resid[i] = res.residual
+        if res.seating_velocity is not None:
+            vseat[i] = res.seating_velocity
+        ymax[i] = res.max_lift
     seconds = time.perf_counter() - t0
     sep = np.array([s == SEPARATED for s in status], dtype=bool)
     fails = np.array([s != CLEAN for s in status], dtype=bool)
@@ -196,7 +267,7 @@ def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
         notes.append(f'the valve leaves the cam from {speeds[np.argmax(left)]:g} rpm '
                      '(no longer follows it)')
 
-    def locate(flags: NDArray[np.bool_], failing: Callable[[SdofResult], bool],
+    def locate(flags: NDArray[np.bool_], failing: Callable[[_Outcome], bool],
                what: str) -> Bracket:
         hits = np.nonzero(flags)[0]
         if hits.size == 0:
@@ -206,21 +277,18 @@ def sweep(law: LiftLaw, params: SdofParams, rpms: Sequence[float], *,
             return Bracket(None, [None, float(speeds[0])])
         lo, hi = float(speeds[i - 1]), float(speeds[i])
         if refine:
-            lo, hi = _bisect(lambda r: failing(_run(cam, params, r)), lo, hi, tol_rpm)
+            lo, hi = _bisect(lambda r: failing(run_at(r)), lo, hi, tol_rpm)
         checked = None
         if check:       # single runs from the law, as `dynamics --rpm` does them
-            below = simulate(law, params, lo, step_deg=step_deg, key=key)
-            above = simulate(law, params, hi, step_deg=step_deg, key=key)
-            checked = (not failing(below)) and failing(above)
+            checked = (not failing(single(lo))) and failing(single(hi))
             if not checked:
                 notes.append(f'{what}: the single runs at {lo:g} and {hi:g} rpm do not '
                              'confirm the bracket')
         return Bracket(hi, [lo, hi], checked)
 
-    jump = locate(fails, lambda r: classify(r) != CLEAN, 'jump speed')
+    jump = locate(fails, lambda r: r.status != CLEAN, 'jump speed')
     bfail = bounce | ~settled
-    onset = locate(bfail, lambda r: r.events.bounce_count > 0 or not r.settled,
-                   'bounce onset')
+    onset = locate(bfail, lambda r: r.bounced or not r.settled, 'bounce onset')
     return SweepResult(rpm=speeds, separated=sep, bounced=bounce, settled=settled,
                        left_cam=left, status=status, residual=resid,
                        seating_velocity=vseat, max_lift=ymax, jump=jump, bounce=onset,

@@ -13,7 +13,8 @@ and jump speed of a valve train (see docs/dynamics.md).
 
 JSON (``--json FILE`` or ``-``): ``{"input", "kind", "model", "features": {ID:
 {"source", "runs": [...], "jump_speed_rpm", "jump_bracket_rpm", "bounce_onset_rpm",
-"bounce_bracket_rpm", "sweep" (null without --sweep)}}, "skipped"}``. Each run has
+"bounce_bracket_rpm", "sweep" (null without --sweep), "jump_speed_uncertainty_rpm" (a
+table's: the jump speed's uncertainty from its noise; null otherwise)}}, "skipped"}``. Each run has
 ``cam_speed_rpm``, the arrays on the ``--step-deg`` grid, the events, ``settled``,
 ``left_cam``, ``periodic_residual_m`` and ``note`` when the reader must know something
 (no periodic state, the valve leaves the cam, no seating). ``sweep``: every speed a full
@@ -54,7 +55,7 @@ def register(subparsers: Any) -> None:
                    help="camshaft speed [rpm]; repeat for several (default: the scene's "
                         'valve_train.cam_speed_rpm)')
     p.add_argument('--sweep', metavar='LO:HI:STEP',
-                   help='also sweep these speeds [rpm] (SDOF, full periodic runs at '
+                   help='also sweep these speeds [rpm] (SDOF or MDOF, full periodic runs at '
                         '--step-deg) and report jump_speed_rpm and bounce_onset_rpm with '
                         'their brackets')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
@@ -241,20 +242,26 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
         if failed:
             entry['failures'] = failed
         if sweep_speeds is not None:
-            from cam_design.valve_train.params import SdofParams
             from cam_design.valve_train.sweep import sweep
 
             from cam_design.errors import InputError
 
-            for extra in ('hla', 'gas'):        # the sweep runs the plain exact SDOF
-                if getattr(scene.valve_train, extra, None) is not None:
-                    raise InputError('--sweep', f'with valve_train.{extra}',
-                                     f'single speeds (--rpm) for a train with {extra}; '
-                                     'the sweep does not take it yet')
-
-            res = sweep(law, SdofParams.from_valve_train(scene.valve_train), sweep_speeds,
-                        step_deg=args.step_deg, key=_law_key(core, feature))
+            if getattr(scene.valve_train, 'hla', None) is not None:
+                raise InputError('--sweep', 'with valve_train.hla',
+                                 'single speeds (--rpm) for a train with a hydraulic lash '
+                                 'adjuster; the sweep does not take it yet')
+            params = _sweep_params(scene.valve_train, args)
+            from cam_metrology.dynamics.core import gas_of
+            res = sweep(law, params, sweep_speeds, step_deg=args.step_deg,
+                        key=_law_key(core, feature), gas=gas_of(scene.valve_train, law))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
+            unc = None
+            if str(source).startswith('table:') and res.jump_speed_rpm is not None:
+                from cam_metrology.dynamics.tables import jump_uncertainty
+                unc = jump_uncertainty(law, params, res.jump_speed_rpm, args.step_deg)
+            entry['jump_speed_uncertainty_rpm'] = None if unc is None else unc[0]
+            if unc is not None:
+                entry['jump_uncertainty_note'] = unc[1]
             entry['jump_bracket_rpm'] = res.jump.bracket
             entry['bounce_onset_rpm'] = res.bounce_onset_rpm
             entry['bounce_bracket_rpm'] = res.bounce.bracket
@@ -264,9 +271,26 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
                                                    float(sweep_speeds[-1]))
         else:       # the documented keys are always there: null without --sweep
             entry.update(jump_speed_rpm=None, jump_bracket_rpm=None, bounce_onset_rpm=None,
-                         bounce_bracket_rpm=None, sweep=None)
+                         bounce_bracket_rpm=None, sweep=None, jump_speed_uncertainty_rpm=None)
         out['features'][feature] = entry
     return _json_safe(out)
+
+
+def _sweep_params(vt: Any, args: argparse.Namespace) -> Any:
+    """The model a sweep runs: SdofParams (sdof) or MdofParams (mdof, the scene's
+    ``valve_train.mdof`` block); the hydraulic model has no sweep (refused by option)."""
+    from cam_design.errors import InputError
+    from cam_design.valve_train.params import SdofParams
+
+    model = args.model or getattr(vt, 'model', None) or 'sdof'
+    base = SdofParams.from_valve_train(vt)
+    if model == 'mdof':
+        from cam_design.valve_train.mdof import mdof_from_mapping
+        return mdof_from_mapping(getattr(vt, 'mdof', None), base)
+    if model != 'sdof':
+        raise InputError('--sweep', args.sweep, f'model sdof or mdof (model {model} has no '
+                         'sweep; use --rpm)')
+    return base
 
 
 def _law_key(core: Any, feature: str) -> str:
@@ -300,9 +324,13 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
                 print(f'{name}: FAILED: {why}')
             if entry.get('sweep') is not None:
                 sw = entry['sweep']
-                print(f"{feature}: jump speed {entry['jump_text']}; bounce onset "
+                unc = entry.get('jump_speed_uncertainty_rpm')
+                pm = f' +- {unc:.0f} rpm from the table' if unc is not None else ''
+                print(f"{feature}: jump speed {entry['jump_text']}{pm}; bounce onset "
                       f"{entry['bounce_text']} (sweep of {len(sw['sweep_rpm'])} speeds at "
                       f"{sw['step_deg']:g} deg)")
+                if entry.get('jump_uncertainty_note'):
+                    print(f"  note: {entry['jump_uncertainty_note']}")
                 for text in sw.get('notes', []):
                     print(f'  note: {text}')
         for s in result['skipped']:

@@ -295,6 +295,19 @@ def lobe_key(scene: Any, feature: str) -> str:
     return 'lift'
 
 
+def gas_of(vt: Any, law: Any) -> Any:
+    """The scene's cylinder-gas force on the valve as a function of cam angle [N], or
+    None (``valve_train.gas``; docs/dynamics.md)."""
+    if getattr(vt, 'gas', None) is None:
+        return None
+    from cam_design.hydraulic.gas import gas_force, on_cam_angle
+
+    g = vt.gas
+    return on_cam_angle(gas_force(g['crank_deg'], g['pressure_pa'], g['head_diameter'],
+                                  g.get('back_pressure_pa', 0.0)),
+                        g['lobe_start_crank_deg'], float(law.support[0]))
+
+
 def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
                 geom: ContactGeometry | None, max_revolutions: int = 4,
                 key: str = 'lift') -> Run:
@@ -316,7 +329,7 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
 
             mp = mdof_from_mapping(vt.mdof, params)
         return run_with_hla(law, params, vt.hla, rpm, mdof=mp, step_deg=step_deg,
-                            gas=_gas_of(vt, law), geometry=geom, train_checks=tc)
+                            gas=gas_of(vt, law), geometry=geom, train_checks=tc)
     if getattr(vt, 'gas', None) is not None and (
             getattr(vt, 'model', 'sdof') == 'mdof' or params.hard_seat):
         from cam_design.hydraulic.hla_coupled import run_gas_ode
@@ -324,7 +337,7 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
 
         mp = (mdof_from_mapping(vt.mdof, params) if getattr(vt, 'model', 'sdof') == 'mdof'
               else None)
-        return run_gas_ode(law, params, mp, rpm, gas=_gas_of(vt, law), step_deg=step_deg,
+        return run_gas_ode(law, params, mp, rpm, gas=gas_of(vt, law), step_deg=step_deg,
                            geometry=geom, train_checks=tc)
     if getattr(vt, 'model', 'sdof') == 'mdof':
         from cam_design.valve_train.mdof import mdof_from_mapping, simulate_mdof
@@ -336,17 +349,6 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
         events['spring_surge_hz'] = [float(s[0]) for s in res.surge_hz]
         return finish_run(law, params, rpm, 'mdof', res.alpha, res.y, res.v, res.cam_force,
                           events, geom, tc)
-    return run_sdof(law, params, rpm, step_deg=step_deg, geometry=geom, gas=_gas_of(vt, law),
+    gas = gas_of(vt, law)
+    return run_sdof(law, params, rpm, step_deg=step_deg, geometry=geom, gas=gas,
                     max_revolutions=max_revolutions, train_checks=tc, key=key)
-
-
-def _gas_of(vt: Any, law: Any) -> Any:
-    """The scene's cylinder-gas force as a function of the lobe's cam angle, or None."""
-    if getattr(vt, 'gas', None) is None:
-        return None
-    from cam_design.hydraulic.gas import gas_force, on_cam_angle
-
-    g = vt.gas
-    return on_cam_angle(gas_force(g['crank_deg'], g['pressure_pa'], g['head_diameter'],
-                                  g.get('back_pressure_pa', 0.0)),
-                        g['lobe_start_crank_deg'], float(law.support[0]))

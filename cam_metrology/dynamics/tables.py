@@ -7,6 +7,8 @@
   (``cam_metrology.reconstruction.samples.read_table_file``) or the JSON that
   ``cam-bench reconstruct`` writes.
 * the valve train comes from ``scene_parse.load_valve_train``.
+* ``jump_uncertainty``: the jump speed's uncertainty that a table's noise or
+  quantisation carries (re-quantised replicas of the table through the same spline).
 """
 from __future__ import annotations
 
@@ -18,6 +20,12 @@ import numpy as np
 from cam_design.errors import InputError
 from cam_design.valve_train.cam_input import JetTableLift
 from cam_metrology.reconstruction.table_law import spline_law
+
+#: replicas of a table for the jump-speed uncertainty, and the coverage factor on their
+#: standard deviation (the spread of one noise realisation: 3 sigma covered every
+#: lobe tried, docs/dynamics.md "Tables")
+REPLICAS = 8
+COVERAGE = 3.0
 
 
 def table_input(path: Path, *, feature: str | None = None, angle_unit: str = 'deg',
@@ -65,3 +73,65 @@ def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, JetTableLif
     law = JetTableLift(a, jets, key=f'{path.name}: features.{feature}.{names[0]}')
     return feature, law, f'reconstruct:{names[0]}', (
         f'reconstructed profile ({names[0]}) from {path.name}')
+
+
+def jump_uncertainty(law: JetTableLift, params: object, jump_rpm: float, step_deg: float,
+                     *, replicas: int = REPLICAS, seed: int = 0) -> tuple[float, str] | None:
+    """(U [rpm], sentence) of the jump speed ``jump_rpm`` found on a table's spline law,
+    or None when the law did not come from a table (``spline_law``).
+
+    The table's rows carry noise (a gauge step q: rounding, uniform of width q; else the
+    noise sigma the spline estimated). ``replicas`` copies of the table with a fresh
+    draw of that noise added to the lobe rows (h > 0) go through the same spline and the
+    jump speed of each is bisected to 0.2 % near ``jump_rpm``; their spread is the
+    spread of the original table's jump speed around the cam's own (the rows are one
+    draw of the same noise). U = COVERAGE x standard deviation + |mean - jump_rpm|.
+    """
+    import math
+
+    from cam_design.valve_train.sweep import CLEAN, runners
+
+    table = getattr(law, 'table', None)
+    if table is None or not jump_rpm:
+        return None
+    a, h, q, sigma = table
+    rng = np.random.default_rng(seed)
+    lobe = h > 0
+    speeds = []
+    for _ in range(replicas):
+        if q:
+            noise = rng.uniform(-0.5 * q, 0.5 * q, h.size)
+        else:
+            noise = rng.normal(0.0, sigma, h.size)
+        rep, _note = spline_law(a, h + noise * lobe, 'replica')
+        run_at, _single = runners(rep, params, step_deg)
+
+        def fails(rpm: float) -> bool:
+            return run_at(rpm).status != CLEAN
+
+        lo, hi = 0.97 * jump_rpm, 1.03 * jump_rpm
+        tries = 0
+        while fails(lo) and tries < 8:
+            lo, hi, tries = 0.94 * lo, lo, tries + 1
+        while not fails(hi) and tries < 8:
+            lo, hi, tries = hi, 1.06 * hi, tries + 1
+        if tries >= 8:
+            continue
+        while hi - lo > 2e-3 * jump_rpm:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if fails(mid) else (mid, hi)
+        speeds.append(hi)
+    if len(speeds) < 3:
+        return None
+    js = np.asarray(speeds)
+    sd = float(np.std(js, ddof=1))
+    u = COVERAGE * sd + abs(float(np.mean(js)) - jump_rpm)
+    what = (f'gauge step {q * 1e3:g} mm' if q else f'noise {sigma * 1e6:.3g} um')
+    text = (f'jump speed +-{u:.0f} rpm ({100 * u / jump_rpm:.1f} %) from the table\'s '
+            f'{what}: {len(speeds)} copies of the table with a fresh draw of that noise '
+            f'through the same spline gave {js.min():.0f}..{js.max():.0f} rpm '
+            f'(U = {COVERAGE:g} standard deviations + the mean shift); the '
+            'interpolation between rows of an exact table is not included')
+    if not math.isfinite(u):
+        return None
+    return u, text

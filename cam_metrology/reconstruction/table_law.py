@@ -26,6 +26,7 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
     from cam_metrology.reconstruction.spline import SplineOptions, quantisation_step
 
     a = np.asarray(alpha, dtype=float)
+    alpha_in = a.copy()
     v = np.asarray(h, dtype=float)
     turn = seam_turn(a, v)
     if turn:   # the lobe crosses +-180 deg: fit it with its lowest point at the seam
@@ -78,6 +79,9 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
         law = JetTableLift(seam + turn, jets, key=key, trim=-1.0)
     else:
         law = JetTableLift(grid, jets, key=key)
+    # what a replica of the table needs (dynamics.tables.jump_uncertainty): the rows,
+    # the gauge step q (None: not quantised) and the noise the spline assumed [m]
+    law.table = (alpha_in, v.copy(), q, float(rec.sigma))
     note = (f'table of {a.size} points every {math.degrees(step):.3g} deg smoothed by the '
             f'reconstruction spline ({rec.why}; rms residual {rec.rms_residual:.3g} m'
             + (f', lifts quantised to {q * 1e3:g} mm' if q else '') + ')'
