@@ -157,7 +157,8 @@ def _bulk_method(core: Any) -> tuple[Callable[..., Any] | None, bool]:
 
 def run_offline(bag_path: str | Path, cores: Sequence[Any],
                 progress: Callable[[int, int], None] | None = None, *,
-                tick_period_ns: int = TICK_PERIOD_NS, bulk: bool = True) -> OfflineResult:
+                tick_period_ns: int = TICK_PERIOD_NS, bulk: bool = True,
+                block_bytes: int = bagio.STREAM_BLOCK_BYTES) -> OfflineResult:
     """Replay ``bag_path`` through ``cores`` in-process (see the module doc).
 
     ``progress(done, total)`` is called as messages are fed (counting samples and
@@ -175,14 +176,12 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     result = OfflineResult(bag=bag, regenerated_topics=tuple(sorted(published & set(topics))))
     router = _Router(cores, result)
     joints = bagio.JOINT_STATES
-    samples = (bagio.read_joint_states(bag) if joints in wanted and joints in topics
-               else bagio.decode_joint_states([]))
-    others = list(bagio.iter_messages(bag, sorted(wanted - {joints}))) \
-        if wanted - {joints} else []
-    total = len(samples) + len(others)
-    result.samples = len(samples)
-    result.joint_issues = samples.issues
-    log = samples.log_ns
+    feed_joints = joints in wanted and joints in topics
+    blocks = bagio.iter_joint_states(bag, block_bytes=block_bytes) if feed_joints else iter(())
+    others = bagio.iter_messages(bag, sorted(wanted - {joints})) \
+        if wanted - {joints} else iter(())
+    total = sum(topics[t][1] for t in wanted if t in topics)
+    summary = bagio.JointSummary()
     joint_cores = router.subscribers.get(joints, [])
     done = 0
     last_t: int | None = None
@@ -195,11 +194,13 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
                 router.tick(int(now))
             router.tick(t - 1)
 
-    def feed_samples(i0: int, i1: int) -> None:
-        """Samples [i0, i1) to the JointState subscribers, cut at log-time gaps."""
+    def feed_samples(samples: bagio.JointSamples, i0: int, i1: int) -> None:
+        """Samples [i0, i1) of a block to the JointState subscribers, cut at log-time
+        gaps."""
         nonlocal last_t, done
         if i1 <= i0:
             return
+        log = samples.log_ns
         cuts = np.nonzero(np.diff(log[i0:i1]) > tick_period_ns)[0] + 1 + i0
         for a, b in zip([i0, *cuts.tolist()], [*cuts.tolist(), i1]):
             ticks_until(int(log[a]))
@@ -222,11 +223,8 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
             if progress is not None:
                 progress(done, total)
 
-    i = 0
-    for m in others:
-        j = int(np.searchsorted(log, m.stamp_ns, side='right'))
-        feed_samples(i, j)
-        i = j
+    def deliver(m: bagio.BagMessage) -> None:
+        nonlocal last_t, done
         ticks_until(m.stamp_ns)
         router.deliver(m.topic, m.msg, m.stamp_ns)
         result.delivered[m.topic] = result.delivered.get(m.topic, 0) + 1
@@ -234,9 +232,30 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
         done += 1
         if progress is not None and done % 1000 == 0:
             progress(done, total)
-    feed_samples(i, len(samples))
-    if len(samples):
-        result.delivered[joints] = len(samples)
+
+    # two streams in log-time order: sample blocks and the other messages; a sample
+    # and a message of the same log time: the sample first
+    nxt = next(others, None)
+    for samples in blocks:
+        summary.add(samples)
+        i = 0
+        while nxt is not None:
+            j = int(np.searchsorted(samples.log_ns, nxt.stamp_ns, side='right'))
+            if j == len(samples):
+                break   # the message comes after this whole block
+            feed_samples(samples, i, j)
+            i = j
+            deliver(nxt)
+            nxt = next(others, None)
+        feed_samples(samples, i, len(samples))
+        del samples   # one block in memory at a time
+    while nxt is not None:
+        deliver(nxt)
+        nxt = next(others, None)
+    result.samples = summary.count
+    result.joint_issues = summary.issues
+    if summary.count:
+        result.delivered[joints] = summary.count
     end = last_t if last_t is not None else 0
     # the live timer keeps running after the stream: idle timeouts can fire first
     for core in cores:
