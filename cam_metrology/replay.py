@@ -42,7 +42,7 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_metrology import bagio
-from cam_metrology.outputs import Output, TextOutput, msgtype_of
+from cam_metrology.outputs import Output, TableOutput, TextOutput, msgtype_of
 
 __all__ = ['StampedOutput', 'OfflineResult', 'run_offline', 'write_outputs',
            'order_cores', 'TICK_PERIOD_NS', 'MAX_TICKS_PER_GAP']
@@ -108,9 +108,14 @@ def order_cores(cores: Sequence[Any]) -> list[Any]:
 class _Router:
     """Delivers messages and routes outputs between cores; records the outputs."""
 
-    def __init__(self, cores: Sequence[Any], result: OfflineResult) -> None:
+    def __init__(self, cores: Sequence[Any], result: OfflineResult,
+                 superseded_tables: bool = True) -> None:
         self.cores = list(cores)
         self.result = result
+        #: False: a table output replaces the earlier one of its topic and label
+        self.superseded_tables = superseded_tables
+        self._table_at: dict[tuple[str, str], int] = {}
+        self._holes = 0
         self.subscribers: dict[str, list[Any]] = {}
         for core in self.cores:
             for topic in core.subscriptions:
@@ -127,7 +132,7 @@ class _Router:
         queue = [(source, o) for o in (outputs or ())]
         while queue:
             src, out = queue.pop(0)
-            self.result.outputs.append(StampedOutput(stamp_ns, src.name, out))
+            self.record(StampedOutput(stamp_ns, src.name, out))
             targets = [c for c in self.subscribers.get(out.topic, ()) if c is not src]
             if not targets:
                 continue
@@ -137,6 +142,31 @@ class _Router:
             msg = bagio.decode(bagio.encode_output(out, stamp_ns), msgtype_of(out))
             for core in targets:
                 queue += [(core, o) for o in (core.handle(out.topic, msg, stamp_ns) or ())]
+
+    def record(self, item: StampedOutput) -> None:
+        """Append an output; without ``superseded_tables``, drop the earlier table of
+        the same topic and label (a feature measured again), so that what is kept does
+        not grow with the number of measurements."""
+        outputs = self.result.outputs
+        if not self.superseded_tables and isinstance(item.output, TableOutput):
+            key = (item.output.topic, item.output.label)
+            old = self._table_at.get(key)
+            if old is not None:
+                outputs[old] = None   # type: ignore[call-overload]
+                self._holes += 1
+            self._table_at[key] = len(outputs)
+        outputs.append(item)
+        if self._holes > 64 and 2 * self._holes > len(outputs):
+            self.compact()
+
+    def compact(self) -> None:
+        """Remove the places of dropped tables from the output list."""
+        if self._holes:
+            kept = [o for o in self.result.outputs if o is not None]
+            self.result.outputs[:] = kept
+            self._table_at = {(o.output.topic, o.output.label): i
+                              for i, o in enumerate(kept) if isinstance(o.output, TableOutput)}
+            self._holes = 0
 
     def tick(self, now_ns: int) -> None:
         for core in self.cores:
@@ -158,12 +188,17 @@ def _bulk_method(core: Any) -> tuple[Callable[..., Any] | None, bool]:
 def run_offline(bag_path: str | Path, cores: Sequence[Any],
                 progress: Callable[[int, int], None] | None = None, *,
                 tick_period_ns: int = TICK_PERIOD_NS, bulk: bool = True,
-                block_bytes: int = bagio.STREAM_BLOCK_BYTES) -> OfflineResult:
+                block_bytes: int = bagio.STREAM_BLOCK_BYTES,
+                superseded_tables: bool = True) -> OfflineResult:
     """Replay ``bag_path`` through ``cores`` in-process (see the module doc).
 
     ``progress(done, total)`` is called as messages are fed (counting samples and
     other messages). ``bulk=False`` forces per-sample ``handle`` calls even for cores
-    with ``handle_samples`` (to compare both paths).
+    with ``handle_samples`` (to compare both paths). ``block_bytes``: size of the
+    blocks in which samples are read (``bagio.iter_joint_states``).
+    ``superseded_tables=False`` keeps, of the table outputs with the same topic and
+    label (a feature measured again), only the last one, so that memory does not grow
+    with a bag of repeated measurements; ``write_outputs`` needs them all (True).
     """
     if tick_period_ns <= 0:
         raise InputError('tick_period_ns', tick_period_ns, 'a period > 0 ns')
@@ -174,7 +209,7 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     wanted = {t for c in cores for t in c.subscriptions} - published
     topics = bagio.bag_topics(bag)
     result = OfflineResult(bag=bag, regenerated_topics=tuple(sorted(published & set(topics))))
-    router = _Router(cores, result)
+    router = _Router(cores, result, superseded_tables)
     joints = bagio.JOINT_STATES
     feed_joints = joints in wanted and joints in topics
     blocks = bagio.iter_joint_states(bag, block_bytes=block_bytes) if feed_joints else iter(())
@@ -262,6 +297,7 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
         router.emit(core, core.tick(end + 10**12), end)
     for core in cores:
         router.emit(core, core.finish(), end)
+    router.compact()
     if progress is not None:
         progress(total, total)
     result.elapsed_s = time.perf_counter() - t_start
