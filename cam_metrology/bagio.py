@@ -672,7 +672,12 @@ def iter_messages(path: str | Path, topics: Iterable[str] | None = None,
         conns = [c for c in reader.connections if wanted is None or c.topic in wanted]
         if not conns:
             return
-        for conn, stamp, data in reader.messages(connections=conns):
+        direct = _iter_mcap_raw(Path(path), {c.topic for c in conns})
+        if direct is not None:
+            conn_of = {c.topic: c for c in conns}
+            found = ((conn_of[topic], stamp, data) for topic, stamp, data in direct)
+        for conn, stamp, data in (found if direct is not None
+                                  else reader.messages(connections=conns)):
             try:
                 msg = data if raw else reader.deserialize(data, conn.msgtype)
             except InputError as exc:   # name the topic and the message's log time
@@ -1231,7 +1236,7 @@ def iter_joint_states(path: str | Path, topic: str = JOINT_STATES, *, direct: bo
                 raise InputError(f'topic {topic}', conn.msgtype, 'sensor_msgs/msg/JointState')
         if not conns:
             return
-        plan = _mcap_stream_plan(Path(path), topic) if direct else None
+        plan = _mcap_stream_plan(Path(path), [topic]) if direct else None
         if plan is None:   # rosbags' reader, in blocks of messages
             close = False
             yield from _iter_reader_blocks(reader, conns, block_bytes)
@@ -1274,10 +1279,12 @@ class _PlannedChunk(NamedTuple):
     chans: set[int]
 
 
-def _mcap_stream_plan(bag: Path, topic: str,
+def _mcap_stream_plan(bag: Path, topics: Iterable[str],
                       ) -> tuple[Path, list[str], list[_PlannedChunk]] | None:
-    """(directory, files, chunks holding ``topic``) of a bag the direct reader takes
-    (indexed, chunked MCAP, chunks uncompressed, zstd or lz4); None otherwise."""
+    """(directory, files, chunks holding messages of ``topics``) of a bag the direct
+    reader takes (indexed, chunked MCAP, chunks uncompressed, zstd or lz4); None
+    otherwise."""
+    wanted_topics = set(topics)
     from mcap.reader import make_reader
 
     found = _direct_mcap_files(bag)
@@ -1295,7 +1302,7 @@ def _mcap_stream_plan(bag: Path, topic: str,
             if summary is not None and not summary.channels:
                 continue
             return None
-        chans = {cid for cid, ch in summary.channels.items() if ch.topic == topic}
+        chans = {cid for cid, ch in summary.channels.items() if ch.topic in wanted_topics}
         for index in summary.chunk_indexes if chans else ():
             indexed = index.message_index_offsets
             wanted = sorted(c for c in chans if indexed.get(c))
@@ -1309,38 +1316,52 @@ def _mcap_stream_plan(bag: Path, topic: str,
 
 def _iter_mcap_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
                       block_bytes: int) -> Iterator[JointSamples]:
-    """Decode the planned chunks in blocks. Chunks are taken by the start of their
-    log-time range; chunks whose ranges overlap (or touch) stay in one group, so no
-    message of a later group can precede one of an earlier group; a block is one or
-    more whole groups of about ``block_bytes``."""
+    """Decode the planned chunks' JointStates in blocks (``_iter_chunk_blocks``)."""
+    first = 0
+    for data, starts, lengths, logs in _iter_chunk_blocks(plan, block_bytes):
+        samples = _decode_joint_buffer(data, starts, lengths, logs, first)
+        first += len(samples)
+        yield samples
+
+
+def _iter_chunk_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
+                       block_bytes: int,
+                       ) -> Iterator[tuple[bytes, NDArray[np.int64], NDArray[np.int64],
+                                       NDArray[np.int64]]]:
+    """(records, message starts, lengths, log times) of the planned chunks' messages,
+    block by block, sorted by log time then recorded order. Chunks are taken by the
+    start of their log-time range; chunks whose ranges overlap (or touch) stay in one
+    group, so no message of a later group can precede one of an earlier group; a
+    block is one or more whole groups of about ``block_bytes``."""
     folder, files, chunks = plan
     chunks = sorted(chunks, key=lambda c: (c.index.message_start_time, c.file,
                                            c.index.chunk_start_offset))
     handles: dict[int, Any] = {}
     try:
         block: list[_PlannedChunk] = []
-        size, end, first = 0, None, 0
+        size, end = 0, None
         for c in chunks:
             if block and c.index.message_start_time > end and size >= block_bytes:
-                samples = _decode_chunk_block(block, folder, files, handles, first)
-                first += len(samples)
-                yield samples
+                yield _read_chunk_block(block, folder, files, handles)
                 block, size = [], 0
             block.append(c)
             size += int(c.index.uncompressed_size)
             end = c.index.message_end_time if end is None else max(
                 end, c.index.message_end_time)
         if block:
-            yield _decode_chunk_block(block, folder, files, handles, first)
+            yield _read_chunk_block(block, folder, files, handles)
     finally:
         for f in handles.values():
             f.close()
 
 
-def _decode_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str],
-                        handles: dict[int, Any], first: int) -> JointSamples:
-    """The topic's messages of some chunks, sorted by log time then by position in the
-    bag (file, then offset: the recorded order), decoded."""
+def _read_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str],
+                      handles: dict[int, Any],
+                      ) -> tuple[bytes, NDArray[np.int64], NDArray[np.int64],
+                                 NDArray[np.int64]]:
+    """(records, starts, lengths, log times) of the planned messages of some chunks,
+    sorted by log time then by position in the bag (file, then offset: the recorded
+    order)."""
     parts: list[bytes] = []
     found_all: list[tuple[NDArray[np.int64], ...]] = []
     base = 0
@@ -1364,8 +1385,39 @@ def _decode_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[st
     logs = np.concatenate([g for _, _, g in found_all])
     order = np.lexsort((starts, logs))   # log time, then recorded order
     lengths = np.concatenate([n for _, n, _ in found_all])[order]
-    return _decode_joint_buffer(b''.join(parts), starts[order], lengths, logs[order],
-                                first)
+    return b''.join(parts), starts[order], lengths, logs[order]
+
+
+def _iter_mcap_raw(bag: Path, topics: Iterable[str],
+                   ) -> Iterator[tuple[str, int, bytes]] | None:
+    """(topic, log time, CDR bytes) of the messages of ``topics`` in log-time order
+    (ties in recorded order), read straight from the MCAP chunks that hold them (their
+    MessageIndex says which): a topic of a few messages is found without reading the
+    rest of the bag. None when the bag is not one the direct reader takes. For a
+    single-file bag only (channel ids are per file)."""
+    from mcap.reader import make_reader
+
+    plan = _mcap_stream_plan(bag, topics)
+    if plan is None or len(plan[1]) != 1:
+        return None
+    try:
+        with open(plan[0] / plan[1][0], 'rb') as f:
+            channels = make_reader(f).get_summary().channels
+    except Exception:   # noqa: BLE001 - any mcap error: let the rosbags reader decide
+        return None
+    topic_of = {cid: ch.topic for cid, ch in channels.items()}
+
+    def messages() -> Iterator[tuple[str, int, bytes]]:
+        for data, starts, lengths, logs in _iter_chunk_blocks(plan, STREAM_BLOCK_BYTES):
+            view = memoryview(data)
+            chan = _U16.unpack_from
+            for s, n, g in zip(starts.tolist(), lengths.tolist(), logs.tolist()):
+                yield topic_of[chan(data, s - 22)[0]], g, bytes(view[s:s + n])
+
+    return messages()
+
+
+_U16 = struct.Struct('<H')
 
 
 @dataclass
