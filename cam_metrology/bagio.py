@@ -1269,6 +1269,10 @@ def _iter_reader_blocks(reader: Any, conns: Sequence[Any], block_bytes: int,
         reader.close()
 
 
+#: (records, message starts, lengths, log times) of a block of MCAP messages
+_RawBlock = tuple[bytes, NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
+
+
 class _PlannedChunk(NamedTuple):
     """One MCAP chunk holding messages of the topic: file number, its ChunkIndex, the
     channels whose MessageIndex it has, and every channel of the topic."""
@@ -1326,8 +1330,7 @@ def _iter_mcap_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
 
 def _iter_chunk_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
                        block_bytes: int,
-                       ) -> Iterator[tuple[bytes, NDArray[np.int64], NDArray[np.int64],
-                                       NDArray[np.int64]]]:
+                       ) -> Iterator[_RawBlock]:
     """(records, message starts, lengths, log times) of the planned chunks' messages,
     block by block, sorted by log time then recorded order. Chunks are taken by the
     start of their log-time range; chunks whose ranges overlap (or touch) stay in one
@@ -1356,9 +1359,7 @@ def _iter_chunk_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
 
 
 def _read_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str],
-                      handles: dict[int, Any],
-                      ) -> tuple[bytes, NDArray[np.int64], NDArray[np.int64],
-                                 NDArray[np.int64]]:
+                      handles: dict[int, Any]) -> _RawBlock:
     """(records, starts, lengths, log times) of the planned messages of some chunks,
     sorted by log time then by position in the bag (file, then offset: the recorded
     order)."""
