@@ -77,8 +77,9 @@ def measure(bag: Path, out: Path, source: str | None, all_cores: bool,
     cmd = [sys.executable, '-m', 'cam_metrology', 'analyze', str(bag), '--json', str(out)]
     if not all_cores:
         cmd.append('--only-metrology')
+    # run in the bag's folder: ``python -m`` puts the working directory first on the path
     done = subprocess.run([sys.executable, '-c', _WRAPPER, *cmd], env=env, check=True,
-                          capture_output=True, text=True)
+                          capture_output=True, text=True, cwd=bag.parent)
     code, wall, rss_kb = done.stdout.split()
     return int(rss_kb) / 1024.0, float(wall), int(code)
 
@@ -140,6 +141,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument('--baseline', metavar='DIR', help='source tree of the earlier cam-bench')
     p.add_argument('--source', metavar='DIR', help='source tree for the "after" columns '
                    '(default: this one)')
+    p.add_argument('--baseline-max', type=float, default=2e7, metavar='N',
+                   help='run the baseline only on bags of at most N samples')
     p.add_argument('--all-cores', action='store_true')
     p.add_argument('--tmp', default=tempfile.gettempdir(), help='folder for the bags')
     args = p.parse_args(argv)
@@ -147,8 +150,8 @@ def main(argv: list[str] | None = None) -> None:
     sizes = [int(float(s)) for s in args.sizes.split(',')]
     rows: list[dict[str, Any]] = []
     notes: list[str] = []
-    for shape in args.shapes.split(','):
-        for size in sizes:
+    for size in sizes:   # small bags of every shape first
+        for shape in args.shapes.split(','):
             free = shutil.disk_usage(args.tmp).free
             if free < DISK_MARGIN * DISK_PER_SAMPLE * size:
                 notes.append(f'{shape} {size}: skipped, {free / 1e9:.1f} GB free in '
@@ -163,7 +166,7 @@ def main(argv: list[str] | None = None) -> None:
                                        'write_s': time.perf_counter() - t0}
                 new = measure(work / 'bag', work / 'new.json', args.source, args.all_cores)
                 row.update(new_rss=new[0], new_s=new[1], code=new[2])
-                if args.baseline:
+                if args.baseline and n <= args.baseline_max:
                     old = measure(work / 'bag', work / 'old.json', args.baseline,
                                   args.all_cores)
                     row.update(old_rss=old[0], old_s=old[1])
