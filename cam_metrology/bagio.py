@@ -999,7 +999,8 @@ def decode_joint_states(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | Non
                                 np.asarray(log_ns, dtype=np.int64), first)
 
 
-def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray[np.int64],
+def _decode_joint_buffer(data: bytes | bytearray, start: NDArray[np.int64],
+                         lengths: NDArray[np.int64],
                          log_ns: NDArray[np.int64], first: int = 0) -> JointSamples:
     """Decode the JointState messages at ``data[start:start+lengths]`` (numpy).
 
@@ -1008,7 +1009,11 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
     n = int(start.size)
     if n == 0:
         return decode_joint_states([])
-    buf = np.frombuffer(data + b'\0' * 16, dtype=np.uint8)
+    if isinstance(data, bytearray):   # a streamed block: padded in place, not copied
+        data.extend(b'\0' * 16)
+        buf = np.frombuffer(data, dtype=np.uint8)
+    else:
+        buf = np.frombuffer(data + b'\0' * 16, dtype=np.uint8)
     kind = buf[start + 1]
     bad = (buf[start] != 0) | (kind > 1) | (lengths < 4)
     if np.any(bad):
@@ -1209,7 +1214,7 @@ def _distinct_name_lists(codes: list[NDArray[np.int64]], texts: list[NDArray[np.
 #: uncompressed MCAP chunk bytes decoded at once by ``iter_joint_states`` (on the
 #: rosbags path: message bytes); the reader's memory is a few times this, whatever
 #: the size of the bag
-STREAM_BLOCK_BYTES = 8 << 20
+STREAM_BLOCK_BYTES = 4 << 20
 
 
 def iter_joint_states(path: str | Path, topic: str = JOINT_STATES, *, direct: bool = True,
@@ -1270,7 +1275,7 @@ def _iter_reader_blocks(reader: Any, conns: Sequence[Any], block_bytes: int,
 
 
 #: (records, message starts, lengths, log times) of a block of MCAP messages
-_RawBlock = tuple[bytes, NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
+_RawBlock = tuple[bytearray, NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
 
 
 class _PlannedChunk(NamedTuple):
@@ -1363,7 +1368,7 @@ def _read_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str]
     """(records, starts, lengths, log times) of the planned messages of some chunks,
     sorted by log time then by position in the bag (file, then offset: the recorded
     order)."""
-    parts: list[bytes] = []
+    data = bytearray()   # grown chunk by chunk: the block is held once
     found_all: list[tuple[NDArray[np.int64], ...]] = []
     base = 0
     for c in sorted(block, key=lambda c: (c.file, c.index.chunk_start_offset)):
@@ -1380,13 +1385,14 @@ def _read_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str]
         if found is None:
             found = _walk_messages(records, c.chans)
         found_all.append((found[0] + base, found[1], found[2]))
-        parts.append(records)
+        data += records
         base += len(records)
+        del records
     starts = np.concatenate([s for s, _, _ in found_all])
     logs = np.concatenate([g for _, _, g in found_all])
     order = np.lexsort((starts, logs))   # log time, then recorded order
     lengths = np.concatenate([n for _, n, _ in found_all])[order]
-    return b''.join(parts), starts[order], lengths, logs[order]
+    return data, starts[order], lengths, logs[order]
 
 
 def _iter_mcap_raw(bag: Path, topics: Iterable[str],
