@@ -11,14 +11,16 @@ Delivery rules (what a core sees):
 * ``handle(topic, msg, stamp_ns)``: ``msg`` decoded by rosbags (same fields as the
   rclpy message), ``stamp_ns`` the bag's log time (receive time) [ns]. A JointState
   sample and another message with the same log time: the sample comes first.
-* ``/bench/joint_states`` is decoded with the fast numpy path (``bagio``). A core
+* ``/bench/joint_states`` is decoded with the fast numpy path, streamed in blocks
+  (``bagio.iter_joint_states``): memory does not grow with the bag. A core
   with a bulk method ``handle_samples(frame_ids, stamp_ns, theta, s[, rx_ns])`` gets
   contiguous runs of samples as arrays (``stamp_ns`` header stamps, ``rx_ns`` the log
   time of the run's last sample); otherwise it gets one ``handle`` call per sample
   with a light JointState look-alike (``header.frame_id``, ``header.stamp.sec/
   nanosec``, ``name`` = (camshaft, probe), ``position`` = (theta, s); NaN where the
-  message lacked the joint). Runs are cut at every other message and at log-time gaps
-  longer than ``tick_period``, so per-sample and bulk delivery see the same order.
+  message lacked the joint). Runs are cut at every other message, at log-time gaps
+  longer than ``tick_period`` and at the end of a block, so per-sample and bulk
+  delivery see the same order.
 * ``tick(now_ns)`` is called on a grid of ``tick_period`` inside every log-time gap
   (as the live timer would fire; at most ``MAX_TICKS_PER_GAP`` per gap, plus one just
   before the next message), so idle timeouts end features as they would live.
