@@ -100,8 +100,11 @@ def test_overlapping_chunks_and_issues_are_merged_exactly(tmp_path):
         s = _summary(blocks)
         assert (s.count, s.names, s.features, s.issues) == \
             (len(whole), whole.names, whole.features, whole.issues)
-    # the chunks overlap in log time: fewer blocks than chunks even at 1 byte a block
-    assert len(list(bagio.iter_joint_states(bag, block_bytes=1))) < 4
+    # the chunks overlap in log time: one block even at 1 byte a block
+    from mcap.reader import make_reader
+    with open(next(bag.glob('*.mcap')), 'rb') as f:
+        assert len(make_reader(f).get_summary().chunk_indexes) >= 2
+    assert len(list(bagio.iter_joint_states(bag, block_bytes=1))) == 1
     fallback = list(bagio.iter_joint_states(bag, direct=False, block_bytes=50_000))
     assert len(fallback) > 3
     _same_samples(fallback, whole)
