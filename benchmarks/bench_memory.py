@@ -111,18 +111,19 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for shape, marker in (('rounds', 'o'), ('revolutions', 's')):
-        for key, style, label in (('old_rss', '--', 'before (whole bag)'),
-                                  ('new_rss', '-', 'streamed')):
+    for shape, colour in (('rounds', 'C0'), ('revolutions', 'C3')):
+        for key, style, fill, label in (('old_rss', '--', 'none', 'before (whole bag)'),
+                                        ('new_rss', '-', colour, 'streamed')):
             pts = [(r['samples'], r[key]) for r in rows
                    if r['shape'] == shape and r.get(key) is not None]
             if pts:
                 x, y = zip(*pts)
-                ax.plot(x, y, style, marker=marker, label=f'{label}, {shape}')
+                ax.plot(x, y, style, color=colour, marker='o', mfc=fill,
+                        label=f'{label}, {shape}')
     ax.axhline(300, color='grey', lw=0.8, ls=':')
-    ax.text(1.1e4, 320, '300 MB', color='grey')
+    ax.text(1.1e4, 310, '300 MB', color='grey')
     ax.set_xscale('log')
-    ax.set_yscale('log')
+    ax.set_ylim(bottom=0)
     ax.set_xlabel('JointState samples in the bag')
     ax.set_ylabel('peak RSS of analyze [MB]')
     ax.set_title('cam-bench analyze --only-metrology: peak memory')
