@@ -49,7 +49,7 @@ __all__ = [
     'BagTopic', 'bag_connections', 'JointIssue', 'MAX_NAME_BYTES', 'BagScene',
     'bag_scenes', 'require_scenes',
     'topic_qos_yaml', 'copy_bag', 'recover_bag', 'Recovered', 'add_topics_like',
-    'topic_definitions',
+    'topic_definitions', 'iter_joint_states', 'JointSummary', 'STREAM_BLOCK_BYTES',
 ]
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
@@ -465,7 +465,12 @@ def iter_messages(path: str | Path, topics: Iterable[str] | None = None,
         conns = [c for c in reader.connections if wanted is None or c.topic in wanted]
         if not conns:
             return
-        for conn, stamp, data in reader.messages(connections=conns):
+        direct = _iter_mcap_raw(Path(path), {c.topic for c in conns})
+        if direct is not None:
+            conn_of = {c.topic: c for c in conns}
+            found = ((conn_of[topic], stamp, data) for topic, stamp, data in direct)
+        for conn, stamp, data in (found if direct is not None
+                                  else reader.messages(connections=conns)):
             try:
                 msg = data if raw else reader.deserialize(data, conn.msgtype)
             except InputError as exc:   # name the topic and the message's log time
@@ -619,24 +624,12 @@ def _read_mcap_direct(bag: Path, topic: str,
     """(buffer, message starts, lengths, log times) of ``topic`` in log-time order, read
     straight from the MCAP chunks of a rosbag2 directory; None if the bag is not an
     indexed, chunked MCAP bag without file compression (the caller falls back)."""
-    import yaml
     from mcap.reader import make_reader
 
-    if bag.is_file():
-        files = [bag.name]
-        bag = bag.parent
-    else:
-        try:
-            from cam_metrology.yaml_input import load_yaml
-            info = load_yaml((bag / 'metadata.yaml').read_text(), 'metadata.yaml')[
-                'rosbag2_bagfile_information']
-        except (OSError, KeyError, TypeError, yaml.YAMLError, InputError):
-            return None
-        if info.get('storage_identifier') != 'mcap' or info.get('compression_mode') not in (
-                '', None, 'none', 'NONE'):
-            return None
-        files = info.get('relative_file_paths') or [f.get('path')
-                                                    for f in info.get('files', [])]
+    found_files = _direct_mcap_files(bag)
+    if found_files is None:
+        return None
+    bag, files = found_files
     parts: list[bytes] = []
     starts: list[NDArray[np.int64]] = []
     lengths: list[NDArray[np.int64]] = []
@@ -682,6 +675,27 @@ def _read_mcap_direct(bag: Path, topic: str,
     order = np.lexsort((start_arr, log_arr))   # log time, then recorded order
     return (b''.join(parts), start_arr[order], np.concatenate(lengths)[order],
             log_arr[order])
+
+
+def _direct_mcap_files(bag: Path) -> tuple[Path, list[str]] | None:
+    """(directory, MCAP file names) of a bag the direct readers can take: a bare
+    ``.mcap`` file, or a rosbag2 directory with MCAP storage and no file compression;
+    None otherwise (the caller goes through the rosbags reader)."""
+    import yaml
+
+    if bag.is_file():
+        return bag.parent, [bag.name]
+    try:
+        from cam_metrology.yaml_input import load_yaml
+        info = load_yaml((bag / 'metadata.yaml').read_text(), 'metadata.yaml')[
+            'rosbag2_bagfile_information']
+    except (OSError, KeyError, TypeError, yaml.YAMLError, InputError):
+        return None
+    if info.get('storage_identifier') != 'mcap' or info.get('compression_mode') not in (
+            '', None, 'none', 'NONE'):
+        return None
+    return bag, list(info.get('relative_file_paths') or [f.get('path')
+                                                         for f in info.get('files', [])])
 
 
 def _indexed_messages(f: Any, index: Any, chans: list[int], records: bytes,
@@ -761,8 +775,9 @@ def _chunk_records(raw: bytes) -> bytes | None:
 
 
 def decode_joint_states(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | None = None,
-                        ) -> JointSamples:
-    """Vectorised CDR decode of JointState messages (see ``read_joint_states``)."""
+                        first: int = 0) -> JointSamples:
+    """Vectorised CDR decode of JointState messages (see ``read_joint_states``);
+    ``first``: index on the topic of the first message (named in errors)."""
     n = len(chunks)
     if log_ns is None:
         log_ns = np.zeros(n, dtype=np.int64)
@@ -774,21 +789,30 @@ def decode_joint_states(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | Non
     start = np.zeros(n, dtype=np.int64)
     np.cumsum(lengths[:-1], out=start[1:])
     return _decode_joint_buffer(b''.join(chunks), start, lengths,
-                                np.asarray(log_ns, dtype=np.int64))
+                                np.asarray(log_ns, dtype=np.int64), first)
 
 
-def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray[np.int64],
-                         log_ns: NDArray[np.int64]) -> JointSamples:
-    """Decode the JointState messages at ``data[start:start+lengths]`` (numpy)."""
+def _decode_joint_buffer(data: bytes | bytearray, start: NDArray[np.int64],
+                         lengths: NDArray[np.int64],
+                         log_ns: NDArray[np.int64], first: int = 0) -> JointSamples:
+    """Decode the JointState messages at ``data[start:start+lengths]`` (numpy).
+
+    ``first``: index of the first of these messages on the topic (a block of a
+    streamed read), so that errors and issues name the message's index in the bag."""
     n = int(start.size)
     if n == 0:
         return decode_joint_states([])
-    buf = np.frombuffer(data + b'\0' * 16, dtype=np.uint8)
+    if isinstance(data, bytearray):   # a streamed block: padded in place, not copied
+        data.extend(b'\0' * 16)
+        buf = np.frombuffer(data, dtype=np.uint8)
+    else:
+        buf = np.frombuffer(data + b'\0' * 16, dtype=np.uint8)
     kind = buf[start + 1]
     bad = (buf[start] != 0) | (kind > 1) | (lengths < 4)
     if np.any(bad):
         i = int(np.argmax(bad))
-        raise InputError(f'{JOINT_STATES}[{i}]', bytes(buf[start[i]:start[i] + 4]).hex(),
+        raise InputError(f'{JOINT_STATES}[{first + i}]',
+                         bytes(buf[start[i]:start[i] + 4]).hex(),
                          'plain CDR encapsulation (00 00 big-endian or 00 01 '
                          'little-endian) as ROS 2 writes it')
     big = kind == 0   # encapsulation CDR_BE = 00 00, CDR_LE = 00 01
@@ -816,7 +840,7 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
     def check(off: NDArray[np.int64]) -> None:
         if np.any(off > end):
             bad = int(np.argmax(off > end))
-            raise InputError(f'{JOINT_STATES}[{bad}]', f'{int(lengths[bad])} bytes',
+            raise InputError(f'{JOINT_STATES}[{first + bad}]', f'{int(lengths[bad])} bytes',
                              'a complete sensor_msgs/JointState CDR message')
 
     sec = u32(base).astype(np.int64)
@@ -825,7 +849,7 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
     stamp = sec * 1_000_000_000 + nsec
     flen = u32(base + 8)
     check(base + 12 + flen)
-    frame_ids, features = _strings(buf, base + 12, flen)
+    frame_ids, features = _strings(buf, base + 12, flen, first)
     off = align(base + 12 + flen, 4)
     check(off + 4)
     count = u32(off)
@@ -837,7 +861,7 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
     max_count = int(count.max()) if n else 0
     if max_count > 64:
         bad = int(np.argmax(count))
-        raise InputError(f'{JOINT_STATES}[{bad}].name', f'{max_count} names',
+        raise InputError(f'{JOINT_STATES}[{first + bad}].name', f'{max_count} names',
                          'a JointState message (at most 64 joints)')
     for j in range(max_count):
         has = count > j
@@ -853,7 +877,7 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
                 eq = np.all(got == np.frombuffer(raw, dtype=np.uint8), axis=1)
                 rows = np.nonzero(hit)[0][eq]
                 idx[rows] = j
-        texts, codes = _string_codes(buf, off + 4, np.where(has, nlen, 0), 'name')
+        texts, codes = _string_codes(buf, off + 4, np.where(has, nlen, 0), 'name', first)
         name_codes.append(np.where(has, codes, -1))
         name_texts.append(texts)
         off = np.where(has, off + 4 + nlen, off)
@@ -871,7 +895,7 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
         return out
 
     names = _distinct_name_lists(name_codes, name_texts, n)
-    issues = _joint_issues(cam_idx, probe_idx, count, pcount, name_codes, name_texts)
+    issues = _joint_issues(cam_idx, probe_idx, count, pcount, name_codes, name_texts, first)
     return JointSamples(frame_id=frame_ids, stamp_ns=stamp.astype(np.int64),
                         log_ns=np.asarray(log_ns, dtype=np.int64),
                         theta=pick(cam_idx), s=pick(probe_idx), names=names,
@@ -881,7 +905,7 @@ def _decode_joint_buffer(data: bytes, start: NDArray[np.int64], lengths: NDArray
 def _joint_issues(cam_idx: NDArray[np.int64], probe_idx: NDArray[np.int64],
                   count: NDArray[np.int64], pcount: NDArray[np.int64],
                   codes: list[NDArray[np.int64]], texts: list[NDArray[np.str_]],
-                  ) -> tuple[JointIssue, ...]:
+                  first: int = 0) -> tuple[JointIssue, ...]:
     """What makes messages unusable: a missing ``camshaft`` or ``probe`` joint, fewer
     positions than names (docs/contract.md §2), naming the first message of each."""
     def names_of(i: int) -> list[str]:
@@ -892,13 +916,13 @@ def _joint_issues(cam_idx: NDArray[np.int64], probe_idx: NDArray[np.int64],
         bad = idx < 0
         if np.any(bad):
             i = int(np.argmax(bad))
-            out.append(JointIssue(f'{JOINT_STATES}[{i}].name', names_of(i),
+            out.append(JointIssue(f'{JOINT_STATES}[{first + i}].name', names_of(i),
                                   f'a joint named {joint!r} (joints are looked up by name)',
                                   int(bad.sum())))
     short = pcount < count
     if np.any(short):
         i = int(np.argmax(short))
-        out.append(JointIssue(f'{JOINT_STATES}[{i}].position',
+        out.append(JointIssue(f'{JOINT_STATES}[{first + i}].position',
                               f'{int(pcount[i])} values for {int(count[i])} names '
                               f'{names_of(i)}', 'one position per name', int(short.sum())))
     return tuple(out)
@@ -911,7 +935,7 @@ STRING_BLOCK_BYTES = 1 << 24
 
 
 def _string_codes(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[np.int64],
-                  field_name: str = 'string',
+                  field_name: str = 'string', first: int = 0,
                   ) -> tuple[NDArray[np.str_], NDArray[np.int64]]:
     """Per-message CDR strings at ``off`` (byte count ``nlen`` incl. the NUL) as
     (distinct texts, code per message into them). Vectorised: the bytes are gathered
@@ -922,7 +946,8 @@ def _string_codes(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[
     n = int(off.size)
     if n and int(nlen.max()) - 1 > MAX_NAME_BYTES:
         i = int(np.argmax(nlen))
-        raise InputError(f'{JOINT_STATES}[{i}].{field_name}', f'{int(nlen[i]) - 1} bytes',
+        raise InputError(f'{JOINT_STATES}[{first + i}].{field_name}',
+                         f'{int(nlen[i]) - 1} bytes',
                          f'a string of at most {MAX_NAME_BYTES} bytes')
     width = max(int(nlen.max()) - 1, 1) if n else 1
     rows = max(1, STRING_BLOCK_BYTES // (9 * width))   # int64 index + byte matrix
@@ -954,10 +979,10 @@ def _byte_strided(buf: NDArray[np.uint8], dtype: str) -> NDArray[Any]:
 
 
 def _strings(buf: NDArray[np.uint8], off: NDArray[np.int64], nlen: NDArray[np.int64],
-             ) -> tuple[NDArray[np.str_], tuple[str, ...]]:
+             first: int = 0) -> tuple[NDArray[np.str_], tuple[str, ...]]:
     """Per-message strings as a numpy str array, and the distinct ones in order of
     first appearance."""
-    texts, codes = _string_codes(buf, off, nlen, 'header.frame_id')
+    texts, codes = _string_codes(buf, off, nlen, 'header.frame_id', first)
     first = np.unique(codes, return_index=True)[1]
     order = tuple(str(texts[codes[i]]) for i in np.sort(first))
     if texts.dtype.itemsize > 4 * 64:   # long ids: shared str objects, not n fixed-width
@@ -975,6 +1000,255 @@ def _distinct_name_lists(codes: list[NDArray[np.int64]], texts: list[NDArray[np.
     _, first = np.unique(mat, axis=0, return_index=True)
     return tuple(tuple(str(texts[j][c]) for j, c in enumerate(mat[i]) if c >= 0)
                  for i in np.sort(first))
+
+
+# ------------------------------------------------------------------ streamed reads
+
+#: uncompressed MCAP chunk bytes decoded at once by ``iter_joint_states`` (on the
+#: rosbags path: message bytes); the reader's memory is a few times this, whatever
+#: the size of the bag
+STREAM_BLOCK_BYTES = 4 << 20
+
+
+def iter_joint_states(path: str | Path, topic: str = JOINT_STATES, *, direct: bool = True,
+                      block_bytes: int = STREAM_BLOCK_BYTES) -> Iterator[JointSamples]:
+    """The samples of ``topic`` as consecutive blocks, in memory bounded by
+    ``block_bytes`` whatever the size of the bag.
+
+    Concatenated, the blocks are exactly what ``read_joint_states`` returns (same
+    order: log time, ties in recorded order). Each block is a ``JointSamples`` of its
+    own messages: its ``names``, ``features`` and ``issues`` are the block's, and an
+    issue or an error names a message by its index on the topic in the whole bag;
+    ``JointSummary`` merges them into those of the whole topic. MCAP chunks whose
+    log-time ranges overlap are decoded together (their messages are sorted across
+    them), so a bag whose chunks all overlap is read as one block.
+    """
+    if block_bytes < 1:
+        raise InputError('block_bytes', block_bytes, 'a block size >= 1 byte')
+    reader = _open_reader(path)
+    close = True
+    try:
+        conns = [c for c in reader.connections if c.topic == topic]
+        for conn in conns:
+            if conn.msgtype != 'sensor_msgs/msg/JointState':
+                raise InputError(f'topic {topic}', conn.msgtype, 'sensor_msgs/msg/JointState')
+        if not conns:
+            return
+        plan = _mcap_stream_plan(Path(path), [topic]) if direct else None
+        if plan is None:   # rosbags' reader, in blocks of messages
+            close = False
+            yield from _iter_reader_blocks(reader, conns, block_bytes)
+            return
+    finally:
+        if close:
+            reader.close()
+    yield from _iter_mcap_blocks(plan, block_bytes)
+
+
+def _iter_reader_blocks(reader: Any, conns: Sequence[Any], block_bytes: int,
+                        ) -> Iterator[JointSamples]:
+    """Blocks of about ``block_bytes`` of messages from a rosbags reader (closed at the
+    end)."""
+    try:
+        chunks: list[bytes] = []
+        logs: list[int] = []
+        size = first = 0
+        for _, stamp, data in reader.messages(connections=conns):
+            chunks.append(data)
+            logs.append(stamp)
+            size += len(data)
+            if size >= block_bytes:
+                yield decode_joint_states(chunks, np.asarray(logs, dtype=np.int64), first)
+                first += len(chunks)
+                chunks, logs, size = [], [], 0
+        if chunks:
+            yield decode_joint_states(chunks, np.asarray(logs, dtype=np.int64), first)
+    finally:
+        reader.close()
+
+
+#: (records, message starts, lengths, log times) of a block of MCAP messages
+_RawBlock = tuple[bytearray, NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
+
+
+class _PlannedChunk(NamedTuple):
+    """One MCAP chunk holding messages of the topic: file number, its ChunkIndex, the
+    channels whose MessageIndex it has, and every channel of the topic."""
+
+    file: int
+    index: Any
+    wanted: list[int]
+    chans: set[int]
+
+
+def _mcap_stream_plan(bag: Path, topics: Iterable[str],
+                      ) -> tuple[Path, list[str], list[_PlannedChunk]] | None:
+    """(directory, files, chunks holding messages of ``topics``) of a bag the direct
+    reader takes (indexed, chunked MCAP, chunks uncompressed, zstd or lz4); None
+    otherwise."""
+    wanted_topics = set(topics)
+    from mcap.reader import make_reader
+
+    found = _direct_mcap_files(bag)
+    if found is None:
+        return None
+    folder, files = found
+    plan: list[_PlannedChunk] = []
+    for k, name in enumerate(files):
+        try:
+            with open(folder / name, 'rb') as f:
+                summary = make_reader(f).get_summary()
+        except Exception:   # noqa: BLE001 - any mcap error: let AnyReader decide
+            return None
+        if summary is None or not summary.chunk_indexes:
+            if summary is not None and not summary.channels:
+                continue
+            return None
+        chans = {cid for cid, ch in summary.channels.items() if ch.topic in wanted_topics}
+        for index in summary.chunk_indexes if chans else ():
+            indexed = index.message_index_offsets
+            wanted = sorted(c for c in chans if indexed.get(c))
+            if indexed and not wanted:
+                continue   # no message of the topic in this chunk
+            if index.compression not in ('', 'zstd', 'lz4'):
+                return None
+            plan.append(_PlannedChunk(k, index, wanted, chans))
+    return folder, files, plan
+
+
+def _iter_mcap_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
+                      block_bytes: int) -> Iterator[JointSamples]:
+    """Decode the planned chunks' JointStates in blocks (``_iter_chunk_blocks``)."""
+    first = 0
+    for data, starts, lengths, logs in _iter_chunk_blocks(plan, block_bytes):
+        samples = _decode_joint_buffer(data, starts, lengths, logs, first)
+        first += len(samples)
+        yield samples
+
+
+def _iter_chunk_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
+                       block_bytes: int,
+                       ) -> Iterator[_RawBlock]:
+    """(records, message starts, lengths, log times) of the planned chunks' messages,
+    block by block, sorted by log time then recorded order. Chunks are taken by the
+    start of their log-time range; chunks whose ranges overlap (or touch) stay in one
+    group, so no message of a later group can precede one of an earlier group; a
+    block is one or more whole groups of about ``block_bytes``."""
+    folder, files, chunks = plan
+    chunks = sorted(chunks, key=lambda c: (c.index.message_start_time, c.file,
+                                           c.index.chunk_start_offset))
+    handles: dict[int, Any] = {}
+    try:
+        block: list[_PlannedChunk] = []
+        size, end = 0, None
+        for c in chunks:
+            if block and c.index.message_start_time > end and size >= block_bytes:
+                yield _read_chunk_block(block, folder, files, handles)
+                block, size = [], 0
+            block.append(c)
+            size += int(c.index.uncompressed_size)
+            end = c.index.message_end_time if end is None else max(
+                end, c.index.message_end_time)
+        if block:
+            yield _read_chunk_block(block, folder, files, handles)
+    finally:
+        for f in handles.values():
+            f.close()
+
+
+def _read_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str],
+                      handles: dict[int, Any]) -> _RawBlock:
+    """(records, starts, lengths, log times) of the planned messages of some chunks,
+    sorted by log time then by position in the bag (file, then offset: the recorded
+    order)."""
+    data = bytearray()   # grown chunk by chunk: the block is held once
+    found_all: list[tuple[NDArray[np.int64], ...]] = []
+    base = 0
+    for c in sorted(block, key=lambda c: (c.file, c.index.chunk_start_offset)):
+        if c.file not in handles:
+            handles[c.file] = open(folder / files[c.file], 'rb')
+        f = handles[c.file]
+        f.seek(c.index.chunk_start_offset)
+        records = _chunk_records(f.read(c.index.chunk_length))
+        if records is None:
+            raise InputError('bag', str(folder / files[c.file]),
+                             f'a readable MCAP chunk at byte {c.index.chunk_start_offset} '
+                             '(`cam-bench bag check` names the damaged range)')
+        found = _indexed_messages(f, c.index, c.wanted, records) if c.wanted else None
+        if found is None:
+            found = _walk_messages(records, c.chans)
+        found_all.append((found[0] + base, found[1], found[2]))
+        data += records
+        base += len(records)
+        del records
+    starts = np.concatenate([s for s, _, _ in found_all])
+    logs = np.concatenate([g for _, _, g in found_all])
+    order = np.lexsort((starts, logs))   # log time, then recorded order
+    lengths = np.concatenate([n for _, n, _ in found_all])[order]
+    return data, starts[order], lengths, logs[order]
+
+
+def _iter_mcap_raw(bag: Path, topics: Iterable[str],
+                   ) -> Iterator[tuple[str, int, bytes]] | None:
+    """(topic, log time, CDR bytes) of the messages of ``topics`` in log-time order
+    (ties in recorded order), read straight from the MCAP chunks that hold them (their
+    MessageIndex says which): a topic of a few messages is found without reading the
+    rest of the bag. None when the bag is not one the direct reader takes. For a
+    single-file bag only (channel ids are per file)."""
+    from mcap.reader import make_reader
+
+    plan = _mcap_stream_plan(bag, topics)
+    if plan is None or len(plan[1]) != 1:
+        return None
+    try:
+        with open(plan[0] / plan[1][0], 'rb') as f:
+            channels = make_reader(f).get_summary().channels
+    except Exception:   # noqa: BLE001 - any mcap error: let the rosbags reader decide
+        return None
+    topic_of = {cid: ch.topic for cid, ch in channels.items()}
+
+    def messages() -> Iterator[tuple[str, int, bytes]]:
+        for data, starts, lengths, logs in _iter_chunk_blocks(plan, STREAM_BLOCK_BYTES):
+            view = memoryview(data)
+            chan = _U16.unpack_from
+            for s, n, g in zip(starts.tolist(), lengths.tolist(), logs.tolist()):
+                yield topic_of[chan(data, s - 22)[0]], g, bytes(view[s:s + n])
+
+    return messages()
+
+
+_U16 = struct.Struct('<H')
+
+
+@dataclass
+class JointSummary:
+    """The whole topic's ``names``, ``features`` and ``issues`` (as
+    ``read_joint_states`` gives them) merged from blocks of ``iter_joint_states``, and
+    ``count``: the messages seen."""
+
+    count: int = 0
+    names: tuple[tuple[str, ...], ...] = ()
+    features: tuple[str, ...] = ()
+    issues: tuple[JointIssue, ...] = ()
+
+    def add(self, block: JointSamples) -> None:
+        """Merge one block (blocks in stream order)."""
+        self.count += len(block)
+        self.names = self.names + tuple(x for x in block.names if x not in self.names)
+        self.features = self.features + tuple(x for x in block.features
+                                              if x not in self.features)
+        merged = {_issue_kind(i): i for i in self.issues}
+        for issue in block.issues:
+            old = merged.get(_issue_kind(issue))
+            merged[_issue_kind(issue)] = issue if old is None else \
+                old._replace(count=old.count + issue.count)
+        self.issues = tuple(merged[k] for k in sorted(merged))
+
+
+def _issue_kind(issue: JointIssue) -> tuple[bool, bool]:
+    """Sort key and identity of an issue, in the order ``_joint_issues`` lists them:
+    no camshaft joint, no probe joint, too few positions."""
+    return issue.key.endswith('.position'), f'{CAMSHAFT_JOINT!r}' not in issue.expected
 
 
 # -------------------------------------------------------------------------- copying

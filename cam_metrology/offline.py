@@ -20,11 +20,13 @@ def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool,
     return [CORES[node](params.get(node)) for node in nodes], []
 
 
-def replay(bag: str, cores: list[Any]) -> Any:
-    """Run the bag through the cores with ``replay.run_offline`` (the live code path)."""
+def replay(bag: str, cores: list[Any], *, keep_all: bool = True) -> Any:
+    """Run the bag through the cores with ``replay.run_offline`` (the live code path).
+    ``keep_all=False``: of the tables of a feature measured more than once only the
+    last is kept (memory bounded whatever the bag's length; not for ``--out-bag``)."""
     from cam_metrology.replay import run_offline
 
-    return run_offline(bag, cores)
+    return run_offline(bag, cores, superseded_tables=keep_all)
 
 
 def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, Any]:

@@ -11,14 +11,16 @@ Delivery rules (what a core sees):
 * ``handle(topic, msg, stamp_ns)``: ``msg`` decoded by rosbags (same fields as the
   rclpy message), ``stamp_ns`` the bag's log time (receive time) [ns]. A JointState
   sample and another message with the same log time: the sample comes first.
-* ``/bench/joint_states`` is decoded with the fast numpy path (``bagio``). A core
+* ``/bench/joint_states`` is decoded with the fast numpy path, streamed in blocks
+  (``bagio.iter_joint_states``): memory does not grow with the bag. A core
   with a bulk method ``handle_samples(frame_ids, stamp_ns, theta, s[, rx_ns])`` gets
   contiguous runs of samples as arrays (``stamp_ns`` header stamps, ``rx_ns`` the log
   time of the run's last sample); otherwise it gets one ``handle`` call per sample
   with a light JointState look-alike (``header.frame_id``, ``header.stamp.sec/
   nanosec``, ``name`` = (camshaft, probe), ``position`` = (theta, s); NaN where the
-  message lacked the joint). Runs are cut at every other message and at log-time gaps
-  longer than ``tick_period``, so per-sample and bulk delivery see the same order.
+  message lacked the joint). Runs are cut at every other message, at log-time gaps
+  longer than ``tick_period`` and at the end of a block, so per-sample and bulk
+  delivery see the same order.
 * ``tick(now_ns)`` is called on a grid of ``tick_period`` inside every log-time gap
   (as the live timer would fire; at most ``MAX_TICKS_PER_GAP`` per gap, plus one just
   before the next message), so idle timeouts end features as they would live.
@@ -42,7 +44,7 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_metrology import bagio
-from cam_metrology.outputs import Output, TextOutput
+from cam_metrology.outputs import Output, TableOutput, TextOutput
 from cam_metrology.wire.cdr import decode
 from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages
@@ -112,9 +114,14 @@ def order_cores(cores: Sequence[Any]) -> list[Any]:
 class _Router:
     """Delivers messages and routes outputs between cores; records the outputs."""
 
-    def __init__(self, cores: Sequence[Any], result: OfflineResult) -> None:
+    def __init__(self, cores: Sequence[Any], result: OfflineResult,
+                 superseded_tables: bool = True) -> None:
         self.cores = list(cores)
         self.result = result
+        #: False: a table output replaces the earlier one of its topic and label
+        self.superseded_tables = superseded_tables
+        self._table_at: dict[tuple[str, str], int] = {}
+        self._holes = 0
         self.subscribers: dict[str, list[Any]] = {}
         for core in self.cores:
             for topic in core.subscriptions:
@@ -131,7 +138,7 @@ class _Router:
         queue = [(source, o) for o in (outputs or ())]
         while queue:
             src, out = queue.pop(0)
-            self.result.outputs.append(StampedOutput(stamp_ns, src.name, out))
+            self.record(StampedOutput(stamp_ns, src.name, out))
             targets = [c for c in self.subscribers.get(out.topic, ()) if c is not src]
             if not targets:
                 continue
@@ -141,6 +148,31 @@ class _Router:
             msg = decode(encode_output(out, stamp_ns), msgtype_of(out))
             for core in targets:
                 queue += [(core, o) for o in (core.handle(out.topic, msg, stamp_ns) or ())]
+
+    def record(self, item: StampedOutput) -> None:
+        """Append an output; without ``superseded_tables``, drop the earlier table of
+        the same topic and label (a feature measured again), so that what is kept does
+        not grow with the number of measurements."""
+        outputs = self.result.outputs
+        if not self.superseded_tables and isinstance(item.output, TableOutput):
+            key = (item.output.topic, item.output.label)
+            old = self._table_at.get(key)
+            if old is not None:
+                outputs[old] = None   # type: ignore[call-overload]
+                self._holes += 1
+            self._table_at[key] = len(outputs)
+        outputs.append(item)
+        if self._holes > 64 and 2 * self._holes > len(outputs):
+            self.compact()
+
+    def compact(self) -> None:
+        """Remove the places of dropped tables from the output list."""
+        if self._holes:
+            kept = [o for o in self.result.outputs if o is not None]
+            self.result.outputs[:] = kept
+            self._table_at = {(o.output.topic, o.output.label): i
+                              for i, o in enumerate(kept) if isinstance(o.output, TableOutput)}
+            self._holes = 0
 
     def tick(self, now_ns: int) -> None:
         for core in self.cores:
@@ -161,12 +193,18 @@ def _bulk_method(core: Any) -> tuple[Callable[..., Any] | None, bool]:
 
 def run_offline(bag_path: str | Path, cores: Sequence[Any],
                 progress: Callable[[int, int], None] | None = None, *,
-                tick_period_ns: int = TICK_PERIOD_NS, bulk: bool = True) -> OfflineResult:
+                tick_period_ns: int = TICK_PERIOD_NS, bulk: bool = True,
+                block_bytes: int = bagio.STREAM_BLOCK_BYTES,
+                superseded_tables: bool = True) -> OfflineResult:
     """Replay ``bag_path`` through ``cores`` in-process (see the module doc).
 
     ``progress(done, total)`` is called as messages are fed (counting samples and
     other messages). ``bulk=False`` forces per-sample ``handle`` calls even for cores
-    with ``handle_samples`` (to compare both paths).
+    with ``handle_samples`` (to compare both paths). ``block_bytes``: size of the
+    blocks in which samples are read (``bagio.iter_joint_states``).
+    ``superseded_tables=False`` keeps, of the table outputs with the same topic and
+    label (a feature measured again), only the last one, so that memory does not grow
+    with a bag of repeated measurements; ``write_outputs`` needs them all (True).
     """
     if tick_period_ns <= 0:
         raise InputError('tick_period_ns', tick_period_ns, 'a period > 0 ns')
@@ -177,16 +215,14 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     wanted = {t for c in cores for t in c.subscriptions} - published
     topics = bagio.bag_topics(bag)
     result = OfflineResult(bag=bag, regenerated_topics=tuple(sorted(published & set(topics))))
-    router = _Router(cores, result)
+    router = _Router(cores, result, superseded_tables)
     joints = JOINT_STATES
-    samples = (bagio.read_joint_states(bag) if joints in wanted and joints in topics
-               else bagio.decode_joint_states([]))
-    others = list(bagio.iter_messages(bag, sorted(wanted - {joints}))) \
-        if wanted - {joints} else []
-    total = len(samples) + len(others)
-    result.samples = len(samples)
-    result.joint_issues = samples.issues
-    log = samples.log_ns
+    feed_joints = joints in wanted and joints in topics
+    blocks = bagio.iter_joint_states(bag, block_bytes=block_bytes) if feed_joints else iter(())
+    others = bagio.iter_messages(bag, sorted(wanted - {joints})) \
+        if wanted - {joints} else iter(())
+    total = sum(topics[t][1] for t in wanted if t in topics)
+    summary = bagio.JointSummary()
     joint_cores = router.subscribers.get(joints, [])
     done = 0
     last_t: int | None = None
@@ -199,11 +235,13 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
                 router.tick(int(now))
             router.tick(t - 1)
 
-    def feed_samples(i0: int, i1: int) -> None:
-        """Samples [i0, i1) to the JointState subscribers, cut at log-time gaps."""
+    def feed_samples(samples: bagio.JointSamples, i0: int, i1: int) -> None:
+        """Samples [i0, i1) of a block to the JointState subscribers, cut at log-time
+        gaps."""
         nonlocal last_t, done
         if i1 <= i0:
             return
+        log = samples.log_ns
         cuts = np.nonzero(np.diff(log[i0:i1]) > tick_period_ns)[0] + 1 + i0
         for a, b in zip([i0, *cuts.tolist()], [*cuts.tolist(), i1]):
             ticks_until(int(log[a]))
@@ -226,11 +264,8 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
             if progress is not None:
                 progress(done, total)
 
-    i = 0
-    for m in others:
-        j = int(np.searchsorted(log, m.stamp_ns, side='right'))
-        feed_samples(i, j)
-        i = j
+    def deliver(m: bagio.BagMessage) -> None:
+        nonlocal last_t, done
         ticks_until(m.stamp_ns)
         router.deliver(m.topic, m.msg, m.stamp_ns)
         result.delivered[m.topic] = result.delivered.get(m.topic, 0) + 1
@@ -238,15 +273,37 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
         done += 1
         if progress is not None and done % 1000 == 0:
             progress(done, total)
-    feed_samples(i, len(samples))
-    if len(samples):
-        result.delivered[joints] = len(samples)
+
+    # two streams in log-time order: sample blocks and the other messages; a sample
+    # and a message of the same log time: the sample first
+    nxt = next(others, None)
+    for samples in blocks:
+        summary.add(samples)
+        i = 0
+        while nxt is not None:
+            j = int(np.searchsorted(samples.log_ns, nxt.stamp_ns, side='right'))
+            if j == len(samples):
+                break   # the message comes after this whole block
+            feed_samples(samples, i, j)
+            i = j
+            deliver(nxt)
+            nxt = next(others, None)
+        feed_samples(samples, i, len(samples))
+        del samples   # one block in memory at a time
+    while nxt is not None:
+        deliver(nxt)
+        nxt = next(others, None)
+    result.samples = summary.count
+    result.joint_issues = summary.issues
+    if summary.count:
+        result.delivered[joints] = summary.count
     end = last_t if last_t is not None else 0
     # the live timer keeps running after the stream: idle timeouts can fire first
     for core in cores:
         router.emit(core, core.tick(end + 10**12), end)
     for core in cores:
         router.emit(core, core.finish(), end)
+    router.compact()
     if progress is not None:
         progress(total, total)
     result.elapsed_s = time.perf_counter() - t_start

@@ -345,21 +345,31 @@ def iter_joint_state_messages(run: BenchRun) -> Iterator[tuple[int, str, float, 
 
 def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = None, *,
                   compression: bool = True,
-                  progress: Callable[[int, int], None] | None = None) -> BenchRun:
+                  progress: Callable[[int, int], None] | None = None,
+                  rounds: int = 1) -> BenchRun:
     """Simulate and record a bag as the bench + recorder would (returns the run).
 
     Topics: ``/bench/scene`` (scene YAML) and ``/bench/truth`` (JSON) first, latched;
     ``/bench/joint_states`` (one message per sample, log time = header stamp);
     ``/bench/feature_done`` after each feature's last sample. ``progress(done, total)``
-    is called every 10 000 samples.
+    is called every 10 000 samples. ``rounds``: the bench measures every feature that
+    many times in a row (the same samples, each round later by the run's duration plus
+    ``feature_gap``): a long bag of repeated measurements of one part.
     """
     from cam_metrology.bagio import BagWriter
     from cam_metrology.wire.cdr import encode_joint_states, encode_string
     from cam_metrology.wire.topics import FEATURE_DONE, JOINT_STATES, SCENE, TOPIC_TYPES, TRUTH
 
+    if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)) or rounds < 1:
+        raise InputError('rounds', rounds, 'an integer >= 1')
     run = simulate(scene, params)
-    total = run.sample_count
+    total = run.sample_count * int(rounds)
     first = int(run.features[0].stamp_ns[0]) if run.features else DEFAULT_START_NS
+    period = 0
+    if run.features:
+        p = run.params
+        period = int(run.features[-1].stamp_ns[-1]) - first + int(round(1e9 / p.rate)) + \
+            int(round(p.feature_gap * 1e9))
     with BagWriter(path, compression=compression) as writer:
         for topic in (SCENE, TRUTH, JOINT_STATES, FEATURE_DONE):
             writer.add_topic(topic, TOPIC_TYPES[topic])
@@ -368,7 +378,7 @@ def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = Non
                      encode_string(json.dumps(run.truth, sort_keys=True)))
         done = 0
         write = writer.write
-        for feat in run.features:
+        for feat in (f for r in range(int(rounds)) for f in _shifted(run, r * period)):
             stamps = feat.stamp_ns.tolist()
             cdrs = encode_joint_states(feat.id, feat.stamp_ns, feat.theta, feat.s)
             for stamp, cdr in zip(stamps, cdrs):
@@ -380,3 +390,11 @@ def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = Non
     if progress is not None:
         progress(total, total)
     return run
+
+
+def _shifted(run: BenchRun, shift_ns: int) -> list[SimFeature]:
+    """The run's features with their stamps moved by ``shift_ns`` [ns]."""
+    if not shift_ns:
+        return list(run.features)
+    return [SimFeature(f.id, f.kind, f.true_angle, f.theta, f.s, f.stamp_ns + shift_ns)
+            for f in run.features]

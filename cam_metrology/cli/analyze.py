@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError('--out-bag', args.out_bag, 'a path that does not exist yet')
     cores, missing = make_cores(load_params(args.params), args.only_metrology)
     warnings = bag_warnings(args.bag)   # damaged bag, no or invalid scene: exit 2 here
-    result = replay(args.bag, cores)
+    result = replay(args.bag, cores, keep_all=bool(args.out_bag))
     if result.samples == 0:
         raise InputError('bag', args.bag, f'{JOINT_TOPIC} samples (the bag has none: '
                          'nothing to measure)')

@@ -291,16 +291,36 @@ def cmd_bag_info(args: argparse.Namespace) -> int:
                   f'{_datum_words(scene)}, '
                   f'direction {scene.direction:+d} (log time {sc.stamp_ns / 1e9:.6f} s)')
     if bagio.JOINT_STATES in topics:
-        js = bagio.read_joint_states(args.bag)
-        if len(js):
-            span = (int(js.log_ns.max()) - int(js.log_ns.min())) / 1e9
-            print(f'samples: {len(js)} over {span:.3f} s; joints {list(js.names)}')
-        for fid in js.features:
-            n = int((js.frame_id == fid).sum())
-            print(f'  {fid}: {n} samples')
-        for issue in js.issues:
-            print(f'unusable samples: {issue.text(len(js))}')
+        _print_samples(args.bag)
     return 0
+
+
+def _print_samples(bag: str) -> None:
+    """The samples of a bag, per feature, and the unusable ones (streamed: memory
+    does not grow with the bag)."""
+    import numpy as np
+
+    from cam_metrology import bagio
+
+    summary = bagio.JointSummary()
+    counts: dict[str, int] = {}
+    first = last = None
+    for block in bagio.iter_joint_states(bag):
+        summary.add(block)
+        if len(block):
+            lo, hi = int(block.log_ns.min()), int(block.log_ns.max())
+            first = lo if first is None else min(first, lo)
+            last = hi if last is None else max(last, hi)
+        ids, n = np.unique(block.frame_id, return_counts=True)
+        for fid, k in zip(ids.tolist(), n.tolist()):
+            counts[str(fid)] = counts.get(str(fid), 0) + int(k)
+    if first is not None and last is not None:
+        print(f'samples: {summary.count} over {(last - first) / 1e9:.3f} s; '
+              f'joints {list(summary.names)}')
+    for fid in summary.features:
+        print(f'  {fid}: {counts.get(fid, 0)} samples')
+    for issue in summary.issues:
+        print(f'unusable samples: {issue.text(summary.count)}')
 
 
 def cmd_bag_check(args: argparse.Namespace) -> int:
