@@ -324,15 +324,18 @@ def test_scene_check_prints_the_tolerances(tmp_path, capsys) -> None:
 
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parent.parent / 'config' / 'default_scene.yaml'
-            ).read_text()
+    import yaml
+
+    doc = yaml.safe_load((Path(__file__).resolve().parent.parent / 'config' /
+                          'default_scene.yaml').read_text())
+    doc.pop('tolerances')
     plain = tmp_path / 'plain.yaml'
-    plain.write_text(text)
+    plain.write_text(yaml.safe_dump(doc))
     assert main(['scene', 'check', str(plain)]) == 0
     assert 'tolerances: none (no verdict for this lobe)' in capsys.readouterr().out
     toleranced = tmp_path / 'tol.yaml'
-    toleranced.write_text(text + 'tolerances:\n  lift_error_um: 10\n  duration_deg: '
-                          '[-0.5, 0.3]\n  datum_deg: 1.5\n')
+    toleranced.write_text(yaml.safe_dump(doc) + 'tolerances:\n  lift_error_um: 10\n  '
+                          'duration_deg: [-0.5, 0.3]\n  datum_deg: 1.5\n')
     assert main(['scene', 'check', str(toleranced)]) == 0
     out = capsys.readouterr().out
     assert out.count('tolerances: lift error +-10 µm; duration [-0.5, +0.3] deg at 1 mm') == 4

@@ -243,7 +243,11 @@ def test_values_and_diagnostics_repeat_the_report(demo_bag: Path) -> None:
                                                                   abs=1e-12)
         else:
             assert math.isnan(got[f'{fid}/phase_error_deg'])
-    assert math.isnan(values['part']['part/verdict'])   # the demo scene has no tolerances
+    # the demo scene's tolerances accept this simulated part: verdict 1 (pass)
+    assert report['verdict']['result'] == 'pass' and values['part']['part/verdict'] == 1.0
+    for fid, feat in report['features'].items():
+        if feat.get('kind') == 'lobe':
+            assert values[fid][f'{fid}/verdict'] == 1.0
     diag = [st for m in _bag_messages(demo_bag, topics.DIAGNOSTICS)
             for st in layouts.statuses_from_msg(m)]
     results = [st for m in _bag_messages(demo_bag, topics.METROLOGY_RESULT)
