@@ -239,12 +239,10 @@ class CircularArcKnifeLaw(LiftLaw):
         return out
 
 
-class CycloidalLobe(LiftLaw):
-    """Cycloidal rise over ``rise`` rad to ``lift`` at the nose (alpha = 0) and cycloidal
-    fall over ``fall`` rad: h = H (s - sin(2 pi s) / (2 pi)), s the flank fraction from
-    the base circle (C2: h''' steps at the ends and at the nose)."""
-
-    continuity_order = 2
+class _FlankLobe(LiftLaw):
+    """A lobe of two flanks, rise over ``rise`` rad to ``lift`` at the nose (alpha = 0)
+    and fall over ``fall`` rad, each h = H f(s), s the flank fraction from the base
+    circle; a subclass gives d^nu f / ds^nu (``_shape``)."""
 
     def __init__(self, lift: float, rise: float, fall: float) -> None:
         self.lift, self.rise, self.fall = float(lift), float(rise), float(fall)
@@ -256,51 +254,42 @@ class CycloidalLobe(LiftLaw):
     @property
     def junctions(self) -> tuple[float, ...]:
         return (0.0,)
+
+    def _shape(self, s: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        raise NotImplementedError
 
     def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
         a = np.asarray(alpha, dtype=float)
         beta = np.where(a < 0, self.rise, self.fall)
         s = np.where(a < 0, (a + self.rise) / self.rise, (self.fall - a) / self.fall)
         sign = np.where(a < 0, 1.0, -1.0) ** nu       # ds/dalpha = +-1/beta
-        w = 2 * math.pi
-        if nu == 0:
-            out = s - np.sin(w * s) / w
-        elif nu == 1:
-            out = 1 - np.cos(w * s)
-        else:
-            out = w ** (nu - 1) * (np.sin(w * s) if nu == 2 else np.cos(w * s))
-        out = self.lift * out * sign / beta ** nu
+        out = self.lift * self._shape(s, nu) * sign / beta ** nu
         inside = (a >= -self.rise) & (a <= self.fall)
         return np.where(inside, out, 0.0)
 
 
-class HarmonicLobe(LiftLaw):
-    """Simple-harmonic (cosine) flanks: h = H (1 - cos(pi s)) / 2, s the flank fraction
-    from the base circle over ``rise`` / ``fall`` rad (C1: h'' steps at the base circle,
-    smooth through the nose only when rise = fall)."""
+class CycloidalLobe(_FlankLobe):
+    """Cycloidal flanks: f(s) = s - sin(2 pi s) / (2 pi) (C2: h''' steps at the ends
+    and at the nose)."""
+
+    continuity_order = 2
+
+    def _shape(self, s: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        w = 2 * math.pi
+        if nu == 0:
+            return s - np.sin(w * s) / w
+        if nu == 1:
+            return 1 - np.cos(w * s)
+        return w ** (nu - 1) * (np.sin(w * s) if nu == 2 else np.cos(w * s))
+
+
+class HarmonicLobe(_FlankLobe):
+    """Simple-harmonic (cosine) flanks: f(s) = (1 - cos(pi s)) / 2 (C1: h'' steps at
+    the base circle, smooth through the nose only when rise = fall)."""
 
     continuity_order = 1
 
-    def __init__(self, lift: float, rise: float, fall: float) -> None:
-        self.lift, self.rise, self.fall = float(lift), float(rise), float(fall)
-
-    @property
-    def support(self) -> tuple[float, float]:
-        return -self.rise, self.fall
-
-    @property
-    def junctions(self) -> tuple[float, ...]:
-        return (0.0,)
-
-    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
-        a = np.asarray(alpha, dtype=float)
-        beta = np.where(a < 0, self.rise, self.fall)
-        s = np.where(a < 0, (a + self.rise) / self.rise, (self.fall - a) / self.fall)
-        sign = np.where(a < 0, 1.0, -1.0) ** nu
-        # d^nu/ds^nu of (1 - cos(pi s)) / 2
+    def _shape(self, s: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
         phase = [np.cos, np.sin, np.cos, np.sin][nu % 4](math.pi * s)
         lead = [-1.0, 1.0, 1.0, -1.0][nu % 4] if nu else -1.0
-        out = (0.5 if nu == 0 else 0.0) + lead * 0.5 * math.pi ** nu * phase
-        out = self.lift * out * sign / beta ** nu
-        inside = (a >= -self.rise) & (a <= self.fall)
-        return np.where(inside, out, 0.0)
+        return (0.5 if nu == 0 else 0.0) + lead * 0.5 * math.pi ** nu * phase
