@@ -124,3 +124,18 @@ def test_insignificant_interaction_is_pooled() -> None:
     res = gauge_rr(y)
     assert res.anova['interaction']['p_value'] > 0.25 and res.interaction_pooled
     assert res.interaction == 0.0
+
+
+def test_summary_figures_match_a_published_crossed_study() -> None:
+    """Minitab's crossed gage R&R example (10 parts, 3 operators, 3 trials, interaction
+    pooled) publishes variance contributions of 7.76 % (total gage R&R) and 92.24 %
+    (part to part), a study variation of 27.86 % and 4 distinct categories. From those
+    variance shares our definitions must give the same %GRR and ndc (the raw data of
+    that study is not available here, so its ANOVA itself is not re-run)."""
+    from cam_metrology.quality.gauge_rr import GaugeRR
+
+    study = GaugeRR(anova={}, repeatability=0.0600, operator=0.0176, interaction=0.0,
+                    part=0.9224, interaction_pooled=True)
+    assert study.grr == pytest.approx(0.0776, abs=1e-12)
+    assert study.percent_grr == pytest.approx(27.86, abs=0.005)
+    assert study.ndc == 4
