@@ -5,6 +5,7 @@ Used by ``cam-bench analyze``, ``card``, ``golden``, ``batch`` and the pytest pl
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass, field
 from typing import Any
 
 from cam_metrology.wire.topics import METROLOGY_REPORT as REPORT_TOPIC
@@ -54,3 +55,137 @@ def other_skips(outputs: list[tuple[int, Any]]) -> list[dict[str, str]]:
                     out.append({'what': st.name[len('skipped/'):], 'why': st.message,
                                 'node': o.topic.split('/')[1]})
     return out
+
+
+def load_params(path: str | None) -> dict[str, dict[str, Any]]:
+    """node -> parameters from a ROS parameter file (empty when no file).
+
+    Raises InputError naming ``--params`` for an unreadable or malformed file, and
+    ``params.<node>`` for a node name that matches no core (a mistyped section would
+    otherwise be ignored without a word)."""
+    if path is None:
+        return {}
+    from cam_design.errors import InputError
+    from cam_metrology.params import load_params_doc, section_values
+    from cam_metrology.registry import CORES
+
+    doc = load_params_doc(path)   # the reader `cam-bench run --params` uses
+    for node in doc:
+        if str(node).lstrip('/') not in CORES:
+            raise InputError(f'params.{node}', node,
+                             f'a node name: one of {", ".join(CORES)}')
+    present = {str(node).lstrip('/') for node in doc}
+    return {name: section_values(doc, path, name) for name in CORES if name in present}
+
+
+def bag_warnings(bag: str) -> list[str]:
+    """Checks of the bag before the replay (docs/contract.md §4): InputError for a
+    damaged bag (naming the range), a bag without a scene or with an invalid scene
+    (naming its bad key); a warning line when the scene changes during the bag (each
+    feature is then analysed with the scene in force when it was measured)."""
+    from cam_metrology.bagio import require_scenes
+
+    scenes = require_scenes(bag)
+    if len(scenes) < 2:
+        return []
+    times = ', '.join(f'{sc.scene.camshaft_id or "(no id)"} from log time '
+                      f'{sc.stamp_ns / 1e9:.6f} s' for sc in scenes)
+    return [f'the bag holds {len(scenes)} different scenes ({times}): each feature is '
+            'analysed with the scene in force when it was measured (report: scenes, '
+            'features.*.scene_index)']
+
+
+def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
+                             params: str | None, heights: tuple[float, ...]
+                             ) -> dict[str, Any]:
+    """Add ``features.<id>.cam_card`` {measured, nominal} and ``provenance`` to the
+    report; returns the lift tables (feature id -> table) for the HTML plots, those of
+    lobes referenced to the base circle as the verdict uses them."""
+    from cam_metrology.acceptance import both_crank_timings, measured_cards
+    from cam_metrology.metrology.lift_error import feature_referenced
+    from cam_metrology.provenance import provenance
+
+    results = getattr(metrology, 'results', {})
+    tables = {f: r.table for f, r in results.items() if r.table is not None}
+    scene = getattr(metrology, 'scene', None)
+    if scene is not None:
+        lobes = {f: t for f, t in tables.items() if results[f].kind == 'lobe'}
+        cards = measured_cards(scene, report.get('features', {}), lobes,
+                               getattr(metrology, '_design', {}), heights)
+        crank = both_crank_timings(scene, report.get('features', {}), cards)
+        if crank is not None:
+            report['crank'] = crank
+        for fid, card in cards.items():
+            report['features'][fid]['cam_card'] = card
+        for fid, table in lobes.items():
+            ref, good = feature_referenced(table, report['features'].get(fid, {}))
+            tables[fid] = ref[good]
+    report['provenance'] = provenance(
+        bag=bag, scene_text=scene.text if scene is not None else None,
+        params=load_params(params) or None, command='analyze')
+    return tables
+
+
+@dataclass
+class Analysis:
+    """What ``analyze_bag`` leaves: the JSON-ready report (cards and provenance added),
+    the cores' outputs as (stamp ns, output), the replay result, the metrology core, the
+    lift tables of the HTML plots, and the warnings (also in the report)."""
+
+    report: dict[str, Any]
+    outputs: list[tuple[int, Any]]
+    result: Any
+    metrology: Any
+    tables: dict[str, Any]
+    warnings: list[str] = field(default_factory=list)
+
+
+def analyze_bag(bag: str, params: str | None = None, *, only_metrology: bool = False,
+                keep_all: bool = False, heights: tuple[float, ...] | None = None
+                ) -> Analysis:
+    """The analysis of ``cam-bench analyze BAG``: checks of the bag, the replay through
+    the cores, the final report with the other cores' skips, warnings, cam cards and
+    provenance. Raises InputError for a bad bag or parameter file (the CLI's exit 2)."""
+    from cam_design.cam_card import DEFAULT_HEIGHTS_M
+    from cam_design.errors import InputError
+    from cam_metrology.wire.topics import JOINT_STATES
+
+    cores, missing = make_cores(load_params(params), only_metrology)
+    warnings = bag_warnings(bag)   # damaged bag, no or invalid scene: InputError here
+    result = replay(bag, cores, keep_all=keep_all)
+    if result.samples == 0:
+        raise InputError('bag', bag, f'{JOINT_STATES} samples (the bag has none: '
+                         'nothing to measure)')
+    for issue in result.joint_issues:
+        if issue.count >= result.samples:   # not one usable sample: name the field
+            raise issue.error(result.samples)
+        warnings.append(f'{issue.text(result.samples)}: those samples are dropped and '
+                        'counted (samples_nan_dropped)')
+    outputs = [(o.stamp_ns, o.output) for o in result.outputs]
+    metrology = next(c for c in cores if c.name == 'metrology')
+    report = final_report(outputs, metrology)
+    report['skipped'] = report.get('skipped', []) + other_skips(outputs) + missing
+    if warnings:
+        report['warnings'] = report.get('warnings', []) + warnings
+    tables = add_cards_and_provenance(report, metrology, bag, params,
+                                      DEFAULT_HEIGHTS_M if heights is None else heights)
+    return Analysis(report, outputs, result, metrology, tables, warnings)
+
+
+def analyze_report(bag: str, params: str | None = None, *,
+                   only_metrology: bool = False) -> dict[str, Any]:
+    """The JSON report of ``cam-bench analyze BAG`` as a dict (the same code path, as
+    written by ``--json``). Raises ``CliError`` with analyze's one-line message when the
+    bag cannot be analysed (not a bag, no samples, bad scene ...)."""
+    from pathlib import Path
+
+    from cam_design.errors import CliError, InputError
+
+    if not Path(bag).exists():
+        raise CliError(str(InputError('bag', str(bag), 'an existing rosbag2 directory')))
+    try:
+        run = analyze_bag(str(bag), None if params is None else str(params),
+                          only_metrology=only_metrology)
+    except (InputError, CliError) as exc:
+        raise CliError(str(exc)) from None
+    return json.loads(json.dumps(run.report))

@@ -68,7 +68,7 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
 @pytest.fixture(scope='session')
 def cam_bench_analysis() -> Callable[[str | Path], dict[str, Any]]:
     """bag path -> the ``cam-bench analyze`` report (dict), computed once per bag."""
-    from cam_metrology.cli.golden import analyze_report
+    from cam_metrology.offline import analyze_report
 
     cache: dict[Path, dict[str, Any]] = {}
 

@@ -14,7 +14,7 @@ import pytest
 
 from cam_design.errors import InputError
 from cam_metrology.batch import find_bags, read_table, run_batch
-from cam_metrology.cli.golden import analyze_report
+from cam_metrology.offline import analyze_report
 
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 

@@ -112,7 +112,7 @@ def test_golden_command_round_trip(tmp_path: Path, capsys: pytest.CaptureFixture
     assert len(gold['features']) == 5 and 'provenance' not in gold
     assert main(['golden', str(BAG), str(out)]) == 2              # refuses to overwrite
     assert 'or --force' in capsys.readouterr().err
-    from cam_metrology.cli.golden import analyze_report
+    from cam_metrology.offline import analyze_report
     assert_report_matches(analyze_report(BAG), gold, angle_tol_arcsec=0.01, lift_tol_um=1e-3)
 
 

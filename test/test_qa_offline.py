@@ -116,10 +116,10 @@ def test_reader_on_a_yaml_file_raises_input_error():
 # --- #19: --out-bag checked before the analysis -------------------------------------
 
 def test_out_bag_existing_fails_before_the_replay(tmp_path, capsys, monkeypatch):
-    from cam_metrology.cli import analyze
+    from cam_metrology import offline
 
     calls = []
-    monkeypatch.setattr(analyze, 'replay', lambda *a: calls.append(a))
+    monkeypatch.setattr(offline, 'replay', lambda *a, **k: calls.append(a))
     out = tmp_path / 'exists'
     out.mkdir()
     assert main(['analyze', str(CLEAN), '--out-bag', str(out)]) == 2

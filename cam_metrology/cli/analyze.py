@@ -15,7 +15,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cam_metrology.offline import final_report, make_cores, other_skips, replay
+from cam_metrology.offline import (add_cards_and_provenance, analyze_bag,  # noqa: F401
+                                   bag_warnings, load_params)
 from cam_metrology.plots import lift_figure
 from cam_metrology.wire.topics import JOINT_STATES as JOINT_TOPIC
 from cam_metrology.wire.topics import METROLOGY_LIFT as LIFT_TOPIC
@@ -44,27 +45,6 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def load_params(path: str | None) -> dict[str, dict[str, Any]]:
-    """node -> parameters from a ROS parameter file (empty when no file).
-
-    Raises InputError naming ``--params`` for an unreadable or malformed file, and
-    ``params.<node>`` for a node name that matches no core (a mistyped section would
-    otherwise be ignored without a word)."""
-    if path is None:
-        return {}
-    from cam_design.errors import InputError
-    from cam_metrology.params import load_params_doc, section_values
-    from cam_metrology.registry import CORES
-
-    doc = load_params_doc(path)   # the reader `cam-bench run --params` uses
-    for node in doc:
-        if str(node).lstrip('/') not in CORES:
-            raise InputError(f'params.{node}', node,
-                             f'a node name: one of {", ".join(CORES)}')
-    present = {str(node).lstrip('/') for node in doc}
-    return {name: section_values(doc, path, name) for name in CORES if name in present}
-
-
 def run(args: argparse.Namespace) -> int:
     """Handler of ``cam-bench analyze``: 0 when features were measured, 2 for bad input
     (checked before the replay), 1 when the bag gave nothing to measure."""
@@ -74,26 +54,14 @@ def run(args: argparse.Namespace) -> int:
         raise InputError('bag', args.bag, 'an existing rosbag2 directory')
     if args.out_bag and Path(args.out_bag).exists():
         raise InputError('--out-bag', args.out_bag, 'a path that does not exist yet')
-    cores, missing = make_cores(load_params(args.params), args.only_metrology)
-    warnings = bag_warnings(args.bag)   # damaged bag, no or invalid scene: exit 2 here
-    result = replay(args.bag, cores, keep_all=bool(args.out_bag))
-    if result.samples == 0:
-        raise InputError('bag', args.bag, f'{JOINT_TOPIC} samples (the bag has none: '
-                         'nothing to measure)')
-    for issue in result.joint_issues:
-        if issue.count >= result.samples:   # not one usable sample: name the field
-            raise issue.error(result.samples)
-        warnings.append(f'{issue.text(result.samples)}: those samples are dropped and '
-                        'counted (samples_nan_dropped)')
-    outputs = [(o.stamp_ns, o.output) for o in result.outputs]
-    metrology = next(c for c in cores if c.name == 'metrology')
-    report = final_report(outputs, metrology)
-    report['skipped'] = report.get('skipped', []) + other_skips(outputs) + missing
-    if warnings:
-        report['warnings'] = report.get('warnings', []) + warnings
-        for line in warnings:
-            print(f'cam-bench analyze: warning: {line}', file=sys.stderr)
-    tables = add_cards_and_provenance(report, metrology, args)
+    from cam_metrology.cli.card import heights_from
+
+    run_ = analyze_bag(args.bag, args.params, only_metrology=args.only_metrology,
+                       keep_all=bool(args.out_bag), heights=heights_from(args))
+    report, outputs, result, metrology, tables = (run_.report, run_.outputs, run_.result,
+                                                  run_.metrology, run_.tables)
+    for line in run_.warnings:
+        print(f'cam-bench analyze: warning: {line}', file=sys.stderr)
     if args.json:
         from cam_metrology.files import write_output
         write_output(args.json, json.dumps(report, indent=1) + '\n', '--json')
@@ -165,36 +133,6 @@ def core_summaries(outputs: list[tuple[int, Any]]) -> list[str]:
             for core, items in found.items()]
 
 
-def add_cards_and_provenance(report: dict[str, Any], metrology: Any,
-                             args: argparse.Namespace) -> dict[str, Any]:
-    """Add ``features.<id>.cam_card`` {measured, nominal} and ``provenance`` to the
-    report; returns the lift tables (feature id -> table) for the HTML plots, those of
-    lobes referenced to the base circle as the verdict uses them."""
-    from cam_metrology.cli.card import both_crank_timings, heights_from, measured_cards
-    from cam_metrology.metrology.lift_error import feature_referenced
-    from cam_metrology.provenance import provenance
-
-    results = getattr(metrology, 'results', {})
-    tables = {f: r.table for f, r in results.items() if r.table is not None}
-    scene = getattr(metrology, 'scene', None)
-    if scene is not None:
-        lobes = {f: t for f, t in tables.items() if results[f].kind == 'lobe'}
-        cards = measured_cards(scene, report.get('features', {}), lobes,
-                               getattr(metrology, '_design', {}), heights_from(args))
-        crank = both_crank_timings(scene, report.get('features', {}), cards)
-        if crank is not None:
-            report['crank'] = crank
-        for fid, card in cards.items():
-            report['features'][fid]['cam_card'] = card
-        for fid, table in lobes.items():
-            ref, good = feature_referenced(table, report['features'].get(fid, {}))
-            tables[fid] = ref[good]
-    report['provenance'] = provenance(
-        bag=args.bag, scene_text=scene.text if scene is not None else None,
-        params=load_params(args.params) or None, command='analyze')
-    return tables
-
-
 #: exit status of analyze for a part rejected against its tolerances (docs/contract.md)
 EXIT_REJECTED = 3
 
@@ -217,23 +155,6 @@ def verdict_exit_code(report: dict[str, Any]) -> int:
               'be evaluated (see the report)', file=sys.stderr)
         return 1
     return 0
-
-
-def bag_warnings(bag: str) -> list[str]:
-    """Checks of the bag before the replay (docs/contract.md §4): InputError for a
-    damaged bag (naming the range), a bag without a scene or with an invalid scene
-    (naming its bad key); a warning line when the scene changes during the bag (each
-    feature is then analysed with the scene in force when it was measured)."""
-    from cam_metrology.bagio import require_scenes
-
-    scenes = require_scenes(bag)
-    if len(scenes) < 2:
-        return []
-    times = ', '.join(f'{sc.scene.camshaft_id or "(no id)"} from log time '
-                      f'{sc.stamp_ns / 1e9:.6f} s' for sc in scenes)
-    return [f'the bag holds {len(scenes)} different scenes ({times}): each feature is '
-            'analysed with the scene in force when it was measured (report: scenes, '
-            'features.*.scene_index)']
 
 
 def _fmt(value: Any, spec: str) -> str:

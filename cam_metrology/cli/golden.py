@@ -8,12 +8,11 @@ provenance; tests compare later runs with it within stated tolerances
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import json
-import tempfile
 from pathlib import Path
 from typing import Any
+
+from cam_metrology.offline import analyze_report  # noqa: F401 (re-exported)
 
 
 def register(subparsers: Any) -> None:
@@ -30,31 +29,6 @@ def register(subparsers: Any) -> None:
                    'for analyze')
     p.add_argument('--force', action='store_true', help='overwrite an existing OUT')
     p.set_defaults(func=run)
-
-
-def analyze_report(bag: str | Path, params: str | Path | None = None, *,
-                   only_metrology: bool = False) -> dict[str, Any]:
-    """The JSON report of ``cam-bench analyze BAG`` as a dict (the same code path).
-
-    Raises ``CliError`` with analyze's one-line message when the bag cannot be
-    analysed (not a bag, no samples, bad scene ...)."""
-    from cam_metrology.cli import CliError, main
-
-    with tempfile.TemporaryDirectory(prefix='cam_bench_golden_') as tmp:
-        out = Path(tmp) / 'report.json'
-        argv = ['analyze', str(bag), '--json', str(out)]
-        if params is not None:
-            argv += ['--params', str(params)]
-        if only_metrology:
-            argv.append('--only-metrology')
-        err = io.StringIO()
-        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-            code = main(argv)
-        if not out.is_file():
-            lines = err.getvalue().strip().splitlines()
-            message = lines[-1].split(': error: ', 1)[-1] if lines else f'exit code {code}'
-            raise CliError(message)
-        return json.loads(out.read_text(encoding='utf-8'))
 
 
 def run(args: argparse.Namespace) -> int:
