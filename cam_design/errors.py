@@ -56,18 +56,27 @@ def require_finite(key: str, value: Any) -> float:
     return out
 
 
-def require_length(key: str, value: Any, limit: float, *, allow_zero: bool = False
-                   ) -> float:
+def unit_slip(value: float, limit: float, floor: float = 0.0) -> tuple[str, float] | None:
+    """(unit, factor to metres) when ``value``, meant in metres but implausible there,
+    reads as millimetres or micrometres: the first of the two that brings it within
+    [``floor``, ``limit``] m; None when neither does."""
+    for unit, scale in (('millimetres', 1e-3), ('micrometres', 1e-6)):
+        if floor <= value * scale <= limit:
+            return unit, scale
+    return None
+
+
+def require_length(key: str, value: Any, limit: float, *, allow_zero: bool = False,
+                   what: str = 'a length') -> float:
     """``value`` [m] as float if it is finite, > 0 (>= 0 with ``allow_zero``) and at most
     ``limit`` [m]; above it the message names the unit the number looks like (a radius
     of 16.5 given for 16.5 mm) and the value in metres."""
     out = require_positive(key, value, allow_zero=allow_zero)
     if out > limit:
-        for unit, scale in (('millimetres', 1e-3), ('micrometres', 1e-6)):
-            if out * scale <= limit:
-                raise InputError(key, value, f'a length in metres (at most {limit:g} m); '
-                                 f'{out:g} looks like {unit}: write {out * scale:.6g}')
-        raise InputError(key, value, f'a length in metres (at most {limit:g} m)')
+        slip = unit_slip(out, limit)
+        hint = '' if slip is None else (f'; {out:g} looks like {slip[0]}: write '
+                                        f'{out * slip[1]:.6g}')
+        raise InputError(key, value, f'{what} in metres (at most {limit:g} m){hint}')
     return out
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping, Sequence
 
-from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.errors import InputError, require_finite, require_length, require_positive
 
 MISSING = object()
 
@@ -39,13 +39,8 @@ MAX_LIFT_M = 0.25
 def lift(spec: Mapping, key: str, name: str, default: Any = MISSING) -> float:
     """A lift or height [m], > 0 and at most ``MAX_LIFT_M`` (the error of a value given
     in mm or um names the unit it looks like)."""
-    out = positive(spec, key, name, default)
-    if out > MAX_LIFT_M:
-        unit = ('millimetres' if out * 1e-3 <= MAX_LIFT_M else 'micrometres')
-        scale = 1e-3 if unit == 'millimetres' else 1e-6
-        raise InputError(f'{key}.{name}', out, f'a lift in metres (at most {MAX_LIFT_M:g} '
-                         f'm); {out:g} looks like {unit}: write {out * scale:.6g}')
-    return out
+    return require_length(f'{key}.{name}', get(spec, key, name, default), MAX_LIFT_M,
+                          what='a lift')
 
 
 def angle(spec: Mapping, key: str, name: str, default: Any = MISSING, *,

@@ -16,7 +16,7 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cam_design.errors import InputError
+from cam_design.errors import InputError, unit_slip
 
 CAMSHAFT, PROBE = 'camshaft', 'probe'
 
@@ -191,11 +191,11 @@ def probe_units_problem(fs: FeatureSamples) -> str | None:
     span = float(np.ptp(fs.s))
     if span <= MAX_PROBE_SPAN_M:
         return None
-    for unit, scale in (('millimetres', 1e-3), ('micrometres', 1e-6)):
-        if 2e-4 <= span * scale <= MAX_PROBE_SPAN_M:
-            return (f'the probe readings span {span:.6g} m, not a cam lift; they look like '
-                    f'{unit} ({span * scale * 1e3:.4g} mm): the probe joint position must '
-                    'be in metres')
+    slip = unit_slip(span, MAX_PROBE_SPAN_M, floor=2e-4)
+    if slip is not None:
+        return (f'the probe readings span {span:.6g} m, not a cam lift; they look like '
+                f'{slip[0]} ({span * slip[1] * 1e3:.4g} mm): the probe joint position must '
+                'be in metres')
     return f'the probe readings span {span:.6g} m, not a cam lift (metres expected)'
 
 
