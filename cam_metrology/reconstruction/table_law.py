@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError
 from cam_design.valve_train.cam_input import JetTableLift
+from cam_metrology.reconstruction.samples import wrap_pi
 
 #: output step of a table's spline evaluation [deg]
 GRID_DEG = 0.1
@@ -86,15 +87,9 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
             f'reconstruction spline ({rec.why}; rms residual {rec.rms_residual:.3g} m'
             + (f', lifts quantised to {q * 1e3:g} mm' if q else '') + ')'
             + (f'; the lobe crosses +-180 deg: fitted on the turn from its lowest point '
-               f'({math.degrees(wrap(turn + math.pi)):.1f} deg), bridged there by the '
+               f'({math.degrees(float(wrap_pi(turn + math.pi))):.1f} deg), bridged there by the '
                'Hermite interpolant of the jets 2 steps either side' if turn else ''))
     return law, note
-
-
-def wrap(angle: float) -> float:
-    """``angle`` [rad] in (-pi, pi]."""
-    out = math.remainder(angle, 2.0 * math.pi)
-    return math.pi if out == -math.pi else out
 
 
 def seam_turn(alpha: NDArray[np.float64], h: NDArray[np.float64],
@@ -111,4 +106,4 @@ def seam_turn(alpha: NDArray[np.float64], h: NDArray[np.float64],
     ends = v[order][[0, -1]]
     if float(np.max(ends)) <= trim * float(np.max(v)):
         return 0.0
-    return wrap(float(a[int(np.argmin(v))]) + math.pi)
+    return float(wrap_pi(float(a[int(np.argmin(v))]) + math.pi))
