@@ -100,13 +100,31 @@ def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
 _MSG_HEAD = struct.Struct('<BQHIQ')   # opcode, record length, channel, sequence, log_time
 
 
+#: what ``_chunked_summary`` returns for an MCAP file without channels (nothing in it)
+NO_CHANNELS = object()
+
+
+def _chunked_summary(f: Any) -> Any:
+    """The MCAP summary of the open file ``f`` when the direct readers can take it (its
+    chunks are indexed); ``NO_CHANNELS`` for a file without channels (skip it); None
+    otherwise (the caller falls back to AnyReader)."""
+    from mcap.reader import make_reader
+
+    try:
+        summary = make_reader(f).get_summary()
+    except Exception:   # noqa: BLE001 - any mcap error: let AnyReader decide
+        return None
+    if summary is None or not summary.chunk_indexes:
+        return NO_CHANNELS if summary is not None and not summary.channels else None
+    return summary
+
+
 def _read_mcap_direct(bag: Path, topic: str,
                       ) -> tuple[bytes, NDArray[np.int64], NDArray[np.int64],
                                  NDArray[np.int64]] | None:
     """(buffer, message starts, lengths, log times) of ``topic`` in log-time order, read
     straight from the MCAP chunks of a rosbag2 directory; None if the bag is not an
     indexed, chunked MCAP bag without file compression (the caller falls back)."""
-    from mcap.reader import make_reader
 
     found_files = _direct_mcap_files(bag)
     if found_files is None:
@@ -123,13 +141,10 @@ def _read_mcap_direct(bag: Path, topic: str,
         except OSError:
             return None
         with f:
-            try:
-                summary = make_reader(f).get_summary()
-            except Exception:   # noqa: BLE001 - any mcap error: let AnyReader decide
-                return None
-            if summary is None or not summary.chunk_indexes:
-                if summary is not None and not summary.channels:
-                    continue
+            summary = _chunked_summary(f)
+            if summary is NO_CHANNELS:
+                continue
+            if summary is None:
                 return None
             chans = {cid for cid, ch in summary.channels.items() if ch.topic == topic}
             if not chans:

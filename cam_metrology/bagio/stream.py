@@ -12,7 +12,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
-from cam_metrology.bagio.joints import (JointIssue, JointSamples, _chunk_records,
+from cam_metrology.bagio.joints import (NO_CHANNELS, JointIssue, JointSamples,
+                                        _chunk_records, _chunked_summary,
                                         _decode_joint_buffer, _direct_mcap_files,
                                         _indexed_messages, _walk_messages, decode_joint_states)
 from cam_metrology.bagio.opening import _open_reader
@@ -102,7 +103,6 @@ def _mcap_stream_plan(bag: Path, topics: Iterable[str],
     reader takes (indexed, chunked MCAP, chunks uncompressed, zstd or lz4); None
     otherwise."""
     wanted_topics = set(topics)
-    from mcap.reader import make_reader
 
     found = _direct_mcap_files(bag)
     if found is None:
@@ -112,12 +112,12 @@ def _mcap_stream_plan(bag: Path, topics: Iterable[str],
     for k, name in enumerate(files):
         try:
             with open(folder / name, 'rb') as f:
-                summary = make_reader(f).get_summary()
-        except Exception:   # noqa: BLE001 - any mcap error: let AnyReader decide
+                summary = _chunked_summary(f)
+        except OSError:
             return None
-        if summary is None or not summary.chunk_indexes:
-            if summary is not None and not summary.channels:
-                continue
+        if summary is NO_CHANNELS:
+            continue
+        if summary is None:
             return None
         chans = {cid for cid, ch in summary.channels.items() if ch.topic in wanted_topics}
         for index in summary.chunk_indexes if chans else ():
