@@ -30,7 +30,6 @@ is refused with the key).
 """
 from __future__ import annotations
 
-import bisect
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
@@ -41,7 +40,7 @@ from numpy.typing import NDArray
 from cam_design.errors import InputError, require_finite
 from cam_design.hydraulic.lash_adjuster import LashAdjuster
 from cam_design.hydraulic.oil import P_ATM, effective_bulk_modulus, orifice_flow
-from cam_design.valve_train.cam_input import build_cam_input
+from cam_design.valve_train.cam_input import build_cam_input, lift_of_time
 from cam_design.valve_train.params import SdofParams, omega_of_rpm, require_step_deg
 
 #: keys of the scene's ``valve_train.hla`` block (all optional; defaults in LashAdjuster)
@@ -177,22 +176,8 @@ def _cam_function(law: Any, ratio: float, omega: float, step: float
     """(u(t), u'(t)) = k h at the cam angle a0 + omega t (periodic) from the degree-7
     Hermite pieces of ``cam_input``, and the start angle a0 [rad]."""
     cam = build_cam_input(law, ratio, 0.0, step)
-    nodes = cam.nodes.tolist()
-    coefs = [c[::-1].tolist() for c in cam.coeffs]
-    lens = cam.lengths.tolist()
-    a0 = nodes[0]
-    two_pi = 2.0 * math.pi
-
-    def u(t: float) -> tuple[float, float]:
-        a = a0 + (omega * t) % two_pi
-        i = min(max(bisect.bisect_right(nodes, a) - 1, 0), len(lens) - 1)
-        sig = (a - nodes[i]) / lens[i]
-        val = der = 0.0
-        for c in coefs[i]:
-            der = der * sig + val
-            val = val * sig + c
-        return val, der * omega / lens[i]
-
+    a0 = float(cam.nodes[0])
+    u = lift_of_time(cam, a0, omega, periodic=True)
     return u, a0
 
 

@@ -8,8 +8,9 @@ up to a degree on smooth laws, and the models integrate this polynomial exactly.
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -197,6 +198,29 @@ class JetTableLift(LiftLaw):
 
     def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
         return self._derivs[nu](alpha)
+
+
+def lift_of_time(cam: CamInput, a0: float, omega: float, *, periodic: bool = False
+                 ) -> Callable[[float], tuple[float, float]]:
+    """u [m] and du/dt [m/s] of ``cam`` at the cam angle a0 + omega t [rad] for a time t
+    [s] (``periodic``: the angle taken modulo one revolution from a0), by Horner on the
+    step's polynomial in sigma: the cam drive of the ODE-integrated trains."""
+    nodes = cam.nodes.tolist()
+    coefs = [c[::-1].tolist() for c in cam.coeffs]
+    lens = cam.lengths.tolist()
+    two_pi = 2.0 * math.pi
+
+    def u(t: float) -> tuple[float, float]:
+        a = a0 + ((omega * t) % two_pi if periodic else omega * t)
+        i = min(max(bisect.bisect_right(nodes, a) - 1, 0), len(lens) - 1)
+        sig = (a - nodes[i]) / lens[i]
+        val = der = 0.0
+        for c in coefs[i]:
+            der = der * sig + val
+            val = val * sig + c
+        return val, der * omega / lens[i]
+
+    return u
 
 
 #: points per step at which an external force is fitted (Chebyshev nodes)

@@ -27,7 +27,6 @@ reference option.
 """
 from __future__ import annotations
 
-import bisect
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
@@ -39,7 +38,7 @@ from scipy.linalg import eigh
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.valve_train.cam_input import build_cam_input
+from cam_design.valve_train.cam_input import build_cam_input, lift_of_time
 from cam_design.valve_train.params import SdofParams, omega_of_rpm, require_step_deg
 
 T, P, R, V = 0, 1, 2, 3
@@ -358,19 +357,7 @@ def _simulate_ivp(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float,
 
     cam_in = build_cam_input(law, k, 0.0, min(step, math.radians(0.5)),
                              pre=math.radians(pre_deg))
-    nodes = cam_in.nodes.tolist()
-    coefs = [c[::-1].tolist() for c in cam_in.coeffs]
-    lens = cam_in.lengths.tolist()
-
-    def cam(t: float) -> tuple[float, float]:
-        a = a0 + omega * t
-        i = min(max(bisect.bisect_right(nodes, a) - 1, 0), len(lens) - 1)
-        sig = (a - nodes[i]) / lens[i]
-        val = der = 0.0
-        for c in coefs[i]:
-            der = der * sig + val
-            val = val * sig + c
-        return val, der * omega / lens[i]
+    cam = lift_of_time(cam_in, a0, omega)
 
     def forces(t: float, x: NDArray, xd: NDArray) -> tuple[NDArray, float, bool, bool, bool]:
         uc, ucd = cam(t)
