@@ -300,6 +300,20 @@ def integrate(tr: _Train, u: Callable[[float], tuple[float, float]], t_out: NDAr
     return sol.y, fe, fc
 
 
+def _run_grid(law: Any, base: SdofParams, rpm: float, step_deg: float, revolutions: int
+              ) -> tuple[float, float, Callable[[float], tuple[float, float]], float, int,
+                         float, NDArray]:
+    """(omega [rad/s], step [rad], cam drive u(t), start angle a0 [rad], steps per
+    revolution, revolution time [s], output times [s]) of a run of ``revolutions``."""
+    omega = omega_of_rpm(rpm)
+    step = math.radians(require_step_deg('step_deg', step_deg))
+    u, a0 = _cam_function(law, base.rocker_ratio, omega, step)
+    per_rev = int(round(2 * math.pi / step))
+    t_rev = 2 * math.pi / omega
+    t_out = np.linspace(0.0, revolutions * t_rev, revolutions * per_rev + 1)
+    return omega, step, u, a0, per_rev, t_rev, t_out
+
+
 def simulate_hla(law: Any, base: SdofParams, hla: LashAdjuster, rpm: float, *,
                  mdof: Any = None, revolutions: int = 6, step_deg: float = 0.5,
                  gas: Callable[[float], float] | None = None,
@@ -309,13 +323,9 @@ def simulate_hla(law: Any, base: SdofParams, hla: LashAdjuster, rpm: float, *,
     extension per revolution, leak-down and refill, and pump-up (the valve held off its
     seat on the base circle at the end); ``settled`` False while the extension still
     changes by more than GROWTH_TOL over the last revolution."""
-    omega = omega_of_rpm(rpm)
-    step = math.radians(require_step_deg('step_deg', step_deg))
     tr = _Train(base, hla, mdof)
-    u, a0 = _cam_function(law, base.rocker_ratio, omega, step)
-    per_rev = int(round(2 * math.pi / step))
-    t_rev = 2 * math.pi / omega
-    t_out = np.linspace(0.0, revolutions * t_rev, revolutions * per_rev + 1)
+    omega, step, u, a0, per_rev, t_rev, t_out = _run_grid(law, base, rpm, step_deg,
+                                                          revolutions)
     state0 = _initial_state(tr, u(0.0)[0], 0.0 if gas is None else gas(a0))
     z, fe, fc = integrate(tr, u, t_out, state0, gas=gas, a0=a0,
                           omega=omega, max_step=t_rev / per_rev, rtol=rtol)
@@ -502,13 +512,9 @@ def simulate_gas_train(law: Any, base: SdofParams, rpm: float, *, mdof: Any = No
     ``settled`` (the valve motion of the last two revolutions agrees to GAS_SETTLED).
     The MDOF train starts from the exact solver's periodic state without the gas
     (``start`` 'periodic'), or from the base-circle equilibrium ('rest')."""
-    omega = omega_of_rpm(rpm)
-    step = math.radians(require_step_deg('step_deg', step_deg))
     tr = _Train(base, None, mdof)
-    u, a0 = _cam_function(law, base.rocker_ratio, omega, step)
-    per_rev = int(round(2 * math.pi / step))
-    t_rev = 2 * math.pi / omega
-    t_out = np.linspace(0.0, revolutions * t_rev, revolutions * per_rev + 1)
+    omega, step, u, a0, per_rev, t_rev, t_out = _run_grid(law, base, rpm, step_deg,
+                                                          revolutions)
     state0 = _initial_state(tr, u(0.0)[0], gas(a0))
     if mdof is not None and start == 'periodic':
         state0 = _periodic_start(tr, mdof, law, base, omega, step, state0)
