@@ -126,16 +126,46 @@ def test_insignificant_interaction_is_pooled() -> None:
     assert res.interaction == 0.0
 
 
-def test_summary_figures_match_a_published_crossed_study() -> None:
-    """Minitab's crossed gage R&R example (10 parts, 3 operators, 3 trials, interaction
-    pooled) publishes variance contributions of 7.76 % (total gage R&R) and 92.24 %
-    (part to part), a study variation of 27.86 % and 4 distinct categories. From those
-    variance shares our definitions must give the same %GRR and ndc (the raw data of
-    that study is not available here, so its ANOVA itself is not re-run)."""
-    from cam_metrology.quality.gauge_rr import GaugeRR
+#: AIAG MSA reference manual (4th ed.), appendix gauge study, as distributed by Minitab
+#: (sample "gageaiag"): 10 parts (rows) x operators A, B, C x 3 trials each.
+AIAG_STUDY = [
+    [0.29, 0.41, 0.64, 0.08, 0.25, 0.07, 0.04, -0.11, -0.15],
+    [-0.56, -0.68, -0.58, -0.47, -1.22, -0.68, -1.38, -1.13, -0.96],
+    [1.34, 1.17, 1.27, 1.19, 0.94, 1.34, 0.88, 1.09, 0.67],
+    [0.47, 0.50, 0.64, 0.01, 1.03, 0.20, 0.14, 0.20, 0.11],
+    [-0.80, -0.92, -0.84, -0.56, -1.20, -1.28, -1.46, -1.07, -1.45],
+    [0.02, -0.11, -0.21, -0.20, 0.22, 0.06, -0.29, -0.67, -0.49],
+    [0.59, 0.75, 0.66, 0.47, 0.55, 0.83, 0.02, 0.01, 0.21],
+    [-0.31, -0.20, -0.17, -0.63, 0.08, -0.34, -0.46, -0.56, -0.49],
+    [2.26, 1.99, 2.01, 1.80, 2.12, 2.19, 1.77, 1.45, 1.87],
+    [-1.36, -1.25, -1.31, -1.68, -1.62, -1.50, -1.49, -1.77, -2.16]]
 
-    study = GaugeRR(anova={}, repeatability=0.0600, operator=0.0176, interaction=0.0,
-                    part=0.9224, interaction_pooled=True)
-    assert study.grr == pytest.approx(0.0776, abs=1e-12)
-    assert study.percent_grr == pytest.approx(27.86, abs=0.005)
-    assert study.ndc == 4
+
+def test_published_crossed_study_raw_data() -> None:
+    """The AIAG MSA (4th ed.) crossed study, raw data, against the ANOVA table and the
+    figures Minitab publishes for it: SS part 88.3619, operator 3.1673, interaction
+    0.3590, repeatability 2.7589 (df 9, 2, 18, 60); interaction F 0.434, p 0.974, so it
+    is pooled (alpha 0.25); variance components repeatability 0.03997, reproducibility
+    0.05146, GRR 0.09143, part 1.0864; contribution 7.76 % (3.39 + 4.37); study
+    variation 27.86 %; 4 distinct categories."""
+    res = gauge_rr(np.array(AIAG_STUDY).reshape(10, 3, 3))
+    ss = {k: v['ss'] for k, v in res.anova.items()}
+    assert ss['part'] == pytest.approx(88.3619, abs=5e-5)
+    assert ss['operator'] == pytest.approx(3.1673, abs=5e-5)
+    assert ss['interaction'] == pytest.approx(0.3590, abs=5e-5)
+    assert ss['error'] == pytest.approx(2.7589, abs=5e-5)
+    assert [res.anova[k]['df'] for k in ('part', 'operator', 'interaction', 'error')] == [
+        9, 2, 18, 60]
+    inter = res.anova['interaction']
+    assert inter['ms'] / res.anova['error']['ms'] == pytest.approx(0.434, abs=5e-4)
+    assert inter['p_value'] == pytest.approx(0.974, abs=5e-4)
+    assert res.interaction_pooled and res.interaction == 0.0
+    assert res.repeatability == pytest.approx(0.03997, abs=5e-6)
+    assert res.reproducibility == pytest.approx(0.05146, abs=5e-6)
+    assert res.grr == pytest.approx(0.09143, abs=5e-6)
+    assert res.part == pytest.approx(1.0864, abs=5e-5)
+    assert 100 * res.grr / res.total == pytest.approx(7.76, abs=0.005)
+    assert 100 * res.repeatability / res.total == pytest.approx(3.39, abs=0.005)
+    assert 100 * res.reproducibility / res.total == pytest.approx(4.37, abs=0.005)
+    assert res.percent_grr == pytest.approx(27.86, abs=0.005)
+    assert res.ndc == 4
