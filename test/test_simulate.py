@@ -332,6 +332,37 @@ def test_cli_simulate_bad_input_exits_2(tmp_path, capsys):
     assert not (tmp_path / 'x').exists() and not (tmp_path / 'y').exists()
 
 
+def test_cli_simulate_rounds_repeats_every_feature(tmp_path, capsys):
+    out = tmp_path / 'r3'
+    code, stdout, err = _run(capsys, 'simulate', str(out), '--samples-per-rev', '360',
+                             '--rounds', '3', '--rate', '1000', '--quiet')
+    assert code == 0, err
+    assert 'wrote' in stdout and f'{3 * 5 * 360} samples' in stdout
+    js = bagio.read_joint_states(out)
+    assert len(js) == 3 * 5 * 360
+    done = [str(m.msg.data) for m in bagio.iter_messages(out, ['/bench/feature_done'])]
+    from cam_metrology.paths import default_scene_path
+    from cam_metrology.scene_parse import load_scene
+    scene = load_scene(default_scene_path())
+    ids = [lobe.id for lobe in scene.lobes] + [scene.datum_id]
+    assert len(ids) == 5 and done == ids * 3
+    # the same samples each round, later by one run: 5 x 360 samples at 1 ms and a
+    # feature gap after each of the 5 features
+    n = 5 * 360
+    np.testing.assert_array_equal(js.theta[n:2 * n], js.theta[:n])
+    np.testing.assert_array_equal(js.s[2 * n:], js.s[:n])
+    shift = js.stamp_ns[n:2 * n] - js.stamp_ns[:n]
+    gap_ns = round(SimParams().feature_gap * 1e9)
+    assert np.all(shift == n * 1_000_000 + 5 * gap_ns)
+    for bad in ('0', '-2'):
+        code, _, err = _run(capsys, 'simulate', str(tmp_path / f'x{bad}'), '--rounds', bad)
+        assert code == 2 and f'--rounds: got {bad}' in err and len(err.splitlines()) == 1
+        assert not (tmp_path / f'x{bad}').exists()
+    with pytest.raises(SystemExit) as exc:   # argparse: not an integer
+        _run(capsys, 'simulate', str(tmp_path / 'y'), '--rounds', '1.5')
+    assert exc.value.code == 2 and '--rounds' in capsys.readouterr().err
+
+
 def test_reverse_turning_gives_the_same_lift_at_the_same_angle():
     fwd = simulate(_scene(), SimParams(seed=8, samples_per_rev=720))
     rev = simulate(_scene(), SimParams(seed=8, samples_per_rev=720, reverse=True,

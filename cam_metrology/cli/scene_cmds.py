@@ -40,6 +40,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help='encoder samples per camshaft revolution (default 3600)')
     sim.add_argument('--revolutions', type=float, default=1.0, metavar='N',
                      help='revolutions measured per feature (default 1)')
+    sim.add_argument('--rounds', type=int, default=1, metavar='N',
+                     help='every feature measured N times in a row, each round later by '
+                          'the run\'s duration (a long bag of repeated measurements; '
+                          'default 1)')
     sim.add_argument('--noise-um', type=float, default=0.0, metavar='X',
                      help='probe noise standard deviation in micrometres (default 0)')
     sim.add_argument('--encoder-noise-deg', type=float, default=0.0, metavar='X',
@@ -224,6 +228,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         scene = scene_with_direction(scene, args.direction)
     if args.samples_per_rev < 8:
         raise InputError('--samples-per-rev', args.samples_per_rev, 'at least 8')
+    if args.rounds < 1:
+        raise InputError('--rounds', args.rounds, 'an integer >= 1 (times every feature '
+                         'is measured)')
     params = SimParams(samples_per_rev=args.samples_per_rev, revolutions=args.revolutions,
                        wrapped=args.wrapped, reverse=args.reverse,
                        start_theta=math.radians(args.start_deg),
@@ -243,8 +250,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from cam_metrology.files import atomic_dir
     with atomic_dir(args.out, 'OUT_BAG') as tmp:   # complete bag or nothing (Ctrl-C too)
         run = write_sim_bag(tmp, scene, params, compression=args.compress,
-                            progress=progress)
-    print(f'wrote {args.out}: {run.sample_count} samples in {len(run.features)} features')
+                            progress=progress, rounds=args.rounds)
+    rounds = f' x {args.rounds} rounds' if args.rounds > 1 else ''
+    print(f'wrote {args.out}: {run.sample_count * args.rounds} samples in '
+          f'{len(run.features)} features{rounds}')
     print(json.dumps(run.truth, indent=2, sort_keys=True))
     return 0
 
