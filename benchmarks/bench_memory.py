@@ -48,7 +48,8 @@ _WRAPPER = ('import resource, subprocess, sys, time\n'
             't = time.perf_counter()\n'
             'code = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL).returncode\n'
             'wall = time.perf_counter() - t\n'
-            'print(code, wall, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n')
+            'use = resource.getrusage(resource.RUSAGE_CHILDREN)\n'
+            'print(code, wall, use.ru_maxrss, use.ru_utime + use.ru_stime)\n')
 
 
 def write_bag(path: Path, samples: int, shape: str) -> int:
@@ -69,8 +70,9 @@ def write_bag(path: Path, samples: int, shape: str) -> int:
 
 
 def measure(bag: Path, out: Path, source: str | None, all_cores: bool,
-            ) -> tuple[float, float, int]:
-    """(peak RSS [MB], wall time [s], exit code) of one ``analyze`` in a child."""
+            ) -> tuple[float, float, int, float]:
+    """(peak RSS [MB], wall time [s], exit code, CPU time [s]) of one ``analyze`` in a
+    child."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS='1')
     if source is not None:
         env['PYTHONPATH'] = source
@@ -80,8 +82,8 @@ def measure(bag: Path, out: Path, source: str | None, all_cores: bool,
     # run in the bag's folder: ``python -m`` puts the working directory first on the path
     done = subprocess.run([sys.executable, '-c', _WRAPPER, *cmd], env=env, check=True,
                           capture_output=True, text=True, cwd=bag.parent)
-    code, wall, rss_kb = done.stdout.split()
-    return int(rss_kb) / 1024.0, float(wall), int(code)
+    code, wall, rss_kb, cpu = done.stdout.split()
+    return int(rss_kb) / 1024.0, float(wall), int(code), float(cpu)
 
 
 def max_rel_diff(a: Any, b: Any) -> float:
@@ -104,6 +106,21 @@ def max_rel_diff(a: Any, b: Any) -> float:
     return 0.0 if a == b else math.inf
 
 
+def max_angle_diff_arcsec(a: Any, b: Any) -> float:
+    """Largest difference [arcsec] between the angles (keys ending in ``angle_deg`` or
+    ``phase_deg``: nose, pin, sensitive-point angles, phases) of two reports' features."""
+    worst = 0.0
+    fa, fb = a.get('features', {}), b.get('features', {})
+    for fid in set(fa) & set(fb):
+        for key, va in fa[fid].items():
+            vb = fb[fid].get(key)
+            if key.endswith(('angle_deg', 'phase_deg')) and isinstance(va, (int, float)) \
+                    and isinstance(vb, (int, float)):
+                diff = (va - vb + 180.0) % 360.0 - 180.0
+                worst = max(worst, abs(diff) * 3600.0)
+    return worst
+
+
 def plot(rows: list[dict[str, Any]], path: Path) -> None:
     """Peak RSS against samples, one line per shape and version (log-log)."""
     import matplotlib
@@ -112,8 +129,8 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for shape, colour in (('rounds', 'C0'), ('revolutions', 'C3')):
-        for key, style, fill, label in (('old_rss', '--', 'none', 'before (whole bag)'),
-                                        ('new_rss', '-', colour, 'streamed')):
+        for key, style, fill, label in (('old_rss', '--', 'none', 'before (056ec47)'),
+                                        ('new_rss', '-', colour, 'after')):
             pts = [(r['samples'], r[key]) for r in rows
                    if r['shape'] == shape and r.get(key) is not None]
             if pts:
@@ -166,14 +183,16 @@ def main(argv: list[str] | None = None) -> None:
                 row: dict[str, Any] = {'shape': shape, 'samples': n, 'bag_mb': mb,
                                        'write_s': time.perf_counter() - t0}
                 new = measure(work / 'bag', work / 'new.json', args.source, args.all_cores)
-                row.update(new_rss=new[0], new_s=new[1], code=new[2])
+                row.update(new_rss=new[0], new_s=new[1], code=new[2], new_cpu=new[3],
+                           load=os.getloadavg()[0])
                 if args.baseline and n <= args.baseline_max:
                     old = measure(work / 'bag', work / 'old.json', args.baseline,
                                   args.all_cores)
-                    row.update(old_rss=old[0], old_s=old[1])
-                    row['diff'] = max_rel_diff(
-                        json.loads((work / 'old.json').read_text()),
-                        json.loads((work / 'new.json').read_text()))
+                    row.update(old_rss=old[0], old_s=old[1], old_cpu=old[3])
+                    reports = [json.loads((work / f'{v}.json').read_text())
+                               for v in ('old', 'new')]
+                    row['diff'] = max_rel_diff(*reports)
+                    row['angle_arcsec'] = max_angle_diff_arcsec(*reports)
                 rows.append(row)
                 print(row, flush=True)
                 write_results(rows, notes, machine, args.all_cores)   # so far
@@ -188,28 +207,38 @@ def write_results(rows: list[dict[str, Any]], notes: list[str], machine: str,
     lines = ['# Memory of `analyze` against bag size (`benchmarks/bench_memory.py`)', '',
              f'Machine: {machine}.', '',
              f'`cam-bench analyze BAG {"" if all_cores else "--only-metrology "}'
-             '--json F` in a child process; peak RSS of the child; one run each. '
-             '"before": the whole-bag reader (commit 00da9db), "after": the streamed '
-             'reader. rounds: every feature measured again and again (3600 samples a '
-             'feature); revolutions: 5 features, each over more revolutions.', '',
-             '| shape | samples | bag [MB] | before: peak RSS [MB] | before: time [s] | '
-             'after: peak RSS [MB] | after: time [s] | after: samples/s | '
-             'report: max rel. diff |',
-             '|---|---:|---:|---:|---:|---:|---:|---:|---:|']
+             '--json F` in a child process; peak RSS and CPU time (user + system) of the '
+             'child; one run each. "before": the code before the constant-memory '
+             'analysis (commit 056ec47: streamed reader, each feature analysed with '
+             'whole-feature matrices, lift tables kept in memory), "after": this tree '
+             '(block-wise fits, spilled lift tables). rounds: every feature measured '
+             'again and again (3600 samples a feature); revolutions: 5 features, each '
+             'over more revolutions (10 M samples: 5 features of 2 M). Angles: largest '
+             'difference of any nose, pin, sensitive-point angle or phase between the '
+             'two reports; rel. diff: largest relative difference of any number.', '',
+             '| shape | samples | bag [MB] | before: peak RSS [MB] | before: CPU [s] | '
+             'after: peak RSS [MB] | after: CPU [s] | after: wall [s] | load | '
+             'angles: max diff ["] | report: max rel. diff |',
+             '|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|']
     for r in rows:
         old_rss = f"{r['old_rss']:.0f}" if 'old_rss' in r else '-'
-        old_s = f"{r['old_s']:.1f}" if 'old_s' in r else '-'
+        old_cpu = f"{r['old_cpu']:.1f}" if 'old_cpu' in r else '-'
         diff = f"{r['diff']:.1e}" if 'diff' in r else '-'
+        ang = f"{r['angle_arcsec']:.1e}" if 'angle_arcsec' in r else '-'
         lines.append(f"| {r['shape']} | {r['samples']:,} | {r['bag_mb']:.0f} | {old_rss} | "
-                     f"{old_s} | {r['new_rss']:.0f} | {r['new_s']:.1f} | "
-                     f"{r['samples'] / r['new_s']:,.0f} | {diff} |")
-    lines += ['', 'Reading: the streamed reader holds one block of MCAP chunks (4 MiB) and '
-              'the metrology core one feature at a time, so a bag of repeated '
-              'measurements stays at the same peak whatever its length. With features '
-              'that grow with the bag (revolutions) the peak follows the largest '
-              'feature and the lift tables kept for the report (24 B a sample used), '
-              'no longer the whole bag. The whole-bag reader needed about 500 B a '
-              'sample; it was not run on the largest bags (--baseline-max).']
+                     f"{old_cpu} | {r['new_rss']:.0f} | {r['new_cpu']:.1f} | "
+                     f"{r['new_s']:.1f} | {r.get('load', float('nan')):.1f} | {ang} | "
+                     f"{diff} |")
+    lines += ['', 'Reading: the streamed reader holds one block of MCAP chunks (4 MiB); '
+              'the metrology core holds the feature being measured, its fits take the '
+              'samples a block of 65 536 rows at a time (tall-skinny QR: the same '
+              'least-squares solutions up to rounding), and a lift table of 8 MiB or '
+              'more goes to an unlinked temporary file (memory-mapped, read back one '
+              'feature at a time). A bag of repeated measurements stays at the same peak '
+              'whatever its length; with features that grow with the bag (revolutions) '
+              'the peak follows the largest feature (about 24 B a sample for its '
+              'samples and 24 B for its lift table, plus the working arrays of one '
+              'analysis), no longer every feature and table.']
     lines += [''] + [f'* {n}' for n in notes]
     lines.append(f'Load average at the end: {os.getloadavg()[0]:.2f}.')
     text = '\n'.join(lines) + '\n'

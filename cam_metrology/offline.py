@@ -21,13 +21,25 @@ def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool,
     return [CORES[node](params.get(node)) for node in nodes], []
 
 
-def replay(bag: str, cores: list[Any], *, keep_all: bool = True) -> Any:
+def replay(bag: str, cores: list[Any], *, keep_all: bool = True,
+           out_bag: str | None = None) -> Any:
     """Run the bag through the cores with ``replay.run_offline`` (the live code path).
     ``keep_all=False``: of the tables of a feature measured more than once only the
-    last is kept (memory bounded whatever the bag's length; not for ``--out-bag``)."""
-    from cam_metrology.replay import run_offline
+    last is kept (memory bounded whatever the bag's length). ``out_bag``: a new bag
+    with the input messages and every output, written during the replay
+    (``replay.OutputBagWriter``: the outputs are not held for it)."""
+    from cam_metrology.replay import OutputBagWriter, regenerated_topics, run_offline
 
-    return run_offline(bag, cores, superseded_tables=keep_all)
+    if out_bag is None:
+        return run_offline(bag, cores, superseded_tables=keep_all)
+    writer = OutputBagWriter(bag, out_bag, regenerated_topics(bag, cores))
+    try:
+        result = run_offline(bag, cores, superseded_tables=keep_all, sink=writer.add)
+    except BaseException:
+        writer.abort()
+        raise
+    writer.close()
+    return result
 
 
 def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, Any]:
@@ -103,6 +115,7 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     lobes referenced to the base circle as the verdict uses them."""
     from cam_metrology.acceptance import both_crank_timings, measured_cards
     from cam_metrology.metrology.lift_error import feature_referenced
+    from cam_metrology.metrology.spill import release, spill
     from cam_metrology.provenance import provenance
 
     results = getattr(metrology, 'results', {})
@@ -112,14 +125,17 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
         lobes = {f: t for f, t in tables.items() if results[f].kind == 'lobe'}
         cards = measured_cards(scene, report.get('features', {}), lobes,
                                getattr(metrology, '_design', {}), heights)
+        release(lobes.values())
         crank = both_crank_timings(scene, report.get('features', {}), cards)
         if crank is not None:
             report['crank'] = crank
         for fid, card in cards.items():
             report['features'][fid]['cam_card'] = card
-        for fid, table in lobes.items():
+        for fid, table in lobes.items():   # one table at a time in memory
             ref, good = feature_referenced(table, report['features'].get(fid, {}))
-            tables[fid] = ref[good]
+            release(table)
+            tables[fid] = spill(ref[good])
+            del ref, good
     report['provenance'] = provenance(
         bag=bag, scene_text=scene.text if scene is not None else None,
         params=load_params(params) or None, command='analyze')
@@ -141,18 +157,22 @@ class Analysis:
 
 
 def analyze_bag(bag: str, params: str | None = None, *, only_metrology: bool = False,
-                keep_all: bool = False, heights: tuple[float, ...] | None = None
-                ) -> Analysis:
+                keep_all: bool = False, heights: tuple[float, ...] | None = None,
+                out_bag: str | None = None) -> Analysis:
     """The analysis of ``cam-bench analyze BAG``: checks of the bag, the replay through
     the cores, the final report with the other cores' skips, warnings, cam cards and
-    provenance. Raises InputError for a bad bag or parameter file (the CLI's exit 2)."""
+    provenance. ``out_bag``: the bag of ``--out-bag``, written during the replay
+    (``replay``). Raises InputError for a bad bag or parameter file (the CLI's exit 2)."""
     from cam_design.cam_card import DEFAULT_HEIGHTS_M
     from cam_design.errors import InputError
+    from cam_metrology.heap import bounded_heap
     from cam_metrology.wire.topics import JOINT_STATES
+
+    bounded_heap()   # whole-feature arrays returned to the system when freed
 
     cores, missing = make_cores(load_params(params), only_metrology)
     warnings = bag_warnings(bag)   # damaged bag, no or invalid scene: InputError here
-    result = replay(bag, cores, keep_all=keep_all)
+    result = replay(bag, cores, keep_all=keep_all, out_bag=out_bag)
     if result.samples == 0:
         raise InputError('bag', bag, f'{JOINT_STATES} samples (the bag has none: '
                          'nothing to measure)')

@@ -33,6 +33,7 @@ Delivery rules (what a core sees):
 """
 from __future__ import annotations
 
+import heapq
 import inspect
 import json
 import time
@@ -51,6 +52,7 @@ from cam_metrology.wire.plots import plot_messages
 from cam_metrology.wire.topics import JOINT_STATES, METROLOGY_REPORT, PLOT_TOPICS
 
 __all__ = ['StampedOutput', 'OfflineResult', 'run_offline', 'write_outputs',
+           'OutputBagWriter', 'regenerated_topics',
            'order_cores', 'TICK_PERIOD_NS', 'MAX_TICKS_PER_GAP']
 
 #: default period of the emulated live timer [ns] (0.05 s)
@@ -115,9 +117,11 @@ class _Router:
     """Delivers messages and routes outputs between cores; records the outputs."""
 
     def __init__(self, cores: Sequence[Any], result: OfflineResult,
-                 superseded_tables: bool = True) -> None:
+                 superseded_tables: bool = True,
+                 sink: Callable[[StampedOutput], None] | None = None) -> None:
         self.cores = list(cores)
         self.result = result
+        self.sink = sink
         #: False: a table output replaces the earlier one of its topic and label
         self.superseded_tables = superseded_tables
         self._table_at: dict[tuple[str, str], int] = {}
@@ -153,6 +157,8 @@ class _Router:
         """Append an output; without ``superseded_tables``, drop the earlier table of
         the same topic and label (a feature measured again), so that what is kept does
         not grow with the number of measurements."""
+        if self.sink is not None:
+            self.sink(item)
         outputs = self.result.outputs
         if not self.superseded_tables and isinstance(item.output, TableOutput):
             key = (item.output.topic, item.output.label)
@@ -195,7 +201,8 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
                 progress: Callable[[int, int], None] | None = None, *,
                 tick_period_ns: int = TICK_PERIOD_NS, bulk: bool = True,
                 block_bytes: int = bagio.STREAM_BLOCK_BYTES,
-                superseded_tables: bool = True) -> OfflineResult:
+                superseded_tables: bool = True,
+                sink: Callable[[StampedOutput], None] | None = None) -> OfflineResult:
     """Replay ``bag_path`` through ``cores`` in-process (see the module doc).
 
     ``progress(done, total)`` is called as messages are fed (counting samples and
@@ -205,6 +212,8 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     ``superseded_tables=False`` keeps, of the table outputs with the same topic and
     label (a feature measured again), only the last one, so that memory does not grow
     with a bag of repeated measurements; ``write_outputs`` needs them all (True).
+    ``sink``: called with every output as it is produced (``OutputBagWriter.add``:
+    a bag written during the replay, whatever is kept).
     """
     if tick_period_ns <= 0:
         raise InputError('tick_period_ns', tick_period_ns, 'a period > 0 ns')
@@ -215,7 +224,7 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     wanted = {t for c in cores for t in c.subscriptions} - published
     topics = bagio.bag_topics(bag)
     result = OfflineResult(bag=bag, regenerated_topics=tuple(sorted(published & set(topics))))
-    router = _Router(cores, result, superseded_tables)
+    router = _Router(cores, result, superseded_tables, sink)
     joints = JOINT_STATES
     feed_joints = joints in wanted and joints in topics
     blocks = bagio.iter_joint_states(bag, block_bytes=block_bytes) if feed_joints else iter(())
@@ -310,36 +319,91 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     return result
 
 
+class OutputBagWriter:
+    """A new bag written while the replay runs (``run_offline(..., sink=writer.add)``):
+    every message of the input bag (bytes unchanged, except topics the cores
+    regenerate) and every output as it is produced, merged in log-time order (an
+    output after the input messages of the same log time; its plot views, stamped at
+    or after it, in their order). What is held: the outputs and plot views not yet
+    passed by the input stream; an output whose log time is reached is written at
+    once, so memory does not grow with the bag. ``close`` writes the rest and returns
+    the number of outputs written. Outputs must come in non-decreasing log time (the
+    replay's order)."""
+
+    def __init__(self, bag: str | Path, out_bag: str | Path, regenerated: Iterable[str], *,
+                 compression: bool = True, plots: bool = True) -> None:
+        self.writer = bagio.BagWriter(out_bag, compression=compression)
+        skip = set(regenerated) | (set(PLOT_TOPICS) if plots else set())
+        topics = bagio.add_topics_like(self.writer, bag, [
+            t for t in bagio.bag_topics(bag) if t not in skip])
+        self._inputs = ((m.stamp_ns, 0, i, (m.topic, m.msg)) for i, m in enumerate(
+            bagio.iter_messages(bag, list(topics), raw=True)))
+        self._input: tuple[int, int, int, Any] | None = next(self._inputs, None)
+        self._pending: list[tuple[int, int, int, Any]] = []   # heap: outputs, views
+        self.plots = plots
+        self.outputs = 0
+        self._views = 0
+
+    def add(self, item: StampedOutput) -> None:
+        """Take one output (and its plot views); write everything that comes before it."""
+        key = (item.stamp_ns, 1, self.outputs)
+        heapq.heappush(self._pending, (*key, item.output))
+        self.outputs += 1
+        for p in plot_messages(item.output, item.stamp_ns) if self.plots else ():
+            heapq.heappush(self._pending, (p.stamp_ns, 2, self._views, (p.topic, p.cdr)))
+            self._views += 1
+        self._write_until(key)
+
+    def _write_until(self, key: tuple[int, int, int] | None) -> None:
+        """Write input messages and pending items in merged order up to ``key``
+        (everything when None)."""
+        while True:
+            pending = self._pending[0] if self._pending else None
+            nxt = self._input
+            if nxt is None or (pending is not None and pending[:3] < nxt[:3]):
+                nxt = pending
+            if nxt is None or (key is not None and nxt[:3] > key):
+                return
+            stamp, kind, _, item = nxt
+            if nxt is pending:
+                heapq.heappop(self._pending)
+            else:
+                self._input = next(self._inputs, None)
+            if kind == 1:
+                self.writer.write_output(item, stamp)
+            else:
+                self.writer.write(item[0], stamp, item[1])
+
+    def close(self) -> int:
+        """Write what is left and close the bag; returns the number of outputs."""
+        self._write_until(None)
+        self.writer.close()
+        return self.outputs
+
+    def abort(self) -> None:
+        """Close the bag as it is (the replay failed: the caller discards it)."""
+        self.writer.close()
+
+
+def regenerated_topics(bag: str | Path, cores: Sequence[Any]) -> tuple[str, ...]:
+    """Topics of ``bag`` that ``cores`` publish (regenerated by a replay, not copied)."""
+    published = {t for c in cores for t in getattr(c, 'publications', {})}
+    return tuple(sorted(published & set(bagio.bag_topics(bag))))
+
+
 def write_outputs(result: OfflineResult, out_bag: str | Path, *,
                   compression: bool = True, plots: bool = True) -> int:
     """A new bag with every message of the input bag (bytes unchanged, except topics
-    the cores regenerated) and every output, merged in log-time order (an output after
-    the input messages of the same log time); with ``plots`` also the plot views of
-    every output (``wire.plots``: curves, per-part values, statuses on /diagnostics),
-    as the live nodes publish them. Returns the number of outputs written."""
-    import heapq
-
-    with bagio.BagWriter(out_bag, compression=compression) as writer:
-        regenerated = set(result.regenerated_topics)
-        if plots:   # the plot views of a recorded live run are regenerated too
-            regenerated |= set(PLOT_TOPICS)
-        topics = bagio.add_topics_like(writer, result.bag, [
-            t for t in bagio.bag_topics(result.bag) if t not in regenerated])
-        inputs = ((m.stamp_ns, 0, i, (m.topic, m.msg)) for i, m in enumerate(
-            bagio.iter_messages(result.bag, list(topics), raw=True)))
-        outputs = ((o.stamp_ns, 1, i, o) for i, o in enumerate(result.outputs))
-        views = ((p.stamp_ns, 2, i, (p.topic, p.cdr)) for i, p in enumerate(
-            p for o in (result.outputs if plots else ()) for p in plot_messages(
-                o.output, o.stamp_ns)))
-        for stamp, kind, _, item in heapq.merge(inputs, outputs, _sorted(views),
-                                                key=lambda x: (x[0], x[1], x[2])):
-            if kind == 1:
-                writer.write_output(item.output, stamp)
-            else:
-                writer.write(item[0], stamp, item[1])
-    return len(result.outputs)
-
-
-def _sorted(items: Iterable[tuple[int, int, int, Any]]) -> list[tuple[int, int, int, Any]]:
-    """The plot messages in log-time order (curve points run past their output's time)."""
-    return sorted(items, key=lambda x: (x[0], x[2]))
+    the cores regenerated) and every output of ``result``, merged in log-time order
+    (``OutputBagWriter``); with ``plots`` also the plot views of every output
+    (``wire.plots``: curves, per-part values, statuses on /diagnostics), as the live
+    nodes publish them. Returns the number of outputs written. ``analyze --out-bag``
+    writes while replaying instead (``run_offline(sink=...)``), holding no outputs."""
+    writer = OutputBagWriter(result.bag, out_bag, result.regenerated_topics,
+                             compression=compression, plots=plots)
+    try:
+        for item in result.outputs:
+            writer.add(item)
+    finally:
+        n = writer.close()
+    return n

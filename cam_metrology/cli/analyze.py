@@ -56,10 +56,16 @@ def run(args: argparse.Namespace) -> int:
         raise InputError('--out-bag', args.out_bag, 'a path that does not exist yet')
     from cam_metrology.cli.card import heights_from
 
-    run_ = analyze_bag(args.bag, args.params, only_metrology=args.only_metrology,
-                       keep_all=bool(args.out_bag), heights=heights_from(args))
-    report, outputs, result, metrology, tables = (run_.report, run_.outputs, run_.result,
-                                                  run_.metrology, run_.tables)
+    if args.out_bag:   # written during the replay: complete or not there at all
+        from cam_metrology.files import atomic_dir
+        with atomic_dir(args.out_bag, '--out-bag') as tmp:
+            run_ = analyze_bag(args.bag, args.params, only_metrology=args.only_metrology,
+                               heights=heights_from(args), out_bag=str(tmp))
+    else:
+        run_ = analyze_bag(args.bag, args.params, only_metrology=args.only_metrology,
+                           heights=heights_from(args))
+    report, outputs, metrology, tables = (run_.report, run_.outputs, run_.metrology,
+                                          run_.tables)
     for line in run_.warnings:
         print(f'cam-bench analyze: warning: {line}', file=sys.stderr)
     if args.json:
@@ -80,11 +86,6 @@ def run(args: argparse.Namespace) -> int:
         from cam_metrology.files import write_output
         from cam_metrology.html_report import csv_text
         write_output(args.csv, csv_text(report), '--csv')
-    if args.out_bag:
-        from cam_metrology.files import atomic_dir
-        from cam_metrology.replay import write_outputs
-        with atomic_dir(args.out_bag, '--out-bag') as tmp:
-            write_outputs(result, tmp)
     if not any(f.get('status') == 'ok' for f in report.get('features', {}).values()):
         print(f'cam-bench analyze: error: nothing was measured in {args.bag}: no feature '
               f'of the scene was measured from its {JOINT_TOPIC} samples (see the '

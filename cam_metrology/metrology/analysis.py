@@ -15,7 +15,7 @@ estimators return shifts ``d`` in this frame; the encoder angle of the nose is
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -24,9 +24,11 @@ from numpy.typing import NDArray
 from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.errors import InputError
 from cam_design.keyway import KeywayGeometry
+from cam_metrology.metrology import block_lsq
 from cam_metrology.metrology.asymmetry import lift_spline, top_point
-from cam_metrology.metrology.features import FeatureSamples
-from cam_metrology.metrology.lift_error import base_referenced, lift_error_stats, local_deviation
+from cam_metrology.metrology.features import FeatureSamples, unwrapped_blocks
+from cam_metrology.metrology.lift_error import (error_stats, local_deviation,
+                                                referenced_error_stats)
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
 from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
@@ -245,10 +247,9 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
     fit = fit_shift(x, s, law, theta=theta, d0=d0, c0=c0, used=cand)
     k = settings.outlier_sigma
     for _ in range(3 if k > 0 else 0):
-        r = s[cand] - fit.c - law(x[cand] - fit.d, 0)
-        if theta is not None:
-            r = r - fit.runout[0] * np.cos(theta[cand]) - fit.runout[1] * np.sin(theta[cand])
-        dev = np.abs(local_deviation(x[cand], r))
+        r = _residuals(x, s, law, fit, theta, cand)
+        dev = local_deviation(_used(x, cand), r)
+        np.abs(dev, out=dev)
         scale = max(1.4826 * float(np.median(dev)), OUTLIER_SCALE_FLOOR)
         keep = cand.copy()
         keep[cand] = dev <= k * scale
@@ -257,8 +258,33 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
         if np.array_equal(keep, fit.used):
             break
         fit = fit_shift(x, s, law, theta=theta, d0=fit.d, c0=fit.c, used=keep)
+    r = dev = keep = None   # type: ignore[assignment]  # freed before the next fit
     fit, noise = _angle_noise_weighting(x, s, law, fit, theta)
     return fit, cand & ~fit.used, noise
+
+
+def _used(a: NDArray[np.float64], used: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """``a[used]``, without a copy when every sample is used."""
+    return a if used.all() else a[used]
+
+
+def _residuals(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift, fit: Any,
+               theta: NDArray[np.float64] | None, used: NDArray[np.bool_],
+               ) -> NDArray[np.float64]:
+    """Residuals [m] of the samples ``used`` under ``fit`` (offset, shift and run-out),
+    computed a block at a time (no full-size temporaries)."""
+    out = np.empty(int(np.count_nonzero(used)))
+    step, pos = block_lsq.BLOCK_ROWS, 0
+    for k in range(0, x.size, step):
+        m = used[k:k + step]
+        xb, sb = x[k:k + step][m], s[k:k + step][m]
+        rb = sb - fit.c - law(xb - fit.d, 0)
+        if theta is not None:
+            tb = theta[k:k + step][m]
+            rb = rb - fit.runout[0] * np.cos(tb) - fit.runout[1] * np.sin(tb)
+        out[pos:pos + rb.size] = rb
+        pos += rb.size
+    return out
 
 
 def _angle_noise_weighting(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
@@ -271,14 +297,26 @@ def _angle_noise_weighting(x: NDArray[np.float64], s: NDArray[np.float64], law: 
     point), refit by weighted least squares with weights 1/(sigma_s^2 + h'^2
     sigma_theta^2), so the estimate stays efficient and its std honest."""
     used = fit.used
-    gp2 = law(x[used] - fit.d, 1) ** 2
+    xu = _used(x, used)
+    gp2 = law(xu - fit.d, 1)
+    gp2 **= 2
     # the noise part of the residuals only: a real form error must not pass for noise
-    r2 = local_deviation(x[used], fit.residuals) ** 2 / MEDIAN9_VARIANCE
-    design = np.column_stack([np.ones_like(gp2), gp2])
-    coef, *_ = np.linalg.lstsq(design, r2, rcond=None)
+    r2 = local_deviation(xu, fit.residuals)
+    del xu
+    r2 **= 2
+    r2 /= MEDIAN9_VARIANCE
+    # r2 ~ a + b gp2 by least squares, a block of rows at a time
+    step = block_lsq.BLOCK_ROWS
+    tri, rows = block_lsq.triangle(
+        (np.column_stack([np.ones(g.size), g]), r2[k:k + step])
+        for k in range(0, gp2.size, step) for g in (gp2[k:k + step],))
+    coef = block_lsq.solve(tri, rows)
     a, b = float(coef[0]), float(coef[1])
-    res = r2 - design @ coef
-    cov = float(res @ res) / max(r2.size - 2, 1) * np.linalg.pinv(design.T @ design)
+    rss = sum(float(res @ res) for k in range(0, gp2.size, step)
+              for res in (r2[k:k + step] - (coef[0] + coef[1] * gp2[k:k + step]),))
+    del r2
+    normal = tri[:2, :2].T @ tri[:2, :2]   # design^T design = R^T R
+    cov = rss / max(gp2.size - 2, 1) * np.linalg.pinv(normal)
     b_se = float(np.sqrt(max(cov[1, 1], 0.0)))
     noise = {'probe_noise_estimate_um': float(np.sqrt(max(a, 0.0))) * UM,
              'angle_noise_estimate_arcsec': float(np.degrees(np.sqrt(max(b, 0.0)))) * 3600}
@@ -299,7 +337,9 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     lo, hi = law.support if hasattr(law, 'support') else (-np.pi, np.pi)
     xraw = direction * fs.theta
     x0 = coarse_align(xraw, fs.s, law)
-    x = wrap_pi(xraw - x0)
+    xraw -= x0
+    x = wrap_pi(xraw)
+    del xraw
     alpha_m, alpha_n = sensitive_points(law, lo, hi)
     _zone_check(x, _slope_zone(law, alpha_m, lo, 0.0), 'rise', settings)
     _zone_check(x, _slope_zone(law, alpha_n, 0.0, hi), 'fall', settings)
@@ -310,16 +350,20 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                       theta=fs.theta if runout else None)
     good = ~outliers
     _check_fit(fit, settings, 'nose')
+    fit = replace(fit, residuals=fit.residuals[:0])   # not used further (memory)
     harmonic = fit.runout[0] * np.cos(fs.theta) + fit.runout[1] * np.sin(fs.theta)
     ref = base_reference(fs.theta, fs.s, base & good, runout, fit.c + harmonic)
+    ref -= fs.s
+    ref *= -1.0   # s - ref, in place
     try:
         sp = sensitive_point_shift(
-            x[good], (fs.s - ref)[good], law, alpha_m, alpha_n,
+            x[good], ref[good], law, alpha_m, alpha_n,
             half_window=settings.sp_half_window_deg * DEG,
             pairs=settings.sp_pairs, spacing=settings.sp_pair_spacing_deg * DEG,
             order=settings.sp_fit_order, validity_tol=settings.validity_tol_um / UM)
     except InputError as exc:   # the primary (LSQ) result stands; SP reported as skipped
         sp = f'sensitive-point method: {exc}'
+    del ref
     values: dict[str, Any] = {'kind': 'lobe',
                               'angle_deg': _encoder_deg(direction, x0, fit.d),
                               'angle_std_deg': float(np.degrees(fit.d_std)),
@@ -332,15 +376,30 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     values.update(_per_revolution(fs, x, fs.s - harmonic, law, fit, good, settings,
                                   (_slope_zone(law, alpha_m, lo, 0.0),
                                    _slope_zone(law, alpha_n, 0.0, hi))))
-    alpha = x - fit.d
-    design = law(alpha, 0)
-    measured = fs.s - fit.c - harmonic
-    fit_table = np.column_stack([alpha, measured, design])
-    fit_error = lift_error_stats(fit_table, good)
+    base &= good
+    base_runout = _runout_um(fs.theta[base], fs.s[base] - fit.c)
+    del base
+    # the lift table (alpha, measured, design) in alpha order, built column by column
+    alpha = x
+    alpha -= fit.d   # x is not used after this: alpha = x - d in place
+    del x
+    order = np.argsort(alpha)
+    table = np.empty((alpha.size, 3))
+    table[:, 0] = alpha[order]
+    del alpha
+    measured = fs.s - fit.c
+    measured -= harmonic
+    del harmonic
+    table[:, 1] = measured[order]
+    del measured
+    table[:, 2] = law(table[:, 0], 0)
+    good = good[order]
+    del order
+    alpha, measured, design = table[:, 0], table[:, 1], table[:, 2]
+    fit_error = error_stats(measured - design, design, good)
     if fit_error is not None:   # what the fit leaves; a smooth form error partly hides here
         values['fit_residual_um'] = fit_error
-    values['base_circle_runout_um'] = _runout_um(fs.theta[base & good],
-                                                 (fs.s - fit.c)[base & good])
+    values['base_circle_runout_um'] = base_runout
     values['runout_fitted'] = runout
     if runout:
         values['fitted_runout_amplitude_um'] = float(np.hypot(*fit.runout)) * UM
@@ -358,11 +417,9 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                 skipped.append(('asymmetry', values['asymmetry_error']))
         else:
             skipped.append(('asymmetry', 'design lift is asymmetric: no symmetry axis'))
-    order = np.argsort(alpha)
-    table = np.column_stack([alpha[order], measured[order], design[order]])
     # the lift error a gauge reports: offset (and run-out) from the base circle alone
-    ref, kept = base_referenced(table, runout)
-    stats = lift_error_stats(ref, kept & good[order])
+    stats = referenced_error_stats(table, runout, good)
+    del good
     if stats is not None:
         values['lift_error_um'] = stats
         values['lift_error_reference'] = 'base circle'
@@ -379,8 +436,12 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.fl
     covered are left out."""
     if fs.revolutions < 1.9:
         return {}
-    turns = np.unwrap(fs.theta)
-    rev = np.floor(np.abs(turns - turns[0]) / (2 * np.pi)).astype(np.int64)
+    rev = np.empty(fs.theta.size, np.int64)
+    pos, first = 0, None
+    for turns in unwrapped_blocks(fs.theta):   # np.unwrap, a block at a time
+        first = turns[0] if first is None else first
+        rev[pos:pos + turns.size] = np.floor(np.abs(turns - first) / (2 * np.pi))
+        pos += turns.size
     devs = []
     for k in range(int(rev.max()) + 1):
         sel = (rev == k) & good
@@ -414,9 +475,7 @@ def base_reference(theta: NDArray[np.float64], s: NDArray[np.float64],
     if np.count_nonzero(base) < 10:
         return np.asarray(fallback, dtype=float)
     if runout and covers_circle(theta[base], need=18):
-        tb = theta[base]
-        coef, *_ = np.linalg.lstsq(np.column_stack([np.ones_like(tb), np.cos(tb),
-                                                    np.sin(tb)]), s[base], rcond=None)
+        coef = block_lsq.harmonic_lstsq(theta, s, base)
         return coef[0] + coef[1] * np.cos(theta) + coef[2] * np.sin(theta)
     return np.full(theta.size, float(np.median(s[base])))
 
@@ -425,8 +484,7 @@ def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]) -> float |
     """Total indicated run-out [um] of the base circle: 2 x first-harmonic amplitude."""
     if theta.size < 10:
         return None
-    jac = np.column_stack([np.ones_like(theta), np.cos(theta), np.sin(theta)])
-    coef, *_ = np.linalg.lstsq(jac, lift, rcond=None)
+    coef = block_lsq.harmonic_lstsq(theta, lift)
     return float(2.0 * np.hypot(coef[1], coef[2]) * UM)
 
 

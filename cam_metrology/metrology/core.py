@@ -21,9 +21,11 @@ from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.keyway import KeywayGeometry
 from cam_design.errors import InputError, require_positive
 from cam_metrology.core import merged_parameters
+from cam_metrology.heap import trim
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_keyway, analyze_lobe, analyze_pin,
                                               seen_lift)
+from cam_metrology.metrology.spill import release, spill
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
                                               encoder_units_hint, probe_units_problem,
                                               joint_positions, stamp_of)
@@ -36,6 +38,8 @@ SCENE, JOINTS, DONE = wt.SCENE, wt.JOINT_STATES, wt.FEATURE_DONE
 PIN_ID = 'dowel_pin'
 KEYWAY_ID = 'keyway'
 DATUM_IDS = (PIN_ID, KEYWAY_ID)
+#: after a feature of at least this many samples the C heap is trimmed (``heap.trim``)
+TRIM_SAMPLES = 100_000
 LIFT_COLUMNS = ('alpha_rad', 'lift_m', 'design_lift_m')
 
 
@@ -213,21 +217,29 @@ class MetrologyCore:
     # --------------------------------------------------------------- analysis
     def _complete_all(self, done: list[FeatureSamples], stamp_ns: int) -> list[Output]:
         out: list[Output] = []
-        for fs in done:
-            out += self._complete(fs, stamp_ns)
+        while done:   # taken from the list: each feature's samples freed once analysed
+            out += self._complete(done.pop(0), stamp_ns)
         return out
 
     def _complete(self, fs: FeatureSamples, stamp_ns: int) -> list[Output]:
         if self.scene is None:
             self.pending.append(fs)
             return []
+        large = fs.theta.size >= TRIM_SAMPLES
+        if large:
+            trim()   # the assembly's chunks, freed
         result = self._analyze(fs)
-        self.results[fs.feature_id] = result
-        self._scene_of[fs.feature_id] = len(self.scenes) - 1
+        fid = fs.feature_id
+        del fs   # the samples are not needed for the report (memory)
+        result.table = spill(result.table)   # a large table: out of memory until read
+        self.results[fid] = result
+        if large:
+            trim()   # the analysis' temporaries, freed
+        self._scene_of[fid] = len(self.scenes) - 1
         out: list[Output] = [self._feature_status(result, stamp_ns)]
         if result.table is not None:
-            out.append(TableOutput(LIFT, fs.feature_id, LIFT_COLUMNS, result.table))
-        if fs.feature_id == self._datum_id() and self._pin_angle() is not None:
+            out.append(TableOutput(LIFT, fid, LIFT_COLUMNS, result.table))
+        if fid == self._datum_id() and self._pin_angle() is not None:
             # lobes measured before the pin: publish them again, now with their phase
             out += [self._feature_status(r, stamp_ns) for r in self.results.values()
                     if r.kind == 'lobe' and r.angle_rad is not None]
@@ -394,9 +406,9 @@ class MetrologyCore:
         if scene.study:
             extra['study'] = dict(scene.study)
         from cam_metrology.metrology.tolerances import judge_part
-        verdict = judge_part(scene, features,
-                             {f: r.table for f, r in self.results.items() if r.kind == 'lobe'},
-                             self._design)
+        tables = {f: r.table for f, r in self.results.items() if r.kind == 'lobe'}
+        verdict = judge_part(scene, features, tables, self._design)
+        release(tables.values())   # the spilled tables read by the verdict
         return _json_safe({
             'camshaft_id': scene.camshaft_id,
             'verdict': verdict,

@@ -11,7 +11,7 @@ estimators work on ``theta mod 2*pi`` so several revolutions simply overlay.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -136,9 +136,10 @@ class FeatureAssembler:
                 done += self.close()
                 self._open = _OpenFeature(fid)
             self._open.flush()
-            self._open.stamps.append(st[a:b])
-            self._open.theta.append(th[a:b])
-            self._open.s.append(pr[a:b])
+            # copies: a view would keep the whole block (ids, log times) alive
+            self._open.stamps.append(st[a:b].copy())
+            self._open.theta.append(th[a:b].copy())
+            self._open.s.append(pr[a:b].copy())
             self._open.last_rx_ns = rx_ns
         return done
 
@@ -156,26 +157,66 @@ class FeatureAssembler:
 
 
 def _cat(chunks: list[NDArray[Any]], dtype: Any) -> NDArray[Any]:
-    return np.concatenate(chunks).astype(dtype) if chunks else np.zeros(0, dtype)
+    """The chunks as one array of ``dtype``; the list is emptied (each chunk freed as
+    soon as the whole is made: one copy of the samples at a time)."""
+    out = np.concatenate(chunks).astype(dtype, copy=False) if chunks else np.zeros(0, dtype)
+    chunks.clear()
+    return out
+
+
+def unwrapped_blocks(theta: NDArray[np.float64], block: int = 1 << 16,
+                     ) -> Iterator[NDArray[np.float64]]:
+    """``numpy.unwrap(theta)`` [rad] a block at a time (the same values: the same
+    corrections, summed in the same order), without its full-size temporaries."""
+    carry = 0.0
+    for k in range(0, theta.size, block):
+        p = theta[max(k - 1, 0):k + block]
+        dd = np.diff(p)
+        ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
+        ddmod[(ddmod == -np.pi) & (dd > 0)] = np.pi
+        correct = ddmod - dd
+        correct[np.abs(dd) < np.pi] = 0.0
+        sums = np.cumsum(np.concatenate(([carry], correct)))
+        if k == 0:
+            out = p.copy()
+            out[1:] += sums[1:]
+        else:
+            out = p[1:] + sums[1:]
+        carry = float(sums[-1])
+        yield out
+
+
+def unwrapped_span(theta: NDArray[np.float64]) -> float:
+    """``numpy.ptp(numpy.unwrap(theta))`` [rad] (``unwrapped_blocks``)."""
+    lo, hi = np.inf, -np.inf
+    for part in unwrapped_blocks(theta):
+        if part.size:
+            lo, hi = min(lo, float(part.min())), max(hi, float(part.max()))
+    return hi - lo if hi >= lo else 0.0
 
 
 def clean_feature(feature_id: str, stamp_ns: NDArray[np.int64], theta: NDArray[np.float64],
                   s: NDArray[np.float64]) -> FeatureSamples:
     """Drop NaN/inf samples and exact duplicates, sort by stamp; count what was dropped."""
     received = int(theta.size)
-    ok = np.isfinite(theta) & np.isfinite(s)
+    ok = np.isfinite(theta)
+    ok &= np.isfinite(s)
     nan_dropped = int(received - np.count_nonzero(ok))
-    st, th, pr = stamp_ns[ok], theta[ok], s[ok]
-    order = np.lexsort((pr, th, st))
-    st, th, pr = st[order], th[order], pr[order]
-    if st.size > 1:
+    st, th, pr = (stamp_ns, theta, s) if nan_dropped == 0 else \
+        (stamp_ns[ok], theta[ok], s[ok])
+    del ok
+    dup = 0
+    if st.size > 1 and not bool(np.all(st[1:] > st[:-1])):
+        # not in strictly increasing stamp order (the usual case needs no copy)
+        order = np.lexsort((pr, th, st))
+        st, th, pr = st[order], th[order], pr[order]
+        del order
         same = (st[1:] == st[:-1]) & (th[1:] == th[:-1]) & (pr[1:] == pr[:-1])
         keep = np.concatenate(([True], ~same))
-    else:
-        keep = np.ones(st.size, bool)
-    dup = int(st.size - np.count_nonzero(keep))
-    st, th, pr = st[keep], th[keep], pr[keep]
-    revs = float(np.ptp(np.unwrap(th)) / (2 * np.pi)) if th.size > 1 else 0.0
+        dup = int(st.size - np.count_nonzero(keep))
+        if dup:
+            st, th, pr = st[keep], th[keep], pr[keep]
+    revs = float(unwrapped_span(th) / (2 * np.pi)) if th.size > 1 else 0.0
     return FeatureSamples(feature_id, th, pr, st, received, nan_dropped, dup, revs)
 
 

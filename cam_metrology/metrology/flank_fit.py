@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
+from cam_metrology.metrology import block_lsq
 
 TWO_PI = 2.0 * np.pi
 Lift = Callable[[NDArray[np.float64], int], NDArray[np.float64]]
@@ -59,11 +60,51 @@ def _design_matrix(gp: NDArray[np.float64], theta: NDArray[np.float64] | None,
     return np.column_stack(cols)
 
 
+class _UsedRows:
+    """The used samples of a fit, handed out a block of rows at a time: views of the
+    arrays when every sample is used, else the used ones of each block (gathered once
+    when they fit in one block). ``sw``: square roots of the normalised weights."""
+
+    def __init__(self, x: NDArray[np.float64], s: NDArray[np.float64],
+                 theta: NDArray[np.float64] | None, used: NDArray[np.bool_],
+                 weights: NDArray[np.float64] | None, block_rows: int) -> None:
+        self.count = int(np.count_nonzero(used))
+        self.block_rows = block_rows
+        arrays = [x, s, theta, None if weights is None else np.asarray(weights, dtype=float)]
+        self.mask: NDArray[np.bool_] | None = None if self.count == x.size else used
+        if self.mask is not None and self.count <= block_rows:
+            arrays = [None if a is None else a[used] for a in arrays]
+            self.mask = None
+        self.arrays = arrays
+        self.size = arrays[0].size
+        self.wmean = 1.0
+        if weights is not None:
+            self.wmean = float(sum(np.sum(w) for _, _, _, w, _ in self._raw())) / self.count
+
+    def _raw(self):   # type: ignore[no-untyped-def]
+        """(x, s, theta, weights, slice of the used rows) per block."""
+        pos = 0
+        for k in range(0, self.size, self.block_rows):
+            part = [None if a is None else a[k:k + self.block_rows] for a in self.arrays]
+            if self.mask is not None:
+                m = self.mask[k:k + self.block_rows]
+                part = [None if a is None else a[m] for a in part]
+            n = part[0].size
+            yield (*part, slice(pos, pos + n))
+            pos += n
+
+    def blocks(self):   # type: ignore[no-untyped-def]
+        """(x, s, theta or None, sw or None, slice of the used rows) per block."""
+        for xs, ss, th, w, where in self._raw():
+            yield xs, ss, th, None if w is None else np.sqrt(w / self.wmean), where
+
+
 def fit_shift(x: NDArray[np.float64], s: NDArray[np.float64], lift: Lift, *,
               theta: NDArray[np.float64] | None = None, d0: float = 0.0,
               c0: float | None = None, used: NDArray[np.bool_] | None = None,
               weights: NDArray[np.float64] | None = None,
-              max_iter: int = 50, tol: float = 1e-13) -> ShiftFit:
+              max_iter: int = 50, tol: float = 1e-13,
+              block_rows: int = block_lsq.BLOCK_ROWS) -> ShiftFit:
     """Gauss-Newton fit of ``s = c + lift(x - d) [+ a cos theta + b sin theta]``.
 
     ``x`` [rad] sample angles relative to the coarse nose, ``s`` [m] readings,
@@ -71,68 +112,87 @@ def fit_shift(x: NDArray[np.float64], s: NDArray[np.float64], lift: Lift, *,
     the run-out harmonic. ``used`` selects the samples (default: all). ``weights``:
     relative inverse variances per sample (weighted least squares; normalised to a
     mean of 1, so ``sigma`` stays a typical residual [m]).
+
+    The Jacobian is never formed whole: each Gauss-Newton step is the least-squares
+    solution of its blocks of ``block_rows`` rows (``block_lsq``: the same step as
+    from the whole matrix up to rounding), so memory is the residual vector and one
+    block, whatever the number of samples.
     """
     if used is None:
         used = np.ones(x.size, bool)
-    xs, ss = x[used], s[used]
-    th = None if theta is None else theta[used]
-    sw = None
-    if weights is not None:
-        w = np.asarray(weights, dtype=float)[used]
-        sw = np.sqrt(w / np.mean(w))
-    npar = 2 if th is None else 4
-    if xs.size < npar + 2:
-        raise InputError('samples', xs.size, f'at least {npar + 2} samples for the fit')
+    rows = _UsedRows(x, s, theta, used, weights, block_rows)
+    fit_runout = theta is not None
+    weighted = weights is not None
+    npar = 2 if not fit_runout else 4
+    n = rows.count
+    if n < npar + 2:
+        raise InputError('samples', n, f'at least {npar + 2} samples for the fit')
     d = float(d0)
-    c = float(np.median(ss - lift(xs - d, 0))) if c0 is None else float(c0)
+    r = np.empty(n)
+    r_new = np.empty(n)
+    if c0 is None:
+        for xs, ss, _, _, where in rows.blocks():
+            r[where] = ss - lift(xs - d, 0)
+        c = float(np.median(r, overwrite_input=True))
+    else:
+        c = float(c0)
     extra = np.zeros(2)
 
-    def resid(d_: float, c_: float, ab: NDArray[np.float64]) -> NDArray[np.float64]:
-        r = ss - c_ - lift(xs - d_, 0)
-        if th is not None:
-            r = r - ab[0] * np.cos(th) - ab[1] * np.sin(th)
-        return r
+    def resid(d_: float, c_: float, ab: NDArray[np.float64],
+              out: NDArray[np.float64]) -> float:
+        """Fill ``out`` with the residuals [m]; return their weighted sum of squares."""
+        total = 0.0
+        for xs, ss, th, sw, where in rows.blocks():
+            rb = ss - c_ - lift(xs - d_, 0)
+            if th is not None:
+                rb = rb - ab[0] * np.cos(th) - ab[1] * np.sin(th)
+            out[where] = rb
+            if sw is not None:
+                rw = rb * sw
+                total += float(rw @ rw)
+        return total if weighted else float(out @ out)
 
-    def wss(r_: NDArray[np.float64]) -> float:
-        rw = r_ if sw is None else r_ * sw
-        return float(rw @ rw)
+    def triangle(d_: float, res: NDArray[np.float64]) -> NDArray[np.float64]:
+        """QR triangle of the weighted [Jacobian | residuals] at shift ``d_``."""
+        def blocks():   # type: ignore[no-untyped-def]
+            for xs, _, th, sw, where in rows.blocks():
+                jac = _design_matrix(lift(xs - d_, 1), th)
+                rb = res[where]
+                yield (jac, rb) if sw is None else (jac * sw[:, None], rb * sw)
+        return block_lsq.triangle(blocks())[0]
 
-    def wjac(d_: float) -> NDArray[np.float64]:
-        jac_ = _design_matrix(lift(xs - d_, 1), th)
-        return jac_ if sw is None else jac_ * sw[:, None]
-
-    r = resid(d, c, extra)
-    rss = wss(r)
+    rss = resid(d, c, extra, r)
     it = 0
     for it in range(1, max_iter + 1):
-        step, *_ = np.linalg.lstsq(wjac(d), r if sw is None else r * sw, rcond=None)
+        step = block_lsq.solve(triangle(d, r), n)
         lam = 1.0
         while True:
             d_new, c_new = d + lam * step[0], c + lam * step[1]
-            ab_new = extra + lam * step[2:4] if th is not None else extra
-            r_new = resid(d_new, c_new, ab_new)
-            rss_new = wss(r_new)
+            ab_new = extra + lam * step[2:4] if fit_runout else extra
+            rss_new = resid(d_new, c_new, ab_new, r_new)
             if rss_new <= rss * (1 + 1e-12) or lam < 1e-6:
                 break
             lam *= 0.5
-        d, c, extra, r, rss = d_new, c_new, ab_new, r_new, rss_new
+        d, c, extra, rss = d_new, c_new, ab_new, rss_new
+        r, r_new = r_new, r
         if abs(lam * step[0]) < tol:
             break
-    jac = wjac(d)
-    dof = max(xs.size - npar, 1)
+    del r_new
+    dof = max(n - npar, 1)
     sigma2 = rss / dof
-    cov = sigma2 * _inv_normal(jac)
+    cov = sigma2 * _inv_normal(triangle(d, r))
     return ShiftFit(d, c, (float(extra[0]), float(extra[1])), float(np.sqrt(cov[0, 0])),
                     float(np.sqrt(cov[1, 1])), float(np.sqrt(sigma2)), r, used, it)
 
 
-def _inv_normal(jac: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(J^T J)^-1 through the SVD (stable when a column is nearly degenerate)."""
-    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+def _inv_normal(tri: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(J^T J)^-1 from the QR triangle of J (``block_lsq.triangle``), through the SVD
+    of its R (stable when a column is nearly degenerate)."""
+    inv, sv = block_lsq.inverse_normal(tri)
     if sv[-1] <= sv[0] * 1e-13:
         raise InputError('fit', 'a singular Jacobian',
                          'samples on the flanks (the angle is not determined)')
-    return (vt.T / sv**2) @ vt
+    return inv
 
 
 def crb_shift_std(x_true: NDArray[np.float64], lift: Lift, sigma: float,
@@ -140,7 +200,8 @@ def crb_shift_std(x_true: NDArray[np.float64], lift: Lift, sigma: float,
     """Cramer-Rao bound [rad] of the shift for Gaussian noise ``sigma`` [m], samples at
     true design angles ``x_true`` [rad], offset (and run-out if ``theta``) unknown."""
     jac = _design_matrix(lift(x_true, 1), theta)
-    return float(sigma * np.sqrt(_inv_normal(jac)[0, 0]))
+    tri, _ = block_lsq.triangle([(jac, np.zeros(jac.shape[0]))])
+    return float(sigma * np.sqrt(_inv_normal(tri)[0, 0]))
 
 
 def coarse_align(x: NDArray[np.float64], s: NDArray[np.float64], template: Lift,
@@ -218,6 +279,15 @@ class HermiteLift:
     def __call__(self, alpha: NDArray[np.float64] | float, nu: int = 0) -> NDArray[np.float64]:
         a = np.asarray(alpha, dtype=float)
         flat = a.reshape(-1)
+        if flat.size <= block_lsq.BLOCK_ROWS:
+            return self._eval(flat, nu).reshape(a.shape)
+        out = np.empty(flat.size)   # a block at a time: no full-size temporaries
+        for k in range(0, flat.size, block_lsq.BLOCK_ROWS):
+            out[k:k + block_lsq.BLOCK_ROWS] = self._eval(flat[k:k + block_lsq.BLOCK_ROWS], nu)
+        return out.reshape(a.shape)
+
+    def _eval(self, flat: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        """The interpolant (or its ``nu``-th derivative) at the angles ``flat`` [rad]."""
         u = (flat - self.lo) / self.step
         inside = (u >= 0) & (u <= self.n)
         idx = np.clip(u.astype(np.int64), 0, self.n - 1)
@@ -227,4 +297,4 @@ class HermiteLift:
         for col in cols[-2::-1]:   # Horner on the nu-th derivative
             out = out * t + col[idx]
         out[~inside] = 0.0
-        return out.reshape(a.shape)
+        return out

@@ -9,11 +9,13 @@ median) separates noise and spikes from smooth form errors.
 """
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import median_filter
+
+from cam_metrology.metrology import block_lsq
 
 #: gap between the lobe (design lift > 0) and the base-circle samples used [rad]
 BASE_MARGIN = float(np.radians(2.0))
@@ -24,10 +26,56 @@ def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[n
     """Residuals [m] minus their running median (9 samples in angle order): the noise
     part of the residuals; isolated spikes stand out, a smooth real form error (or a
     biased first fit) does not."""
+    if x.size < 2 or bool(np.all(x[1:] >= x[:-1])):   # in angle order already (tables)
+        dev = np.array(r, dtype=float)
+        dev -= median_filter(dev, size=9, mode='nearest')
+        return dev
     order = np.argsort(x, kind='stable')
+    ordered = r[order]
+    ordered -= median_filter(ordered, size=9, mode='nearest')
     dev = np.empty_like(r)
-    dev[order] = r[order] - median_filter(r[order], size=9, mode='nearest')
+    dev[order] = ordered
     return dev
+
+
+def base_model(table: Any, harmonic: bool,
+               ) -> tuple[Callable[[Any], Any] | None, NDArray[np.bool_]]:
+    """The base-circle reference of ``base_referenced``: the function of alpha [rad]
+    giving the level [m] to subtract from the measured lift (None when fewer than 10
+    base-circle samples: nothing is subtracted), and the mask of samples kept."""
+    a, m, d = (np.asarray(table[:, k], dtype=float) for k in range(3))
+    err = m - d
+    dev = local_deviation(a, err)
+    np.abs(dev, out=dev)
+    bad = dev > 5.0 * max(1.4826 * float(np.median(dev)), 1e-7)
+    del dev
+    if np.mean(bad) > 0.05:
+        bad[:] = False
+    lobe = np.flatnonzero(d > 0)
+    if lobe.size:
+        lo, hi = a[lobe[0]], a[lobe[-1]]
+        base = ((a < lo - BASE_MARGIN) | (a > hi + BASE_MARGIN)) & ~bad
+    else:
+        base = ~bad
+    del lobe
+    if np.count_nonzero(base) < 10:
+        return None, ~bad
+    if harmonic:   # c + a cos(alpha) + b sin(alpha), fitted a block at a time
+        coef = block_lsq.harmonic_lstsq(a, err, base)
+        return (lambda alpha: coef[0] + coef[1] * np.cos(alpha) + coef[2] * np.sin(alpha),
+                ~bad)
+    level = float(np.median(err[base]))
+    return (lambda alpha: level), ~bad
+
+
+def _referenced_lift(table: Any, model: Callable[[Any], Any]) -> NDArray[np.float64]:
+    """Measured lift [m] of the table minus the base-circle level, a block at a time."""
+    a, m = table[:, 0], table[:, 1]
+    out = np.empty(a.size)
+    step = block_lsq.BLOCK_ROWS
+    for k in range(0, a.size, step):
+        out[k:k + step] = m[k:k + step] - model(a[k:k + step])
+    return out
 
 
 def base_referenced(table: Any, harmonic: bool) -> tuple[Any, Any]:
@@ -39,44 +87,57 @@ def base_referenced(table: Any, harmonic: bool) -> tuple[Any, Any]:
     deviation measured - design on the base circle (design lift 0, ``BASE_MARGIN`` away
     from the lobe) is fitted by ``c`` (+ ``a cos alpha + b sin alpha`` when ``harmonic``:
     a once-per-revolution run-out is a first harmonic in alpha too) and subtracted from
-    the whole table. Spikes: deviation from the running median of 9 samples above 5 x
-    1.4826 x its median absolute value (floored at 0.1 um), unless more than 5 % are."""
-    a, m, d = (np.asarray(table[:, k], dtype=float) for k in range(3))
-    err = m - d
-    dev = np.abs(local_deviation(a, err))
-    bad = dev > 5.0 * max(1.4826 * float(np.median(dev)), 1e-7)
-    if np.mean(bad) > 0.05:
-        bad[:] = False
-    lobe = np.nonzero(d > 0)[0]
-    if lobe.size:
-        lo, hi = a[lobe[0]], a[lobe[-1]]
-        base = ((a < lo - BASE_MARGIN) | (a > hi + BASE_MARGIN)) & ~bad
-    else:
-        base = ~bad
-    if np.count_nonzero(base) < 10:
-        return table, ~bad
-    if harmonic:
-        cols = np.column_stack([np.ones(a.size), np.cos(a), np.sin(a)])
-        coef = np.linalg.lstsq(cols[base], err[base], rcond=None)[0]
-        model = cols @ coef
-    else:
-        model = np.full(a.size, float(np.median(err[base])))
-    return np.column_stack([a, m - model, d]), ~bad
+    the whole table (``base_model``). Spikes: deviation from the running median of 9
+    samples above 5 x 1.4826 x its median absolute value (floored at 0.1 um), unless
+    more than 5 % are."""
+    model, kept = base_model(table, harmonic)
+    if model is None:
+        return table, kept
+    out = np.empty((table.shape[0], 3))
+    out[:, 0], out[:, 2] = table[:, 0], table[:, 2]
+    out[:, 1] = _referenced_lift(table, model)
+    return out, kept
+
+
+def referenced_error_stats(table: Any, harmonic: bool, good: NDArray[np.bool_],
+                           ) -> dict[str, float] | None:
+    """``lift_error_stats`` of ``base_referenced(table, harmonic)`` over the samples it
+    keeps and ``good``, without the referenced table (one column in memory)."""
+    model, kept = base_model(table, harmonic)
+    kept &= good
+    if model is None:
+        return lift_error_stats(table, kept)
+    err = _referenced_lift(table, model)
+    err -= table[:, 2]
+    return error_stats(err, table[:, 2], kept)
 
 
 def feature_referenced(table: Any, feature: Mapping[str, Any]) -> tuple[Any, Any]:
     """``base_referenced`` of a lobe's (alpha, measured, design) table with the run-out
     harmonic exactly when its report entry ``feature`` says the run-out was fitted (the
-    rule the report, the verdict, the cards and the plots share)."""
-    return base_referenced(table, bool(feature.get('runout_fitted')))
+    rule the report, the verdict, the cards and the plots share). A spilled table
+    (``spill``) gives back the pages this read touched: a consumer walking every
+    feature holds one table at a time."""
+    from cam_metrology.metrology.spill import release
+
+    out = base_referenced(table, bool(feature.get('runout_fitted')))
+    release(table)
+    return out
 
 
 def lift_error_stats(table: Any, good: NDArray[np.bool_]) -> dict[str, float] | None:
     """max_plus, max_minus, rms [um] of measured - design over the lobe (design > 0) of a
     (alpha, measured, design) table, samples ``good``; None without lobe samples."""
-    err = table[:, 1] - table[:, 2]
-    lobe = (table[:, 2] > 0) & good
+    return error_stats(table[:, 1] - table[:, 2], table[:, 2], good)
+
+
+def error_stats(err: NDArray[np.float64], design: NDArray[np.float64],
+                good: NDArray[np.bool_]) -> dict[str, float] | None:
+    """``lift_error_stats`` of the columns: ``err`` = measured - design [m] and the
+    design lift [m] of every sample."""
+    lobe = (design > 0) & good
     if not np.any(lobe):
         return None
-    return {'max_plus': float(np.max(err[lobe])) * UM, 'max_minus': float(np.min(err[lobe])) * UM,
-            'rms': float(np.sqrt(np.mean(err[lobe] ** 2))) * UM}
+    err = err[lobe]
+    return {'max_plus': float(np.max(err)) * UM, 'max_minus': float(np.min(err)) * UM,
+            'rms': float(np.sqrt(np.mean(err ** 2))) * UM}

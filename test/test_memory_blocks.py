@@ -1,0 +1,133 @@
+"""Constant-memory analysis (issue #16): least squares a block of rows at a time equal
+the whole-matrix solutions, and spilled lift tables read back the same values. Small
+data only: the mechanisms, not multi-million-sample bags (benchmarks/bench_memory.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cam_metrology.metrology import block_lsq
+from cam_metrology.metrology.flank_fit import fit_shift
+from cam_metrology.metrology.spill import release, spill
+from cam_metrology.metrology.synthetic import PolynomialRampCam
+
+CAM = PolynomialRampCam()
+
+
+def _rel(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+@pytest.mark.parametrize('block_rows', [1, 3, 64, 1000, 10_000])
+def test_block_lstsq_equals_whole_matrix_lstsq(block_rows):
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(2000, 4)) * [1.0, 1e3, 1e-3, 7.0]   # columns of unlike scales
+    y = a @ [0.5, -2e-3, 40.0, 1.5] + rng.normal(0, 0.1, 2000)
+    want = np.linalg.lstsq(a, y, rcond=None)[0]
+    assert _rel(block_lsq.lstsq(a, y, block_rows=block_rows), want) < 1e-12
+    tri, rows = block_lsq.triangle((a[k:k + block_rows], y[k:k + block_rows])
+                                   for k in range(0, 2000, block_rows))
+    assert rows == 2000
+    # rho^2 of the triangle is the residual sum of squares of the solution
+    res = y - a @ want
+    assert tri[4, 4] ** 2 == pytest.approx(res @ res, rel=1e-12)
+    inv, sv = block_lsq.inverse_normal(tri)
+    assert _rel(inv, np.linalg.inv(a.T @ a)) < 1e-10
+    assert _rel(sv, np.linalg.svd(a, compute_uv=False)) < 1e-12
+
+
+def test_harmonic_lstsq_with_a_mask_equals_the_masked_matrix():
+    rng = np.random.default_rng(5)
+    theta = rng.uniform(0, 2 * np.pi, 5000)
+    y = 3e-3 + 2e-6 * np.cos(theta) - 1e-6 * np.sin(theta) + rng.normal(0, 1e-7, 5000)
+    mask = rng.random(5000) < 0.3
+    t = theta[mask]
+    want = np.linalg.lstsq(np.column_stack([np.ones_like(t), np.cos(t), np.sin(t)]),
+                           y[mask], rcond=None)[0]
+    got = block_lsq.harmonic_lstsq(theta, y, mask, block_rows=97)
+    assert _rel(got, want) < 1e-12
+    assert got == pytest.approx([3e-3, 2e-6, -1e-6], abs=2e-8)   # and the truth
+
+
+@pytest.mark.parametrize('runout, weighted, subset', [
+    (False, False, False), (True, False, False), (True, True, True), (False, True, True)])
+def test_block_fit_shift_equals_the_one_block_fit(runout, weighted, subset):
+    """Gauss-Newton a block of rows at a time (blocks of 333 rows, and the used
+    samples spread over many blocks) gives the one-block fit to 1e-12 relative."""
+    rng = np.random.default_rng(11)
+    n = 20_000
+    theta = np.linspace(0.0, 6 * np.pi, n, endpoint=False)
+    x = (theta + np.pi) % (2 * np.pi) - np.pi
+    d_true = np.radians(0.01)
+    s = 4e-4 + CAM(x - d_true, 0) + rng.normal(0, 1e-6, n)
+    if runout:
+        s += 3e-6 * np.cos(theta) - 1e-6 * np.sin(theta)
+    kw = dict(theta=theta if runout else None,
+              used=(rng.random(n) < 0.6) if subset else None,
+              weights=rng.uniform(0.5, 2.0, n) if weighted else None)
+    one = fit_shift(x, s, CAM, block_rows=1 << 20, **kw)
+    many = fit_shift(x, s, CAM, block_rows=333, **kw)
+    for name in ('d', 'c', 'd_std', 'c_std', 'sigma'):
+        assert getattr(many, name) == pytest.approx(getattr(one, name), rel=1e-12, abs=0)
+    assert many.runout == pytest.approx(one.runout, rel=1e-9, abs=1e-18)
+    np.testing.assert_allclose(many.residuals, one.residuals, rtol=0, atol=1e-16)   # m
+    assert abs(one.d - d_true) < 5 * one.d_std   # and it is the right answer
+
+
+def test_spilled_table_reads_back_the_same_values():
+    rng = np.random.default_rng(2)
+    table = rng.normal(size=(50_000, 3))
+    out = spill(table, min_bytes=1 << 20)
+    assert isinstance(out, np.memmap) and not out.flags.writeable
+    np.testing.assert_array_equal(out, table)   # the same float64 bits: a copy, no rounding
+    release(out)
+    np.testing.assert_array_equal(out[:, 1], table[:, 1])
+    assert spill(out) is out
+    small = table[:100]
+    assert spill(small, min_bytes=1 << 20) is small and spill(None) is None
+    release(small, None, [out, small])   # arrays in memory are left alone
+
+
+def _resident_kb(address: int) -> int | None:
+    """Rss [kB] of the mapping holding ``address`` (Linux /proc/self/smaps), or None."""
+    try:
+        lines = open('/proc/self/smaps').read().splitlines()
+    except OSError:
+        return None
+    inside = False
+    for line in lines:
+        head = line.split()[0]
+        if '-' in head and all(c in '0123456789abcdef-' for c in head):
+            lo, hi = (int(v, 16) for v in head.split('-'))
+            inside = lo <= address < hi
+        elif inside and line.startswith('Rss:'):
+            return int(line.split()[1])
+    return None
+
+
+def test_release_gives_back_the_pages_a_reader_touched():
+    table = spill(np.arange(3 * 400_000, dtype=float).reshape(-1, 3), min_bytes=1)
+    address = table.ctypes.data
+    if _resident_kb(address) is None:
+        pytest.skip('no /proc/self/smaps')
+    assert float(table[:, 1].sum()) == pytest.approx(3 * 400_000 * (400_000 - 1) / 2
+                                                     + 400_000)
+    assert _resident_kb(address) >= 0.9 * table.nbytes / 1024   # read: resident
+    release(table)
+    assert _resident_kb(address) < 0.1 * table.nbytes / 1024
+    assert table[-1, 2] == 3 * 400_000 - 1   # still there, read again from the file
+
+
+@pytest.mark.parametrize('block', [1, 2, 7, 1 << 16])
+def test_unwrap_a_block_at_a_time_is_numpy_unwrap(block):
+    from cam_metrology.metrology.features import unwrapped_blocks, unwrapped_span
+
+    rng = np.random.default_rng(9)
+    turning = np.cumsum(rng.uniform(-0.5, 3.0, 3000))   # forwards and back, big steps
+    for theta in (np.mod(turning, 2 * np.pi), -np.mod(turning, 2 * np.pi) + 1.0,
+                  np.array([0.0, np.pi, 0.0, -np.pi, 2 * np.pi])):   # steps of exactly pi
+        got = np.concatenate(list(unwrapped_blocks(theta, block)))
+        np.testing.assert_array_equal(got, np.unwrap(theta))
+    assert unwrapped_span(np.mod(turning, 2 * np.pi)) == np.ptp(np.unwrap(
+        np.mod(turning, 2 * np.pi)))
