@@ -409,7 +409,10 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                       'of 36 sectors of 10 deg)'))
     if asymmetry:
         if is_symmetric(law, lo, hi):
-            values.update(_asymmetry(alpha[good], measured[good], lo, hi, direction, settings))
+            on_lobe = good & (alpha > lo) & (alpha < hi)   # what _asymmetry keeps
+            values.update(_asymmetry(alpha[on_lobe], measured[on_lobe], lo, hi, direction,
+                                     settings))
+            del on_lobe
             if 'asymmetry_deg' in values:
                 values['top_point_deg'] = float(np.mod(values['angle_deg']
                                                        + values['asymmetry_deg'], 360.0))

@@ -66,8 +66,12 @@ def merge_repeated(alpha: NDArray[np.float64], lift: NDArray[np.float64],
     sqrt(count) is the fit of all samples (the within-position scatter only adds a
     constant to the sum of squares).
     """
-    order = np.argsort(alpha, kind='stable')
-    a, h = alpha[order], lift[order]
+    if alpha.size > 1 and not bool(np.all(alpha[1:] >= alpha[:-1])):
+        order = np.argsort(alpha, kind='stable')
+        a, h = alpha[order], lift[order]
+        del order
+    else:   # in angle order already (a lift table): no copies
+        a, h = alpha, lift
     start = np.concatenate(([True], np.diff(a) > tol))
     group = np.cumsum(start) - 1
     count = np.bincount(group)
