@@ -166,3 +166,29 @@ def test_out_bag_written_during_the_replay_reads_back_as_the_one_written_after(t
     report = json.loads(last.msg.data)
     assert report['features']['lobe_1']['angle_deg'] == \
         run.report['features']['lobe_1']['angle_deg']
+
+
+@pytest.mark.parametrize('reach', [None, 1e-6])
+def test_sensitive_point_on_the_samples_near_its_windows_equals_all_samples(
+        monkeypatch, reach):
+    """The sensitive-point shift from the samples near its windows (copied once) is the
+    one from every sample; a shift beyond their reach falls back to every sample."""
+    from cam_metrology.metrology import sensitive_point as spm
+
+    rng = np.random.default_rng(4)
+    x = rng.uniform(-np.pi, np.pi, 30_000)
+    d_true = np.radians(0.02)
+    ref = CAM(x - d_true, 0) + rng.normal(0, 1e-6, x.size)
+    used = rng.random(x.size) < 0.9
+    lo, hi = CAM.support
+    am, an = spm.sensitive_points(CAM, lo, hi)
+    kw = dict(half_window=np.radians(1.0), pairs=1, spacing=np.radians(0.5), order=1,
+              limits=(-np.inf, np.inf), inward_only=False, validity_tol=1e-6, max_iter=10)
+    whole = spm._sp_iterate(x[used], ref[used], CAM, am, an, max_shift=np.inf, **kw)
+    if reach is not None:
+        monkeypatch.setattr(spm, 'SP_REACH', reach)   # the shift (0.02 deg) is beyond it
+    got = spm.sensitive_point_shift(x, ref, CAM, am, an, used=used, **kw)
+    assert got.d == whole.d and got.d_std == whole.d_std and got.valid == whole.valid
+    assert [c.samples for pair in got.crossings for c in pair] == \
+        [c.samples for pair in whole.crossings for c in pair]
+    assert abs(got.d - d_true) < 5 * got.d_std

@@ -357,7 +357,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     ref *= -1.0   # s - ref, in place
     try:
         sp = sensitive_point_shift(
-            x[good], ref[good], law, alpha_m, alpha_n,
+            x, ref, law, alpha_m, alpha_n, used=good,
             half_window=settings.sp_half_window_deg * DEG,
             pairs=settings.sp_pairs, spacing=settings.sp_pair_spacing_deg * DEG,
             order=settings.sp_fit_order, validity_tol=settings.validity_tol_um / UM)
@@ -380,18 +380,20 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     base_runout = _runout_um(fs.theta[base], fs.s[base] - fit.c)
     del base
     # the lift table (alpha, measured, design) in alpha order, built column by column
+    del harmonic   # recomputed for the table, a block at a time
     alpha = x
     alpha -= fit.d   # x is not used after this: alpha = x - d in place
     del x
     order = np.argsort(alpha)
     table = np.empty((alpha.size, 3))
-    table[:, 0] = alpha[order]
+    step = block_lsq.BLOCK_ROWS
+    for k in range(0, alpha.size, step):   # the same values as whole-column expressions
+        idx = order[k:k + step]
+        th = fs.theta[idx]
+        table[k:k + step, 0] = alpha[idx]
+        wave = fit.runout[0] * np.cos(th) + fit.runout[1] * np.sin(th)
+        table[k:k + step, 1] = fs.s[idx] - fit.c - wave
     del alpha
-    measured = fs.s - fit.c
-    measured -= harmonic
-    del harmonic
-    table[:, 1] = measured[order]
-    del measured
     table[:, 2] = law(table[:, 0], 0)
     good = good[order]
     del order

@@ -44,8 +44,7 @@ def base_model(table: Any, harmonic: bool,
     giving the level [m] to subtract from the measured lift (None when fewer than 10
     base-circle samples: nothing is subtracted), and the mask of samples kept."""
     a, m, d = (np.asarray(table[:, k], dtype=float) for k in range(3))
-    err = m - d
-    dev = local_deviation(a, err)
+    dev = local_deviation(a, m - d)
     np.abs(dev, out=dev)
     bad = dev > 5.0 * max(1.4826 * float(np.median(dev)), 1e-7)
     del dev
@@ -60,6 +59,7 @@ def base_model(table: Any, harmonic: bool,
     del lobe
     if np.count_nonzero(base) < 10:
         return None, ~bad
+    err = m - d
     if harmonic:   # c + a cos(alpha) + b sin(alpha), fitted a block at a time
         coef = block_lsq.harmonic_lstsq(a, err, base)
         return (lambda alpha: coef[0] + coef[1] * np.cos(alpha) + coef[2] * np.sin(alpha),

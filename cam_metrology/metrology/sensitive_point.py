@@ -145,21 +145,61 @@ def sensitive_point_shift(x: NDArray[np.float64], lift_ref: NDArray[np.float64],
                           half_window: float, pairs: int = 0, spacing: float = 0.0,
                           limits: tuple[float, float] = (-np.inf, np.inf), order: int = 1,
                           inward_only: bool = False,
-                          validity_tol: float = 1e-6, max_iter: int = 10) -> SensitivePointResult:
+                          validity_tol: float = 1e-6, max_iter: int = 10,
+                          used: NDArray[np.bool_] | None = None) -> SensitivePointResult:
     """Nose shift d [rad] by the sensitive-point method (multi-pair if ``pairs`` > 0).
 
     ``x`` [rad] sample angles relative to a coarse nose, ``lift_ref`` [m] readings
     referenced to the design zero (base circle, or pin geometry); windows are
     clipped to ``limits`` [rad] (the contact range of a dowel pin); ``inward_only``
     puts the extra pairs only towards the top (k = 0..2K). The frame is re-centred on
-    the current estimate until the shift converges.
+    the current estimate until the shift converges. ``used``: the samples to use (all
+    when None).
+
+    Only the samples within ``SP_REACH`` of every window the iteration may use are
+    taken (copied once); should the shift move further, the whole set is used: the
+    result is the same either way, the memory a small part of the feature.
     """
+    kw = dict(half_window=half_window, pairs=pairs, spacing=spacing, limits=limits,
+              order=order, inward_only=inward_only, validity_tol=validity_tol,
+              max_iter=max_iter)
+    reach = half_window + (2 * pairs if inward_only else pairs) * spacing + SP_REACH
+    near = (np.abs(x - alpha_m) <= reach) | (np.abs(x - alpha_n) <= reach)
+    if used is not None:
+        near &= used
+    try:
+        return _sp_iterate(x[near], lift_ref[near], lift, alpha_m, alpha_n,
+                           max_shift=SP_REACH, **kw)   # type: ignore[arg-type]
+    except _OutOfReach:
+        sel = np.ones(x.size, bool) if used is None else used
+        return _sp_iterate(x[sel], lift_ref[sel], lift, alpha_m, alpha_n,
+                           max_shift=np.inf, **kw)   # type: ignore[arg-type]
+
+
+#: samples farther than this [rad] from every window are left out (0.2 rad = 11.5 deg,
+#: more than the largest shift a credible fit moves: ``max_shift_deg`` 5 deg)
+SP_REACH = 0.2
+
+
+class _OutOfReach(Exception):
+    """The shift moved farther than the samples taken cover."""
+
+
+def _sp_iterate(x: NDArray[np.float64], lift_ref: NDArray[np.float64], lift: Lift,
+                alpha_m: float, alpha_n: float, *, half_window: float, pairs: int,
+                spacing: float, limits: tuple[float, float], order: int,
+                inward_only: bool, validity_tol: float, max_iter: int,
+                max_shift: float) -> SensitivePointResult:
+    """The iteration of ``sensitive_point_shift`` on the samples given; raises
+    ``_OutOfReach`` when a window would need samples beyond ``max_shift`` [rad]."""
     d = 0.0
     # pairs on both sides of the sensitive points, or (dowel pin: the sensitive points
     # sit at the edge of contact) only towards the top
     ks = np.arange(0, 2 * pairs + 1) if inward_only else np.arange(-pairs, pairs + 1)
     it = 0
     for it in range(1, max_iter + 1):
+        if abs(d) > max_shift:
+            raise _OutOfReach
         xr = x - d
         shifts, variances, cross = [], [], []
         for k in ks:

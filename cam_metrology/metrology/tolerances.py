@@ -79,12 +79,15 @@ def _lift_error_checks(tol: Tolerances, table: Any, good: Any,
     if table is None:
         missing.append(_not('lift_error_um', 'no lift table for this feature'))
         return
-    alpha = np.degrees(table[:, 0])
-    err = (table[:, 1] - table[:, 2]) * 1e6
-    alpha, err, design = alpha[good], err[good], table[good, 2]
-    in_zone = np.zeros(alpha.size, dtype=bool)
+    # masks over the whole table instead of copies of its good rows (memory: one
+    # column of errors, and the angles in degrees only when there are zones)
+    good = np.ones(table.shape[0], bool) if good is None else good
+    err = table[:, 1] - table[:, 2]
+    err *= 1e6
+    in_zone = np.zeros(err.size, dtype=bool)
+    alpha = np.degrees(table[:, 0]) if tol.lift_error_zones else None
     for z in tol.lift_error_zones:
-        sel = (alpha >= z.from_deg) & (alpha <= z.to_deg)
+        sel = (alpha >= z.from_deg) & (alpha <= z.to_deg) & good
         in_zone |= sel
         name = f'lift_error_um[{z.from_deg:g}..{z.to_deg:g} deg]'
         if not np.any(sel):
@@ -92,8 +95,9 @@ def _lift_error_checks(tol: Tolerances, table: Any, good: Any,
             continue
         checks.append(check(f'{name}.max_plus', float(np.max(err[sel])), z.band_um, 'um'))
         checks.append(check(f'{name}.max_minus', float(np.min(err[sel])), z.band_um, 'um'))
+    del alpha
     if tol.lift_error_um is not None:
-        sel = (design > 0) & ~in_zone
+        sel = (table[:, 2] > 0) & ~in_zone & good
         if np.any(sel):
             checks.append(check('lift_error_max_plus_um', float(np.max(err[sel])),
                                 tol.lift_error_um, 'um'))
