@@ -148,11 +148,11 @@ def test_out_bag_written_during_the_replay_reads_back_as_the_one_written_after(t
 
     bag = Path(__file__).resolve().parents[1] / 'bags' / 'default_clean'
     streamed, after = tmp_path / 'streamed', tmp_path / 'after'
-    run = analyze_bag(str(bag), out_bag=str(streamed))
-    cores, _ = make_cores({}, False)
+    run = analyze_bag(str(bag), out_bag=str(streamed), only_metrology=True)
+    cores, _ = make_cores({}, True)   # several cores: test_replay (the same writer)
     kept = run_offline(bag, cores, superseded_tables=True)
     n = write_outputs(kept, after)
-    assert n == len(kept.outputs) > 10
+    assert n == len(kept.outputs) > 5
 
     def messages(path):
         return [(m.topic, m.stamp_ns, bytes(m.msg))
