@@ -13,8 +13,6 @@ Rules, per value of a feature (the key's unit suffix decides):
 * ``*_arcsec``: within ``angle_tol_arcsec``;
 * ``*_um`` (also inside a mapping such as ``lift_error_um``) and ``*_mm``: within
   ``lift_tol_um`` (mm converted);
-* the numbers of a mapping with a ``unit`` field (``um``, ``mm``, ``deg``, ``arcsec``: a
-  verdict check's value, limits, margin and std) as keys of that unit;
 * booleans, strings and whole numbers (sample counts, status, verdict): equal;
 * any other number: relative 1e-6 or absolute 1e-12.
 
@@ -49,9 +47,6 @@ def _compare_value(path: str, key: str, new: Any, old: Any, angle_tol_arcsec: fl
         if not isinstance(new, Mapping):
             return [f'{path}: expected a mapping like the golden report, got {new!r}']
         sub = key if key.endswith(('_um', '_mm', '_deg', '_arcsec')) else unit
-        named = f"_{old.get('unit')}"   # a verdict check states its unit
-        if named.endswith(('_um', '_mm', '_deg', '_arcsec')):
-            sub = named
         out: list[str] = []
         for k, v in old.items():
             if k in SOLVER_KEYS:
