@@ -113,4 +113,4 @@ def test_a_table_of_another_kind_is_refused_by_its_columns(tmp_path: Path, capsy
     assert main(['spc', str(path)]) == 2
     err = capsys.readouterr().err
     assert err.count('\n') == 1
-    assert 'columns alpha_deg, lift_mm' in err and 'missing bag, feature, status' in err
+    assert 'columns alpha_deg, lift_mm and no bag, feature, status' in err

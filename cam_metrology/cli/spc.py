@@ -61,9 +61,9 @@ def load_rows(path: str) -> list[dict[str, Any]]:
             from None
     missing = [c for c in ('bag', 'feature', 'status') if c not in table.column_names]
     if missing:
-        raise InputError('table', f'{path} (columns {", ".join(table.column_names[:6])})',
-                         'a results table of cam-bench batch (columns bag, feature, status, '
-                         'and the report fields); missing ' + ', '.join(missing))
+        raise InputError('table', path, 'a results table of cam-bench batch (columns bag, '
+                         'feature, status and the report fields); this one has columns '
+                         + ', '.join(table.column_names[:6]) + ' and no ' + ', '.join(missing))
     return table.to_pylist()
 
 
