@@ -119,7 +119,12 @@ def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         count, a_u, h_u = np.zeros(0, dtype=np.int64), a, h
     merged = int(a.size - a_u.size)
     if merged:
-        notes.append(f'merged {merged} sample(s) at repeated angles into their mean')
+        spread = (np.maximum.reduceat(h, np.flatnonzero(new))
+                  - np.minimum.reduceat(h, np.flatnonzero(new)))
+        worst = int(np.argmax(spread))
+        notes.append(f'merged {merged} sample(s) at repeated angles into their mean (largest '
+                     f'spread {spread[worst] * 1e3:.4g} mm at '
+                     f'{math.degrees(float(a_u[worst])):.3f} deg)')
     if a_u.size < min_points:
         raise InputError(f'{key}.alpha', f'{a_u.size} distinct finite angles',
                          f'at least {min_points}')

@@ -23,12 +23,15 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
                key: str) -> tuple[JetTableLift, str]:
     """(law, note) of a lift table [rad, m] smoothed by the reconstruction spline."""
     from cam_metrology.reconstruction.profile import reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_metrology.reconstruction.samples import LiftTable, clean_samples
     from cam_metrology.reconstruction.spline import SplineOptions, quantisation_step
 
     a = np.asarray(alpha, dtype=float)
     alpha_in = a.copy()
     v = np.asarray(h, dtype=float)
+    # what the cleaning did to the rows (non-finite dropped, repeats merged): said in the
+    # note and in a refusal, since a merged repeat with two different lifts is a bad row
+    said = '; '.join(clean_samples(a, v, key=key).notes)
     turn = seam_turn(a, v)
     if turn:   # the lobe crosses +-180 deg: fit it with its lowest point at the seam
         a = np.mod(a - turn + math.pi, 2.0 * math.pi) - math.pi
@@ -50,8 +53,9 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
         raise InputError(key, f'{a.size} points',
                          'a table fine enough to define the lobe: neither its quintic '
                          'interpolant nor the reconstruction spline follows it (rms '
-                         f'residual {rec.rms_residual:.3g} m > {limit:.3g} m); tabulate '
-                         'more points')
+                         f'residual {rec.rms_residual:.3g} m > {limit:.3g} m'
+                         + (f'; {said}' if said else '') + '); tabulate more points'
+                         + (' or mend the repeated rows' if 'merged' in said else ''))
     step = float(np.median(np.diff(np.sort(a))))
     lo, hi = float(rec.alpha[0]), float(rec.alpha[-1])
     if turn:   # whole turn: keep clear of the spline's free ends, bridge the seam below
@@ -86,6 +90,7 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
     note = (f'table of {a.size} points every {math.degrees(step):.3g} deg smoothed by the '
             f'reconstruction spline ({rec.why}; rms residual {rec.rms_residual:.3g} m'
             + (f', lifts quantised to {q * 1e3:g} mm' if q else '') + ')'
+            + (f'; rows: {said}' if said else '')
             + (f'; the lobe crosses +-180 deg: fitted on the turn from its lowest point '
                f'({math.degrees(float(wrap_pi(turn + math.pi))):.1f} deg), bridged there by the '
                'Hermite interpolant of the jets 2 steps either side' if turn else ''))
