@@ -131,7 +131,9 @@ def run_hydraulic(law: Any, prm: HydraulicParams, rpm: float,
     i_a = int(np.argmax(res.actuator_pressure))
     i_f = int(np.argmax(force))
     displaced = prm.plunger_area * float(np.max(law(res.alpha, 0))) or 1.0   # m^3
-    i_y = int(np.argmax(res.valve_lift))
+    # the spill that cost lift: up to the valve's peak, or the plunger's if that is later
+    # (a valve held shut or pushed back peaks early); later spills are transients
+    i_y = max(int(np.argmax(res.valve_lift)), int(np.argmax(law(res.alpha, 0))))
     dt = float(res.t[1] - res.t[0]) if res.t.size > 1 else 0.0
     spilled = relief_spilled(res.pump_pressure[:i_y + 1], dt, prm)[-1]
     events: dict[str, Any] = {
@@ -148,7 +150,7 @@ def run_hydraulic(law: Any, prm: HydraulicParams, rpm: float,
         'oil_volume_residual': float(res.volumes['residual'] / displaced),
         'relief_volume_m3': float(res.volumes['relief_out']),
         'relief_spilled': bool(res.volumes['relief_out'] > 0.0),
-        # oil lost to the relief valve before the peak valve lift, per displaced volume
+        # oil lost to the relief valve before the peak lift, per displaced volume
         'relief_spill_before_peak': float(spilled / displaced),
         'valve_lift_ratio': float(res.valve_lift.max()) / rigid if rigid > 0 else None,
         'valve_closed': bool(lift[-1] <= CLOSED_LIFT),
