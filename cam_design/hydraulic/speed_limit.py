@@ -182,8 +182,10 @@ def hydraulic_sweep(law: Any, prm: HydraulicParams, rpms: Sequence[float], *,
         bracket = Bracket(hi, [lo, hi])
     again = speeds[hits[0]:][~fails[hits[0]:]] if hits.size else speeds[:0]
     if again.size:
-        notes.append('the valve opens fully again at ' + ', '.join(f'{v:g}' for v in again[:10])
-                     + ' rpm above the first failing speed (the no-open speed is the lowest)')
+        notes.append('the valve reaches the rigid-oil lift again at '
+                     + ', '.join(f'{v:g}' for v in again[:10]) + ' rpm, above the first '
+                     'failing speed (on its own inertia where the relief spilled; the '
+                     'no-open speed is the lowest failing speed)')
     if not np.all(flags['closed']):
         bad = speeds[~flags['closed']]
         notes.append(f'{bad.size} speed(s) where the valve had not closed by the end of the '

@@ -18,7 +18,11 @@ table's: the jump speed's uncertainty from its noise; null otherwise)}}, "skippe
 ``cam_speed_rpm``, the arrays on the ``--step-deg`` grid, the events, ``settled``,
 ``left_cam``, ``periodic_residual_m`` and ``note`` when the reader must know something
 (no periodic state, the valve leaves the cam, no seating). ``sweep``: every speed a full
-periodic run at ``--step-deg``; ``status`` per speed clean | separated | unsettled.
+periodic run at ``--step-deg``; ``status`` per speed clean | separated | unsettled;
+``no_open_speed_rpm`` / ``no_open_bracket_rpm``: null for a cam-driven train (with
+``no_open_note``), for the hydraulic gear the speed above which it no longer opens the
+valve fully (``cam_design.hydraulic.speed_limit``; its ``sweep`` has the per-speed lift,
+pressure, relief spill and cavitation).
 Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
 """
 from __future__ import annotations
@@ -55,9 +59,10 @@ def register(subparsers: Any) -> None:
                    help="camshaft speed [rpm]; repeat for several (default: the scene's "
                         'valve_train.cam_speed_rpm)')
     p.add_argument('--sweep', metavar='LO:HI:STEP',
-                   help='also sweep these speeds [rpm] (SDOF or MDOF, full periodic runs at '
-                        '--step-deg) and report jump_speed_rpm and bounce_onset_rpm with '
-                        'their brackets')
+                   help='also sweep these speeds [rpm] (SDOF or MDOF: full periodic runs at '
+                        '--step-deg, jump_speed_rpm and bounce_onset_rpm with their '
+                        'brackets; hydraulic: one lobe pass per speed, no_open_speed_rpm, '
+                        'the speed above which the gear cannot open the valve fully)')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
                    help='step of the output grid [deg], 0.01 to 5 (default 0.1)')
     p.add_argument('--cam-width', type=float, default=0.012, metavar='M',
