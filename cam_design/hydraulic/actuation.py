@@ -161,7 +161,10 @@ def relief_spilled(pump_pressure: NDArray[np.float64], dt: float,
     """Oil spilled by the relief valve from the start of a run to each step [m^3], from
     the pump pressure of every pipe step (``record_every=1``) by the trapezoidal rule
     the run itself uses (its last value is the run's ``relief_out``)."""
-    q = np.array([_relief(float(p), prm) for p in pump_pressure])
+    p = np.asarray(pump_pressure, dtype=float)
+    q = np.zeros(p.size)
+    for i in np.nonzero(p > prm.relief_pressure)[0]:      # the valve is shut below it
+        q[i] = _relief(float(p[i]), prm)
     out = np.zeros(q.size)
     out[1:] = np.cumsum(0.5 * (q[1:] + q[:-1])) * dt
     return out
