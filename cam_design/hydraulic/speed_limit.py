@@ -90,15 +90,18 @@ def pass_steps(law: Any, prm: HydraulicParams, rpm: float) -> int:
 
 def static_pressure(law: Any, prm: HydraulicParams,
                     gas: Callable[[float], float] | None = None,
-                    samples: int = 2001) -> float:
-    """Largest actuator pressure [Pa gauge] that holds the valve on the rigid-oil lift at
-    vanishing speed: max over the lift of (F0 + c' y + F_gas)/A_r, y = (A_p/A_r) h."""
+                    samples: int = 2001) -> tuple[float, float]:
+    """Actuator pressure [Pa gauge] that holds the valve on the rigid-oil lift at
+    vanishing speed, (F0 + c' y + F_gas)/A_r with y = (A_p/A_r) h: its largest value over
+    the lift, and its largest value where h'' >= 0 (there no speed lowers it: the valve's
+    inertia adds to it)."""
     alpha = np.linspace(law.support[0], law.support[1], samples)
     y = prm.plunger_area / prm.actuator_area * law(alpha, 0)
     force = prm.spring_preload + prm.spring_rate * y
     if gas is not None:
         force = force + np.array([float(gas(float(a))) for a in alpha])
-    return float(np.max(force)) / prm.actuator_area
+    need = force / prm.actuator_area
+    return float(np.max(need)), float(np.max(need[law(alpha, 2) >= 0.0]))
 
 
 def hydraulic_sweep(law: Any, prm: HydraulicParams, rpms: Sequence[float], *,
@@ -169,23 +172,33 @@ def hydraulic_sweep(law: Any, prm: HydraulicParams, rpms: Sequence[float], *,
         bracket = Bracket(None, [float(speeds[-1]), None])
     elif hits[0] == 0:
         bracket = Bracket(None, [None, float(speeds[0])])
-        need = static_pressure(law, prm, gas)
+        need, need_acc = static_pressure(law, prm, gas)
         if need > prm.relief_pressure:
+            where = ('at any speed (where the valve accelerates, which its inertia only '
+                     'makes worse)' if need_acc > prm.relief_pressure else
+                     'at low speed (only the valve\'s deceleration near the nose lowers '
+                     'the pressure it needs)')
             notes.append(f'the spring and the gas force alone need {need * 1e-5:.1f} bar on '
                          f'the actuator, above the relief pressure '
                          f'{prm.relief_pressure * 1e-5:.1f} bar: the gear cannot open the '
-                         'valve fully at any speed')
+                         f'valve fully {where}')
     else:
         lo, hi = float(speeds[hits[0] - 1]), float(speeds[hits[0]])
         if refine:
             lo, hi = bisect_speed(fails_at, lo, hi, tol_rpm)
         bracket = Bracket(hi, [lo, hi])
-    again = speeds[hits[0]:][~fails[hits[0]:]] if hits.size else speeds[:0]
+    flew = (out['spill'] > spill_tol) & ~fails
+    above = np.arange(n) > (hits[0] if hits.size else n)
+    again = speeds[above & ~fails & ~flew]
     if again.size:
-        notes.append('the valve reaches the rigid-oil lift again at '
-                     + ', '.join(f'{v:g}' for v in again[:10]) + ' rpm, above the first '
-                     'failing speed (on its own inertia where the relief spilled; the '
-                     'no-open speed is the lowest failing speed)')
+        notes.append('the valve opens fully again at ' + ', '.join(f'{v:g}' for v in again[:10])
+                     + ' rpm, above the first failing speed (its deceleration lowers the '
+                     'pressure it needs; the no-open speed is the lowest failing speed)')
+    if np.any(flew):
+        notes.append(f'{int(flew.sum())} speed(s) where the relief spilled more than '
+                     f'{spill_tol:g} of the displacement but the valve flew to the rigid-oil '
+                     'lift or past it on its own inertia (counted as opened; no lift stop '
+                     'is modelled): ' + ', '.join(f'{v:g}' for v in speeds[flew][:10]) + ' rpm')
     if not np.all(flags['closed']):
         bad = speeds[~flags['closed']]
         notes.append(f'{bad.size} speed(s) where the valve had not closed by the end of the '
