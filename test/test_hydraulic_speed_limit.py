@@ -163,6 +163,35 @@ def test_gas_force_above_the_relief_pressure_never_opens() -> None:
     assert np.all(res.max_lift < 0.01 * res.rigid_lift)
 
 
+def test_a_spring_too_strong_near_the_nose_opens_only_in_a_speed_window() -> None:
+    """The spring alone needs more than the relief pressure near the nose, where the
+    valve decelerates: static(theta) + B(theta) w^2 <= p_relief holds only for
+    w_lo < w < w*, w_lo^2 = max over theta with B < 0 and static > p_relief of
+    (static - p_relief)/(-B). The lowest speed fails (below the range, note: at low
+    speed), and the note lists as opening again exactly the grid speeds in the window
+    (closed form 2291-3410 rpm; grid 1500:4000:250, no speed within 1.5 % of an edge)."""
+    prm = _params(spring_preload=800.0, spring_rate=1e5, relief_pressure=8e6)
+    alpha = np.linspace(*LAW.support, 200001)
+    ratio = prm.plunger_area / prm.actuator_area
+    static = (prm.spring_preload + prm.spring_rate * ratio * LAW(alpha, 0)) / prm.actuator_area
+    pipe_area = math.pi * prm.pipe_diameter ** 2 / 4
+    inertia = (prm.mass * ratio / prm.actuator_area
+               + prm.oil_density * prm.pipe_length * prm.plunger_area / pipe_area) * LAW(alpha, 2)
+    high = (inertia < 0) & (static > prm.relief_pressure)
+    assert not np.any(static[inertia >= 0] > prm.relief_pressure)
+    w_lo = math.sqrt(np.max((static[high] - prm.relief_pressure) / -inertia[high])) * 30 / math.pi
+    pos = inertia > 0
+    w_hi = math.sqrt(np.min((prm.relief_pressure - static[pos]) / inertia[pos])) * 30 / math.pi
+    grid = np.arange(1500.0, 4001.0, 250.0)
+    assert np.all(np.abs(grid / w_lo - 1) > 0.015) and np.all(np.abs(grid / w_hi - 1) > 0.015)
+    res = hydraulic_sweep(LAW, prm, grid, spill_tol=TOL)
+    assert res.no_open.bracket == [None, 1500.0]
+    assert any('at low speed' in n for n in res.notes)
+    again = next(n for n in res.notes if n.startswith('the valve opens fully again at '))
+    listed = [float(v) for v in again.split(' at ')[1].split(' rpm')[0].split(', ')]
+    assert listed == [g for g in grid if w_lo < g < w_hi]
+
+
 def test_limit_above_the_range_is_an_open_end() -> None:
     res = hydraulic_sweep(LAW, _params(), [1000.0, 2000.0], spill_tol=TOL)
     assert res.no_open.speed is None and res.no_open.bracket == [2000.0, None]
