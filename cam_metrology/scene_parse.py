@@ -595,7 +595,7 @@ def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
 
     train_checks_from(vt.get('spring'), vt.get('piston'))     # validated here, named keys
     spring, piston = vt.get('spring'), vt.get('piston')
-    gas = _gas(ctx, vt.get('gas'), model, seat)
+    gas = _gas(ctx, vt.get('gas'))
     hla = vt.get('hla')
     if hla is not None:
         from cam_design.hydraulic.hla_coupled import HLA_KEYS, hla_from_mapping
@@ -620,7 +620,7 @@ GAS_KEYS = ('crank_deg', 'pressure_pa', 'head_diameter', 'back_pressure_pa',
             'lobe_start_crank_deg')
 
 
-def _gas(ctx: _Ctx, value: Any, model: str, seat: Seat) -> dict[str, Any] | None:
+def _gas(ctx: _Ctx, value: Any) -> dict[str, Any] | None:
     """``valve_train.gas``: cylinder pressure (gauge Pa) against crank angle [deg] over
     720 deg, valve head diameter [m], port back pressure [Pa], and the crank angle [deg]
     at which the lobe's lift starts (the timing)."""
@@ -649,10 +649,6 @@ def _gas(ctx: _Ctx, value: Any, model: str, seat: Seat) -> dict[str, Any] | None
                                                   g['lobe_start_crank_deg'])}
     gas_force(out['crank_deg'], out['pressure_pa'], out['head_diameter'],
               out['back_pressure_pa'])        # the table's own checks
-    if model not in ('sdof', 'mdof'):
-        raise InputError('valve_train.gas', f'with model {model}',
-                         'model sdof or mdof (the hydraulic gear takes it in the library '
-                         'only)')
     return out
 
 

@@ -448,7 +448,8 @@ def test_valve_in_the_air_at_the_window_start_is_not_clean() -> None:
 def test_sweep_takes_the_gas_force_of_the_single_runs() -> None:
     """A constant cylinder-gas force G is exactly a preload increase F0 + G: the sweep
     with the gas force (as `dynamics --sweep` passes the scene's valve_train.gas, which
-    it used to drop) finds the jump speed of the train with that preload."""
+    it used to drop) finds the jump speed of the train with that preload, and reports
+    F0 + G as the force to overcome at the opening."""
     from dataclasses import replace
 
     law = PiecewisePolynomialLaw([-80 * D, 0.0, 100 * D], [
@@ -463,3 +464,7 @@ def test_sweep_takes_the_gas_force_of_the_single_runs() -> None:
     assert with_gas.jump.checked is True
     assert with_gas.jump.speed == pytest.approx(heavier.jump.speed, abs=0.6)
     assert with_gas.jump.speed > plain.jump.speed + 50.0
+    # the force the cam-driven train must overcome at the opening, per speed: F0 + G
+    f0 = TABLE_TRAIN.spring_preload
+    assert np.allclose(with_gas.opening_force, f0 + g, rtol=1e-12)
+    assert np.allclose(plain.opening_force, f0, rtol=1e-12)
