@@ -187,6 +187,29 @@ class _Model:
         self.cache[key] = (phis, gams)
         return phis, gams
 
+    def switch_map(self, r: int, lt: float, m: int) -> tuple[NDArray, NDArray]:
+        """The switching components of ``_switch_jets`` for steps of lt seconds cut into
+        m sub-intervals, as the affine map const + x @ lin of x = [y0 [m], v0 [m/s],
+        u monomials (NB) [m], gas-force monomials (NB) [N]] (the equation is linear):
+        lin (2 + 2 NB, 2 C (m+1)), const (2 C (m+1),). Built once per regime, step
+        length and m by evaluating ``_switch_jets`` on the unit inputs, cached."""
+        key = (-1 - r, lt, m)
+        hit = self.cache.get(key)
+        if hit is not None:
+            return hit
+        nx = 2 + 2 * NB
+        basis = np.vstack([np.zeros(nx), np.eye(nx)])      # row 0: the constant part
+        z0, ucoef, gco = basis[:, :2], basis[:, 2:2 + NB], basis[:, 2 + NB:]
+        la = np.full(nx + 1, lt * self.omega)
+        fco = self.forcing(r, ucoef, la, gco)
+        phis, gams = self.propagator(r, lt, m)
+        zs = np.einsum('mab,qb->qma', phis, z0) + np.einsum('mab,qb->qma', gams, fco)
+        jets = _switch_jets(self, r, ucoef, fco, la, np.full(nx + 1, lt), z0, zs)
+        jets = jets.transpose(1, 0, 2).reshape(nx + 1, -1)   # (1 + nx, 2 C (m+1))
+        out = (jets[1:] - jets[0], jets[0].copy())
+        self.cache[key] = out
+        return out
+
     def forcing(self, r: int, ucoef: NDArray, la: NDArray | float,
                 gco: NDArray | None = None) -> NDArray:
         """Forcing coefficients (..., NB) in the basis sigma^j/j! for regime r.
@@ -233,6 +256,9 @@ _VANDER: dict[int, tuple[NDArray, NDArray]] = {}
 _ARANGE = np.arange(64, dtype=float)
 _GRID9 = np.linspace(0.0, 1.0, 33)
 _VG9 = _GRID9[None, :] ** np.arange(64)[:, None]
+#: (64, 66): monomials t^j and their derivatives j t^(j-1) on the 33-point grid
+_VGD9 = np.hstack([_VG9, np.vstack([np.zeros((1, _GRID9.size)),
+                                    _ARANGE[1:, None] * _VG9[:-1]])])
 
 
 def _horner2(c: NDArray, t: float) -> tuple[float, float]:
@@ -326,14 +352,15 @@ def sub_node_jets(ucoef: NDArray, m: int, omega: float, la: NDArray
     return ucoef @ v0, (ucoef @ v1) * rate, (ucoef @ v2) * rate * rate, v0
 
 
-def _flags(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
-           lt: NDArray, z0: NDArray, zs: NDArray) -> NDArray:
-    """(q, m) True where sub-interval j of step q may hold a switch: the switching
-    components' cubic Hermite interpolants (values and time derivatives at the
-    sub-nodes, from the exact states) cross zero in the direction that ends regime r.
+def _switch_jets(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
+                 lt: NDArray, z0: NDArray, zs: NDArray) -> NDArray:
+    """Switching components of regime r at the m + 1 sub-nodes j/m of each step, signed
+    so that the regime ends where one goes below 0: (2 C, q, m+1), the C values then
+    their time derivatives times the sub-step (per unit of the sub-interval).
 
-    ucoef, fco: (q, NB) u monomials and forcing (sigma^j/j!); la, lt: (q,) step angle
-    and time; z0: (q, 2) start states; zs: (q, m, 2) sub-node states.
+    C = 4 (penalty seat: u - y, F_t, -y, seat force) or 3 (hard seat: u - y, F_t, y).
+    ucoef, fco: (q, NB) u monomials [m] and forcing (sigma^j/j!) [N]; la, lt: (q,) step
+    angle [rad] and time [s]; z0: (q, 2) start states; zs: (q, m, 2) sub-node states.
     """
     p = model.p
     m = zs.shape[1]
@@ -359,10 +386,27 @@ def _flags(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
         ss = 1.0 if r & SEAT else -1.0
         vals += [-ss * y, ss * gs]
         ders += [-ss * v * h, ss * dgs * h]
-    dips = _dips(np.stack(vals), np.stack(ders))        # one call for all components
+    return np.stack(vals + ders)
+
+
+def _flags(model: '_Model', r: int, lt: float, m: int, z0: NDArray, ucoef: NDArray,
+           gco: NDArray | None) -> NDArray:
+    """(q, m) True where sub-interval j of step q may hold a switch: the switching
+    components' cubic Hermite interpolants (values and time derivatives at the
+    sub-nodes, from the exact states) cross zero in the direction that ends regime r.
+
+    All q steps last lt seconds and are cut into m sub-intervals; z0: (q, 2) start
+    states [m, m/s]; ucoef, gco: (q, NB) monomials of u [m] and of the gas force [N]
+    (None: no gas). The components are the affine map ``_Model.switch_map`` of them.
+    """
+    lin, const = model.switch_map(r, lt, m)
+    x = np.concatenate([z0, ucoef] if gco is None else [z0, ucoef, gco], axis=1)
+    jets = (x @ lin[:x.shape[1]] + const).reshape(x.shape[0], -1, m + 1)
+    nc = jets.shape[1] // 2
+    dips = _dips(jets[:, :nc].transpose(1, 0, 2), jets[:, nc:].transpose(1, 0, 2))
     # in a regime: leaves when a component dips; out of it: enters when all rise
     bad = dips[0] | dips[1] if r & CONTACT else dips[0] & dips[1]
-    if p.hard_seat:
+    if model.p.hard_seat:
         return bad | dips[2]
     return bad | (dips[2] | dips[3] if r & SEAT else dips[2] & dips[3])
 
@@ -590,7 +634,6 @@ class _Run:
             bad = np.nonzero(np.any(ins < 0, axis=1))[0]
             clean = int(bad[0]) if bad.size else q
             return clean, np.zeros(clean), np.zeros(clean)
-        lt = self.lt[k0:k1]
         fco = model.forcing(r, cam.coeffs[k0:k1], la,
                             None if cam.gas is None else cam.gas[k0:k1])
         props = self._props(r)
@@ -634,14 +677,14 @@ class _Run:
                 else:
                     idx = pos + sub
                     z0 = np.stack([ys[sub], vs[sub]], axis=1)       # (q, 2)
-                fi = fco[idx]
-                zs = np.einsum('mab,qb->qma', phis, z0) + np.einsum('mab,qb->qma', gams, fi)
-                flags = _flags(model, r, cam.coeffs[k0 + idx], fi, la[idx], lt[idx], z0, zs)
+                flags = _flags(model, r, self.g_len[g], m, z0, cam.coeffs[k0 + idx],
+                               None if cam.gas is None else cam.gas[k0 + idx])
                 bad = np.nonzero(np.any(flags, axis=1))[0]
                 if bad.size and int(idx[bad[0]]) < clean:
                     clean = int(idx[bad[0]])
                     # hand the sub-node states and flags of that step to event_step
-                    self.hint = (k0 + clean, r, zs[bad[0]].copy(), flags[bad[0]].copy())
+                    zs = phis @ z0[bad[0]] + gams @ fco[clean]
+                    self.hint = (k0 + clean, r, zs, flags[bad[0]].copy())
             if clean < q:
                 break
             pos = hi
@@ -674,8 +717,8 @@ class _Run:
                 continue
             m = min(max(2, int(math.ceil(model.rho(r) * lt / _SUB))), 4096)
             ds = lt / m
-            fco = model.forcing(r, uco, la,
-                                None if cam.gas is None else _shift(cam.gas[k], s0, w))
+            gco = None if cam.gas is None else _shift(cam.gas[k], s0, w)
+            fco = model.forcing(r, uco, la, gco)
             hint = self.hint
             if m <= 4 and s0 > 0:   # short rest after a switch: chain the Taylor series
                 zs = None
@@ -685,8 +728,8 @@ class _Run:
             else:
                 phis, gams = model.propagator(r, lt, m)
                 zs = phis @ np.asarray(z) + gams @ fco                 # (m, 2)
-                flags = _flags(model, r, uco[None, :], fco[None, :], np.array([la]),
-                               np.array([lt]), np.asarray(z)[None, :], zs[None])[0]
+                flags = _flags(model, r, lt, m, np.asarray(z)[None, :], uco[None, :],
+                               None if cam.gas is None else gco[None, :])[0]
                 candidates: list[int] = np.nonzero(flags)[0].tolist()
             found = None
             todo = range(m) if zs is None else candidates
@@ -768,19 +811,37 @@ class _Run:
 
     def _first_switch(self, r: int, cy: NDArray, u_loc: NDArray,
                       ds: float) -> tuple[float, float, int] | None:
-        """(t_in, t_out, which) of the first switch on [0, 1]; which: CONTACT|SEAT."""
-        model = self.model
-        p = model.p
+        """(t_in, t_out, which) of the first switch on [0, 1]; which: CONTACT|SEAT.
+
+        cy: Taylor coefficients of y [m] in t = s / ds (``_taylor``); u_loc: monomials
+        of u [m] in t; ds: length of the piece [s]. The switching functions are
+        screened on the 33-point grid first (one product for values and t-derivatives of
+        u - y and y); the component polynomials are built only when one dips."""
+        p = self.model.p
         n = max(cy.size, u_loc.size)
+        dd = np.zeros(n)
+        dd[:u_loc.size] = u_loc
+        dd[:cy.size] -= cy
         yy = np.zeros(n)
         yy[:cy.size] = cy
-        uu = np.zeros(n)
-        uu[:u_loc.size] = u_loc
-        dd = uu - yy
+        grid_vd = np.stack((dd, yy)) @ _VGD9[:n]       # (2, 2 * 33): values, d/dt
+        g = _GRID9.size
+        d_val, d_der = grid_vd[0, :g], grid_vd[0, g:] / ds
+        y_val, y_der = grid_vd[1, :g], grid_vd[1, g:] / ds
+        sc = 1.0 if r & CONTACT else -1.0
+        ic = sc * np.minimum(d_val, p.stiffness * d_val + p.damping * d_der)
+        if p.hard_seat:
+            is_ = y_val
+        else:
+            is_ = (1.0 if r & SEAT else -1.0) * np.minimum(
+                -y_val, -p.seat_stiffness * y_val - p.seat_damping * y_der)
+        bad = (ic < 0) | (is_ < 0)
+        bad[0] = False
+        if not bad.any():
+            return None
         scale = _ARANGE[1:n] / ds
         ddot = np.zeros(n)
         ddot[:-1] = dd[1:] * scale
-        sc = 1.0 if r & CONTACT else -1.0
         if p.hard_seat:
             rows = np.stack([dd, p.stiffness * dd + p.damping * ddot, yy])
         else:
@@ -788,16 +849,6 @@ class _Run:
             ydot[:-1] = yy[1:] * scale
             rows = np.stack([dd, p.stiffness * dd + p.damping * ddot, -yy,
                              -p.seat_stiffness * yy - p.seat_damping * ydot])
-        vals = rows @ _VG9[:n]                       # (components, grid)
-        ic = sc * np.minimum(vals[0], vals[1])
-        if p.hard_seat:
-            is_ = vals[2]
-        else:
-            is_ = (1.0 if r & SEAT else -1.0) * np.minimum(vals[2], vals[3])
-        bad = (ic < 0) | (is_ < 0)
-        bad[0] = False
-        if not bad.any():
-            return None
         grid = _GRID9
         rl = rows[:, ::-1].tolist()
         comps = [(sc, rl[:2])]
