@@ -256,9 +256,20 @@ _VANDER: dict[int, tuple[NDArray, NDArray]] = {}
 _ARANGE = np.arange(64, dtype=float)
 _GRID9 = np.linspace(0.0, 1.0, 33)
 _VG9 = _GRID9[None, :] ** np.arange(64)[:, None]
-#: (64, 66): monomials t^j and their derivatives j t^(j-1) on the 33-point grid
-_VGD9 = np.hstack([_VG9, np.vstack([np.zeros((1, _GRID9.size)),
-                                    _ARANGE[1:, None] * _VG9[:-1]])])
+_SCREEN: dict[int, tuple[NDArray, NDArray]] = {}
+
+
+def _screen_grid(dense: int) -> tuple[NDArray, NDArray]:
+    """(grid, VGD): 32 dense + 1 points on [0, 1] (``_GRID9`` for dense = 1) and the
+    (64, 2 points) matrix of the monomials t^j and their derivatives j t^(j-1) there."""
+    hit = _SCREEN.get(dense)
+    if hit is None:
+        grid = np.linspace(0.0, 1.0, 32 * dense + 1)
+        vg = grid[None, :] ** _ARANGE[:, None]
+        dvg = np.vstack([np.zeros((1, grid.size)), _ARANGE[1:, None] * vg[:-1]])
+        hit = (grid, np.hstack([vg, dvg]))
+        _SCREEN[dense] = hit
+    return hit
 
 
 def _horner2(c: NDArray, t: float) -> tuple[float, float]:
@@ -715,13 +726,16 @@ class _Run:
                 r = self._after_held(s0, k)
                 z = (0.0, 0.0)
                 continue
-            m = min(max(2, int(math.ceil(model.rho(r) * lt / _SUB))), 4096)
-            ds = lt / m
+            need = int(math.ceil(model.rho(r) * lt / _SUB))
+            m = min(max(2, need), 4096)
             gco = None if cam.gas is None else _shift(cam.gas[k], s0, w)
             fco = model.forcing(r, uco, la, gco)
             hint = self.hint
+            pieces, dense = m, 1
             if m <= 4 and s0 > 0:   # short rest after a switch: chain the Taylor series
-                zs = None
+                zs = None           # (over max(1, need) pieces, screened as finely as m)
+                pieces = max(1, need)
+                dense = m // pieces
             elif s0 == 0 and hint is not None and hint[0] == k and hint[1] == r and \
                     hint[2].shape[0] == m:
                 zs, candidates = hint[2], np.nonzero(hint[3])[0].tolist()
@@ -732,15 +746,16 @@ class _Run:
                                None if cam.gas is None else gco[None, :])[0]
                 candidates: list[int] = np.nonzero(flags)[0].tolist()
             found = None
-            todo = range(m) if zs is None else candidates
+            todo = range(pieces) if zs is None else candidates
+            ds = lt / pieces
             z_start = z
             for j in todo:
                 if zs is not None:
                     z = z_start if j == 0 else (float(zs[j - 1, 0]), float(zs[j - 1, 1]))
-                f_loc = _shift(fco / _FACT, j / m, 1.0 / m)
-                u_loc = _shift(uco, j / m, 1.0 / m)
+                f_loc = _shift(fco / _FACT, j / pieces, 1.0 / pieces)
+                u_loc = _shift(uco, j / pieces, 1.0 / pieces)
                 cy = _taylor(model, r, z, f_loc, ds)
-                hit = self._first_switch(r, cy, u_loc, ds)
+                hit = self._first_switch(r, cy, u_loc, ds, dense)
                 if hit is not None:
                     found = (j, hit[1], hit[2], cy, u_loc)
                     break
@@ -756,7 +771,7 @@ class _Run:
             uu, ud = _horner2(u_loc, t_out)
             ve /= ds
             ud /= ds
-            s_new = s0 + w * (j + t_out) / m
+            s_new = s0 + w * (j + t_out) / pieces
             alpha = float(cam.nodes[k] + la_step * s_new)
             z, r = self.switch(r, which, alpha, (ye, ve), uu, ud)
             s0 = s_new
@@ -809,14 +824,15 @@ class _Run:
             if height >= BOUNCE_TOL:
                 self.ev.bounce_count += 1
 
-    def _first_switch(self, r: int, cy: NDArray, u_loc: NDArray,
-                      ds: float) -> tuple[float, float, int] | None:
+    def _first_switch(self, r: int, cy: NDArray, u_loc: NDArray, ds: float,
+                      dense: int = 1) -> tuple[float, float, int] | None:
         """(t_in, t_out, which) of the first switch on [0, 1]; which: CONTACT|SEAT.
 
         cy: Taylor coefficients of y [m] in t = s / ds (``_taylor``); u_loc: monomials
         of u [m] in t; ds: length of the piece [s]. The switching functions are
-        screened on the 33-point grid first (one product for values and t-derivatives of
-        u - y and y); the component polynomials are built only when one dips."""
+        screened on 32 dense + 1 grid points first (one product for values and
+        t-derivatives of u - y and y); the component polynomials are built only when
+        one dips there."""
         p = self.model.p
         n = max(cy.size, u_loc.size)
         dd = np.zeros(n)
@@ -824,8 +840,9 @@ class _Run:
         dd[:cy.size] -= cy
         yy = np.zeros(n)
         yy[:cy.size] = cy
-        grid_vd = np.stack((dd, yy)) @ _VGD9[:n]       # (2, 2 * 33): values, d/dt
-        g = _GRID9.size
+        grid, vgd = _screen_grid(dense)
+        grid_vd = np.stack((dd, yy)) @ vgd[:n]       # (2, 2 * points): values, d/dt
+        g = grid.size
         d_val, d_der = grid_vd[0, :g], grid_vd[0, g:] / ds
         y_val, y_der = grid_vd[1, :g], grid_vd[1, g:] / ds
         sc = 1.0 if r & CONTACT else -1.0
@@ -849,7 +866,6 @@ class _Run:
             ydot[:-1] = yy[1:] * scale
             rows = np.stack([dd, p.stiffness * dd + p.damping * ddot, -yy,
                              -p.seat_stiffness * yy - p.seat_damping * ydot])
-        grid = _GRID9
         rl = rows[:, ::-1].tolist()
         comps = [(sc, rl[:2])]
         if p.hard_seat:
