@@ -578,6 +578,7 @@ class _Run:
         self.seated_once = False
         self.opened = False
         self.peak = 0.0            # largest node lift since the last lift-off [m]
+        self.lift_off: float | None = None   # last lift-off not followed by a seating
         self.start_open = False    # the revolution starts inside an open phase
         self.next_cycle: list[list[float]] | None = None   # [start, end, u' - y']
         self.sep_open: list[float] | None = None
@@ -812,6 +813,7 @@ class _Run:
         reaches ``BOUNCE_TOL`` (reopenings of 1e-10 m on the penalty seat at crawl
         speed are not reported as bounces)."""
         self.peak = 0.0
+        self.lift_off = alpha
         if self.start_open and self.seated_once:
             self.next_cycle = []    # an open phase of the next cycle may start here
         if not self.opened:
@@ -954,6 +956,7 @@ class _Run:
                 self.ev.recontact_velocities.append(vrel)
 
     def _seat(self, alpha: float, vdown: float) -> None:
+        self.lift_off = None
         if self.next_cycle is not None:
             self.commit_next_cycle(alpha)
         if self.opened and not self.seated_once and self.peak < OPEN_TOL:
@@ -1080,6 +1083,10 @@ def _one_rev(model: _Model, cam: CamInput, z0: tuple[float, float], r0: int,
     ys, vs, rs, z, r = run.revolution(z0, r0)
     if run.next_cycle is not None:       # the next open phase runs past the window end
         run.commit_next_cycle(float(cam.nodes[-1]))
+    if run.start_open and run.ev.opening is None and run.lift_off is not None:
+        # the open phase at the window start is the one running over the window end
+        # (periodic state): its lift-off, one revolution earlier, is the opening (as MDOF)
+        run.ev.opening = run.lift_off - 2.0 * math.pi
     return _Shot(run, ys, vs, rs, z0, r0, z, r)
 
 
