@@ -706,49 +706,62 @@ class _Run:
     # -- one step with events --------------------------------------------------------
     def event_step(self, k: int, z: tuple[float, float],
                    r: int) -> tuple[tuple[float, float], int]:
-        """Integrate step k from node k to node k+1, handling every switch inside."""
+        """Integrate step k from node k to node k+1, handling every switch inside.
+
+        The step is covered by segments [s0, s0 + w] (fractions of the step), each cut
+        into ``pieces`` sub-intervals on which the local Taylor series locates a switch:
+        from a node of the step's sub-grid in regime r (m_step sub-intervals, the step
+        start or a node reached after a switch) the step's cached propagator gives the
+        sub-node states and the switch flags of the rest of the step; after a switch, a
+        short rest (m <= 4) is chained with Taylor pieces, a longer one is taken with one
+        Taylor piece up to the next sub-grid node, then from there as above."""
         model, cam = self.model, self.cam
         p = model.p
         s0 = 0.0
+        node: int | None = 0          # s0 = node / m_step of regime r's sub-grid
         la_step = float(cam.lengths[k])
         lt_step = float(self.lt[k])
         while True:
-            w = 1.0 - s0
-            if w <= 1e-15:
+            if 1.0 - s0 <= 1e-15:
                 return z, r
-            uco = _shift(cam.coeffs[k], s0, w)
-            lt = lt_step * w
-            la = la_step * w
             if p.hard_seat and r & SEAT:
-                hit = self._held_exit(uco, la)
+                w = 1.0 - s0
+                hit = self._held_exit(_shift(cam.coeffs[k], s0, w), la_step * w)
                 if hit is None:
                     return (0.0, 0.0), r
                 s0 += w * hit
                 r = self._after_held(s0, k)
-                z = (0.0, 0.0)
+                z, node = (0.0, 0.0), None
                 continue
-            need = int(math.ceil(model.rho(r) * lt / _SUB))
+            m_step = self._props(r)[self.g_invl[k]][0]
+            need = int(math.ceil(model.rho(r) * lt_step * (1.0 - s0) / _SUB))
             m = min(max(2, need), 4096)
-            gco = None if cam.gas is None else _shift(cam.gas[k], s0, w)
-            fco = model.forcing(r, uco, la, gco)
-            hint = self.hint
-            pieces, dense = m, 1
-            if m <= 4 and s0 > 0:   # short rest after a switch: chain the Taylor series
-                zs = None           # (over max(1, need) pieces, screened as finely as m)
+            zs, used, dense, upto = None, 1, 1, None
+            if node is None and m <= 4:   # short rest: chain the Taylor series over
+                w = 1.0 - s0              # max(1, need) pieces, screened as finely as m
                 pieces = max(1, need)
                 dense = m // pieces
-            elif s0 == 0 and hint is not None and hint[0] == k and hint[1] == r and \
-                    hint[2].shape[0] == m:
-                zs, candidates = hint[2], np.nonzero(hint[3])[0].tolist()
+            elif node is None:            # one Taylor piece up to the next sub-grid node
+                upto = min(m_step, int(s0 * m_step) + 1)
+                w, pieces = upto / m_step - s0, 1
+            else:                         # from a sub-grid node: the step's propagator
+                w, pieces, used = 1.0, m_step, m_step - node
+            uco = _shift(cam.coeffs[k], s0, w)
+            gco = None if cam.gas is None else _shift(cam.gas[k], s0, w)
+            fco = model.forcing(r, uco, la_step * w, gco)
+            if node is None:
+                todo: Any = range(pieces)
+            elif node == 0 and self.hint is not None and self.hint[:2] == (k, r) and \
+                    self.hint[2].shape[0] == m_step:
+                zs, todo = self.hint[2], np.nonzero(self.hint[3])[0].tolist()
             else:
-                phis, gams = model.propagator(r, lt, m)
-                zs = phis @ np.asarray(z) + gams @ fco                 # (m, 2)
-                flags = _flags(model, r, lt, m, np.asarray(z)[None, :], uco[None, :],
-                               None if cam.gas is None else gco[None, :])[0]
-                candidates: list[int] = np.nonzero(flags)[0].tolist()
+                phis, gams = model.propagator(r, lt_step, m_step)
+                zs = phis[:used] @ np.asarray(z) + gams[:used] @ fco         # (used, 2)
+                flags = _flags(model, r, lt_step, m_step, np.asarray(z)[None, :],
+                               uco[None, :], None if gco is None else gco[None, :])[0]
+                todo = np.nonzero(flags[:used])[0].tolist()
+            ds = lt_step * w / pieces
             found = None
-            todo = range(pieces) if zs is None else candidates
-            ds = lt / pieces
             z_start = z
             for j in todo:
                 if zs is not None:
@@ -763,19 +776,22 @@ class _Run:
                 z = (float(np.sum(cy)), float(cy[1:] @ _ARANGE[1:cy.size]) / ds)
             if found is None:
                 if zs is not None:
-                    z = (float(zs[-1, 0]), float(zs[-1, 1]))
+                    z = (float(zs[used - 1, 0]), float(zs[used - 1, 1]))
                 if not (math.isfinite(z[0]) and math.isfinite(z[1])):
                     raise SolverError('non-finite state')
-                return z, r
+                if upto is None or upto == m_step:
+                    return z, r
+                s0, node = upto / m_step, upto
+                continue
             j, t_out, which, cy, u_loc = found
             ye, ve = _horner2(cy, t_out)
             uu, ud = _horner2(u_loc, t_out)
             ve /= ds
             ud /= ds
-            s_new = s0 + w * (j + t_out) / pieces
-            alpha = float(cam.nodes[k] + la_step * s_new)
+            s0 = s0 + w * (j + t_out) / pieces
+            node = None
+            alpha = float(cam.nodes[k] + la_step * s0)
             z, r = self.switch(r, which, alpha, (ye, ve), uu, ud)
-            s0 = s_new
             self.ev.count += 1
             if self.ev.count > _MAX_EVENTS:
                 raise SolverError(f'more than {_MAX_EVENTS} regime switches (chatter)')
