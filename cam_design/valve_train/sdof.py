@@ -422,6 +422,18 @@ def _flags(model: '_Model', r: int, lt: float, m: int, z0: NDArray, ucoef: NDArr
     return bad | (dips[2] | dips[3] if r & SEAT else dips[2] & dips[3])
 
 
+def _screen_weights(p: SdofParams, ds: float) -> NDArray:
+    """(C, 4) weights of the switching components (u - y, F_t, then -y and the seat force,
+    or y for the hard seat) on [u - y, its t-derivative, y, its t-derivative], t = s / ds
+    (ds [s])."""
+    if p.hard_seat:
+        return np.array([[1.0, 0.0, 0.0, 0.0], [p.stiffness, p.damping / ds, 0.0, 0.0],
+                         [0.0, 0.0, 1.0, 0.0]])
+    return np.array([[1.0, 0.0, 0.0, 0.0], [p.stiffness, p.damping / ds, 0.0, 0.0],
+                     [0.0, 0.0, -1.0, 0.0], [0.0, 0.0, -p.seat_stiffness,
+                                             -p.seat_damping / ds]])
+
+
 def _inside_scalar(p: SdofParams, r: int, y: float, v: float, u: float, ud: float,
                    delta: float, gc: float) -> tuple[float, float]:
     """Scalar version of ``_inside`` (hot path of the root finder)."""
@@ -853,27 +865,25 @@ class _Run:
         one dips there."""
         p = self.model.p
         n = max(cy.size, u_loc.size)
-        dd = np.zeros(n)
-        dd[:u_loc.size] = u_loc
-        dd[:cy.size] -= cy
-        yy = np.zeros(n)
-        yy[:cy.size] = cy
+        two = np.zeros((2, n))                 # monomials of u - y and of y
+        two[0, :u_loc.size] = u_loc
+        two[0, :cy.size] -= cy
+        two[1, :cy.size] = cy
+        dd, yy = two[0], two[1]
         grid, vgd = _screen_grid(dense)
-        grid_vd = np.stack((dd, yy)) @ vgd[:n]       # (2, 2 * points): values, d/dt
-        g = grid.size
-        d_val, d_der = grid_vd[0, :g], grid_vd[0, g:] / ds
-        y_val, y_der = grid_vd[1, :g], grid_vd[1, g:] / ds
-        sc = 1.0 if r & CONTACT else -1.0
-        ic = sc * np.minimum(d_val, p.stiffness * d_val + p.damping * d_der)
+        # rows: u - y, d(u - y)/dt, y, dy/dt (t-derivatives) on the grid -> components
+        scr = _screen_weights(p, ds) @ (two @ vgd[:n]).reshape(4, grid.size)
+        low = np.minimum(scr[0], scr[1])
+        bad = low < 0 if r & CONTACT else low > 0   # leaves (enters) contact
         if p.hard_seat:
-            is_ = y_val
+            bad |= scr[2] < 0
         else:
-            is_ = (1.0 if r & SEAT else -1.0) * np.minimum(
-                -y_val, -p.seat_stiffness * y_val - p.seat_damping * y_der)
-        bad = (ic < 0) | (is_ < 0)
+            low = np.minimum(scr[2], scr[3])
+            bad |= low < 0 if r & SEAT else low > 0
         bad[0] = False
         if not bad.any():
             return None
+        sc = 1.0 if r & CONTACT else -1.0
         scale = _ARANGE[1:n] / ds
         ddot = np.zeros(n)
         ddot[:-1] = dd[1:] * scale
