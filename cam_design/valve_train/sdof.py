@@ -678,8 +678,11 @@ class _Run:
         clean = q
         while pos < q:
             hi = min(q, pos + win)
+            one_group = self.g_run[k0 + pos] == self.g_run[k0 + hi - 1]
+            a, b, c, d = props[invl[k0 + pos]][3]
             for i in range(pos, hi):
-                a, b, c, d = props[invl[k0 + i]][3]
+                if not one_group:
+                    a, b, c, d = props[invl[k0 + i]][3]
                 wy, wv = wl[i]
                 y, v = a * y + b * v + wy, c * y + d * v + wv
                 yl.append(y)
@@ -688,7 +691,7 @@ class _Run:
                 raise SolverError('non-finite state in bulk propagation')
             ys = np.asarray(yl[pos:hi])
             vs = np.asarray(vl[pos:hi])
-            if self.g_run[k0 + pos] == self.g_run[k0 + hi - 1]:
+            if one_group:
                 parts = [(invl[k0 + pos], None)]
             else:
                 gw = inv[pos:hi]
