@@ -456,6 +456,8 @@ _SHIFT: dict[tuple[float, float], NDArray] = {}
 
 def _shift(c: NDArray, a: float, w: float) -> NDArray:
     """Monomial coefficients of p(a + w t) from those of p(sigma) (last axis)."""
+    if a == 0.0 and w == 1.0:
+        return c
     mat = _SHIFT.get((a, w))
     if mat is None:
         mat = (_BINOM * np.power(a, _POW) * (w ** np.arange(NB))[:, None]).T
