@@ -414,12 +414,12 @@ def _flags(model: '_Model', r: int, lt: float, m: int, z0: NDArray, ucoef: NDArr
     x = np.concatenate([z0, ucoef] if gco is None else [z0, ucoef, gco], axis=1)
     jets = (x @ lin[:x.shape[1]] + const).reshape(x.shape[0], -1, m + 1)
     nc = jets.shape[1] // 2
-    dips = _dips(jets[:, :nc].transpose(1, 0, 2), jets[:, nc:].transpose(1, 0, 2))
+    dips = _dips(jets[:, :nc], jets[:, nc:])          # (q, C, m)
     # in a regime: leaves when a component dips; out of it: enters when all rise
-    bad = dips[0] | dips[1] if r & CONTACT else dips[0] & dips[1]
+    bad = dips[:, 0] | dips[:, 1] if r & CONTACT else dips[:, 0] & dips[:, 1]
     if model.p.hard_seat:
-        return bad | dips[2]
-    return bad | (dips[2] | dips[3] if r & SEAT else dips[2] & dips[3])
+        return bad | dips[:, 2]
+    return bad | (dips[:, 2] | dips[:, 3] if r & SEAT else dips[:, 2] & dips[:, 3])
 
 
 def _screen_weights(p: SdofParams, ds: float) -> NDArray:
