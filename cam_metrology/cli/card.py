@@ -173,14 +173,16 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
     write_output(args.nominal, text, '--nominal')
 
 
-#: median step [deg] above which a table's card is read from its reconstruction spline
-COARSE_TABLE_DEG = 1.0
+#: median step [deg] above which a table's card is read from its reconstruction spline:
+#: the local fits need 3 samples within +-1 deg of each event, which only a step of at
+#: most 2/3 deg guarantees (a 1 deg table has 2 there whenever the event falls mid-step)
+COARSE_TABLE_DEG = 0.5
 
 
 def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
                ) -> dict[str, Any]:
     """The card of a lift table [rad, m]. A table coarser than ``COARSE_TABLE_DEG``
-    (a gauge's 2-5 deg steps) has too few points around the nose and the events for
+    (a gauge's 1-5 deg steps) has too few points around the nose and the events for
     local fits: its card is that of the reconstruction spline (the same smoothing the
     dynamics use), with ``source`` and ``note`` saying so."""
     import numpy as np
