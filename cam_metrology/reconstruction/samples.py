@@ -8,7 +8,8 @@ Three inputs end up as one ``LiftTable`` (alpha [rad] from the lobe centreline, 
   ``design_lift_<unit>``);
 * a nominal-profile file in the common gauge layout: line 1 the probe radius, line 2
   the number of angle steps, then one row per step ``angle lift [marker]`` (fields
-  separated by blanks, commas, semicolons or tabs). Gauges write degrees and
+  separated by blanks, commas, semicolons or tabs; decimal commas are read where they
+  cannot be separators: ``12,5``, ``0,5;8,0000``). Gauges write degrees and
   millimetres: those are the defaults, overridable (``angle_unit``, ``length_unit``);
 * a /metrology/lift table (Float64MultiArray with columns
   ``alpha_rad,lift_m,design_lift_m``).
@@ -202,38 +203,44 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
     a crank angle, divided by 2 for the cam); lift: ``lift_mm|lift_um|lift_m|lift_in``
     (also ``h_mm``, as ``cam-bench design law --csv`` writes); optional
     ``design_lift_<unit>``. Units may also be written ``lift [mm]`` or ``Lift (mm)``.
-    Separators: comma, semicolon (then a decimal comma is accepted) or tab. Other
-    columns are ignored. Empty lines and ``#`` comments are skipped; a malformed line
+    Separators: comma, semicolon or tab (with either of the last two a decimal comma is
+    accepted), or the one a spreadsheet's first line ``sep=;`` names. Other columns are
+    ignored (not read: they may hold text or nothing), as are trailing empty fields, a
+    UTF-8 byte-order mark and a repetition of the header line (files exported in parts;
+    counted in the notes). Empty lines and ``#`` comments are skipped; a malformed line
     raises InputError naming ``FILE:LINE``.
     """
     p = Path(path)
     lines = _read_text(p).splitlines()
     header: list[str] | None = None
-    sep = ','
-    rows: list[list[float]] = []
+    cols: list[_Column] = []
+    sep, sep_given = ',', False
+    raw_rows: list[tuple[int, str, list[str]]] = []
+    repeats = 0
     for number, raw in enumerate(lines, start=1):
         line = raw.split('#', 1)[0].strip()
         if not line:
             continue
         if header is None:
-            sep = ';' if ';' in line else ('\t' if '\t' in line else ',')
-            header = [f.strip() for f in line.split(sep)]
+            if _EXCEL_SEP.match(line):   # a spreadsheet's "sep=;" line names the separator
+                sep, sep_given = line[4], True
+                continue
+            if not sep_given:
+                sep = ';' if ';' in line else ('\t' if '\t' in line else ',')
+            header = _trim([f.strip() for f in line.split(sep)])
+            cols = _classify(header, f'{p.name}:header')
             continue
-        fields = [f.strip() for f in line.split(sep)]
-        if len(fields) != len(header):
-            raise InputError(f'{p.name}:{number}', raw.strip(),
-                             f'{len(header)} values separated by {sep!r} '
-                             f'({",".join(header)})')
-        try:
-            rows.append([float(f.replace(',', '.') if sep == ';' else f) for f in fields])
-        except ValueError:
-            raise InputError(f'{p.name}:{number}', raw.strip(), 'numbers') from None
+        fields = _trim([f.strip() for f in line.split(sep)])
+        if [f.strip('"\'').lower() for f in fields] == \
+                [f.strip('"\'').lower() for f in header]:
+            repeats += 1     # files exported in parts repeat the header
+            continue
+        raw_rows.append((number, raw, fields))
     if header is None:
         raise InputError(p.name, 'an empty file', 'a header alpha_rad,lift_m and rows')
-    if not rows:
+    if not raw_rows:
         raise InputError(p.name, '0 data rows', f'rows of numbers under the header '
                          f'{",".join(header)}')
-    cols = _classify(header, f'{p.name}:header')
     angles = [c for c in cols if c.role in ('cam', 'crank')]
     lifts = [c for c in cols if c.role == 'lift']
     designs = [c for c in cols if c.role == 'design']
@@ -241,12 +248,29 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
         raise InputError(f'{p.name}:header', ','.join(header),
                          'one angle column (alpha_deg, alpha_rad or crank_deg) and one '
                          'lift column (lift_mm, lift_um, lift_m, lift_in or h_mm)')
-    data = np.asarray(rows, dtype=float).reshape(-1, len(header))
+    used = [c.index for c in cols]
+    rows: list[list[float]] = []
+    for number, raw, fields in raw_rows:
+        if not max(used) < len(fields) <= len(header):
+            raise InputError(f'{p.name}:{number}', raw.strip(),
+                             f'{len(header)} values separated by {sep!r} '
+                             f'({",".join(header)})')
+        try:   # only the columns used are read; a decimal comma unless commas separate
+            rows.append([float(fields[i].replace(',', '.') if sep != ',' else fields[i])
+                         for i in used])
+        except ValueError:
+            raise InputError(f'{p.name}:{number}', raw.strip(),
+                             'numbers in the columns ' + ', '.join(header[i] for i in used)
+                             + (' (a decimal point or comma)' if sep != ',' else
+                                ' (a decimal point)')) from None
+    data = np.asarray(rows, dtype=float).reshape(-1, len(used))
     ang, lift_col = angles[0], lifts[0]
-    raw_alpha = data[:, ang.index]
-    raw_lift = data[:, lift_col.index]
+    raw_alpha = data[:, used.index(ang.index)]
+    raw_lift = data[:, used.index(lift_col.index)]
     notes = [f'columns: angle {ang.header!r} in {ang.unit}, lift {lift_col.header!r} in '
              f'{lift_col.unit}']
+    if repeats:
+        notes.append(f'skipped {repeats} repeated header line(s)')
     alpha = raw_alpha * ang.scale
     if ang.role == 'crank':
         alpha = alpha / CRANK_PER_CAM
@@ -261,8 +285,18 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
     lift = raw_lift * lift_col.scale
     design = None
     if designs:
-        design = data[:, designs[0].index] * designs[0].scale
+        design = data[:, used.index(designs[0].index)] * designs[0].scale
     return LiftTable(feature or p.stem, alpha, lift, design, None, str(p), tuple(notes))
+
+
+_EXCEL_SEP = re.compile(r'^sep=[,;\t]$', re.IGNORECASE)
+
+
+def _trim(fields: list[str]) -> list[str]:
+    """``fields`` without the empty ones at the end (a spreadsheet's trailing separators)."""
+    while fields and not fields[-1]:
+        fields = fields[:-1]
+    return fields
 
 
 def _renamed(header: str, unit: str, role: str | None = None) -> str:
@@ -394,7 +428,7 @@ def read_gauge_file(path: str | Path, *, angle_unit: str = 'deg', length_unit: s
     alpha = np.empty(len(body))
     lift = np.empty(len(body))
     for i, (number, line) in enumerate(body):
-        fields = [f for f in _SPLIT.split(line) if f]
+        fields = _gauge_fields(line)
         if len(fields) not in (2, 3):
             raise InputError(f'{p.name}:{number}', line, 'angle, lift[, marker]')
         try:
@@ -414,8 +448,21 @@ def read_gauge_file(path: str | Path, *, angle_unit: str = 'deg', length_unit: s
     return LiftTable(feature or p.stem, alpha, lift, None, follower, str(p), (note,))
 
 
+def _gauge_fields(line: str) -> list[str]:
+    """The fields of a gauge-file line. Commas separate fields, except in a line without
+    a decimal point whose fields are already separated by blanks, semicolons or tabs:
+    there they are decimal commas (European gauges: ``12,5`` or ``0,5;8,0000``)."""
+    if ',' in line and '.' not in line:
+        parts = [f for f in re.split(r'[\s;]+', line) if f]
+        if len(parts) > 1:
+            return [f.replace(',', '.') for f in parts]
+    return [f for f in _SPLIT.split(line) if f]
+
+
 def _gauge_number(name: str, number: int, line: str, expected: str) -> float:
-    fields = [f for f in _SPLIT.split(line) if f]
+    fields = _gauge_fields(line)
+    if len(fields) == 2 and '.' not in line and re.fullmatch(r'[+-]?\d+,\d+', line):
+        fields = [line.replace(',', '.')]    # one number with a decimal comma: 12,5
     try:
         if len(fields) != 1:
             raise ValueError
@@ -476,17 +523,15 @@ def read_table_file(path: str | Path, *, angle_unit: str = 'deg',
         raise FileNotFoundError(f'no such table file: {p}')
     first, number = '', 0
     for number, raw in enumerate(_read_text(p).splitlines(), start=1):
-        if raw.strip() and not raw.strip().startswith('#'):
+        if raw.strip() and not raw.strip().startswith('#') and \
+                not _EXCEL_SEP.match(raw.strip()):
             first = raw.strip()
             break
     if _names_an_angle(first):
         return read_csv_table(p)
-    fields = [f for f in _SPLIT.split(first) if f]
     try:
-        if len(fields) != 1:
-            raise ValueError
-        float(fields[0])
-    except ValueError:
+        _gauge_number(p.name, number, first, 'one number')
+    except InputError:
         shown = first if len(first) <= 80 else first[:77] + '...'
         raise InputError(f'{p.name}:{number}' if first else p.name,
                          shown if first else 'an empty file', TABLE_FORMATS) from None

@@ -1,0 +1,98 @@
+"""Lift tables as gauges and spreadsheets really write them: a byte-order mark, Windows
+line ends, tab or semicolon separators with decimal commas, a spreadsheet's ``sep=;``
+line, trailing empty columns, text columns, a header repeated mid-file (files exported
+in parts), gauge files with decimal commas. Each must read to the numbers written
+(cosine lobe h = L/2 (1 + cos(pi alpha / beta)), checked row by row), or be refused in
+one line naming the file and line."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cam_design.errors import InputError
+from cam_metrology.reconstruction.samples import read_csv_table, read_table_file
+
+L_MM, BETA_DEG = 8.0, 60.0
+ANGLES = np.arange(-180.0, 180.0, 1.0)
+
+
+def lobe_mm(a_deg: np.ndarray) -> np.ndarray:
+    a = np.asarray(a_deg, dtype=float)
+    return np.where(np.abs(a) < BETA_DEG,
+                    0.5 * L_MM * (1.0 + np.cos(np.pi * a / BETA_DEG)), 0.0)
+
+
+def rows(sep: str, decimal: str = '.', extra: str = '') -> list[str]:
+    return [f'{a:.1f}'.replace('.', decimal) + sep + f'{h:.5f}'.replace('.', decimal) + extra
+            for a, h in zip(ANGLES, lobe_mm(ANGLES))]
+
+
+def check(table) -> None:
+    assert table.alpha.size == ANGLES.size
+    assert np.allclose(table.alpha, np.radians(ANGLES), atol=1e-12)
+    assert np.allclose(table.lift, lobe_mm(ANGLES) * 1e-3, atol=6e-9)   # 5 decimals in mm
+
+
+@pytest.mark.parametrize('name, text', [
+    ('bom_crlf', '\ufeffalpha_deg,lift_mm\r\n' + '\r\n'.join(rows(',')) + '\r\n'),
+    ('tab_decimal_comma', 'alpha_deg\tlift_mm\n' + '\n'.join(rows('\t', ',')) + '\n'),
+    ('semicolon_decimal_comma', 'alpha_deg;lift_mm\n' + '\n'.join(rows(';', ',')) + '\n'),
+    ('excel_sep_line', 'sep=;\nalpha_deg;lift_mm\n' + '\n'.join(rows(';', ',')) + '\n'),
+    ('trailing_empty_columns', 'alpha_deg,lift_mm,,\n' + '\n'.join(rows(',', '.', ',,'))),
+    ('text_column', 'alpha_deg,lift_mm,status\n' + '\n'.join(rows(',', '.', ',OK'))),
+])
+def test_csv_dialects_read_the_numbers_written(tmp_path, name, text) -> None:
+    path = tmp_path / f'{name}.csv'
+    path.write_bytes(text.encode('utf-8'))
+    check(read_table_file(path))
+
+
+def test_header_repeated_mid_file_is_skipped_and_counted(tmp_path) -> None:
+    body = rows(',')
+    path = tmp_path / 'parts.csv'
+    path.write_text('alpha_deg,lift_mm\n' + '\n'.join(body[:180]) + '\nalpha_deg,lift_mm\n'
+                    + '\n'.join(body[180:]) + '\n', encoding='utf-8')
+    table = read_csv_table(path)
+    check(table)
+    assert any('skipped 1 repeated header' in n for n in table.notes)
+
+
+def test_a_bad_value_in_a_used_column_still_names_the_line(tmp_path) -> None:
+    body = rows(',', '.', ',x')
+    body[10] = body[10].replace(',', ',oops', 1)
+    path = tmp_path / 'bad.csv'
+    path.write_text('alpha_deg,lift_mm,note\n' + '\n'.join(body) + '\n', encoding='utf-8')
+    with pytest.raises(InputError, match=r'bad.csv:12: .*numbers in the columns alpha_deg'):
+        read_csv_table(path)
+
+
+@pytest.mark.parametrize('radius, sep, decimal, bom', [
+    ('12,5', ' ', ',', False), ('12,5', ';', ',', False), ('12,5', '\t', ',', True),
+    ('12.5', ' ', '.', True),
+])
+def test_gauge_file_with_decimal_commas_and_bom(tmp_path, radius, sep, decimal, bom) -> None:
+    a = np.arange(0.0, 360.0, 1.0)
+    h = lobe_mm(np.mod(a + 180.0, 360.0) - 180.0)
+    body = [f'{x:.1f}'.replace('.', decimal) + sep + f'{y:.5f}'.replace('.', decimal)
+            for x, y in zip(a, h)]
+    text = ('\ufeff' if bom else '') + f'{radius}\r\n360\r\n' + '\r\n'.join(body) + '\r\n'
+    path = tmp_path / 'gauge.txt'
+    path.write_bytes(text.encode('utf-8'))
+    table = read_table_file(path)
+    assert table.follower == ('roller', pytest.approx(0.0125, abs=1e-15))
+    assert np.allclose(table.alpha, np.radians(a), atol=1e-12)
+    assert np.allclose(table.lift, h * 1e-3, atol=6e-9)
+    assert float(table.lift.max()) == pytest.approx(L_MM * 1e-3, abs=1e-12)
+
+
+def test_gauge_row_with_commas_as_separators_is_still_two_numbers(tmp_path) -> None:
+    """'10,0.5' has a decimal point: the comma separates (angle 10, lift 0.5); '10,5'
+    alone on a row stays angle 10, lift 5 (a separator, as before)."""
+    a = np.arange(0.0, 360.0, 10.0)
+    path = tmp_path / 'g.txt'
+    body = [f'{x:.0f},{math.cos(math.radians(x)) + 1:.4f}' for x in a]
+    path.write_text('0\n36\n' + '\n'.join(body) + '\n', encoding='utf-8')
+    table = read_table_file(path)
+    assert np.allclose(table.lift, (np.cos(np.radians(a)) + 1.0) * 1e-3, atol=1e-7)
