@@ -123,16 +123,11 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
         raise InputError('scene', f'{len(text)} characters',
                          f'a scene file of at most {MAX_TEXT} characters')
     try:
-        from cam_metrology.yaml_input import load_yaml
-        doc = load_yaml(text, 'scene', _unique_key_loader())
-    except _DuplicateKey as exc:
-        raise InputError(exc.key, exc.name, f'unique keys in a mapping (given again at line '
-                         f'{exc.line}; YAML would silently keep the last)') from None
+        from cam_metrology.yaml_input import load_yaml, syntax_error_text
+        doc = load_yaml(text, 'scene', getattr(yaml, 'CSafeLoader', yaml.SafeLoader))
     except yaml.YAMLError as exc:
-        mark = getattr(exc, 'problem_mark', None)
-        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
-        problem = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
-        raise InputError('scene', source, f'valid YAML ({problem}{where})') from None
+        raise InputError('scene', source, f'valid YAML ({syntax_error_text(exc, text)})') \
+            from None
     if doc is None:
         raise InputError('scene', source, 'a YAML mapping with the scene keys (file is empty)')
     ctx = _Ctx(None if base_dir is None else Path(base_dir))
@@ -176,30 +171,6 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
                  crank=crank, study=study)
-
-
-class _DuplicateKey(Exception):
-    def __init__(self, key: str, name: Any, line: int) -> None:
-        super().__init__(key)
-        self.key, self.name, self.line = key, name, line
-
-
-def _unique_key_loader() -> Any:
-    """A yaml SafeLoader class that rejects a key given twice in one mapping."""
-    import yaml
-
-    class Loader(getattr(yaml, 'CSafeLoader', yaml.SafeLoader)):  # type: ignore[misc]
-        def construct_mapping(self, node: Any, deep: bool = False) -> Any:
-            seen: set[Any] = set()
-            for key_node, _ in node.value:
-                name = self.construct_object(key_node, deep=True)
-                if isinstance(name, (str, int, float, bool)) and name in seen:
-                    raise _DuplicateKey('scene', name, key_node.start_mark.line + 1)
-                if isinstance(name, (str, int, float, bool)):
-                    seen.add(name)
-            return super().construct_mapping(node, deep=deep)
-
-    return Loader
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -783,15 +754,18 @@ def _datum_tolerance(defaults: dict[str, Any], pin: DowelPin | Keyway | None
 def load_valve_train(path: Path) -> tuple[ValveTrain, Scene | None]:
     """(ValveTrain, Scene or None) from a scene YAML or a YAML holding only the
     ``valve_train`` block (with or without the ``valve_train:`` key): ``--valve-train``."""
-    from cam_metrology.yaml_input import load_yaml
+    import yaml
+
+    from cam_metrology.yaml_input import load_yaml, syntax_error_text
 
     if not path.is_file():
         raise FileNotFoundError(f'no such valve-train file: {path}')
+    text = read_text_file(path, 'YAML file', key='--valve-train')
     try:
-        text = path.read_text(encoding='utf-8')
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError('--valve-train', str(path), f'a readable YAML file ({exc})') from None
-    doc = load_yaml(text, '--valve-train')
+        doc = load_yaml(text, '--valve-train')
+    except yaml.YAMLError as exc:
+        raise InputError('--valve-train', str(path),
+                         f'valid YAML ({syntax_error_text(exc, text)})') from None
     if isinstance(doc, dict) and 'lobes' in doc:
         scene = load_scene(path)
         if scene.valve_train is None:

@@ -67,13 +67,11 @@ def load_yaml(path: str) -> Any:
 
     text = read_text_file(path, 'YAML file', key=path)
     try:
-        from cam_metrology.yaml_input import load_yaml
+        from cam_metrology.yaml_input import load_yaml, syntax_error_text
         return load_yaml(text, path)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, 'problem_mark', None)
-        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
-        what = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
-        raise InputError(path, 'invalid YAML', f'a YAML document ({what}{where})') from None
+        raise InputError(path, 'invalid YAML',
+                         f'a YAML document ({syntax_error_text(exc, text)})') from None
 
 
 def write_text(target: str, text: str, key: str = 'output') -> None:

@@ -1,0 +1,77 @@
+"""YAML inputs as people write them: a key given twice (YAML keeps the last, silently),
+a tab-indented line, a byte-order mark. Every YAML the commands read (design and grind
+files, ``--valve-train``, scenes) must refuse the first two in one line naming the key
+path and both lines (exit 2) and read the third."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from cam_design.errors import InputError
+from cam_metrology.cli import main
+from cam_metrology.yaml_input import load_yaml
+
+CHECK = ('lift_law: {family: preset, name: flat_tappet_intake}\n'
+         'base_radius: 0.0165\nrocker_ratio: 1.0\nlash: 0.0002\n')
+VALVE_TRAIN = ('valve_train:\n  model: sdof\n  rocker_ratio: 1.5\n  lash: 0.00025\n'
+               '  mass: 0.12\n  stiffness: 1.2e7\n  damping: 60.0\n  spring_rate: 3.0e4\n'
+               '  spring_preload: 250.0\n  cam_speed_rpm: [1500]\n')
+
+
+def test_duplicate_key_names_its_path_and_both_lines() -> None:
+    text = 'a:\n  b: 1\n  c: [ {d: 1, d: 2} ]\n'
+    with pytest.raises(InputError, match=r"f.yaml: a.c\[0\].d: got 'd'; expected unique "
+                                         r'keys in a mapping \(given at lines 3 and 3'):
+        load_yaml(text, 'f.yaml')
+    assert load_yaml('x: &m {a: 1}\ny:\n  <<: *m\n  b: 2\n', 'f') == {
+        'x': {'a': 1}, 'y': {'a': 1, 'b': 2}}     # a merge key is not a duplicate
+
+
+@pytest.mark.parametrize('argv, text, path', [
+    (['design', 'check'], CHECK + 'lash: 0.002\n', 'lash'),
+    (['grind', 'table'], CHECK + 'grinding:\n  wheel_radius: 0.2\n  step_deg: 0.5\n'
+                                 '  step_deg: 5\n', 'grinding.step_deg'),
+])
+def test_design_and_grind_files_refuse_duplicate_keys(tmp_path: Path, capsys, argv, text,
+                                                      path) -> None:
+    f = tmp_path / 'in.yaml'
+    f.write_text(text, encoding='utf-8')
+    assert main(argv + [str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f'{path}: got' in err and 'unique keys' in err
+
+
+def _table(tmp_path: Path) -> Path:
+    import numpy as np
+
+    a = np.arange(-180.0, 180.0, 1.0)
+    h = np.where(np.abs(a) < 60, 4.0 * (1 + np.cos(np.pi * a / 60)), 0.0)
+    p = tmp_path / 't.csv'
+    p.write_text('alpha_deg,lift_mm\n' + ''.join(f'{x:.0f},{y:.5f}\n' for x, y in zip(a, h)),
+                 encoding='utf-8')
+    return p
+
+
+@pytest.mark.parametrize('text, words', [
+    (VALVE_TRAIN.replace('  mass: 0.12\n', '  mass: 0.12\n  mass: 1.2\n'),
+     ['valve_train.mass: got', 'given at lines 5 and 6']),
+    (VALVE_TRAIN.replace('  mass: 0.12\n', '\tmass: 0.12\n'),
+     ['valid YAML', 'line 5', 'indented with a tab']),
+])
+def test_valve_train_file_faults_are_one_line(tmp_path: Path, capsys, text, words) -> None:
+    vt = tmp_path / 'vt.yaml'
+    vt.write_text(text, encoding='utf-8')
+    assert main(['dynamics', str(_table(tmp_path)), '--valve-train', str(vt),
+                 '--rpm', '1500']) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and 'Traceback' not in err
+    for w in words:
+        assert w in err
+
+
+def test_byte_order_mark_is_read(tmp_path: Path, capsys) -> None:
+    f = tmp_path / 'bom.yaml'
+    f.write_bytes(b'\xef\xbb\xbf' + CHECK.encode('utf-8'))
+    assert main(['design', 'check', str(f), '--json', '-']) == 0
+    assert '"max_lift_mm": 8.5' in capsys.readouterr().out
