@@ -75,3 +75,38 @@ def test_byte_order_mark_is_read(tmp_path: Path, capsys) -> None:
     f.write_bytes(b'\xef\xbb\xbf' + CHECK.encode('utf-8'))
     assert main(['design', 'check', str(f), '--json', '-']) == 0
     assert '"max_lift_mm": 8.5' in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------- lengths in mm, rpm text
+GRIND = CHECK + 'grinding:\n  design: {kind: flat}\n  wheel_radius: 0.2\n  step_deg: 0.5\n'
+
+
+@pytest.mark.parametrize('argv, text, words', [
+    (['design', 'check'], CHECK.replace('0.0165', '16.5'),
+     'base_radius: got 16.5; expected a radius in metres (at most 0.5 m); 16.5 looks like '
+     'millimetres: write 0.0165'),
+    (['design', 'check'], CHECK + 'cam_speed_rpm: 3000rpm\n',
+     "cam_speed_rpm: got '3000rpm'; expected a finite real number"),
+    (['design', 'check'], CHECK + 'cam_speed_rpm: -3000\n',
+     'cam_speed_rpm: got -3000; expected a number > 0'),
+    (['grind', 'table'], GRIND.replace('0.0165', '16.5'), 'base_radius: got 16.5;'),
+    (['grind', 'table'], GRIND.replace('wheel_radius: 0.2', 'wheel_radius: 200'),
+     'grinding.wheel_radius: got 200; expected a wheel radius in metres (at most 1 m); 200 '
+     'looks like millimetres: write 0.2'),
+])
+def test_unit_slips_and_text_speeds_are_refused(tmp_path: Path, capsys, argv, text,
+                                                words) -> None:
+    """A base radius of 16.5 (mm) gave rho1 = 16488 mm and a 200 m wheel a centre
+    distance of 200 km, silently; a speed of '3000rpm' was ignored without a spring."""
+    f = tmp_path / 'in.yaml'
+    f.write_text(text, encoding='utf-8')
+    assert main(argv + [str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and words in err
+
+
+def test_rocker_lengths_in_mm_are_refused(capsys) -> None:
+    assert main(['design', 'rocker', '--arm-length', '45.8', '--base-radius', '0.0323',
+                 '--max-swing-deg', '7.865']) == 2
+    assert "--arm-length: got 45.8; expected a length in metres (at most 0.5 m); 45.8 looks " \
+           'like millimetres: write 0.0458' in capsys.readouterr().err

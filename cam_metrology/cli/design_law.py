@@ -308,12 +308,13 @@ def check_config_from_scene(scene: dict[str, Any], law_key: str) -> dict[str, An
 
 def cmd_rocker(args: argparse.Namespace) -> int:
     """Rocker synthesis."""
-    from cam_design.errors import InputError, require_positive
+    from cam_design.errors import InputError, require_length, require_positive
+    from cam_design.lift_laws.params import MAX_RADIUS_M
     from cam_design.rocker import sampled_deviation, synthesize
 
     psi = math.radians(require_positive('--max-swing-deg', args.max_swing_deg))
-    arm = require_positive('--arm-length', args.arm_length)
-    base = require_positive('--base-radius', args.base_radius)
+    arm = require_length('--arm-length', args.arm_length, MAX_RADIUS_M)
+    base = require_length('--base-radius', args.base_radius, MAX_RADIUS_M, what='a radius')
     ecc = (None if args.eccentricity is None
            else require_positive('--eccentricity', args.eccentricity, allow_zero=True))
     try:

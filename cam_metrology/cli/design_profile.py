@@ -115,12 +115,13 @@ def _scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
 
 
 def _base_radius(args: argparse.Namespace, doc: Any) -> float:
-    from cam_design.errors import InputError, require_positive
+    from cam_design.errors import InputError, require_length
+    from cam_design.lift_laws.params import MAX_RADIUS_M
 
     if args.base_radius is not None:
-        return require_positive('--base-radius', args.base_radius)
+        return require_length('--base-radius', args.base_radius, MAX_RADIUS_M, what='a radius')
     if isinstance(doc, dict) and 'base_radius' in doc:
-        return require_positive('base_radius', doc['base_radius'])
+        return require_length('base_radius', doc['base_radius'], MAX_RADIUS_M, what='a radius')
     raise InputError('--base-radius', None, 'a base-circle radius [m] (or base_radius: in '
                      'the file)')
 
