@@ -96,3 +96,27 @@ def test_gauge_row_with_commas_as_separators_is_still_two_numbers(tmp_path) -> N
     path.write_text('0\n36\n' + '\n'.join(body) + '\n', encoding='utf-8')
     table = read_table_file(path)
     assert np.allclose(table.lift, (np.cos(np.radians(a)) + 1.0) * 1e-3, atol=1e-7)
+
+
+# --------------------------------------------------------------- base circle off zero
+def test_probe_zero_offset_is_flagged_with_the_lift_above_the_base_circle() -> None:
+    """A table whose base circle reads -0.05 mm (probe zeroed 0.05 mm high): the card and
+    the reconstruction say so and give the max lift above the base circle (8 mm); a
+    base circle with 15 um run-out about 0, or 0.01 mm rounding, is not flagged."""
+    from cam_metrology.cli.card import table_card
+    from cam_metrology.reconstruction.profile import reconstruct_table
+    from cam_metrology.reconstruction.samples import LiftTable, base_circle_warning
+
+    a = np.radians(ANGLES)
+    h = lobe_mm(ANGLES) * 1e-3
+    card = table_card(a, h - 5e-5, (1e-3,), 'offset.csv')
+    assert card['max_lift_mm'] == pytest.approx(L_MM - 0.05, abs=1e-4)
+    assert 'base circle is at -0.0500 mm' in card['warning']
+    assert f'above the base circle {L_MM:.4f} mm' in card['warning']
+    assert 'warning' not in table_card(a, h, (1e-3,), 'zero.csv')
+    runout = 7.5e-6 * np.sin(a) * (np.abs(ANGLES) >= BETA_DEG)
+    assert base_circle_warning(a, h + runout) is None
+    assert base_circle_warning(a, np.round(h / 1e-5) * 1e-5) is None
+    rec = reconstruct_table(LiftTable('offset', a, h - 5e-5), methods=('spline',))
+    assert any('base circle is at -0.0500 mm' in w
+               for w in rec['spline'].reconstruction.warnings)
