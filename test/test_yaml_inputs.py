@@ -110,3 +110,12 @@ def test_rocker_lengths_in_mm_are_refused(capsys) -> None:
                  '--max-swing-deg', '7.865']) == 2
     assert "--arm-length: got 45.8; expected a length in metres (at most 0.5 m); 45.8 looks " \
            'like millimetres: write 0.0458' in capsys.readouterr().err
+
+
+def test_lift_law_angle_in_degrees_names_the_unit(tmp_path: Path, capsys) -> None:
+    f = tmp_path / 'law.yaml'
+    f.write_text('lift_law: {family: polynomial, ramp: none, rise: 0.008, half_angle: 60, '
+                 'exponents: [2, 10, 18, 26]}\n', encoding='utf-8')
+    assert main(['design', 'law', str(f)]) == 2
+    assert 'lift_law.half_angle: got 60.0; expected an angle <= 3.14159 rad; 60 looks like ' \
+           'degrees: write 1.0472' in capsys.readouterr().err

@@ -60,7 +60,9 @@ def angle(spec: Mapping, key: str, name: str, default: Any = MISSING, *,
     """An angle [rad] in (0, limit] ([0, limit] with ``allow_zero``); default limit pi."""
     out = positive(spec, key, name, default, allow_zero=allow_zero)
     if out > limit:
-        raise InputError(f'{key}.{name}', out, f'an angle <= {limit:.6g} rad')
+        hint = (f'; {out:g} looks like degrees: write {math.radians(out):.6g}'
+                if math.radians(out) <= limit else '')
+        raise InputError(f'{key}.{name}', out, f'an angle <= {limit:.6g} rad{hint}')
     return out
 
 
