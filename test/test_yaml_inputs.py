@@ -119,3 +119,12 @@ def test_lift_law_angle_in_degrees_names_the_unit(tmp_path: Path, capsys) -> Non
     assert main(['design', 'law', str(f)]) == 2
     assert 'lift_law.half_angle: got 60.0; expected an angle <= 3.14159 rad; 60 looks like ' \
            'degrees: write 1.0472' in capsys.readouterr().err
+
+
+def test_profile_roller_radius_in_mm_is_refused(tmp_path: Path, capsys) -> None:
+    """--radius 12.5 (mm) gave a 12.5 m roller (pressure angle 0.06 deg), silently."""
+    f = tmp_path / 'cam.yaml'
+    f.write_text(CHECK, encoding='utf-8')
+    assert main(['design', 'profile', str(f), '--follower', 'roller', '--radius', '12.5']) == 2
+    assert '--radius: got 12.5; expected a radius in metres (at most 0.5 m); 12.5 looks ' \
+           'like millimetres: write 0.0125' in capsys.readouterr().err
