@@ -152,3 +152,20 @@ def test_dynamics_table_with_an_offset_base_circle_says_so(tmp_path, capsys) -> 
     run = opened['zero']['runs'][0]
     assert run['opening_deg'] == pytest.approx(truth, abs=0.05)
     assert opened['offset']['runs'][0]['opening_deg'] > truth + 0.5
+
+
+def test_harmonic_order_on_angles_in_radians_rounded_to_6_decimals() -> None:
+    """The cosine lobe every 1 deg with its angles written in rad to 6 decimals (as a
+    spreadsheet does): the Gram matrix of the order search is then numerically singular
+    and its QR fallback used to give wrong projections, so BIC chose N = 2 (rms residual
+    54 um). The order and the fit must match those of the exact angles."""
+    from cam_metrology.reconstruction.profile import reconstruct_table
+    from cam_metrology.reconstruction.samples import LiftTable
+
+    h = np.round(lobe_mm(ANGLES), 6) * 1e-3
+    recs = [reconstruct_table(LiftTable('t', a, h), methods=('harmonic',))['harmonic']
+            .reconstruction for a in (np.radians(ANGLES), np.round(np.radians(ANGLES), 6))]
+    exact, rounded = recs
+    assert rounded.why == exact.why
+    assert float(np.sqrt(np.mean(rounded.residual ** 2))) < 1e-6
+    assert float(np.max(rounded.lift)) == pytest.approx(L_MM * 1e-3, abs=1e-6)
