@@ -215,8 +215,9 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
     header: list[str] | None = None
     cols: list[_Column] = []
     sep, sep_given = ',', False
-    raw_rows: list[tuple[int, str, list[str]]] = []
-    repeats = 0
+    used: list[int] = []
+    values: list[float] = []   # the used columns of every row, flat (a 1e6-row file)
+    rows = repeats = 0
     for number, raw in enumerate(lines, start=1):
         line = raw.split('#', 1)[0].strip()
         if not line:
@@ -229,41 +230,36 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
                 sep = ';' if ';' in line else ('\t' if '\t' in line else ',')
             header = _trim([f.strip() for f in line.split(sep)])
             cols = _classify(header, f'{p.name}:header')
+            _one_each(cols, header, p.name)
+            used = [c.index for c in cols]
             continue
         fields = _trim([f.strip() for f in line.split(sep)])
         if [f.strip('"\'').lower() for f in fields] == \
                 [f.strip('"\'').lower() for f in header]:
             repeats += 1     # files exported in parts repeat the header
             continue
-        raw_rows.append((number, raw, fields))
-    if header is None:
-        raise InputError(p.name, 'an empty file', 'a header alpha_rad,lift_m and rows')
-    if not raw_rows:
-        raise InputError(p.name, '0 data rows', f'rows of numbers under the header '
-                         f'{",".join(header)}')
-    angles = [c for c in cols if c.role in ('cam', 'crank')]
-    lifts = [c for c in cols if c.role == 'lift']
-    designs = [c for c in cols if c.role == 'design']
-    if len(angles) != 1 or len(lifts) != 1 or len(designs) > 1:
-        raise InputError(f'{p.name}:header', ','.join(header),
-                         'one angle column (alpha_deg, alpha_rad or crank_deg) and one '
-                         'lift column (lift_mm, lift_um, lift_m, lift_in or h_mm)')
-    used = [c.index for c in cols]
-    rows: list[list[float]] = []
-    for number, raw, fields in raw_rows:
         if not max(used) < len(fields) <= len(header):
             raise InputError(f'{p.name}:{number}', raw.strip(),
                              f'{len(header)} values separated by {sep!r} '
                              f'({",".join(header)})')
         try:   # only the columns used are read; a decimal comma unless commas separate
-            rows.append([float(fields[i].replace(',', '.') if sep != ',' else fields[i])
-                         for i in used])
+            values.extend(float(fields[i].replace(',', '.') if sep != ',' else fields[i])
+                          for i in used)
         except ValueError:
             raise InputError(f'{p.name}:{number}', raw.strip(),
                              'numbers in the columns ' + ', '.join(header[i] for i in used)
                              + (' (a decimal point or comma)' if sep != ',' else
                                 ' (a decimal point)')) from None
-    data = np.asarray(rows, dtype=float).reshape(-1, len(used))
+        rows += 1
+    if header is None:
+        raise InputError(p.name, 'an empty file', 'a header alpha_rad,lift_m and rows')
+    if not rows:
+        raise InputError(p.name, '0 data rows', f'rows of numbers under the header '
+                         f'{",".join(header)}')
+    angles = [c for c in cols if c.role in ('cam', 'crank')]
+    lifts = [c for c in cols if c.role == 'lift']
+    designs = [c for c in cols if c.role == 'design']
+    data = np.asarray(values, dtype=float).reshape(-1, len(used))
     ang, lift_col = angles[0], lifts[0]
     raw_alpha = data[:, used.index(ang.index)]
     raw_lift = data[:, used.index(lift_col.index)]
@@ -290,6 +286,16 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
 
 
 _EXCEL_SEP = re.compile(r'^sep=[,;\t]$', re.IGNORECASE)
+
+
+def _one_each(cols: list[_Column], header: list[str], name: str) -> None:
+    """InputError unless the header has one angle, one lift and at most one design column."""
+    roles = [c.role for c in cols]
+    if roles.count('cam') + roles.count('crank') != 1 or roles.count('lift') != 1 or \
+            roles.count('design') > 1:
+        raise InputError(f'{name}:header', ','.join(header),
+                         'one angle column (alpha_deg, alpha_rad or crank_deg) and one '
+                         'lift column (lift_mm, lift_um, lift_m, lift_in or h_mm)')
 
 
 def _trim(fields: list[str]) -> list[str]:
