@@ -128,3 +128,10 @@ def test_profile_roller_radius_in_mm_is_refused(tmp_path: Path, capsys) -> None:
     assert main(['design', 'profile', str(f), '--follower', 'roller', '--radius', '12.5']) == 2
     assert '--radius: got 12.5; expected a radius in metres (at most 0.5 m); 12.5 looks ' \
            'like millimetres: write 0.0125' in capsys.readouterr().err
+
+
+def test_reconstruct_roller_radius_in_mm_is_refused(tmp_path: Path, capsys) -> None:
+    assert main(['reconstruct', str(_table(tmp_path)), '--follower', 'roller',
+                 '--radius', '12.5']) == 2
+    assert '--radius: got 12.5; expected a radius in metres (at most 0.5 m); 12.5 looks ' \
+           'like millimetres: write 0.0125' in capsys.readouterr().err
