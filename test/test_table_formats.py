@@ -42,11 +42,28 @@ def check(table) -> None:
     ('excel_sep_line', 'sep=;\nalpha_deg;lift_mm\n' + '\n'.join(rows(';', ',')) + '\n'),
     ('trailing_empty_columns', 'alpha_deg,lift_mm,,\n' + '\n'.join(rows(',', '.', ',,'))),
     ('text_column', 'alpha_deg,lift_mm,status\n' + '\n'.join(rows(',', '.', ',OK'))),
+    ('unit_row', 'Angle;Lift;Note\n[deg];[mm];\n' + '\n'.join(rows(';', ',', ';x'))),
+    ('unit_row_units_twice', 'alpha_deg,lift_mm\ndeg,mm\n' + '\n'.join(rows(','))),
 ])
 def test_csv_dialects_read_the_numbers_written(tmp_path, name, text) -> None:
     path = tmp_path / f'{name}.csv'
     path.write_bytes(text.encode('utf-8'))
     check(read_table_file(path))
+
+
+def test_empty_cells_are_missing_readings_dropped_and_counted(tmp_path) -> None:
+    body = rows(',')
+    body[190] = body[190].split(',')[0] + ','     # no reading at 10 deg
+    path = tmp_path / 'gaps.csv'
+    path.write_text('alpha_deg,lift_mm\n' + '\n'.join(body) + '\n', encoding='utf-8')
+    table = read_csv_table(path)
+    assert np.isnan(table.lift[190]) and np.count_nonzero(np.isnan(table.lift)) == 1
+    keep = ~np.isnan(table.lift)
+    assert np.allclose(table.lift[keep], lobe_mm(ANGLES)[keep] * 1e-3, atol=6e-9)
+    assert any('1 empty cell(s)' in n for n in table.notes)
+    path.write_text('alpha_deg,lift_mm\n0.5\n' + '\n'.join(body) + '\n', encoding='utf-8')
+    with pytest.raises(InputError, match='gaps.csv:2: .*2 values'):
+        read_csv_table(path)           # a row without its separator is still an error
 
 
 def test_header_repeated_mid_file_is_skipped_and_counted(tmp_path) -> None:

@@ -205,7 +205,9 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
     ``design_lift_<unit>``. Units may also be written ``lift [mm]`` or ``Lift (mm)``.
     Separators: comma, semicolon or tab (with either of the last two a decimal comma is
     accepted), or the one a spreadsheet's first line ``sep=;`` names. Other columns are
-    ignored (not read: they may hold text or nothing), as are trailing empty fields, a
+    ignored (not read: they may hold text or nothing); the units may stand on the line
+    under the names (``Angle;Lift`` then ``[deg];[mm]``); an empty cell in a used column
+    is a missing reading (NaN, counted). Trailing empty fields are ignored, as are a
     UTF-8 byte-order mark and a repetition of the header line (files exported in parts;
     counted in the notes). Empty lines and ``#`` comments are skipped; a malformed line
     raises InputError naming ``FILE:LINE``.
@@ -217,7 +219,8 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
     sep, sep_given = ',', False
     used: list[int] = []
     values: list[float] = []   # the used columns of every row, flat (a 1e6-row file)
-    rows = repeats = 0
+    rows = repeats = empty = 0
+    skip = units_line = 0
     for number, raw in enumerate(lines, start=1):
         line = raw.split('#', 1)[0].strip()
         if not line:
@@ -229,22 +232,32 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
             if not sep_given:
                 sep = ';' if ';' in line else ('\t' if '\t' in line else ',')
             header = _trim([f.strip() for f in line.split(sep)])
+            units = _unit_row(lines, number, sep)
+            if units is not None:   # names on one line, units on the next (alpha / deg)
+                header = [f'{n}_{u}' if u and n and not _split_header(n)[1] else n for n, u in
+                          zip(header, units + [''] * (len(header) - len(units)))]
+                skip = units_line = _next_content(lines, number)
             cols = _classify(header, f'{p.name}:header')
             _one_each(cols, header, p.name)
             used = [c.index for c in cols]
             continue
-        fields = _trim([f.strip() for f in line.split(sep)])
+        if number == skip:
+            continue
+        parts = [f.strip() for f in line.split(sep)]
+        fields = _trim(parts)
         if [f.strip('"\'').lower() for f in fields] == \
                 [f.strip('"\'').lower() for f in header]:
             repeats += 1     # files exported in parts repeat the header
             continue
-        if not max(used) < len(fields) <= len(header):
+        if not (max(used) < len(parts) and len(fields) <= len(header)):
             raise InputError(f'{p.name}:{number}', raw.strip(),
                              f'{len(header)} values separated by {sep!r} '
                              f'({",".join(header)})')
-        try:   # only the columns used are read; a decimal comma unless commas separate
-            values.extend(float(fields[i].replace(',', '.') if sep != ',' else fields[i])
-                          for i in used)
+        empty += sum(1 for i in used if not parts[i])
+        try:   # only the columns used are read; a decimal comma unless commas separate;
+            # an empty cell is a missing reading (NaN: the row is dropped and counted)
+            values.extend(float((parts[i].replace(',', '.') if sep != ',' else parts[i])
+                                or 'nan') for i in used)
         except ValueError:
             raise InputError(f'{p.name}:{number}', raw.strip(),
                              'numbers in the columns ' + ', '.join(header[i] for i in used)
@@ -267,6 +280,10 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
              f'{lift_col.unit}']
     if repeats:
         notes.append(f'skipped {repeats} repeated header line(s)')
+    if units_line:
+        notes.append(f'units read from line {units_line} under the column names')
+    if empty:
+        notes.append(f'{empty} empty cell(s) read as missing readings (rows dropped)')
     alpha = raw_alpha * ang.scale
     if ang.role == 'crank':
         alpha = alpha / CRANK_PER_CAM
@@ -296,6 +313,29 @@ def _one_each(cols: list[_Column], header: list[str], name: str) -> None:
         raise InputError(f'{name}:header', ','.join(header),
                          'one angle column (alpha_deg, alpha_rad or crank_deg) and one '
                          'lift column (lift_mm, lift_um, lift_m, lift_in or h_mm)')
+
+
+def _next_content(lines: list[str], number: int) -> int:
+    """The 1-based number of the first non-empty, non-comment line after ``number``
+    (0 if none)."""
+    for n in range(number, len(lines)):
+        if lines[n].split('#', 1)[0].strip():
+            return n + 1
+    return 0
+
+
+def _unit_row(lines: list[str], number: int, sep: str) -> list[str] | None:
+    """The units of a line under the header holding only unit words (``deg,mm``,
+    ``[deg];[mm]``; empty cells allowed), or None when that line is not one."""
+    nxt = _next_content(lines, number)
+    if not nxt:
+        return None
+    cells = _trim([f.strip().strip('"\'').strip('[]()').strip().lower()
+                   for f in lines[nxt - 1].split('#', 1)[0].strip().split(sep)])
+    known = set(ANGLE_SPELLING) | set(LENGTH_SPELLING)
+    if not any(cells) or any(c and c not in known for c in cells):
+        return None
+    return cells
 
 
 def _trim(fields: list[str]) -> list[str]:
