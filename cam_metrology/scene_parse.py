@@ -298,7 +298,9 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
     steps, rows ``angle_deg lift_mm``) and the follower it is written for (a roller of
     the file's probe radius, a knife for 0); a lobe ``follower`` that differs is an
     error. Relative paths start from the scene file's folder."""
-    from cam_metrology.reconstruction.samples import read_gauge_file
+    from cam_metrology.reconstruction.samples import (check_angle_magnitude,
+                                                      check_lift_magnitude, clean_samples,
+                                                      read_gauge_file)
 
     raw = _text(f'{key}.nominal_file', lobe['nominal_file'])
     path = Path(raw).expanduser()
@@ -309,6 +311,11 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
                          f'(looked for {path}; relative paths start from the scene file\'s '
                          'folder, or the working directory for a scene from a bag)')
     table = read_gauge_file(path, feature=_text(f'{key}.id', lobe['id']))
+    fix = 'a nominal file is in deg and mm: convert the file'
+    check_lift_magnitude(table.lift * 1e3, 1e-3, f'{key}.nominal_file', 'mm',
+                         lambda u: fix)
+    check_angle_magnitude(np.degrees(table.alpha), table.lift, 'deg', 'cam',
+                          f'{key}.nominal_file', 'deg', lambda u, r: fix)
     kind, radius = table.follower or ('knife', 0.0)
     own = Follower(kind, radius)
     if 'follower' in lobe and (follower.kind != own.kind or
@@ -316,13 +323,16 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
         raise InputError(f'{key}.follower', lobe['follower'],
                          f'no follower, or the file\'s ({kind}, radius {radius:g} m): the '
                          'nominal file says which follower its lift is for')
+    # a gauge may write 0..360 deg (the nose at 0 and 360) or -180..180: angles wrapped
+    # to (-180, 180] and sorted, the repeated closing angle merged
+    data = clean_samples(table.alpha, table.lift, key=f'{key}.nominal_file')
     # the file covers the whole turn: the lobe is where it rises off the base circle
     # (one base-circle row kept on each side), so that the base circle stays base circle
-    up = np.nonzero(table.lift > NOMINAL_BASE_LEVEL)[0]
+    up = np.nonzero(data.lift > NOMINAL_BASE_LEVEL)[0]
     if up.size == 0:
         raise InputError(f'{key}.nominal_file', raw, 'a lift profile (every lift is 0)')
-    i0, i1 = max(int(up[0]) - 1, 0), min(int(up[-1]) + 1, table.lift.size - 1)
-    alpha, lift = table.alpha[i0:i1 + 1], table.lift[i0:i1 + 1]
+    i0, i1 = max(int(up[0]) - 1, 0), min(int(up[-1]) + 1, data.lift.size - 1)
+    alpha, lift = data.alpha[i0:i1 + 1], data.lift[i0:i1 + 1]
     return _table_law(ctx, f'{key}.nominal_file', alpha, lift), own, str(path)
 
 

@@ -186,3 +186,46 @@ def test_harmonic_order_on_angles_in_radians_rounded_to_6_decimals() -> None:
     assert rounded.why == exact.why
     assert float(np.sqrt(np.mean(rounded.residual ** 2))) < 1e-6
     assert float(np.max(rounded.lift)) == pytest.approx(L_MM * 1e-3, abs=1e-6)
+
+
+# ------------------------------------------------------------------ scene nominal files
+def _gauge_0_360(decimal: str = '.', angle=np.degrees, scale: float = 1.0) -> str:
+    """The cosine lobe as a gauge writes it: 0..360 deg, the nose at 0 and 360."""
+    a = np.arange(0.0, 361.0, 1.0)
+    h = lobe_mm(np.mod(a + 180.0, 360.0) - 180.0) * scale
+    rows_ = [f'{x:.6f}'.replace('.', decimal) + ' ' + f'{y:.5f}'.replace('.', decimal)
+             for x, y in zip(angle(np.radians(a)), h)]
+    return '0\n360\n' + '\n'.join(rows_) + '\n'
+
+
+@pytest.mark.parametrize('decimal', ['.', ','])
+def test_scene_nominal_file_from_0_to_360_deg(tmp_path, decimal) -> None:
+    """The scene's nominal_file used to demand -180..180 ('alpha[360]: got 6.28 rad ...
+    degrees given?' for a file in degrees); 0..360 is wrapped. The lobe's card then has
+    the closed-form durations 2 beta/pi acos(2 y/L - 1)."""
+    from cam_design.cam_card import card_from_law
+    from cam_metrology.scene_parse import load_scene
+
+    (tmp_path / 'lobe.txt').write_text(_gauge_0_360(decimal), encoding='utf-8')
+    (tmp_path / 's.yaml').write_text('probe: {kind: knife}\nbase_circle_radius: 0.02\n'
+                                     'lobes:\n  - {id: l1, nominal_file: lobe.txt}\n')
+    lobe = load_scene(tmp_path / 's.yaml').lobe('l1')
+    card = card_from_law(lobe.lift, (1e-3,))
+    truth = 2.0 * BETA_DEG / math.pi * math.acos(2.0 * 1.0 / L_MM - 1.0)
+    assert card['heights'][0]['duration_cam_deg'] == pytest.approx(truth, abs=0.01)
+    assert card['max_lift_mm'] == pytest.approx(L_MM, abs=1e-4)
+
+
+@pytest.mark.parametrize('kwargs, words', [
+    ({'angle': lambda r: r}, 'the values look like radians'),
+    ({'scale': 1000.0}, 'the values look like micrometres'),
+])
+def test_scene_nominal_file_in_other_units_names_them(tmp_path, kwargs, words) -> None:
+    from cam_metrology.scene_parse import load_scene
+
+    (tmp_path / 'lobe.txt').write_text(_gauge_0_360(**kwargs), encoding='utf-8')
+    (tmp_path / 's.yaml').write_text('probe: {kind: knife}\nbase_circle_radius: 0.02\n'
+                                     'lobes:\n  - {id: l1, nominal_file: lobe.txt}\n')
+    with pytest.raises(InputError, match=words) as exc:
+        load_scene(tmp_path / 's.yaml')
+    assert exc.value.key == 'lobes[0].nominal_file'
