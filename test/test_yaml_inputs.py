@@ -135,3 +135,21 @@ def test_reconstruct_roller_radius_in_mm_is_refused(tmp_path: Path, capsys) -> N
                  '--radius', '12.5']) == 2
     assert '--radius: got 12.5; expected a radius in metres (at most 0.5 m); 12.5 looks ' \
            'like millimetres: write 0.0125' in capsys.readouterr().err
+
+
+@pytest.mark.parametrize('extra, fixed, words', [
+    ('base_radius: 16.5\n', '0.008', 'base_radius: got 16.5; expected a radius in metres'),
+    ('', '8', 'fixed.max_lift: got 8.0; expected a lift in metres (at most 0.25 m); 8 looks '
+              'like millimetres: write 0.008'),
+])
+def test_optimize_spec_lengths_in_mm_are_refused_up_front(tmp_path: Path, capsys, extra,
+                                                          fixed, words) -> None:
+    """base_radius 16.5 made every curvature constraint trivially true; max_lift 8 ran
+    six SLSQP starts before a 'free: ... every candidate was rejected' refusal."""
+    f = tmp_path / 'spec.yaml'
+    f.write_text(f'family: constant_acceleration\nfixed: {{max_lift: {fixed}, '
+                 'half_duration_deg: 60}\nobjective: fullness\nconstraints: '
+                 '{min_radius_of_curvature: 0.005}\n' + extra, encoding='utf-8')
+    assert main(['design', 'optimize', str(f)]) == 2
+    captured = capsys.readouterr()
+    assert words in captured.err and 'start 1/' not in captured.out + captured.err
