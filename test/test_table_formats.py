@@ -229,3 +229,27 @@ def test_scene_nominal_file_in_other_units_names_them(tmp_path, kwargs, words) -
     with pytest.raises(InputError, match=words) as exc:
         load_scene(tmp_path / 's.yaml')
     assert exc.value.key == 'lobes[0].nominal_file'
+
+
+def test_a_table_with_two_lobes_says_which_one_the_numbers_are_of() -> None:
+    """Two cosine lobes (8 mm at 0 deg, 7.2 mm at 120 deg) in one table: the card is of
+    the highest, exactly (closed-form duration), and says where the other one is; a
+    single lobe, a dual-peak lobe (valley above the base circle) or a one-row spike on
+    the base circle is not flagged."""
+    from cam_metrology.cli.card import table_card
+    from cam_metrology.reconstruction.samples import other_lobes_warning
+
+    a = np.radians(ANGLES)
+    second = np.mod(ANGLES - 120.0 + 180.0, 360.0) - 180.0
+    h = (lobe_mm(ANGLES) + 0.9 * lobe_mm(second)) * 1e-3
+    card = table_card(a, h, (1e-3,), 'two.csv')
+    truth = 2.0 * BETA_DEG / math.pi * math.acos(2.0 * 1.0 / L_MM - 1.0)
+    assert card['heights'][0]['duration_cam_deg'] == pytest.approx(truth, abs=0.01)
+    assert 'holds 2 lobes' in card['warning'] and '120.0 deg (7.2 mm)' in card['warning']
+    single = lobe_mm(ANGLES) * 1e-3
+    assert other_lobes_warning(a, single) is None
+    dual = (lobe_mm(1.5 * (ANGLES + 30.0)) + lobe_mm(1.5 * (ANGLES - 30.0))) * 0.6e-3
+    assert other_lobes_warning(a, dual) is None
+    spike = single.copy()
+    spike[300] = 2e-3
+    assert other_lobes_warning(a, spike) is None

@@ -189,7 +189,7 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
 
     from cam_design.cam_card import card_from_law, card_from_table
     from cam_design.errors import InputError
-    from cam_metrology.reconstruction.samples import base_circle_warning
+    from cam_metrology.reconstruction.samples import base_circle_warning, other_lobes_warning
     from cam_metrology.reconstruction.table_law import spline_law
 
     a = np.asarray(alpha, dtype=float)
@@ -213,9 +213,9 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
         card = card_from_law(law, heights, key='--heights-mm')
         card['source'] = 'table (reconstruction spline)'
         card['note'] = note
-    offset = base_circle_warning(a, h)
-    if offset:
-        card['warning'] = offset
+    said = [w for w in (base_circle_warning(a, h), other_lobes_warning(a, h)) if w]
+    if said:
+        card['warning'] = '; '.join(said)
     return _shifted(card, math.degrees(shift))
 
 

@@ -24,7 +24,7 @@ from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_h
 from cam_metrology.reconstruction.result import Reconstruction, per_second
 from cam_metrology.reconstruction.samples import (LiftTable, clean_samples, find_steps,
                                                   base_circle_warning, nose_warning,
-                                                  step_warnings)
+                                                  other_lobes_warning, step_warnings)
 from cam_metrology.reconstruction.spline import (SplineOptions, rebound_fairing,
                                                  reconstruct_spline)
 
@@ -199,9 +199,8 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     off_centre = nose_warning(data) if design is None else None
     if off_centre:
         table_warnings.append(off_centre)
-    offset = base_circle_warning(data.alpha, data.lift)
-    if offset:
-        table_warnings.append(offset)
+    table_warnings += [w for w in (base_circle_warning(data.alpha, data.lift),
+                                   other_lobes_warning(data.alpha, data.lift)) if w]
     table_notes = []
     if steps and np.any(fairing.outlier):
         # the rebound of a step rings over its neighbours: they are not outliers

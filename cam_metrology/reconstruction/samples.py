@@ -706,6 +706,49 @@ def base_circle_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
             'circle')
 
 
+def other_lobes_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
+    """A warning when a table holds more than one lobe: runs of lift above 10 % of the
+    largest, around the turn, separated by base circle (below 2 %). Names the angle [deg]
+    and height of each further lobe's top (a dual-peak lobe, whose valley stays above
+    the base circle, is one lobe)."""
+    a = np.asarray(alpha, dtype=float)
+    h = np.asarray(lift, dtype=float)
+    ok = np.isfinite(a) & np.isfinite(h)
+    order = np.argsort(wrap_pi(a[ok]))
+    a, h = wrap_pi(a[ok])[order], h[ok][order]
+    if a.size < 8 or not float(np.max(h)) > 0:
+        return None
+    top = float(np.max(h))
+    base = h <= 0.02 * top
+    if not np.any(base):
+        return None
+    start = int(np.flatnonzero(base)[0])    # walk the turn from a base-circle row
+    a, h, base = np.roll(a, -start), np.roll(h, -start), np.roll(base, -start)
+    lobes: list[int] = []
+    first, best = -1, -1      # the run off the base circle: its first row, its top row
+
+    def close(end: int) -> None:   # a lobe: 3 rows or more (not a spike), above 10 %
+        if first >= 0 and end - first >= 3 and h[best] > 0.1 * top:
+            lobes.append(best)
+    for k in range(a.size):
+        if base[k]:
+            close(k)
+            first = best = -1
+        elif first < 0:
+            first = best = k
+        elif h[k] > h[best]:
+            best = k
+    close(a.size)
+    if len(lobes) < 2:
+        return None
+    main = max(lobes, key=lambda k: h[k])
+    others = ', '.join(f'{math.degrees(float(a[k])):.1f} deg ({h[k] * 1e3:.4g} mm)'
+                       for k in lobes if k != main)
+    return (f'the table holds {len(lobes)} lobes: the numbers are of the highest (top at '
+            f'{math.degrees(float(a[main])):.1f} deg); the others top at {others}: give '
+            'each lobe its own table (or cut the table) to read them')
+
+
 def nose_warning(data: CleanSamples) -> str | None:
     """A warning when alpha = 0 is not on the lobe (lift there below half the largest
     lift): the angles are not taken from the lobe centreline, which the section harmonic
