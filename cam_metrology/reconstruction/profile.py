@@ -200,6 +200,7 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     if off_centre:
         table_warnings.append(off_centre)
     table_warnings += [w for w in (base_circle_warning(data.alpha, data.lift),
+                                   None if design is not None else   # the design says
                                    other_lobes_warning(data.alpha, data.lift)) if w]
     table_notes = []
     if steps and np.any(fairing.outlier):

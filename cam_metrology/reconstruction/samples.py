@@ -744,7 +744,8 @@ def other_lobes_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
     main = max(lobes, key=lambda k: h[k])
     others = ', '.join(f'{math.degrees(float(a[k])):.1f} deg ({h[k] * 1e3:.4g} mm)'
                        for k in lobes if k != main)
-    return (f'the table holds {len(lobes)} lobes: the numbers are of the highest (top at '
+    return (f'the table holds {len(lobes)} lobes (or a lobe with a secondary lift off the '
+            'base circle, e.g. for EGR): the numbers are of the highest (top at '
             f'{math.degrees(float(a[main])):.1f} deg); the others top at {others}: give '
             'each lobe its own table (or cut the table) to read them')
 
