@@ -275,3 +275,47 @@ def test_norton_problem_15_12_eccentric_jump_speed(zeta: float, closed_rpm: floa
     assert run_at(45.0).status == 'clean'
     lo, hi = bisect_speed(lambda r: run_at(r).status != 'clean', 50.0, 54.0, 0.02)
     assert 0.5 * (lo + hi) == pytest.approx(closed_rpm, abs=0.03)
+
+
+def test_cycloidal_cam_force_at_100_deg_exam_problem() -> None:
+    """A cam-dynamics exam problem (reposted on the Adapala Academy forum; the wording,
+    a spring "scale" in N/mm, follows Shigley and Uicker, *Theory of Machines and
+    Mechanisms*): plate cam, radial translating follower, cycloidal rise 10 mm over 120
+    deg at 1000 rpm, follower mass 1.8 kg, spring 15 N/mm compressed 2.5 mm at assembly;
+    find the radial cam force at 100 deg of the rise. No answer is printed with it, so
+    the number asserted is the closed form.
+
+    u = 100/120: s = h (u - sin 2 pi u / 2 pi) = 9.7117 mm, y'' = 2 pi h w^2/beta^2
+    sin 2 pi u = -136.03 m/s^2, spring 15e3 (2.5e-3 + s) = 183.17 N, inertia
+    m y'' = -244.86 N: F = -61.688 N, i.e. the spring cannot hold the follower there (it
+    jumps); the cam-shaft torque F ds/dtheta would be -0.147 N m were contact kept. Ours:
+    ``checks.spring_force`` + ``checks.inertia_force`` on the cycloidal lobe and
+    ``checks.no_separation`` over the rise; tolerance 1e-9 relative (exact formulas).
+    """
+    h, beta, rpm, m, rate = 10 * MM, 120 * DEG, 1000.0, 1.8, 15e3
+    law = _lobe('cycloidal', rise=h, beta=beta)
+    omega = rpm * math.pi / 30
+    a = np.array([100 * DEG - beta])
+    force = (C.spring_force(law(a), 1.0, 0.0, rate * 2.5 * MM, rate)
+             + C.inertia_force(law(a, 2), m, omega))
+    u = 100 / 120
+    s = h * (u - math.sin(2 * math.pi * u) / (2 * math.pi))
+    acc = 2 * math.pi * h * omega ** 2 / beta ** 2 * math.sin(2 * math.pi * u)
+    closed = rate * (2.5 * MM + s) + m * acc
+    assert float(force[0]) == pytest.approx(closed, rel=1e-9)
+    assert closed == pytest.approx(-61.688, abs=5e-4)
+    torque = float(force[0] * law(a, 1)[0])
+    assert torque == pytest.approx(-0.147, abs=5e-4)
+    grid = _rise_grid(beta, 2401)
+    sep = C.no_separation(grid, law(grid), law(grid, 2), rocker_ratio=1.0, lash=0.0,
+                          preload=rate * 2.5 * MM, rate=rate, mass=m, omega=omega)
+    assert not sep.ok
+    # worst point: d/du [k s + m y''] = 0 on the decelerating half, where
+    # cos 2 pi u* = -k/(K - k), K = m (2 pi)^2 w^2 / beta^2: u* = 0.7353, F = -109.97 N
+    big = m * (2 * math.pi) ** 2 * omega ** 2 / beta ** 2
+    us = 1 - math.acos(-rate / (big - rate)) / (2 * math.pi)
+    s_us = h * (us - math.sin(2 * math.pi * us) / (2 * math.pi))
+    f_us = (rate * (2.5 * MM + s_us)
+            + m * 2 * math.pi * h * omega ** 2 / beta ** 2 * math.sin(2 * math.pi * us))
+    assert f_us == pytest.approx(-109.97, abs=0.005)
+    assert sep.min_force == pytest.approx(f_us, abs=0.01)      # grid of 0.05 deg
