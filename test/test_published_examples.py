@@ -96,9 +96,9 @@ def test_rothbart_table_4_2_peak_accelerations_and_4567_erratum() -> None:
     largest at u* = (5 - sqrt 5)/10: 7.5132. Tolerance: the table prints one decimal,
     so |ours - printed| <= 0.05; ours against the closed forms 1e-8 relative.
 
-    Erratum: the printed ±7.3 for 4-5-6-7 is wrong; the law's peak is ±7.5132 (7.5 to the
-    table's precision), so the 4-5-6-7 law is 30 % above cycloidal, not 16 %. Norton's
-    factor tables give 7.5132 as well.
+    Erratum: the printed ±7.3 for 4-5-6-7 (so in the page's text layer, the publisher's
+    typeset text, not a scan) is wrong; the law's peak is ±7.5132 (7.5 to the table's
+    precision), so the 4-5-6-7 law is 20 % above cycloidal, not 16 %.
     """
     u = (5 - math.sqrt(5)) / 10
     closed = {'harmonic': math.pi ** 2 / 2, '345': 10 * math.sqrt(3) / 3,
@@ -166,10 +166,10 @@ def test_machines_2024_modified_sine_jerk_values() -> None:
 
 
 def test_modified_trapezoid_factors() -> None:
-    """Modified trapezoid (MT): the standard factors C_v = 2.000, C_a = 4.888,
-    C_j = 61.43 (the 4.888 h/beta^2 of the brief, quoted from Norton's and Rothbart's
-    factor tables; the table page itself was not found in the searchable corpus, so the
-    check is on the closed forms). Acceleration A sin 4 pi u on [0, 1/8], A on
+    """Modified trapezoid (MT): the commonly tabulated factors C_v = 2.000, C_a = 4.888,
+    C_j = 61.43 (no table page with them was found in the material searchable here, so
+    the check is on the closed forms; a course script found alongside uses C_a =
+    4.8881). Acceleration A sin 4 pi u on [0, 1/8], A on
     [1/8, 3/8], A cos 4 pi (u - 3/8) on [3/8, 1/2] and odd about 1/2: A = 8 pi/(pi + 2) =
     4.88812, C_v = 2 (the velocity at u = 1/2 is the mean velocity times 2 by symmetry),
     C_j = 4 pi A = 61.4258. Tolerance 1e-9 relative (sampling, see _coefficients)."""
@@ -218,8 +218,9 @@ def test_rothbart_cam_nose_hertz_example() -> None:
     force 132 lb at a pressure angle of 20 deg, cam thickness 3/4 in, both steel
     (E = 30e6 psi, Poisson 0.3). Solution: normal force P = 132/cos 20 = 140 lb (printed,
     rounded), eq. (9.11) sigma = 0.564 sqrt(P (1/rho + 1/r) / (t 2 (1 - mu^2)/E)),
-    printed 80,800 psi (the extracted page text is garbled around the result; the legible
-    digits are 80,80x).
+    printed result read as 80,800 lb/in^2 (the page's text layer garbles the typeset
+    equation, "801 8001, bin 2"; 80,800 is what the printed inputs give, and no other
+    reading of those digits is consistent with them).
 
     Independently: 0.564 sqrt(140 x 6.6667/(0.75 x 6.0667e-8)) = 80,778 psi; with the
     unrounded P = 140.47 lb it is 80,914 psi (0.17 % more). The exact Hertz constant is
