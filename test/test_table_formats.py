@@ -253,3 +253,22 @@ def test_a_table_with_two_lobes_says_which_one_the_numbers_are_of() -> None:
     spike = single.copy()
     spike[300] = 2e-3
     assert other_lobes_warning(a, spike) is None
+
+
+def test_card_of_a_table_with_a_cut_off_ramp() -> None:
+    """A lobe standing on a 0.3 mm step (ramp cut off at +-60 deg), every 1 deg, 0.01 mm
+    rounding: the card was refused ('a table without steps', a dynamics rule); its
+    1 mm events are away from the step and have the closed form 2 beta/pi acos((1 -
+    0.3)/3.85 - 1); the area is 0.3 x 120 + 3.85 x 120 mm deg. The note names the step."""
+    from cam_metrology.cli.card import table_card
+
+    a_deg = ANGLES
+    h = np.where(np.abs(a_deg) < BETA_DEG,
+                 0.3 + 3.85 * (1.0 + np.cos(np.pi * a_deg / BETA_DEG)), 0.0)
+    card = table_card(np.radians(a_deg), np.round(h, 2) * 1e-3, (1e-3,), 'cut.csv')
+    truth = 2.0 * BETA_DEG / math.pi * math.acos(0.7 / 3.85 - 1.0)
+    slope = 3.85 * math.pi / BETA_DEG * math.sin(math.radians(truth / 2 * 180 / BETA_DEG))
+    allow = 2 * (4.0 * 0.01 / math.sqrt(12.0) / slope + 0.02)     # both events
+    assert card['heights'][0]['duration_cam_deg'] == pytest.approx(truth, abs=allow)
+    assert card['area_mm_deg'] == pytest.approx(0.3 * 120 + 3.85 * 120, rel=2e-3)
+    assert 'lift jumps by 0.31 mm' in card['note'] and 'not the cam' in card['note']

@@ -205,7 +205,7 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
         card = card_from_table(a, h, heights, key='--heights-mm', source='table')
     else:
         try:
-            law, note = spline_law(a, h, name)
+            law, note = spline_law(a, h, name, allow_steps=True)
         except InputError as exc:
             raise InputError(name, f'a table every {step:.3g} deg',
                              'a table the reconstruction spline can follow (a coarse table '

@@ -20,8 +20,10 @@ GRID_DEG = 0.1
 
 
 def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
-               key: str) -> tuple[JetTableLift, str]:
-    """(law, note) of a lift table [rad, m] smoothed by the reconstruction spline."""
+               key: str, *, allow_steps: bool = False) -> tuple[JetTableLift, str]:
+    """(law, note) of a lift table [rad, m] smoothed by the reconstruction spline. A
+    table with a lift step (a ramp cut off) is refused unless ``allow_steps`` (the cam
+    card: its heights away from the step are still right); the note then says where."""
     from cam_metrology.reconstruction.profile import reconstruct_table
     from cam_metrology.reconstruction.samples import LiftTable, clean_samples
     from cam_metrology.reconstruction.spline import SplineOptions, quantisation_step
@@ -44,7 +46,7 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
                          f'a lift table the reconstruction spline can fit ({out.error})')
     limit = max(5.0 * (q or 0.0) / math.sqrt(12.0), 1e-3 * float(np.max(v)))
     steps = [w for w in (rec.warnings or []) if w.startswith('lift jumps')]
-    if steps:   # a velocity step or a cut-off ramp: the dynamics would see an impulse
+    if steps and not allow_steps:   # a velocity step or a cut-off ramp: an impulse
         raise InputError(key, f'{a.size} points',
                          'a table without steps (' + steps[0].split(':')[0] + '; a '
                          'velocity step is an impact the dynamics cannot take from a '
@@ -91,6 +93,8 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
             f'reconstruction spline ({rec.why}; rms residual {rec.rms_residual:.3g} m'
             + (f', lifts quantised to {q * 1e3:g} mm' if q else '') + ')'
             + (f'; rows: {said}' if said else '')
+            + (f'; {steps[0].split(":")[0]}: lifts and events near it are the spline\'s '
+               'bridge over the step, not the cam' if steps else '')
             + (f'; the lobe crosses +-180 deg: fitted on the turn from its lowest point '
                f'({math.degrees(float(wrap_pi(turn + math.pi))):.1f} deg), bridged there by the '
                'Hermite interpolant of the jets 2 steps either side' if turn else ''))
