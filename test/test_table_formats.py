@@ -104,6 +104,18 @@ def test_gauge_file_with_decimal_commas_and_bom(tmp_path, radius, sep, decimal, 
     assert float(table.lift.max()) == pytest.approx(L_MM * 1e-3, abs=1e-12)
 
 
+@pytest.mark.parametrize('line, fields', [
+    ('10,5 8', ['10.5', '8']), ('10,5', ['10', '5']), ('10, 5', ['10', '5']),
+    ('10 ,5', ['10', '5']), ('0,5;8,0000', ['0.5', '8.0000']), ('10.5,8.2', ['10.5', '8.2']),
+    ('1,5\t2,25 M', ['1.5', '2.25', 'M'])])
+def test_gauge_decimal_comma_rule(line, fields) -> None:
+    """A comma is a decimal comma only in a line without a decimal point whose fields
+    are already separated by blanks, semicolons or tabs, and never at a field's edge."""
+    from cam_metrology.reconstruction.samples import _gauge_fields
+
+    assert _gauge_fields(line) == fields
+
+
 def test_gauge_row_with_commas_as_separators_is_still_two_numbers(tmp_path) -> None:
     """'10,0.5' has a decimal point: the comma separates (angle 10, lift 0.5); '10,5'
     alone on a row stays angle 10, lift 5 (a separator, as before)."""

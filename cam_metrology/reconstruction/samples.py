@@ -500,7 +500,7 @@ def _gauge_fields(line: str) -> list[str]:
     there they are decimal commas (European gauges: ``12,5`` or ``0,5;8,0000``)."""
     if ',' in line and '.' not in line:
         parts = [f for f in re.split(r'[\s;]+', line) if f]
-        if len(parts) > 1:
+        if len(parts) > 1 and not any(f.startswith(',') or f.endswith(',') for f in parts):
             return [f.replace(',', '.') for f in parts]
     return [f for f in _SPLIT.split(line) if f]
 
