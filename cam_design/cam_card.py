@@ -411,6 +411,8 @@ def card_text(cards: dict[str, dict[str, Any]]) -> str:
                      f'{_num(card.get("fullness"), ".4f")}')
         if card.get('note'):
             lines.append(f'  note: {card["note"]}')
+        if card.get('warning'):
+            lines.append(f'  WARNING: {card["warning"]}')
         lines.append(f'  {"height mm":>10}{"opens deg":>11}{"closes deg":>11}'
                      f'{"dur cam":>10}{"dur crank":>11}{"centre deg":>11}')
         for e in card.get('heights', []):

@@ -401,7 +401,7 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
 
     key = 'check'
     P.reject_unknown(cfg, key, CHECK_KEYS)
-    r0 = P.positive(cfg, key, 'base_radius')
+    r0 = P.radius(cfg, key, 'base_radius')
     k = P.positive(cfg, key, 'rocker_ratio', 1.0)
     x0 = P.positive(cfg, key, 'lash', 0.0, allow_zero=True)
     lo, hi = law.support
@@ -466,6 +466,8 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
             lim = flow_area_validity(P.positive(valve, vk, 'seat_width'), seat_angle)
             out['flow_area_formula_valid'] = bool(y.max() < lim)
     rpm = cfg.get('cam_speed_rpm')
+    if rpm is not None:   # checked even when no force check uses it: '3000rpm' is an error
+        rpm_to_omega(P.positive(cfg, key, 'cam_speed_rpm'), f'{key}.cam_speed_rpm')
     spring, masses = cfg.get('spring'), cfg.get('masses')
     if masses is not None and cfg.get('equivalent_mass') is not None:
         raise InputError(f'{key}.equivalent_mass', cfg['equivalent_mass'],

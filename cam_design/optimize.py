@@ -34,7 +34,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from cam_design.errors import InputError
+from cam_design.errors import InputError, require_length
+from cam_design.lift_laws.params import MAX_LIFT_M, MAX_RADIUS_M
 
 #: objective metrics: name -> (+1 maximise / -1 minimise, unit, description)
 OBJECTIVES: dict[str, tuple[int, str, str]] = {
@@ -211,6 +212,9 @@ def _ramp_angle(ramp: Any) -> float:
 def _base_spec(family: str, fixed: Mapping[str, Any]) -> dict[str, Any]:
     """The family spec from ``fixed``: generic keys mapped to the family's own names."""
     base = {'family': family, **copy.deepcopy(dict(fixed))}
+    if 'max_lift' in base:   # 8 meant as mm: refused before any candidate is tried
+        require_length('fixed.max_lift', _number(base['max_lift'], 'fixed.max_lift'),
+                       MAX_LIFT_M, what='a lift')
     if 'half_duration_deg' in base:
         hd = _number(base.pop('half_duration_deg'), 'fixed.half_duration_deg')
         if not 0.0 < hd <= 180.0:
@@ -343,7 +347,9 @@ def parse_spec(doc: Any, key: str = 'spec') -> Spec:
         f = doc['follower']
         if not isinstance(f, Mapping) or f.get('kind') not in ('flat', 'roller'):
             raise InputError('follower', f, '{kind: flat} or {kind: roller, radius: m}')
-        follower = (f['kind'], _number(f.get('radius', 0.0), 'follower.radius'))
+        follower = (f['kind'], require_length('follower.radius', _number(
+            f.get('radius', 0.0), 'follower.radius'), MAX_RADIUS_M, allow_zero=True,
+            what='a radius'))
     lub, piston = doc.get('lubrication'), doc.get('piston')
     if 'min_nose_oil_film' in constraints:
         if follower[0] != 'flat':
@@ -365,8 +371,10 @@ def parse_spec(doc: Any, key: str = 'spec') -> Spec:
     return Spec(family=family, base=base, free=free, objective=objective,
                 constraints=constraints, valve_train=dict(vt) if vt else None,
                 cam_speed_rpm=None if rpm is None else _number(rpm, 'cam_speed_rpm'),
-                base_radius=None if r0 is None else _number(r0, 'base_radius'),
-                follower=follower, width=None if width is None else _number(width, 'width'),
+                base_radius=None if r0 is None else require_length(
+                    'base_radius', _number(r0, 'base_radius'), MAX_RADIUS_M, what='a radius'),
+                follower=follower, width=None if width is None else require_length(
+                    'width', _number(width, 'width'), MAX_RADIUS_M),
                 lubrication=dict(lub) if isinstance(lub, Mapping) else None,
                 piston=dict(piston) if isinstance(piston, Mapping) else None,
                 samples=samples, starts=int(_number(doc.get('starts', 6), 'starts')),

@@ -7,7 +7,8 @@ from cam_design.errors import InputError
 
 
 def read_text_file(path: str | Path, what: str, key: str | None = None) -> str:
-    """The UTF-8 text of the file at ``path``.
+    """The UTF-8 text of the file at ``path`` (a leading byte-order mark, as Windows
+    editors and spreadsheets write, is dropped).
 
     A missing file, a directory, binary data or an unreadable file raise InputError
     with ``key`` (default: the path) naming the file, what was found ('no such file',
@@ -17,7 +18,7 @@ def read_text_file(path: str | Path, what: str, key: str | None = None) -> str:
     p = Path(path)
     name = str(p) if key is None else key
     try:
-        return p.read_text(encoding='utf-8')
+        return p.read_text(encoding='utf-8-sig')
     except FileNotFoundError:
         raise InputError(name, 'no such file', f'an existing {what}') from None
     except IsADirectoryError:

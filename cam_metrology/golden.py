@@ -47,6 +47,9 @@ def _compare_value(path: str, key: str, new: Any, old: Any, angle_tol_arcsec: fl
         if not isinstance(new, Mapping):
             return [f'{path}: expected a mapping like the golden report, got {new!r}']
         sub = key if key.endswith(('_um', '_mm', '_deg', '_arcsec')) else unit
+        own = old.get('unit')   # a verdict check: value, limits and margin in its unit
+        if own in ('um', 'mm', 'deg', 'arcsec'):
+            sub = '_' + own
         out: list[str] = []
         for k, v in old.items():
             if k in SOLVER_KEYS:
@@ -75,6 +78,8 @@ def _compare_value(path: str, key: str, new: Any, old: Any, angle_tol_arcsec: fl
         return [] if math.isnan(old_f) and math.isnan(new_f) else \
             [f'{path}: got {new_f!r}, golden {old_f!r}']
     suffix = key if key.endswith(('_um', '_mm', '_deg', '_arcsec')) else unit
+    if key.endswith(('_mm_deg', '_m_rad')):   # an area under the lift: relative, not angle
+        suffix = ''
     if suffix.endswith('_std_deg'):
         tol = max(0.1 * abs(old_f), angle_tol_arcsec / 3600.0)
         diff, shown = new_f - old_f, f'{(new_f - old_f) * 3600:.4g} arcsec'

@@ -123,16 +123,11 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
         raise InputError('scene', f'{len(text)} characters',
                          f'a scene file of at most {MAX_TEXT} characters')
     try:
-        from cam_metrology.yaml_input import load_yaml
-        doc = load_yaml(text, 'scene', _unique_key_loader())
-    except _DuplicateKey as exc:
-        raise InputError(exc.key, exc.name, f'unique keys in a mapping (given again at line '
-                         f'{exc.line}; YAML would silently keep the last)') from None
+        from cam_metrology.yaml_input import load_yaml, syntax_error_text
+        doc = load_yaml(text, 'scene', getattr(yaml, 'CSafeLoader', yaml.SafeLoader))
     except yaml.YAMLError as exc:
-        mark = getattr(exc, 'problem_mark', None)
-        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
-        problem = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
-        raise InputError('scene', source, f'valid YAML ({problem}{where})') from None
+        raise InputError('scene', source, f'valid YAML ({syntax_error_text(exc, text)})') \
+            from None
     if doc is None:
         raise InputError('scene', source, 'a YAML mapping with the scene keys (file is empty)')
     ctx = _Ctx(None if base_dir is None else Path(base_dir))
@@ -176,30 +171,6 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
                  crank=crank, study=study)
-
-
-class _DuplicateKey(Exception):
-    def __init__(self, key: str, name: Any, line: int) -> None:
-        super().__init__(key)
-        self.key, self.name, self.line = key, name, line
-
-
-def _unique_key_loader() -> Any:
-    """A yaml SafeLoader class that rejects a key given twice in one mapping."""
-    import yaml
-
-    class Loader(getattr(yaml, 'CSafeLoader', yaml.SafeLoader)):  # type: ignore[misc]
-        def construct_mapping(self, node: Any, deep: bool = False) -> Any:
-            seen: set[Any] = set()
-            for key_node, _ in node.value:
-                name = self.construct_object(key_node, deep=True)
-                if isinstance(name, (str, int, float, bool)) and name in seen:
-                    raise _DuplicateKey('scene', name, key_node.start_mark.line + 1)
-                if isinstance(name, (str, int, float, bool)):
-                    seen.add(name)
-            return super().construct_mapping(node, deep=deep)
-
-    return Loader
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -327,7 +298,9 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
     steps, rows ``angle_deg lift_mm``) and the follower it is written for (a roller of
     the file's probe radius, a knife for 0); a lobe ``follower`` that differs is an
     error. Relative paths start from the scene file's folder."""
-    from cam_metrology.reconstruction.samples import read_gauge_file
+    from cam_metrology.reconstruction.samples import (check_angle_magnitude,
+                                                      check_lift_magnitude, clean_samples,
+                                                      read_gauge_file)
 
     raw = _text(f'{key}.nominal_file', lobe['nominal_file'])
     path = Path(raw).expanduser()
@@ -338,6 +311,11 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
                          f'(looked for {path}; relative paths start from the scene file\'s '
                          'folder, or the working directory for a scene from a bag)')
     table = read_gauge_file(path, feature=_text(f'{key}.id', lobe['id']))
+    fix = 'a nominal file is in deg and mm: convert the file'
+    check_lift_magnitude(table.lift * 1e3, 1e-3, f'{key}.nominal_file', 'mm',
+                         lambda u: fix)
+    check_angle_magnitude(np.degrees(table.alpha), table.lift, 'deg', 'cam',
+                          f'{key}.nominal_file', 'deg', lambda u, r: fix)
     kind, radius = table.follower or ('knife', 0.0)
     own = Follower(kind, radius)
     if 'follower' in lobe and (follower.kind != own.kind or
@@ -345,13 +323,16 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
         raise InputError(f'{key}.follower', lobe['follower'],
                          f'no follower, or the file\'s ({kind}, radius {radius:g} m): the '
                          'nominal file says which follower its lift is for')
+    # a gauge may write 0..360 deg (the nose at 0 and 360) or -180..180: angles wrapped
+    # to (-180, 180] and sorted, the repeated closing angle merged
+    data = clean_samples(table.alpha, table.lift, key=f'{key}.nominal_file')
     # the file covers the whole turn: the lobe is where it rises off the base circle
     # (one base-circle row kept on each side), so that the base circle stays base circle
-    up = np.nonzero(table.lift > NOMINAL_BASE_LEVEL)[0]
+    up = np.nonzero(data.lift > NOMINAL_BASE_LEVEL)[0]
     if up.size == 0:
         raise InputError(f'{key}.nominal_file', raw, 'a lift profile (every lift is 0)')
-    i0, i1 = max(int(up[0]) - 1, 0), min(int(up[-1]) + 1, table.lift.size - 1)
-    alpha, lift = table.alpha[i0:i1 + 1], table.lift[i0:i1 + 1]
+    i0, i1 = max(int(up[0]) - 1, 0), min(int(up[-1]) + 1, data.lift.size - 1)
+    alpha, lift = data.alpha[i0:i1 + 1], data.lift[i0:i1 + 1]
     return _table_law(ctx, f'{key}.nominal_file', alpha, lift), own, str(path)
 
 
@@ -595,7 +576,7 @@ def _valve_train(ctx: _Ctx, value: Any) -> ValveTrain:
 
     train_checks_from(vt.get('spring'), vt.get('piston'))     # validated here, named keys
     spring, piston = vt.get('spring'), vt.get('piston')
-    gas = _gas(ctx, vt.get('gas'), model, seat)
+    gas = _gas(ctx, vt.get('gas'))
     hla = vt.get('hla')
     if hla is not None:
         from cam_design.hydraulic.hla_coupled import HLA_KEYS, hla_from_mapping
@@ -620,7 +601,7 @@ GAS_KEYS = ('crank_deg', 'pressure_pa', 'head_diameter', 'back_pressure_pa',
             'lobe_start_crank_deg')
 
 
-def _gas(ctx: _Ctx, value: Any, model: str, seat: Seat) -> dict[str, Any] | None:
+def _gas(ctx: _Ctx, value: Any) -> dict[str, Any] | None:
     """``valve_train.gas``: cylinder pressure (gauge Pa) against crank angle [deg] over
     720 deg, valve head diameter [m], port back pressure [Pa], and the crank angle [deg]
     at which the lobe's lift starts (the timing)."""
@@ -649,10 +630,6 @@ def _gas(ctx: _Ctx, value: Any, model: str, seat: Seat) -> dict[str, Any] | None
                                                   g['lobe_start_crank_deg'])}
     gas_force(out['crank_deg'], out['pressure_pa'], out['head_diameter'],
               out['back_pressure_pa'])        # the table's own checks
-    if model not in ('sdof', 'mdof'):
-        raise InputError('valve_train.gas', f'with model {model}',
-                         'model sdof or mdof (the hydraulic gear takes it in the library '
-                         'only)')
     return out
 
 
@@ -787,15 +764,18 @@ def _datum_tolerance(defaults: dict[str, Any], pin: DowelPin | Keyway | None
 def load_valve_train(path: Path) -> tuple[ValveTrain, Scene | None]:
     """(ValveTrain, Scene or None) from a scene YAML or a YAML holding only the
     ``valve_train`` block (with or without the ``valve_train:`` key): ``--valve-train``."""
-    from cam_metrology.yaml_input import load_yaml
+    import yaml
+
+    from cam_metrology.yaml_input import load_yaml, syntax_error_text
 
     if not path.is_file():
         raise FileNotFoundError(f'no such valve-train file: {path}')
+    text = read_text_file(path, 'YAML file', key='--valve-train')
     try:
-        text = path.read_text(encoding='utf-8')
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError('--valve-train', str(path), f'a readable YAML file ({exc})') from None
-    doc = load_yaml(text, '--valve-train')
+        doc = load_yaml(text, '--valve-train')
+    except yaml.YAMLError as exc:
+        raise InputError('--valve-train', str(path),
+                         f'valid YAML ({syntax_error_text(exc, text)})') from None
     if isinstance(doc, dict) and 'lobes' in doc:
         scene = load_scene(path)
         if scene.valve_train is None:

@@ -34,7 +34,7 @@ def _table(law, step_deg: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize('name', sorted(LAWS))
-@pytest.mark.parametrize('step_deg', [2.0, 5.0])
+@pytest.mark.parametrize('step_deg', [1.0, 2.0, 5.0])
 def test_coarse_table_card_matches_the_law(name: str, step_deg: float) -> None:
     law = from_spec(LAWS[name])
     truth = cc.card_from_law(law, HEIGHTS)

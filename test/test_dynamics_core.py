@@ -192,7 +192,8 @@ def test_cli_mdof_model(tmp_path: Path) -> None:
 
 def test_cli_mdof_sweep_and_hydraulic_refused(tmp_path: Path, capsys) -> None:
     """`--model mdof --sweep`: the MDOF model's speeds with the SDOF rules (brackets with
-    null open ends, statuses, notes); the hydraulic model has no sweep: refused by option."""
+    null open ends, statuses, notes); no no-open speed for the cam-driven train (null with
+    its reason); the hydraulic model on a scene without its block: refused naming it."""
     from cam_metrology.cli import main
 
     scene = tmp_path / 'scene.yaml'
@@ -214,9 +215,13 @@ def test_cli_mdof_sweep_and_hydraulic_refused(tmp_path: Path, capsys) -> None:
         assert feat['jump_bracket_rpm'] == [None, 1500.0]
     elif sw['status'] == ['clean', 'clean']:
         assert feat['jump_bracket_rpm'] == [1600.0, None] and feat['jump_speed_rpm'] is None
+    assert feat['no_open_speed_rpm'] is None and feat['no_open_bracket_rpm'] is None
+    assert 'the cam drives the valve open' in feat['no_open_note']
+    # no gas: the force to overcome at the opening is the preload, at every opened speed
+    assert all(f is None or f == pytest.approx(250.0) for f in sw['opening_force_n'])
     assert main(['dynamics', str(scene), '--model', 'hydraulic', '--sweep',
                  '1500:3000:1500']) == 2
-    assert '--sweep' in capsys.readouterr().err
+    assert 'valve_train.hydraulic' in capsys.readouterr().err
 
 
 # -- QA findings (notes/qa.md #3, #6, #11, #16, #23) and the scene's lobes[].width ------

@@ -448,7 +448,8 @@ def test_valve_in_the_air_at_the_window_start_is_not_clean() -> None:
 def test_sweep_takes_the_gas_force_of_the_single_runs() -> None:
     """A constant cylinder-gas force G is exactly a preload increase F0 + G: the sweep
     with the gas force (as `dynamics --sweep` passes the scene's valve_train.gas, which
-    it used to drop) finds the jump speed of the train with that preload."""
+    it used to drop) finds the jump speed of the train with that preload, and reports
+    F0 + G as the force to overcome at the opening."""
     from dataclasses import replace
 
     law = PiecewisePolynomialLaw([-80 * D, 0.0, 100 * D], [
@@ -463,3 +464,60 @@ def test_sweep_takes_the_gas_force_of_the_single_runs() -> None:
     assert with_gas.jump.checked is True
     assert with_gas.jump.speed == pytest.approx(heavier.jump.speed, abs=0.6)
     assert with_gas.jump.speed > plain.jump.speed + 50.0
+    # the force the cam-driven train must overcome at the opening, per speed: F0 + G
+    f0 = TABLE_TRAIN.spring_preload
+    assert np.allclose(with_gas.opening_force, f0 + g, rtol=1e-12)
+    assert np.allclose(plain.opening_force, f0, rtol=1e-12)
+
+
+def test_opening_of_a_revolution_that_starts_open_sdof_and_mdof_agree() -> None:
+    """At 1.3 x the jump speed of the eccentric the periodic revolution starts with the
+    valve in the air: it lands, the cam lifts it off the seat again and it is still
+    open at the window end. The opening of the open phase at the window start is that
+    last lift-off one revolution earlier; SDOF reported none (and a note that the valve
+    never lifts off), MDOF that angle. Truth: SDOF, the last seat lift-off of a scipy
+    Radau run (rtol 1e-12) from the reported periodic start state; MDOF, the last zero
+    of the seat force -k_s y - b_s y' of its own solution (0.1 deg nodes, linear
+    interpolation); the two models of the same rigid mass agree to the stiffness of
+    their links (4 x 1e9 N/m in series vs 1e9 N/m)."""
+    import dataclasses
+
+    from cam_design.valve_train.mdof import simulate_mdof
+    from cam_design.valve_train.reference import reference_solve
+    from cam_design.valve_train.report import events_note, finish_run, run_sdof
+    from cam_design.valve_train.sdof import SEAT
+    from cam_metrology.cli.dynamics import run_line
+
+    e = 4.0e-3
+    law = EccentricFlatLaw(e)
+    mp, m_eff = stiff_mdof()
+    p = dataclasses.replace(rigid(1.0), mass=m_eff)
+    rpm = rpm_of(1.3 * math.sqrt((F0 + 2 * K * e) / (m_eff * e)))
+    res = simulate(law, p, rpm, step_deg=1.0)
+    assert res.settled and res.y[0] > 1e-4 and not res.regime[0] & SEAT
+    ref = reference_solve(law, p, rpm, np.linspace(-math.pi, math.pi, 721),
+                          z0=(float(res.y[0]), float(res.v[0])), r0=int(res.regime[0]))
+    assert ref.y[-1] == pytest.approx(res.y[0], abs=1e-9)     # periodic for Radau too
+    regimes = [int(res.regime[0])] + [r for _, r in ref.switches]
+    lift_offs = [a for (a, r), before in zip(ref.switches, regimes)
+                 if before & SEAT and not r & SEAT]
+    seatings = [a for (a, r), before in zip(ref.switches, regimes)
+                if r & SEAT and not before & SEAT]
+    assert lift_offs and max(seatings) < lift_offs[-1]        # open at the window end
+    truth_sdof = math.degrees(lift_offs[-1]) - 360.0
+    sd = run_sdof(law, p, rpm, step_deg=1.0).as_dict(arrays=False)
+    assert sd['opening_deg'] == pytest.approx(truth_sdof, abs=1e-6)
+    assert sd['closing_deg'] == pytest.approx(math.degrees(seatings[0]), abs=1e-6)
+    assert events_note(sd) is None                  # opening and closing both known
+    md_res = simulate_mdof(law, mp, rpm, step_deg=0.1)
+    assert md_res.events['settled'] and md_res.y[0] > 1e-4
+    g = -p.seat_stiffness * md_res.y - p.seat_damping * md_res.v
+    i = int(np.nonzero((g[:-1] > 0) & (g[1:] <= 0))[0][-1])
+    a = np.degrees(md_res.alpha)
+    truth_mdof = a[i] + (a[i + 1] - a[i]) * g[i] / (g[i] - g[i + 1]) - 360.0
+    md = finish_run(law, p, rpm, 'mdof', md_res.alpha, md_res.y, md_res.v,
+                    md_res.cam_force, dict(md_res.events), None, None).as_dict(arrays=False)
+    assert md['opening_deg'] == pytest.approx(truth_mdof, abs=0.01)
+    assert abs(sd['opening_deg'] - md['opening_deg']) < 1.0
+    for r in (sd, md):
+        assert f"opening {r['opening_deg']:.3f} deg" in run_line('lobe', r)

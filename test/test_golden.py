@@ -29,7 +29,12 @@ GOLD = {
         'lobe_1': {'kind': 'lobe', 'status': 'ok', 'angle_deg': 359.9999,
                    'angle_std_deg': 1e-2, 'phase_deg': 10.0, 'samples_used': 3600,
                    'lift_error_um': {'rms': 0.5, 'max_plus': 1.0}, 'lift_offset_mm': 0.5,
-                   'iterations': 3, 'sensitive_point_levels_mm': [1.0, 2.0]},
+                   'iterations': 3, 'sensitive_point_levels_mm': [1.0, 2.0],
+                   'area_mm_deg': 448.49, 'verdict': {'checks': [
+                       {'quantity': 'lift_error_max_plus_um', 'unit': 'um', 'value': 3e-11,
+                        'lower': -25.0, 'upper': 25.0, 'margin': 25.0 - 3e-11},
+                       {'quantity': 'phase_error_deg', 'unit': 'deg', 'value': 0.1,
+                        'lower': -0.5, 'upper': 0.5, 'margin': 0.4}]}},
         'dowel_pin': {'kind': 'dowel_pin', 'status': 'ok', 'angle_deg': 0.1},
     },
     'skipped': [{'what': 'dynamics', 'why': 'no valve_train'}],
@@ -78,6 +83,15 @@ def test_angle_tolerance_both_sides_and_across_360(arcsec: float, ok: bool) -> N
     (('features', 'lobe_1', 'sensitive_point_levels_mm'), [1.0, 2.00004], True),
     (('features', 'lobe_1', 'sensitive_point_levels_mm'), [1.0], False),
     (('camshaft_id',), 'X-2', False),
+    # a verdict check's numbers are in its own unit: a noise-free lift error of 3e-11 um
+    # on one machine and 4e-11 um on another agree (it was compared to 1e-12 relative)
+    (('features', 'lobe_1', 'verdict', 'checks', 0, 'value'), 3e-11 + 0.049, True),
+    (('features', 'lobe_1', 'verdict', 'checks', 0, 'value'), 3e-11 + 0.051, False),
+    (('features', 'lobe_1', 'verdict', 'checks', 1, 'value'), 0.1 + 0.49 / 3600, True),
+    (('features', 'lobe_1', 'verdict', 'checks', 1, 'margin'), 0.4 - 0.51 / 3600, False),
+    # an area in mm deg is compared relatively (1e-6), not as an angle in arcsec
+    (('features', 'lobe_1', 'area_mm_deg'), 448.49 * (1 + 0.9e-6), True),
+    (('features', 'lobe_1', 'area_mm_deg'), 448.49 * (1 + 1.1e-6), False),
 ])
 def test_value_rules(path: tuple, value: object, ok: bool) -> None:
     diffs = compare_reports(_with(path, value), GOLD, angle_tol_arcsec=0.5, lift_tol_um=0.05)

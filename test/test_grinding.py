@@ -756,3 +756,34 @@ def test_cli_correct_reads_a_measurement_bag(tmp_path: Path, capsys) -> None:
     assert main(['grind', 'correct', str(scene_path), '--lobe', 'lobe_9', '--measured',
                  str(bag), '--wheel-radius', str(RW)]) == 2
     assert '--lobe' in capsys.readouterr().err
+
+
+def test_correct_measured_error_in_um_or_with_decimal_commas_is_one_clear_line(
+        cam_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """A lift error written in um under lift_error_m (11.15 for 11.15 um) was refused as
+    'a ground-cam contact that does not settle'; now the message names the unit. A
+    semicolon/decimal-comma row names its file line. The index error alone (-h'(alpha)
+    d, d = 0.00087 rad, from the exact law) is fitted back within 1e-9 rad."""
+    import json
+
+    law = from_spec({'family': 'preset', 'name': 'flat_tappet_intake'}, 'x')
+    a = np.radians(np.arange(-180.0, 180.0, 0.5))
+    err = np.asarray(law(a - 0.00087, 0)) - np.asarray(law(a, 0))
+    meas = tmp_path / 'meas.csv'
+    meas.write_text('alpha_rad,lift_error_m\n' + ''.join(
+        f'{x!r},{e!r}\n' for x, e in zip(a.tolist(), err.tolist())))
+    out = tmp_path / 'c.json'
+    assert main(['grind', 'correct', str(cam_file), '--measured', str(meas), '--sources',
+                 'index', '--json', str(out)]) == 0
+    assert json.loads(out.read_text())['fit']['values']['index'] == pytest.approx(
+        0.00087, abs=1e-9)
+    meas.write_text('alpha_rad,lift_error_m\n' + ''.join(
+        f'{x!r},{e * 1e6!r}\n' for x, e in zip(a.tolist(), err.tolist())))
+    assert main(['grind', 'correct', str(cam_file), '--measured', str(meas)]) == 2
+    msg = capsys.readouterr().err.strip()
+    assert len(msg.splitlines()) == 1
+    assert 'expected lift errors in metres (at most 2 mm); the values look like ' \
+           'micrometres' in msg
+    meas.write_text('alpha_rad;lift_error_m\n\n0,5;0,000001\n')
+    assert main(['grind', 'correct', str(cam_file), '--measured', str(meas)]) == 2
+    assert "meas.csv:3: got '0,5;0,000001'" in capsys.readouterr().err

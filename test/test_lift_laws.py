@@ -227,6 +227,20 @@ def test_other_exponent_counts(exps: list[int], order: int) -> None:
                    'half_angle': 50 * DEG, 'exponents': [2]}, 'lobe')
 
 
+@pytest.mark.parametrize('exps,order', [([3, 4, 5], 2), ([4, 5, 6, 7], 3), ([2, 3], 1)])
+def test_exponent_counts_without_ramp(exps: list[int], order: int) -> None:
+    """Without a ramp the base section starts on the base circle and n exponents fix
+    h..h^(n-1) there too: [3, 4, 5] is the 3-4-5 law (C2, jerk 60 H/alpha0^3 at the
+    start), which used to be refused because C3 was required whatever the count."""
+    law = from_spec({'family': 'polynomial', 'ramp': None, 'rise': 8 * MM,
+                     'half_angle': 50 * DEG, 'exponents': exps}, 'lobe')
+    start = [j for j in law.junction_report if abs(j.alpha + 50 * DEG) < 1e-12][0]
+    assert start.required == order and start.achieved == order
+    if exps == [3, 4, 5]:
+        assert float(law(-50 * DEG, 3)) == pytest.approx(60 * 8 * MM / (50 * DEG) ** 3,
+                                                         rel=1e-12)
+
+
 def test_support_must_fit_one_turn() -> None:
     """alpha is wrapped to (-pi, pi]: a lobe wider than that is rejected."""
     with pytest.raises(InputError, match='support'):

@@ -151,7 +151,7 @@ def test_check_scene_lobe(capsys: pytest.CaptureFixture) -> None:
 @pytest.mark.parametrize('args, flag, value', [
     (['--max-swing-deg', '60'], '--max-swing-deg', '60.0'),
     (['--max-swing-deg', '7.865', '--eccentricity', '0.1'], '--eccentricity', '0.1'),
-    (['--max-swing-deg', '7.865', '--arm-length', '1e300'], '--base-radius', '0.0323')])
+    (['--max-swing-deg', '7.865', '--arm-length', '1e300'], '--arm-length', '1e+300')])
 def test_rocker_errors_name_the_option(args: list[str], flag: str, value: str,
                                        capsys: pytest.CaptureFixture) -> None:
     """QA: errors from the synthesis name the option and the value as typed (deg for

@@ -104,3 +104,13 @@ def test_capability_against_the_scene_limits(tmp_path: Path) -> None:
     assert entry['tolerance'] == [-0.002, 0.018]
     assert entry['tolerance_source'].startswith('scene')
     assert entry['capability']['cpk'] == pytest.approx((0.018 - 0.0116) / (3 * sigma))
+
+
+def test_a_table_of_another_kind_is_refused_by_its_columns(tmp_path: Path, capsys) -> None:
+    """A lift table (CSV, but not a batch result) names the missing columns."""
+    path = tmp_path / 'lobe.csv'
+    path.write_text('alpha_deg,lift_mm\n0,0\n5,1\n')
+    assert main(['spc', str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1
+    assert 'columns alpha_deg, lift_mm and no bag, feature, status' in err

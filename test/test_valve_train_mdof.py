@@ -83,3 +83,26 @@ def test_invalid_mdof_named(spec: dict, key: str) -> None:
     with pytest.raises(InputError) as info:
         mdof_from_mapping(spec, SdofParams(**BASE))
     assert key in str(info.value)
+
+
+def test_sampled_events_of_a_window_that_starts_open() -> None:
+    """The ODE paths' event rule (mdof._events) follows the exact solvers': a revolution
+    that starts with the valve in the air opened at its last lift-off, one revolution
+    earlier; lift-off and seating between nodes are interpolated. Truth by construction:
+    sine lifts over [-210.2, -60.2] and [149.8, 299.8] deg on 0.5 deg nodes."""
+    from cam_design.valve_train.mdof import _events
+
+    a = np.linspace(-math.pi, math.pi, 721)
+    deg = np.degrees(a)
+
+    def lobe(start: float) -> np.ndarray:   # on the seat: compressed 0.1 mm (penalty)
+        x = np.radians(deg - start) * 1.2
+        return np.where((x > -0.1) & (x < math.pi + 0.1), 1e-3 * np.sin(x), -1e-4)
+
+    y = np.maximum(lobe(-210.2), lobe(149.8))
+    ev = _events(a, y, np.zeros_like(y), np.ones_like(y), y)
+    assert ev['opening_deg'] == pytest.approx(-210.2, abs=2e-3)
+    assert ev['closing_deg'] == pytest.approx(-60.2, abs=2e-3)
+    y = lobe(-100.2)
+    ev = _events(a, y, np.zeros_like(y), np.ones_like(y), y)
+    assert ev['opening_deg'] == pytest.approx(-100.2, abs=2e-3)

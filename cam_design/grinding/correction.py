@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cam_design.errors import InputError
+from cam_design.errors import InputError, unit_slip
 from cam_design.follower import Follower
 from cam_design.grinding.curve import PolarCurveLift, jet_cos_sin, polar_jets
 from cam_design.grinding.machining_error import (SOURCES, TableCurve, path_curve,
@@ -31,6 +31,8 @@ from cam_design.grinding.wheel_path import WheelPath
 
 #: scaled condition number above which the fit is marked unsettled
 CONDITION_LIMIT = 1e4
+#: largest plausible measured lift error [m]: a larger one is a unit slip (um as m)
+MAX_LIFT_ERROR_M = 2e-3
 #: below this fraction of the error rms explained by the fit, a warning is given
 EXPLAINED_LIMIT = 0.8
 #: default sources of a fit (the CNC centre distance is a wheel-radius change plus an
@@ -73,6 +75,12 @@ def fit_errors(path: WheelPath, alpha: ArrayLike, lift_error: ArrayLike, *,
         raise InputError(key, f'{e.size} values for {a.size} angles', 'one error per angle')
     if not (np.all(np.isfinite(a)) and np.all(np.isfinite(e))):
         raise InputError(key, 'non-finite values', 'finite angles [rad] and errors [m]')
+    worst = float(np.max(np.abs(e))) if e.size else 0.0
+    if worst > MAX_LIFT_ERROR_M:   # a machining error is microns, not millimetres
+        slip = unit_slip(worst, MAX_LIFT_ERROR_M)
+        hint = '' if slip is None else f'; the values look like {slip[0]}'
+        raise InputError(key, f'a largest lift error of {worst:g} m', 'lift errors in metres '
+                         f'(at most {MAX_LIFT_ERROR_M * 1e3:g} mm){hint}')
     names = tuple(sources)
     if len(set(names)) != len(names) or not names:
         raise InputError('sources', names, 'distinct names among ' + ', '.join(SOURCES))

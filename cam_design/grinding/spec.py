@@ -9,7 +9,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.errors import InputError, require_finite, require_length, require_positive
 from cam_design.grinding.wheel_path import DESIGN_KINDS, Design
 
 SECTION_KEYS = ('design', 'wheel_radius', 'step_deg', 'cradle', 'master_follower', 'errors')
@@ -65,13 +65,19 @@ def design(value: Any, key: str = 'grinding.design') -> Design:
     return Design(**args)
 
 
+#: largest plausible grinding-wheel radius [m] (wheels are up to about 0.4 m): a larger
+#: value is almost always millimetres
+WHEEL_RADIUS_MAX_M = 1.0
+
+
 def wheel_radii(value: Any, key: str = 'grinding.wheel_radius') -> list[float]:
-    """One radius or a list of radii [m], each > 0."""
+    """One radius or a list of radii [m], each > 0 and at most ``WHEEL_RADIUS_MAX_M``
+    (200 given for 200 mm is refused, naming the unit it looks like)."""
     values = value if isinstance(value, (list, tuple)) else [value]
     if not values:
         raise InputError(key, value, 'a wheel radius [m] or a list of them')
-    return [require_positive(f'{key}[{i}]' if len(values) > 1 else key, v)
-            for i, v in enumerate(values)]
+    return [require_length(f'{key}[{i}]' if len(values) > 1 else key, v, WHEEL_RADIUS_MAX_M,
+                           what='a wheel radius') for i, v in enumerate(values)]
 
 
 def step_rad(value: Any, key: str = 'grinding.step_deg') -> float:

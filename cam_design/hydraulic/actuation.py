@@ -156,6 +156,20 @@ def _relief(p: float, prm: HydraulicParams) -> float:
     return orifice_flow(p, prm.relief_area * opening, prm.oil_density)
 
 
+def relief_spilled(pump_pressure: NDArray[np.float64], dt: float,
+                   prm: HydraulicParams) -> NDArray[np.float64]:
+    """Oil spilled by the relief valve from the start of a run to each step [m^3], from
+    the pump pressure of every pipe step (``record_every=1``) by the trapezoidal rule
+    the run itself uses (its last value is the run's ``relief_out``)."""
+    p = np.asarray(pump_pressure, dtype=float)
+    q = np.zeros(p.size)
+    for i in np.nonzero(p > prm.relief_pressure)[0]:      # the valve is shut below it
+        q[i] = _relief(float(p[i]), prm)
+    out = np.zeros(q.size)
+    out[1:] = np.cumsum(0.5 * (q[1:] + q[:-1])) * dt
+    return out
+
+
 @dataclass
 class _Actuator:
     """State of the actuator chamber and the valve at a (sub-)step boundary."""
@@ -297,6 +311,22 @@ def _whole_step_balance(st: _Actuator, end: _Actuator, dt: float, c1: float, k: 
                      leak=st.leak + 0.5 * g * (st.p + p1) * dt)
 
 
+def pass_range(law: Any) -> tuple[float, float]:
+    """Cam angles [rad] of a default pass: the law's support +- 10 deg."""
+    return law.support[0] - math.radians(10), law.support[1] + math.radians(10)
+
+
+def pipe_of(prm: HydraulicParams) -> Pipe:
+    """The gear's pipe filled with nothing yet; its ``dt`` [s] is the run's time step
+    (wave speed at the supply pressure)."""
+    k0 = effective_bulk_modulus(prm.bulk_modulus, prm.air_fraction, prm.supply_pressure + P_ATM)
+    pipe = Pipe(prm.pipe_length, prm.pipe_diameter, wave_speed(k0, prm.oil_density),
+                prm.oil_density, prm.friction, prm.reaches, prm.vapour_pressure)
+    if pipe.dx <= 0 or not math.isfinite(pipe.dt):
+        raise InputError('pipe_length', prm.pipe_length, 'a pipe of at least one reach')
+    return pipe
+
+
 def simulate_hydraulic(law: Any, prm: HydraulicParams, rpm: float, *,
                        alpha_range: tuple[float, float] | None = None,
                        gas_force: Callable[[float], float] | None = None,
@@ -306,13 +336,9 @@ def simulate_hydraulic(law: Any, prm: HydraulicParams, rpm: float, *,
     ``gas_force(alpha)`` [N] opposes the opening (exhaust valve). Starts at rest, the
     system filled at supply pressure and the valve seated."""
     omega = require_positive('cam_speed_rpm', rpm) * 2 * math.pi / 60
-    lo, hi = alpha_range or (law.support[0] - math.radians(10),
-                             law.support[1] + math.radians(10))
+    lo, hi = alpha_range or pass_range(law)
     k0 = effective_bulk_modulus(prm.bulk_modulus, prm.air_fraction, prm.supply_pressure + P_ATM)
-    pipe = Pipe(prm.pipe_length, prm.pipe_diameter, wave_speed(k0, prm.oil_density),
-                prm.oil_density, prm.friction, prm.reaches, prm.vapour_pressure)
-    if pipe.dx <= 0 or not math.isfinite(pipe.dt):
-        raise InputError('pipe_length', prm.pipe_length, 'a pipe of at least one reach')
+    pipe = pipe_of(prm)
     dt = pipe.dt
     steps = int(math.ceil((hi - lo) / (omega * dt)))
     if steps > 5_000_000:

@@ -8,10 +8,10 @@ angle alpha0 is under the follower.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, require_positive
 
@@ -41,3 +41,15 @@ def on_cam_angle(force: Callable[[float], float], phi0_deg: float,
         return force(phi0_deg + 2.0 * math.degrees(alpha - alpha0))
 
     return at_alpha
+
+
+def gas_events(gas: Callable[[float], float], alpha: NDArray[np.float64],
+               opening_deg: float | None) -> dict[str, Any]:
+    """Gas-force fields of a run: largest force [N] on the angles ``alpha`` [rad] and
+    where [deg], the force at the opening (``opening_deg``, None if the valve never
+    opened)."""
+    g = np.array([float(gas(float(x))) for x in alpha])
+    i = int(np.argmax(g))
+    return {'gas_force_max_n': float(g[i]), 'gas_force_max_deg': math.degrees(float(alpha[i])),
+            'gas_force_at_opening_n': None if opening_deg is None
+            else float(gas(math.radians(opening_deg)))}

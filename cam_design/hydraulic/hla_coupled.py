@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError, require_finite
+from cam_design.hydraulic.gas import gas_events
 from cam_design.hydraulic.lash_adjuster import LashAdjuster
 from cam_design.hydraulic.oil import P_ATM, effective_bulk_modulus, orifice_flow
 from cam_design.valve_train.cam_input import build_cam_input, lift_of_time
@@ -534,16 +535,6 @@ def simulate_gas_train(law: Any, base: SdofParams, rpm: float, *, mdof: Any = No
             'v': z[tr.n + tr.iv, last], 'cam_force': base.rocker_ratio * fc[last],
             'settled': residual <= GAS_SETTLED, 'periodic_residual_m': residual,
             'revolutions': revolutions}
-
-
-def gas_events(gas: Callable[[float], float], alpha: NDArray,
-               opening_deg: float | None) -> dict[str, Any]:
-    """Gas-force fields of a run: largest force and where, the force at the opening."""
-    g = np.array([float(gas(float(x))) for x in alpha])
-    i = int(np.argmax(g))
-    return {'gas_force_max_n': float(g[i]), 'gas_force_max_deg': math.degrees(float(alpha[i])),
-            'gas_force_at_opening_n': None if opening_deg is None
-            else float(gas(math.radians(opening_deg)))}
 
 
 def run_gas_ode(law: Any, params: SdofParams, mdof: Any, rpm: float, *,

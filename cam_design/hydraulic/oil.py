@@ -36,10 +36,14 @@ def wave_speed(bulk_modulus: float, density: float) -> float:
 def orifice_flow(dp: float, area: float, density: float, cd: float = 0.7,
                  dp_lin: float = 1.0e4) -> float:
     """Flow [m^3/s] through an orifice of ``area`` [m^2] for the pressure drop ``dp``
-    [Pa] (signed): Q = cd A sqrt(2 |dp| / rho) sign(dp), replaced below ``dp_lin`` by the
-    tangent-matched linear law so that the flow is smooth through dp = 0."""
+    [Pa] (signed): Q = cd A sqrt(2 |dp| / rho) sign(dp) for |dp| >= ``dp_lin``; below
+    it the odd cubic Q = Q_lin (5 x - x^3) / 4, x = dp / dp_lin, Q_lin the square-root
+    law at dp_lin, which is tangent-matched: value and slope dQ/ddp = Q_lin / (2 dp_lin)
+    are continuous at |dp| = dp_lin (C1), and the flow is smooth through dp = 0 with the
+    finite conductance 5 Q_lin / (4 dp_lin)."""
     if area <= 0.0:
         return 0.0
     if abs(dp) >= dp_lin:
         return math.copysign(cd * area * math.sqrt(2.0 * abs(dp) / density), dp)
-    return cd * area * math.sqrt(2.0 * dp_lin / density) * dp / dp_lin
+    x = dp / dp_lin
+    return cd * area * math.sqrt(2.0 * dp_lin / density) * x * (5.0 - x * x) / 4.0

@@ -13,13 +13,14 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError, require_finite
-from cam_design.hydraulic.actuation import HydraulicParams, simulate_hydraulic
+from cam_design.hydraulic.actuation import HydraulicParams, relief_spilled, simulate_hydraulic
+from cam_design.hydraulic.gas import gas_events
 from cam_design.valve_train.report import ContactGeometry, Run, stress_and_undercut
 
 #: keys of the ``valve_train.hydraulic`` block (the valve's mass, spring and damping are
@@ -101,15 +102,23 @@ class HydraulicRun(Run):
 PRESSURE_COLUMNS = ('alpha_rad', 'pump_pressure_pa', 'actuator_pressure_pa')
 
 
+#: the valve counts as back on its seat at the end of a pass below this lift [m]
+CLOSED_LIFT = 1e-6
+
+
 def run_hydraulic(law: Any, prm: HydraulicParams, rpm: float,
-                  geometry: ContactGeometry | None = None) -> HydraulicRun:
+                  geometry: ContactGeometry | None = None,
+                  gas: Callable[[float], float] | None = None) -> HydraulicRun:
     """One pass of the lobe ``law`` (lift [m] of the plunger vs cam angle [rad]) at
-    ``rpm`` (camshaft) through the hydraulic gear ``prm``. The cam's force on the plunger
+    ``rpm`` (camshaft) through the hydraulic gear ``prm``; ``gas(alpha)`` [N]: the
+    cylinder-gas force pushing the valve shut. The cam's force on the plunger
     is A_p times the pump pressure (gauge), floored at zero (a plunger return spring is
     not modelled); its Hertz stress uses ``geometry`` when given. Events: maxima, peak
-    pressures and where, cavitation, seating velocity, the oil-volume balance and, as
-    for every model, a ``note`` when something needs attention."""
-    res = simulate_hydraulic(law, prm, rpm, record_every=1)
+    pressures and where, cavitation, seating velocity, the oil-volume balance, the oil
+    the relief valve spilled before the valve reached its peak lift (as a share of the
+    plunger displacement: the lift it cost) and, as for every model, a ``note`` when
+    something needs attention."""
+    res = simulate_hydraulic(law, prm, rpm, record_every=1, gas_force=gas)
     every = max(1, math.ceil(res.alpha.size / MAX_ROWS))
     sel = np.arange(0, res.alpha.size, every)
     alpha = res.alpha[sel]
@@ -122,6 +131,11 @@ def run_hydraulic(law: Any, prm: HydraulicParams, rpm: float,
     i_a = int(np.argmax(res.actuator_pressure))
     i_f = int(np.argmax(force))
     displaced = prm.plunger_area * float(np.max(law(res.alpha, 0))) or 1.0   # m^3
+    # the spill that cost lift: up to the valve's peak, or the plunger's if that is later
+    # (a valve held shut or pushed back peaks early); later spills are transients
+    i_y = max(int(np.argmax(res.valve_lift)), int(np.argmax(law(res.alpha, 0))))
+    dt = float(res.t[1] - res.t[0]) if res.t.size > 1 else 0.0
+    spilled = relief_spilled(res.pump_pressure[:i_y + 1], dt, prm)[-1]
     events: dict[str, Any] = {
         'max_valve_lift_m': float(res.valve_lift.max()),
         'rigid_valve_lift_m': rigid,
@@ -135,6 +149,11 @@ def run_hydraulic(law: Any, prm: HydraulicParams, rpm: float,
         # oil-volume balance over the pass, as a fraction of the plunger displacement
         'oil_volume_residual': float(res.volumes['residual'] / displaced),
         'relief_volume_m3': float(res.volumes['relief_out']),
+        'relief_spilled': bool(res.volumes['relief_out'] > 0.0),
+        # oil lost to the relief valve before the peak lift, per displaced volume
+        'relief_spill_before_peak': float(spilled / displaced),
+        'valve_lift_ratio': float(res.valve_lift.max()) / rigid if rigid > 0 else None,
+        'valve_closed': bool(lift[-1] <= CLOSED_LIFT),
         'max_contact_force_n': float(force[i_f]),
         'max_contact_force_deg': math.degrees(float(alpha[i_f])),
         'max_contact_stress_pa': None if geometry is None or undercut
@@ -143,11 +162,15 @@ def run_hydraulic(law: Any, prm: HydraulicParams, rpm: float,
         'pipe_time_step_s': float(res.t[1] - res.t[0]) if res.t.size > 1 else None,
         'output_every_steps': every,
     }
+    if gas is not None:
+        opening = np.nonzero(res.valve_lift > 0.0)[0]
+        events.update(gas_events(gas, alpha, math.degrees(float(res.alpha[opening[0]]))
+                                 if opening.size else None))
     notes = []
     if res.cavitation:
         notes.append('cavitation: a chamber or the pipe fell to the vapour pressure '
                      '(the valve motion after it is uncertain)')
-    if lift[-1] > 1e-6:
+    if lift[-1] > CLOSED_LIFT:
         notes.append(f'the valve had not closed at the end of the pass '
                      f'({lift[-1] * 1e3:.3f} mm open)')
     elif res.seating_velocity is None and res.valve_lift.max() > 0:

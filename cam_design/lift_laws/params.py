@@ -43,12 +43,26 @@ def lift(spec: Mapping, key: str, name: str, default: Any = MISSING) -> float:
                           what='a lift')
 
 
+#: largest plausible cam radius [m] (base circle, roller, tappet): a larger value is
+#: almost always millimetres
+MAX_RADIUS_M = 0.5
+
+
+def radius(spec: Mapping, key: str, name: str, default: Any = MISSING) -> float:
+    """A cam-size radius [m], > 0 and at most ``MAX_RADIUS_M`` (a value given in mm
+    names the unit it looks like: 16.5 -> 'looks like millimetres: write 0.0165')."""
+    return require_length(f'{key}.{name}', get(spec, key, name, default), MAX_RADIUS_M,
+                          what='a radius')
+
+
 def angle(spec: Mapping, key: str, name: str, default: Any = MISSING, *,
           allow_zero: bool = False, limit: float = math.pi) -> float:
     """An angle [rad] in (0, limit] ([0, limit] with ``allow_zero``); default limit pi."""
     out = positive(spec, key, name, default, allow_zero=allow_zero)
     if out > limit:
-        raise InputError(f'{key}.{name}', out, f'an angle <= {limit:.6g} rad')
+        hint = (f'; {out:g} looks like degrees: write {math.radians(out):.6g}'
+                if math.radians(out) <= limit else '')
+        raise InputError(f'{key}.{name}', out, f'an angle <= {limit:.6g} rad{hint}')
     return out
 
 

@@ -98,8 +98,10 @@ def polynomial_flank(ramp: Ramp, rise: float, half_angle: float, exponents: Sequ
         coeffs = polynomial_coefficients_exact(exps, rise, ramp.velocity, half_angle)
     segs: list[Segment] = list(ramp.segments)
     segs.append(base_section(ramp.angle, ramp.height, rise, half_angle, coeffs))
+    # n exponents fix h..h^(n-1) where the base section starts (ramp end or, without a
+    # ramp, the base circle): 3 exponents (e.g. the 3-4-5 law) give C2 there, not C3
     end = min(3, len(exps) - 1) if ramp.end_acceleration == 0.0 else 1
-    required = list(ramp.required) + [end] if not ramp.is_empty else [3]
+    required = list(ramp.required) + [end]
     required.append(nose_order(exponents))
     return Flank(tuple(segs), tuple(required), nose_order=nose_order(exponents))
 

@@ -472,8 +472,21 @@ def _events(alpha: NDArray, y: NDArray, v: NDArray, fc: NDArray, u: NDArray) -> 
     idx = np.nonzero(up)[0]
     if idx.size == 0:
         return out
-    i_open = int(idx[0])
-    out['opening_deg'] = math.degrees(float(alpha[i_open]))
+    rises = np.nonzero(up[1:] & ~up[:-1])[0]    # y[k] <= 0 < y[k + 1]
+
+    def lift_off(k: int) -> float:
+        f = -y[k] / (y[k + 1] - y[k])
+        return math.degrees(float(alpha[k] + f * (alpha[k + 1] - alpha[k])))
+
+    if up[0]:
+        # the window starts open: in a periodic state the open phase began at the last
+        # lift-off of the window, one revolution earlier (the exact solvers' rule)
+        i_open = 0
+        if rises.size and alpha[-1] - alpha[0] > 2.0 * math.pi - 1e-9:
+            out['opening_deg'] = lift_off(int(rises[-1])) - 360.0
+    else:
+        i_open = int(idx[0])
+        out['opening_deg'] = lift_off(i_open - 1)
     i_top = int(np.argmax(y))
     down = np.nonzero(~up[i_top:])[0]
     if down.size:

@@ -608,7 +608,8 @@ class _Run:
         if self.next_cycle is not None:
             self.commit_next_cycle(alpha)
         if self.opened and not self.seated_once and self.peak < OPEN_TOL:
-            self.opened = False     # seat chatter before the opening, not a closing
+            self.opened = False     # seat chatter before the opening, not a closing:
+            self.ev.opening = None  # nor was its lift-off the opening (as sdof)
             return
         if self.opened and not self.seated_once:
             self.seated_once = True

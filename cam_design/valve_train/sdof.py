@@ -187,6 +187,29 @@ class _Model:
         self.cache[key] = (phis, gams)
         return phis, gams
 
+    def switch_map(self, r: int, lt: float, m: int) -> tuple[NDArray, NDArray]:
+        """The switching components of ``_switch_jets`` for steps of lt seconds cut into
+        m sub-intervals, as the affine map const + x @ lin of x = [y0 [m], v0 [m/s],
+        u monomials (NB) [m], gas-force monomials (NB) [N]] (the equation is linear):
+        lin (2 + 2 NB, 2 C (m+1)), const (2 C (m+1),). Built once per regime, step
+        length and m by evaluating ``_switch_jets`` on the unit inputs, cached."""
+        key = (-1 - r, lt, m)
+        hit = self.cache.get(key)
+        if hit is not None:
+            return hit
+        nx = 2 + 2 * NB
+        basis = np.vstack([np.zeros(nx), np.eye(nx)])      # row 0: the constant part
+        z0, ucoef, gco = basis[:, :2], basis[:, 2:2 + NB], basis[:, 2 + NB:]
+        la = np.full(nx + 1, lt * self.omega)
+        fco = self.forcing(r, ucoef, la, gco)
+        phis, gams = self.propagator(r, lt, m)
+        zs = np.einsum('mab,qb->qma', phis, z0) + np.einsum('mab,qb->qma', gams, fco)
+        jets = _switch_jets(self, r, ucoef, fco, la, np.full(nx + 1, lt), z0, zs)
+        jets = jets.transpose(1, 0, 2).reshape(nx + 1, -1)   # (1 + nx, 2 C (m+1))
+        out = (jets[1:] - jets[0], jets[0].copy())
+        self.cache[key] = out
+        return out
+
     def forcing(self, r: int, ucoef: NDArray, la: NDArray | float,
                 gco: NDArray | None = None) -> NDArray:
         """Forcing coefficients (..., NB) in the basis sigma^j/j! for regime r.
@@ -233,6 +256,20 @@ _VANDER: dict[int, tuple[NDArray, NDArray]] = {}
 _ARANGE = np.arange(64, dtype=float)
 _GRID9 = np.linspace(0.0, 1.0, 33)
 _VG9 = _GRID9[None, :] ** np.arange(64)[:, None]
+_SCREEN: dict[int, tuple[NDArray, NDArray]] = {}
+
+
+def _screen_grid(dense: int) -> tuple[NDArray, NDArray]:
+    """(grid, VGD): 32 dense + 1 points on [0, 1] (``_GRID9`` for dense = 1) and the
+    (64, 2 points) matrix of the monomials t^j and their derivatives j t^(j-1) there."""
+    hit = _SCREEN.get(dense)
+    if hit is None:
+        grid = np.linspace(0.0, 1.0, 32 * dense + 1)
+        vg = grid[None, :] ** _ARANGE[:, None]
+        dvg = np.vstack([np.zeros((1, grid.size)), _ARANGE[1:, None] * vg[:-1]])
+        hit = (grid, np.hstack([vg, dvg]))
+        _SCREEN[dense] = hit
+    return hit
 
 
 def _horner2(c: NDArray, t: float) -> tuple[float, float]:
@@ -326,14 +363,15 @@ def sub_node_jets(ucoef: NDArray, m: int, omega: float, la: NDArray
     return ucoef @ v0, (ucoef @ v1) * rate, (ucoef @ v2) * rate * rate, v0
 
 
-def _flags(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
-           lt: NDArray, z0: NDArray, zs: NDArray) -> NDArray:
-    """(q, m) True where sub-interval j of step q may hold a switch: the switching
-    components' cubic Hermite interpolants (values and time derivatives at the
-    sub-nodes, from the exact states) cross zero in the direction that ends regime r.
+def _switch_jets(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
+                 lt: NDArray, z0: NDArray, zs: NDArray) -> NDArray:
+    """Switching components of regime r at the m + 1 sub-nodes j/m of each step, signed
+    so that the regime ends where one goes below 0: (2 C, q, m+1), the C values then
+    their time derivatives times the sub-step (per unit of the sub-interval).
 
-    ucoef, fco: (q, NB) u monomials and forcing (sigma^j/j!); la, lt: (q,) step angle
-    and time; z0: (q, 2) start states; zs: (q, m, 2) sub-node states.
+    C = 4 (penalty seat: u - y, F_t, -y, seat force) or 3 (hard seat: u - y, F_t, y).
+    ucoef, fco: (q, NB) u monomials [m] and forcing (sigma^j/j!) [N]; la, lt: (q,) step
+    angle [rad] and time [s]; z0: (q, 2) start states; zs: (q, m, 2) sub-node states.
     """
     p = model.p
     m = zs.shape[1]
@@ -359,12 +397,41 @@ def _flags(model: '_Model', r: int, ucoef: NDArray, fco: NDArray, la: NDArray,
         ss = 1.0 if r & SEAT else -1.0
         vals += [-ss * y, ss * gs]
         ders += [-ss * v * h, ss * dgs * h]
-    dips = _dips(np.stack(vals), np.stack(ders))        # one call for all components
+    return np.stack(vals + ders)
+
+
+def _flags(model: '_Model', r: int, lt: float, m: int, z0: NDArray, ucoef: NDArray,
+           gco: NDArray | None) -> NDArray:
+    """(q, m) True where sub-interval j of step q may hold a switch: the switching
+    components' cubic Hermite interpolants (values and time derivatives at the
+    sub-nodes, from the exact states) cross zero in the direction that ends regime r.
+
+    All q steps last lt seconds and are cut into m sub-intervals; z0: (q, 2) start
+    states [m, m/s]; ucoef, gco: (q, NB) monomials of u [m] and of the gas force [N]
+    (None: no gas). The components are the affine map ``_Model.switch_map`` of them.
+    """
+    lin, const = model.switch_map(r, lt, m)
+    x = np.concatenate([z0, ucoef] if gco is None else [z0, ucoef, gco], axis=1)
+    jets = (x @ lin[:x.shape[1]] + const).reshape(x.shape[0], -1, m + 1)
+    nc = jets.shape[1] // 2
+    dips = _dips(jets[:, :nc], jets[:, nc:])          # (q, C, m)
     # in a regime: leaves when a component dips; out of it: enters when all rise
-    bad = dips[0] | dips[1] if r & CONTACT else dips[0] & dips[1]
+    bad = dips[:, 0] | dips[:, 1] if r & CONTACT else dips[:, 0] & dips[:, 1]
+    if model.p.hard_seat:
+        return bad | dips[:, 2]
+    return bad | (dips[:, 2] | dips[:, 3] if r & SEAT else dips[:, 2] & dips[:, 3])
+
+
+def _screen_weights(p: SdofParams, ds: float) -> NDArray:
+    """(C, 4) weights of the switching components (u - y, F_t, then -y and the seat force,
+    or y for the hard seat) on [u - y, its t-derivative, y, its t-derivative], t = s / ds
+    (ds [s])."""
     if p.hard_seat:
-        return bad | dips[2]
-    return bad | (dips[2] | dips[3] if r & SEAT else dips[2] & dips[3])
+        return np.array([[1.0, 0.0, 0.0, 0.0], [p.stiffness, p.damping / ds, 0.0, 0.0],
+                         [0.0, 0.0, 1.0, 0.0]])
+    return np.array([[1.0, 0.0, 0.0, 0.0], [p.stiffness, p.damping / ds, 0.0, 0.0],
+                     [0.0, 0.0, -1.0, 0.0], [0.0, 0.0, -p.seat_stiffness,
+                                             -p.seat_damping / ds]])
 
 
 def _inside_scalar(p: SdofParams, r: int, y: float, v: float, u: float, ud: float,
@@ -389,6 +456,8 @@ _SHIFT: dict[tuple[float, float], NDArray] = {}
 
 def _shift(c: NDArray, a: float, w: float) -> NDArray:
     """Monomial coefficients of p(a + w t) from those of p(sigma) (last axis)."""
+    if a == 0.0 and w == 1.0:
+        return c
     mat = _SHIFT.get((a, w))
     if mat is None:
         mat = (_BINOM * np.power(a, _POW) * (w ** np.arange(NB))[:, None]).T
@@ -523,6 +592,7 @@ class _Run:
         self.seated_once = False
         self.opened = False
         self.peak = 0.0            # largest node lift since the last lift-off [m]
+        self.lift_off: float | None = None   # last lift-off not followed by a seating
         self.start_open = False    # the revolution starts inside an open phase
         self.next_cycle: list[list[float]] | None = None   # [start, end, u' - y']
         self.sep_open: list[float] | None = None
@@ -590,7 +660,6 @@ class _Run:
             bad = np.nonzero(np.any(ins < 0, axis=1))[0]
             clean = int(bad[0]) if bad.size else q
             return clean, np.zeros(clean), np.zeros(clean)
-        lt = self.lt[k0:k1]
         fco = model.forcing(r, cam.coeffs[k0:k1], la,
                             None if cam.gas is None else cam.gas[k0:k1])
         props = self._props(r)
@@ -611,8 +680,11 @@ class _Run:
         clean = q
         while pos < q:
             hi = min(q, pos + win)
+            one_group = self.g_run[k0 + pos] == self.g_run[k0 + hi - 1]
+            a, b, c, d = props[invl[k0 + pos]][3]
             for i in range(pos, hi):
-                a, b, c, d = props[invl[k0 + i]][3]
+                if not one_group:
+                    a, b, c, d = props[invl[k0 + i]][3]
                 wy, wv = wl[i]
                 y, v = a * y + b * v + wy, c * y + d * v + wv
                 yl.append(y)
@@ -621,7 +693,7 @@ class _Run:
                 raise SolverError('non-finite state in bulk propagation')
             ys = np.asarray(yl[pos:hi])
             vs = np.asarray(vl[pos:hi])
-            if self.g_run[k0 + pos] == self.g_run[k0 + hi - 1]:
+            if one_group:
                 parts = [(invl[k0 + pos], None)]
             else:
                 gw = inv[pos:hi]
@@ -634,14 +706,14 @@ class _Run:
                 else:
                     idx = pos + sub
                     z0 = np.stack([ys[sub], vs[sub]], axis=1)       # (q, 2)
-                fi = fco[idx]
-                zs = np.einsum('mab,qb->qma', phis, z0) + np.einsum('mab,qb->qma', gams, fi)
-                flags = _flags(model, r, cam.coeffs[k0 + idx], fi, la[idx], lt[idx], z0, zs)
+                flags = _flags(model, r, self.g_len[g], m, z0, cam.coeffs[k0 + idx],
+                               None if cam.gas is None else cam.gas[k0 + idx])
                 bad = np.nonzero(np.any(flags, axis=1))[0]
                 if bad.size and int(idx[bad[0]]) < clean:
                     clean = int(idx[bad[0]])
                     # hand the sub-node states and flags of that step to event_step
-                    self.hint = (k0 + clean, r, zs[bad[0]].copy(), flags[bad[0]].copy())
+                    zs = phis @ z0[bad[0]] + gams @ fco[clean]
+                    self.hint = (k0 + clean, r, zs, flags[bad[0]].copy())
             if clean < q:
                 break
             pos = hi
@@ -651,72 +723,92 @@ class _Run:
     # -- one step with events --------------------------------------------------------
     def event_step(self, k: int, z: tuple[float, float],
                    r: int) -> tuple[tuple[float, float], int]:
-        """Integrate step k from node k to node k+1, handling every switch inside."""
+        """Integrate step k from node k to node k+1, handling every switch inside.
+
+        The step is covered by segments [s0, s0 + w] (fractions of the step), each cut
+        into ``pieces`` sub-intervals on which the local Taylor series locates a switch:
+        from a node of the step's sub-grid in regime r (m_step sub-intervals, the step
+        start or a node reached after a switch) the step's cached propagator gives the
+        sub-node states and the switch flags of the rest of the step; after a switch, a
+        short rest (m <= 4) is chained with Taylor pieces, a longer one is taken with one
+        Taylor piece up to the next sub-grid node, then from there as above."""
         model, cam = self.model, self.cam
         p = model.p
         s0 = 0.0
+        node: int | None = 0          # s0 = node / m_step of regime r's sub-grid
         la_step = float(cam.lengths[k])
         lt_step = float(self.lt[k])
         while True:
-            w = 1.0 - s0
-            if w <= 1e-15:
+            if 1.0 - s0 <= 1e-15:
                 return z, r
-            uco = _shift(cam.coeffs[k], s0, w)
-            lt = lt_step * w
-            la = la_step * w
             if p.hard_seat and r & SEAT:
-                hit = self._held_exit(uco, la)
+                w = 1.0 - s0
+                hit = self._held_exit(_shift(cam.coeffs[k], s0, w), la_step * w)
                 if hit is None:
                     return (0.0, 0.0), r
                 s0 += w * hit
                 r = self._after_held(s0, k)
-                z = (0.0, 0.0)
+                z, node = (0.0, 0.0), None
                 continue
-            m = min(max(2, int(math.ceil(model.rho(r) * lt / _SUB))), 4096)
-            ds = lt / m
-            fco = model.forcing(r, uco, la,
-                                None if cam.gas is None else _shift(cam.gas[k], s0, w))
-            hint = self.hint
-            if m <= 4 and s0 > 0:   # short rest after a switch: chain the Taylor series
-                zs = None
-            elif s0 == 0 and hint is not None and hint[0] == k and hint[1] == r and \
-                    hint[2].shape[0] == m:
-                zs, candidates = hint[2], np.nonzero(hint[3])[0].tolist()
+            m_step = self._props(r)[self.g_invl[k]][0]
+            need = int(math.ceil(model.rho(r) * lt_step * (1.0 - s0) / _SUB))
+            m = min(max(2, need), 4096)
+            zs, used, dense, upto = None, 1, 1, None
+            if node is None and m <= 4:   # short rest: chain the Taylor series over
+                w = 1.0 - s0              # max(1, need) pieces, screened as finely as m
+                pieces = max(1, need)
+                dense = m // pieces
+            elif node is None:            # one Taylor piece up to the next sub-grid node
+                upto = min(m_step, int(s0 * m_step) + 1)
+                w, pieces = upto / m_step - s0, 1
+            else:                         # from a sub-grid node: the step's propagator
+                w, pieces, used = 1.0, m_step, m_step - node
+            uco = _shift(cam.coeffs[k], s0, w)
+            gco = None if cam.gas is None else _shift(cam.gas[k], s0, w)
+            fco = model.forcing(r, uco, la_step * w, gco)
+            if node is None:
+                todo: Any = range(pieces)
+            elif node == 0 and self.hint is not None and self.hint[:2] == (k, r) and \
+                    self.hint[2].shape[0] == m_step:
+                zs, todo = self.hint[2], np.nonzero(self.hint[3])[0].tolist()
             else:
-                phis, gams = model.propagator(r, lt, m)
-                zs = phis @ np.asarray(z) + gams @ fco                 # (m, 2)
-                flags = _flags(model, r, uco[None, :], fco[None, :], np.array([la]),
-                               np.array([lt]), np.asarray(z)[None, :], zs[None])[0]
-                candidates: list[int] = np.nonzero(flags)[0].tolist()
+                phis, gams = model.propagator(r, lt_step, m_step)
+                zs = phis[:used] @ np.asarray(z) + gams[:used] @ fco         # (used, 2)
+                flags = _flags(model, r, lt_step, m_step, np.asarray(z)[None, :],
+                               uco[None, :], None if gco is None else gco[None, :])[0]
+                todo = np.nonzero(flags[:used])[0].tolist()
+            ds = lt_step * w / pieces
             found = None
-            todo = range(m) if zs is None else candidates
             z_start = z
             for j in todo:
                 if zs is not None:
                     z = z_start if j == 0 else (float(zs[j - 1, 0]), float(zs[j - 1, 1]))
-                f_loc = _shift(fco / _FACT, j / m, 1.0 / m)
-                u_loc = _shift(uco, j / m, 1.0 / m)
+                f_loc = _shift(fco / _FACT, j / pieces, 1.0 / pieces)
+                u_loc = _shift(uco, j / pieces, 1.0 / pieces)
                 cy = _taylor(model, r, z, f_loc, ds)
-                hit = self._first_switch(r, cy, u_loc, ds)
+                hit = self._first_switch(r, cy, u_loc, ds, dense)
                 if hit is not None:
                     found = (j, hit[1], hit[2], cy, u_loc)
                     break
                 z = (float(np.sum(cy)), float(cy[1:] @ _ARANGE[1:cy.size]) / ds)
             if found is None:
                 if zs is not None:
-                    z = (float(zs[-1, 0]), float(zs[-1, 1]))
+                    z = (float(zs[used - 1, 0]), float(zs[used - 1, 1]))
                 if not (math.isfinite(z[0]) and math.isfinite(z[1])):
                     raise SolverError('non-finite state')
-                return z, r
+                if upto is None or upto == m_step:
+                    return z, r
+                s0, node = upto / m_step, upto
+                continue
             j, t_out, which, cy, u_loc = found
             ye, ve = _horner2(cy, t_out)
             uu, ud = _horner2(u_loc, t_out)
             ve /= ds
             ud /= ds
-            s_new = s0 + w * (j + t_out) / m
-            alpha = float(cam.nodes[k] + la_step * s_new)
+            s0 = s0 + w * (j + t_out) / pieces
+            node = None
+            alpha = float(cam.nodes[k] + la_step * s0)
             z, r = self.switch(r, which, alpha, (ye, ve), uu, ud)
-            s0 = s_new
             self.ev.count += 1
             if self.ev.count > _MAX_EVENTS:
                 raise SolverError(f'more than {_MAX_EVENTS} regime switches (chatter)')
@@ -754,6 +846,7 @@ class _Run:
         reaches ``BOUNCE_TOL`` (reopenings of 1e-10 m on the penalty seat at crawl
         speed are not reported as bounces)."""
         self.peak = 0.0
+        self.lift_off = alpha
         if self.start_open and self.seated_once:
             self.next_cycle = []    # an open phase of the next cycle may start here
         if not self.opened:
@@ -766,21 +859,39 @@ class _Run:
             if height >= BOUNCE_TOL:
                 self.ev.bounce_count += 1
 
-    def _first_switch(self, r: int, cy: NDArray, u_loc: NDArray,
-                      ds: float) -> tuple[float, float, int] | None:
-        """(t_in, t_out, which) of the first switch on [0, 1]; which: CONTACT|SEAT."""
-        model = self.model
-        p = model.p
+    def _first_switch(self, r: int, cy: NDArray, u_loc: NDArray, ds: float,
+                      dense: int = 1) -> tuple[float, float, int] | None:
+        """(t_in, t_out, which) of the first switch on [0, 1]; which: CONTACT|SEAT.
+
+        cy: Taylor coefficients of y [m] in t = s / ds (``_taylor``); u_loc: monomials
+        of u [m] in t; ds: length of the piece [s]. The switching functions are
+        screened on 32 dense + 1 grid points first (one product for values and
+        t-derivatives of u - y and y); the component polynomials are built only when
+        one dips there."""
+        p = self.model.p
         n = max(cy.size, u_loc.size)
-        yy = np.zeros(n)
-        yy[:cy.size] = cy
-        uu = np.zeros(n)
-        uu[:u_loc.size] = u_loc
-        dd = uu - yy
+        two = np.zeros((2, n))                 # monomials of u - y and of y
+        two[0, :u_loc.size] = u_loc
+        two[0, :cy.size] -= cy
+        two[1, :cy.size] = cy
+        dd, yy = two[0], two[1]
+        grid, vgd = _screen_grid(dense)
+        # rows: u - y, d(u - y)/dt, y, dy/dt (t-derivatives) on the grid -> components
+        scr = _screen_weights(p, ds) @ (two @ vgd[:n]).reshape(4, grid.size)
+        low = np.minimum(scr[0], scr[1])
+        bad = low < 0 if r & CONTACT else low > 0   # leaves (enters) contact
+        if p.hard_seat:
+            bad |= scr[2] < 0
+        else:
+            low = np.minimum(scr[2], scr[3])
+            bad |= low < 0 if r & SEAT else low > 0
+        bad[0] = False
+        if not bad.any():
+            return None
+        sc = 1.0 if r & CONTACT else -1.0
         scale = _ARANGE[1:n] / ds
         ddot = np.zeros(n)
         ddot[:-1] = dd[1:] * scale
-        sc = 1.0 if r & CONTACT else -1.0
         if p.hard_seat:
             rows = np.stack([dd, p.stiffness * dd + p.damping * ddot, yy])
         else:
@@ -788,17 +899,6 @@ class _Run:
             ydot[:-1] = yy[1:] * scale
             rows = np.stack([dd, p.stiffness * dd + p.damping * ddot, -yy,
                              -p.seat_stiffness * yy - p.seat_damping * ydot])
-        vals = rows @ _VG9[:n]                       # (components, grid)
-        ic = sc * np.minimum(vals[0], vals[1])
-        if p.hard_seat:
-            is_ = vals[2]
-        else:
-            is_ = (1.0 if r & SEAT else -1.0) * np.minimum(vals[2], vals[3])
-        bad = (ic < 0) | (is_ < 0)
-        bad[0] = False
-        if not bad.any():
-            return None
-        grid = _GRID9
         rl = rows[:, ::-1].tolist()
         comps = [(sc, rl[:2])]
         if p.hard_seat:
@@ -887,6 +987,7 @@ class _Run:
                 self.ev.recontact_velocities.append(vrel)
 
     def _seat(self, alpha: float, vdown: float) -> None:
+        self.lift_off = None
         if self.next_cycle is not None:
             self.commit_next_cycle(alpha)
         if self.opened and not self.seated_once and self.peak < OPEN_TOL:
@@ -1013,6 +1114,10 @@ def _one_rev(model: _Model, cam: CamInput, z0: tuple[float, float], r0: int,
     ys, vs, rs, z, r = run.revolution(z0, r0)
     if run.next_cycle is not None:       # the next open phase runs past the window end
         run.commit_next_cycle(float(cam.nodes[-1]))
+    if run.start_open and run.ev.opening is None and run.lift_off is not None:
+        # the open phase at the window start is the one running over the window end
+        # (periodic state): its lift-off, one revolution earlier, is the opening (as MDOF)
+        run.ev.opening = run.lift_off - 2.0 * math.pi
     return _Shot(run, ys, vs, rs, z0, r0, z, r)
 
 

@@ -79,6 +79,9 @@ class SweepResult:
     seconds: float                            # wall time of the grid sweep
     step_deg: float = 0.1
     notes: list[str] = field(default_factory=list)
+    #: N, force the train must overcome at the valve's lift-off: preload F0 plus the gas
+    #: force there (nan: the valve never opened)
+    opening_force: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
     @property
     def jump_speed_rpm(self) -> float | None:
@@ -98,6 +101,8 @@ class SweepResult:
             'seating_velocity_m_s': [None if not math.isfinite(v) else v
                                      for v in self.seating_velocity.tolist()],
             'max_valve_lift_m': self.max_lift.tolist(),
+            'opening_force_n': [None if not math.isfinite(v) else v
+                                for v in self.opening_force.tolist()],
             'jump_speed_rpm': self.jump.speed, 'jump_bracket_rpm': self.jump.bracket,
             'jump_checked': self.jump.checked,
             'bounce_onset_rpm': self.bounce.speed,
@@ -128,6 +133,15 @@ def parse_range(text: str, key: str = '--sweep') -> NDArray[np.float64]:
     return lo + st * np.arange(n)
 
 
+def require_speeds(rpms: Sequence[float]) -> NDArray[np.float64]:
+    """The speeds of a sweep [rpm] as an array: one-dimensional, finite, > 0, increasing."""
+    speeds = np.asarray(rpms, dtype=float)
+    if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(
+            speeds <= 0) or np.any(np.diff(speeds) <= 0):
+        raise InputError('cam_speed_rpm', rpms, 'increasing speeds > 0')
+    return speeds
+
+
 def classify(res: SdofResult) -> str:
     """clean | separated | unsettled of one run."""
     if res.left_cam or res.events.separations:
@@ -148,12 +162,13 @@ class _Outcome:
     residual: float
     seating_velocity: float | None
     max_lift: float
+    opening: float | None = None      # rad, the valve's lift-off (None: never opened)
 
 
 def _sdof_outcome(res: SdofResult) -> _Outcome:
     return _Outcome(classify(res), res.events.bounce_count > 0, res.settled, res.left_cam,
                     res.periodic_residual, res.events.seating_velocity,
-                    float(np.nanmax(res.y)))
+                    float(np.nanmax(res.y)), res.events.opening)
 
 
 def _mdof_outcome(res: Any) -> _Outcome:
@@ -168,16 +183,17 @@ def _mdof_outcome(res: Any) -> _Outcome:
         status = CLEAN
     return _Outcome(status, ev['bounce_count'] > 0, bool(ev['settled']),
                     bool(ev['valve_leaves_cam']), float(ev['periodic_residual_m']),
-                    ev['seating_velocity_m_s'], float(np.nanmax(res.y)))
+                    ev['seating_velocity_m_s'], float(np.nanmax(res.y)),
+                    None if ev['opening_deg'] is None else math.radians(ev['opening_deg']))
 
 
 def _run(cam: CamInput, params: SdofParams, rpm: float) -> SdofResult:
     return simulate_cam(cam, params, rpm * math.pi / 30.0)
 
 
-def _bisect(pred: Callable[[float], bool], lo: float, hi: float,
-            tol: float) -> tuple[float, float]:
-    """Refined [lo, hi] (pred(lo) false, pred(hi) true) with hi - lo <= tol."""
+def bisect_speed(pred: Callable[[float], bool], lo: float, hi: float,
+                 tol: float) -> tuple[float, float]:
+    """Refined [lo, hi] [rpm] (pred(lo) false, pred(hi) true) with hi - lo <= tol."""
     while hi - lo > tol:
         mid = 0.5 * (lo + hi)
         if pred(mid):
@@ -229,10 +245,7 @@ def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
     the event speeds (module docstring). ``params``: ``SdofParams`` (the SDOF model) or
     ``MdofParams`` (the exact 4+N1+N2 model, ``simulate_mdof``'s runs); ``gas``: the
     cylinder-gas force of the single runs (SDOF)."""
-    speeds = np.asarray(rpms, dtype=float)
-    if speeds.ndim != 1 or speeds.size == 0 or np.any(~np.isfinite(speeds)) or np.any(
-            speeds <= 0) or np.any(np.diff(speeds) <= 0):
-        raise InputError('cam_speed_rpm', rpms, 'increasing speeds > 0')
+    speeds = require_speeds(rpms)
     require_positive('tol_rpm', tol_rpm)
     step_deg = require_step_deg('step_deg', step_deg)
     run_at, single = runners(law, params, step_deg, key, gas)
@@ -245,6 +258,8 @@ def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
     resid = np.zeros(n)
     vseat = np.full(n, np.nan)
     ymax = np.zeros(n)
+    f_open = np.full(n, np.nan)
+    preload = (params.base if isinstance(params, MdofParams) else params).spring_preload
     for i, rpm in enumerate(speeds):
         res = run_at(float(rpm))
         status.append(res.status)
@@ -255,6 +270,8 @@ def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
         if res.seating_velocity is not None:
             vseat[i] = res.seating_velocity
         ymax[i] = res.max_lift
+        if res.opening is not None:
+            f_open[i] = preload + (float(gas(res.opening)) if gas is not None else 0.0)
     seconds = time.perf_counter() - t0
     sep = np.array([s == SEPARATED for s in status], dtype=bool)
     fails = np.array([s != CLEAN for s in status], dtype=bool)
@@ -277,7 +294,7 @@ def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
             return Bracket(None, [None, float(speeds[0])])
         lo, hi = float(speeds[i - 1]), float(speeds[i])
         if refine:
-            lo, hi = _bisect(lambda r: failing(run_at(r)), lo, hi, tol_rpm)
+            lo, hi = bisect_speed(lambda r: failing(run_at(r)), lo, hi, tol_rpm)
         checked = None
         if check:       # single runs from the law, as `dynamics --rpm` does them
             checked = (not failing(single(lo))) and failing(single(hi))
@@ -292,7 +309,8 @@ def sweep(law: LiftLaw, params: Any, rpms: Sequence[float], *,
     return SweepResult(rpm=speeds, separated=sep, bounced=bounce, settled=settled,
                        left_cam=left, status=status, residual=resid,
                        seating_velocity=vseat, max_lift=ymax, jump=jump, bounce=onset,
-                       seconds=seconds, step_deg=step_deg, notes=notes)
+                       seconds=seconds, step_deg=step_deg, notes=notes,
+                       opening_force=f_open)
 
 
 def seating_window(alpha: NDArray[np.float64], lift: NDArray[np.float64],

@@ -173,20 +173,23 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
     write_output(args.nominal, text, '--nominal')
 
 
-#: median step [deg] above which a table's card is read from its reconstruction spline
-COARSE_TABLE_DEG = 1.0
+#: median step [deg] above which a table's card is read from its reconstruction spline:
+#: the local fits need 3 samples within +-1 deg of each event, which only a step of at
+#: most 2/3 deg guarantees (a 1 deg table has 2 there whenever the event falls mid-step)
+COARSE_TABLE_DEG = 0.5
 
 
 def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
                ) -> dict[str, Any]:
     """The card of a lift table [rad, m]. A table coarser than ``COARSE_TABLE_DEG``
-    (a gauge's 2-5 deg steps) has too few points around the nose and the events for
+    (a gauge's 1-5 deg steps) has too few points around the nose and the events for
     local fits: its card is that of the reconstruction spline (the same smoothing the
     dynamics use), with ``source`` and ``note`` saying so."""
     import numpy as np
 
     from cam_design.cam_card import card_from_law, card_from_table
     from cam_design.errors import InputError
+    from cam_metrology.reconstruction.samples import base_circle_warning, other_lobes_warning
     from cam_metrology.reconstruction.table_law import spline_law
 
     a = np.asarray(alpha, dtype=float)
@@ -202,7 +205,7 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
         card = card_from_table(a, h, heights, key='--heights-mm', source='table')
     else:
         try:
-            law, note = spline_law(a, h, name)
+            law, note = spline_law(a, h, name, allow_steps=True)
         except InputError as exc:
             raise InputError(name, f'a table every {step:.3g} deg',
                              'a table the reconstruction spline can follow (a coarse table '
@@ -210,6 +213,9 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
         card = card_from_law(law, heights, key='--heights-mm')
         card['source'] = 'table (reconstruction spline)'
         card['note'] = note
+    said = [w for w in (base_circle_warning(a, h), other_lobes_warning(a, h)) if w]
+    if said:
+        card['warning'] = '; '.join(said)
     return _shifted(card, math.degrees(shift))
 
 

@@ -67,13 +67,11 @@ def load_yaml(path: str) -> Any:
 
     text = read_text_file(path, 'YAML file', key=path)
     try:
-        from cam_metrology.yaml_input import load_yaml
+        from cam_metrology.yaml_input import load_yaml, syntax_error_text
         return load_yaml(text, path)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, 'problem_mark', None)
-        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
-        what = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
-        raise InputError(path, 'invalid YAML', f'a YAML document ({what}{where})') from None
+        raise InputError(path, 'invalid YAML',
+                         f'a YAML document ({syntax_error_text(exc, text)})') from None
 
 
 def write_text(target: str, text: str, key: str = 'output') -> None:
@@ -310,12 +308,13 @@ def check_config_from_scene(scene: dict[str, Any], law_key: str) -> dict[str, An
 
 def cmd_rocker(args: argparse.Namespace) -> int:
     """Rocker synthesis."""
-    from cam_design.errors import InputError, require_positive
+    from cam_design.errors import InputError, require_length, require_positive
+    from cam_design.lift_laws.params import MAX_RADIUS_M
     from cam_design.rocker import sampled_deviation, synthesize
 
     psi = math.radians(require_positive('--max-swing-deg', args.max_swing_deg))
-    arm = require_positive('--arm-length', args.arm_length)
-    base = require_positive('--base-radius', args.base_radius)
+    arm = require_length('--arm-length', args.arm_length, MAX_RADIUS_M)
+    base = require_length('--base-radius', args.base_radius, MAX_RADIUS_M, what='a radius')
     ecc = (None if args.eccentricity is None
            else require_positive('--eccentricity', args.eccentricity, allow_zero=True))
     try:

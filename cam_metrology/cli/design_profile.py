@@ -115,20 +115,22 @@ def _scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
 
 
 def _base_radius(args: argparse.Namespace, doc: Any) -> float:
-    from cam_design.errors import InputError, require_positive
+    from cam_design.errors import InputError, require_length
+    from cam_design.lift_laws.params import MAX_RADIUS_M
 
     if args.base_radius is not None:
-        return require_positive('--base-radius', args.base_radius)
+        return require_length('--base-radius', args.base_radius, MAX_RADIUS_M, what='a radius')
     if isinstance(doc, dict) and 'base_radius' in doc:
-        return require_positive('base_radius', doc['base_radius'])
+        return require_length('base_radius', doc['base_radius'], MAX_RADIUS_M, what='a radius')
     raise InputError('--base-radius', None, 'a base-circle radius [m] (or base_radius: in '
                      'the file)')
 
 
 def _follower_radius(args: argparse.Namespace) -> float:
-    from cam_design.errors import InputError, require_positive
+    from cam_design.errors import InputError, require_length
+    from cam_design.lift_laws.params import MAX_RADIUS_M
 
-    r = require_positive('--radius', args.radius, allow_zero=True)
+    r = require_length('--radius', args.radius, MAX_RADIUS_M, allow_zero=True, what='a radius')
     if args.follower == 'knife' and r != 0:
         raise InputError('--radius', r, '0 for a knife follower (or --follower roller)')
     if args.follower == 'roller' and r == 0:
@@ -138,12 +140,14 @@ def _follower_radius(args: argparse.Namespace) -> float:
 
 def _design_law(args: argparse.Namespace, law: Any, base: float, radius: float) -> Any:
     """Convert the file's lift to the profile's follower when --design-follower differs."""
-    from cam_design.errors import InputError, require_positive
+    from cam_design.errors import InputError, require_length
     from cam_design.follower import Follower, convert_lift
+    from cam_design.lift_laws.params import MAX_RADIUS_M
 
     if args.design_follower is None:
         return law
-    dr = require_positive('--design-radius', args.design_radius, allow_zero=True)
+    dr = require_length('--design-radius', args.design_radius, MAX_RADIUS_M, allow_zero=True,
+                        what='a radius')
     if (args.design_follower == 'roller') != (dr > 0):
         raise InputError('--design-radius', dr, 'a radius > 0 for --design-follower roller '
                          'and none (0) for flat or knife')

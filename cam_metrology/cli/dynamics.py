@@ -18,7 +18,11 @@ table's: the jump speed's uncertainty from its noise; null otherwise)}}, "skippe
 ``cam_speed_rpm``, the arrays on the ``--step-deg`` grid, the events, ``settled``,
 ``left_cam``, ``periodic_residual_m`` and ``note`` when the reader must know something
 (no periodic state, the valve leaves the cam, no seating). ``sweep``: every speed a full
-periodic run at ``--step-deg``; ``status`` per speed clean | separated | unsettled.
+periodic run at ``--step-deg``; ``status`` per speed clean | separated | unsettled;
+``no_open_speed_rpm`` / ``no_open_bracket_rpm``: null for a cam-driven train (with
+``no_open_note``), for the hydraulic gear the speed above which it no longer opens the
+valve fully (``cam_design.hydraulic.speed_limit``; its ``sweep`` has the per-speed lift,
+pressure, relief spill and cavitation).
 Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
 """
 from __future__ import annotations
@@ -55,9 +59,10 @@ def register(subparsers: Any) -> None:
                    help="camshaft speed [rpm]; repeat for several (default: the scene's "
                         'valve_train.cam_speed_rpm)')
     p.add_argument('--sweep', metavar='LO:HI:STEP',
-                   help='also sweep these speeds [rpm] (SDOF or MDOF, full periodic runs at '
-                        '--step-deg) and report jump_speed_rpm and bounce_onset_rpm with '
-                        'their brackets')
+                   help='also sweep these speeds [rpm] (SDOF or MDOF: full periodic runs at '
+                        '--step-deg, jump_speed_rpm and bounce_onset_rpm with their '
+                        'brackets; hydraulic: one lobe pass per speed, no_open_speed_rpm, '
+                        'the speed above which the gear cannot open the valve fully)')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
                    help='step of the output grid [deg], 0.01 to 5 (default 0.1)')
     p.add_argument('--cam-width', type=float, default=0.012, metavar='M',
@@ -241,7 +246,9 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
         failed = {k: v for k, v in core.failures.items() if k.startswith(feature + '/')}
         if failed:
             entry['failures'] = failed
-        if sweep_speeds is not None:
+        if sweep_speeds is not None and _model(scene.valve_train, args) == 'hydraulic':
+            entry.update(_hydraulic_sweep(law, scene.valve_train, sweep_speeds))
+        elif sweep_speeds is not None:
             from cam_design.valve_train.sweep import sweep
 
             from cam_design.errors import InputError
@@ -269,11 +276,43 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
             entry['jump_text'] = res.jump.text(float(sweep_speeds[0]), float(sweep_speeds[-1]))
             entry['bounce_text'] = res.bounce.text(float(sweep_speeds[0]),
                                                    float(sweep_speeds[-1]))
+            entry.update(no_open_speed_rpm=None, no_open_bracket_rpm=None,
+                         no_open_note=MECHANICAL_NO_OPEN)
         else:       # the documented keys are always there: null without --sweep
             entry.update(jump_speed_rpm=None, jump_bracket_rpm=None, bounce_onset_rpm=None,
-                         bounce_bracket_rpm=None, sweep=None, jump_speed_uncertainty_rpm=None)
+                         bounce_bracket_rpm=None, sweep=None, jump_speed_uncertainty_rpm=None,
+                         no_open_speed_rpm=None, no_open_bracket_rpm=None)
         out['features'][feature] = entry
     return _json_safe(out)
+
+
+#: why a cam-driven train has no no-open speed (JSON ``no_open_note``)
+MECHANICAL_NO_OPEN = ('the cam drives the valve open at every speed (model sdof or mdof): '
+                      'no speed limit against the spring and the gas force; the force the '
+                      'train must overcome at the opening is sweep.opening_force_n')
+
+
+def _model(vt: Any, args: argparse.Namespace) -> str:
+    """The model a run or sweep uses: ``--model`` or the scene's (default sdof)."""
+    return args.model or getattr(vt, 'model', None) or 'sdof'
+
+
+def _hydraulic_sweep(law: Any, vt: Any, speeds: Any) -> dict[str, Any]:
+    """The feature's sweep fields for the hydraulic gear: the per-speed table and the
+    no-open speed (``cam_design.hydraulic.speed_limit``); the mechanical trains' jump
+    and bounce speeds are null (the gear has no cam contact to lose)."""
+    from cam_design.hydraulic.run import hydraulic_from_valve_train
+    from cam_design.hydraulic.speed_limit import hydraulic_sweep
+    from cam_metrology.dynamics.core import gas_of
+
+    res = hydraulic_sweep(law, hydraulic_from_valve_train(vt), speeds, gas=gas_of(vt, law))
+    lo, hi = float(speeds[0]), float(speeds[-1])
+    return {'no_open_speed_rpm': res.no_open.speed,
+            'no_open_bracket_rpm': res.no_open.bracket,
+            'no_open_text': res.no_open.text(lo, hi),
+            'jump_speed_rpm': None, 'jump_bracket_rpm': None, 'bounce_onset_rpm': None,
+            'bounce_bracket_rpm': None, 'jump_speed_uncertainty_rpm': None,
+            'sweep': {'model': 'hydraulic', **res.as_dict()}}
 
 
 def _sweep_params(vt: Any, args: argparse.Namespace) -> Any:
@@ -282,7 +321,7 @@ def _sweep_params(vt: Any, args: argparse.Namespace) -> Any:
     from cam_design.errors import InputError
     from cam_design.valve_train.params import SdofParams
 
-    model = args.model or getattr(vt, 'model', None) or 'sdof'
+    model = _model(vt, args)
     base = SdofParams.from_valve_train(vt)
     if model == 'mdof':
         from cam_design.valve_train.mdof import mdof_from_mapping
@@ -322,7 +361,10 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
                     print(f"  note: {r['note']}")
             for name, why in entry.get('failures', {}).items():
                 print(f'{name}: FAILED: {why}')
-            if entry.get('sweep') is not None:
+            if entry.get('sweep') is not None and entry['sweep'].get('model') == 'hydraulic':
+                for line in hydraulic_sweep_lines(feature, entry):
+                    print(line)
+            elif entry.get('sweep') is not None:
                 sw = entry['sweep']
                 unc = entry.get('jump_speed_uncertainty_rpm')
                 pm = f' +- {unc:.0f} rpm from the table' if unc is not None else ''
@@ -333,8 +375,39 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
                     print(f"  note: {entry['jump_uncertainty_note']}")
                 for text in sw.get('notes', []):
                     print(f'  note: {text}')
+                forces = [f for f in sw.get('opening_force_n', []) if f is not None]
+                span = (f' ({min(forces):.1f} to {max(forces):.1f} N over the sweep)'
+                        if forces else '')
+                print(f"{feature}: no-open speed none: {entry['no_open_note']}{span}")
         for s in result['skipped']:
             print(f"skipped {s['what']}: {s['why']}")
+
+
+def hydraulic_sweep_lines(feature: str, entry: dict[str, Any]) -> list[str]:
+    """Human lines of a hydraulic sweep: one per speed (peak valve lift and its share of
+    the rigid-oil lift, peak pump pressure, relief spill, cavitation, closed), then the
+    no-open speed and the sweep's notes."""
+    sw = entry['sweep']
+    lines = []
+    for i, rpm in enumerate(sw['sweep_rpm']):
+        spill = sw['relief_spill_before_peak'][i]
+        lines.append(
+            f"{feature} sweep {rpm:g} rpm (hydraulic): valve lift "
+            f"{sw['max_valve_lift_m'][i] * 1e3:.3f} mm = "
+            f"{_q(sw['valve_lift_ratio'][i], '.4f', 'x')} rigid oil, peak pump pressure "
+            f"{sw['peak_pump_pressure_pa'][i] * 1e-5:.1f} bar, relief "
+            + (f"spilled ({spill * 100:.3g} % of the displacement before the peak lift)"
+               if sw['relief_spilled'][i] else 'closed')
+            + f", cavitation {'yes' if sw['cavitation'][i] else 'no'}"
+            + ('' if sw['settled'][i] else ', NOT CLOSED at the end of the pass'))
+    tol = f"{sw['spill_tol'] * 100:g} %"
+    lines.append(f"{feature}: no-open speed {entry['no_open_text']} (the relief spilled more "
+                 f"than {tol} of the plunger displacement before the peak lift and the lift "
+                 f"fell more than {tol} short of rigid oil; "
+                 f"{len(sw['sweep_rpm'])} speeds, {sw['runs']} passes, "
+                 f"{sw['sweep_cpu_seconds']:.1f} s CPU)")
+    lines.extend(f'  note: {text}' for text in sw['notes'])
+    return lines
 
 
 def _q(value: Any, fmt: str, unit: str, scale: float = 1.0) -> str:

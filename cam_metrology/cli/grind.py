@@ -401,15 +401,20 @@ def _measured(path_text: str, key: str = '--measured',
     if looks_like_bag(path_text):
         return _measured_bag(path_text, lobe, key)
 
-    lines = [ln for ln in read_text_file(path_text, 'CSV file', key=key).splitlines()
-             if ln.strip()]
+    numbered = [(n, ln) for n, ln in enumerate(
+        read_text_file(path_text, 'CSV file', key=key).splitlines(), start=1) if ln.strip()]
+    lines = [ln for _, ln in numbered]
     if len(lines) < 2:
         raise InputError(key, path_text, 'a CSV with a header row and data rows')
     head = [h.strip() for h in lines[0].split(',')]
-    try:
-        rows = np.array([[float(v) for v in ln.split(',')] for ln in lines[1:]])
-    except ValueError:
-        raise InputError(key, path_text, 'numbers in every data row') from None
+    values = []
+    for number, ln in numbered[1:]:
+        try:
+            values.append([float(v) for v in ln.split(',')])
+        except ValueError:
+            raise InputError(f'{key} {path_text}:{number}', ln.strip(),
+                             f'numbers separated by commas ({",".join(head)})') from None
+    rows = np.array(values)
     if rows.ndim != 2 or rows.shape[1] != len(head):
         raise InputError(key, path_text, f'{len(head)} values in every row')
     col = {h: rows[:, i] for i, h in enumerate(head)}

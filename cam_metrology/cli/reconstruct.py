@@ -219,6 +219,10 @@ def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, A
         from cam_metrology.reconstruction.samples import centre_on_nose
         table, _ = centre_on_nose(table)
     kind, radius = table.follower or ('flat', 0.0)
+    if args.radius is not None:   # 12.5 meant as mm is a 12.5 m roller: refuse it
+        from cam_design.errors import require_length
+        from cam_design.lift_laws.params import MAX_RADIUS_M
+        require_length('--radius', args.radius, MAX_RADIUS_M, allow_zero=True, what='a radius')
     if args.follower:
         kind = args.follower
         radius = args.radius if args.radius is not None else (

@@ -52,12 +52,19 @@ def load_rows(path: str) -> list[dict[str, Any]]:
     try:
         if p.suffix == '.csv':
             import pyarrow.csv as pacsv
-            return pacsv.read_csv(p).to_pylist()
-        import pyarrow.parquet as pq
-        return pq.read_table(p).to_pylist()
+            table = pacsv.read_csv(p)
+        else:
+            import pyarrow.parquet as pq
+            table = pq.read_table(p)
     except Exception as exc:  # noqa: BLE001 -- any reader error: one line
         raise InputError('table', path, f'a results table of cam-bench batch ({exc})') \
             from None
+    missing = [c for c in ('bag', 'feature', 'status') if c not in table.column_names]
+    if missing:
+        raise InputError('table', path, 'a results table of cam-bench batch (columns bag, '
+                         'feature, status and the report fields); this one has columns '
+                         + ', '.join(table.column_names[:6]) + ' and no ' + ', '.join(missing))
+    return table.to_pylist()
 
 
 def _tolerances(items: list[str]) -> dict[str, tuple[float | None, float | None]]:

@@ -316,7 +316,8 @@ def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
     if getattr(vt, 'model', 'sdof') == 'hydraulic':
         from cam_design.hydraulic.run import hydraulic_from_valve_train, run_hydraulic
 
-        return run_hydraulic(law, hydraulic_from_valve_train(vt), rpm, geom)
+        return run_hydraulic(law, hydraulic_from_valve_train(vt), rpm, geom,
+                             gas=gas_of(vt, law))
     params = SdofParams.from_valve_train(vt)
     from cam_design.valve_train.physics import train_checks_from
     tc = train_checks_from(getattr(vt, 'spring', None), getattr(vt, 'piston', None))

@@ -19,6 +19,10 @@ from cam_metrology.metrology import block_lsq
 
 #: gap between the lobe (design lift > 0) and the base-circle samples used [rad]
 BASE_MARGIN = float(np.radians(2.0))
+#: a sample this close to the margin's edge [rad] counts as outside the gap: on an
+#: encoder grid a sample often lies exactly BASE_MARGIN from the lobe's first sample, and
+#: which side its last bit falls on differs between CPUs (it moved the base fit by 8 nm)
+EDGE_EPS = 1e-9
 UM = 1e6
 
 
@@ -53,7 +57,8 @@ def base_model(table: Any, harmonic: bool,
     lobe = np.flatnonzero(d > 0)
     if lobe.size:
         lo, hi = a[lobe[0]], a[lobe[-1]]
-        base = ((a < lo - BASE_MARGIN) | (a > hi + BASE_MARGIN)) & ~bad
+        gap = BASE_MARGIN - EDGE_EPS
+        base = ((a < lo - gap) | (a > hi + gap)) & ~bad
     else:
         base = ~bad
     del lobe

@@ -441,8 +441,10 @@ def _choose_section(x: NDArray[np.float64], y: NDArray[np.float64], phi: float,
         upper = np.triu(upper)
         z = solve_triangular(upper, rhs, trans='T', check_finite=False)
     except LinAlgError:
-        _, upper = np.linalg.qr(a_mat)
-        z = upper.T @ np.linalg.solve(upper @ upper.T, upper @ rhs)
+        # a (numerically) singular Gram matrix, e.g. at the Nyquist order: the same nested
+        # projections z = Q^T y from a QR of the basis itself
+        q_mat, _ = np.linalg.qr(a_mat)
+        z = q_mat.T @ y
     per = 2 if asym else 1
     sizes = 1 + per * np.arange(search + 1)            # parameters at order n
     explained = np.cumsum(z ** 2)[sizes - 1]

@@ -23,7 +23,8 @@ from cam_design.errors import InputError
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
 from cam_metrology.reconstruction.result import Reconstruction, per_second
 from cam_metrology.reconstruction.samples import (LiftTable, clean_samples, find_steps,
-                                                  nose_warning, step_warnings)
+                                                  base_circle_warning, nose_warning,
+                                                  other_lobes_warning, step_warnings)
 from cam_metrology.reconstruction.spline import (SplineOptions, rebound_fairing,
                                                  reconstruct_spline)
 
@@ -198,6 +199,9 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     off_centre = nose_warning(data) if design is None else None
     if off_centre:
         table_warnings.append(off_centre)
+    table_warnings += [w for w in (base_circle_warning(data.alpha, data.lift),
+                                   None if design is not None else   # the design says
+                                   other_lobes_warning(data.alpha, data.lift)) if w]
     table_notes = []
     if steps and np.any(fairing.outlier):
         # the rebound of a step rings over its neighbours: they are not outliers

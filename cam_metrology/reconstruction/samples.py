@@ -8,7 +8,8 @@ Three inputs end up as one ``LiftTable`` (alpha [rad] from the lobe centreline, 
   ``design_lift_<unit>``);
 * a nominal-profile file in the common gauge layout: line 1 the probe radius, line 2
   the number of angle steps, then one row per step ``angle lift [marker]`` (fields
-  separated by blanks, commas, semicolons or tabs). Gauges write degrees and
+  separated by blanks, commas, semicolons or tabs; decimal commas are read where they
+  cannot be separators: ``12,5``, ``0,5;8,0000``). Gauges write degrees and
   millimetres: those are the defaults, overridable (``angle_unit``, ``length_unit``);
 * a /metrology/lift table (Float64MultiArray with columns
   ``alpha_rad,lift_m,design_lift_m``).
@@ -119,7 +120,12 @@ def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         count, a_u, h_u = np.zeros(0, dtype=np.int64), a, h
     merged = int(a.size - a_u.size)
     if merged:
-        notes.append(f'merged {merged} sample(s) at repeated angles into their mean')
+        spread = (np.maximum.reduceat(h, np.flatnonzero(new))
+                  - np.minimum.reduceat(h, np.flatnonzero(new)))
+        worst = int(np.argmax(spread))
+        notes.append(f'merged {merged} sample(s) at repeated angles into their mean (largest '
+                     f'spread {spread[worst] * 1e3:.4g} mm at '
+                     f'{math.degrees(float(a_u[worst])):.3f} deg)')
     if a_u.size < min_points:
         raise InputError(f'{key}.alpha', f'{a_u.size} distinct finite angles',
                          f'at least {min_points}')
@@ -197,51 +203,87 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
     a crank angle, divided by 2 for the cam); lift: ``lift_mm|lift_um|lift_m|lift_in``
     (also ``h_mm``, as ``cam-bench design law --csv`` writes); optional
     ``design_lift_<unit>``. Units may also be written ``lift [mm]`` or ``Lift (mm)``.
-    Separators: comma, semicolon (then a decimal comma is accepted) or tab. Other
-    columns are ignored. Empty lines and ``#`` comments are skipped; a malformed line
+    Separators: comma, semicolon or tab (with either of the last two a decimal comma is
+    accepted), or the one a spreadsheet's first line ``sep=;`` names. Other columns are
+    ignored (not read: they may hold text or nothing); the units may stand on the line
+    under the names (``Angle;Lift`` then ``[deg];[mm]``); an empty cell in a used column
+    is a missing reading (NaN, counted). Trailing empty fields are ignored, as are a
+    UTF-8 byte-order mark and a repetition of the header line (files exported in parts;
+    counted in the notes). Empty lines and ``#`` comments are skipped; a malformed line
     raises InputError naming ``FILE:LINE``.
     """
     p = Path(path)
     lines = _read_text(p).splitlines()
     header: list[str] | None = None
-    sep = ','
-    rows: list[list[float]] = []
+    cols: list[_Column] = []
+    sep, sep_given = ',', False
+    used: list[int] = []
+    values: list[float] = []   # the used columns of every row, flat (a 1e6-row file)
+    rows = repeats = empty = 0
+    skip = units_line = 0
     for number, raw in enumerate(lines, start=1):
         line = raw.split('#', 1)[0].strip()
         if not line:
             continue
         if header is None:
-            sep = ';' if ';' in line else ('\t' if '\t' in line else ',')
-            header = [f.strip() for f in line.split(sep)]
+            if _EXCEL_SEP.match(line):   # a spreadsheet's "sep=;" line names the separator
+                sep, sep_given = line[4], True
+                continue
+            if not sep_given:
+                sep = ';' if ';' in line else ('\t' if '\t' in line else ',')
+            header = _trim([f.strip() for f in line.split(sep)])
+            units = _unit_row(lines, number, sep)
+            if units is not None:   # names on one line, units on the next (alpha / deg)
+                header = [f'{n}_{u}' if u and n and not _split_header(n)[1] else n for n, u in
+                          zip(header, units + [''] * (len(header) - len(units)))]
+                skip = units_line = _next_content(lines, number)
+            cols = _classify(header, f'{p.name}:header')
+            _one_each(cols, header, p.name)
+            used = [c.index for c in cols]
             continue
-        fields = [f.strip() for f in line.split(sep)]
-        if len(fields) != len(header):
+        if number == skip:
+            continue
+        parts = [f.strip() for f in line.split(sep)]
+        fields = _trim(parts)
+        if [f.strip('"\'').lower() for f in fields] == \
+                [f.strip('"\'').lower() for f in header]:
+            repeats += 1     # files exported in parts repeat the header
+            continue
+        if not (max(used) < len(parts) and len(fields) <= len(header)):
             raise InputError(f'{p.name}:{number}', raw.strip(),
                              f'{len(header)} values separated by {sep!r} '
                              f'({",".join(header)})')
-        try:
-            rows.append([float(f.replace(',', '.') if sep == ';' else f) for f in fields])
+        empty += sum(1 for i in used if not parts[i])
+        try:   # only the columns used are read; a decimal comma unless commas separate;
+            # an empty cell is a missing reading (NaN: the row is dropped and counted)
+            values.extend(float((parts[i].replace(',', '.') if sep != ',' else parts[i])
+                                or 'nan') for i in used)
         except ValueError:
-            raise InputError(f'{p.name}:{number}', raw.strip(), 'numbers') from None
+            raise InputError(f'{p.name}:{number}', raw.strip(),
+                             'numbers in the columns ' + ', '.join(header[i] for i in used)
+                             + (' (a decimal point or comma)' if sep != ',' else
+                                ' (a decimal point)')) from None
+        rows += 1
     if header is None:
         raise InputError(p.name, 'an empty file', 'a header alpha_rad,lift_m and rows')
     if not rows:
         raise InputError(p.name, '0 data rows', f'rows of numbers under the header '
                          f'{",".join(header)}')
-    cols = _classify(header, f'{p.name}:header')
     angles = [c for c in cols if c.role in ('cam', 'crank')]
     lifts = [c for c in cols if c.role == 'lift']
     designs = [c for c in cols if c.role == 'design']
-    if len(angles) != 1 or len(lifts) != 1 or len(designs) > 1:
-        raise InputError(f'{p.name}:header', ','.join(header),
-                         'one angle column (alpha_deg, alpha_rad or crank_deg) and one '
-                         'lift column (lift_mm, lift_um, lift_m, lift_in or h_mm)')
-    data = np.asarray(rows, dtype=float).reshape(-1, len(header))
+    data = np.asarray(values, dtype=float).reshape(-1, len(used))
     ang, lift_col = angles[0], lifts[0]
-    raw_alpha = data[:, ang.index]
-    raw_lift = data[:, lift_col.index]
+    raw_alpha = data[:, used.index(ang.index)]
+    raw_lift = data[:, used.index(lift_col.index)]
     notes = [f'columns: angle {ang.header!r} in {ang.unit}, lift {lift_col.header!r} in '
              f'{lift_col.unit}']
+    if repeats:
+        notes.append(f'skipped {repeats} repeated header line(s)')
+    if units_line:
+        notes.append(f'units read from line {units_line} under the column names')
+    if empty:
+        notes.append(f'{empty} empty cell(s) read as missing readings (rows dropped)')
     alpha = raw_alpha * ang.scale
     if ang.role == 'crank':
         alpha = alpha / CRANK_PER_CAM
@@ -256,8 +298,51 @@ def read_csv_table(path: str | Path, *, feature: str | None = None) -> LiftTable
     lift = raw_lift * lift_col.scale
     design = None
     if designs:
-        design = data[:, designs[0].index] * designs[0].scale
+        design = data[:, used.index(designs[0].index)] * designs[0].scale
     return LiftTable(feature or p.stem, alpha, lift, design, None, str(p), tuple(notes))
+
+
+_EXCEL_SEP = re.compile(r'^sep=[,;\t]$', re.IGNORECASE)
+
+
+def _one_each(cols: list[_Column], header: list[str], name: str) -> None:
+    """InputError unless the header has one angle, one lift and at most one design column."""
+    roles = [c.role for c in cols]
+    if roles.count('cam') + roles.count('crank') != 1 or roles.count('lift') != 1 or \
+            roles.count('design') > 1:
+        raise InputError(f'{name}:header', ','.join(header),
+                         'one angle column (alpha_deg, alpha_rad or crank_deg) and one '
+                         'lift column (lift_mm, lift_um, lift_m, lift_in or h_mm)')
+
+
+def _next_content(lines: list[str], number: int) -> int:
+    """The 1-based number of the first non-empty, non-comment line after ``number``
+    (0 if none)."""
+    for n in range(number, len(lines)):
+        if lines[n].split('#', 1)[0].strip():
+            return n + 1
+    return 0
+
+
+def _unit_row(lines: list[str], number: int, sep: str) -> list[str] | None:
+    """The units of a line under the header holding only unit words (``deg,mm``,
+    ``[deg];[mm]``; empty cells allowed), or None when that line is not one."""
+    nxt = _next_content(lines, number)
+    if not nxt:
+        return None
+    cells = _trim([f.strip().strip('"\'').strip('[]()').strip().lower()
+                   for f in lines[nxt - 1].split('#', 1)[0].strip().split(sep)])
+    known = set(ANGLE_SPELLING) | set(LENGTH_SPELLING)
+    if not any(cells) or any(c and c not in known for c in cells):
+        return None
+    return cells
+
+
+def _trim(fields: list[str]) -> list[str]:
+    """``fields`` without the empty ones at the end (a spreadsheet's trailing separators)."""
+    while fields and not fields[-1]:
+        fields = fields[:-1]
+    return fields
 
 
 def _renamed(header: str, unit: str, role: str | None = None) -> str:
@@ -389,7 +474,7 @@ def read_gauge_file(path: str | Path, *, angle_unit: str = 'deg', length_unit: s
     alpha = np.empty(len(body))
     lift = np.empty(len(body))
     for i, (number, line) in enumerate(body):
-        fields = [f for f in _SPLIT.split(line) if f]
+        fields = _gauge_fields(line)
         if len(fields) not in (2, 3):
             raise InputError(f'{p.name}:{number}', line, 'angle, lift[, marker]')
         try:
@@ -409,8 +494,21 @@ def read_gauge_file(path: str | Path, *, angle_unit: str = 'deg', length_unit: s
     return LiftTable(feature or p.stem, alpha, lift, None, follower, str(p), (note,))
 
 
+def _gauge_fields(line: str) -> list[str]:
+    """The fields of a gauge-file line. Commas separate fields, except in a line without
+    a decimal point whose fields are already separated by blanks, semicolons or tabs:
+    there they are decimal commas (European gauges: ``12,5`` or ``0,5;8,0000``)."""
+    if ',' in line and '.' not in line:
+        parts = [f for f in re.split(r'[\s;]+', line) if f]
+        if len(parts) > 1 and not any(f.startswith(',') or f.endswith(',') for f in parts):
+            return [f.replace(',', '.') for f in parts]
+    return [f for f in _SPLIT.split(line) if f]
+
+
 def _gauge_number(name: str, number: int, line: str, expected: str) -> float:
-    fields = [f for f in _SPLIT.split(line) if f]
+    fields = _gauge_fields(line)
+    if len(fields) == 2 and '.' not in line and re.fullmatch(r'[+-]?\d+,\d+', line):
+        fields = [line.replace(',', '.')]    # one number with a decimal comma: 12,5
     try:
         if len(fields) != 1:
             raise ValueError
@@ -471,17 +569,15 @@ def read_table_file(path: str | Path, *, angle_unit: str = 'deg',
         raise FileNotFoundError(f'no such table file: {p}')
     first, number = '', 0
     for number, raw in enumerate(_read_text(p).splitlines(), start=1):
-        if raw.strip() and not raw.strip().startswith('#'):
+        if raw.strip() and not raw.strip().startswith('#') and \
+                not _EXCEL_SEP.match(raw.strip()):
             first = raw.strip()
             break
     if _names_an_angle(first):
         return read_csv_table(p)
-    fields = [f for f in _SPLIT.split(first) if f]
     try:
-        if len(fields) != 1:
-            raise ValueError
-        float(fields[0])
-    except ValueError:
+        _gauge_number(p.name, number, first, 'one number')
+    except InputError:
         shown = first if len(first) <= 80 else first[:77] + '...'
         raise InputError(f'{p.name}:{number}' if first else p.name,
                          shown if first else 'an empty file', TABLE_FORMATS) from None
@@ -576,6 +672,82 @@ def step_warnings(steps: list[tuple[int, float, float, float, float]]) -> list[s
     if len(steps) > 5:
         out.append(f'{len(steps) - 5} more step(s) in the table')
     return out
+
+
+#: a base circle this far from 0 [m] (and 0.25 % of the lift range) is not the zero
+BASE_OFFSET_M = 10e-6
+
+
+def base_circle_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
+    """A warning when the table's base circle is not at lift 0 (a probe zeroed elsewhere,
+    lifts from another datum): the median of the rows within 2 % of the lift range above
+    the lowest, when they cover at least 60 deg, off 0 by more than ``BASE_OFFSET_M``
+    and 0.25 % of the range. Lifts, max lift and checking heights are then from the
+    table's zero, not from the base circle; the warning gives the max lift above it."""
+    a = np.asarray(alpha, dtype=float)
+    h = np.asarray(lift, dtype=float)
+    ok = np.isfinite(a) & np.isfinite(h)
+    a, h = a[ok], h[ok]
+    if a.size < 8:
+        return None
+    rng = float(np.ptp(h))
+    low = h <= float(np.min(h)) + 0.02 * rng
+    step = float(np.median(np.diff(np.sort(a)))) if a.size > 1 else 0.0
+    if not rng > 0 or np.count_nonzero(low) * step < math.radians(60.0):
+        return None
+    level = float(np.median(h[low]))
+    if abs(level) <= max(BASE_OFFSET_M, 0.0025 * rng):
+        return None
+    return (f'the base circle is at {level * 1e3:+.4f} mm, not 0 (median of the '
+            f'{int(np.count_nonzero(low))} rows at the bottom of the table): the lifts are '
+            'not measured from the base circle (probe zeroed elsewhere?); max lift above '
+            f'the base circle {(float(np.max(h)) - level) * 1e3:.4f} mm; lifts and checking '
+            'heights here are from the table\'s zero: subtract the offset to use the base '
+            'circle')
+
+
+def other_lobes_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
+    """A warning when a table holds more than one lobe: runs of lift above 10 % of the
+    largest, around the turn, separated by base circle (below 2 %). Names the angle [deg]
+    and height of each further lobe's top (a dual-peak lobe, whose valley stays above
+    the base circle, is one lobe)."""
+    a = np.asarray(alpha, dtype=float)
+    h = np.asarray(lift, dtype=float)
+    ok = np.isfinite(a) & np.isfinite(h)
+    order = np.argsort(wrap_pi(a[ok]))
+    a, h = wrap_pi(a[ok])[order], h[ok][order]
+    if a.size < 8 or not float(np.max(h)) > 0:
+        return None
+    top = float(np.max(h))
+    base = h <= 0.02 * top
+    if not np.any(base):
+        return None
+    start = int(np.flatnonzero(base)[0])    # walk the turn from a base-circle row
+    a, h, base = np.roll(a, -start), np.roll(h, -start), np.roll(base, -start)
+    lobes: list[int] = []
+    first, best = -1, -1      # the run off the base circle: its first row, its top row
+
+    def close(end: int) -> None:   # a lobe: 3 rows or more (not a spike), above 10 %
+        if first >= 0 and end - first >= 3 and h[best] > 0.1 * top:
+            lobes.append(best)
+    for k in range(a.size):
+        if base[k]:
+            close(k)
+            first = best = -1
+        elif first < 0:
+            first = best = k
+        elif h[k] > h[best]:
+            best = k
+    close(a.size)
+    if len(lobes) < 2:
+        return None
+    main = max(lobes, key=lambda k: h[k])
+    others = ', '.join(f'{math.degrees(float(a[k])):.1f} deg ({h[k] * 1e3:.4g} mm)'
+                       for k in lobes if k != main)
+    return (f'the table holds {len(lobes)} lobes (or a lobe with a secondary lift off the '
+            'base circle, e.g. for EGR): the numbers are of the highest (top at '
+            f'{math.degrees(float(a[main])):.1f} deg); the others top at {others}: give '
+            'each lobe its own table (or cut the table) to read them')
 
 
 def nose_warning(data: CleanSamples) -> str | None:

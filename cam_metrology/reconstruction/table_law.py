@@ -20,15 +20,20 @@ GRID_DEG = 0.1
 
 
 def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
-               key: str) -> tuple[JetTableLift, str]:
-    """(law, note) of a lift table [rad, m] smoothed by the reconstruction spline."""
+               key: str, *, allow_steps: bool = False) -> tuple[JetTableLift, str]:
+    """(law, note) of a lift table [rad, m] smoothed by the reconstruction spline. A
+    table with a lift step (a ramp cut off) is refused unless ``allow_steps`` (the cam
+    card: its heights away from the step are still right); the note then says where."""
     from cam_metrology.reconstruction.profile import reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_metrology.reconstruction.samples import LiftTable, clean_samples
     from cam_metrology.reconstruction.spline import SplineOptions, quantisation_step
 
     a = np.asarray(alpha, dtype=float)
     alpha_in = a.copy()
     v = np.asarray(h, dtype=float)
+    # what the cleaning did to the rows (non-finite dropped, repeats merged): said in the
+    # note and in a refusal, since a merged repeat with two different lifts is a bad row
+    said = '; '.join(clean_samples(a, v, key=key).notes)
     turn = seam_turn(a, v)
     if turn:   # the lobe crosses +-180 deg: fit it with its lowest point at the seam
         a = np.mod(a - turn + math.pi, 2.0 * math.pi) - math.pi
@@ -41,7 +46,7 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
                          f'a lift table the reconstruction spline can fit ({out.error})')
     limit = max(5.0 * (q or 0.0) / math.sqrt(12.0), 1e-3 * float(np.max(v)))
     steps = [w for w in (rec.warnings or []) if w.startswith('lift jumps')]
-    if steps:   # a velocity step or a cut-off ramp: the dynamics would see an impulse
+    if steps and not allow_steps:   # a velocity step or a cut-off ramp: an impulse
         raise InputError(key, f'{a.size} points',
                          'a table without steps (' + steps[0].split(':')[0] + '; a '
                          'velocity step is an impact the dynamics cannot take from a '
@@ -50,8 +55,9 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
         raise InputError(key, f'{a.size} points',
                          'a table fine enough to define the lobe: neither its quintic '
                          'interpolant nor the reconstruction spline follows it (rms '
-                         f'residual {rec.rms_residual:.3g} m > {limit:.3g} m); tabulate '
-                         'more points')
+                         f'residual {rec.rms_residual:.3g} m > {limit:.3g} m'
+                         + (f'; {said}' if said else '') + '); tabulate more points'
+                         + (' or mend the repeated rows' if 'merged' in said else ''))
     step = float(np.median(np.diff(np.sort(a))))
     lo, hi = float(rec.alpha[0]), float(rec.alpha[-1])
     if turn:   # whole turn: keep clear of the spline's free ends, bridge the seam below
@@ -86,6 +92,9 @@ def spline_law(alpha: NDArray[np.float64], h: NDArray[np.float64],
     note = (f'table of {a.size} points every {math.degrees(step):.3g} deg smoothed by the '
             f'reconstruction spline ({rec.why}; rms residual {rec.rms_residual:.3g} m'
             + (f', lifts quantised to {q * 1e3:g} mm' if q else '') + ')'
+            + (f'; rows: {said}' if said else '')
+            + (f'; {steps[0].split(":")[0]}: lifts and events near it are the spline\'s '
+               'bridge over the step, not the cam' if steps else '')
             + (f'; the lobe crosses +-180 deg: fitted on the turn from its lowest point '
                f'({math.degrees(float(wrap_pi(turn + math.pi))):.1f} deg), bridged there by the '
                'Hermite interpolant of the jets 2 steps either side' if turn else ''))

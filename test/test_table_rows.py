@@ -1,0 +1,49 @@
+"""What cleaning a measured table did to its rows is said, never silent: a non-finite
+row dropped, repeated angles merged (with the largest spread between the repeats, so a
+bad duplicate row is found by its angle), in the dynamics' note and in its refusal."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cam_design.errors import InputError
+from cam_metrology.reconstruction.samples import clean_samples
+from cam_metrology.reconstruction.table_law import spline_law
+
+D = math.pi / 180.0
+
+
+def _lobe(deg: np.ndarray) -> np.ndarray:
+    """A 140 deg cos^2 lobe of 8 mm rounded to 0.01 mm [m]."""
+    x = np.clip(deg * D * 180.0 / 140.0, -math.pi / 2, math.pi / 2)
+    return np.round(8.0 * np.cos(x) ** 2 * 100.0) / 1e5
+
+
+def test_merged_repeats_report_their_largest_spread() -> None:
+    a = np.array([0.0, 1.0, 1.0, 2.0, 3.0, 3.0, 4.0, 5.0, 6.0, 7.0]) * D
+    h = np.array([0.0, 1.0, 1.5, 2.0, 3.0, 3.1, 4.0, 5.0, 6.0, 7.0]) * 1e-3
+    out = clean_samples(a, h)
+    assert out.merged_repeats == 2
+    assert out.lift[1] == pytest.approx(1.25e-3, rel=1e-12)
+    assert 'largest spread 0.5 mm at 1.000 deg' in out.notes[-1]
+
+
+def test_dynamics_table_says_what_was_dropped() -> None:
+    deg = np.arange(-175.0, 180.0, 5.0)
+    h = _lobe(deg)
+    h[deg == 10.0] = np.nan
+    _law, note = spline_law(deg * D, h, 'lobe.csv')
+    assert 'rows: dropped 1 non-finite sample(s)' in note
+
+
+def test_a_conflicting_repeat_is_named_in_the_refusal() -> None:
+    deg = np.arange(-175.0, 180.0, 5.0)
+    h = _lobe(deg)
+    a = np.append(deg, -85.0) * D
+    v = np.append(h, 3e-3)   # the lobe is 0 there: a row pasted from elsewhere
+    with pytest.raises(InputError) as err:
+        spline_law(a, v, 'lobe.csv')
+    text = str(err.value)
+    assert 'largest spread 3 mm at -85.000 deg' in text and 'mend the repeated rows' in text
