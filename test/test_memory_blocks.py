@@ -192,3 +192,24 @@ def test_sensitive_point_on_the_samples_near_its_windows_equals_all_samples(
     assert [c.samples for pair in got.crossings for c in pair] == \
         [c.samples for pair in whole.crossings for c in pair]
     assert abs(got.d - d_true) < 5 * got.d_std
+
+
+def test_local_deviation_in_place_equals_the_copy() -> None:
+    """``overwrite=True`` (a table's residual column used for the result) gives the same
+    numbers as the copying path, and reuses the array; an unsorted input is never
+    overwritten."""
+    from cam_metrology.metrology.lift_error import local_deviation
+
+    rng = np.random.default_rng(3)
+    x = np.sort(rng.uniform(-3, 3, 5000))
+    r = rng.normal(0, 1e-6, 5000)
+    want = local_deviation(x, r)
+    work = r.copy()
+    got = local_deviation(x, work, overwrite=True)
+    assert got is work
+    np.testing.assert_allclose(got, want, rtol=0, atol=0)
+    shuffled = rng.permutation(5000)
+    rs = r[shuffled].copy()
+    keep = rs.copy()
+    local_deviation(x[shuffled], rs, overwrite=True)
+    np.testing.assert_array_equal(rs, keep)

@@ -26,12 +26,14 @@ EDGE_EPS = 1e-9
 UM = 1e6
 
 
-def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[np.float64]:
+def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64], *,
+                    overwrite: bool = False) -> NDArray[np.float64]:
     """Residuals [m] minus their running median (9 samples in angle order): the noise
     part of the residuals; isolated spikes stand out, a smooth real form error (or a
-    biased first fit) does not."""
+    biased first fit) does not. ``overwrite``: ``r`` (float64, in angle order) may be
+    used for the result (one column less in memory for a table of millions of rows)."""
     if x.size < 2 or bool(np.all(x[1:] >= x[:-1])):   # in angle order already (tables)
-        dev = np.array(r, dtype=float)
+        dev = r if overwrite and r.dtype == np.float64 else np.array(r, dtype=float)
         dev -= median_filter(dev, size=9, mode='nearest')
         return dev
     order = np.argsort(x, kind='stable')
@@ -48,7 +50,7 @@ def base_model(table: Any, harmonic: bool,
     giving the level [m] to subtract from the measured lift (None when fewer than 10
     base-circle samples: nothing is subtracted), and the mask of samples kept."""
     a, m, d = (np.asarray(table[:, k], dtype=float) for k in range(3))
-    dev = local_deviation(a, m - d)
+    dev = local_deviation(a, m - d, overwrite=True)
     np.abs(dev, out=dev)
     bad = dev > 5.0 * max(1.4826 * float(np.median(dev)), 1e-7)
     del dev

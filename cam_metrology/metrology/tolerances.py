@@ -150,17 +150,19 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
                 if v is not None:
                     missing.append(_not(n, 'no lift table or design for this feature'))
         else:
-            _table_checks(tol, table[good], design, checks, missing)
+            # the two columns the checks read (not a copy of the whole table: memory)
+            _table_checks(tol, table[good, 0], table[good, 1], design, checks, missing)
     return _verdict(checks, missing)
 
 
-def _table_checks(tol: Tolerances, table: Any, design: Callable[..., Any],
+def _table_checks(tol: Tolerances, alpha: Any, lift: Any, design: Callable[..., Any],
                   checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> None:
+    """Max lift, duration and centreline checks of the measured ``lift`` [m] against
+    ``alpha`` [rad] (the good samples of the table, in angle order)."""
     from cam_design.cam_card import (law_events, law_peak, table_events, table_events_std,
                                      table_peak, table_peak_std)
     from cam_design.errors import InputError
 
-    alpha, lift = table[:, 0], table[:, 1]
     if tol.max_lift_um is not None:
         try:
             at, measured = table_peak(alpha, lift, design)
