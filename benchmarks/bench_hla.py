@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 import cam_design.hydraulic.hla_coupled as hc
-from benchmarks.machine import describe, save_results
+from benchmarks.machine import report
 from cam_design.hydraulic.lash_adjuster import LashAdjuster
 from cam_design.lift_laws.registry import from_spec
 from cam_design.valve_train.mdof import mdof_from_mapping
@@ -58,11 +58,7 @@ def run() -> list[str]:
 
 def main() -> None:
     """Run and write the results table."""
-    lines = ['# Valve trains with the coupled HLA', '', describe(), '',
-             __doc__.split('\n\n')[1], ''] + run()
-    text = '\n'.join(lines) + '\n'
-    print(text)
-    save_results(RESULT, text)
+    report('Valve trains with the coupled HLA', __doc__, run(), RESULT)
 
 
 if __name__ == '__main__':

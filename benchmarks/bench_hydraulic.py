@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.hydraulic_reference import solve_mol
-from benchmarks.machine import describe, save_results
+from benchmarks.machine import report
 from cam_design.hydraulic.actuation import simulate_hydraulic
 from cam_design.hydraulic.run import hydraulic_params
 from cam_design.lift_laws import from_spec
@@ -150,11 +150,7 @@ def run() -> list[str]:
 
 def main() -> None:
     """Run and write the results table."""
-    lines = ['# Hydraulic valve gear benchmark', '', describe(), '',
-             __doc__.split('\n\n')[1], ''] + run()
-    text = '\n'.join(lines) + '\n'
-    print(text)
-    save_results(RESULT, text)
+    report('Hydraulic valve gear benchmark', __doc__, run(), RESULT)
 
 
 if __name__ == '__main__':

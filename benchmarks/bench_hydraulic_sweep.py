@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.machine import describe, save_results
+from benchmarks.machine import report
 from cam_design.hydraulic.gas import gas_force, on_cam_angle
 from cam_design.hydraulic.run import hydraulic_params, run_hydraulic
 from cam_design.hydraulic.speed_limit import hydraulic_sweep
@@ -72,11 +72,7 @@ def run() -> list[str]:
 
 def main() -> None:
     """Run and write the results table."""
-    lines = ['# Hydraulic sweep: no-open speed and cost', '', describe(), '',
-             __doc__.split('\n\n')[1], ''] + run()
-    text = '\n'.join(lines) + '\n'
-    print(text)
-    save_results(RESULT, text)
+    report('Hydraulic sweep: no-open speed and cost', __doc__, run(), RESULT)
 
 
 if __name__ == '__main__':

@@ -25,6 +25,15 @@ def describe() -> str:
             f'load average {load:.2f} at start')
 
 
+def report(title: str, doc: str | None, rows: list[str], path: Path) -> None:
+    """Print and save a results table: ``# title``, the machine line, the second
+    paragraph of the benchmark's docstring ``doc`` (what was run), then ``rows``."""
+    text = '\n'.join([f'# {title}', '', describe(), '', (doc or '').split('\n\n')[1], '']
+                     + rows) + '\n'
+    print(text)
+    save_results(path, text)
+
+
 def save_results(path: Path, text: str) -> None:
     """Write a benchmark's Markdown results to ``path`` (UTF-8; folders created)."""
     path.parent.mkdir(parents=True, exist_ok=True)
