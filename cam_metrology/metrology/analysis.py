@@ -247,18 +247,22 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
     fit = fit_shift(x, s, law, theta=theta, d0=d0, c0=c0, used=cand)
     k = settings.outlier_sigma
     for _ in range(3 if k > 0 else 0):
-        r = _residuals(x, s, law, fit, theta, cand)
-        dev = local_deviation(_used(x, cand), r)
+        # the residuals' column becomes their local deviation (one column in memory)
+        dev = local_deviation(_used(x, cand), _residuals(x, s, law, fit, theta, cand),
+                              overwrite=True)
         np.abs(dev, out=dev)
         scale = max(1.4826 * float(np.median(dev)), OUTLIER_SCALE_FLOOR)
         keep = cand.copy()
         keep[cand] = dev <= k * scale
-        if np.count_nonzero(~keep[cand]) > OUTLIER_MAX_FRACTION * r.size:
+        if np.count_nonzero(~keep[cand]) > OUTLIER_MAX_FRACTION * dev.size:
             keep = fit.used   # not isolated spikes: systematic, keep everything
+        dev = None   # type: ignore[assignment]  # freed before the next fit
         if np.array_equal(keep, fit.used):
             break
-        fit = fit_shift(x, s, law, theta=theta, d0=fit.d, c0=fit.c, used=keep)
-    r = dev = keep = None   # type: ignore[assignment]  # freed before the next fit
+        d, c = fit.d, fit.c
+        fit = None   # type: ignore[assignment]  # its residuals freed before the next fit
+        fit = fit_shift(x, s, law, theta=theta, d0=d, c0=c, used=keep)
+    keep = None   # type: ignore[assignment]
     fit, noise = _angle_noise_weighting(x, s, law, fit, theta)
     return fit, cand & ~fit.used, noise
 
@@ -295,13 +299,16 @@ def _angle_noise_weighting(x: NDArray[np.float64], s: NDArray[np.float64], law: 
     deviations of the residuals (``local_deviation``). When the angle term is
     significant (> 3 standard errors and > 20 % of the variance at the steepest
     point), refit by weighted least squares with weights 1/(sigma_s^2 + h'^2
-    sigma_theta^2), so the estimate stays efficient and its std honest."""
+    sigma_theta^2), so the estimate stays efficient and its std honest. The fit's
+    residuals are consumed (their column holds the local deviations: memory); the fit
+    returned carries none."""
     used = fit.used
     xu = _used(x, used)
     gp2 = law(xu - fit.d, 1)
     gp2 **= 2
     # the noise part of the residuals only: a real form error must not pass for noise
-    r2 = local_deviation(xu, fit.residuals)
+    r2 = local_deviation(xu, fit.residuals, overwrite=True)
+    fit = replace(fit, residuals=np.empty(0))
     del xu
     r2 **= 2
     r2 /= MEDIAN9_VARIANCE
@@ -323,9 +330,13 @@ def _angle_noise_weighting(x: NDArray[np.float64], s: NDArray[np.float64], law: 
     if a <= 0 or b <= 3 * b_se or b * float(np.max(gp2)) <= 0.2 * a:
         return fit, noise
     weights = np.ones(x.size)
-    weights[used] = 1.0 / (a + b * gp2)
-    return fit_shift(x, s, law, theta=theta, d0=fit.d, c0=fit.c, used=used,
-                     weights=weights), noise
+    gp2 *= b   # 1 / (a + b h'^2), in place: no column of it alive during the refit
+    gp2 += a
+    weights[used] = np.reciprocal(gp2, out=gp2)
+    del gp2
+    refit = fit_shift(x, s, law, theta=theta, d0=fit.d, c0=fit.c, used=used,
+                      weights=weights)
+    return replace(refit, residuals=np.empty(0)), noise
 
 
 def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settings,
@@ -350,7 +361,6 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                       theta=fs.theta if runout else None)
     good = ~outliers
     _check_fit(fit, settings, 'nose')
-    fit = replace(fit, residuals=fit.residuals[:0])   # not used further (memory)
     harmonic = fit.runout[0] * np.cos(fs.theta) + fit.runout[1] * np.sin(fs.theta)
     ref = base_reference(fs.theta, fs.s, base & good, runout, fit.c + harmonic)
     ref -= fs.s
@@ -393,7 +403,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         table[k:k + step, 0] = alpha[idx]
         wave = fit.runout[0] * np.cos(th) + fit.runout[1] * np.sin(th)
         table[k:k + step, 1] = fs.s[idx] - fit.c - wave
-    del alpha
+    del alpha, idx, th, wave   # idx is a view: it would keep the whole sort order alive
     table[:, 2] = law(table[:, 0], 0)
     good = good[order]
     del order

@@ -30,8 +30,8 @@ def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64], *,
                     overwrite: bool = False) -> NDArray[np.float64]:
     """Residuals [m] minus their running median (9 samples in angle order): the noise
     part of the residuals; isolated spikes stand out, a smooth real form error (or a
-    biased first fit) does not. ``overwrite``: ``r`` (float64, in angle order) may be
-    used for the result (one column less in memory for a table of millions of rows)."""
+    biased first fit) does not. ``overwrite``: ``r`` (float64) may be used for the
+    result (one column less in memory for a feature of millions of samples)."""
     if x.size < 2 or bool(np.all(x[1:] >= x[:-1])):   # in angle order already (tables)
         dev = r if overwrite and r.dtype == np.float64 else np.array(r, dtype=float)
         dev -= median_filter(dev, size=9, mode='nearest')
@@ -39,7 +39,7 @@ def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64], *,
     order = np.argsort(x, kind='stable')
     ordered = r[order]
     ordered -= median_filter(ordered, size=9, mode='nearest')
-    dev = np.empty_like(r)
+    dev = r if overwrite and r.dtype == np.float64 else np.empty_like(r, dtype=float)
     dev[order] = ordered
     return dev
 
