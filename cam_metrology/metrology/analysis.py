@@ -361,8 +361,8 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                       theta=fs.theta if runout else None)
     good = ~outliers
     _check_fit(fit, settings, 'nose')
-    harmonic = fit.runout[0] * np.cos(fs.theta) + fit.runout[1] * np.sin(fs.theta)
-    ref = base_reference(fs.theta, fs.s, base & good, runout, fit.c + harmonic)
+    harmonic = _first_harmonic(fs.theta, 0.0, *fit.runout)
+    ref = base_reference(fs.theta, fs.s, base & good, runout, (fit.c, harmonic))
     ref -= fs.s
     ref *= -1.0   # s - ref, in place
     try:
@@ -482,17 +482,32 @@ def covers_circle(theta: NDArray[np.float64], need: int = 30) -> bool:
 
 def base_reference(theta: NDArray[np.float64], s: NDArray[np.float64],
                    base: NDArray[np.bool_], runout: bool,
-                   fallback: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Base-circle level [m] under every sample, from the base-circle samples alone:
-    their median, or with ``runout`` (and base samples in >= 18 of 36 sectors) the
-    fitted circle c + a cos(theta) + b sin(theta); ``fallback`` (the LSQ level) when
-    there are fewer than 10 base-circle samples."""
+                   fallback: tuple[float, NDArray[np.float64]]) -> NDArray[np.float64]:
+    """Base-circle level [m] under every sample (a new array), from the base-circle
+    samples alone: their median, or with ``runout`` (and base samples in >= 18 of 36
+    sectors) the fitted circle c + a cos(theta) + b sin(theta); the LSQ level
+    ``fallback`` = (c, run-out column), c + run-out, when there are fewer than 10
+    base-circle samples."""
     if np.count_nonzero(base) < 10:
-        return np.asarray(fallback, dtype=float)
+        return fallback[0] + np.asarray(fallback[1], dtype=float)
     if runout and covers_circle(theta[base], need=18):
         coef = block_lsq.harmonic_lstsq(theta, s, base)
-        return coef[0] + coef[1] * np.cos(theta) + coef[2] * np.sin(theta)
+        return _first_harmonic(theta, float(coef[0]), float(coef[1]), float(coef[2]))
     return np.full(theta.size, float(np.median(s[base])))
+
+
+def _first_harmonic(theta: NDArray[np.float64], c: float, a: float,
+                    b: float) -> NDArray[np.float64]:
+    """c + a cos(theta) + b sin(theta) [m], built in place (two columns at most alive,
+    not the four temporaries of the expression: memory for millions of samples)."""
+    out = np.cos(theta)
+    out *= a
+    part = np.sin(theta)
+    part *= b
+    out += part
+    del part
+    out += c
+    return out
 
 
 def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]) -> float | None:
@@ -507,7 +522,8 @@ def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64], lo: fl
                hi: float, direction: int, settings: Settings) -> dict[str, Any]:
     """Top point by the symmetry axis of the measured lift (frame: LSQ nose = 0)."""
     sel = (alpha > lo) & (alpha < hi)
-    a, h = alpha[sel], measured[sel]
+    a, h = (alpha, measured) if sel.all() else (alpha[sel], measured[sel])
+    del sel
     try:
         spline = lift_spline(a, h, knot_spacing=settings.asymmetry_knot_deg * DEG)
         tp = top_point(spline, float(a.min()), float(a.max()))
