@@ -304,11 +304,11 @@ def _angle_noise_weighting(x: NDArray[np.float64], s: NDArray[np.float64], law: 
     returned carries none."""
     used = fit.used
     xu = _used(x, used)
-    gp2 = law(xu - fit.d, 1)
-    gp2 **= 2
     # the noise part of the residuals only: a real form error must not pass for noise
     r2 = local_deviation(xu, fit.residuals, overwrite=True)
     fit = replace(fit, residuals=np.empty(0))
+    gp2 = law(xu - fit.d, 1)   # after the deviations: one column less alive at once
+    gp2 **= 2
     del xu
     r2 **= 2
     r2 /= MEDIAN9_VARIANCE

@@ -267,14 +267,11 @@ class HermiteLift:
         right = np.column_stack([vals[0][1:], s * vals[1][1:], s * s * vals[2][1:]])
         coef = np.hstack([left, right]) @ _HERMITE   # (n, 6) monomial coefficients
         self.n = n
-        # per derivative order: columns of the differentiated polynomial, scaled
-        self._cols = []
-        for nu in range(4):
-            cols = []
-            for k in range(nu, 6):
-                fall = float(np.prod(np.arange(k - nu + 1, k + 1)))
-                cols.append(np.ascontiguousarray(coef[:, k] * fall / s ** nu))
-            self._cols.append(cols)
+        # the six monomial columns once; a derivative scales them as it evaluates
+        # (k!/(k - nu)!/step^nu), instead of keeping 18 scaled columns (memory)
+        self._coef = [np.ascontiguousarray(coef[:, k]) for k in range(6)]
+        self._scale = [[float(np.prod(np.arange(k - nu + 1, k + 1))) / s ** nu
+                        for k in range(nu, 6)] for nu in range(4)]
 
     def __call__(self, alpha: NDArray[np.float64] | float, nu: int = 0) -> NDArray[np.float64]:
         a = np.asarray(alpha, dtype=float)
@@ -292,9 +289,10 @@ class HermiteLift:
         inside = (u >= 0) & (u <= self.n)
         idx = np.clip(u.astype(np.int64), 0, self.n - 1)
         t = u - idx
-        cols = self._cols[nu]
-        out = cols[-1][idx]
-        for col in cols[-2::-1]:   # Horner on the nu-th derivative
-            out = out * t + col[idx]
+        cols, scale = self._coef[nu:], self._scale[nu]
+        out = cols[-1][idx] * scale[-1]
+        for col, f in zip(cols[-2::-1], scale[-2::-1]):   # Horner on the nu-th derivative
+            out *= t
+            out += col[idx] * f
         out[~inside] = 0.0
         return out

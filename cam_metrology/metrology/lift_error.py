@@ -38,8 +38,10 @@ def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64], *,
         return dev
     order = np.argsort(x, kind='stable')
     ordered = r[order]
-    ordered -= median_filter(ordered, size=9, mode='nearest')
     dev = r if overwrite and r.dtype == np.float64 else np.empty_like(r, dtype=float)
+    # the running median goes into dev's memory first (r is read only through ordered)
+    median_filter(ordered, size=9, mode='nearest', output=dev)
+    ordered -= dev
     dev[order] = ordered
     return dev
 
