@@ -115,10 +115,17 @@ def law_events(law: Callable[..., Any], height: float, key: str = 'height'
 
 # ---------------------------------------------------------------------- tables
 def _sorted(alpha: Any, lift: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The finite rows of a table [rad, m] in angle order (the arrays themselves when
+    they already are: a measured table of millions of rows is not copied)."""
     a = np.asarray(alpha, dtype=float).reshape(-1)
     h = np.asarray(lift, dtype=float).reshape(-1)
-    keep = np.isfinite(a) & np.isfinite(h)
-    a, h = a[keep], h[keep]
+    keep = np.isfinite(a)
+    keep &= np.isfinite(h)
+    if not keep.all():
+        a, h = a[keep], h[keep]
+    del keep
+    if a.size > 1 and bool(np.all(a[1:] >= a[:-1])):
+        return a, h
     order = np.argsort(a, kind='stable')
     return a[order], h[order]
 

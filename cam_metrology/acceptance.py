@@ -67,13 +67,15 @@ def measured_cards(scene: Any, features: dict[str, Any], tables: dict[str, Any],
             continue
         from cam_metrology.metrology.lift_error import feature_referenced
         table, good = feature_referenced(table, features[fid])
-        table = table[good]
+        # the two columns the card reads, contiguous (not a copy of the whole table)
+        alpha, lift = table[good, 0], table[good, 1]
+        del table, good
         if referenced is not None:
-            referenced[fid] = (table[:, 0], table[:, 1],
+            referenced[fid] = (alpha, lift,
                                scene.probe.radius if scene.probe.kind == 'roller' else 0.0)
         try:
             out[fid] = {
-                'measured': card_from_table(table[:, 0], table[:, 1], heights, design,
+                'measured': card_from_table(alpha, lift, heights, design,
                                             rocker_ratio=rocker, key='--heights-mm'),
                 'nominal': card_from_law(design, heights, rocker_ratio=rocker,
                                          key='--heights-mm', derivatives=exact_seen(

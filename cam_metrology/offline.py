@@ -108,11 +108,12 @@ def bag_warnings(bag: str) -> list[str]:
 
 
 def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
-                             params: str | None, heights: tuple[float, ...]
-                             ) -> dict[str, Any]:
+                             params: str | None, heights: tuple[float, ...], *,
+                             plot_tables: bool = True) -> dict[str, Any]:
     """Add ``features.<id>.cam_card`` {measured, nominal} and ``provenance`` to the
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
-    lobes referenced to the base circle as the verdict uses them."""
+    lobes referenced to the base circle as the verdict uses them ({} without
+    ``plot_tables``: no referenced copies made, for a caller that draws nothing)."""
     from cam_metrology.acceptance import both_crank_timings, measured_cards
     from cam_metrology.metrology.lift_error import feature_referenced
     from cam_metrology.metrology.spill import release, spill
@@ -131,6 +132,9 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
             report['crank'] = crank
         for fid, card in cards.items():
             report['features'][fid]['cam_card'] = card
+        if not plot_tables:
+            tables = {}
+            lobes = {}
         for fid, table in lobes.items():   # one table at a time in memory
             ref, good = feature_referenced(table, report['features'].get(fid, {}))
             release(table)
@@ -158,11 +162,13 @@ class Analysis:
 
 def analyze_bag(bag: str, params: str | None = None, *, only_metrology: bool = False,
                 keep_all: bool = False, heights: tuple[float, ...] | None = None,
-                out_bag: str | None = None) -> Analysis:
+                out_bag: str | None = None, plot_tables: bool = True) -> Analysis:
     """The analysis of ``cam-bench analyze BAG``: checks of the bag, the replay through
     the cores, the final report with the other cores' skips, warnings, cam cards and
     provenance. ``out_bag``: the bag of ``--out-bag``, written during the replay
-    (``replay``). Raises InputError for a bad bag or parameter file (the CLI's exit 2)."""
+    (``replay``). ``plot_tables``: keep the lift tables of the HTML plots
+    (``Analysis.tables``; {} otherwise). Raises InputError for a bad bag or parameter
+    file (the CLI's exit 2)."""
     from cam_design.cam_card import DEFAULT_HEIGHTS_M
     from cam_design.errors import InputError
     from cam_metrology.heap import bounded_heap
@@ -188,7 +194,8 @@ def analyze_bag(bag: str, params: str | None = None, *, only_metrology: bool = F
     if warnings:
         report['warnings'] = report.get('warnings', []) + warnings
     tables = add_cards_and_provenance(report, metrology, bag, params,
-                                      DEFAULT_HEIGHTS_M if heights is None else heights)
+                                      DEFAULT_HEIGHTS_M if heights is None else heights,
+                                      plot_tables=plot_tables)
     return Analysis(report, outputs, result, metrology, tables, warnings)
 
 
@@ -205,7 +212,7 @@ def analyze_report(bag: str, params: str | None = None, *,
         raise CliError(str(InputError('bag', str(bag), 'an existing rosbag2 directory')))
     try:
         run = analyze_bag(str(bag), None if params is None else str(params),
-                          only_metrology=only_metrology)
+                          only_metrology=only_metrology, plot_tables=False)
     except (InputError, CliError) as exc:
         raise CliError(str(exc)) from None
     return json.loads(json.dumps(run.report))

@@ -215,3 +215,21 @@ def test_local_deviation_in_place_equals_the_copy() -> None:
     assert got is rs
     np.testing.assert_allclose(got, want, rtol=0, atol=0)
     assert not np.array_equal(want, r[shuffled])   # the deviations, not the input
+
+
+def test_analysis_without_plot_tables_gives_the_same_report() -> None:
+    """``analyze`` without ``--report`` makes no referenced copies of the lift tables
+    (``plot_tables=False``: memory for features of millions of samples): the report is
+    the same as with them, number for number, and no tables are kept."""
+    import json
+    from pathlib import Path
+
+    from cam_metrology.offline import analyze_bag
+
+    bag = str(Path(__file__).resolve().parent.parent / 'bags' / 'irregular')
+    with_tables = analyze_bag(bag, plot_tables=True)
+    without = analyze_bag(bag, plot_tables=False)
+    assert with_tables.tables and without.tables == {}
+    a, b = (json.dumps({k: v for k, v in r.report.items() if k != 'provenance'},
+                       sort_keys=True) for r in (with_tables, without))
+    assert a == b

@@ -60,10 +60,11 @@ def run(args: argparse.Namespace) -> int:
         from cam_metrology.files import atomic_dir
         with atomic_dir(args.out_bag, '--out-bag') as tmp:
             run_ = analyze_bag(args.bag, args.params, only_metrology=args.only_metrology,
-                               heights=heights_from(args), out_bag=str(tmp))
+                               heights=heights_from(args), out_bag=str(tmp),
+                               plot_tables=bool(args.report))
     else:
         run_ = analyze_bag(args.bag, args.params, only_metrology=args.only_metrology,
-                           heights=heights_from(args))
+                           heights=heights_from(args), plot_tables=bool(args.report))
     report, outputs, metrology, tables = (run_.report, run_.outputs, run_.metrology,
                                           run_.tables)
     for line in run_.warnings:

@@ -151,7 +151,9 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
                     missing.append(_not(n, 'no lift table or design for this feature'))
         else:
             # the two columns the checks read (not a copy of the whole table: memory)
-            _table_checks(tol, table[good, 0], table[good, 1], design, checks, missing)
+            alpha, lift = table[good, 0], table[good, 1]
+            del table, good
+            _table_checks(tol, alpha, lift, design, checks, missing)
     return _verdict(checks, missing)
 
 
