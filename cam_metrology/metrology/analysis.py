@@ -285,7 +285,7 @@ def _residuals(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift, fit: A
         rb = sb - fit.c - law(xb - fit.d, 0)
         if theta is not None:
             tb = theta[k:k + step][m]
-            rb = rb - fit.runout[0] * np.cos(tb) - fit.runout[1] * np.sin(tb)
+            rb -= block_lsq.first_harmonic(tb, 0.0, *fit.runout)
         out[pos:pos + rb.size] = rb
         pos += rb.size
     return out
@@ -361,7 +361,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                       theta=fs.theta if runout else None)
     good = ~outliers
     _check_fit(fit, settings, 'nose')
-    harmonic = _first_harmonic(fs.theta, 0.0, *fit.runout)
+    harmonic = block_lsq.first_harmonic(fs.theta, 0.0, *fit.runout)
     ref = base_reference(fs.theta, fs.s, base & good, runout, (fit.c, harmonic))
     ref -= fs.s
     ref *= -1.0   # s - ref, in place
@@ -401,7 +401,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         idx = order[k:k + step]
         th = fs.theta[idx]
         table[k:k + step, 0] = alpha[idx]
-        wave = fit.runout[0] * np.cos(th) + fit.runout[1] * np.sin(th)
+        wave = block_lsq.first_harmonic(th, 0.0, *fit.runout)
         table[k:k + step, 1] = fs.s[idx] - fit.c - wave
     del alpha, idx, th, wave   # idx is a view: it would keep the whole sort order alive
     table[:, 2] = law(table[:, 0], 0)
@@ -492,22 +492,8 @@ def base_reference(theta: NDArray[np.float64], s: NDArray[np.float64],
         return fallback[0] + np.asarray(fallback[1], dtype=float)
     if runout and covers_circle(theta[base], need=18):
         coef = block_lsq.harmonic_lstsq(theta, s, base)
-        return _first_harmonic(theta, float(coef[0]), float(coef[1]), float(coef[2]))
+        return block_lsq.first_harmonic(theta, float(coef[0]), float(coef[1]), float(coef[2]))
     return np.full(theta.size, float(np.median(s[base])))
-
-
-def _first_harmonic(theta: NDArray[np.float64], c: float, a: float,
-                    b: float) -> NDArray[np.float64]:
-    """c + a cos(theta) + b sin(theta) [m], built in place (two columns at most alive,
-    not the four temporaries of the expression: memory for millions of samples)."""
-    out = np.cos(theta)
-    out *= a
-    part = np.sin(theta)
-    part *= b
-    out += part
-    del part
-    out += c
-    return out
 
 
 def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]) -> float | None:
@@ -672,7 +658,7 @@ def analyze_keyway(fs: FeatureSamples, geo: KeywayGeometry, direction: int,
             break
     assert fit is not None
     _check_fit(fit, settings, 'keyway centre')
-    harmonic = fit.runout[0] * np.cos(fs.theta) + fit.runout[1] * np.sin(fs.theta)
+    harmonic = block_lsq.first_harmonic(fs.theta, 0.0, *fit.runout)
     values: dict[str, Any] = {'kind': 'keyway',
                               'angle_deg': _encoder_deg(direction, x0, fit.d),
                               'angle_std_deg': float(np.degrees(fit.d_std)),

@@ -92,3 +92,18 @@ def harmonic_lstsq(theta: NDArray[np.float64], y: NDArray[np.float64],
             yield np.column_stack([np.ones_like(t), np.cos(t), np.sin(t)]), v
 
     return solve(*triangle(blocks()))
+
+
+def first_harmonic(theta: NDArray[np.float64], c: float, a: float,
+                   b: float) -> NDArray[np.float64]:
+    """The model of ``harmonic_lstsq``, c + a cos(theta) + b sin(theta) [units of c, a,
+    b], at the angles ``theta`` [rad], built in place (two columns alive at most, not
+    the four temporaries of the expression: memory for millions of samples)."""
+    out = np.cos(theta)
+    out *= a
+    part = np.sin(theta)
+    part *= b
+    out += part
+    del part
+    out += c
+    return out

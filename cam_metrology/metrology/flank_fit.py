@@ -145,7 +145,7 @@ def fit_shift(x: NDArray[np.float64], s: NDArray[np.float64], lift: Lift, *,
         for xs, ss, th, sw, where in rows.blocks():
             rb = ss - c_ - lift(xs - d_, 0)
             if th is not None:
-                rb = rb - ab[0] * np.cos(th) - ab[1] * np.sin(th)
+                rb -= block_lsq.first_harmonic(th, 0.0, float(ab[0]), float(ab[1]))
             out[where] = rb
             if sw is not None:
                 rw = rb * sw

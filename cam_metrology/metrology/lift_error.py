@@ -70,9 +70,8 @@ def base_model(table: Any, harmonic: bool,
         return None, ~bad
     err = m - d
     if harmonic:   # c + a cos(alpha) + b sin(alpha), fitted a block at a time
-        coef = block_lsq.harmonic_lstsq(a, err, base)
-        return (lambda alpha: coef[0] + coef[1] * np.cos(alpha) + coef[2] * np.sin(alpha),
-                ~bad)
+        c, ca, cb = (float(v) for v in block_lsq.harmonic_lstsq(a, err, base))
+        return (lambda alpha: block_lsq.first_harmonic(alpha, c, ca, cb)), ~bad
     level = float(np.median(err[base]))
     return (lambda alpha: level), ~bad
 
