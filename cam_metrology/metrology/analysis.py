@@ -421,10 +421,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                       'of 36 sectors of 10 deg)'))
     if asymmetry:
         if is_symmetric(law, lo, hi):
-            on_lobe = good & (alpha > lo) & (alpha < hi)   # what _asymmetry keeps
-            values.update(_asymmetry(alpha[on_lobe], measured[on_lobe], lo, hi, direction,
-                                     settings))
-            del on_lobe
+            values.update(_asymmetry(alpha, measured, good, lo, hi, direction, settings))
             if 'asymmetry_deg' in values:
                 values['top_point_deg'] = float(np.mod(values['angle_deg']
                                                        + values['asymmetry_deg'], 360.0))
@@ -504,11 +501,13 @@ def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]) -> float |
     return float(2.0 * np.hypot(coef[1], coef[2]) * UM)
 
 
-def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64], lo: float,
-               hi: float, direction: int, settings: Settings) -> dict[str, Any]:
-    """Top point by the symmetry axis of the measured lift (frame: LSQ nose = 0)."""
-    sel = (alpha > lo) & (alpha < hi)
-    a, h = (alpha, measured) if sel.all() else (alpha[sel], measured[sel])
+def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64],
+               good: NDArray[np.bool_], lo: float, hi: float, direction: int,
+               settings: Settings) -> dict[str, Any]:
+    """Top point by the symmetry axis of the measured lift (frame: LSQ nose = 0), from
+    the ``good`` samples on the lobe (lo < alpha < hi): only those are copied."""
+    sel = good & (alpha > lo) & (alpha < hi)
+    a, h = alpha[sel], measured[sel]
     del sel
     try:
         spline = lift_spline(a, h, knot_spacing=settings.asymmetry_knot_deg * DEG)
