@@ -132,10 +132,7 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
             report['crank'] = crank
         for fid, card in cards.items():
             report['features'][fid]['cam_card'] = card
-        if not plot_tables:
-            tables = {}
-            lobes = {}
-        for fid, table in lobes.items():   # one table at a time in memory
+        for fid, table in lobes.items() if plot_tables else ():   # one table at a time
             ref, good = feature_referenced(table, report['features'].get(fid, {}))
             release(table)
             tables[fid] = spill(ref[good])
@@ -143,7 +140,7 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     report['provenance'] = provenance(
         bag=bag, scene_text=scene.text if scene is not None else None,
         params=load_params(params) or None, command='analyze')
-    return tables
+    return tables if plot_tables else {}
 
 
 @dataclass
