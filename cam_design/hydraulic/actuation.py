@@ -311,6 +311,17 @@ def _whole_step_balance(st: _Actuator, end: _Actuator, dt: float, c1: float, k: 
                      leak=st.leak + 0.5 * g * (st.p + p1) * dt)
 
 
+#: pipe steps one pass may take (a pipe so short or stiff that it needs more is refused)
+MAX_PASS_STEPS = 5_000_000
+
+
+def pass_steps(alpha_range: tuple[float, float], rpm: float, dt: float) -> int:
+    """Pipe steps of a pass over the cam angles ``alpha_range`` [rad] at ``rpm``
+    (camshaft) with the pipe's time step ``dt`` [s]."""
+    lo, hi = alpha_range
+    return int(math.ceil((hi - lo) / (rpm * 2 * math.pi / 60 * dt)))
+
+
 def pass_range(law: Any) -> tuple[float, float]:
     """Cam angles [rad] of a default pass: the law's support +- 10 deg."""
     return law.support[0] - math.radians(10), law.support[1] + math.radians(10)
@@ -340,8 +351,8 @@ def simulate_hydraulic(law: Any, prm: HydraulicParams, rpm: float, *,
     k0 = effective_bulk_modulus(prm.bulk_modulus, prm.air_fraction, prm.supply_pressure + P_ATM)
     pipe = pipe_of(prm)
     dt = pipe.dt
-    steps = int(math.ceil((hi - lo) / (omega * dt)))
-    if steps > 5_000_000:
+    steps = pass_steps((lo, hi), rpm, dt)
+    if steps > MAX_PASS_STEPS:
         raise InputError('pipe_length', prm.pipe_length,
                          f'a time step that does not need {steps:.3g} steps for one lobe '
                          f'(dt = {dt:.3g} s; use a longer pipe, fewer reaches or a '

@@ -28,7 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError, require_positive
-from cam_design.hydraulic.actuation import HydraulicParams, pass_range, pipe_of
+from cam_design.hydraulic.actuation import (MAX_PASS_STEPS, HydraulicParams, pass_range,
+                                            pass_steps, pipe_of)
 from cam_design.hydraulic.run import run_hydraulic
 from cam_design.valve_train.sweep import Bracket, bisect_speed, require_speeds
 
@@ -81,13 +82,6 @@ class HydraulicSweep:
         }
 
 
-def pass_steps(law: Any, prm: HydraulicParams, rpm: float) -> int:
-    """Pipe steps of one default lobe pass at ``rpm`` (as ``simulate_hydraulic`` takes
-    them)."""
-    lo, hi = pass_range(law)
-    return int(math.ceil((hi - lo) / (rpm * math.pi / 30.0 * pipe_of(prm).dt)))
-
-
 def static_pressure(law: Any, prm: HydraulicParams,
                     gas: Callable[[float], float] | None = None,
                     samples: int = 2001) -> tuple[float, float]:
@@ -118,12 +112,14 @@ def hydraulic_sweep(law: Any, prm: HydraulicParams, rpms: Sequence[float], *,
     require_positive('tol_rpm', tol_rpm)
     if not 0.0 < spill_tol < 1.0:
         raise InputError('spill_tol', spill_tol, 'a share of the displacement in (0, 1)')
-    steps = [pass_steps(law, prm, float(r)) for r in speeds]
-    if steps[0] > 5_000_000:
-        lowest = speeds[0] * steps[0] / 5_000_000
+    step_s = pipe_of(prm).dt
+    steps = [pass_steps(pass_range(law), float(r), step_s) for r in speeds]
+    if steps[0] > MAX_PASS_STEPS:
+        lowest = speeds[0] * steps[0] / MAX_PASS_STEPS
         raise InputError(f'{key}.LO', float(speeds[0]),
                          f'a lowest speed of at least {lowest:.4g} rpm (a pass needs '
-                         f'{steps[0]:.3g} pipe steps at {speeds[0]:g} rpm, at most 5e6; or '
+                         f'{steps[0]:.3g} pipe steps at {speeds[0]:g} rpm, at most '
+                         f'{MAX_PASS_STEPS:.0e}; or '
                          'fewer valve_train.hydraulic.reaches)')
     if sum(steps) > MAX_SWEEP_STEPS:
         raise InputError(key, f'{speeds.size} speeds, {sum(steps):.3g} pipe steps',
