@@ -119,7 +119,7 @@ def hydraulic_sweep(law: Any, prm: HydraulicParams, rpms: Sequence[float], *,
         raise InputError(f'{key}.LO', float(speeds[0]),
                          f'a lowest speed of at least {lowest:.4g} rpm (a pass needs '
                          f'{steps[0]:.3g} pipe steps at {speeds[0]:g} rpm, at most '
-                         f'{MAX_PASS_STEPS:.0e}; or '
+                         f'{MAX_PASS_STEPS // 10**6}e6; or '
                          'fewer valve_train.hydraulic.reaches)')
     if sum(steps) > MAX_SWEEP_STEPS:
         raise InputError(key, f'{speeds.size} speeds, {sum(steps):.3g} pipe steps',
