@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from cam_metrology.cli import main
-from cam_metrology.golden import assert_report_matches, compare_reports, golden_of
+from cam_metrology.report.golden import assert_report_matches, compare_reports, golden_of
 
 pytest_plugins = ['pytester']
 
@@ -126,7 +126,7 @@ def test_golden_command_round_trip(tmp_path: Path, capsys: pytest.CaptureFixture
     assert len(gold['features']) == 5 and 'provenance' not in gold
     assert main(['golden', str(BAG), str(out)]) == 2              # refuses to overwrite
     assert 'or --force' in capsys.readouterr().err
-    from cam_metrology.offline import analyze_report
+    from cam_metrology.offline.analyze import analyze_report
     assert_report_matches(analyze_report(BAG), gold, angle_tol_arcsec=0.01, lift_tol_um=1e-3)
 
 
@@ -142,7 +142,7 @@ def test_golden_command_bad_out(tmp_path: Path, out: str, expected: str,
 USER_TEST = '''
 import json
 from pathlib import Path
-from cam_metrology.golden import assert_report_matches
+from cam_metrology.report.golden import assert_report_matches
 
 def test_lobes_ok(cam_bench_report):
     for fid, f in cam_bench_report['features'].items():

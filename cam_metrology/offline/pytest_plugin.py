@@ -9,7 +9,7 @@ What it gives a test suite, with nothing to import:
   ``cam-bench analyze`` (the same code path), cached for the whole session, so several
   tests of one bag analyse it once;
 * fixture ``cam_bench_report``: the report of the current ``cam_bench_bag``;
-* ``cam_metrology.golden.assert_report_matches(report, golden, angle_tol_arcsec=...,
+* ``cam_metrology.report.golden.assert_report_matches(report, golden, angle_tol_arcsec=...,
   lift_tol_um=...)`` to compare with a golden file written by ``cam-bench golden``.
 """
 from __future__ import annotations
@@ -68,7 +68,7 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
 @pytest.fixture(scope='session')
 def cam_bench_analysis() -> Callable[[str | Path], dict[str, Any]]:
     """bag path -> the ``cam-bench analyze`` report (dict), computed once per bag."""
-    from cam_metrology.offline import analyze_report
+    from cam_metrology.offline.analyze import analyze_report
 
     cache: dict[Path, dict[str, Any]] = {}
 
