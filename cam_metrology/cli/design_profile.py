@@ -279,7 +279,7 @@ def _polar_columns(args: argparse.Namespace, prof: Any, law: Any, base: float
                    ) -> dict[str, Any]:
     """S1 polar form of the rocker pitch curve (docs/follower.md) for the same samples."""
     from cam_design.errors import InputError
-    from cam_design.follower import rocker_polar
+    from cam_design.cam_profile import rocker_polar
 
     if args.follower != 'rocker' or args.eta != 1:
         raise InputError('--polar', True, 'a rocker follower with --eta 1 (S1 polar form)')
