@@ -41,8 +41,8 @@ from cam_metrology.bagio.joints import (  # noqa: F401
     read_joint_states)
 from cam_metrology.bagio.opening import (  # noqa: F401
     BagMessage,
-    _open_reader,
-    looks_like_bag)
+    looks_like_bag,
+    open_reader)
 from cam_metrology.bagio.reader import (  # noqa: F401
     BagScene,
     SCENE_TOPIC,

@@ -7,14 +7,14 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator, NamedTuple
 
 from cam_design.errors import InputError
-from cam_metrology.bagio.opening import BagMessage, _open_reader
-from cam_metrology.bagio.stream import _iter_mcap_raw
+from cam_metrology.bagio.opening import BagMessage, open_reader
+from cam_metrology.bagio.stream import iter_mcap_raw
 from cam_metrology.wire.topics import SCENE
 
 
 def bag_topics(path: str | Path) -> dict[str, tuple[str, int]]:
     """topic -> (ROS type, message count) of a bag."""
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         out: dict[str, tuple[str, int]] = {}
         for conn in reader.connections:
@@ -34,13 +34,13 @@ def iter_messages(path: str | Path, topics: Iterable[str] | None = None,
     Topics whose type is unknown to ROS 2 Jazzy are decoded from the bag's own
     message definitions (AnyReader registers them).
     """
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         wanted = None if topics is None else set(topics)
         conns = [c for c in reader.connections if wanted is None or c.topic in wanted]
         if not conns:
             return
-        direct = _iter_mcap_raw(Path(path), {c.topic for c in conns})
+        direct = iter_mcap_raw(Path(path), {c.topic for c in conns})
         if direct is not None:
             conn_of = {c.topic: c for c in conns}
             found = ((conn_of[topic], stamp, data) for topic, stamp, data in direct)
