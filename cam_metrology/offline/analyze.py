@@ -95,7 +95,7 @@ def bag_warnings(bag: str) -> list[str]:
     damaged bag (naming the range), a bag without a scene or with an invalid scene
     (naming its bad key); a warning line when the scene changes during the bag (each
     feature is then analysed with the scene in force when it was measured)."""
-    from cam_metrology.bagio import require_scenes
+    from cam_metrology.scene.recorded import require_scenes
 
     scenes = require_scenes(bag)
     if len(scenes) < 2:
@@ -173,9 +173,12 @@ def analyze_bag(bag: str, params: str | None = None, *, only_metrology: bool = F
 
     bounded_heap()   # whole-feature arrays returned to the system when freed
 
+    from cam_metrology.scene.parse import shared_parses
+
     cores, missing = make_cores(load_params(params), only_metrology)
-    warnings = bag_warnings(bag)   # damaged bag, no or invalid scene: InputError here
-    result = replay(bag, cores, keep_all=keep_all, out_bag=out_bag)
+    with shared_parses():   # the bag's scene parsed once, for the checks and every core
+        warnings = bag_warnings(bag)   # damaged bag, no or invalid scene: InputError here
+        result = replay(bag, cores, keep_all=keep_all, out_bag=out_bag)
     if result.samples == 0:
         raise InputError('bag', bag, f'{JOINT_STATES} samples (the bag has none: '
                          'nothing to measure)')

@@ -1,0 +1,51 @@
+"""`analyze` reads each scene once: the bag check and the three cores share one parse.
+
+Before, the bag's scene was parsed by the bag check and again by each core (four parses
+of one text); the count here is the number of times the validation itself ran.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cam_metrology.offline.analyze import analyze_bag
+from cam_metrology.scene import parse
+
+ROOT = Path(__file__).resolve().parent.parent
+CLEAN = ROOT / 'bags' / 'default_clean'
+SCENE = ROOT / 'config' / 'default_scene.yaml'
+
+
+def test_analyze_parses_the_bag_scene_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[str] = []
+    real = parse._parse_document
+
+    def counting(text: str, source: str, base_dir: object) -> object:
+        calls.append(source)
+        return real(text, source, base_dir)
+
+    monkeypatch.setattr(parse, '_parse_document', counting)
+    run = analyze_bag(str(CLEAN))
+    assert calls == ['/bench/scene']
+    assert any(f.get('status') == 'ok' for f in run.report['features'].values())
+
+
+def test_parses_are_shared_only_inside_the_block() -> None:
+    text = SCENE.read_text()
+    assert parse.parse_scene(text) is not parse.parse_scene(text)
+    with parse.shared_parses():
+        first = parse.parse_scene(text)
+        assert parse.parse_scene(text) is first
+        assert parse.parse_scene(text, source='other') is not first
+    assert parse.parse_scene(text) is not first
+
+
+def test_bagio_imports_no_scene_module() -> None:
+    code = ('import sys, cam_metrology.bagio; '
+            'print([m for m in sys.modules if m.startswith("cam_metrology.scene")])')
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         check=True, cwd=ROOT).stdout.strip()
+    assert out == '[]'
