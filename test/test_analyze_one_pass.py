@@ -49,3 +49,22 @@ def test_bagio_imports_no_scene_module() -> None:
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          check=True, cwd=ROOT).stdout.strip()
     assert out == '[]'
+
+
+def test_report_is_taken_as_data_and_equals_the_published_text() -> None:
+    import json
+
+    from cam_metrology.cores.outputs import TextOutput
+    from cam_metrology.wire.topics import METROLOGY_REPORT
+
+    run = analyze_bag(str(CLEAN))
+    assert run.report is run.metrology.final_report
+    texts = [o.text for _, o in run.outputs
+             if isinstance(o, TextOutput) and o.topic == METROLOGY_REPORT]
+    published = json.loads(texts[-1])
+    added = {'provenance', 'crank', 'skipped', 'warnings'}
+    assert {k: v for k, v in published.items() if k not in added | {'features'}} == \
+        {k: v for k, v in run.report.items() if k not in added | {'features'}}
+    for fid, feature in published['features'].items():   # analyze adds the cam cards
+        assert {k: v for k, v in run.report['features'][fid].items() if k != 'cam_card'} \
+            == feature

@@ -133,6 +133,8 @@ class MetrologyCore:
         self.pending: list[FeatureSamples] = []
         self.results: dict[str, FeatureResult] = {}
         self.report_sent = False
+        #: the final report as data (what ``finish`` publishes as JSON text), for offline use
+        self.final_report: dict[str, Any] | None = None
         self._design: dict[str, Any] = {}
         #: every scene that came into force: (log time [ns], Scene)
         self.scenes: list[tuple[int, Any]] = []
@@ -211,7 +213,8 @@ class MetrologyCore:
         if self.scene is None:
             return out + [self._status(Status('scene', ERROR, 'no scene received: nothing '
                                               'measured'), 0)]
-        out.append(TextOutput(REPORT, json.dumps(self.report(final=True), indent=1)))
+        self.final_report = self.report(final=True)
+        out.append(TextOutput(REPORT, json.dumps(self.final_report, indent=1)))
         self.report_sent = True
         return out
 

@@ -43,9 +43,13 @@ def replay(bag: str, cores: list[Any], *, keep_all: bool = True,
 
 
 def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, Any]:
-    """The last report the metrology core published (its final one)."""
+    """The last report the metrology core published (its final one), taken as data from
+    the core when it is the final report (no JSON text read back)."""
     from cam_metrology.cores.outputs import TextOutput
 
+    kept = getattr(metrology, 'final_report', None)
+    if kept is not None:
+        return kept
     texts = [o.text for _, o in outputs if isinstance(o, TextOutput) and o.topic == REPORT_TOPIC]
     if texts:
         return json.loads(texts[-1])
