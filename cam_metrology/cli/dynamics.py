@@ -28,7 +28,6 @@ Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -224,7 +223,7 @@ def _replay(path: Path, core: Any) -> None:
 
 def _result(core: Any, args: argparse.Namespace, kind: str,
             sweep_speeds: Any) -> dict[str, Any]:
-    from cam_metrology.metrology.core import _json_safe
+    from cam_metrology.report.json_out import json_safe
 
     scene = core.scene
     out: dict[str, Any] = {'input': str(args.input), 'kind': kind,
@@ -283,7 +282,7 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
                          bounce_bracket_rpm=None, sweep=None, jump_speed_uncertainty_rpm=None,
                          no_open_speed_rpm=None, no_open_bracket_rpm=None)
         out['features'][feature] = entry
-    return _json_safe(out)
+    return json_safe(out)
 
 
 #: why a cam-driven train has no no-open speed (JSON ``no_open_note``)
@@ -344,10 +343,9 @@ def _law_key(core: Any, feature: str) -> str:
 
 
 def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
-    text = json.dumps(result, indent=1)
     if args.json:
-        from cam_metrology.inputs.files import write_output
-        write_output(args.json, text + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, result, '--json')
     for feature, entry in result['features'].items():
         if 'note' in entry:         # stderr: seen also with --json -
             word = 'note' if str(entry.get('source', '')).startswith(

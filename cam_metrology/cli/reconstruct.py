@@ -21,7 +21,6 @@ per-second arrays with ``--rpm``, ``design_errors`` when the design is known,
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -133,9 +132,8 @@ def run(args: argparse.Namespace) -> int:
     result = {'input': str(path), 'kind': kind, 'follower': follower,
               'features': features, 'skipped': skipped}
     if args.json:
-        from cam_metrology.inputs.files import write_output
-        write_output(args.json, json.dumps(result, indent=1, allow_nan=False) + '\n',
-                     '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, result, '--json')
         if args.json != '-':
             done = [f'{fid}/{m}' for fid, ms in features.items() for m, v in ms.items()
                     if isinstance(v, dict) and v.get('ok')]
