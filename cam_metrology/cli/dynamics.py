@@ -51,7 +51,9 @@ def register(subparsers: Any) -> None:
                    help='angle unit of a gauge TABLE (default deg)')
     p.add_argument('--length-unit', choices=('mm', 'um', 'm'),
                    help='length unit of a gauge TABLE (default mm)')
-    p.add_argument('--feature', metavar='ID', help='only this lobe (default: all lobes)')
+    p.add_argument('--lobe', metavar='ID', dest='feature',
+                   help='only this lobe (default: all lobes)')
+    p.add_argument('--feature', dest='feature', help=argparse.SUPPRESS)   # old spelling
     p.add_argument('--model', choices=('sdof', 'mdof', 'hydraulic'),
                    help="model (default: the scene's valve_train.model)")
     p.add_argument('--rpm', type=float, action='append', metavar='R',
@@ -125,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
 
         scene = load_scene(path)
         if args.feature is not None and args.feature not in [lb.id for lb in scene.lobes]:
-            raise InputError('--feature', args.feature,
+            raise InputError('--lobe', args.feature,
                              'one of ' + ', '.join(lb.id for lb in scene.lobes))
         core = DynamicsCore(_core_params(args, 'design'))
         if scene.valve_train is None:
@@ -202,7 +204,7 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
 
 
 def _scene_text(scene: Any, feature: str | None) -> str:
-    """The scene YAML, restricted to one lobe when ``--feature`` is given."""
+    """The scene YAML, restricted to one lobe when ``--lobe`` is given."""
     if feature is None:
         return scene.text
     import yaml
