@@ -183,7 +183,8 @@ def _cam_function(law: Any, ratio: float, omega: float, step: float
 
 
 def _rhs_factory(tr: _Train, u: Callable[[float], tuple[float, float]],
-                 gas: Callable[[float], float] | None, a0: float, omega: float):
+                 gas: Callable[[float], float] | None, a0: float, omega: float
+                 ) -> tuple[Callable[..., Any], Callable[..., Any]]:
     n, iv, ia, it = tr.n, tr.iv, tr.ia, tr.it
     b = tr.base
     minv = 1.0 / tr.m
