@@ -68,3 +68,23 @@ def test_report_is_taken_as_data_and_equals_the_published_text() -> None:
     for fid, feature in published['features'].items():   # analyze adds the cam cards
         assert {k: v for k, v in run.report['features'][fid].items() if k != 'cam_card'} \
             == feature
+
+
+def test_each_lobe_is_referenced_once_for_cards_and_report_plots(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from cam_metrology.metrology import lift_error
+
+    calls: list[str] = []
+    real = lift_error.feature_referenced
+
+    def counting(table: object, feature: dict) -> object:
+        calls.append(feature.get('kind', '?'))
+        return real(table, feature)
+
+    monkeypatch.setattr(lift_error, 'feature_referenced', counting)
+    run = analyze_bag(str(CLEAN), plot_tables=True)
+    lobes = [f for f in run.report['features'].values() if f.get('kind') == 'lobe']
+    assert len(calls) == len(lobes) >= 2
+    assert all('cam_card' in f for f in lobes if f.get('status') == 'ok')
+    assert all(fid in run.tables for fid, f in run.report['features'].items()
+               if f.get('kind') == 'lobe')

@@ -118,7 +118,9 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
     lobes referenced to the base circle as the verdict uses them ({} without
     ``plot_tables``: no referenced copies made, for a caller that draws nothing)."""
-    from cam_metrology.offline.acceptance import both_crank_timings, measured_cards
+    import numpy as np
+
+    from cam_metrology.offline.acceptance import both_crank_timings, lobe_cards
     from cam_metrology.metrology.lift_error import feature_referenced
     from cam_metrology.metrology.spill import release, spill
     from cam_metrology.report.provenance import provenance
@@ -127,20 +129,30 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     tables = {f: r.table for f, r in results.items() if r.table is not None}
     scene = getattr(metrology, 'scene', None)
     if scene is not None:
-        lobes = {f: t for f, t in tables.items() if results[f].kind == 'lobe'}
-        cards = measured_cards(scene, report.get('features', {}), lobes,
-                               getattr(metrology, '_design', {}), heights)
-        release(lobes.values())
-        crank = both_crank_timings(scene, report.get('features', {}), cards)
+        features = report.get('features', {})
+        designs = getattr(metrology, '_design', {})
+        cards: dict[str, dict[str, Any]] = {}
+        for fid, table in tables.items():   # one lobe at a time, referenced once
+            feature = features.get(fid) or {}
+            card = designs.get(fid) is not None and feature.get('status') == 'ok'
+            if results[fid].kind != 'lobe' or not (card or plot_tables):
+                continue
+            ref, good = feature_referenced(table, feature)
+            release(table)
+            kept = ref[good]   # the rows the verdict used: for the cards and the plots
+            del ref, good
+            if card:
+                cards[fid] = lobe_cards(scene, fid, np.ascontiguousarray(kept[:, 0]),
+                                        np.ascontiguousarray(kept[:, 1]), designs[fid],
+                                        heights)
+            if plot_tables:
+                tables[fid] = spill(kept)
+            del kept
+        crank = both_crank_timings(scene, features, cards)
         if crank is not None:
             report['crank'] = crank
-        for fid, card in cards.items():
-            report['features'][fid]['cam_card'] = card
-        for fid, table in lobes.items() if plot_tables else ():   # one table at a time
-            ref, good = feature_referenced(table, report['features'].get(fid, {}))
-            release(table)
-            tables[fid] = spill(ref[good])
-            del ref, good
+        for fid, card_ in cards.items():
+            report['features'][fid]['cam_card'] = card_
     report['provenance'] = provenance(
         bag=bag, scene_text=scene.text if scene is not None else None,
         params=load_params(params) or None, command='analyze')
