@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from cam_design.errors import InputError
-from cam_metrology.files import atomic_dir, safe_name, write_output
-from cam_metrology.yaml_input import load_yaml
+from cam_metrology.inputs.files import atomic_dir, safe_name, write_output
+from cam_metrology.inputs.yaml_input import load_yaml
 
 REPO = Path(__file__).resolve().parent.parent
 CLI = [sys.executable, '-m', 'cam_metrology']

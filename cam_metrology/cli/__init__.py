@@ -46,7 +46,7 @@ class _Version(argparse.Action):
     """``--version``: the version and git commit (git is run only when asked)."""
 
     def __call__(self, parser: argparse.ArgumentParser, *_: object) -> None:
-        from cam_metrology.provenance import version_text
+        from cam_metrology.report.provenance import version_text
         print(version_text())
         parser.exit(0)
 
