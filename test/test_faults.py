@@ -1,7 +1,7 @@
 """Faults a bench meets: hostile YAML, a full or read-only disk, outputs in the way,
 names from input used as file names, Ctrl-C in the middle of a run.
 
-Each class has one promise (README, "Reliability"): one line naming the option or key,
+Each class has one promise (docs/reliability.md): one line naming the option or key,
 exit 2, and no output file that looks complete but is not.
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Streamed reading of bags: blocks of samples equal the whole-bag read, reports equal
 the whole-bag analysis, and the peak memory of an analysis does not grow with a bag
-of repeated measurements (docs/contract.md §4, README known limits)."""
+of repeated measurements (docs/contract.md §4, docs/limits.md)."""
 from __future__ import annotations
 
 import json

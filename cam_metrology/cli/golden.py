@@ -3,7 +3,7 @@
 The golden file is the JSON report of ``cam-bench analyze BAG`` without the run's
 provenance; tests compare later runs with it within stated tolerances
 (``cam_metrology.report.golden.assert_report_matches``, or the pytest plugin's
-``cam_bench_analysis`` fixture: see the README, "pytest over your own bags").
+``cam_bench_analysis`` fixture: see docs/cli.md, "pytest over your own bags").
 """
 from __future__ import annotations
 
