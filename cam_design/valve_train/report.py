@@ -66,7 +66,7 @@ def contact_stress(law: LiftLaw, alpha: NDArray[np.float64], force: NDArray[np.f
             sig[ok] = checks.hertz_stress_steel(force[ok], geom.width, rho1[ok], math.inf,
                                                 e1=geom.youngs_modulus)
         return sig
-    from cam_design.follower import roller_profile
+    from cam_design.cam_profile import roller_profile
 
     rho = roller_profile(law, geom.base_radius, geom.radius, alpha).rho
     rho = np.where(np.abs(rho) < 1e-9, 1e-9, rho)

@@ -28,7 +28,6 @@ Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -52,7 +51,9 @@ def register(subparsers: Any) -> None:
                    help='angle unit of a gauge TABLE (default deg)')
     p.add_argument('--length-unit', choices=('mm', 'um', 'm'),
                    help='length unit of a gauge TABLE (default mm)')
-    p.add_argument('--feature', metavar='ID', help='only this lobe (default: all lobes)')
+    p.add_argument('--lobe', metavar='ID', dest='feature',
+                   help='only this lobe (default: all lobes)')
+    p.add_argument('--feature', dest='feature', help=argparse.SUPPRESS)   # old spelling
     p.add_argument('--model', choices=('sdof', 'mdof', 'hydraulic'),
                    help="model (default: the scene's valve_train.model)")
     p.add_argument('--rpm', type=float, action='append', metavar='R',
@@ -126,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
 
         scene = load_scene(path)
         if args.feature is not None and args.feature not in [lb.id for lb in scene.lobes]:
-            raise InputError('--feature', args.feature,
+            raise InputError('--lobe', args.feature,
                              'one of ' + ', '.join(lb.id for lb in scene.lobes))
         core = DynamicsCore(_core_params(args, 'design'))
         if scene.valve_train is None:
@@ -203,7 +204,7 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
 
 
 def _scene_text(scene: Any, feature: str | None) -> str:
-    """The scene YAML, restricted to one lobe when ``--feature`` is given."""
+    """The scene YAML, restricted to one lobe when ``--lobe`` is given."""
     if feature is None:
         return scene.text
     import yaml
@@ -224,7 +225,7 @@ def _replay(path: Path, core: Any) -> None:
 
 def _result(core: Any, args: argparse.Namespace, kind: str,
             sweep_speeds: Any) -> dict[str, Any]:
-    from cam_metrology.metrology.core import _json_safe
+    from cam_metrology.report.json_out import json_safe
 
     scene = core.scene
     out: dict[str, Any] = {'input': str(args.input), 'kind': kind,
@@ -283,7 +284,7 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
                          bounce_bracket_rpm=None, sweep=None, jump_speed_uncertainty_rpm=None,
                          no_open_speed_rpm=None, no_open_bracket_rpm=None)
         out['features'][feature] = entry
-    return _json_safe(out)
+    return json_safe(out)
 
 
 #: why a cam-driven train has no no-open speed (JSON ``no_open_note``)
@@ -344,10 +345,9 @@ def _law_key(core: Any, feature: str) -> str:
 
 
 def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
-    text = json.dumps(result, indent=1)
     if args.json:
-        from cam_metrology.inputs.files import write_output
-        write_output(args.json, text + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, result, '--json')
     for feature, entry in result['features'].items():
         if 'note' in entry:         # stderr: seen also with --json -
             word = 'note' if str(entry.get('source', '')).startswith(

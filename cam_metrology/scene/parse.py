@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import importlib
 import math
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 
@@ -107,14 +109,44 @@ class _Ctx:
         return value
 
 
+#: text, source, base dir -> Scene of the texts parsed inside ``shared_parses()``
+_SHARED: ContextVar[dict[tuple[str, str, str], Scene] | None] = ContextVar(
+    'shared_scene_parses', default=None)
+
+
+@contextmanager
+def shared_parses() -> Iterator[None]:
+    """Within the block, each scene text is parsed once: later ``parse_scene`` calls of
+    the same text (same source and base dir) get the same frozen ``Scene``. The offline
+    analysis wraps its bag checks and replay in it, so the bag's scene check and every
+    core share one parse; outside the block nothing is kept (a nominal file read again)."""
+    token = _SHARED.set({})
+    try:
+        yield
+    finally:
+        _SHARED.reset(token)
+
+
 def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None = None
                 ) -> Scene:
     """Validate a scene YAML document and return the Scene (InputError if invalid).
 
     ``source`` names the document in YAML syntax errors (a file name); ``base_dir`` is
     the folder relative ``lobes[i].nominal_file`` paths start from (default: the
-    working directory).
+    working directory). Inside ``shared_parses()`` a text already parsed is not parsed
+    again.
     """
+    memo = _SHARED.get()
+    if memo is None:
+        return _parse_document(text, source, base_dir)
+    key = (text, source, '' if base_dir is None else str(base_dir))
+    if key not in memo:
+        memo[key] = _parse_document(text, source, base_dir)
+    return memo[key]
+
+
+def _parse_document(text: str, source: str, base_dir: str | Path | None) -> Scene:
+    """``parse_scene`` without the sharing: the validation itself."""
     import yaml
 
     if not isinstance(text, str):
