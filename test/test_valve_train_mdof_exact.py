@@ -20,7 +20,7 @@ from cam_design.valve_train.mdof_exact import CAM, RV, T, V, _Model, run_exact, 
 from cam_design.valve_train.mdof_reference import reference_mdof
 from cam_design.valve_train.physics import (coil_bind, dynamic_clearance, spring_margin,
                                             train_checks_from)
-from cam_design.valve_train.sdof import NB, _FACT
+from cam_design.valve_train.propagate import FACT as _FACT, NB
 
 from test_valve_train_sdof import BASE, ramp_law
 

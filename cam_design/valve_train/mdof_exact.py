@@ -8,11 +8,11 @@ with g = k_c u + b_c u' the cam forcing on the tappet in contact (u = k h, a deg
 polynomial on each step, ``cam_input``). Every step is propagated exactly with the
 exponential of A_r augmented by the polynomial basis and the constant input (one
 ``expm`` of a (2n + 9)-square matrix per regime and step length, cached; velocities
-scaled to balance it). The method is that of ``sdof`` (whose building blocks are
-reused: ``expm``, the cubic-Hermite dip test ``_dips`` and the Newton bracket on the
-switching polynomials): switching functions are checked at sub-nodes spaced at most
-pi/4 / |lambda_max| of the regime, and a switch is located on the Taylor series of the
-exact local solution (order 22) to ~1e-14 of the sub-step.
+scaled to balance it). The method is that of ``sdof`` (its building blocks are
+reused from ``propagate``: ``expm``, the cubic-Hermite dip test ``dips`` and the
+Newton bracket on the switching polynomials): switching functions are checked at
+sub-nodes spaced at most pi/4 / |lambda_max| of the regime, and a switch is located on
+the Taylor series of the exact local solution (order 22) to ~1e-14 of the sub-step.
 
 Hard seat (``restitution`` e): y_V >= 0; at an impact v_V -> -e v_V (only the valve:
 the coil masses keep their velocities); below 1e-9 m/s the valve is held on the seat
@@ -29,9 +29,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.valve_train.cam_input import CamInput
-from cam_design.valve_train.sdof import (BOUNCE_TOL, NB, SolverError, _FACT, _GRID9,
-                                         _VG9, _dips, _eval_min, _newton_bracket,
-                                         _shift, expm, sub_node_jets)
+from cam_design.valve_train.propagate import (BOUNCE_TOL, FACT, GRID9, NB, VG9,
+                                              SolverError, dips, eval_min, expm,
+                                              newton_bracket, shift, sub_node_jets)
 
 T, P, R, V = 0, 1, 2, 3
 CAM, RV, SEAT = 1, 2, 4
@@ -223,11 +223,11 @@ def _flags(model: _Model, r: int, ucoef: NDArray, gmono: NDArray, la: NDArray,
         kinds.append((sign, len(vs)))
         vals += [sign * v for v in vs]
         ders += [sign * d * h for d in ds]
-    dips = _dips(np.stack(vals), np.stack(ders))
-    bad = np.zeros(dips.shape[1:], dtype=bool)
+    dipped = dips(np.stack(vals), np.stack(ders))
+    bad = np.zeros(dipped.shape[1:], dtype=bool)
     i = 0
     for sign, cnt in kinds:
-        grp = dips[i:i + cnt]
+        grp = dipped[i:i + cnt]
         bad |= np.any(grp, axis=0) if sign > 0 else np.all(grp, axis=0)
         i += cnt
     return bad
@@ -248,7 +248,7 @@ class MdofEvents:
 
 
 class _Run:
-    """One revolution over the steps of a CamInput (state machine as ``sdof._Run``)."""
+    """One revolution over the steps of a CamInput (state machine as ``sdof_run.SdofRun``)."""
 
     def __init__(self, model: _Model, cam: CamInput, bounce_mass: float,
                  preload: float) -> None:
@@ -278,7 +278,7 @@ class _Run:
         la = cam.lengths[ks]
         ucoef = cam.coeffs[ks]
         gmono = model.cam_forcing(r, ucoef, la)
-        fco = gmono * _FACT
+        fco = gmono * FACT
         rho = model.mats(r)[4]
         uniq, inv = np.unique(lt, return_inverse=True)
         props = []
@@ -331,20 +331,20 @@ class _Run:
             w = 1.0 - s0
             if w <= 1e-15:
                 return z, r
-            uco = _shift(cam.coeffs[k], s0, w)
+            uco = shift(cam.coeffs[k], s0, w)
             lt, la = lt_step * w, la_step * w
             rho = model.mats(r)[4]
             m = min(max(2, int(math.ceil(rho * lt / _SUB))), 4096)
             gmono = model.cam_forcing(r, uco, la)
             phis, gq, g1 = model.propagator(r, lt, m)
-            zs = phis @ z + gq @ (gmono * _FACT) + g1
+            zs = phis @ z + gq @ (gmono * FACT) + g1
             zall = np.concatenate([z[None, :], zs], axis=0)
             flags = _flags(model, r, uco[None, :], gmono[None, :], np.array([la]),
                            np.array([lt]), zall[None])[0]
             found = None
             for j in np.nonzero(flags)[0].tolist():
-                g_loc = _shift(gmono, j / m, 1.0 / m)
-                u_loc = _shift(uco, j / m, 1.0 / m)
+                g_loc = shift(gmono, j / m, 1.0 / m)
+                u_loc = shift(uco, j / m, 1.0 / m)
                 cz = self._taylor(r, zall[j], g_loc, lt / m)
                 hit = self._first_switch(r, cz, u_loc, lt / m)
                 if hit is not None:
@@ -481,10 +481,10 @@ class _Run:
         comps = []
         for sign, vals, _ in groups:
             comps.append((sign, [np.asarray(v)[::-1].tolist() for v in vals]))
-        vg = _VG9[:nt]
-        bad_any = np.zeros(_GRID9.size, dtype=bool)
+        vg = VG9[:nt]
+        bad_any = np.zeros(GRID9.size, dtype=bool)
         for sign, polys in comps:
-            low = np.full(_GRID9.size, np.inf)
+            low = np.full(GRID9.size, np.inf)
             for c in polys:
                 low = np.minimum(low, np.asarray(c[::-1]) @ vg)
             bad_any |= sign * low < 0
@@ -492,12 +492,12 @@ class _Run:
         if not np.any(bad_any):
             return None
         i = int(np.argmax(bad_any))
-        a, b = float(_GRID9[i - 1]), float(_GRID9[i])
+        a, b = float(GRID9[i - 1]), float(GRID9[i])
         best = None
         for which, comp in zip((CAM, RV, SEAT), comps):
-            fa, fb = _eval_min(comp, a)[0], _eval_min(comp, b)[0]
+            fa, fb = eval_min(comp, a)[0], eval_min(comp, b)[0]
             if fb < 0 <= fa:
-                _, tb = _newton_bracket(comp, a, b)
+                _, tb = newton_bracket(comp, a, b)
             elif fb < 0 and fa < 0:
                 tb = a
             else:
@@ -593,7 +593,7 @@ class _Run:
                 return
 
     def commit_next_cycle(self, alpha: float) -> None:
-        """As ``sdof._Run.commit_next_cycle``: a periodic revolution that starts inside
+        """As ``sdof_run.SdofRun.commit_next_cycle``: a periodic revolution that starts inside
         an open phase holds the next cycle's open phase after its closing; its
         separations and tosses are this orbit's when the valve rose OPEN_TOL in it."""
         cyc, self.next_cycle = self.next_cycle, None
