@@ -162,7 +162,8 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
     from types import SimpleNamespace
 
     from cam_design.errors import InputError
-    from cam_metrology.dynamics.core import compute_run, parse_speeds, rpm_label
+    from cam_design.train.run import run_train, train_from_valve_train
+    from cam_metrology.dynamics.core import parse_speeds, rpm_label
     from cam_metrology.dynamics.tables import table_input
     from cam_metrology.scene_parse import load_valve_train
 
@@ -170,9 +171,6 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
         raise InputError('--valve-train', None, 'a scene or valve-train YAML with a TABLE '
                          '(the table gives only the lift)')
     vt, scene = load_valve_train(Path(args.valve_train))
-    if args.model:
-        from dataclasses import replace
-        vt = replace(vt, model=args.model)
     feature, law, source, note = table_input(path, feature=args.feature,
                                              angle_unit=args.angle_unit or 'deg',
                                              length_unit=args.length_unit or 'mm')
@@ -191,9 +189,16 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
         notes={feature: note}, keys={feature: path.name}, table_note=True)
     speeds = parse_speeds([float(r) for r in args.rpm], '--rpm') if args.rpm else \
         tuple(vt.cam_speed_rpm)
+    try:        # a refusal of the train fails each of its speeds
+        train: Any = train_from_valve_train(vt, args.model)
+    except (InputError, RuntimeError, ValueError) as exc:
+        train = exc
     for rpm in speeds:
         try:
-            run = compute_run(law, vt, rpm, args.step_deg, geom, key=path.name)
+            if isinstance(train, Exception):
+                raise train
+            run = run_train(law, train, rpm, step_deg=args.step_deg, geometry=geom,
+                            key=path.name)
         except (InputError, RuntimeError, ValueError) as exc:
             core.failures[f'{feature}/{rpm_label(rpm)}rpm'] = str(exc)
             continue
@@ -247,20 +252,14 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
         if failed:
             entry['failures'] = failed
         if sweep_speeds is not None and _model(scene.valve_train, args) == 'hydraulic':
-            entry.update(_hydraulic_sweep(law, scene.valve_train, sweep_speeds))
+            entry.update(_hydraulic_sweep(law, scene.valve_train, args, sweep_speeds))
         elif sweep_speeds is not None:
-            from cam_design.valve_train.sweep import sweep
+            from cam_design.train.run import sweep_train, train_from_valve_train
 
-            from cam_design.errors import InputError
-
-            if getattr(scene.valve_train, 'hla', None) is not None:
-                raise InputError('--sweep', 'with valve_train.hla',
-                                 'single speeds (--rpm) for a train with a hydraulic lash '
-                                 'adjuster; the sweep does not take it yet')
-            params = _sweep_params(scene.valve_train, args)
-            from cam_metrology.dynamics.core import gas_of
-            res = sweep(law, params, sweep_speeds, step_deg=args.step_deg,
-                        key=_law_key(core, feature), gas=gas_of(scene.valve_train, law))
+            train = train_from_valve_train(scene.valve_train, args.model)
+            params = train.sweep_params('--sweep', args.sweep)
+            res = sweep_train(law, train, sweep_speeds, step_deg=args.step_deg,
+                              key=_law_key(core, feature))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
             unc = None
             if str(source).startswith('table:') and res.jump_speed_rpm is not None:
@@ -297,15 +296,14 @@ def _model(vt: Any, args: argparse.Namespace) -> str:
     return args.model or getattr(vt, 'model', None) or 'sdof'
 
 
-def _hydraulic_sweep(law: Any, vt: Any, speeds: Any) -> dict[str, Any]:
+def _hydraulic_sweep(law: Any, vt: Any, args: argparse.Namespace,
+                     speeds: Any) -> dict[str, Any]:
     """The feature's sweep fields for the hydraulic gear: the per-speed table and the
     no-open speed (``cam_design.hydraulic.speed_limit``); the mechanical trains' jump
     and bounce speeds are null (the gear has no cam contact to lose)."""
-    from cam_design.hydraulic.run import hydraulic_from_valve_train
-    from cam_design.hydraulic.speed_limit import hydraulic_sweep
-    from cam_metrology.dynamics.core import gas_of
+    from cam_design.train.run import sweep_train, train_from_valve_train
 
-    res = hydraulic_sweep(law, hydraulic_from_valve_train(vt), speeds, gas=gas_of(vt, law))
+    res = sweep_train(law, train_from_valve_train(vt, args.model), speeds)
     lo, hi = float(speeds[0]), float(speeds[-1])
     return {'no_open_speed_rpm': res.no_open.speed,
             'no_open_bracket_rpm': res.no_open.bracket,
@@ -313,23 +311,6 @@ def _hydraulic_sweep(law: Any, vt: Any, speeds: Any) -> dict[str, Any]:
             'jump_speed_rpm': None, 'jump_bracket_rpm': None, 'bounce_onset_rpm': None,
             'bounce_bracket_rpm': None, 'jump_speed_uncertainty_rpm': None,
             'sweep': {'model': 'hydraulic', **res.as_dict()}}
-
-
-def _sweep_params(vt: Any, args: argparse.Namespace) -> Any:
-    """The model a sweep runs: SdofParams (sdof) or MdofParams (mdof, the scene's
-    ``valve_train.mdof`` block); the hydraulic model has no sweep (refused by option)."""
-    from cam_design.errors import InputError
-    from cam_design.valve_train.params import SdofParams
-
-    model = _model(vt, args)
-    base = SdofParams.from_valve_train(vt)
-    if model == 'mdof':
-        from cam_design.valve_train.mdof import mdof_from_mapping
-        return mdof_from_mapping(getattr(vt, 'mdof', None), base)
-    if model != 'sdof':
-        raise InputError('--sweep', args.sweep, f'model sdof or mdof (model {model} has no '
-                         'sweep; use --rpm)')
-    return base
 
 
 def _law_key(core: Any, feature: str) -> str:

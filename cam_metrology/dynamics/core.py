@@ -29,9 +29,9 @@ import numpy as np
 
 from cam_design.errors import InputError, require_positive
 from cam_design.valve_train.cam_input import JetTableLift
-from cam_design.valve_train.params import SdofParams, require_rpm, require_step_deg
-from cam_design.valve_train.report import (COLUMNS, ContactGeometry, Run, finish_run,
-                                           run_sdof)
+from cam_design.train.run import TrainSpec, run_train, train_from_valve_train
+from cam_design.valve_train.params import require_rpm, require_step_deg
+from cam_design.valve_train.report import COLUMNS, ContactGeometry, Run
 from cam_metrology.core import merged_parameters
 from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
 from cam_metrology.wire.layouts import table_from_msg
@@ -204,11 +204,12 @@ class DynamicsCore:
         if note:
             self.notes[feature] = note
         vt = self.scene.valve_train
-        if self.model:
-            from dataclasses import replace
-            vt = replace(vt, model=self.model)
         lobe = self.scene.lobe(feature)
         speeds = self.speeds or tuple(vt.cam_speed_rpm)
+        try:        # a refusal of the train fails each of its speeds (as it always did)
+            train: TrainSpec | Exception = train_from_valve_train(vt, self.model or None)
+        except (InputError, RuntimeError, ValueError) as exc:
+            train = exc
         width, width_source = cam_width_of(lobe, self.cam_width)
         geom = ContactGeometry(base_radius=self.scene.base_circle_radius,
                                follower=lobe.follower.kind, radius=lobe.follower.radius,
@@ -220,8 +221,10 @@ class DynamicsCore:
         for rpm in speeds:
             name = f'{feature}/{rpm_label(rpm)}rpm'
             try:
-                run = compute_run(law, vt, rpm, self.step_deg, geom, self.max_revolutions,
-                                  key=key)
+                if isinstance(train, Exception):
+                    raise train
+                run = run_train(law, train, rpm, step_deg=self.step_deg, geometry=geom,
+                                max_revolutions=self.max_revolutions, key=key)
             except (InputError, RuntimeError, ValueError) as exc:
                 self.failures[name] = str(exc)
                 statuses.append(Status(name, ERROR, f'dynamics failed: {exc}',
@@ -293,63 +296,3 @@ def lobe_key(scene: Any, feature: str) -> str:
             spec = getattr(lobe, 'lift_spec', None)
             return f'lobes[{i}].lift_law' if spec is not None else f'lobes[{i}].lift'
     return 'lift'
-
-
-def gas_of(vt: Any, law: Any) -> Any:
-    """The scene's cylinder-gas force on the valve as a function of cam angle [N], or
-    None (``valve_train.gas``; docs/dynamics.md)."""
-    if getattr(vt, 'gas', None) is None:
-        return None
-    from cam_design.hydraulic.gas import gas_force, on_cam_angle
-
-    g = vt.gas
-    return on_cam_angle(gas_force(g['crank_deg'], g['pressure_pa'], g['head_diameter'],
-                                  g.get('back_pressure_pa', 0.0)),
-                        g['lobe_start_crank_deg'], float(law.support[0]))
-
-
-def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
-                geom: ContactGeometry | None, max_revolutions: int = 4,
-                key: str = 'lift') -> Run:
-    """One run of the scene's valve-train model (``vt``: scene ValveTrain); ``key``
-    names the lobe's lift in refusals."""
-    if getattr(vt, 'model', 'sdof') == 'hydraulic':
-        from cam_design.hydraulic.run import hydraulic_from_valve_train, run_hydraulic
-
-        return run_hydraulic(law, hydraulic_from_valve_train(vt), rpm, geom,
-                             gas=gas_of(vt, law))
-    params = SdofParams.from_valve_train(vt)
-    from cam_design.valve_train.physics import train_checks_from
-    tc = train_checks_from(getattr(vt, 'spring', None), getattr(vt, 'piston', None))
-    if getattr(vt, 'hla', None) is not None:
-        from cam_design.hydraulic.hla_coupled import run_with_hla
-
-        mp = None
-        if getattr(vt, 'model', 'sdof') == 'mdof':
-            from cam_design.valve_train.mdof import mdof_from_mapping
-
-            mp = mdof_from_mapping(vt.mdof, params)
-        return run_with_hla(law, params, vt.hla, rpm, mdof=mp, step_deg=step_deg,
-                            gas=gas_of(vt, law), geometry=geom, train_checks=tc)
-    if getattr(vt, 'gas', None) is not None and (
-            getattr(vt, 'model', 'sdof') == 'mdof' or params.hard_seat):
-        from cam_design.hydraulic.hla_coupled import run_gas_ode
-        from cam_design.valve_train.mdof import mdof_from_mapping
-
-        mp = (mdof_from_mapping(vt.mdof, params) if getattr(vt, 'model', 'sdof') == 'mdof'
-              else None)
-        return run_gas_ode(law, params, mp, rpm, gas=gas_of(vt, law), step_deg=step_deg,
-                           geometry=geom, train_checks=tc)
-    if getattr(vt, 'model', 'sdof') == 'mdof':
-        from cam_design.valve_train.mdof import mdof_from_mapping, simulate_mdof
-
-        mp = mdof_from_mapping(vt.mdof, params)
-        res = simulate_mdof(law, mp, rpm, step_deg=step_deg)
-        events = dict(res.events)
-        events['natural_frequencies_hz'] = [float(f) for f in res.natural_frequencies_hz[:6]]
-        events['spring_surge_hz'] = [float(s[0]) for s in res.surge_hz]
-        return finish_run(law, params, rpm, 'mdof', res.alpha, res.y, res.v, res.cam_force,
-                          events, geom, tc)
-    gas = gas_of(vt, law)
-    return run_sdof(law, params, rpm, step_deg=step_deg, geometry=geom, gas=gas,
-                    max_revolutions=max_revolutions, train_checks=tc, key=key)
