@@ -48,12 +48,16 @@ class GasSpec:
     lobe_start_crank_deg: float
 
     def force_on(self, law: LiftLaw) -> Callable[[float], float]:
-        """The gas force on the valve [N] as a function of the lobe's cam angle [rad]."""
+        """The gas force on the valve [N] as a function of the lobe's cam angle [rad]
+        (anchored on the law's ``lobe_start`` [rad] when it has one, e.g. a lobe seen
+        through the shaft's twist, else on its support's start)."""
         from cam_design.hydraulic.gas import gas_force, on_cam_angle
 
+        start = getattr(law, 'lobe_start', None)
         return on_cam_angle(gas_force(self.crank_deg, self.pressure_pa, self.head_diameter,
                                       self.back_pressure_pa),
-                            self.lobe_start_crank_deg, float(law.support[0]))
+                            self.lobe_start_crank_deg,
+                            float(law.support[0] if start is None else start))
 
 
 @dataclass(frozen=True)
