@@ -156,10 +156,12 @@ def _journal_shares(spec: CamshaftSpec, lobe_ids: list[str]
 
 
 def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
-                 step_deg: float = 0.1, max_revolutions: int = 4, tol: float = 1e-10,
-                 max_iter: int = 30, shaft: Shaft | None = None) -> CamshaftRun:
+                 step_deg: float = 0.1, max_revolutions: int = 4, tol: float = 1e-9,
+                 max_iter: int = 40, shaft: Shaft | None = None,
+                 depth: int = 6) -> CamshaftRun:
     """The coupled periodic state of ``lobes`` on the shaft ``spec`` at ``rpm`` (module
-    docstring); ``tol`` [rad] on the change of the twist at the lobes."""
+    docstring); ``tol`` [rad] on the change of the twist at the lobes; ``depth``: the
+    Anderson acceleration's memory (0: plain iteration)."""
     N = grid_size(step_deg)
     omega = omega_of_rpm(rpm)
     shaft = shaft or assemble(spec)
@@ -172,7 +174,7 @@ def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
     response: Response | None = None
     change, it, converged = math.inf, 0, False
     lobe_rows = [station[i] for i in ids]
-    relax, last_resid = 1.0, None
+    mixer = _Anderson(depth)
     while it < max_iter:
         it += 1
         loads = np.zeros((len(spec.stations), N))
@@ -226,9 +228,7 @@ def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
         if change < tol or response is None and change == 0.0:
             response, converged = new, True
             break
-        relax = _aitken(relax, last_resid, resid)
-        last_resid = resid
-        response = new if response is None else _blend(response, new, relax)
+        response = mixer.next(response, new, resid)
     if response is None or not converged:
         response = new
     dpsi = response.dpsi
@@ -245,27 +245,46 @@ def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
         converged=converged, extras=extras)
 
 
-def _aitken(previous: float, last: NDArray[np.float64] | None,
-            resid: NDArray[np.float64]) -> float:
-    """Aitken's dynamic relaxation factor for the next fixed-point step (Irons-Tuck;
-    Kuettler & Wall 2008): -w_prev r_prev.(r - r_prev) / |r - r_prev|^2, in [0.05, 1]."""
-    if last is None:
-        return previous
-    dr = (resid - last).ravel()
-    den = float(dr @ dr)
-    if den == 0.0:
-        return previous
-    return float(np.clip(-previous * float(last.ravel() @ dr) / den, 0.05, 1.0))
+class _Anderson:
+    """Anderson acceleration of the fixed point x = G(x) on the shaft's response
+    (Walker & Ni 2011, type II): with the last ``depth`` residuals f = G(x) - x, the
+    next iterate is G(x_k) - dG gamma, gamma the least-squares fit of f_k by the
+    residual differences dF (measured on the twist at the lobes). The response is linear
+    in the loads, so a combination of responses is one."""
+
+    def __init__(self, depth: int) -> None:
+        self.depth = depth
+        self.f: list[NDArray[np.float64]] = []
+        self.g: list[NDArray[np.float64]] = []
+
+    def next(self, x: Response | None, g: Response, f: NDArray[np.float64]) -> Response:
+        gv = _pack(g)
+        self.f.append(f.ravel())
+        self.g.append(gv)
+        if len(self.f) > self.depth + 1:
+            self.f.pop(0)
+            self.g.pop(0)
+        if x is None or len(self.f) < 2 or self.depth == 0:
+            return g
+        dF = np.stack([b - a for a, b in zip(self.f[:-1], self.f[1:])], axis=1)
+        dG = np.stack([b - a for a, b in zip(self.g[:-1], self.g[1:])], axis=1)
+        gamma = np.linalg.lstsq(dF, self.f[-1], rcond=None)[0]
+        return _unpack(gv - dG @ gamma, g)
 
 
-def _blend(old: Response, new: Response, w: float) -> Response:
-    """old + w (new - old), field by field (the response is linear in the loads)."""
-    def mix(a: NDArray[Any], b: NDArray[Any]) -> NDArray[Any]:
-        return a + w * (b - a)
+def _pack(r: Response) -> NDArray[np.float64]:
+    return np.concatenate([r.psi.ravel(), r.dpsi.ravel(), r.d2psi.ravel(), r.d3psi.ravel(),
+                           r.drive, r.spectrum.real.ravel(), r.spectrum.imag.ravel()])
 
-    return Response(spectrum=mix(old.spectrum, new.spectrum), psi=mix(old.psi, new.psi),
-                    dpsi=mix(old.dpsi, new.dpsi), d2psi=mix(old.d2psi, new.d2psi),
-                    d3psi=mix(old.d3psi, new.d3psi), drive=mix(old.drive, new.drive))
+
+def _unpack(v: NDArray[np.float64], like: Response) -> Response:
+    parts, pos = [], 0
+    for arr in (like.psi, like.dpsi, like.d2psi, like.d3psi, like.drive,
+                like.spectrum.real, like.spectrum.imag):
+        parts.append(v[pos:pos + arr.size].reshape(arr.shape))
+        pos += arr.size
+    return Response(spectrum=parts[5] + 1j * parts[6], psi=parts[0], dpsi=parts[1],
+                    d2psi=parts[2], d3psi=parts[3], drive=parts[4])
 
 
 def _nose_shift(lb: LobeOnShaft, delta: NDArray[np.float64], alpha: NDArray[np.float64]

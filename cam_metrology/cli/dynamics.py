@@ -132,9 +132,11 @@ def run(args: argparse.Namespace) -> int:
         if scene.valve_train is None:
             raise InputError('valve_train', None, 'a valve_train block in the scene')
         from cam_metrology.wire.topics import SCENE
-        core.handle(SCENE, SimpleNamespace(data=_scene_text(scene, args.feature)), 0)
+        text = scene.text if scene.camshaft is not None else _scene_text(scene, args.feature)
+        core.handle(SCENE, SimpleNamespace(data=text), 0)   # the shaft carries every lobe
         kind = 'scene'
     result = _result(core, args, kind, sweep_speeds)
+    shaft_sweep = _camshaft_block(core, args, result, sweep_speeds)
     _write(result, args)
     if args.plot:
         from cam_design.valve_train.sweep import plot_runs
@@ -144,6 +146,13 @@ def run(args: argparse.Namespace) -> int:
             if args.feature and feature != args.feature:
                 continue
             plot_runs(runs, folder / f'{safe_name(feature)}.png', title=feature)
+            if getattr(core, 'camshaft_runs', None):
+                from cam_design.camshaft.report import plot_camshaft
+                plot_camshaft(core.camshaft_runs, folder / 'camshaft.png',
+                              title=f'camshaft {scene_id(core)}')
+                if shaft_sweep:
+                    plot_camshaft(shaft_sweep, folder / 'camshaft_sweep.png',
+                                  title=f'camshaft {scene_id(core)}: sweep')
             hydraulic = [r for r in runs if hasattr(r, 'pump_pressure')]
             if hydraulic:
                 import matplotlib.pyplot as plt
@@ -155,6 +164,40 @@ def run(args: argparse.Namespace) -> int:
                             dpi=110)
                 plt.close(fig)
     return 1 if any('failures' in e for e in result['features'].values()) else 0
+
+
+def scene_id(core: Any) -> str:
+    """The scene's camshaft_id (or '')."""
+    return str(getattr(core.scene, 'camshaft_id', '') or '')
+
+
+def _camshaft_block(core: Any, args: argparse.Namespace, result: dict[str, Any],
+                    sweep_speeds: Any) -> list[Any]:
+    """With a ``camshaft:`` block: the result's ``camshaft`` (per-speed arrays of the
+    runs' speeds; ``sweep``: the same over the --sweep speeds) and the sweep's runs."""
+    spec = getattr(core.scene, 'camshaft', None) if core.scene is not None else None
+    if spec is None or not getattr(core, 'active', False):
+        result['camshaft'] = None
+        return []
+    from cam_design.camshaft.report import camshaft_summary
+    from cam_metrology.metrology.core import _json_safe
+
+    block = camshaft_summary(spec, core.camshaft_runs, core.camshaft_failures)
+    runs: list[Any] = []
+    if sweep_speeds is not None:
+        from cam_design.train.run import train_from_valve_train
+        from cam_metrology.dynamics.camshaft import run_speeds
+        from cam_metrology.dynamics.core import lobe_key
+
+        scene = core.scene
+        train = train_from_valve_train(scene.valve_train, args.model)
+        runs, failures = run_speeds(scene, train, sweep_speeds, step_deg=core.step_deg,
+                                    cam_width=core.cam_width, youngs=core.youngs,
+                                    max_revolutions=core.max_revolutions,
+                                    keys={lb.id: lobe_key(scene, lb.id) for lb in scene.lobes})
+        block['sweep'] = camshaft_summary(spec, runs, failures)
+    result['camshaft'] = _json_safe(block)
+    return runs
 
 
 def _table_core(path: Path, args: argparse.Namespace) -> Any:
@@ -360,8 +403,42 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
                 span = (f' ({min(forces):.1f} to {max(forces):.1f} N over the sweep)'
                         if forces else '')
                 print(f"{feature}: no-open speed none: {entry['no_open_note']}{span}")
+        for line in camshaft_lines(result.get('camshaft')):
+            print(line)
         for s in result['skipped']:
             print(f"skipped {s['what']}: {s['why']}")
+
+
+def camshaft_lines(block: dict[str, Any] | None) -> list[str]:
+    """Human lines of the camshaft: natural frequencies, then per speed the drive torque
+    (mean, peak, largest order), the friction loss and the lobes' timing shifts."""
+    if not block:
+        return []
+    freqs = ', '.join(f'{f:.0f}' for f in block['natural_frequencies_hz'][:4])
+    lines = [f"camshaft: torsional natural frequencies {freqs} Hz (drive {block['drive']})"]
+    for part, label in ((block, 'run'), (block.get('sweep'), 'sweep')):
+        if not part:
+            continue
+        tq = part['drive_torque_nm']
+        for i, rpm in enumerate(part['cam_speed_rpm']):
+            orders = tq['orders'][i]
+            top = max(range(len(orders)), key=lambda n: orders[n])
+            shifts = ', '.join(f"{lid} {v['timing_shift_deg'][i]:+.3f}"
+                               for lid, v in part['lobes'].items())
+            lines.append(
+                f"camshaft {label} {rpm:g} rpm: drive torque mean {tq['mean'][i]:.2f} N m, "
+                f"peak {tq['peak'][i]:.1f} N m, largest order {top + 1} "
+                f"({orders[top]:.1f} N m); friction {part['friction_loss_j_per_rev'][i]:.2f} "
+                f"J/rev ({part['friction_power_w'][i]:.0f} W); timing shift [deg] {shifts}"
+                + ('' if part['converged'][i] else '; NOT CONVERGED'))
+        for name, why in part.get('failures', {}).items():
+            lines.append(f'camshaft {label} {name}: FAILED: {why}')
+    crossings = [c for c in block['order_crossings'] if c['order'] <= 12][:6]
+    if crossings:
+        lines.append('camshaft: order crossings ' + ', '.join(
+            f"order {c['order']} x mode {c['mode']} at {c['cam_speed_rpm']:.0f} rpm"
+            for c in crossings))
+    return lines
 
 
 def hydraulic_sweep_lines(feature: str, entry: dict[str, Any]) -> list[str]:

@@ -118,6 +118,8 @@ class DynamicsCore:
         self.runs: dict[str, list[Run]] = {}
         self.failures: dict[str, str] = {}
         self.notes: dict[str, str] = {}
+        self.camshaft_runs: list[Any] = []        # cam_design.camshaft CamshaftRun
+        self.camshaft_failures: dict[str, str] = {}
 
     # -- protocol ------------------------------------------------------------------
     def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:
@@ -151,6 +153,7 @@ class DynamicsCore:
         self.runs.clear()
         self.failures.clear()
         self.notes.clear()
+        self.camshaft_runs, self.camshaft_failures = [], {}
         self.active = False
         try:
             scene = parse_scene(text, SCENE)
@@ -165,6 +168,8 @@ class DynamicsCore:
         self.active = True
         if self.source != 'design':
             return []
+        if scene.camshaft is not None:
+            return self._compute_camshaft(stamp_ns)
         out: list[Output] = []
         for lobe in scene.lobes:
             out += self._compute(lobe.id, lobe.lift, 'design', stamp_ns)
@@ -226,31 +231,77 @@ class DynamicsCore:
                 run = run_train(law, train, rpm, step_deg=self.step_deg, geometry=geom,
                                 max_revolutions=self.max_revolutions, key=key)
             except (InputError, RuntimeError, ValueError) as exc:
-                self.failures[name] = str(exc)
-                statuses.append(Status(name, ERROR, f'dynamics failed: {exc}',
-                                       {'source': source, **({'source_note': note}
-                                                             if note else {})}))
+                self._failed(name, str(exc), source, note, statuses)
                 continue
-            self.runs.setdefault(feature, []).append(run)
-            out.append(TableOutput(MOTION, name, COLUMNS, run.table()))
-            if hasattr(run, 'pressure_table'):   # hydraulic model: chamber pressures
-                from cam_design.hydraulic.run import PRESSURE_COLUMNS
-
-                out.append(TableOutput(MOTION, f'{name}/pressure', PRESSURE_COLUMNS,
-                                       run.pressure_table()))
-            ev = run.events
-            level = WARN if (ev.get('jump') or ev.get('bounce_count') or ev.get('left_cam')
-                             or ev.get('settled') is False) else OK
-            msg = ('valve leaves the cam' if ev.get('left_cam') else
-                   'not settled' if ev.get('settled') is False else
-                   'separation' if ev.get('jump') else
-                   'bounce' if ev.get('bounce_count') else 'ok')
             run.events['cam_width_source'] = width_source
-            values = {'source': source, 'model': run.model}
-            if note:
-                values['source_note'] = note
-            values.update({k: _fmt(v) for k, v in ev.items()})
-            statuses.append(Status(name, level, msg, values))
+            out += self._publish(feature, name, run, source, note, statuses)
+        out.append(StatusOutput(RESULT, tuple(statuses), stamp_ns))
+        return out
+
+    def _failed(self, name: str, why: str, source: str, note: str | None,
+                statuses: list[Status]) -> None:
+        self.failures[name] = why
+        statuses.append(Status(name, ERROR, f'dynamics failed: {why}',
+                               {'source': source, **({'source_note': note}
+                                                     if note else {})}))
+
+    def _publish(self, feature: str, name: str, run: Run, source: str, note: str | None,
+                 statuses: list[Status]) -> list[Output]:
+        """Keep a run; its motion table(s) and its status (appended to ``statuses``)."""
+        self.runs.setdefault(feature, []).append(run)
+        out: list[Output] = [TableOutput(MOTION, name, COLUMNS, run.table())]
+        if hasattr(run, 'pressure_table'):   # hydraulic model: chamber pressures
+            from cam_design.hydraulic.run import PRESSURE_COLUMNS
+
+            out.append(TableOutput(MOTION, f'{name}/pressure', PRESSURE_COLUMNS,
+                                   run.pressure_table()))
+        ev = run.events
+        level = WARN if (ev.get('jump') or ev.get('bounce_count') or ev.get('left_cam')
+                         or ev.get('settled') is False) else OK
+        msg = ('valve leaves the cam' if ev.get('left_cam') else
+               'not settled' if ev.get('settled') is False else
+               'separation' if ev.get('jump') else
+               'bounce' if ev.get('bounce_count') else 'ok')
+        values = {'source': source, 'model': run.model}
+        if note:
+            values['source_note'] = note
+        values.update({k: _fmt(v) for k, v in ev.items()})
+        statuses.append(Status(name, level, msg, values))
+        return out
+
+    def _compute_camshaft(self, stamp_ns: int) -> list[Output]:
+        """Every lobe's design law on the scene's flexible camshaft (docs/camshaft.md):
+        the coupled runs per speed, published like single runs (their events carry the
+        lobe's ``timing_shift_deg``); ``self.camshaft_runs`` keeps the shaft's results."""
+        from cam_metrology.dynamics.camshaft import run_speeds
+
+        scene = self.scene
+        speeds = self.speeds or tuple(scene.valve_train.cam_speed_rpm)
+        keys = {lb.id: lobe_key(scene, lb.id) for lb in scene.lobes}
+        for lb in scene.lobes:
+            self.done.add(lb.id)
+            self.laws[lb.id] = (lb.lift, 'design')
+        statuses: list[Status] = []
+        out: list[Output] = []
+        try:
+            train = train_from_valve_train(scene.valve_train, self.model or None)
+            runs, failures = run_speeds(scene, train, speeds, step_deg=self.step_deg,
+                                        cam_width=self.cam_width, youngs=self.youngs,
+                                        max_revolutions=self.max_revolutions, keys=keys)
+        except (InputError, RuntimeError, ValueError) as exc:
+            runs, failures = [], {f'{rpm_label(r)}rpm': str(exc) for r in speeds}
+        self.camshaft_runs = runs
+        self.camshaft_failures = failures
+        for label, why in failures.items():
+            for lb in scene.lobes:
+                self._failed(f'{lb.id}/{label}', why, 'design', None, statuses)
+        for cr in runs:
+            for lb in scene.lobes:
+                run = cr.runs[lb.id]
+                run.events['timing_shift_deg'] = cr.extras[lb.id]['timing_shift_deg']
+                run.events['cam_width_source'] = cam_width_of(lb, self.cam_width)[1]
+                out += self._publish(lb.id, f'{lb.id}/{rpm_label(cr.rpm)}rpm', run,
+                                     'design', None, statuses)
         out.append(StatusOutput(RESULT, tuple(statuses), stamp_ns))
         return out
 
