@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 import yaml
 
 REPO = Path(__file__).resolve().parents[1]
@@ -42,7 +43,8 @@ def test_cli_camshaft_json(tmp_path: Path, capsys) -> None:
     # the mean drive torque pays at least the friction (power balance, in N m)
     friction_mean = cs['friction_loss_j_per_rev'][0] / (2 * math.pi)
     assert cs['drive_torque_nm']['mean'][0] > friction_mean > 0
-    assert cs['friction_power_w'][0] == cs['friction_loss_j_per_rev'][0] * 1500 / 60
+    assert cs['friction_power_w'][0] == pytest.approx(
+        cs['friction_loss_j_per_rev'][0] * 1500 / 60, rel=1e-12)
     assert set(cs['lobes']) == {'lobe_1', 'lobe_2', 'lobe_3', 'lobe_4'}
     freqs = cs['natural_frequencies_hz']
     assert len(freqs) == 7 and all(np.diff(freqs) > 0)
@@ -60,3 +62,18 @@ def test_cli_bad_camshaft_block_is_one_line(tmp_path: Path, capsys) -> None:
     assert main(['dynamics', str(_scene(tmp_path, bad))]) == 2
     err = capsys.readouterr().err.strip()
     assert 'camshaft.drive.stiffness' in err and '\n' not in err
+
+
+def test_cli_camshaft_sweep_reports_per_speed(tmp_path: Path) -> None:
+    from cam_metrology.cli import main
+
+    out = tmp_path / 'out.json'
+    assert main(['dynamics', str(_scene(tmp_path, SHAFT)), '--rpm', '1500', '--step-deg', '1',
+                 '--sweep', '1500:2000:500', '--json', str(out)]) == 0
+    cs = json.loads(out.read_text())['camshaft']
+    sw = cs['sweep']
+    assert sw['cam_speed_rpm'] == [1500.0, 2000.0]
+    assert all(len(v['timing_shift_deg']) == 2 for v in sw['lobes'].values())
+    # the sweep's 1500 rpm is the run's 1500 rpm
+    assert sw['drive_torque_nm']['mean'][0] == pytest.approx(cs['drive_torque_nm']['mean'][0],
+                                                             rel=1e-9)
