@@ -17,6 +17,12 @@ the penalty or hard seat; ``mdof``: §4.2) and publishes
   ``skipped/dynamics`` when the scene has no ``valve_train`` or ``compute`` omits
   ``dynamics``.
 
+With a scene ``camshaft:`` block and ``source=design`` every lobe runs on the scene's
+flexible camshaft (``cam_design.camshaft``, docs/camshaft.md): the coupled runs are
+published as above, their events carry ``timing_shift_deg``, and ``camshaft_runs`` keeps
+the shaft's figures (all speeds are computed when the scene arrives: seconds per speed
+and lobe count). Measured profiles run on a rigid shaft.
+
 Lift source (parameter ``source``): ``auto`` uses the reconstructed profile of a lobe
 when one arrives and the design law for lobes without one at ``finish``; ``profile``
 only profiles; ``design`` the scene's design laws as soon as the scene arrives.
