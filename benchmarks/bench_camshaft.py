@@ -131,7 +131,7 @@ def _trains(n: int) -> list[str]:
 def _sweep(count: int) -> list[str]:
     from cam_design.train.run import train_from_valve_train
     from cam_metrology.dynamics.camshaft import run_speeds
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     scene = load_scene(Path(__file__).resolve().parents[1] / 'config' /
                        'camshaft_i4_scene.yaml')

@@ -122,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         from types import SimpleNamespace
 
-        from cam_metrology.scene_parse import load_scene
+        from cam_metrology.scene.parse import load_scene
 
         scene = load_scene(path)
         if args.feature is not None and args.feature not in [lb.id for lb in scene.lobes]:
@@ -140,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
     _write(result, args)
     if args.plot:
         from cam_design.valve_train.sweep import plot_runs
-        from cam_metrology.files import output_dir, safe_name
+        from cam_metrology.inputs.files import output_dir, safe_name
         folder = output_dir(args.plot, '--plot')
         for feature, runs in core.runs.items():
             if args.feature and feature != args.feature:
@@ -158,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
                 import matplotlib.pyplot as plt
 
                 from cam_design.hydraulic.plot import plot_pressures
-                from cam_metrology.files import save_figure
+                from cam_metrology.inputs.files import save_figure
                 fig = plot_pressures(hydraulic, title=f'{feature}: hydraulic valve gear')
                 save_figure(fig, folder / f'{safe_name(feature)}_pressure.png', '--plot',
                             dpi=110)
@@ -180,7 +180,6 @@ def _camshaft_block(core: Any, args: argparse.Namespace, result: dict[str, Any],
         result['camshaft'] = None
         return []
     from cam_design.camshaft.report import camshaft_summary
-    from cam_metrology.metrology.core import _json_safe
 
     block = camshaft_summary(spec, core.camshaft_runs, core.camshaft_failures)
     runs: list[Any] = []
@@ -196,7 +195,7 @@ def _camshaft_block(core: Any, args: argparse.Namespace, result: dict[str, Any],
                                     max_revolutions=core.max_revolutions,
                                     keys={lb.id: lobe_key(scene, lb.id) for lb in scene.lobes})
         block['sweep'] = camshaft_summary(spec, runs, failures)
-    result['camshaft'] = _json_safe(block)
+    result['camshaft'] = block
     return runs
 
 
@@ -208,7 +207,7 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
     from cam_design.train.run import run_train, train_from_valve_train
     from cam_metrology.dynamics.core import parse_speeds, rpm_label
     from cam_metrology.dynamics.tables import table_input
-    from cam_metrology.scene_parse import load_valve_train
+    from cam_metrology.scene.parse import load_valve_train
 
     if not args.valve_train:
         raise InputError('--valve-train', None, 'a scene or valve-train YAML with a TABLE '
@@ -263,8 +262,8 @@ def _scene_text(scene: Any, feature: str | None) -> str:
 
 def _replay(path: Path, core: Any) -> None:
     """Feed the bag through metrology -> reconstruction -> dynamics (what exists)."""
-    from cam_metrology.registry import available_cores
-    from cam_metrology.replay import run_offline
+    from cam_metrology.offline.registry import available_cores
+    from cam_metrology.offline.replay import run_offline
 
     cores = [cls() for name, cls in available_cores().items() if name != 'dynamics']
     run_offline(path, [*cores, core])
@@ -370,7 +369,7 @@ def _law_key(core: Any, feature: str) -> str:
 def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
     text = json.dumps(result, indent=1)
     if args.json:
-        from cam_metrology.files import write_output
+        from cam_metrology.inputs.files import write_output
         write_output(args.json, text + '\n', '--json')
     for feature, entry in result['features'].items():
         if 'note' in entry:         # stderr: seen also with --json -

@@ -38,8 +38,8 @@ from cam_design.valve_train.cam_input import JetTableLift
 from cam_design.train.run import TrainSpec, run_train, train_from_valve_train
 from cam_design.valve_train.params import require_rpm, require_step_deg
 from cam_design.valve_train.report import COLUMNS, ContactGeometry, Run
-from cam_metrology.core import merged_parameters
-from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
+from cam_metrology.cores.contract import merged_parameters
+from cam_metrology.cores.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
 from cam_metrology.wire.layouts import table_from_msg
 from cam_metrology.wire.topics import (DYNAMICS_MOTION, DYNAMICS_RESULT, RECONSTRUCTION_PROFILE,
                                        SCENE)
@@ -152,7 +152,7 @@ class DynamicsCore:
 
     # -- work --------------------------------------------------------------------
     def _scene(self, text: str, stamp_ns: int) -> list[Output]:
-        from cam_metrology.scene_parse import parse_scene
+        from cam_metrology.scene.parse import parse_scene
 
         self.done.clear()
         self.laws.clear()
