@@ -65,7 +65,7 @@ def _shaft(n: int) -> dict:
             'lobe_inertia': 1.4e-5, 'damping_ratio': 0.02}
 
 
-def _reference(spec, law: _Cosine, shifts: list[float]) -> np.ndarray:
+def _reference(spec, law: _Cosine, shifts: list[float]) -> tuple[np.ndarray, np.ndarray]:
     """LSODA of the coupled ODE: state (y_i, v_i) per train, (psi_j, psi_j') per free
     station; returns the lobes' twist (n, N) and valve lift (n, N) on the last revolution."""
     shaft = assemble(spec)

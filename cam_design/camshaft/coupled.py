@@ -170,7 +170,7 @@ def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
     shares = _journal_shares(spec, ids)
     fr = spec.friction
     phaser = math.radians(spec.drive.phaser_deg)
-    alpha = np.arange(N) * (2.0 * math.pi / N)
+    alpha: NDArray[np.float64] = np.arange(N, dtype=np.float64) * (2.0 * math.pi / N)
     response: Response | None = None
     change, it, converged = math.inf, 0, False
     lobe_rows = [station[i] for i in ids]

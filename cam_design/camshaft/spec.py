@@ -119,7 +119,8 @@ def _mapping(value: Any, key: str, known: Sequence[str]) -> Mapping[str, Any]:
     return value
 
 
-def _coefficient(block: Mapping[str, Any], key: str, name: str, default: float) -> float:
+def _coefficient(block: Mapping[str, Any], key: str, name: str,
+                 default: float | None) -> float:
     value = block.get(name, default)
     mu = require_finite(f'{key}.{name}', value)
     if not 0.0 <= mu <= MU_MAX:

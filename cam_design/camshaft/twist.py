@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from cam_design.lift_laws.base import LiftLaw
 
@@ -100,7 +100,7 @@ class TwistedLift(LiftLaw):
     def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
         return self._jets(alpha)[nu]
 
-    def derivatives(self, alpha: NDArray[np.float64]) -> NDArray[np.float64]:
+    def derivatives(self, alpha: ArrayLike) -> NDArray[np.float64]:
         """(4, n): H, H', H'', H''' at ``alpha`` (zero outside the support)."""
         a = np.asarray(alpha, dtype=float).reshape(-1)
         out = np.zeros((4, a.size))

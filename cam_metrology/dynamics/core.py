@@ -226,7 +226,7 @@ class DynamicsCore:
                                follower=lobe.follower.kind, radius=lobe.follower.radius,
                                width=width, youngs_modulus=self.youngs)
         out: list[Output] = []
-        statuses = []
+        statuses: list[Any] = []
         key = (lobe_key(self.scene, feature) if source == 'design'
                else f'{PROFILE} {feature}/{source.split(":", 1)[-1]}')
         for rpm in speeds:
