@@ -47,6 +47,7 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
 from cam_metrology.reconstruction.blas import single_thread_blas
+from cam_metrology.reconstruction.junctions import JunctionSpline, find_junctions, refit
 from cam_metrology.reconstruction.result import Reconstruction, output_grid, sign_pattern
 from cam_metrology.reconstruction.samples import CleanSamples, clean_samples
 
@@ -743,6 +744,7 @@ class SplineOptions:
     sigma: float | None = None              # instrument noise [m]; None: estimated
     expected_sign_changes: int | None = 2   # of h'' (None: no check)
     step: float | None = None               # output grid step [rad]; None: data step
+    junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
@@ -832,10 +834,20 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                                  fair.sigma, f'set by the caller: lam = {lam:.4g} rad^5')
     why = choice.why
     lam_d = choice.lam_d
+    found = None
+    if opt.junctions and uniform and not exact and opt.smoothing is None:
+        found = find_junctions(grid, values, lam_d, gamma=gamma, sigma_floor=floor)
+        if found is not None:
+            lam_d = found.lam_d
+            why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
+                    f'chosen again with them: lam_d = {lam_d:.4g}')
 
     ylift = fair.lift.copy()
 
     def fit_spline(lam: float) -> Any:
+        if uniform and found is not None:
+            fit = refit(grid, values, missing, found, lam)
+            return JunctionSpline(make_interp_spline(grid, fit.smooth, k=5), fit)
         if uniform:
             return make_interp_spline(grid, smooth_grid(values, missing, lam), k=5)
         return _pspline(x[kept], ylift[kept], data.count[kept], grid, lam * density)
@@ -906,6 +918,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         'max_rebound_m': float(np.max(np.abs(fair.rebound0[1:-1]))),
         'median_rebound_m': float(np.median(np.abs(fair.rebound0[1:-1]))),
     }
+    if isinstance(spline, JunctionSpline):
+        parameter['edf'] = spline.junctions.edf
+        parameter['junctions_deg'] = [math.degrees(t) for t in spline.junctions.angles]
+        parameter['acceleration_jumps_m_per_rad2'] = list(spline.junctions.jumps)
+        notes.append("h'' jumps at " + ', '.join(
+            f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2)'
+            for t, j in zip(spline.junctions.angles, spline.junctions.jumps)))
     rec = Reconstruction(
         method='spline', alpha=out, lift=spline(out), velocity=spline(out, 1),
         acceleration=acc, jerk=spline(out, 3), data_alpha=x[kept],
