@@ -31,19 +31,22 @@ from functools import lru_cache
 
 import numpy as np
 from numpy.polynomial import Polynomial
+from numpy.polynomial.polynomial import polyval
 from numpy.typing import NDArray
-from scipy.linalg import solveh_banded
+from scipy.linalg import cho_solve_banded, cholesky_banded
 from scipy.signal import fftconvolve
 
 #: family-wise false-alarm probability of the junction search on a lobe without one
 FALSE_ALARM = 1e-3
 #: most junctions searched for (ramps and three acceleration segments per flank: ten)
 MAX_JUNCTIONS = 12
-#: the level divisor of the second scan (a junction must also stand out of a fit this
-#: much lighter, where smoothing bias fades as lam and a true step's signal as lam^(5/6))
-SHARPNESS_LEVEL = 30.0
-#: a junction is kept when it lowers the GCV score of the whole fit by this fraction
-GCV_GAIN = 0.01
+#: a junction is kept when it lowers N ln(GCV) of the whole fit by this much (a step
+#: that only stands in for the smoothing bias of a smooth lobe raises the score)
+GCV_GAIN = 6.0
+#: no junction is sought within this fraction of the table from either end
+END_MARGIN = 0.02
+#: the search ends after this many candidates refused by the GCV test
+MAX_REFUSED = 8
 #: positions tried per grid step by the scan
 SCAN_OFFSETS = (0.0, 0.25, 0.5, 0.75)
 
@@ -65,11 +68,21 @@ def _penalty(m: int) -> NDArray[np.float64]:
     return ab
 
 
+@lru_cache(maxsize=8)
+def _factor(n: int, lam_d: float) -> NDArray[np.float64]:
+    """Banded Cholesky factor of I + lam_d D3'D3 (read-only, cached: the search asks
+    for the same level many times)."""
+    ab = lam_d * _penalty(n)
+    ab[3] += 1.0
+    c = cholesky_banded(ab, check_finite=False)
+    c.setflags(write=False)
+    return c
+
+
 def _smooth(rhs: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
     """(I + lam_d D3'D3)^-1 rhs (rhs (n,) or (n, k))."""
-    ab = lam_d * _penalty(rhs.shape[0])
-    ab[3] += 1.0
-    return solveh_banded(ab, rhs, check_finite=False)
+    return cho_solve_banded((_factor(rhs.shape[0], float(lam_d)), False), rhs,
+                            check_finite=False)
 
 
 def _trace_smoother(n: int, lam_d: float) -> float:
@@ -86,43 +99,71 @@ def _smoothstep() -> Polynomial:
                         for k in range(6))
 
 
-@lru_cache(maxsize=64)
-def _cubic_hinge(length: float) -> tuple[Polynomial, Polynomial]:
-    """g3 in node units: third derivative 1 - S(u / L) on [0, L] (zero value, slope
-    and curvature at 0), its quadratic continuation beyond L (which free ends do not
-    penalise). Returns (piece on [0, L], piece beyond L)."""
-    third = 1.0 - _smoothstep()(Polynomial([0.0, 1.0 / length]))
-    inner = third.integ(3)
-    shift = Polynomial([-length, 1.0])
-    outer = (inner(length) + inner.deriv(1)(length) * shift
-             + 0.5 * inner.deriv(2)(length) * shift ** 2)
-    return inner, outer
-
-
 def side_of(tau: float, n: int) -> int:
     """+1: the junction at node ``tau`` opens to the right (its longer side), else -1."""
     return 1 if tau <= 0.5 * (n - 1) else -1
 
 
 def taper_nodes(n: int) -> float:
-    """Length [nodes] over which the step of h''' of a junction's cubic hinge fades."""
-    return max(0.25 * (n - 1), 4.0)
+    """Length [nodes] of a junction's cubic hinge (long beside the smoother's
+    bandwidth, short enough to keep its values, and the rounding of R g, small)."""
+    return max(min(0.25 * (n - 1), 60.0 + 0.02 * n), 4.0)
+
+
+@lru_cache(maxsize=64)
+def _hinges_on(length: float) -> tuple[Polynomial, Polynomial]:
+    """g2 = u^2/2 on u > 0 (no taper: the free ends do not penalise a quadratic) and
+    g3 = u^3/6 w(u) on [0, L], w = 1 - S(u / L), 0 beyond (C5 there, 1 + O(u^6) at
+    0): unit steps of the second and third derivatives at 0, in node units."""
+    taper = 1.0 - _smoothstep()(Polynomial([0.0, 1.0 / length]))
+    return Polynomial([0.0, 0.0, 0.5]), Polynomial([0.0, 0.0, 0.0, 1.0 / 6.0]) * taper
+
+
+@lru_cache(maxsize=64)
+def _hinge_coefficients(length: float, nu: int) -> tuple[NDArray[np.float64], ...]:
+    """Power-series coefficients of the nu-th derivatives of g2 and g3."""
+    return tuple(p.deriv(nu).coef for p in _hinges_on(length))
 
 
 def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
-    """(len(u), 2): nu-th u-derivatives of g2 = u_+^2 / 2 and of the cubic hinge g3
-    (node units), ``u`` nodes from a junction that opens to the right."""
+    """(len(u), 2): nu-th u-derivatives of g2 and g3 (node units), ``u`` nodes from a
+    junction that opens to the right."""
     u = np.asarray(u, dtype=float)
     out = np.zeros((u.size, 2))
+    quad, cubic = _hinge_coefficients(float(length), nu)
     pos = u > 0
-    quad = Polynomial([0.0, 0.0, 0.5]).deriv(nu)
-    out[pos, 0] = quad(u[pos])
-    inner, outer = _cubic_hinge(float(length))
-    near = pos & (u <= length)
-    far = u > length
-    out[near, 1] = inner.deriv(nu)(u[near])
-    out[far, 1] = outer.deriv(nu)(u[far])
+    near = pos & (u < length)
+    out[pos, 0] = polyval(u[pos], quad)
+    out[near, 1] = polyval(u[near], cubic)
     return out
+
+
+@lru_cache(maxsize=16)
+def _quadratics(n: int) -> NDArray[np.float64]:
+    """Orthonormal basis (n, 3) of the quadratics on n nodes (read-only, cached)."""
+    x = np.linspace(-1.0, 1.0, n)
+    q, _ = np.linalg.qr(np.column_stack([np.ones(n), x, x * x]))
+    q.setflags(write=False)
+    return q
+
+
+def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
+    """r without its quadratic part. R r is orthogonal to the quadratics (the free
+    ends reproduce them); the banded solve's rounding, amplified by the condition
+    number, is not, and a long hinge would sum it up."""
+    q = _quadratics(r.shape[0])
+    return r - q @ (q.T @ r)
+
+
+def _residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """R g = (I + lam_d P)^-1 lam_d P g, P = D3'D3: the same as g - S g, but formed from
+    third differences, so that the long quadratic tail of a hinge (S reproduces it)
+    adds no rounding."""
+    d3 = np.diff(g, 3, axis=0)
+    pg = np.zeros(g.shape)
+    for j, c in enumerate((-1.0, 3.0, -3.0, 1.0)):
+        pg[j:j + d3.shape[0]] += c * d3
+    return _deflate(_smooth(lam_d * pg, lam_d))
 
 
 def _hinge_columns(n: int, taus: list[float]) -> NDArray[np.float64]:
@@ -151,10 +192,9 @@ def partial_fit(values: NDArray[np.float64], taus: list[float], lam_d: float
     """Partial spline of uniform ``values`` [m] with hinges at node positions ``taus``."""
     n = values.size
     g = _hinge_columns(n, taus)
-    both = _smooth(np.column_stack([values, g]), lam_d)
-    ry = values - both[:, 0]
+    ry = _deflate(values - _smooth(values, lam_d))
     if g.shape[1]:
-        rg = g - both[:, 1:]
+        rg = _residual_operator(g, lam_d)
         m = g.T @ rg
         m = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
         coef = np.linalg.solve(m, g.T @ ry)
@@ -195,11 +235,11 @@ def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
                  lam0: float) -> float:
     """The GCV-minimising discrete level with these hinges, searched around ``lam0``."""
     c0 = math.log10(max(lam0, 1e-6))
-    grid = np.arange(c0 - 3.0, c0 + 3.01, 0.5)
+    grid = np.arange(c0 - 2.0, c0 + 2.01, 0.5)
     s = [_gcv(values, taus, 10.0 ** v, gamma) for v in grid]
     i = int(np.argmin(s))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    return 10.0 ** _golden(lambda v: _gcv(values, taus, 10.0 ** v, gamma), a, b, 12)
+    return 10.0 ** _golden(lambda v: _gcv(values, taus, 10.0 ** v, gamma), a, b, 8)
 
 
 def _hinge_gram(lam_d: float, offset: float, length: float
@@ -211,7 +251,7 @@ def _hinge_gram(lam_d: float, offset: float, length: float
     left = 2 * bw
     nodes = np.arange(left + int(math.ceil(length)) + 3 * bw, dtype=float)
     g = hinge_values(nodes - (left + offset), length)
-    rg = g - _smooth(g, lam_d)
+    rg = _residual_operator(g, lam_d)
     core = slice(bw, nodes.size - bw)          # clear of the window's own ends
     return g[core].T @ rg[core], rg[core].T @ rg[core]
 
@@ -320,15 +360,14 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
             break
         fit = partial_fit(values, taus, lam)
         sigma = max(math.sqrt(fit.rss / max(n - fit.edf, 1.0)), sigma_floor, 1e-300)
-        pos, stat = scan(fit.resid, lam, sigma)
-        # the same test on a much lighter fit: the smoothing bias of a smooth but
-        # strongly curved lobe fades there faster than the signal of a step of h''
-        light = lam / SHARPNESS_LEVEL
-        _, stat_light = scan(partial_fit(values, taus, light).resid, light, sigma)
-        stat = np.minimum(stat, stat_light)
-        if taus or vetoed:              # not on a junction taken or refused already
+        # clear of the table's ends by a few bandwidths (the scan's variance is that of
+        # the interior), and of the junctions taken or refused by one
+        bandwidth = max(lam, 1.0) ** (1.0 / 6.0)
+        pos, stat = scan(fit.resid, lam, sigma,
+                         margin=int(max(3 + 6 * bandwidth, END_MARGIN * n)))
+        if taus or vetoed:
             near = np.min(np.abs(pos[:, None] - np.asarray(taus + vetoed)[None, :]), axis=1)
-            stat = np.where(near > 1.5, stat, 0.0)
+            stat = np.where(near > max(1.5, bandwidth), stat, 0.0)
         i = int(np.argmax(stat)) if stat.size else -1
         if i < 0 or stat[i] < threshold:
             break
@@ -336,10 +375,13 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         lam_trial = choose_level(values, trial, gamma, lam)
         # kept only if it lowers the GCV score of the whole fit: a step that stands in
         # for the smoothing bias of a smooth, strongly curved lobe raises it
+        gain = n * math.log(_gcv(values, taus, lam, gamma)
+                            / _gcv(values, trial, lam_trial, gamma))
         if (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) < 1.0
-                or _gcv(values, trial, lam_trial, gamma)
-                > (1.0 - GCV_GAIN) * _gcv(values, taus, lam, gamma)):
+                or gain < GCV_GAIN):
             vetoed.append(float(pos[i]))
+            if len(vetoed) >= MAX_REFUSED:
+                break
             continue
         taus = trial
         scores.append(float(stat[i]))
@@ -350,15 +392,24 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
 
 
 def _refine(values: NDArray[np.float64], taus: list[float], lam: float) -> list[float]:
-    """Each junction moved (within one node) to the minimum of the penalised residual
-    with the others held, in the order they were found."""
-    out = list(taus)
+    """The last junction moved (within one node) to the minimum of the penalised
+    residual, the others held."""
     n = values.size
-    for k in range(len(out)):
-        def objective(t: float, k: int = k) -> float:
-            return partial_fit(values, out[:k] + [t] + out[k + 1:], lam).objective
-        out[k] = _golden(objective, max(out[k] - 1.0, 1.0), min(out[k] + 1.0, n - 2.0), 12)
-    return out
+    fixed = _hinge_columns(n, taus[:-1])
+    ry = _deflate(values - _smooth(values, lam))
+    rf = _residual_operator(fixed, lam)
+
+    def objective(t: float) -> float:
+        new = _hinge_columns(n, [t])
+        g = np.column_stack([fixed, new])
+        rg = np.column_stack([rf, _residual_operator(new, lam)])
+        m = g.T @ rg
+        m = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
+        b = g.T @ ry
+        return float(values @ ry - b @ np.linalg.solve(m, b))
+
+    last = taus[-1]
+    return taus[:-1] + [_golden(objective, max(last - 1.0, 1.0), min(last + 1.0, n - 2.0), 10)]
 
 
 class JunctionSpline:

@@ -891,7 +891,8 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     out = output_grid(x[0], x[-1], out_step)
     acc = spline(out, 2)
     expected = opt.expected_sign_changes
-    if expected is not None and opt.smoothing is None:
+    # a junction fit explains the steps of h'' itself: its level is not raised for them
+    if expected is not None and opt.smoothing is None and found is None:
         raised = 0
         # more smoothing is only accepted while the fit still follows the data (RMS
         # residual within 25 % of the noise): a real feature (a second lobe) stays
