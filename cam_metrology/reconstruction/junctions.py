@@ -42,7 +42,9 @@ FALSE_ALARM = 1e-3
 MAX_JUNCTIONS = 12
 #: a junction is kept when it lowers N ln(GCV) of the whole fit by this much (a step
 #: that only stands in for the smoothing bias of a smooth lobe raises the score)
-GCV_GAIN = 6.0
+GCV_GAIN = 12.0
+#: a junction may lower the smoothing level of the rest by at most this factor
+MIN_LEVEL_RATIO = 0.5
 #: no junction is sought within this fraction of the table from either end
 END_MARGIN = 0.02
 #: the search ends after this many candidates refused by the GCV test
@@ -377,8 +379,10 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         # for the smoothing bias of a smooth, strongly curved lobe raises it
         gain = n * math.log(_gcv(values, taus, lam, gamma)
                             / _gcv(values, trial, lam_trial, gamma))
+        # nor if the rest of the fit has to get much rougher for it (a step of the
+        # lift itself, which a step of h'' only imitates)
         if (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) < 1.0
-                or gain < GCV_GAIN):
+                or gain < GCV_GAIN or lam_trial < MIN_LEVEL_RATIO * lam):
             vetoed.append(float(pos[i]))
             if len(vetoed) >= MAX_REFUSED:
                 break

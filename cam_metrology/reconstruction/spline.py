@@ -48,6 +48,7 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 from cam_design.errors import InputError, require_positive
 from cam_metrology.reconstruction.blas import single_thread_blas
 from cam_metrology.reconstruction.junctions import JunctionSpline, find_junctions, refit
+from cam_metrology.reconstruction.noise import rebound_sigma
 from cam_metrology.reconstruction.result import Reconstruction, output_grid, sign_pattern
 from cam_metrology.reconstruction.samples import CleanSamples, clean_samples
 
@@ -296,7 +297,9 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     quantum = quantisation_step(y)
     floor = max(min_tolerance_rel * span, 1e-300)
     if sigma is None:
-        sigma = MAD_TO_SIGMA * float(np.median(np.abs(u - np.median(u))))
+        # judged from the rows' scatter, rows sitting on a flat run left out when the
+        # rest looks like noise (noise.py): digits do not make a table exact
+        sigma = rebound_sigma(u, y)
         exact = sigma < EXACT_NOISE_REL * span
         # rounding to a step q is noise of std q / sqrt(12) on the lobe, where the MAD
         # of a table whose base circle rounds to exact zeros does not see it
