@@ -11,6 +11,8 @@ interpolation error of an exact table one close to +1. Lifts in m.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -40,11 +42,14 @@ def robust_sigma(u: NDArray[np.float64]) -> float:
     return MAD_TO_SIGMA * float(np.median(np.abs(u - np.median(u)))) if u.size else 0.0
 
 
-def rebound_sigma(u: NDArray[np.float64], lift: NDArray[np.float64]) -> float:
+def rebound_sigma(u: NDArray[np.float64], lift: NDArray[np.float64],
+                  quantum: float = 0.0) -> float:
     """Noise sigma [m] from the normalised rebounds ``u`` of the interior rows of
-    ``lift`` (u[k] belongs to lift[k + 1]): the MAD of all of them, or, where it is
-    larger and the rebounds off the flat runs look like noise, the MAD of those."""
-    whole = robust_sigma(u)
+    ``lift`` (u[k] belongs to lift[k + 1]) rounded to ``quantum`` [m]: the MAD of all
+    of them with the rounding's q^2/12 added (a base circle rounded to exact zeros
+    hides it), or, where larger and the rebounds off the flat runs look like noise,
+    the MAD of those (which already holds the rounding)."""
+    whole = math.sqrt(robust_sigma(u) ** 2 + quantum ** 2 / 12.0)
     live = ~flat_rows(lift)[1:-1]
     if np.count_nonzero(live) < MIN_ROWS:
         return whole
@@ -52,7 +57,6 @@ def rebound_sigma(u: NDArray[np.float64], lift: NDArray[np.float64]) -> float:
     a, b = u[:-1][pairs], u[1:][pairs]
     if a.size < MIN_ROWS or float(np.std(a)) == 0.0 or float(np.std(b)) == 0.0:
         return whole
-    lag_one = float(np.corrcoef(a, b)[0, 1])
-    if lag_one > NOISE_LAG_ONE:
+    if float(np.corrcoef(a, b)[0, 1]) > NOISE_LAG_ONE:
         return whole
     return max(whole, robust_sigma(u[live]))

@@ -303,7 +303,7 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
         exact = sigma < EXACT_NOISE_REL * span
         # rounding to a step q is noise of std q / sqrt(12) on the lobe, where the MAD
         # of a table whose base circle rounds to exact zeros does not see it
-        sigma = math.sqrt(sigma ** 2 + quantum ** 2 / 12.0)
+        sigma = rebound_sigma(u, y, quantum)
     else:
         sigma = require_positive('sigma', sigma, allow_zero=True)
         exact = sigma < EXACT_NOISE_REL * span
