@@ -137,9 +137,10 @@ def main() -> None:
     med = float(np.median(ratios))
     summary = (f'{len(ratios)} cases x {len(seeds())} seeds: h\'\' RMS error ours/scipy '
                f'median {med:.2f} (goal <= 0.70), worst {worst_ratio:.2f} (goal <= 0.90; '
-               f'{worst_case}), best {min(ratios):.2f}; {np.mean(np.asarray(ratios) <= 0.9) * 100:.0f} % '
-               f'of the cases <= 0.90. Junctions: {np.mean(d <= 1.0) * 100:.1f} % of '
-               f'{d.size} located within one step (median {np.median(d):.2f} steps), '
+               f'{worst_case}), best {min(ratios):.2f}; '
+               f'{np.mean(np.asarray(ratios) <= 0.9) * 100:.0f} % of the cases <= 0.90. '
+               f'Junctions: {np.mean(d <= 1.0) * 100:.1f} % of {d.size} located within one '
+               f'step (median {np.median(d):.2f} steps), '
                f'{false_total} found where the law has none.')
     fam_rows = [f'| {k} | {np.median(v):.2f} | {max(v):.2f} | {min(v):.2f} |'
                 for k, v in per_family.items()]

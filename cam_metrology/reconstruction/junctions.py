@@ -216,7 +216,7 @@ def _gcv(values: NDArray[np.float64], taus: list[float], lam_d: float, gamma: fl
     return n * f.rss / max(n - gamma * f.edf, 1e-9) ** 2
 
 
-def _golden(fun, a: float, b: float, iterations: int) -> float:
+def golden_minimum(fun, a: float, b: float, iterations: int) -> float:
     """Minimiser of a unimodal ``fun`` on [a, b] (golden section)."""
     g = (math.sqrt(5.0) - 1.0) / 2.0
     c, d = b - g * (b - a), a + g * (b - a)
@@ -241,7 +241,7 @@ def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
     s = [_gcv(values, taus, 10.0 ** v, gamma) for v in grid]
     i = int(np.argmin(s))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    return 10.0 ** _golden(lambda v: _gcv(values, taus, 10.0 ** v, gamma), a, b, 8)
+    return 10.0 ** golden_minimum(lambda v: _gcv(values, taus, 10.0 ** v, gamma), a, b, 8)
 
 
 def _hinge_gram(lam_d: float, offset: float, length: float
@@ -413,7 +413,8 @@ def _refine(values: NDArray[np.float64], taus: list[float], lam: float) -> list[
         return float(values @ ry - b @ np.linalg.solve(m, b))
 
     last = taus[-1]
-    return taus[:-1] + [_golden(objective, max(last - 1.0, 1.0), min(last + 1.0, n - 2.0), 10)]
+    lo, hi = max(last - 1.0, 1.0), min(last + 1.0, n - 2.0)
+    return taus[:-1] + [golden_minimum(objective, lo, hi, 10)]
 
 
 class JunctionSpline:

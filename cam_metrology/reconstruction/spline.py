@@ -47,7 +47,8 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
 from cam_metrology.reconstruction.blas import single_thread_blas
-from cam_metrology.reconstruction.junctions import JunctionSpline, find_junctions, refit
+from cam_metrology.reconstruction.junctions import (JunctionSpline, find_junctions,
+                                                    golden_minimum, refit)
 from cam_metrology.reconstruction.noise import rebound_sigma
 from cam_metrology.reconstruction.result import Reconstruction, output_grid, sign_pattern
 from cam_metrology.reconstruction.samples import CleanSamples, clean_samples
@@ -550,19 +551,7 @@ def choose_smoothing(values: NDArray[np.float64], step: float, *, criterion: str
     s = [score(v) for v in grid]
     i = int(np.argmin(s))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = score(c), score(d)
-    for _ in range(22):
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = score(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = score(d)
-    log_lam = 0.5 * (a + b)
+    log_lam = golden_minimum(score, a, b, 22)
     lam_d = 10.0 ** log_lam
     edf = float(np.sum(1.0 / (1.0 + lam_d * score.m3)))
     what = ('minimum of the estimated acceleration error (SURE)' if criterion == 'risk'
