@@ -381,7 +381,10 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
                             / _gcv(values, trial, lam_trial, gamma))
         # nor if the rest of the fit has to get much rougher for it (a step of the
         # lift itself, which a step of h'' only imitates)
+        # nor if its best angle is not within the row the scan pointed at (the bound
+        # of the refinement: the residual has no sharp step there)
         if (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) < 1.0
+                or abs(trial[-1] - pos[i]) > 0.9
                 or gain < GCV_GAIN or lam_trial < MIN_LEVEL_RATIO * lam):
             vetoed.append(float(pos[i]))
             if len(vetoed) >= MAX_REFUSED:

@@ -827,7 +827,11 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     why = choice.why
     lam_d = choice.lam_d
     found = None
-    if opt.junctions and uniform and not exact and opt.smoothing is None:
+    # not on tables coarser than VERY_COARSE_RAD: a few rows per segment cannot tell a
+    # step of h'' from a steep smooth change (the cards and jump speeds of 5 deg, 0.01 mm
+    # tables got worse with them)
+    if (opt.junctions and uniform and not exact and opt.smoothing is None
+            and step <= VERY_COARSE_RAD):
         found = find_junctions(grid, values, lam_d, gamma=gamma, sigma_floor=floor)
         if found is not None:
             lam_d = found.lam_d
