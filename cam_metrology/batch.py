@@ -186,8 +186,9 @@ def read_table(path: Path) -> list[dict[str, Any]]:
 
 
 def write_table(rows: list[dict[str, Any]], parquet: Path, csv: Path | None = None) -> None:
-    """Write the rows to Parquet (and CSV), each to a temporary name first and renamed
-    when complete, so an interrupted write never leaves a table that looks whole."""
+    """Write the rows to Parquet (and CSV), each all or nothing (``files.atomic_file``):
+    an interrupted or failed write never leaves a table that looks whole, and an older
+    table stays as it was."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
@@ -203,18 +204,12 @@ def write_table(rows: list[dict[str, Any]], parquet: Path, csv: Path | None = No
             vals = [None if v is None else str(v) for v in vals]
         columns[n] = vals
     table = pa.table(columns)
-    for target, writer in ((parquet, lambda t, p: pq.write_table(t, p)),
-                           (csv, lambda t, p: pacsv.write_csv(t, p))):
-        if target is None:
-            continue
-        tmp = target.with_name(f'.{target.name}.partial')
-        try:
-            writer(table, str(tmp))
-            tmp.replace(target)
-        except OSError as exc:
-            tmp.unlink(missing_ok=True)
-            raise InputError('--out' if target == parquet else '--csv', str(target),
-                             f'a writable path ({exc.strerror})') from None
+    from cam_metrology.files import atomic_file
+    for target, key, writer in ((parquet, '--out', pq.write_table),
+                                (csv, '--csv', pacsv.write_csv)):
+        if target is not None:
+            with atomic_file(target, key) as tmp:
+                writer(table, str(tmp))
 
 
 def run_batch(bags: list[Path], out: Path, *, csv: Path | None = None,

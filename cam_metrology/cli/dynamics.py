@@ -137,23 +137,25 @@ def run(args: argparse.Namespace) -> int:
     result = _result(core, args, kind, sweep_speeds)
     _write(result, args)
     if args.plot:
-        from cam_design.valve_train.sweep import plot_runs
-        from cam_metrology.files import output_dir, safe_name
+        import matplotlib.pyplot as plt
+
+        from cam_design.hydraulic.plot import plot_pressures
+        from cam_design.valve_train.sweep import runs_figure
+        from cam_metrology.files import output_dir, safe_name, save_figure
         folder = output_dir(args.plot, '--plot')
         for feature, runs in core.runs.items():
             if args.feature and feature != args.feature:
                 continue
-            plot_runs(runs, folder / f'{safe_name(feature)}.png', title=feature)
             hydraulic = [r for r in runs if hasattr(r, 'pump_pressure')]
-            if hydraulic:
-                import matplotlib.pyplot as plt
-
-                from cam_design.hydraulic.plot import plot_pressures
-                from cam_metrology.files import save_figure
-                fig = plot_pressures(hydraulic, title=f'{feature}: hydraulic valve gear')
-                save_figure(fig, folder / f'{safe_name(feature)}_pressure.png', '--plot',
-                            dpi=110)
-                plt.close(fig)
+            figures = [(runs_figure(runs, title=feature), '')] + (
+                [(plot_pressures(hydraulic, title=f'{feature}: hydraulic valve gear'),
+                  '_pressure')] if hydraulic else [])
+            for fig, suffix in figures:
+                try:
+                    save_figure(fig, folder / f'{safe_name(feature)}{suffix}.png', '--plot',
+                                dpi=110)
+                finally:
+                    plt.close(fig)
     return 1 if any('failures' in e for e in result['features'].values()) else 0
 
 

@@ -42,16 +42,11 @@ def run(args: argparse.Namespace) -> int:
     if out.is_dir():
         raise InputError('OUT', args.out, 'a file name, not a directory')
     if not out.parent.is_dir():
-        raise InputError('OUT', args.out, f'a file in an existing directory ({out.parent} '
+        raise InputError('OUT', out, f'a file in an existing directory ({out.parent} '
                          'does not exist)')
     report = golden_of(analyze_report(args.bag, args.params))
-    tmp = out.with_name(f'.{out.name}.partial')
-    try:
-        tmp.write_text(json.dumps(report, indent=1, sort_keys=True) + '\n', encoding='utf-8')
-        tmp.replace(out)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise InputError('OUT', args.out, f'a writable path ({exc.strerror})') from None
+    from cam_metrology.files import write_output
+    write_output(out, json.dumps(report, indent=1, sort_keys=True) + '\n', 'OUT')
     n = len(report.get('features', {}))
     print(f'cam-bench golden: wrote {out} ({n} features of {args.bag})')
     return 0
