@@ -114,6 +114,13 @@ def fsync_path(path: Path) -> None:
             os.close(fd)
 
 
+def interrupted_note(exc: BaseException | None, key: str, target: Path) -> None:
+    """On Ctrl-C or SIGTERM (``KeyboardInterrupt``), note on the exception that the
+    output ``key`` was not written (the CLI's interruption line lists the notes)."""
+    if isinstance(exc, KeyboardInterrupt):
+        exc.add_note(f'{key} {target} not written (nothing left of it)')
+
+
 class atomic_file:
     """Context manager for one output file that must appear complete or not at all:
     ``with atomic_file(target, key) as tmp:`` write the file ``tmp`` (a hidden name in
@@ -143,6 +150,7 @@ class atomic_file:
         discard(self.tmp)
         if isinstance(exc, OSError):
             raise write_error(self.key, self.target, exc) from None
+        interrupted_note(exc, self.key, self.target)
         return False
 
 
@@ -245,4 +253,5 @@ class atomic_dir:
         discard(self.holder)
         if isinstance(exc, OSError):
             raise write_error(self.key, self.target, exc, 'folder') from None
+        interrupted_note(exc, self.key, self.target)
         return False
