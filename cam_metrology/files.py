@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 from cam_design.errors import InputError
 
@@ -176,6 +177,32 @@ def write_output(target: str | Path, data: str | bytes, key: str) -> None:
     with atomic_file(target, key) as tmp:
         with open(tmp, 'wb') as f:
             f.write(raw)
+
+
+class CheckedStdout:
+    """Standard output whose failed writes (redirected to a full disk, ``> /dev/full``)
+    raise ``write_error('stdout', ...)`` instead of an OSError from a ``print`` deep in a
+    command; a closed pipe stays BrokenPipeError. Everything else is delegated."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def _checked(self, call: Any, *args: Any) -> Any:
+        try:
+            return call(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise write_error('stdout', '-', exc, 'standard output') from None
+
+    def write(self, text: str) -> int:
+        return int(self._checked(self._stream.write, text))
+
+    def flush(self) -> None:
+        self._checked(self._stream.flush)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
 
 
 def output_dir(folder: str | Path, key: str) -> Path:

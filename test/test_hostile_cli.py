@@ -249,3 +249,16 @@ def test_unexpected_error_is_one_line_and_debug_shows_the_traceback(
     monkeypatch.setenv('CAM_BENCH_DEBUG', '1')
     assert main(['scene', 'check', 'some.yaml']) == 1
     assert 'Traceback (most recent call last)' in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not Path('/dev/full').exists(), reason='no /dev/full on this system')
+def test_standard_output_on_a_full_disk_is_one_line() -> None:
+    """`> /dev/full`: every write fails with ENOSPC. The printed result cannot be
+    delivered: exit 2 naming stdout and the reason, not a success and not a traceback."""
+    with open('/dev/full', 'w') as full:
+        proc = subprocess.run([sys.executable, '-m', 'cam_metrology', 'scene', 'check',
+                               str(SCENE)], cwd=REPO, stdout=full, stderr=subprocess.PIPE,
+                              text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip() == ("cam-bench scene check: error: stdout: got '-'; expected "
+                                   'a writable standard output (the disk is full)')

@@ -18,7 +18,8 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 import argparse  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
-from typing import Sequence  # noqa: E402
+from contextlib import contextmanager  # noqa: E402
+from typing import Iterator, Sequence  # noqa: E402
 from cam_design.errors import CliError  # noqa: E402,F401 (the CLI's sentence error)
 
 # Order here is the order in `cam-bench --help`.
@@ -87,7 +88,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0 if args.command is None else 2
     name = command_name(args)
     debug = bool(args.debug or os.environ.get(DEBUG_ENV, '').strip() not in ('', '0'))
-    with catch_signals():
+    with catch_signals(), checked_stdout():
         try:
             code = _run_command(args, name, debug, argv)
         except Interrupted as exc:    # the command's finally clauses have run
@@ -107,7 +108,9 @@ def _run_command(args: argparse.Namespace, name: str, debug: bool,
     from cam_metrology.interrupts import Interrupted
 
     try:
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        sys.stdout.flush()   # a full disk behind stdout: one line, exit 2
+        return code
     except (InputError, CliError, FileNotFoundError) as exc:
         print(f'cam-bench {name}: error: {one_line(str(exc))}', file=sys.stderr)
         return 2
@@ -142,6 +145,23 @@ def _say_interrupted(name: str, exc: BaseException) -> int:
                                    'or absent')
     print(f'cam-bench {name}: interrupted by {signame}: {outcome}', file=sys.stderr)
     return exit_code(signame)
+
+
+@contextmanager
+def checked_stdout() -> Iterator[None]:
+    """The process's own standard output wrapped in ``files.CheckedStdout`` for the
+    command (a replaced ``sys.stdout``, e.g. a test's capture, is left alone)."""
+    from cam_metrology.files import CheckedStdout
+
+    if sys.stdout is not sys.__stdout__ or sys.stdout is None:
+        yield
+        return
+    real = sys.stdout
+    sys.stdout = CheckedStdout(real)  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        sys.stdout = real
 
 
 #: environment variable that turns on --debug (tracebacks of unexpected errors)
