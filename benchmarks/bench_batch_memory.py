@@ -4,9 +4,10 @@ One local Dask worker (one process, one thread) analyses N distinct small bags (
 1000: copies of one simulated two-lobe bag at 360 samples/rev, each made distinct by a
 comment in its metadata.yaml, so that none is skipped as a duplicate). The worker's
 resident memory (RSS) and its peak (VmHWM, the kernel's high-water mark) are read from
-/proc at checkpoints of the progress (10, 100, 300, 1000 bags ...), with the CPU time
-of the worker (user + sys) and the load average. Flat means: the peak at 1000 bags is
-that at 100 within a few MB. Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python -m
+/proc after every bag (the peak over every worker process, recycled ones included)
+and reported at checkpoints (10, 100, 300, 1000 bags ...), with the CPU time of the
+workers (user + sys) and the load average. Flat means: the peak at 1000 bags is that
+at 100 within a few MB. Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python -m
 benchmarks batch_memory`` (or ``-m benchmarks.bench_batch_memory [N]``); writes
 results/batch_memory.md. About 0.2-0.4 s of CPU per bag.
 """
@@ -73,8 +74,9 @@ def _worker_pids() -> list[int]:
 def run(n: int) -> list[str]:
     from cam_metrology.batch import run_batch
 
-    rows = ['| bags analysed | worker RSS [MB] | worker peak (VmHWM) [MB] | worker CPU [s] '
-            '| wall [s] | load (1 min) |', '|---|---|---|---|---|---|']
+    rows = ['| bags analysed | worker RSS now [MB] | peak of any worker so far (VmHWM) [MB] '
+            '| worker processes so far | worker CPU so far [s] | wall [s] | load (1 min) |',
+            '|---|---|---|---|---|---|---|']
     marks = [c for c in CHECKPOINTS if c <= n] + ([n] if n not in CHECKPOINTS else [])
     with tempfile.TemporaryDirectory(prefix='cam_bench_batch_mem_') as tmp:
         root = Path(tmp)
@@ -82,21 +84,27 @@ def run(n: int) -> list[str]:
         bags = make_bags(root, n)
         made = time.perf_counter() - t0
         t1 = time.perf_counter()
-        seen: list[int] = []
+        peak = {'hwm': 0.0}
+        cpu: dict[int, float] = {}   # pid -> CPU time last seen (recycled workers too)
 
         def progress(line: str) -> None:
             if not line.startswith('['):
                 return
             done = int(line[1:].split('/', 1)[0])
+            stats = {}
+            for pid in _worker_pids():
+                try:
+                    stats[pid] = _proc_status(pid)
+                except OSError:   # a worker being replaced
+                    continue
+            for pid, st in stats.items():
+                peak['hwm'] = max(peak['hwm'], st.get('VmHWM', 0.0))
+                cpu[pid] = st['cpu_s']
             if done in marks:
-                pids = _worker_pids()
-                stats = [_proc_status(p) for p in pids]
-                rss = max(s.get('VmRSS', 0.0) for s in stats)
-                hwm = max(s.get('VmHWM', 0.0) for s in stats)
-                cpu = sum(s['cpu_s'] for s in stats)
-                rows.append(f'| {done} | {rss:.1f} | {hwm:.1f} | {cpu:.1f} | '
-                            f'{time.perf_counter() - t1:.0f} | {os.getloadavg()[0]:.1f} |')
-                seen.append(done)
+                rss = max((st.get('VmRSS', 0.0) for st in stats.values()), default=0.0)
+                rows.append(f'| {done} | {rss:.1f} | {peak["hwm"]:.1f} | {len(cpu)} | '
+                            f'{sum(cpu.values()):.1f} | {time.perf_counter() - t1:.0f} | '
+                            f'{os.getloadavg()[0]:.1f} |')
                 print(rows[-1], flush=True)
 
         summary = run_batch(bags, root / 'out.parquet', workers=1, progress=progress)

@@ -19,7 +19,7 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any, Callable, Iterable, Iterator
 
 from cam_design.errors import InputError
 
@@ -285,9 +285,11 @@ def _analyse_all(todo: list[str], scheduler: str | None, workers: int,
     """Rows of the bags ``todo``, analysed on Dask: at most ``IN_FLIGHT`` tasks per
     worker are submitted at a time and each result is released once read, so neither
     the scheduler nor the workers hold more than a few bags whatever the archive's
-    size. On an interruption the exception carries the rows of the bags finished so far
-    (``exc.rows``)."""
-    from dask.distributed import Client, LocalCluster, as_completed
+    size; the workers of a local cluster are replaced every ``RECYCLE_AFTER`` bags
+    each (a Dask worker process grows with the number of tasks it ran, about 1 MB per
+    bag: benchmarks/bench_batch_memory.py). On an interruption the exception carries
+    the rows of the bags finished so far (``exc.rows``)."""
+    from dask.distributed import Client, LocalCluster
 
     rows: list[dict[str, Any]] = []
     if not todo:
@@ -305,23 +307,21 @@ def _analyse_all(todo: list[str], scheduler: str | None, workers: int,
                                    processes=True, dashboard_address=None)
             client = Client(cluster)
         try:
-            waiting = iter(todo)
-            window = IN_FLIGHT * max(1, len(client.scheduler_info().get('workers', {}))
-                                     or workers)
-            running = as_completed([client.submit(analyse_bag, bag, all_cores=all_cores,
-                                                  pure=False)
-                                    for bag in itertools.islice(waiting, window)])
-            for i, fut in enumerate(running, 1):
-                part = fut.result()
-                fut.release()
-                rows += part
-                state = 'failed: ' + str(part[0]['reason']) if part[0]['status'] == \
-                    'failed' else f'{len(part)} features'
-                say(f'[{i}/{len(todo)}] {part[0]["bag"]}: {state}')
-                nxt = next(waiting, None)
-                if nxt is not None:
-                    running.add(client.submit(analyse_bag, nxt, all_cores=all_cores,
-                                              pure=False))
+            nworkers = len(client.scheduler_info().get('workers', {})) or workers
+            # our own workers are recycled every RECYCLE_AFTER bags each (the analysis
+            # itself is flat in one process; a Dask worker running it is not)
+            segment = RECYCLE_AFTER * nworkers if cluster is not None else len(todo)
+            done = 0
+            for start in range(0, len(todo), segment):
+                if start:
+                    client.restart()   # fresh worker processes, nothing in flight
+                for part in _window(client, todo[start:start + segment],
+                                    IN_FLIGHT * nworkers, all_cores):
+                    rows += part
+                    done += 1
+                    state = 'failed: ' + str(part[0]['reason']) if part[0]['status'] == \
+                        'failed' else f'{len(part)} features'
+                    say(f'[{done}/{len(todo)}] {part[0]["bag"]}: {state}')
         finally:
             client.close()
     except KeyboardInterrupt as exc:
@@ -335,3 +335,23 @@ def _analyse_all(todo: list[str], scheduler: str | None, workers: int,
 
 #: tasks submitted per worker at a time (the rest wait in the client, not on Dask)
 IN_FLIGHT = 2
+#: bags a local worker analyses before it is replaced by a fresh process
+RECYCLE_AFTER = 100
+
+
+def _window(client: Any, bags: list[str], window: int, all_cores: bool,
+            ) -> Iterator[list[dict[str, Any]]]:
+    """Rows of each bag, in the order they finish, with at most ``window`` tasks on the
+    cluster at a time; each result is released as soon as it has been read."""
+    from dask.distributed import as_completed
+
+    waiting = iter(bags)
+    running = as_completed([client.submit(analyse_bag, bag, all_cores=all_cores, pure=False)
+                            for bag in itertools.islice(waiting, window)])
+    for fut in running:
+        part = fut.result()
+        fut.release()
+        yield part
+        nxt = next(waiting, None)
+        if nxt is not None:
+            running.add(client.submit(analyse_bag, nxt, all_cores=all_cores, pure=False))

@@ -129,28 +129,34 @@ class atomic_file:
     ``target`` (an older file is replaced whole), on any error or signal it is removed.
     An OSError (disk full, read-only, vanished folder) becomes ``write_error(key, ...)``."""
 
+    what = 'file'
+
     def __init__(self, target: str | Path, key: str) -> None:
         self.target = Path(target)
         self.key = key
         if self.target.is_dir():
             raise InputError(key, self.target, 'a file name, not a directory')
         self.tmp = _partial(self.target)
+        self.leftover = self.tmp   # what a failure removes
 
     def __enter__(self) -> Path:
         return self.tmp
 
+    def _commit(self) -> None:
+        fsync_path(self.tmp)
+        os.replace(self.tmp, self.target)
+
     def __exit__(self, kind: object, exc: BaseException | None, tb: object) -> bool:
         if exc is None:
             try:
-                fsync_path(self.tmp)
-                os.replace(self.tmp, self.target)
+                self._commit()
             except OSError as err:
-                discard(self.tmp)
-                raise write_error(self.key, self.target, err) from None
+                discard(self.leftover)
+                raise write_error(self.key, self.target, err, self.what) from None
             return False
-        discard(self.tmp)
+        discard(self.leftover)
         if isinstance(exc, OSError):
-            raise write_error(self.key, self.target, exc) from None
+            raise write_error(self.key, self.target, exc, self.what) from None
         interrupted_note(exc, self.key, self.target)
         return False
 
@@ -240,12 +246,14 @@ def safe_name(text: str, limit: int = 100) -> str:
     return name or '_'
 
 
-class atomic_dir:
+class atomic_dir(atomic_file):
     """Context manager for an output folder that must appear complete or not at all:
     ``with atomic_dir(target, key) as tmp:`` create and fill the folder ``tmp`` (same
     name as ``target``, inside a hidden holder folder next to it); on success it is
-    renamed to ``target``, on any error (or Ctrl-C) the holder is removed. ``target``
-    must not exist."""
+    flushed to the disk and renamed to ``target``, on any error (or Ctrl-C) the holder
+    is removed. ``target`` must not exist."""
+
+    what = 'folder'
 
     def __init__(self, target: str | Path, key: str) -> None:
         self.target = Path(target)
@@ -259,26 +267,15 @@ class atomic_dir:
                              'does not exist)')
         self.holder = _partial(self.target)
         self.tmp = self.holder / self.target.name
+        self.leftover = self.holder
 
     def __enter__(self) -> Path:
         try:
             self.holder.mkdir()
         except OSError as err:
-            raise write_error(self.key, self.target, err, 'folder') from None
+            raise write_error(self.key, self.target, err, self.what) from None
         return self.tmp
 
-    def __exit__(self, kind: object, exc: BaseException | None, tb: object) -> bool:
-        if exc is None:
-            try:
-                fsync_path(self.tmp)
-                os.replace(self.tmp, self.target)
-                self.holder.rmdir()
-            except OSError as err:
-                discard(self.holder)
-                raise write_error(self.key, self.target, err, 'folder') from None
-            return False
-        discard(self.holder)
-        if isinstance(exc, OSError):
-            raise write_error(self.key, self.target, exc, 'folder') from None
-        interrupted_note(exc, self.key, self.target)
-        return False
+    def _commit(self) -> None:
+        super()._commit()
+        self.holder.rmdir()
