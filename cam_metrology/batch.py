@@ -314,7 +314,7 @@ def _analyse_all(todo: list[str], scheduler: str | None, workers: int,
             done = 0
             for start in range(0, len(todo), segment):
                 if start:
-                    client.restart()   # fresh worker processes, nothing in flight
+                    _restart_quietly(client)   # fresh worker processes, none in flight
                 for part in _window(client, todo[start:start + segment],
                                     IN_FLIGHT * nworkers, all_cores):
                     rows += part
@@ -337,6 +337,20 @@ def _analyse_all(todo: list[str], scheduler: str | None, workers: int,
 IN_FLIGHT = 2
 #: bags a local worker analyses before it is replaced by a fresh process
 RECYCLE_AFTER = 100
+
+
+def _restart_quietly(client: Any) -> None:
+    """``client.restart()`` without the nanny's warnings on stderr (a worker killed
+    after its grace period is the expected way a recycled worker ends)."""
+    import logging
+
+    nanny = logging.getLogger('distributed.nanny')
+    level = nanny.level
+    nanny.setLevel(logging.ERROR)
+    try:
+        client.restart()
+    finally:
+        nanny.setLevel(level)
 
 
 def _window(client: Any, bags: list[str], window: int, all_cores: bool,
