@@ -72,7 +72,7 @@ def _worker_pids() -> list[int]:
 
 
 def run(n: int) -> list[str]:
-    from cam_metrology.batch import run_batch
+    from cam_metrology.offline.batch import run_batch
 
     rows = ['| bags analysed | worker RSS now [MB] | peak of any worker so far (VmHWM) [MB] '
             '| worker processes so far | worker CPU so far [s] | wall [s] | load (1 min) |',

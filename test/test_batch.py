@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from cam_design.errors import InputError
-from cam_metrology.batch import find_bags, read_table, run_batch
-from cam_metrology.offline import analyze_report
+from cam_metrology.offline.batch import find_bags, read_table, run_batch
+from cam_metrology.offline.analyze import analyze_report
 
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 
@@ -33,7 +33,7 @@ def archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def first_run(archive: Path) -> tuple[Path, object]:
     """The archive through 2 workers recycled after every bag each (RECYCLE_AFTER = 1:
     the three bags to analyse span two segments, so the workers are restarted once)."""
-    import cam_metrology.batch as batch
+    import cam_metrology.offline.batch as batch
 
     out = archive / 'results.parquet'
     bags = find_bags([str(archive), str(archive / 'broken.mcap')])

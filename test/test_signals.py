@@ -202,7 +202,7 @@ def test_batch_interrupted_midway_keeps_the_bags_done_and_resumes(
 def test_signal_after_the_run_is_reported_not_lost() -> None:
     """A signal that arrives once the outputs are complete (blocked, pending) is still
     seen: the run is reported as interrupted, with the note that it had completed."""
-    from cam_metrology.interrupts import COMPLETE, exit_code, settle_signals
+    from cam_metrology.host.interrupts import COMPLETE, exit_code, settle_signals
 
     old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
     try:

@@ -42,14 +42,15 @@ Units: SI in files and messages (m, rad, kg, N, s); reports add _deg, _um, _mm, 
 fields. Bad input exits with code 2 and a message naming the key, the value and what
 was expected. An unexpected failure is one line too (exit 1); `cam-bench --debug ...`
 or CAM_BENCH_DEBUG=1 adds the Python traceback. Ctrl-C (SIGINT) exits 130, SIGTERM
-143, each with a line saying what was kept. See docs/contract.md ("Command line")."""
+143, each with a line saying what was kept (docs/reliability.md). See docs/contract.md
+for the topics and the report schema, docs/scene.md for the scene file."""
 
 
 class _Version(argparse.Action):
     """``--version``: the version and git commit (git is run only when asked)."""
 
     def __call__(self, parser: argparse.ArgumentParser, *_: object) -> None:
-        from cam_metrology.provenance import version_text
+        from cam_metrology.report.provenance import version_text
         print(version_text())
         parser.exit(0)
 
@@ -79,7 +80,7 @@ def register_modules(sub: argparse._SubParsersAction, module_names: Sequence[str
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the process exit code (docs/contract.md, "Command line")."""
-    from cam_metrology.interrupts import COMPLETE, Interrupted, catch_signals, settle_signals
+    from cam_metrology.host.interrupts import COMPLETE, Interrupted, catch_signals, settle_signals
 
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -105,7 +106,7 @@ def _run_command(args: argparse.Namespace, name: str, debug: bool,
                  argv: Sequence[str] | None) -> int:
     """The handler's exit code, every failure turned into one line on stderr."""
     from cam_design.errors import InputError
-    from cam_metrology.interrupts import Interrupted
+    from cam_metrology.host.interrupts import Interrupted
 
     try:
         code = int(args.func(args) or 0)
@@ -137,7 +138,7 @@ def _run_command(args: argparse.Namespace, name: str, debug: bool,
 
 def _say_interrupted(name: str, exc: BaseException) -> int:
     """Print the interruption line (signal and what was kept); the exit code."""
-    from cam_metrology.interrupts import exit_code
+    from cam_metrology.host.interrupts import exit_code
 
     signame = exc.args[0] if exc.args else 'SIGINT'
     notes = [one_line(n) for n in getattr(exc, '__notes__', [])]
@@ -151,7 +152,7 @@ def _say_interrupted(name: str, exc: BaseException) -> int:
 def checked_stdout() -> Iterator[None]:
     """The process's own standard output wrapped in ``files.CheckedStdout`` for the
     command (a replaced ``sys.stdout``, e.g. a test's capture, is left alone)."""
-    from cam_metrology.files import CheckedStdout
+    from cam_metrology.inputs.files import CheckedStdout
 
     if sys.stdout is not sys.__stdout__ or sys.stdout is None:
         yield

@@ -89,7 +89,7 @@ def load_params_doc(path: str | Path) -> Mapping[str, Any]:
     """The top-level mapping of a ROS parameter YAML, parsed with rcl's typing;
     InputError('--params', ...) on an unreadable, malformed or empty file. Shared by
     ``cam-bench run`` and ``cam-bench analyze --params``."""
-    from cam_metrology.files import read_text_file
+    from cam_metrology.inputs.files import read_text_file
 
     path = Path(path)
     try:
@@ -97,7 +97,7 @@ def load_params_doc(path: str | Path) -> Mapping[str, Any]:
     except InputError as exc:   # name the option and the path, then what was found
         raise InputError('--params', str(path), f'{exc.expected} ({exc.value})') from None
     try:
-        from cam_metrology.yaml_input import load_yaml
+        from cam_metrology.inputs.yaml_input import load_yaml
         doc = load_yaml(text, '--params', _RosYamlLoader)
     except yaml.YAMLError as exc:
         where = getattr(exc, 'problem_mark', None)
@@ -157,7 +157,7 @@ def parse_assignments(items: Iterable[str], node_name: str,
         if name not in table:
             raise InputError(key, name, f'a {node_name} parameter: {", ".join(sorted(table))}')
         try:
-            from cam_metrology.yaml_input import load_yaml
+            from cam_metrology.inputs.yaml_input import load_yaml
             value = load_yaml(text, f'{key} {name}', _RosYamlLoader) if text else ''
         except yaml.YAMLError:
             value = text

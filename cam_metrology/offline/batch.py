@@ -147,7 +147,7 @@ def analyse_bag(bag: str, all_cores: bool = False) -> list[dict[str, Any]]:
         sha = ''
         return [_failed(bag, sha, f'unreadable: {exc.strerror}')]
     try:
-        from cam_metrology.offline import analyze_report
+        from cam_metrology.offline.analyze import analyze_report
         report = analyze_report(path, only_metrology=not all_cores)
     except Exception as exc:  # noqa: BLE001 -- every failure is reported per bag
         return [_failed(bag, sha, str(exc) or type(exc).__name__)]
@@ -205,7 +205,7 @@ def write_table(rows: list[dict[str, Any]], parquet: Path, csv: Path | None = No
             vals = [None if v is None else str(v) for v in vals]
         columns[n] = vals
     table = pa.table(columns)
-    from cam_metrology.files import atomic_file
+    from cam_metrology.inputs.files import atomic_file
     for target, key, writer in ((parquet, '--out', pq.write_table),
                                 (csv, '--csv', pacsv.write_csv)):
         if target is not None:

@@ -1,0 +1,2 @@
+"""The machine a run happens on: config paths, the C heap, ROS domain isolation, signals
+(no rclpy)."""
