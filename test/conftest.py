@@ -41,3 +41,29 @@ def bags_dir() -> Path:
 def config_dir() -> Path:
     """The repository's config/ folder."""
     return CONFIG
+
+
+@pytest.fixture
+def small_disk(tmp_path: Path):  # type: ignore[no-untyped-def]
+    """A factory ``small_disk(kib, read_only=False) -> Path``: a tmpfs of that size (or
+    mounted read-only) under tmp_path, unmounted at the end. Skips the test, with the
+    reason, where mounting is not permitted (not root, no CAP_SYS_ADMIN)."""
+    import subprocess
+
+    mounted: list[Path] = []
+
+    def make(kib: int, read_only: bool = False) -> Path:
+        point = tmp_path / f'disk{len(mounted)}'
+        point.mkdir()
+        opts = f'size={int(kib)}k' + (',ro' if read_only else '')
+        proc = subprocess.run(['mount', '-t', 'tmpfs', '-o', opts, 'tmpfs', str(point)],
+                              capture_output=True, text=True)
+        if proc.returncode != 0:
+            pytest.skip(f'cannot mount a {kib} KiB tmpfs here (needs root): '
+                        f'{proc.stderr.strip() or proc.returncode}')
+        mounted.append(point)
+        return point
+
+    yield make
+    for point in mounted:
+        subprocess.run(['umount', '-l', str(point)], capture_output=True)

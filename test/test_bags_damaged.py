@@ -197,14 +197,9 @@ def test_some_messages_without_probe_are_counted_and_reported(clean, tmp_path, c
 
 # ------------------------------------------------------------------ (c) two scenes
 
-def test_two_scenes_each_feature_with_the_scene_in_force(clean, tmp_path, capsys):
-    """Scene B (another camshaft id, lobe_1 with another lift law) arrives between
-    lobe_1 and lobe_2: lobe_1 keeps the result of scene A, lobe_2 is analysed with B
-    (same lobe_2 as A), nothing is dropped, the report says which scene each used."""
-    text_a = SCENE_FILE.read_text()
-    text_b = text_a.replace('camshaft_id: FIX-2L-nopin', 'camshaft_id: FIX-2L-B').replace(
-        'name: flat_tappet_intake}', 'name: methods_example}')
-    assert text_b.count('methods_example') == 2
+def _two_scenes(clean, tmp_path: Path, text_b: str, name: str) -> tuple[Path, int]:
+    """The clean bag with scene ``text_b`` published 1 ns before lobe_2's first sample;
+    returns the bag and the log time of that scene [ns]."""
     first_lobe2 = {}
 
     def edit(topic, stamp, cdr, k):
@@ -214,12 +209,23 @@ def test_two_scenes_each_feature_with_the_scene_in_force(clean, tmp_path, capsys
                     (topic, stamp, cdr)]
         return [(topic, stamp, cdr)]
 
-    bag = _rebuild(clean[0], tmp_path / 'twoscenes', edit)
+    bag = _rebuild(clean[0], tmp_path / name, edit)
+    return bag, first_lobe2['t'] - 1
+
+
+def test_two_scenes_each_feature_with_the_scene_in_force(clean, tmp_path, capsys):
+    """Scene B (the same camshaft, lobe_1 with another lift law) arrives between lobe_1
+    and lobe_2: lobe_1 keeps the result of scene A, lobe_2 is analysed with B (same
+    lobe_2 as A), nothing is dropped, the report says which scene each used."""
+    text_a = SCENE_FILE.read_text()
+    text_b = text_a.replace('name: flat_tappet_intake}', 'name: methods_example}')
+    assert text_b.count('methods_example') == 2
+    bag, t_b = _two_scenes(clean, tmp_path, text_b, 'twoscenes')
     rep = _report(bag, tmp_path / 'two.json')
     err = capsys.readouterr().err
     assert 'the bag holds 2 different scenes' in err
-    assert [s['camshaft_id'] for s in rep['scenes']] == ['FIX-2L-nopin', 'FIX-2L-B']
-    assert rep['scenes'][1]['from_log_time_ns'] == first_lobe2['t'] - 1
+    assert [s['camshaft_id'] for s in rep['scenes']] == ['FIX-2L-nopin', 'FIX-2L-nopin']
+    assert rep['scenes'][1]['from_log_time_ns'] == t_b
     f = rep['features']
     assert (f['lobe_1']['scene_index'], f['lobe_2']['scene_index']) == (0, 1)
     assert f['lobe_1']['status'] == f['lobe_2']['status'] == 'ok'
@@ -227,7 +233,53 @@ def test_two_scenes_each_feature_with_the_scene_in_force(clean, tmp_path, capsys
         assert f[fid]['samples_received'] == 720
         assert f[fid]['angle_deg'] == pytest.approx(clean[1]['features'][fid]['angle_deg'],
                                                     abs=1e-9)
-    assert rep['camshaft_id'] == 'FIX-2L-B'
+    assert rep['camshaft_id'] == 'FIX-2L-nopin'
+
+
+def test_camshaft_id_change_within_a_bag_is_refused_naming_both(clean, tmp_path, capsys):
+    """Another camshaft_id mid-bag is a second part: one report would give lobe_1 of
+    part A to part B (or drop it). analyze refuses in one line naming both ids and
+    where the change is; nothing is written."""
+    text_b = SCENE_FILE.read_text().replace('camshaft_id: FIX-2L-nopin',
+                                            'camshaft_id: FIX-2L-B')
+    bag, t_b = _two_scenes(clean, tmp_path, text_b, 'twoparts')
+    out = tmp_path / 'two.json'
+    assert main(['analyze', str(bag), '--only-metrology', '--json', str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert "'FIX-2L-nopin' to 'FIX-2L-B'" in err and f'{t_b / 1e9:.6f} s' in err, err
+    assert str(bag) in err and not out.exists()
+
+
+def test_camshaft_id_change_live_ends_the_first_part():
+    """The live core (same code as the node): a scene naming another camshaft after
+    lobe_1 of part A was measured publishes A's final report (lobe_1 in it), then
+    measures lobe_2 for part B alone."""
+    from cam_metrology.metrology.core import MetrologyCore
+    from cam_metrology.cores.outputs import TextOutput
+    from cam_metrology.scene.parse import load_scene, parse_scene
+    from cam_metrology.simulation.bench import SimParams, simulate
+
+    scene = load_scene(SCENE_FILE)
+    run = simulate(scene, SimParams(samples_per_rev=720, seed=3))
+    lobe_1, lobe_2 = run.features[0], run.features[1]
+    core = MetrologyCore()
+    core.set_scene(scene, 1)
+    core.handle_samples([lobe_1.id] * lobe_1.theta.size, lobe_1.stamp_ns, lobe_1.theta,
+                        lobe_1.s)
+    other = parse_scene(scene.text.replace('FIX-2L-nopin', 'FIX-2L-B'))
+    out = core.set_scene(other, int(lobe_1.stamp_ns[-1]) + 1)
+    reports = [json.loads(o.text) for o in out if isinstance(o, TextOutput)]
+    assert [(r['camshaft_id'], r['final'], sorted(r['features'])) for r in reports] == [
+        ('FIX-2L-nopin', True, ['lobe_1'])]
+    assert reports[0]['features']['lobe_1']['angle_deg'] == pytest.approx(
+        run.truth['features']['lobe_1']['angle_deg'], abs=1e-3)
+    core.handle_samples([lobe_2.id] * lobe_2.theta.size, lobe_2.stamp_ns, lobe_2.theta,
+                        lobe_2.s)
+    final = [json.loads(o.text) for o in core.finish() if isinstance(o, TextOutput)][-1]
+    assert final['camshaft_id'] == 'FIX-2L-B' and sorted(final['features']) == ['lobe_2']
+    assert final['features']['lobe_2']['angle_deg'] == pytest.approx(
+        run.truth['features']['lobe_2']['angle_deg'], abs=1e-3)
 
 
 def test_scene_change_inside_the_core_closes_the_open_feature():
@@ -243,7 +295,7 @@ def test_scene_change_inside_the_core_closes_the_open_feature():
     core = MetrologyCore()
     core.set_scene(scene, 1)
     core.handle_samples([feat.id] * feat.theta.size, feat.stamp_ns, feat.theta, feat.s)
-    other = parse_scene(scene.text.replace('FIX-2L-nopin', 'OTHER'))
+    other = parse_scene(scene.text + '\n# revised: the same camshaft\n')
     out = core.set_scene(other, int(feat.stamp_ns[-1]) + 1)
     assert any(getattr(o, 'label', None) == 'lobe_1' for o in out)   # analysed now
     rep = core.report()

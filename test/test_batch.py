@@ -31,9 +31,15 @@ def archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope='module')
 def first_run(archive: Path) -> tuple[Path, object]:
+    """The archive through 2 workers recycled after every bag each (RECYCLE_AFTER = 1:
+    the three bags to analyse span two segments, so the workers are restarted once)."""
+    import cam_metrology.offline.batch as batch
+
     out = archive / 'results.parquet'
     bags = find_bags([str(archive), str(archive / 'broken.mcap')])
-    summary = run_batch(bags, out, csv=archive / 'results.csv', workers=2)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(batch, 'RECYCLE_AFTER', 1)
+        summary = run_batch(bags, out, csv=archive / 'results.csv', workers=2)
     return out, summary
 
 

@@ -9,7 +9,7 @@ import pytest
 from cam_design.errors import InputError
 from cam_design.valve_train import SdofParams, simulate
 from cam_design.valve_train.epsilon import FAMILIES, assess, epsilon, natural_frequency_hz
-from cam_design.valve_train.sweep import parse_range, plot_runs, sweep
+from cam_design.valve_train.sweep import parse_range, runs_figure, sweep
 from cam_design.valve_train.report import ContactGeometry, run_sdof
 
 from test_valve_train_sdof import BASE, ramp_law
@@ -67,7 +67,10 @@ def test_sweep_jump_speed_bracketed(tmp_path) -> None:
     assert 0.3 < res.jump_speed_rpm / (omega_kin * 30 / math.pi) < 3
     runs = [run_sdof(law, p, r, step_deg=0.5, geometry=ContactGeometry(0.04))
             for r in (1500.0, 2500.0)]
-    out = plot_runs(runs, tmp_path / 'runs.png')
+    fig = runs_figure(runs, 'two speeds')
+    assert [len(ax.lines) for ax in fig.axes[:2]] == [2, 2]   # lift and force per run
+    out = tmp_path / 'runs.png'
+    fig.savefig(out)
     assert out.stat().st_size > 1000
     assert res.as_dict()['jump_speed_rpm'] == res.jump_speed_rpm
 

@@ -7,6 +7,34 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="$root/.venv"
 stamp="$venv/.cam-bench-stamp"
 want="$(cat "$root/requirements.txt" "$root/constraints.txt" "$root/setup.py" "$root/package.xml" | sha256sum | cut -d' ' -f1)"
+
+# The HTML report's browser test needs Debian's chromium (a system package, not a
+# wheel). Installed here when missing and we are root (CI containers); otherwise the
+# test is skipped and says why. Costs nothing once installed (one `command -v`).
+ensure_chromium() {
+    command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 && return 0
+    local why=""
+    if [[ "${CAM_BENCH_NO_BROWSER:-}" == 1 ]]; then why="CAM_BENCH_NO_BROWSER=1"
+    elif [[ "$(id -u)" != 0 ]]; then why="not root (install it with: sudo apt-get install chromium)"
+    elif ! command -v apt-get >/dev/null 2>&1; then why="no apt-get (not a Debian system)"
+    fi
+    if [[ -z "$why" ]]; then
+        echo "cam-bench: installing chromium for the browser test (apt-get, once) ..." >&2
+        local log t0=$SECONDS
+        log="$(mktemp)"
+        # wait for the package lock rather than fail when another install runs
+        if DEBIAN_FRONTEND=noninteractive apt-get -qq -o DPkg::Lock::Timeout=600 update >"$log" 2>&1 &&
+            DEBIAN_FRONTEND=noninteractive apt-get -qq -o DPkg::Lock::Timeout=600 install -y \
+                --no-install-recommends chromium >>"$log" 2>&1; then
+            echo "cam-bench: chromium installed ($((SECONDS - t0)) s)." >&2
+            rm -f "$log"; return 0
+        fi
+        why="apt-get failed: $(tail -n 1 "$log")"
+        rm -f "$log"
+    fi
+    echo "cam-bench: chromium not installed ($why): the browser test will be skipped." >&2
+}
+ensure_chromium
 if [[ -f "$stamp" && "$(cat "$stamp")" == "$want" && -x "$venv/bin/cam-bench" ]]; then
     exit 0
 fi

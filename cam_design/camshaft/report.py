@@ -4,7 +4,6 @@ orders), friction loss and power, timing shift and twist per lobe."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -44,7 +43,7 @@ def camshaft_summary(spec: CamshaftSpec, runs: Sequence[CamshaftRun],
     return out
 
 
-def plot_camshaft(runs: Sequence[CamshaftRun], path: str | Path, title: str = '') -> Path:
+def camshaft_figure(runs: Sequence[CamshaftRun], title: str = '') -> Any:
     """Four panels: drive and friction torque against cam angle (each speed), twist at
     each lobe (highest speed), timing shift against speed, drive-torque orders."""
     import matplotlib
@@ -85,7 +84,4 @@ def plot_camshaft(runs: Sequence[CamshaftRun], path: str | Path, title: str = ''
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return fig

@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -354,13 +353,13 @@ def _seating_inset(ax: Any, runs: Sequence[Any]) -> None:
     ins.grid(True, alpha=0.3)
 
 
-def plot_runs(runs: Sequence[object], path: str | Path, title: str = '') -> Path:
-    """Valve lift and contact force over cam angle for several runs (report.Run)."""
+def runs_figure(runs: Sequence[object], title: str = '') -> Any:
+    """Valve lift and contact force over cam angle for several runs (report.Run): a
+    matplotlib figure (the caller saves and closes it)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    out = Path(path)
     fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
     for run in runs:
         a = np.degrees(run.alpha)
@@ -376,17 +375,4 @@ def plot_runs(runs: Sequence[object], path: str | Path, title: str = '') -> Path
     for ax in (ax1, ax2):
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    import io
-    import os
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format='png', dpi=110)
-    plt.close(fig)
-    tmp = out.with_name(f'.{out.name}.partial-{os.getpid()}')
-    try:                          # all or nothing: a full disk leaves no half PNG
-        tmp.write_bytes(buf.getvalue())
-        os.replace(tmp, out)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise InputError('plot', str(out), f'a writable file ({exc.strerror})') from None
-    return out
+    return fig

@@ -103,7 +103,7 @@ class Recovered(dict):  # type: ignore[type-arg]
     damaged: list[Any]
 
 
-def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
+def recover_bag(src: str | Path, dst: str | Path | None, *, compression: bool = False,
                 ) -> Recovered:
     """Copy what is intact of a damaged or interrupted recording into a new, closed bag.
 
@@ -113,8 +113,11 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
     file has one, record framing) is kept, bytes unchanged, with its topic, type
     (foreign types with their recorded definition) and QoS; damaged chunks and the
     torn tail are dropped and listed in the result's ``damaged``. Returns messages
-    kept per topic.
+    kept per topic. ``dst=None``: nothing is written, only counted (what a recovery
+    would keep, e.g. of a recording stopped by a full disk).
     """
+    from contextlib import nullcontext
+
     from cam_metrology.bagio.check import (iter_records, mcap_files, parse_channel,
                                            parse_message, parse_schema, walk)
 
@@ -130,7 +133,8 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
     counts = Recovered()
     counts.damaged = []
     readable = False
-    with BagWriter(dst, compression=compression) as writer:
+    with (nullcontext() if dst is None else BagWriter(dst, compression=compression)) \
+            as writer:
         for path in files:
             schemas: dict[int, tuple[str, str, bytes]] = {}
             channels: dict[int, str] = {}
@@ -142,14 +146,16 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
                 name, encoding, data = schemas.get(sid, ('', '', b''))
                 msgdef = data.decode('utf-8', errors='replace') \
                     if encoding in ('ros2msg', 'ros2idl') else None
-                writer.add_topic(topic, name, meta.get('offered_qos_profiles') or None,
-                                 msgdef)
+                if writer is not None:
+                    writer.add_topic(topic, name,
+                                     meta.get('offered_qos_profiles') or None, msgdef)
                 channels[cid] = topic
 
             def message(cid: int, log: int, data: bytes) -> None:
                 topic = channels.get(cid)
                 if topic is not None:
-                    writer.write(topic, log, data)
+                    if writer is not None:
+                        writer.write(topic, log, data)
                     counts[topic] = counts.get(topic, 0) + 1
 
             for kind, item in walk(path):
@@ -174,8 +180,9 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
                             channel(parse_channel(body))
             readable = readable or bool(channels)
     if not readable:   # not even a channel: do not leave an empty "recovered" bag
-        import shutil
-        shutil.rmtree(dst, ignore_errors=True)
+        if dst is not None:
+            import shutil
+            shutil.rmtree(dst, ignore_errors=True)
         raise InputError('bag', str(source), 'an MCAP recording with at least one '
                          'readable channel (nothing recoverable found)')
     return counts

@@ -51,6 +51,13 @@ class BagWriter:
     plain chunks. Use it as a context manager
     or call ``close()``: ``metadata.yaml`` is written on close only (docs/ros.md).
     An existing ``path`` is never overwritten (InputError).
+
+    Failed writes are never silent: an OSError of a write (disk full, vanished folder,
+    I/O error) or of the close propagates after the MCAP file was closed without its
+    footer (``abort``; ``bag recover`` reads every chunk finished before it), and the
+    close flushes the files to the disk (``fsync``) so that a full disk shows there.
+    Leaving the ``with`` block by an exception aborts instead of closing. Callers that
+    promise all-or-nothing write into ``files.atomic_dir``.
     """
 
     def __init__(self, path: str | Path, compression: bool = True) -> None:
@@ -121,7 +128,11 @@ class BagWriter:
                 raise InputError('topic', topic, 'a topic registered with add_topic')
             self.add_topic(topic, TOPIC_TYPES[topic])
             conn = self._connections[topic]
-        self._writer.write(conn, int(stamp_ns), cdr)
+        try:
+            self._writer.write(conn, int(stamp_ns), cdr)
+        except OSError:
+            self.abort()
+            raise
         self.counts[topic] += 1
 
     def write_output(self, output: Output, stamp_ns: int) -> None:
@@ -131,21 +142,53 @@ class BagWriter:
         self.write(output.topic, stamp_ns, encode_output(output, stamp_ns))
 
     def close(self) -> None:
-        """Finish the MCAP file and write metadata.yaml (idempotent)."""
-        if not self.closed:
-            self.closed = True
+        """Finish the MCAP file, write metadata.yaml and flush both to the disk
+        (idempotent). An OSError (disk full ...) propagates, the file closed unfinished."""
+        if self.closed:
+            return
+        self.closed = True
+        try:
             self._writer.close()
             if not self._crc_inline:   # another rosbags: fill the CRCs after the fact
                 from cam_metrology.bagio.check import fill_chunk_crcs, mcap_files
 
                 for path in mcap_files(self.path):
                     fill_chunk_crcs(path)
+            from cam_metrology.inputs.files import fsync_path
+            fsync_path(self.path)
+        except OSError:
+            self._abort_storage()
+            raise
+
+    def abort(self) -> None:
+        """Close the MCAP file without its footer and without metadata.yaml (after an
+        error; idempotent). What was flushed stays readable by ``bag recover``."""
+        if not self.closed:
+            self.closed = True
+            self._abort_storage()
+
+    def _abort_storage(self) -> None:
+        storage = getattr(self._writer, 'storage', None)
+        try:
+            self._writer.abort()
+        except OSError:   # the buffer's last flush failed too: the handle is closed
+            pass
+        finally:
+            bio = getattr(storage, 'bio', None)
+            if bio is not None and not bio.closed:
+                try:
+                    bio.close()
+                except OSError:
+                    pass
 
     def __enter__(self) -> BagWriter:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, kind: object, exc: object, tb: object) -> None:
+        if exc is None:
+            self.close()
+        else:
+            self.abort()
 
 
 def _crc_chunks_inline(writer: Any) -> bool:

@@ -18,7 +18,8 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 import argparse  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
-from typing import Sequence  # noqa: E402
+from contextlib import contextmanager  # noqa: E402
+from typing import Iterator, Sequence  # noqa: E402
 from cam_design.errors import CliError  # noqa: E402,F401 (the CLI's sentence error)
 
 # Order here is the order in `cam-bench --help`.
@@ -39,8 +40,10 @@ COMMAND_MODULES = (
 EPILOG = """\
 Units: SI in files and messages (m, rad, kg, N, s); reports add _deg, _um, _mm, _rpm
 fields. Bad input exits with code 2 and a message naming the key, the value and what
-was expected. See docs/contract.md for the topics and the report schema,
-docs/scene.md for the scene file."""
+was expected. An unexpected failure is one line too (exit 1); `cam-bench --debug ...`
+or CAM_BENCH_DEBUG=1 adds the Python traceback. Ctrl-C (SIGINT) exits 130, SIGTERM
+143, each with a line saying what was kept (docs/reliability.md). See docs/contract.md
+for the topics and the report schema, docs/scene.md for the scene file."""
 
 
 class _Version(argparse.Action):
@@ -61,6 +64,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--version', action=_Version, nargs=0,
                         help='print the version (and git commit) and exit')
+    parser.add_argument('--debug', action='store_true',
+                        help='on an unexpected error, print the Python traceback as well '
+                             f'(or set {DEBUG_ENV}=1)')
     sub = parser.add_subparsers(dest='command', metavar='COMMAND')
     register_modules(sub, COMMAND_MODULES)
     return parser
@@ -73,8 +79,8 @@ def register_modules(sub: argparse._SubParsersAction, module_names: Sequence[str
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the process exit code."""
-    from cam_design.errors import InputError
+    """Run the CLI; returns the process exit code (docs/contract.md, "Command line")."""
+    from cam_metrology.host.interrupts import COMPLETE, Interrupted, catch_signals, settle_signals
 
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -82,20 +88,110 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0 if args.command is None else 2
     name = command_name(args)
+    debug = bool(args.debug or os.environ.get(DEBUG_ENV, '').strip() not in ('', '0'))
+    with catch_signals(), checked_stdout():
+        try:
+            code = _run_command(args, name, debug, argv)
+        except Interrupted as exc:    # the command's finally clauses have run
+            return _say_interrupted(name, exc)
+        try:   # a signal after the outputs were complete is reported, never lost
+            late = settle_signals(keep_blocked=argv is None)
+        except Interrupted as exc:
+            exc.add_note(COMPLETE)
+            late = exc
+    return code if late is None else _say_interrupted(name, late)
+
+
+def _run_command(args: argparse.Namespace, name: str, debug: bool,
+                 argv: Sequence[str] | None) -> int:
+    """The handler's exit code, every failure turned into one line on stderr."""
+    from cam_design.errors import InputError
+    from cam_metrology.host.interrupts import Interrupted
+
     try:
-        return int(args.func(args) or 0)
+        code = int(args.func(args) or 0)
+        sys.stdout.flush()   # a full disk behind stdout: one line, exit 2
+        return code
     except (InputError, CliError, FileNotFoundError) as exc:
-        print(f'cam-bench {name}: error: {exc}', file=sys.stderr)
+        print(f'cam-bench {name}: error: {one_line(str(exc))}', file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f'cam-bench {name}: interrupted', file=sys.stderr)
-        return 130
+    except Interrupted:
+        raise
+    except KeyboardInterrupt as exc:   # raised by code that installed its own handler
+        raise Interrupted('SIGINT', *getattr(exc, '__notes__', [])) from None
     except BrokenPipeError:
         # the reader went away (`cam-bench ... | head`): not an error of ours; point
         # stdout at /dev/null so the interpreter's final flush does not raise again
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except Exception as exc:   # noqa: BLE001 -- the last resort: one line, exit 1
+        if debug:
+            import traceback
+            traceback.print_exc()
+        print(f'cam-bench {name}: unexpected error on {input_words(args, argv)}: '
+              f'{describe_exception(exc)}'
+              + ('' if debug else f' (run with --debug or {DEBUG_ENV}=1 for the traceback)'),
+              file=sys.stderr)
+        return 1
+
+
+def _say_interrupted(name: str, exc: BaseException) -> int:
+    """Print the interruption line (signal and what was kept); the exit code."""
+    from cam_metrology.host.interrupts import exit_code
+
+    signame = exc.args[0] if exc.args else 'SIGINT'
+    notes = [one_line(n) for n in getattr(exc, '__notes__', [])]
+    outcome = '; '.join(notes) or ('nothing half-written: every output is either complete '
+                                   'or absent')
+    print(f'cam-bench {name}: interrupted by {signame}: {outcome}', file=sys.stderr)
+    return exit_code(signame)
+
+
+@contextmanager
+def checked_stdout() -> Iterator[None]:
+    """The process's own standard output wrapped in ``files.CheckedStdout`` for the
+    command (a replaced ``sys.stdout``, e.g. a test's capture, is left alone)."""
+    from cam_metrology.inputs.files import CheckedStdout
+
+    if sys.stdout is not sys.__stdout__ or sys.stdout is None:
+        yield
+        return
+    real = sys.stdout
+    sys.stdout = CheckedStdout(real)  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        sys.stdout = real
+
+
+#: environment variable that turns on --debug (tracebacks of unexpected errors)
+DEBUG_ENV = 'CAM_BENCH_DEBUG'
+
+
+def one_line(text: str, limit: int = 600) -> str:
+    """``text`` on one line (newlines as ' | '), cut to ``limit`` characters."""
+    flat = ' | '.join(part.strip() for part in text.splitlines() if part.strip())
+    return flat if len(flat) <= limit else flat[:limit - 3] + '...'
+
+
+def describe_exception(exc: BaseException) -> str:
+    """``Type: message`` of an unexpected exception; for an OSError the reason and the
+    file it concerns."""
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f' ({exc.filename})' if exc.filename else ''
+        return f'{type(exc).__name__}: {exc.strerror}{where}'
+    return one_line(f'{type(exc).__name__}: {exc}')
+
+
+def input_words(args: argparse.Namespace, argv: Sequence[str] | None) -> str:
+    """The arguments after the command words, as typed (cut to 300 characters)."""
+    words = list(sys.argv[1:] if argv is None else argv)
+    skip = set(command_name(args).split()) | {'--debug'}
+    while words and words[0] in skip:
+        words.pop(0)
+    text = ' '.join(words) or '(no arguments)'
+    return repr(text if len(text) <= 300 else text[:297] + '...')
 
 
 def command_name(args: argparse.Namespace) -> str:

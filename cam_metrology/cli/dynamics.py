@@ -140,30 +140,35 @@ def run(args: argparse.Namespace) -> int:
     shaft_sweep = _camshaft_block(core, args, result, sweep_speeds)
     _write(result, args)
     if args.plot:
-        from cam_design.valve_train.sweep import plot_runs
-        from cam_metrology.inputs.files import output_dir, safe_name
+        import matplotlib.pyplot as plt
+
+        from cam_design.hydraulic.plot import plot_pressures
+        from cam_design.valve_train.sweep import runs_figure
+        from cam_metrology.inputs.files import output_dir, safe_name, save_figure
         folder = output_dir(args.plot, '--plot')
         for feature, runs in core.runs.items():
             if args.feature and feature != args.feature:
                 continue
-            plot_runs(runs, folder / f'{safe_name(feature)}.png', title=feature)
-            if getattr(core, 'camshaft_runs', None):
-                from cam_design.camshaft.report import plot_camshaft
-                plot_camshaft(core.camshaft_runs, folder / 'camshaft.png',
-                              title=f'camshaft {scene_id(core)}')
-                if shaft_sweep:
-                    plot_camshaft(shaft_sweep, folder / 'camshaft_sweep.png',
-                                  title=f'camshaft {scene_id(core)}: sweep')
             hydraulic = [r for r in runs if hasattr(r, 'pump_pressure')]
-            if hydraulic:
-                import matplotlib.pyplot as plt
-
-                from cam_design.hydraulic.plot import plot_pressures
-                from cam_metrology.inputs.files import save_figure
-                fig = plot_pressures(hydraulic, title=f'{feature}: hydraulic valve gear')
-                save_figure(fig, folder / f'{safe_name(feature)}_pressure.png', '--plot',
-                            dpi=110)
-                plt.close(fig)
+            figures = [(runs_figure(runs, title=feature), '')] + (
+                [(plot_pressures(hydraulic, title=f'{feature}: hydraulic valve gear'),
+                  '_pressure')] if hydraulic else [])
+            for fig, suffix in figures:
+                try:
+                    save_figure(fig, folder / f'{safe_name(feature)}{suffix}.png', '--plot',
+                                dpi=110)
+                finally:
+                    plt.close(fig)
+        if getattr(core, 'camshaft_runs', None):
+            from cam_design.camshaft.report import camshaft_figure
+            shafts = [(core.camshaft_runs, 'camshaft', '')] + (
+                [(shaft_sweep, 'camshaft_sweep', ': sweep')] if shaft_sweep else [])
+            for shaft_runs, name, what in shafts:
+                fig = camshaft_figure(shaft_runs, title=f'camshaft {scene_id(core)}{what}')
+                try:
+                    save_figure(fig, folder / f'{name}.png', '--plot', dpi=110)
+                finally:
+                    plt.close(fig)
     return 1 if any('failures' in e for e in result['features'].values()) else 0
 
 

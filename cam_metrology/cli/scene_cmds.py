@@ -108,7 +108,9 @@ def _load(path: str) -> Any:
     from cam_metrology.scene.parse import load_scene, parse_scene
 
     if path == '-':
-        return parse_scene(sys.stdin.read(), source='<stdin>')
+        from cam_metrology.inputs.files import read_text_file
+        return parse_scene(read_text_file('-', 'scene (YAML text)', 'FILE -'),
+                           source='<stdin>')
     return load_scene(path)
 
 
@@ -368,7 +370,9 @@ def cmd_bag_recover(args: argparse.Namespace) -> int:
     from cam_metrology import bagio
     from cam_metrology.bagio.check import describe
 
-    counts = bagio.recover_bag(args.src, args.dst)
+    from cam_metrology.inputs.files import atomic_dir
+    with atomic_dir(args.dst, 'DST') as tmp:   # a whole recovered bag or nothing
+        counts = bagio.recover_bag(args.src, tmp)
     print(f'recovered into {args.dst}:')
     for topic, n in sorted(counts.items()):
         print(f'  {topic}: {n}')

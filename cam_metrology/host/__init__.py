@@ -1,1 +1,2 @@
-"""The machine a run happens on: config paths, the C heap, ROS domain isolation (no rclpy)."""
+"""The machine a run happens on: config paths, the C heap, ROS domain isolation, signals
+(no rclpy)."""

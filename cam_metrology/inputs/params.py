@@ -89,15 +89,13 @@ def load_params_doc(path: str | Path) -> Mapping[str, Any]:
     """The top-level mapping of a ROS parameter YAML, parsed with rcl's typing;
     InputError('--params', ...) on an unreadable, malformed or empty file. Shared by
     ``cam-bench run`` and ``cam-bench analyze --params``."""
+    from cam_metrology.inputs.files import read_text_file
+
     path = Path(path)
-    if path.is_dir():
-        raise InputError('--params', str(path), 'a ROS parameter YAML file, not a directory')
     try:
-        text = path.read_text(encoding='utf-8')
-    except FileNotFoundError:
-        raise InputError('--params', str(path), 'an existing ROS parameter YAML file') from None
-    except UnicodeDecodeError:
-        raise InputError('--params', str(path), 'a UTF-8 YAML text file') from None
+        text = read_text_file(path, 'ROS parameter YAML file', '--params')
+    except InputError as exc:   # name the option and the path, then what was found
+        raise InputError('--params', str(path), f'{exc.expected} ({exc.value})') from None
     try:
         from cam_metrology.inputs.yaml_input import load_yaml
         doc = load_yaml(text, '--params', _RosYamlLoader)

@@ -133,18 +133,31 @@ class MetrologyCore:
         A different scene after features were measured does not discard them: the open
         feature is closed and analysed with the scene in force while it was measured,
         results keep the index of their scene (report: ``scenes``, ``scene_index``),
-        and a feature measured again replaces its earlier result."""
+        and a feature measured again replaces its earlier result. A scene with another
+        ``camshaft_id`` is another part: the final report of the part so far is
+        published first (``_end_part``)."""
         if self.scene is not None and scene.text and scene.text == self.scene.text:
             return []
         out: list[Output] = []
         if self.scene is not None:
             out += self._complete_all(self.assembler.close(), stamp_ns)
+            if scene.camshaft_id != self.scene.camshaft_id and self.results:
+                out += self._end_part()
         self.scene = scene
         self.scenes.append((int(stamp_ns), scene))
         self.report_sent, self._design = False, {}
         waiting, self.pending = self.pending, []
         for fs in waiting:
             out += self._complete(fs, 0)
+        return out
+
+    def _end_part(self) -> list[Output]:
+        """Another camshaft is on the bench (a scene with another ``camshaft_id``): the
+        final report of the part measured so far, then a fresh start (its results are
+        never reported under the new id, nor the new part's under the old one)."""
+        out: list[Output] = [TextOutput(REPORT, json.dumps(self.report(final=True),
+                                                           indent=1))]
+        self.results, self.scenes, self._scene_of = {}, [], {}
         return out
 
     def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:

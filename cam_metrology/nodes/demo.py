@@ -406,7 +406,8 @@ def run_demo(opts: DemoOptions) -> int:
         if opts.json_out == '-':
             print(text, file=out)
         else:
-            Path(opts.json_out).write_text(text + '\n', encoding='utf-8')
+            from cam_metrology.inputs.files import write_output
+            write_output(opts.json_out, text + '\n', '--json')
     if code:
         print(f'cam-bench demo: FAILED: {reason}', file=sys.stderr, flush=True)
         print(f'node logs kept in {log_dir}', file=sys.stderr, flush=True)

@@ -193,8 +193,13 @@ class RecorderNode(Node):
                            if topic != DIAGNOSTICS})
         wanted.update(parse_topic_specs(params['topics'], f'{node_name}.topics'))
         wanted.update(parse_topic_specs(topics or (), '--topics'))
-        out.parent.mkdir(parents=True, exist_ok=True)
-        self.writer = BagWriter(out, compression=bool(params['compression']))
+        self.key = 'OUT' if output else f'{node_name}.output'   # names it in errors
+        try:
+            out.parent.mkdir(parents=True, exist_ok=True)
+            self.writer = BagWriter(out, compression=bool(params['compression']))
+        except OSError as exc:
+            from cam_metrology.inputs.files import write_error
+            raise write_error(self.key, out, exc, 'folder') from None
         self._batch = BatchWriter(self.writer)
         self.path = out
         self.counts: dict[str, int] = {}
@@ -358,27 +363,38 @@ STOP_DRAIN_S = 1.0
 def run_recorder(args: Sequence[str] | None = None, *, output: str | Path | None = None,
                  topics: Sequence[str] | None = None, events_executor: bool = False,
                  announce: bool = True) -> int:
-    """Record until SIGINT/SIGTERM; the bag is closed (metadata.yaml) in every case."""
+    """Record until SIGINT/SIGTERM; the bag is closed (metadata.yaml) in every case.
+
+    A write that fails (disk full, folder removed, I/O error) stops the recording: the
+    bag is closed without its index and ``CliError`` says how many samples were
+    written before the failure (they stay readable: ``bag recover``)."""
     from cam_metrology.nodes.runtime import RosProcess
 
     proc = RosProcess(args, events_executor=events_executor)
     node = None
+    failure: OSError | None = None
     try:
         node = proc.add(RecorderNode(context=proc.context, output=output, topics=topics,
                                      with_info=not events_executor))
         if announce:
             print(f'recording {len(node.counts) + len(node._adaptive.pending)} topics to '
                   f'{node.path} (Ctrl-C to stop)', flush=True)
-        proc.spin_until()
-        # write what had already arrived, but stop within STOP_DRAIN_S even while a
-        # publisher keeps sending (a bench left running must not hold the bag open)
-        proc.drain(lambda: node.callbacks_run, limit=STOP_DRAIN_S)
-        return 1 if node.lost else 0
+        try:
+            proc.spin_until()
+            # write what had already arrived, but stop within STOP_DRAIN_S even while a
+            # publisher keeps sending (a bench left running must not hold the bag open)
+            proc.drain(lambda: node.callbacks_run, limit=STOP_DRAIN_S)
+        except OSError as exc:
+            failure = exc
     finally:
         if node is not None:
             status = node.input_status()
-            node.close()
-            if announce:
+            try:
+                node.close()
+            except OSError as exc:
+                failure = failure or exc
+                node.writer.abort()
+            if announce and failure is None:
                 total = sum(node.counts.values())
                 print(f'bag closed: {node.path} ({total} messages: '
                       + ', '.join(f'{t} {n}' for t, n in node.counts.items() if n)
@@ -387,3 +403,25 @@ def run_recorder(args: Sequence[str] | None = None, *, output: str | Path | None
                     import sys
                     print(f'cam-bench record: {status.message}', file=sys.stderr, flush=True)
         proc.close()
+    if failure is not None:
+        raise recording_failed(node, failure)
+    return 1 if node.lost else 0
+
+
+def recording_failed(node: RecorderNode, exc: OSError) -> Exception:
+    """The one-line error of a recording stopped by a failed write: the option and the
+    path, the reason, the samples received and those written before the failure."""
+    from cam_design.errors import CliError, InputError
+    from cam_metrology.bagio import recover_bag
+    from cam_metrology.inputs.files import write_error
+
+    received = node.counts.get(JOINT_STATES, 0)
+    try:
+        kept = recover_bag(node.path, None).get(JOINT_STATES, 0)
+    except (InputError, OSError):
+        kept = 0
+    reason = str(write_error(node.key, node.path, exc, 'folder'))
+    return CliError(f'{reason}: recording stopped; {kept} of the {received} samples '
+                    f'received were written before the failure and are kept (closed '
+                    f'without its index: `cam-bench bag recover {node.path} NEW_BAG` '
+                    'makes a complete bag of them)')

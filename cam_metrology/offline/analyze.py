@@ -97,13 +97,23 @@ def load_params(path: str | None) -> dict[str, dict[str, Any]]:
 def bag_warnings(bag: str) -> list[str]:
     """Checks of the bag before the replay (docs/contract.md §4): InputError for a
     damaged bag (naming the range), a bag without a scene or with an invalid scene
-    (naming its bad key); a warning line when the scene changes during the bag (each
-    feature is then analysed with the scene in force when it was measured)."""
+    (naming its bad key), a bag whose scenes name two camshafts (two parts: one report
+    would attribute one part's features to the other); a warning line when the scene
+    of the same camshaft changes during the bag (each feature is then analysed with the
+    scene in force when it was measured)."""
     from cam_metrology.scene.recorded import require_scenes
 
     scenes = require_scenes(bag)
     if len(scenes) < 2:
         return []
+    ids = [sc.scene.camshaft_id for sc in scenes]
+    if len(set(ids)) > 1:   # two parts in one bag: one report would mix them
+        from cam_design.errors import InputError
+        first = next(sc for sc in scenes if sc.scene.camshaft_id != ids[0])
+        raise InputError('bag', bag, f'one camshaft per bag: its /bench/scene changes '
+                         f'camshaft_id from {ids[0]!r} to {first.scene.camshaft_id!r} at '
+                         f'log time {first.stamp_ns / 1e9:.6f} s (two parts: record or '
+                         'split them into one bag each)')
     times = ', '.join(f'{sc.scene.camshaft_id or "(no id)"} from log time '
                       f'{sc.stamp_ns / 1e9:.6f} s' for sc in scenes)
     return [f'the bag holds {len(scenes)} different scenes ({times}): each feature is '

@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import glob
 import hashlib
+import itertools
 import json
 import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any, Callable, Iterable, Iterator
 
 from cam_design.errors import InputError
 
@@ -186,8 +187,9 @@ def read_table(path: Path) -> list[dict[str, Any]]:
 
 
 def write_table(rows: list[dict[str, Any]], parquet: Path, csv: Path | None = None) -> None:
-    """Write the rows to Parquet (and CSV), each to a temporary name first and renamed
-    when complete, so an interrupted write never leaves a table that looks whole."""
+    """Write the rows to Parquet (and CSV), each all or nothing (``files.atomic_file``):
+    an interrupted or failed write never leaves a table that looks whole, and an older
+    table stays as it was."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
@@ -203,27 +205,21 @@ def write_table(rows: list[dict[str, Any]], parquet: Path, csv: Path | None = No
             vals = [None if v is None else str(v) for v in vals]
         columns[n] = vals
     table = pa.table(columns)
-    for target, writer in ((parquet, lambda t, p: pq.write_table(t, p)),
-                           (csv, lambda t, p: pacsv.write_csv(t, p))):
-        if target is None:
-            continue
-        tmp = target.with_name(f'.{target.name}.partial')
-        try:
-            writer(table, str(tmp))
-            tmp.replace(target)
-        except OSError as exc:
-            tmp.unlink(missing_ok=True)
-            raise InputError('--out' if target == parquet else '--csv', str(target),
-                             f'a writable path ({exc.strerror})') from None
+    from cam_metrology.inputs.files import atomic_file
+    for target, key, writer in ((parquet, '--out', pq.write_table),
+                                (csv, '--csv', pacsv.write_csv)):
+        if target is not None:
+            with atomic_file(target, key) as tmp:
+                writer(table, str(tmp))
 
 
 def run_batch(bags: list[Path], out: Path, *, csv: Path | None = None,
               scheduler: str | None = None, workers: int = 2, redo: bool = False,
               progress: Callable[[str], None] | None = None,
               connect_timeout_s: float = 10.0, all_cores: bool = False) -> BatchSummary:
-    """Analyse ``bags`` on Dask and write the table (see the module docstring)."""
-    from dask.distributed import Client, LocalCluster, as_completed
-
+    """Analyse ``bags`` on Dask and write the table (see the module docstring). On
+    Ctrl-C or SIGTERM the rows of the bags finished so far are written before the
+    interruption goes on (a note on it says what was kept)."""
     say = progress or (lambda m: None)
     t0 = time.perf_counter()
     old = read_table(out)
@@ -251,32 +247,11 @@ def run_batch(bags: list[Path], out: Path, *, csv: Path | None = None,
         todo.append(name)
     again = set(todo) | {r['bag'] for r in dup_rows}
     rows: list[dict[str, Any]] = [r for r in old if r['bag'] not in again] + dup_rows
-    if todo:
-        cluster = None
-        try:
-            if scheduler:
-                try:
-                    client = Client(scheduler, timeout=f'{connect_timeout_s}s')
-                except (OSError, TimeoutError) as exc:
-                    raise InputError('--scheduler', scheduler, f'a reachable Dask scheduler '
-                                     f'({type(exc).__name__}: {exc})') from None
-            else:
-                cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1,
-                                       processes=True, dashboard_address=None)
-                client = Client(cluster)
-            try:
-                futures = client.map(analyse_bag, todo, all_cores=all_cores, pure=False)
-                for i, fut in enumerate(as_completed(futures), 1):
-                    part = fut.result()
-                    rows += part
-                    state = 'failed: ' + str(part[0]['reason']) if part[0]['status'] == \
-                        'failed' else f'{len(part)} features'
-                    say(f'[{i}/{len(todo)}] {part[0]["bag"]}: {state}')
-            finally:
-                client.close()
-        finally:
-            if cluster is not None:
-                cluster.close()
+    try:
+        rows += _analyse_all(todo, scheduler, workers, connect_timeout_s, all_cores, say)
+    except KeyboardInterrupt as exc:   # Ctrl-C, SIGTERM: keep what was analysed
+        exc.add_note(_keep_partial(exc, rows, todo, out, csv))
+        raise
     rows.sort(key=lambda r: (str(r.get('bag')), str(r.get('feature'))))
     write_table(rows, out, csv)
     new = [r for r in rows if r['bag'] in set(todo)]
@@ -284,3 +259,113 @@ def run_batch(bags: list[Path], out: Path, *, csv: Path | None = None,
                         duplicates=len(dup_rows),
                         failed=len({r['bag'] for r in new if r['status'] == 'failed'}),
                         rows=len(rows), seconds=time.perf_counter() - t0)
+
+
+def _keep_partial(exc: KeyboardInterrupt, rows: list[dict[str, Any]], todo: list[str],
+                  out: Path, csv: Path | None) -> str:
+    """After an interruption: write the rows analysed so far (``exc.rows``: those of the
+    bags finished) with the earlier ones, so the same command resumes; what was kept."""
+    done = getattr(exc, 'rows', [])
+    if not done:
+        return f'no bag was analysed; --out {out} left as it was'
+    kept = rows + done
+    kept.sort(key=lambda r: (str(r.get('bag')), str(r.get('feature'))))
+    try:
+        write_table(kept, out, csv)
+    except InputError as err:
+        return f'the {len({r["bag"] for r in done})} bags analysed could not be kept ({err})'
+    bags = len({r['bag'] for r in done})
+    return (f'{bags} of {len(todo)} bags analysed before the signal are in {out} '
+            f'({len(kept)} rows); the same command analyses the rest')
+
+
+def _analyse_all(todo: list[str], scheduler: str | None, workers: int,
+                 connect_timeout_s: float, all_cores: bool,
+                 say: Callable[[str], None]) -> list[dict[str, Any]]:
+    """Rows of the bags ``todo``, analysed on Dask: at most ``IN_FLIGHT`` tasks per
+    worker are submitted at a time and each result is released once read, so neither
+    the scheduler nor the workers hold more than a few bags whatever the archive's
+    size; the workers of a local cluster are replaced every ``RECYCLE_AFTER`` bags
+    each (a Dask worker process grows with the number of tasks it ran, about 1 MB per
+    bag: benchmarks/bench_batch_memory.py). On an interruption the exception carries
+    the rows of the bags finished so far (``exc.rows``)."""
+    from dask.distributed import Client, LocalCluster
+
+    rows: list[dict[str, Any]] = []
+    if not todo:
+        return rows
+    cluster = None
+    try:
+        if scheduler:
+            try:
+                client = Client(scheduler, timeout=f'{connect_timeout_s}s')
+            except (OSError, TimeoutError) as exc:
+                raise InputError('--scheduler', scheduler, f'a reachable Dask scheduler '
+                                 f'({type(exc).__name__}: {exc})') from None
+        else:
+            cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1,
+                                   processes=True, dashboard_address=None)
+            client = Client(cluster)
+        try:
+            nworkers = len(client.scheduler_info().get('workers', {})) or workers
+            # our own workers are recycled every RECYCLE_AFTER bags each (the analysis
+            # itself is flat in one process; a Dask worker running it is not)
+            segment = RECYCLE_AFTER * nworkers if cluster is not None else len(todo)
+            done = 0
+            for start in range(0, len(todo), segment):
+                if start:
+                    _restart_quietly(client)   # fresh worker processes, none in flight
+                for part in _window(client, todo[start:start + segment],
+                                    IN_FLIGHT * nworkers, all_cores):
+                    rows += part
+                    done += 1
+                    state = 'failed: ' + str(part[0]['reason']) if part[0]['status'] == \
+                        'failed' else f'{len(part)} features'
+                    say(f'[{done}/{len(todo)}] {part[0]["bag"]}: {state}')
+        finally:
+            client.close()
+    except KeyboardInterrupt as exc:
+        exc.rows = rows   # type: ignore[attr-defined]
+        raise
+    finally:
+        if cluster is not None:
+            cluster.close()
+    return rows
+
+
+#: tasks submitted per worker at a time (the rest wait in the client, not on Dask)
+IN_FLIGHT = 2
+#: bags a local worker analyses before it is replaced by a fresh process
+RECYCLE_AFTER = 100
+
+
+def _restart_quietly(client: Any) -> None:
+    """``client.restart()`` without the nanny's warnings on stderr (a worker killed
+    after its grace period is the expected way a recycled worker ends)."""
+    import logging
+
+    nanny = logging.getLogger('distributed.nanny')
+    level = nanny.level
+    nanny.setLevel(logging.ERROR)
+    try:
+        client.restart()
+    finally:
+        nanny.setLevel(level)
+
+
+def _window(client: Any, bags: list[str], window: int, all_cores: bool,
+            ) -> Iterator[list[dict[str, Any]]]:
+    """Rows of each bag, in the order they finish, with at most ``window`` tasks on the
+    cluster at a time; each result is released as soon as it has been read."""
+    from dask.distributed import as_completed
+
+    waiting = iter(bags)
+    running = as_completed([client.submit(analyse_bag, bag, all_cores=all_cores, pure=False)
+                            for bag in itertools.islice(waiting, window)])
+    for fut in running:
+        part = fut.result()
+        fut.release()
+        yield part
+        nxt = next(waiting, None)
+        if nxt is not None:
+            running.add(client.submit(analyse_bag, nxt, all_cores=all_cores, pure=False))

@@ -118,7 +118,8 @@ def _registry_family(name: str, spec: dict) -> Family:
 
     law = from_spec(spec, 'truth')
     scale = float(np.max(np.abs(law(np.linspace(-math.pi, math.pi, 7201), 2))))
-    jumps = tuple(float(j.alpha) for j in law.junction_report
+    report = law.junction_report  # type: ignore[attr-defined]  # segment laws have it
+    jumps = tuple(float(j.alpha) for j in report
                   if j.jumps[2] > 1e-6 * scale)
     return Family(name, law, jumps)
 
@@ -158,4 +159,4 @@ def measured_table(law: Law, step: float, *, sigma: float = 0.0, quantum: float 
         h[idx] += outlier_size * rng.choice([-1.0, 1.0], idx.size)
     if quantum:
         h = np.round(h / quantum) * quantum
-    return a, h
+    return np.asarray(a, dtype=np.float64), np.asarray(h, dtype=np.float64)
