@@ -19,8 +19,9 @@ mean line keeps harmonic k with the transmission ``exp(-ln 2 (k / k_c)^2)`` (50 
 cut-off ``k_c`` UPR). Roundness: peak-to-valley of the filtered profile about its
 least-squares reference circle (LSCI; c + a cos + b sin, the small-eccentricity
 limacon), over the samples of the circle. Waviness in a band [k_lo, k_hi]: the largest
-harmonic amplitude there, its UPR, and where the band-passed profile peaks (its
-envelope from the one-sided harmonic sum).
+harmonic amplitude there, its UPR, and where on the cam the band-passed profile sits
+(its envelope from the one-sided harmonic sum: the centroid of the part above half its
+peak, and that part's angular extent).
 """
 from __future__ import annotations
 
