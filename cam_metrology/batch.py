@@ -89,7 +89,8 @@ def bag_sha256(bag: Path) -> str:
     return h.hexdigest()
 
 
-def _start_ns(bag: Path) -> int | None:
+def bag_start_ns(bag: Path) -> int | None:
+    """The bag's start time [ns since the epoch] from its metadata.yaml, or None."""
     meta = bag / 'metadata.yaml'
     if not meta.is_file():
         return None
@@ -150,7 +151,7 @@ def analyse_bag(bag: str, all_cores: bool = False) -> list[dict[str, Any]]:
         report = analyze_report(path, only_metrology=not all_cores)
     except Exception as exc:  # noqa: BLE001 -- every failure is reported per bag
         return [_failed(bag, sha, str(exc) or type(exc).__name__)]
-    return rows_of_report(bag, sha, report, _start_ns(path))
+    return rows_of_report(bag, sha, report, bag_start_ns(path))
 
 
 def _failed(bag: str, sha: str, reason: str) -> dict[str, Any]:

@@ -74,11 +74,20 @@ def write_output(target: str | Path, data: str | bytes, key: str) -> None:
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        _discard(tmp)
         raise InputError(key, Path(target), f'a writable file ({_os_reason(exc)})') from None
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        _discard(tmp)
         raise
+
+
+def _discard(tmp: Path) -> None:
+    """Remove a temporary file if it is there (a name the file system refuses, or a
+    folder gone, is nothing to remove: never a second error)."""
+    try:
+        tmp.unlink(missing_ok=True)
+    except OSError:
+        pass
 
 
 def output_dir(folder: str | Path, key: str) -> Path:

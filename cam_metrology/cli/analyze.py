@@ -40,6 +40,9 @@ def register(subparsers: Any) -> None:
     p.add_argument('--report', metavar='FILE.html', help='write a self-contained HTML report '
                    '(verdict, cam card, results, plots, provenance)')
     p.add_argument('--csv', metavar='FILE|-', help='write the per-feature results as CSV')
+    p.add_argument('--dfq', metavar='FILE.dfq', help='write the results as a Q-DAS AQDEF '
+                   'transfer file (one characteristic per reported quantity, with the '
+                   "scene tolerances' limits) for SPC packages")
     p.add_argument('--heights-mm', metavar='LIST', default=None,
                    help='cam-card checking heights in mm (default 1,1.27,0.1)')
     p.set_defaults(func=run)
@@ -87,12 +90,23 @@ def run(args: argparse.Namespace) -> int:
         from cam_metrology.files import write_output
         from cam_metrology.html_report import csv_text
         write_output(args.csv, csv_text(report), '--csv')
+    if args.dfq:
+        write_report_dfq(args.dfq, args.bag, report)
     if not any(f.get('status') == 'ok' for f in report.get('features', {}).values()):
         print(f'cam-bench analyze: error: nothing was measured in {args.bag}: no feature '
               f'of the scene was measured from its {JOINT_TOPIC} samples (see the '
               'report)', file=sys.stderr)
         return 1
     return verdict_exit_code(report)
+
+
+def write_report_dfq(path: str, bag: str, report: dict[str, Any]) -> None:
+    """``--dfq``: the report as a Q-DAS DFQ file (the rows ``batch`` tabulates)."""
+    from cam_metrology.batch import bag_start_ns, rows_of_report
+    from cam_metrology.quality.qdas import write_dfq
+
+    sha = str((report.get('provenance') or {}).get('bag_sha256') or '')
+    write_dfq(path, rows_of_report(bag, sha, report, bag_start_ns(Path(bag))))
 
 
 def profiles(outputs: list[tuple[int, Any]]) -> dict[str, tuple[Any, Any]]:
