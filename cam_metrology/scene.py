@@ -13,7 +13,7 @@ from typing import Any
 from cam_design.follower import Follower
 from cam_design.lift_laws import LiftLaw
 
-__all__ = ['Follower', 'Lobe', 'DowelPin', 'Keyway', 'Crank', 'Seat', 'ValveTrain', 'Scene',
+__all__ = ['Follower', 'FormSettings', 'Lobe', 'DowelPin', 'Keyway', 'Crank', 'Seat', 'ValveTrain', 'Scene',
            'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances']
 COMPUTE_ITEMS = ('nose', 'pin', 'asymmetry', 'reconstruction', 'dynamics')
 
@@ -47,12 +47,24 @@ class Tolerances:
     runout_max_um: float | None = None
     duration_deg: Band | None = None
     checking_height_mm: float = 1.0
+    roundness_max_um: float | None = None      # base-circle roundness (LSCI), a maximum
+    waviness_max_um: float | None = None       # largest harmonic in the waviness band
 
     def any(self) -> bool:
         """True if at least one limit is set."""
         limits = (self.lift_error_um, self.centreline_deg, self.phase_deg,
-                  self.max_lift_um, self.runout_max_um, self.duration_deg)
+                  self.max_lift_um, self.runout_max_um, self.duration_deg,
+                  self.roundness_max_um, self.waviness_max_um)
         return any(v is not None for v in limits) or bool(self.lift_error_zones)
+
+
+@dataclass(frozen=True)
+class FormSettings:
+    """Harmonic and form analysis of every feature (docs/scene.md ``form``): the Gaussian
+    filter's cut-off [UPR] and the waviness band [UPR] (None: 15 UPR to the cut-off)."""
+
+    cutoff_upr: int = 50
+    waviness_band_upr: tuple[int, int] | None = None
 
 
 @dataclass(frozen=True)
@@ -156,6 +168,7 @@ class Scene:
     keyway: Keyway | None = None              # the other datum (never with a dowel_pin)
     crank: Crank | None = None                # crank datum (needs a pin or keyway)
     study: dict[str, str] = field(default_factory=dict)   # part_id, operator, trial
+    form: FormSettings = field(default_factory=FormSettings)
 
     @property
     def datum_id(self) -> str | None:

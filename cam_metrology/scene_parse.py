@@ -31,7 +31,7 @@ __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
             'dowel_pin', 'keyway', 'crank', 'compute', 'valve_train', 'idle_timeout',
-            'tolerances', 'part_id', 'operator', 'trial')
+            'tolerances', 'part_id', 'operator', 'trial', 'form')
 #: top-level keys of a gauge R&R study (carried into the report and the batch table)
 STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
@@ -40,7 +40,9 @@ LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift
              'width', 'tolerances', 'role', 'cylinder', 'nominal_file')
 #: tolerance keys of a lobe (units in the names); the top-level block adds datum_deg
 TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
-TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'runout_max_um', 'checking_height_mm')
+#: tolerance keys that are a maximum only (>= 0)
+TOL_MAXIMA = ('runout_max_um', 'roundness_max_um', 'waviness_max_um')
+TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm') + TOL_MAXIMA
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 #: lift [m] above which a nominal file's row is on the lobe, not the base circle
 NOMINAL_BASE_LEVEL = 1e-7
@@ -166,11 +168,14 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
         ctx.warnings.append('lobes[].nominal_phase: given but the scene has no dowel_pin or '
                             'keyway; phases cannot be measured')
     study = {k: _text(k, top[k]) for k in STUDY_KEYS if top.get(k) is not None}
+    from cam_metrology.metrology.form_settings import parse_form
+    form = parse_form(ctx.mapping('form', top['form'], ('cutoff_upr', 'waviness_band_upr'))
+                      if top.get('form') is not None else None)
     return Scene(camshaft_id=camshaft_id, direction=direction, probe=probe,
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
-                 crank=crank, study=study)
+                 crank=crank, study=study, form=form)
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -718,9 +723,9 @@ def _tolerance_block(ctx: _Ctx, key: str, value: Any, known: tuple[str, ...]
     if 'lift_error_zones' in block:
         out['lift_error_zones'] = _zones(ctx, f'{key}.lift_error_zones',
                                          block['lift_error_zones'])
-    if 'runout_max_um' in block:
-        out['runout_max_um'] = require_positive(f'{key}.runout_max_um', block['runout_max_um'],
-                                                allow_zero=True)
+    for k in TOL_MAXIMA:
+        if k in block:
+            out[k] = require_positive(f'{key}.{k}', block[k], allow_zero=True)
     if 'checking_height_mm' in block:
         out['checking_height_mm'] = require_positive(f'{key}.checking_height_mm',
                                                      block['checking_height_mm'])

@@ -88,6 +88,12 @@ class SimParams:
     reverse: bool = _doc(False, 'shaft turned backwards: theta decreases with time')
     lift_scale: float = _doc(1.0, 'true lift of every lobe = lift_scale x its design lift '
                              '(a form error for acceptance tests; 1: the design)')
+    chatter_upr: int = _doc(0, 'chatter marks on every lobe: a ripple of this many '
+                            'undulations per revolution (0: none)')
+    chatter_amplitude: float = _doc(0.0, 'm, amplitude of the chatter ripple')
+    chatter_extent_deg: float = _doc(360.0, 'cam degrees the chatter covers (360: all round)')
+    chatter_centre_deg: float = _doc(0.0, 'cam angle [deg] from the lobe centreline at the '
+                                     'middle of the chattered arc')
 
     def validated(self) -> SimParams:
         """Raise InputError for an impossible parameter; return self."""
@@ -116,6 +122,14 @@ class SimParams:
         require_positive('runout', self.runout, allow_zero=True)
         require_positive('feature_gap', self.feature_gap, allow_zero=True)
         require_positive('lift_scale', self.lift_scale)
+        if isinstance(self.chatter_upr, bool) or int(self.chatter_upr) != self.chatter_upr \
+                or self.chatter_upr < 0:
+            raise InputError('chatter_upr', self.chatter_upr, 'a whole number of UPR >= 0')
+        require_positive('chatter_amplitude', self.chatter_amplitude, allow_zero=True)
+        extent = require_positive('chatter_extent_deg', self.chatter_extent_deg)
+        if extent > 360.0:
+            raise InputError('chatter_extent_deg', extent, 'cam degrees in (0, 360]')
+        require_finite('chatter_centre_deg', self.chatter_centre_deg)
         if self.true_angles is not None:
             if not isinstance(self.true_angles, dict):
                 raise InputError('true_angles', self.true_angles, 'a mapping id -> rad')
@@ -261,6 +275,8 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
             conversions[fid] = ('identity' if law is lobe.lift else
                                 f'{lobe.follower.kind} -> {scene.probe.kind}')
             s = zero + (law(alpha) if scale == 1.0 else scale * law(alpha))
+            if params.chatter_upr and params.chatter_amplitude:
+                s = s + chatter(theta_true, alpha, params)
         elif kind == KEYWAY:
             kw = scene.keyway
             kgeo = KeywayGeometry(kw.width, kw.shaft_radius, kw.probe_radius, kw.depth)
@@ -294,6 +310,17 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     return run
 
 
+def chatter(theta_true: NDArray[np.float64], alpha: NDArray[np.float64],
+            params: SimParams) -> NDArray[np.float64]:
+    """The chatter ripple [m]: ``chatter_amplitude * cos(chatter_upr * theta_true)`` on
+    the cam angles ``alpha`` [rad] within ``chatter_extent_deg / 2`` of
+    ``chatter_centre_deg``, 0 elsewhere."""
+    off = wrap_pi(alpha - math.radians(params.chatter_centre_deg))
+    inside = np.abs(off) <= math.radians(params.chatter_extent_deg) / 2.0 + 1e-12
+    return np.where(inside, params.chatter_amplitude *
+                    np.cos(int(params.chatter_upr) * theta_true), 0.0)
+
+
 def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
            conversions: dict[str, str], n: int) -> dict[str, Any]:
     """The JSON-able truth of a run (angles in deg, wrapped like the report's)."""
@@ -318,6 +345,10 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
     p = asdict(params)
     if p.get('lift_scale') == 1.0:   # the design itself: truth as before the option existed
         del p['lift_scale']
+    if not p.get('chatter_upr'):     # no chatter: truth as before the option existed
+        for k in ('chatter_upr', 'chatter_amplitude', 'chatter_extent_deg',
+                  'chatter_centre_deg'):
+            del p[k]
     return {
         'camshaft_id': scene.camshaft_id,
         'direction': scene.direction,

@@ -25,6 +25,7 @@ from cam_metrology.heap import trim
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_keyway, analyze_lobe, analyze_pin,
                                               seen_lift)
+from cam_metrology.metrology.feature_form import lobe_form
 from cam_metrology.metrology.spill import release, spill
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
                                               encoder_units_hint, probe_units_problem,
@@ -279,8 +280,13 @@ class MetrologyCore:
                                      skipped=[('nose', 'compute does not ask for nose')])
             if lobe.id not in self._design:
                 self._design[lobe.id] = seen_lift(lobe, scene.probe, scene.base_circle_radius)
-            return analyze_lobe(fs, self._design[lobe.id], scene.direction, self.settings,
-                                asymmetry=scene.wants('asymmetry'))
+            result = analyze_lobe(fs, self._design[lobe.id], scene.direction, self.settings,
+                                  asymmetry=scene.wants('asymmetry'))
+            form = lobe_form(result.table, result.values, scene.direction, scene.form)
+            result.values.update(form)
+            if 'form_error' in form:
+                result.skipped.append(('form', form['form_error']))
+            return result
         except (FeatureFailed, InputError) as exc:
             return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
                                  failed=str(exc) + encoder_units_hint(fs))

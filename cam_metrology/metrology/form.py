@@ -42,6 +42,9 @@ DEFAULT_CUTOFF_UPR = 50
 FILTER_SPAN = 4
 #: samples of the grid on which band-passed profiles and envelopes are evaluated
 ENVELOPE_GRID = 4096
+#: harmonics below this amplitude [m] (0.1 nm) are not reported: below any gauge's
+#: resolution, their order and phase would be rounding noise
+AMPLITUDE_FLOOR_M = 1e-10
 
 
 @dataclass(frozen=True)
@@ -83,7 +86,7 @@ def nyquist_upr(theta: NDArray[np.float64]) -> int:
     if t.size < 3:
         return 0
     gaps = np.diff(np.concatenate([t, [t[0] + TWO_PI]]))
-    return int(np.floor(np.pi / float(np.max(gaps)) + 1e-9))
+    return int(np.floor(np.pi / float(np.max(gaps)) * (1.0 + 1e-6)))
 
 
 def _uniform_revolution(theta: NDArray[np.float64]) -> bool:
@@ -189,7 +192,8 @@ class FormResult:
                                 'nyquist_upr': self.nyquist_upr}}
 
 
-def harmonic_list(spec: Spectrum, upto: int, floor_m: float = 0.0) -> list[dict[str, float]]:
+def harmonic_list(spec: Spectrum, upto: int, floor_m: float = AMPLITUDE_FLOOR_M,
+                  ) -> list[dict[str, float]]:
     """Harmonics 1..``upto`` as {upr, amplitude_um, phase_deg}, the largest first,
     those above ``floor_m`` [m] only."""
     amp = spec.amplitude[:upto]
@@ -208,6 +212,9 @@ def waviness(spec: Spectrum, band: tuple[int, int]) -> dict[str, Any]:
     amp = spec.amplitude
     sel = np.arange(lo - 1, hi)
     k = int(sel[np.argmax(amp[sel])])
+    if amp[k] < AMPLITUDE_FLOOR_M:   # nothing there: no UPR or place to name
+        return {'band_upr': [int(lo), int(hi)], 'max_amplitude_um': float(amp[k] * UM),
+                'upr_at_max': None, 'at_deg': None, 'peak_um': None, 'extent_deg': None}
     grid = np.arange(ENVELOPE_GRID) * (TWO_PI / ENVELOPE_GRID)
     ks = sel + 1
     z = (spec.a[sel] - 1j * spec.b[sel])[None, :] * np.exp(1j * np.outer(grid, ks))

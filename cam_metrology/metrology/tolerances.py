@@ -118,7 +118,8 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
     if feature.get('status') != 'ok':
         why = f"feature {feature.get('status', 'missing')}: {feature.get('reason', '')}"
         names = [n for n in ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um',
-                             'runout_max_um', 'duration_deg')
+                             'runout_max_um', 'duration_deg', 'roundness_max_um',
+                             'waviness_max_um')
                  if getattr(tol, n) is not None]
         return _verdict([], [_not(n, why.strip().rstrip(':')) for n in names] or
                         [_not('lift_error_zones', why)])
@@ -143,6 +144,7 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
         else:
             checks.append(check('base_circle_runout_um', value, (None, tol.runout_max_um),
                                 'um'))
+    _form_checks(tol, feature, checks, missing)
     needs_table = (tol.max_lift_um, tol.duration_deg, tol.centreline_deg)
     if any(v is not None for v in needs_table):
         if table is None or design is None:
@@ -155,6 +157,25 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
             del table, good
             _table_checks(tol, alpha, lift, design, checks, missing)
     return _verdict(checks, missing)
+
+
+def _form_checks(tol: Tolerances, feature: Mapping[str, Any], checks: list[dict[str, Any]],
+                 missing: list[dict[str, str]]) -> None:
+    """Base-circle roundness and the waviness band's largest harmonic, maxima only."""
+    why = feature.get('form_error') or 'no form analysis for this feature'
+    if tol.roundness_max_um is not None:
+        value = feature.get('roundness_um')
+        if value is None:
+            missing.append(_not('roundness_um', why))
+        else:
+            checks.append(check('roundness_um', value, (None, tol.roundness_max_um), 'um'))
+    if tol.waviness_max_um is not None:
+        value = (feature.get('waviness') or {}).get('max_amplitude_um')
+        if value is None:
+            missing.append(_not('waviness_max_amplitude_um', why))
+        else:
+            checks.append(check('waviness_max_amplitude_um', value,
+                                (None, tol.waviness_max_um), 'um'))
 
 
 def _table_checks(tol: Tolerances, alpha: Any, lift: Any, design: Callable[..., Any],
