@@ -13,7 +13,7 @@ from typing import Any
 from cam_design.follower import Follower
 from cam_design.lift_laws import LiftLaw
 
-__all__ = ['Follower', 'FormSettings', 'Lobe', 'DowelPin', 'Keyway', 'Crank', 'Seat', 'ValveTrain', 'Scene',
+__all__ = ['Follower', 'FormSettings', 'Journal', 'Lobe', 'DowelPin', 'Keyway', 'Crank', 'Seat', 'ValveTrain', 'Scene',
            'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances']
 COMPUTE_ITEMS = ('nose', 'pin', 'asymmetry', 'reconstruction', 'dynamics')
 
@@ -81,6 +81,18 @@ class Lobe:
     role: str | None = None                   # 'intake' | 'exhaust' (crank events)
     cylinder: str = '1'                       # cylinder the lobe serves (crank datum)
     nominal_file: str | None = None           # gauge file the design came from (resolved)
+
+
+@dataclass(frozen=True)
+class Journal:
+    """A journal (bearing seat) measured as a feature: nominal radius and axial position
+    along the shaft [m]; its form and run-out tolerances (µm, keys as a lobe's)."""
+
+    id: str
+    radius: float
+    axial_position: float
+    tolerances: Tolerances | None = None
+    diameter_um: Band | None = None           # diameter deviation band [um]
 
 
 @dataclass(frozen=True)
@@ -169,6 +181,12 @@ class Scene:
     crank: Crank | None = None                # crank datum (needs a pin or keyway)
     study: dict[str, str] = field(default_factory=dict)   # part_id, operator, trial
     form: FormSettings = field(default_factory=FormSettings)
+    journals: tuple[Journal, ...] = ()
+    probe_zero_radius: float | None = None    # m, radius at which the probe reads 0
+
+    def journal(self, journal_id: str) -> Journal | None:
+        """The journal with this id, or None."""
+        return next((j for j in self.journals if j.id == journal_id), None)
 
     @property
     def datum_id(self) -> str | None:

@@ -31,7 +31,7 @@ __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
             'dowel_pin', 'keyway', 'crank', 'compute', 'valve_train', 'idle_timeout',
-            'tolerances', 'part_id', 'operator', 'trial', 'form')
+            'tolerances', 'part_id', 'operator', 'trial', 'form', 'journals')
 #: top-level keys of a gauge R&R study (carried into the report and the batch table)
 STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
@@ -154,7 +154,7 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
         raise InputError('keyway', 'given with a dowel_pin',
                          'one angular datum: either dowel_pin or keyway, not both')
     datum = _datum_tolerance(defaults, pin or keyway)
-    if not lobes and pin is None and keyway is None:
+    if not lobes and pin is None and keyway is None and not top.get('journals'):
         raise InputError('lobes', top.get('lobes', []),
                          'at least one lobe (or a dowel_pin or keyway): nothing to measure')
     crank = _crank(ctx, top.get('crank'), pin or keyway, lobes)
@@ -171,11 +171,16 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
     from cam_metrology.metrology.form_settings import parse_form
     form = parse_form(ctx.mapping('form', top['form'], ('cutoff_upr', 'waviness_band_upr'))
                       if top.get('form') is not None else None)
+    from cam_metrology.metrology.journal_spec import parse_journals, parse_zero_radius
+    journals = parse_journals(top.get('journals'), ctx.mapping,
+                              {lobe.id for lobe in lobes} | set(DATUM_IDS), _band)
+    zero_radius = parse_zero_radius(top['probe'].get('zero_radius'))
     return Scene(camshaft_id=camshaft_id, direction=direction, probe=probe,
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
-                 crank=crank, study=study, form=form)
+                 crank=crank, study=study, form=form, journals=journals,
+                 probe_zero_radius=zero_radius)
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -227,7 +232,7 @@ def _follower(kind_key: str, radius_key: str, kind: Any, radius: Any,
 
 
 def _probe(ctx: _Ctx, value: Any) -> Follower:
-    probe = ctx.mapping('probe', value, ('kind', 'radius'))
+    probe = ctx.mapping('probe', value, ('kind', 'radius', 'zero_radius'))
     if 'kind' not in probe:
         raise InputError('probe.kind', None, ' | '.join(PROBE_KINDS))
     return _follower('probe.kind', 'probe.radius', probe['kind'], probe.get('radius'),

@@ -94,6 +94,12 @@ class SimParams:
     chatter_extent_deg: float = _doc(360.0, 'cam degrees the chatter covers (360: all round)')
     chatter_centre_deg: float = _doc(0.0, 'cam angle [deg] from the lobe centreline at the '
                                      'middle of the chattered arc')
+    journal_lobes: int = _doc(0, 'journals: lobing of this many UPR (3: a 3-lobed journal; '
+                              '0: round)')
+    journal_lobing: float = _doc(0.0, 'm, amplitude of the journals\' lobing')
+    bend: float = _doc(0.0, 'm, bow of a bent shaft: eccentricity of the journals '
+                       'bend * sin(pi (z - z_first) / (z_last - z_first)) along the axis')
+    bend_direction_deg: float = _doc(0.0, 'encoder angle [deg] of the bow\'s direction')
 
     def validated(self) -> SimParams:
         """Raise InputError for an impossible parameter; return self."""
@@ -130,6 +136,12 @@ class SimParams:
         if extent > 360.0:
             raise InputError('chatter_extent_deg', extent, 'cam degrees in (0, 360]')
         require_finite('chatter_centre_deg', self.chatter_centre_deg)
+        if isinstance(self.journal_lobes, bool) or int(self.journal_lobes) != \
+                self.journal_lobes or self.journal_lobes < 0:
+            raise InputError('journal_lobes', self.journal_lobes, 'a whole number of UPR >= 0')
+        require_positive('journal_lobing', self.journal_lobing, allow_zero=True)
+        require_positive('bend', self.bend, allow_zero=True)
+        require_finite('bend_direction_deg', self.bend_direction_deg)
         if self.true_angles is not None:
             if not isinstance(self.true_angles, dict):
                 raise InputError('true_angles', self.true_angles, 'a mapping id -> rad')
@@ -259,6 +271,7 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     zero = params.probe_zero_offset
     scale = float(params.lift_scale)
     order: list[tuple[str, str]] = [(lobe.id, 'lobe') for lobe in scene.lobes]
+    order += [(j.id, 'journal') for j in scene.journals]
     if scene.datum_id is not None:
         order.append((scene.datum_id, scene.datum_id))
     features: list[SimFeature] = []
@@ -268,7 +281,7 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     for fid, kind in order:
         k = np.arange(k0, k0 + n, dtype=np.float64)
         theta_true = params.start_theta + (-k if params.reverse else k) * step
-        alpha = wrap_pi(scene.direction * (theta_true - angles[fid]))
+        alpha = wrap_pi(scene.direction * (theta_true - angles.get(fid, 0.0)))
         if kind == 'lobe':
             law = probe_lift(scene, fid)
             lobe = scene.lobe(fid)
@@ -277,6 +290,8 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
             s = zero + (law(alpha) if scale == 1.0 else scale * law(alpha))
             if params.chatter_upr and params.chatter_amplitude:
                 s = s + chatter(theta_true, alpha, params)
+        elif kind == 'journal':
+            s = zero + journal_reading(scene, fid, theta_true, params)
         elif kind == KEYWAY:
             kw = scene.keyway
             kgeo = KeywayGeometry(kw.width, kw.shaft_radius, kw.probe_radius, kw.depth)
@@ -302,12 +317,37 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
         if params.wrapped:
             theta = np.mod(theta, TWO_PI)
         stamps = t0 + np.round(np.arange(n) * dt_ns).astype(np.int64)
-        features.append(SimFeature(fid, kind, angles[fid], theta, s, stamps))
+        features.append(SimFeature(fid, kind, angles.get(fid, 0.0), theta, s, stamps))
         k0 += n
         t0 = int(stamps[-1]) + int(round(dt_ns)) + gap_ns
     run = BenchRun(scene, params, features)
     run.truth = _truth(scene, params, angles, conversions, n)
     return run
+
+
+def bow(scene: Scene, journal_id: str, params: SimParams) -> float:
+    """Eccentricity [m] of a journal's centre on a bent shaft (``SimParams.bend``)."""
+    z = [j.axial_position for j in scene.journals]
+    j = scene.journal(journal_id)
+    span = max(z) - min(z)
+    if not params.bend or span <= 0:
+        return 0.0
+    return params.bend * math.sin(math.pi * (j.axial_position - min(z)) / span)
+
+
+def journal_reading(scene: Scene, journal_id: str, theta_true: NDArray[np.float64],
+                    params: SimParams) -> NDArray[np.float64]:
+    """Probe reading [m] on a journal above the base-circle reading: the radius
+    difference, the bow of a bent shaft (once per revolution towards
+    ``bend_direction_deg``) and the lobing ``journal_lobing cos(journal_lobes theta)``."""
+    j = scene.journal(journal_id)
+    out = np.full(theta_true.size, j.radius - scene.base_circle_radius)
+    e = bow(scene, journal_id, params)
+    if e:
+        out += e * np.cos(theta_true - math.radians(params.bend_direction_deg))
+    if params.journal_lobes and params.journal_lobing:
+        out += params.journal_lobing * np.cos(int(params.journal_lobes) * theta_true)
+    return out
 
 
 def chatter(theta_true: NDArray[np.float64], alpha: NDArray[np.float64],
@@ -349,11 +389,19 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
         for k in ('chatter_upr', 'chatter_amplitude', 'chatter_extent_deg',
                   'chatter_centre_deg'):
             del p[k]
+    if not scene.journals:           # no journals: truth as before the options existed
+        for k in ('journal_lobes', 'journal_lobing', 'bend', 'bend_direction_deg'):
+            del p[k]
+    for j in scene.journals:
+        feats[j.id] = {'kind': 'journal', 'bow_m': bow(scene, j.id, params),
+                       'probe_zero_radius_m': scene.base_circle_radius -
+                       params.probe_zero_offset, 'samples': n}
     return {
         'camshaft_id': scene.camshaft_id,
         'direction': scene.direction,
         'features': feats,
-        'measurement_order': list(feats),
+        'measurement_order': [lobe.id for lobe in scene.lobes] +
+        [j.id for j in scene.journals] + ([datum_id] if pin_angle is not None else []),
         'probe_zero_offset_m': params.probe_zero_offset,
         'probe_noise_m': params.probe_noise,
         'encoder_noise_rad': params.encoder_noise,

@@ -253,8 +253,13 @@ class MetrologyCore:
     def _analyze(self, fs: FeatureSamples) -> FeatureResult:
         scene = self.scene
         kind = fs.feature_id if fs.feature_id in DATUM_IDS else 'lobe'
+        journal = scene.journal(fs.feature_id)
+        if journal is not None:
+            kind = 'journal'
         counts = {'samples_received': fs.received, 'samples_nan_dropped': fs.nan_dropped}
         try:
+            if journal is not None:
+                return self._journal(fs, journal, counts)
             units = probe_units_problem(fs)
             if units:
                 raise FeatureFailed(units)
@@ -294,6 +299,24 @@ class MetrologyCore:
             return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
                                  failed=f'numerical failure of the fit ({exc}): check the '
                                  'samples (units: m and rad)' + encoder_units_hint(fs))
+
+    def _journal(self, fs: FeatureSamples, journal: Any, counts: dict[str, Any],
+                 ) -> FeatureResult:
+        """A journal: diameter, run-out and form (``journals.analyze_journal``)."""
+        from cam_metrology.metrology.journals import analyze_journal
+
+        form = self.scene.form
+        values = analyze_journal(fs.theta, fs.s, journal.radius, self.scene.probe_zero_radius,
+                                 cutoff_upr=form.cutoff_upr, band=form.waviness_band_upr,
+                                 key=fs.feature_id)
+        values['axial_position_mm'] = journal.axial_position * 1e3
+        skipped = [('form', values['form_error'])] if 'form_error' in values else []
+        if values['diameter_deviation_um'] is None:
+            skipped.append(('diameter', 'the scene gives no probe.zero_radius (the radius '
+                                        'at which the probe reads 0)'))
+        return FeatureResult(fs.feature_id, 'journal', {**values, **counts,
+                                                        'samples_used': int(fs.theta.size)},
+                             skipped=skipped)
 
     def _datum_id(self) -> str:
         """Feature id of the scene's angular datum (dowel_pin when it has none)."""
@@ -343,6 +366,7 @@ class MetrologyCore:
     def _expected(self) -> list[str]:
         scene = self.scene
         ids = [lobe.id for lobe in scene.lobes] if scene.wants('nose') else []
+        ids += [j.id for j in scene.journals]
         if scene.datum_id is not None and scene.wants('pin'):
             ids.append(scene.datum_id)
         return ids
@@ -416,6 +440,11 @@ class MetrologyCore:
         tables = {f: r.table for f, r in self.results.items() if r.kind == 'lobe'}
         verdict = judge_part(scene, features, tables, self._design)
         release(tables.values())   # the spilled tables read by the verdict
+        if scene.journals:
+            from cam_metrology.metrology.journals import shaft_straightness
+            extra['shaft'] = shaft_straightness(
+                features, {j.id: j.axial_position for j in scene.journals}) or {
+                    'straightness_um': None, 'why': 'fewer than 3 journals measured'}
         return _json_safe({
             'camshaft_id': scene.camshaft_id,
             'verdict': verdict,

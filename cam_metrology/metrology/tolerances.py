@@ -217,6 +217,30 @@ def _table_checks(tol: Tolerances, alpha: Any, lift: Any, design: Callable[..., 
                             tol.centreline_deg, 'deg', math.degrees(0.5 * math.hypot(so, sc))))
 
 
+def judge_journal(journal: Any, feature: Mapping[str, Any]) -> dict[str, Any]:
+    """The verdict of a journal: run-out TIR, roundness, waviness (maxima) and the
+    diameter deviation band."""
+    tol = journal.tolerances or Tolerances()
+    if not tol.any() and journal.diameter_um is None:
+        return {'result': NOT_CHECKED, 'checks': [], 'failed': [],
+                'not_checked': [_not('*', 'no tolerances for this feature')]}
+    if feature.get('status') != 'ok':
+        return _verdict([], [_not('*', f"feature {feature.get('status')}: "
+                                       f"{feature.get('reason', '')}")])
+    checks: list[dict[str, Any]] = []
+    missing: list[dict[str, str]] = []
+    if tol.runout_max_um is not None:
+        checks.append(check('runout_um', feature['runout_um'], (None, tol.runout_max_um), 'um'))
+    _form_checks(tol, feature, checks, missing)
+    if journal.diameter_um is not None:
+        value = feature.get('diameter_deviation_um')
+        if value is None:
+            missing.append(_not('diameter_deviation_um', 'no probe.zero_radius in the scene'))
+        else:
+            checks.append(check('diameter_deviation_um', value, journal.diameter_um, 'um'))
+    return _verdict(checks, missing)
+
+
 def judge_datum(band: Band | None, feature: Mapping[str, Any] | None,
                 nominal_angle_rad: float | None, name: str = 'dowel pin') -> dict[str, Any]:
     """The verdict of the datum (dowel pin or keyway, ``name``): its centre angle minus
@@ -267,6 +291,20 @@ def judge_part(scene: Scene, features: dict[str, dict[str, Any]],
             n += len(v['checks'])
             failed += [{'feature': lobe.id, **f} for f in v['failed']]
             missing += [{'feature': lobe.id, **m} for m in v['not_checked']]
+    for journal in getattr(scene, 'journals', ()):
+        has = journal.tolerances is not None or journal.diameter_um is not None
+        toleranced |= has
+        feature = features.get(journal.id)
+        if feature is None:
+            if has:
+                missing.append({'feature': journal.id, 'quantity': '*',
+                                'why': 'journal not measured (no samples)'})
+            continue
+        v = judge_journal(journal, feature)
+        feature['verdict'] = v
+        n += len(v['checks'])
+        failed += [{'feature': journal.id, **f} for f in v['failed']]
+        missing += [{'feature': journal.id, **m} for m in v['not_checked']]
     pin = scene.dowel_pin if datum == 'dowel_pin' else getattr(scene, 'keyway', None)
     if scene.datum_tolerance_deg is not None:
         toleranced = True

@@ -1,0 +1,73 @@
+"""The scene's ``journals`` list and ``probe.zero_radius`` (validated, errors naming the
+key; docs/scene.md "Journals")."""
+from __future__ import annotations
+
+from typing import Any, Callable, Mapping
+
+from cam_design.errors import InputError, require_finite, require_length
+from cam_metrology.scene import Journal, Tolerances
+
+JOURNAL_KEYS = ('id', 'radius', 'axial_position', 'tolerances')
+#: tolerance keys a journal takes (µm): maxima, and the diameter band
+JOURNAL_TOL_KEYS = ('runout_max_um', 'roundness_max_um', 'waviness_max_um', 'diameter_um')
+#: largest plausible radius or axial position [m]
+GEOMETRY_MAX_M = 2.0
+
+
+def parse_journals(value: Any, mapping: Callable[[str, Any, tuple[str, ...]], Mapping],
+                   taken: set[str], band: Callable[[str, Any], tuple[float, float]]
+                   ) -> tuple[Journal, ...]:
+    """Journals of the scene's ``journals`` list. ``mapping`` validates a mapping (unknown
+    keys warned), ``taken`` holds the ids already used by other features, ``band`` parses
+    a tolerance band."""
+    if value is None:
+        return ()
+    if not isinstance(value, list):
+        raise InputError('journals', value, 'a list of {id, radius, axial_position}')
+    out: list[Journal] = []
+    for i, item in enumerate(value):
+        key = f'journals[{i}]'
+        j = mapping(key, item, JOURNAL_KEYS)
+        jid = str(j.get('id', '')).strip()
+        if not jid or any(c.isspace() for c in jid) or '@' in jid:
+            raise InputError(f'{key}.id', j.get('id'), 'a feature id without white space '
+                             "or '@', such as journal_1")
+        if jid in taken:
+            raise InputError(f'{key}.id', jid, 'an id no other feature of the scene has')
+        taken.add(jid)
+        if j.get('radius') is None:
+            raise InputError(f'{key}.radius', None, 'the nominal journal radius in m (> 0)')
+        radius = require_length(f'{key}.radius', j['radius'], GEOMETRY_MAX_M)
+        if j.get('axial_position') is None:
+            raise InputError(f'{key}.axial_position', None, 'the axial position along the '
+                             'shaft in m (the same origin for every feature)')
+        z = require_finite(f'{key}.axial_position', j['axial_position'])
+        if abs(z) > GEOMETRY_MAX_M:
+            raise InputError(f'{key}.axial_position', z, f'a position in m within '
+                             f'+-{GEOMETRY_MAX_M:g} (millimetres given?)')
+        tol, diameter = _tolerances(f'{key}.tolerances', j.get('tolerances'), mapping, band)
+        out.append(Journal(jid, radius, z, tol, diameter))
+    return tuple(out)
+
+
+def _tolerances(key: str, value: Any, mapping: Callable[..., Mapping],
+                band: Callable[[str, Any], tuple[float, float]]
+                ) -> tuple[Tolerances | None, tuple[float, float] | None]:
+    """(Tolerances of the maxima, diameter band) of a journal's ``tolerances``."""
+    from cam_design.errors import require_positive
+
+    if value is None:
+        return None, None
+    block = mapping(key, value, JOURNAL_TOL_KEYS)
+    maxima = {k: require_positive(f'{key}.{k}', block[k], allow_zero=True)
+              for k in JOURNAL_TOL_KEYS[:3] if k in block}
+    diameter = band(f'{key}.diameter_um', block['diameter_um']) \
+        if 'diameter_um' in block else None
+    return (Tolerances(**maxima) if maxima else None), diameter
+
+
+def parse_zero_radius(value: Any) -> float | None:
+    """``probe.zero_radius`` [m]: the radius at which the probe reads 0 (set on a master)."""
+    if value is None:
+        return None
+    return require_length('probe.zero_radius', value, GEOMETRY_MAX_M, allow_zero=True)
