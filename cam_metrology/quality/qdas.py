@@ -39,6 +39,8 @@ CHARACTERISTICS: dict[str, tuple[str, str | None]] = {
     'roundness_um': ('um', 'roundness_um'),
     'waviness.max_amplitude_um': ('um', 'waviness_max_amplitude_um'),
     'waviness.upr_at_max': ('UPR', None),
+    'diameter_deviation_um': ('um', 'diameter_deviation_um'),
+    'runout_um': ('um', 'runout_um'),
 }
 
 
