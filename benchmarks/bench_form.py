@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import math
 import os
-import time
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +52,8 @@ def timing_rows() -> list[str]:
 
 def error_rows() -> list[str]:
     """RMS amplitude error of a 0.8 um chatter against noise and UPR."""
-    from cam_metrology.metrology.form import harmonics
+    from cam_design.errors import InputError
+    from cam_metrology.metrology.form import harmonics, nyquist_upr
 
     n = 3600
     theta = np.arange(n) * (2 * math.pi / n)
@@ -62,18 +62,29 @@ def error_rows() -> list[str]:
     for sigma in (0.05e-6, 0.2e-6, 1.0e-6):
         for k in (5, 37, 150, 600):
             for gappy in (False, True):
-                errs = []
+                errs, refused = [], []
                 for seed in range(20):
                     rng = np.random.default_rng(seed)
                     y = 0.8e-6 * np.cos(k * theta - rng.uniform(0, 2 * math.pi)) + \
                         rng.normal(0, sigma, n)
                     keep = rng.random(n) > 1 / 3 if gappy else np.ones(n, bool)
-                    spec = harmonics(theta[keep], y[keep], k)
+                    try:
+                        spec = harmonics(theta[keep], y[keep], k)
+                    except InputError:   # above this sampling's Nyquist UPR: refused
+                        refused.append(nyquist_upr(theta[keep]))
+                        continue
                     errs.append(spec.amplitude[k - 1] - 0.8e-6)
+                if not errs:
+                    where = '1/3 missing' if gappy else 'uniform'
+                    rows.append(f'| {sigma * 1e6:g} | {k} | {where} | refused in '
+                                f'{len(refused)} of 20 draws (Nyquist UPR {min(refused)}-'
+                                f'{max(refused)}) | | |')
+                    continue
                 rms = math.sqrt(float(np.mean(np.square(errs))))
                 se = sigma * math.sqrt(2.0 / (n * (2 / 3 if gappy else 1)))
+                note = f' ({len(refused)} of 20 refused)' if refused else ''
                 rows.append(f"| {sigma * 1e6:g} | {k} | {'1/3 missing' if gappy else 'uniform'}"
-                            f' | {rms * 1e9:.2f} | {se * 1e9:.2f} | {rms / se:.2f} |')
+                            f'{note} | {rms * 1e9:.2f} | {se * 1e9:.2f} | {rms / se:.2f} |')
     return rows
 
 

@@ -13,8 +13,8 @@ from typing import Any
 from cam_design.follower import Follower
 from cam_design.lift_laws import LiftLaw
 
-__all__ = ['Follower', 'FormSettings', 'Journal', 'Lobe', 'DowelPin', 'Keyway', 'Crank', 'Seat', 'ValveTrain', 'Scene',
-           'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances']
+__all__ = ['Follower', 'FormSettings', 'Journal', 'Lobe', 'DowelPin', 'Keyway', 'Crank',
+           'Seat', 'ValveTrain', 'Scene', 'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances']
 COMPUTE_ITEMS = ('nose', 'pin', 'asymmetry', 'reconstruction', 'dynamics')
 
 

@@ -63,8 +63,8 @@ def test_partial_chatter_located_on_the_cam() -> None:
 def test_gaussian_filter_transmits_half_at_the_cutoff(cutoff: int) -> None:
     """The ISO 16610-21 weighting function, convolved around the circle, passes 50 % of a
     sinusoid at the cut-off and exp(-ln2 (k/kc)^2) elsewhere (to 1e-3 of the amplitude)."""
-    for k, want in ((cutoff, 0.5), (cutoff // 3, float(gaussian_transmission(cutoff // 3,
-                                                                                  cutoff))),
+    third = cutoff // 3
+    for k, want in ((cutoff, 0.5), (third, float(gaussian_transmission(third, cutoff))),
                     (2 * cutoff, 1.0 / 16.0)):
         mean_line = gaussian_weighting_filter(np.cos(k * THETA), cutoff)
         assert np.max(np.abs(mean_line)) == pytest.approx(want, abs=1e-3)

@@ -92,8 +92,8 @@ def test_spc_type1_and_grr_tolerance_from_the_command_line(tmp_path: Path, capsy
     assert main(['spc', str(path), '--type1', 'dm_um=-4', '--tolerance', 'dm_um=-11.5:3.5',
                  '--json', '-']) == 0
     (t,) = json.loads(capsys.readouterr().out)['type1']
-    assert t['cg'] == pytest.approx(1.19, abs=0.005) and t['cgk'] == pytest.approx(1.15,
-                                                                                  abs=0.005)
+    assert t['cg'] == pytest.approx(1.19, abs=0.005)
+    assert t['cgk'] == pytest.approx(1.15, abs=0.005)
     assert main(['spc', str(path), '--type1', 'dm_um=x']) == 2
     err = capsys.readouterr().err
     assert err.count('\n') == 1 and '--type1' in err

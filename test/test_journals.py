@@ -28,9 +28,8 @@ def report(tmp_path_factory):
     from cam_metrology.offline import analyze_report
     from cam_metrology.simulate import SimParams, write_sim_bag
 
-    doc = dict(SCENE, journals=[dict(j, tolerances={'roundness_max_um': 3,
-                                                     'diameter_um': 2}) for j in
-                                SCENE['journals']])
+    tol = {'roundness_max_um': 3, 'diameter_um': 2}
+    doc = dict(SCENE, journals=[dict(j, tolerances=tol) for j in SCENE['journals']])
     bag = tmp_path_factory.mktemp('journals') / 'bent'
     write_sim_bag(bag, parse_scene(yaml.safe_dump(doc)),
                   SimParams(journal_lobes=3, journal_lobing=1e-6, bend=10e-6,

@@ -1,11 +1,42 @@
-"""The scene's ``journals`` list and ``probe.zero_radius`` (validated, errors naming the
-key; docs/scene.md "Journals")."""
+"""Scene keys of the form analysis and of the journals (validated, errors naming the key;
+docs/scene.md): the ``form`` block (cut-off of the Gaussian filter and the waviness band
+[UPR]), the ``journals`` list and ``probe.zero_radius``."""
 from __future__ import annotations
 
 from typing import Any, Callable, Mapping
 
-from cam_design.errors import InputError, require_finite, require_length
-from cam_metrology.scene import Journal, Tolerances
+from cam_design.errors import InputError, require_finite, require_length, require_positive
+from cam_metrology.scene import FormSettings, Journal, Tolerances
+
+#: highest cut-off or band edge a scene may ask for [UPR] (a 0.01 deg encoder resolves 18 000)
+MAX_UPR = 18_000
+
+
+def _upr(key: str, value: Any) -> int:
+    """A whole number of UPR in [1, MAX_UPR]."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+            int(value) != value or not 1 <= value <= MAX_UPR:
+        raise InputError(key, value, f'a whole number of undulations per revolution in '
+                         f'[1, {MAX_UPR}]')
+    return int(value)
+
+
+def parse_form(block: Mapping[str, Any] | None) -> FormSettings:
+    """FormSettings of the scene's ``form`` mapping (defaults when None)."""
+    if block is None:
+        return FormSettings()
+    cutoff = _upr('form.cutoff_upr', block.get('cutoff_upr', FormSettings.cutoff_upr))
+    band = block.get('waviness_band_upr')
+    if band is None:
+        return FormSettings(cutoff, None)
+    if not isinstance(band, (list, tuple)) or len(band) != 2:
+        raise InputError('form.waviness_band_upr', band, '[lo, hi] in UPR')
+    lo = _upr('form.waviness_band_upr[0]', band[0])
+    hi = _upr('form.waviness_band_upr[1]', band[1])
+    if lo > hi:
+        raise InputError('form.waviness_band_upr', list(band), '[lo, hi] with lo <= hi')
+    return FormSettings(cutoff, (lo, hi))
+
 
 JOURNAL_KEYS = ('id', 'radius', 'axial_position', 'tolerances')
 #: tolerance keys a journal takes (µm): maxima, and the diameter band
@@ -54,8 +85,6 @@ def _tolerances(key: str, value: Any, mapping: Callable[..., Mapping],
                 band: Callable[[str, Any], tuple[float, float]]
                 ) -> tuple[Tolerances | None, tuple[float, float] | None]:
     """(Tolerances of the maxima, diameter band) of a journal's ``tolerances``."""
-    from cam_design.errors import require_positive
-
     if value is None:
         return None, None
     block = mapping(key, value, JOURNAL_TOL_KEYS)
