@@ -272,39 +272,31 @@ def judge_part(scene: Scene, features: dict[str, dict[str, Any]],
     n = 0
     datum = getattr(scene, 'datum_id', None) or 'dowel_pin'
     pin_std = (features.get(datum) or {}).get('angle_std_deg')
-    for lobe in scene.lobes:
-        has = lobe.tolerances is not None and lobe.tolerances.any()
-        toleranced |= has
-        feature = features.get(lobe.id)
-        if feature is None:
-            if has:
-                missing.append({'feature': lobe.id, 'quantity': '*',
-                                'why': 'lobe not measured (no samples)'})
-            continue
+    def lobe_verdict(lobe: Any, feature: dict[str, Any]) -> dict[str, Any]:
         std = feature.get('angle_std_deg')
         phase_std = (math.hypot(std, pin_std) if std is not None and pin_std is not None
                      else None)
-        v = judge_lobe(lobe.tolerances, feature, tables.get(lobe.id), designs.get(lobe.id),
-                       phase_std)
+        return judge_lobe(lobe.tolerances, feature, tables.get(lobe.id),
+                          designs.get(lobe.id), phase_std)
+
+    judged = [(lobe, 'lobe', lobe.tolerances is not None and lobe.tolerances.any(),
+               lobe_verdict) for lobe in scene.lobes]
+    judged += [(j, 'journal', j.tolerances is not None or j.diameter_um is not None,
+                judge_journal) for j in getattr(scene, 'journals', ())]
+    for item, what, has, judge in judged:
+        toleranced |= has
+        feature = features.get(item.id)
+        if feature is None:
+            if has:
+                missing.append({'feature': item.id, 'quantity': '*',
+                                'why': f'{what} not measured (no samples)'})
+            continue
+        v = judge(item, feature)
         feature['verdict'] = v
         if has:
             n += len(v['checks'])
-            failed += [{'feature': lobe.id, **f} for f in v['failed']]
-            missing += [{'feature': lobe.id, **m} for m in v['not_checked']]
-    for journal in getattr(scene, 'journals', ()):
-        has = journal.tolerances is not None or journal.diameter_um is not None
-        toleranced |= has
-        feature = features.get(journal.id)
-        if feature is None:
-            if has:
-                missing.append({'feature': journal.id, 'quantity': '*',
-                                'why': 'journal not measured (no samples)'})
-            continue
-        v = judge_journal(journal, feature)
-        feature['verdict'] = v
-        n += len(v['checks'])
-        failed += [{'feature': journal.id, **f} for f in v['failed']]
-        missing += [{'feature': journal.id, **m} for m in v['not_checked']]
+            failed += [{'feature': item.id, **f} for f in v['failed']]
+            missing += [{'feature': item.id, **m} for m in v['not_checked']]
     pin = scene.dowel_pin if datum == 'dowel_pin' else getattr(scene, 'keyway', None)
     if scene.datum_tolerance_deg is not None:
         toleranced = True
