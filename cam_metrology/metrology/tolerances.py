@@ -272,6 +272,7 @@ def judge_part(scene: Scene, features: dict[str, dict[str, Any]],
     n = 0
     datum = getattr(scene, 'datum_id', None) or 'dowel_pin'
     pin_std = (features.get(datum) or {}).get('angle_std_deg')
+
     def lobe_verdict(lobe: Any, feature: dict[str, Any]) -> dict[str, Any]:
         std = feature.get('angle_std_deg')
         phase_std = (math.hypot(std, pin_std) if std is not None and pin_std is not None
