@@ -49,12 +49,15 @@ class Tolerances:
     checking_height_mm: float = 1.0
     roundness_max_um: float | None = None      # base-circle roundness (LSCI), a maximum
     waviness_max_um: float | None = None       # largest harmonic in the waviness band
+    taper_max_um_per_mm: float | None = None   # |nose lift slope across the tracks|
+    twist_max_deg: float | None = None         # |nose-angle difference, outer tracks|
 
     def any(self) -> bool:
         """True if at least one limit is set."""
         limits = (self.lift_error_um, self.centreline_deg, self.phase_deg,
                   self.max_lift_um, self.runout_max_um, self.duration_deg,
-                  self.roundness_max_um, self.waviness_max_um)
+                  self.roundness_max_um, self.waviness_max_um, self.taper_max_um_per_mm,
+                  self.twist_max_deg)
         return any(v is not None for v in limits) or bool(self.lift_error_zones)
 
 

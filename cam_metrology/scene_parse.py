@@ -41,7 +41,8 @@ LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift
 #: tolerance keys of a lobe (units in the names); the top-level block adds datum_deg
 TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
 #: tolerance keys that are a maximum only (>= 0)
-TOL_MAXIMA = ('runout_max_um', 'roundness_max_um', 'waviness_max_um')
+TOL_MAXIMA = ('runout_max_um', 'roundness_max_um', 'waviness_max_um', 'taper_max_um_per_mm',
+              'twist_max_deg')
 TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm') + TOL_MAXIMA
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 #: lift [m] above which a nominal file's row is on the lobe, not the base circle

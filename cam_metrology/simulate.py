@@ -100,6 +100,13 @@ class SimParams:
     bend: float = _doc(0.0, 'm, bow of a bent shaft: eccentricity of the journals '
                        'bend * sin(pi (z - z_first) / (z_last - z_first)) along the axis')
     bend_direction_deg: float = _doc(0.0, 'encoder angle [deg] of the bow\'s direction')
+    lobe_tracks_mm: tuple[float, ...] | None = _doc(
+        None, 'every lobe measured on these tracks across its width [mm from its mid-plane] '
+        'as frame_id <lobe>@<z> (None: one track, frame_id the lobe id)')
+    taper_um_per_mm: float = _doc(0.0, 'tracks: nose lift grows by this many um per mm of '
+                                  'z (the lift scaled by 1 + taper z / max lift)')
+    twist_deg_per_mm: float = _doc(0.0, 'tracks: the nose turns by this many cam degrees per '
+                                   'mm of z')
 
     def validated(self) -> SimParams:
         """Raise InputError for an impossible parameter; return self."""
@@ -142,6 +149,10 @@ class SimParams:
         require_positive('journal_lobing', self.journal_lobing, allow_zero=True)
         require_positive('bend', self.bend, allow_zero=True)
         require_finite('bend_direction_deg', self.bend_direction_deg)
+        for j, z in enumerate(self.lobe_tracks_mm or ()):
+            require_finite(f'lobe_tracks_mm[{j}]', z)
+        require_finite('taper_um_per_mm', self.taper_um_per_mm)
+        require_finite('twist_deg_per_mm', self.twist_deg_per_mm)
         if self.true_angles is not None:
             if not isinstance(self.true_angles, dict):
                 raise InputError('true_angles', self.true_angles, 'a mapping id -> rad')
@@ -270,7 +281,9 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     gap_ns = int(round(params.feature_gap * 1e9))
     zero = params.probe_zero_offset
     scale = float(params.lift_scale)
-    order: list[tuple[str, str]] = [(lobe.id, 'lobe') for lobe in scene.lobes]
+    order: list[tuple[str, str]] = [
+        (lobe.id if params.lobe_tracks_mm is None else f'{lobe.id}@{z:g}', 'lobe')
+        for lobe in scene.lobes for z in (params.lobe_tracks_mm or (0.0,))]
     order += [(j.id, 'journal') for j in scene.journals]
     if scene.datum_id is not None:
         order.append((scene.datum_id, scene.datum_id))
@@ -281,12 +294,15 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     for fid, kind in order:
         k = np.arange(k0, k0 + n, dtype=np.float64)
         theta_true = params.start_theta + (-k if params.reverse else k) * step
-        alpha = wrap_pi(scene.direction * (theta_true - angles.get(fid, 0.0)))
+        base_id, _, track = fid.partition('@')
+        alpha = wrap_pi(scene.direction * (theta_true - angles.get(base_id, 0.0)))
         if kind == 'lobe':
-            law = probe_lift(scene, fid)
-            lobe = scene.lobe(fid)
-            conversions[fid] = ('identity' if law is lobe.lift else
-                                f'{lobe.follower.kind} -> {scene.probe.kind}')
+            law = probe_lift(scene, base_id)
+            lobe = scene.lobe(base_id)
+            conversions[base_id] = ('identity' if law is lobe.lift else
+                                    f'{lobe.follower.kind} -> {scene.probe.kind}')
+            if track:
+                law = tapered(law, float(track), params)
             s = zero + (law(alpha) if scale == 1.0 else scale * law(alpha))
             if params.chatter_upr and params.chatter_amplitude:
                 s = s + chatter(theta_true, alpha, params)
@@ -317,12 +333,21 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
         if params.wrapped:
             theta = np.mod(theta, TWO_PI)
         stamps = t0 + np.round(np.arange(n) * dt_ns).astype(np.int64)
-        features.append(SimFeature(fid, kind, angles.get(fid, 0.0), theta, s, stamps))
+        features.append(SimFeature(fid, kind, angles.get(base_id, 0.0), theta, s, stamps))
         k0 += n
         t0 = int(stamps[-1]) + int(round(dt_ns)) + gap_ns
     run = BenchRun(scene, params, features)
     run.truth = _truth(scene, params, angles, conversions, n)
     return run
+
+
+def tapered(law: Callable[..., Any], z_mm: float, params: SimParams) -> Callable[..., Any]:
+    """The lift [m] of a track ``z_mm`` across the lobe's width: ``law`` turned by
+    ``twist_deg_per_mm * z`` and scaled by ``1 + taper_um_per_mm * z / max lift``."""
+    shift = math.radians(params.twist_deg_per_mm * z_mm)
+    grid = np.linspace(-math.pi, math.pi, 7201)
+    factor = 1.0 + params.taper_um_per_mm * 1e-6 * z_mm / float(np.max(law(grid)))
+    return lambda a: factor * law(wrap_pi(np.asarray(a) - shift))
 
 
 def bow(scene: Scene, journal_id: str, params: SimParams) -> float:
@@ -389,6 +414,11 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
         for k in ('chatter_upr', 'chatter_amplitude', 'chatter_extent_deg',
                   'chatter_centre_deg'):
             del p[k]
+    if p.get('lobe_tracks_mm') is None:   # one track: truth as before the options existed
+        for k in ('lobe_tracks_mm', 'taper_um_per_mm', 'twist_deg_per_mm'):
+            del p[k]
+    else:
+        p['lobe_tracks_mm'] = list(p['lobe_tracks_mm'])
     if not scene.journals:           # no journals: truth as before the options existed
         for k in ('journal_lobes', 'journal_lobing', 'bend', 'bend_direction_deg'):
             del p[k]
@@ -400,7 +430,8 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
         'camshaft_id': scene.camshaft_id,
         'direction': scene.direction,
         'features': feats,
-        'measurement_order': [lobe.id for lobe in scene.lobes] +
+        'measurement_order': [lobe.id if params.lobe_tracks_mm is None else f'{lobe.id}@{z:g}'
+                              for lobe in scene.lobes for z in (params.lobe_tracks_mm or (0,))] +
         [j.id for j in scene.journals] + ([datum_id] if pin_angle is not None else []),
         'probe_zero_offset_m': params.probe_zero_offset,
         'probe_noise_m': params.probe_noise,

@@ -27,6 +27,7 @@ from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Sett
                                               seen_lift)
 from cam_metrology.metrology.feature_form import lobe_form
 from cam_metrology.metrology.spill import release, spill
+from cam_metrology.metrology.tracks import nose_lift_error_um, track_label
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
                                               encoder_units_hint, probe_units_problem,
                                               joint_positions, stamp_of)
@@ -276,8 +277,9 @@ class MetrologyCore:
                 p = scene.dowel_pin
                 geo = DowelPinGeometry(p.pin_radius, p.circle_radius, p.probe_radius)
                 return analyze_pin(fs, geo, scene.direction, self.settings)
+            track = track_label(fs.feature_id)   # lobe_1@-4: a track across the width
             try:
-                lobe = scene.lobe(fs.feature_id)
+                lobe = scene.lobe(fs.feature_id if track is None else track[0])
             except KeyError:
                 raise FeatureFailed(f'feature {fs.feature_id!r} is not in the scene') from None
             if not scene.wants('nose'):
@@ -291,6 +293,10 @@ class MetrologyCore:
             result.values.update(form)
             if 'form_error' in form:
                 result.skipped.append(('form', form['form_error']))
+            if track is not None:
+                result.values.update({'track_of': track[0], 'track_mm': track[1],
+                                      'nose_lift_error_um': nose_lift_error_um(
+                                          result.table, result.values)})
             return result
         except (FeatureFailed, InputError) as exc:
             return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
@@ -335,8 +341,9 @@ class MetrologyCore:
                 index != self._scene_of.get(self._datum_id(), index):
             return {'phase_deg': None, 'phase_error_deg': None}
         phase = wrap_deg(np.degrees(result.angle_rad - pin))
-        nominal = self.scenes[index][1].lobe(result.feature_id).nominal_phase \
-            if self.scenes else self.scene.lobe(result.feature_id).nominal_phase
+        lobe_id = result.values.get('track_of') or result.feature_id
+        nominal = self.scenes[index][1].lobe(lobe_id).nominal_phase \
+            if self.scenes else self.scene.lobe(lobe_id).nominal_phase
         err = None if nominal is None else wrap_deg(phase - np.degrees(nominal))
         return {'phase_deg': phase, 'phase_error_deg': err}
 
@@ -371,8 +378,13 @@ class MetrologyCore:
             ids.append(scene.datum_id)
         return ids
 
+    def _measured(self, feature_id: str) -> bool:
+        """True if the feature, or a track of it (``<id>@<z mm>``), has a result."""
+        return feature_id in self.results or any(
+            f.startswith(feature_id + '@') for f in self.results)
+
     def _missing(self) -> list[str]:
-        return [i for i in self._expected() if i not in self.results]
+        return [i for i in self._expected() if not self._measured(i)]
 
     def skipped(self) -> list[dict[str, str]]:
         """What the scene or the data do not allow, with the reason."""
@@ -395,7 +407,7 @@ class MetrologyCore:
         if not scene.wants('asymmetry'):
             out.append({'what': 'asymmetry', 'why': 'compute does not ask for asymmetry'})
         for lobe in scene.lobes:
-            if scene.wants('nose') and lobe.id not in self.results:
+            if scene.wants('nose') and not self._measured(lobe.id):
                 out.append({'what': lobe.id, 'why': 'no samples for this lobe in the data'})
             elif lobe.nominal_phase is None and self._pin_angle() is not None:
                 out.append({'what': f'phase_error/{lobe.id}', 'why': 'lobe has no nominal_phase'})
@@ -440,6 +452,13 @@ class MetrologyCore:
         tables = {f: r.table for f, r in self.results.items() if r.kind == 'lobe'}
         verdict = judge_part(scene, features, tables, self._design)
         release(tables.values())   # the spilled tables read by the verdict
+        tracked = {f.get('track_of') for f in features.values()} - {None}
+        if tracked:
+            from cam_metrology.metrology.tracks import taper_and_twist
+            extra['lobe_tracks'] = {
+                lobe: taper_and_twist({fid: f for fid, f in features.items()
+                                       if f.get('track_of') == lobe}) or
+                {'why': 'fewer than 2 tracks measured'} for lobe in sorted(tracked)}
         if scene.journals:
             from cam_metrology.metrology.journals import shaft_straightness
             extra['shaft'] = shaft_straightness(

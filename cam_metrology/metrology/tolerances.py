@@ -217,6 +217,39 @@ def _table_checks(tol: Tolerances, alpha: Any, lift: Any, design: Callable[..., 
                             tol.centreline_deg, 'deg', math.degrees(0.5 * math.hypot(so, sc))))
 
 
+def judge_tracks(tol: Tolerances | None, lobe_id: str,
+                 features: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+    """Taper and twist of a lobe measured on tracks (``tracks.taper_and_twist``) against
+    ``taper_max_um_per_mm`` and ``twist_max_deg`` (maxima of the magnitudes)."""
+    from cam_metrology.metrology.tracks import taper_and_twist
+
+    checks: list[dict[str, Any]] = []
+    missing: list[dict[str, str]] = []
+    if tol is None or (tol.taper_max_um_per_mm is None and tol.twist_max_deg is None):
+        return _verdict(checks, missing)
+    tracks = taper_and_twist({f: e for f, e in features.items()
+                              if e.get('track_of') == lobe_id}) or {}
+    for name, limit, field in (('taper_um_per_mm', tol.taper_max_um_per_mm, 'taper_um_per_mm'),
+                               ('nose_angle_difference_deg', tol.twist_max_deg,
+                                'nose_angle_difference_deg')):
+        if limit is None:
+            continue
+        if tracks.get(field) is None:
+            missing.append(_not(name, 'fewer than 2 tracks of this lobe measured '
+                                      '(frame_id <lobe>@<z mm>)'))
+        else:
+            checks.append(check(name, abs(tracks[field]), (None, limit),
+                                'um/mm' if field.startswith('taper') else 'deg'))
+    return _verdict(checks, missing)
+
+
+class _Track:
+    """A track of a lobe as the verdict sees it: its own id, the lobe's tolerances."""
+
+    def __init__(self, track_id: str, lobe: Any) -> None:
+        self.id, self.lobe_id, self.tolerances = track_id, lobe.id, lobe.tolerances
+
+
 def judge_journal(journal: Any, feature: Mapping[str, Any]) -> dict[str, Any]:
     """The verdict of a journal: run-out TIR, roundness, waviness (maxima) and the
     diameter deviation band."""
@@ -278,10 +311,14 @@ def judge_part(scene: Scene, features: dict[str, dict[str, Any]],
         phase_std = (math.hypot(std, pin_std) if std is not None and pin_std is not None
                      else None)
         return judge_lobe(lobe.tolerances, feature, tables.get(lobe.id),
-                          designs.get(lobe.id), phase_std)
+                          designs.get(getattr(lobe, 'lobe_id', lobe.id)), phase_std)
 
     judged = [(lobe, 'lobe', lobe.tolerances is not None and lobe.tolerances.any(),
                lobe_verdict) for lobe in scene.lobes]
+    for lobe in scene.lobes:   # tracks across the width (lobe_1@-4): the lobe's tolerances
+        judged += [(_Track(fid, lobe), 'track', lobe.tolerances is not None and
+                    lobe.tolerances.any(), lobe_verdict) for fid, f in features.items()
+                   if f.get('track_of') == lobe.id]
     judged += [(j, 'journal', j.tolerances is not None or j.diameter_um is not None,
                 judge_journal) for j in getattr(scene, 'journals', ())]
     for item, what, has, judge in judged:
@@ -298,6 +335,11 @@ def judge_part(scene: Scene, features: dict[str, dict[str, Any]],
             n += len(v['checks'])
             failed += [{'feature': item.id, **f} for f in v['failed']]
             missing += [{'feature': item.id, **m} for m in v['not_checked']]
+    for lobe in scene.lobes:
+        v = judge_tracks(lobe.tolerances, lobe.id, features)
+        n += len(v['checks'])
+        failed += [{'feature': lobe.id, **f} for f in v['failed']]
+        missing += [{'feature': lobe.id, **m} for m in v['not_checked']]
     pin = scene.dowel_pin if datum == 'dowel_pin' else getattr(scene, 'keyway', None)
     if scene.datum_tolerance_deg is not None:
         toleranced = True
