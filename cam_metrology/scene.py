@@ -51,14 +51,22 @@ class Tolerances:
     waviness_max_um: float | None = None       # largest harmonic in the waviness band
     taper_max_um_per_mm: float | None = None   # |nose lift slope across the tracks|
     twist_max_deg: float | None = None         # |nose-angle difference, outer tracks|
+    velocity_error_max_mm_per_rad: float | None = None        # |h' measured - design|
+    acceleration_error_max_mm_per_rad2: float | None = None   # |h'' measured - design|
 
     def any(self) -> bool:
         """True if at least one limit is set."""
         limits = (self.lift_error_um, self.centreline_deg, self.phase_deg,
                   self.max_lift_um, self.runout_max_um, self.duration_deg,
                   self.roundness_max_um, self.waviness_max_um, self.taper_max_um_per_mm,
-                  self.twist_max_deg)
+                  self.twist_max_deg, self.velocity_error_max_mm_per_rad,
+                  self.acceleration_error_max_mm_per_rad2)
         return any(v is not None for v in limits) or bool(self.lift_error_zones)
+
+    def wants_derivatives(self) -> bool:
+        """True if a velocity or acceleration error limit is set."""
+        return self.velocity_error_max_mm_per_rad is not None or \
+            self.acceleration_error_max_mm_per_rad2 is not None
 
 
 @dataclass(frozen=True)
@@ -68,6 +76,7 @@ class FormSettings:
 
     cutoff_upr: int = 50
     waviness_band_upr: tuple[int, int] | None = None
+    derivative_errors: bool = False   # velocity/acceleration errors of every lobe
 
 
 @dataclass(frozen=True)

@@ -26,16 +26,19 @@ def parse_form(block: Mapping[str, Any] | None) -> FormSettings:
     if block is None:
         return FormSettings()
     cutoff = _upr('form.cutoff_upr', block.get('cutoff_upr', FormSettings.cutoff_upr))
+    derivs = block.get('derivative_errors', False)
+    if not isinstance(derivs, bool):
+        raise InputError('form.derivative_errors', derivs, 'true or false')
     band = block.get('waviness_band_upr')
     if band is None:
-        return FormSettings(cutoff, None)
+        return FormSettings(cutoff, None, derivs)
     if not isinstance(band, (list, tuple)) or len(band) != 2:
         raise InputError('form.waviness_band_upr', band, '[lo, hi] in UPR')
     lo = _upr('form.waviness_band_upr[0]', band[0])
     hi = _upr('form.waviness_band_upr[1]', band[1])
     if lo > hi:
         raise InputError('form.waviness_band_upr', list(band), '[lo, hi] with lo <= hi')
-    return FormSettings(cutoff, (lo, hi))
+    return FormSettings(cutoff, (lo, hi), derivs)
 
 
 JOURNAL_KEYS = ('id', 'radius', 'axial_position', 'tolerances')

@@ -42,7 +42,8 @@ LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift
 TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
 #: tolerance keys that are a maximum only (>= 0)
 TOL_MAXIMA = ('runout_max_um', 'roundness_max_um', 'waviness_max_um', 'taper_max_um_per_mm',
-              'twist_max_deg')
+              'twist_max_deg', 'velocity_error_max_mm_per_rad',
+              'acceleration_error_max_mm_per_rad2')
 TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm') + TOL_MAXIMA
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 #: lift [m] above which a nominal file's row is on the lobe, not the base circle
@@ -170,7 +171,8 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
                             'keyway; phases cannot be measured')
     study = {k: _text(k, top[k]) for k in STUDY_KEYS if top.get(k) is not None}
     from cam_metrology.scene_form import parse_form
-    form = parse_form(ctx.mapping('form', top['form'], ('cutoff_upr', 'waviness_band_upr'))
+    form = parse_form(ctx.mapping('form', top['form'], ('cutoff_upr', 'waviness_band_upr',
+                                                        'derivative_errors'))
                       if top.get('form') is not None else None)
     from cam_metrology.scene_form import parse_journals, parse_zero_radius
     journals = parse_journals(top.get('journals'), ctx.mapping,

@@ -25,6 +25,7 @@ from cam_metrology.heap import trim
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_keyway, analyze_lobe, analyze_pin,
                                               seen_lift)
+from cam_metrology.metrology.derivative_error import derivative_errors
 from cam_metrology.metrology.feature_form import lobe_form
 from cam_metrology.metrology.spill import release, spill
 from cam_metrology.metrology.tracks import nose_lift_error_um, track_label
@@ -293,6 +294,10 @@ class MetrologyCore:
             result.values.update(form)
             if 'form_error' in form:
                 result.skipped.append(('form', form['form_error']))
+            if scene.form.derivative_errors or (lobe.tolerances is not None and
+                                                lobe.tolerances.wants_derivatives()):
+                result.values.update(derivative_errors(result.table, result.values,
+                                                       self._design[lobe.id]))
             if track is not None:
                 result.values.update({'track_of': track[0], 'track_mm': track[1],
                                       'nose_lift_error_um': nose_lift_error_um(

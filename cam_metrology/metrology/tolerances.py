@@ -145,6 +145,7 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
             checks.append(check('base_circle_runout_um', value, (None, tol.runout_max_um),
                                 'um'))
     _form_checks(tol, feature, checks, missing)
+    _derivative_checks(tol, feature, checks, missing)
     needs_table = (tol.max_lift_um, tol.duration_deg, tol.centreline_deg)
     if any(v is not None for v in needs_table):
         if table is None or design is None:
@@ -176,6 +177,23 @@ def _form_checks(tol: Tolerances, feature: Mapping[str, Any], checks: list[dict[
         else:
             checks.append(check('waviness_max_amplitude_um', value,
                                 (None, tol.waviness_max_um), 'um'))
+
+
+def _derivative_checks(tol: Tolerances, feature: Mapping[str, Any],
+                       checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> None:
+    """Largest |velocity| and |acceleration| error on the lobe (maxima only)."""
+    why = feature.get('derivative_error') or 'no velocity/acceleration error computed'
+    for name, limit, unit in (('velocity_error_mm_per_rad', tol.velocity_error_max_mm_per_rad,
+                               'mm/rad'),
+                              ('acceleration_error_mm_per_rad2',
+                               tol.acceleration_error_max_mm_per_rad2, 'mm/rad2')):
+        if limit is None:
+            continue
+        value = (feature.get(name) or {}).get('max_abs')
+        if value is None:
+            missing.append(_not(name, why))
+        else:
+            checks.append(check(name, value, (None, limit), unit))
 
 
 def _table_checks(tol: Tolerances, alpha: Any, lift: Any, design: Callable[..., Any],

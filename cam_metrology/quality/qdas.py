@@ -41,6 +41,8 @@ CHARACTERISTICS: dict[str, tuple[str, str | None]] = {
     'waviness.upr_at_max': ('UPR', None),
     'diameter_deviation_um': ('um', 'diameter_deviation_um'),
     'runout_um': ('um', 'runout_um'),
+    'velocity_error_mm_per_rad.max_abs': ('mm/rad', 'velocity_error_mm_per_rad'),
+    'acceleration_error_mm_per_rad2.max_abs': ('mm/rad2', 'acceleration_error_mm_per_rad2'),
 }
 
 
