@@ -8,6 +8,7 @@ import pytest
 import yaml
 
 from cam_metrology.scene_parse import parse_scene
+from scene_docs import default_doc
 
 SCALE = 1.004
 
@@ -18,10 +19,7 @@ def run(tmp_path_factory):
     from cam_metrology.replay import run_offline
     from cam_metrology.simulate import SimParams, probe_lift, write_sim_bag
 
-    with open('config/default_scene.yaml', encoding='utf-8') as f:
-        doc = yaml.safe_load(f)
-    doc.pop('valve_train')
-    doc['lobes'] = doc['lobes'][:1]
+    doc = default_doc(lobes=1)
     doc['tolerances'] = {'velocity_error_max_mm_per_rad': 0.05,
                          'acceleration_error_max_mm_per_rad2': 1.0}
     scene = parse_scene(yaml.safe_dump(doc))
@@ -65,10 +63,7 @@ def test_noise_alone_is_no_derivative_error(tmp_path) -> None:
     from cam_metrology.replay import run_offline
     from cam_metrology.simulate import SimParams, write_sim_bag
 
-    with open('config/default_scene.yaml', encoding='utf-8') as f:
-        doc = yaml.safe_load(f)
-    doc.pop('valve_train')
-    doc['lobes'] = doc['lobes'][:1]
+    doc = default_doc(lobes=1)
     doc['form'] = {'derivative_errors': True}
     write_sim_bag(tmp_path / 'b', parse_scene(yaml.safe_dump(doc)),
                   SimParams(samples_per_rev=3600, probe_noise=0.2e-6, seed=8))

@@ -12,15 +12,14 @@ import pytest
 import yaml
 
 from cam_metrology.scene_parse import parse_scene
+from scene_docs import default_doc
 
 NOISE = 0.2e-6
 SPR = 3600
 
 
 def _doc() -> dict:
-    with open('config/default_scene.yaml', encoding='utf-8') as f:
-        doc = yaml.safe_load(f)
-    doc.pop('valve_train')
+    doc = default_doc()
     doc['tolerances'] = {'waviness_max_um': 0.5, 'roundness_max_um': 3.0}
     return doc
 

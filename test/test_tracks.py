@@ -9,6 +9,7 @@ import yaml
 from cam_design.errors import InputError
 from cam_metrology.metrology.tracks import taper_and_twist, track_label
 from cam_metrology.scene_parse import parse_scene
+from scene_docs import default_doc
 
 
 @pytest.fixture(scope='module')
@@ -18,10 +19,7 @@ def report(tmp_path_factory):
     from cam_metrology.offline import analyze_report
     from cam_metrology.simulate import SimParams, write_sim_bag
 
-    with open('config/default_scene.yaml', encoding='utf-8') as f:
-        doc = yaml.safe_load(f)
-    doc.pop('valve_train')
-    doc['lobes'] = doc['lobes'][:1]
+    doc = default_doc(lobes=1)
     bag = tmp_path_factory.mktemp('tracks') / 'tapered'
     write_sim_bag(bag, parse_scene(yaml.safe_dump(doc)),
                   SimParams(samples_per_rev=3600, lobe_tracks_mm=(-5.0, 0.0, 5.0),
