@@ -200,11 +200,46 @@ def human_report(report: dict[str, Any]) -> str:
                      f"{_fmt(dsp, '12.3f')}{_fmt(f.get('phase_deg'), '11.4f')}"
                      f"{_fmt(f.get('phase_error_deg'), '11.4f')}"
                      f"{_fmt(f.get('asymmetry_deg'), '10.5f')}{_fmt(rms, '12.3f')}  {status}")
+    lines += form_lines(report)
     for item in report.get('skipped', []):
         lines.append(f"skipped {item['what']}: {item['why']}")
     from cam_metrology.html_report import card_lines
     from cam_metrology.metrology.tolerances import verdict_lines
     return '\n'.join(verdict_lines(report) + lines + card_lines(report))
+
+
+def form_lines(report: dict[str, Any]) -> list[str]:
+    """One line per feature with form results (roundness, waviness, journal diameter and
+    run-out), then the shaft's straightness and each tracked lobe's taper and twist."""
+    lines = []
+    for fid, f in report.get('features', {}).items():
+        wav = f.get('waviness') or {}
+        parts = []
+        if f.get('kind') == 'journal':
+            d = f.get('diameter_deviation_um')
+            parts.append('diameter ' + ('-' if d is None else f'{d:+.2f} µm') +
+                         f", run-out {f['runout_um']:.2f} µm")
+        if f.get('roundness_um') is not None:
+            parts.append(f"roundness {f['roundness_um']:.3f} µm")
+        if wav.get('upr_at_max') is not None:
+            parts.append(f"waviness {wav['max_amplitude_um']:.3f} µm at {wav['upr_at_max']} "
+                         f"UPR ({wav['band_upr'][0]}-{wav['band_upr'][1]}), near "
+                         f"{wav['at_deg']:.1f} deg")
+        if parts:
+            lines.append(f'form {fid}: ' + ', '.join(parts))
+    shaft = report.get('shaft') or {}
+    if shaft.get('straightness_um') is not None:
+        lines.append(f"shaft straightness {shaft['straightness_um']:.2f} µm (bow "
+                     f"{shaft['bow_um']:.2f} µm at {shaft['bow_at_mm']:g} mm towards "
+                     f"{shaft['bow_direction_deg']:.1f} deg)")
+    for lobe, tr in (report.get('lobe_tracks') or {}).items():
+        if 'twist_deg_per_mm' in tr:
+            taper = tr.get('taper_um_per_mm')
+            lines.append(f"tracks {lobe}: taper " + ('-' if taper is None else
+                                                     f'{taper:.3f} µm/mm') +
+                         f", twist {tr['twist_deg_per_mm'] * 3600:.2f} arcsec/mm over "
+                         f"{len(tr['tracks'])} tracks")
+    return lines
 
 
 def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, Any]) -> None:
