@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.scene.parse import parse_scene
 from scene_docs import default_doc
 
 SCALE = 1.004
@@ -16,8 +16,8 @@ SCALE = 1.004
 @pytest.fixture(scope='module')
 def run(tmp_path_factory):
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.replay import run_offline
-    from cam_metrology.simulate import SimParams, probe_lift, write_sim_bag
+    from cam_metrology.offline.replay import run_offline
+    from cam_metrology.simulation.bench import SimParams, probe_lift, write_sim_bag
 
     doc = default_doc(lobes=1)
     doc['tolerances'] = {'velocity_error_max_mm_per_rad': 0.05,
@@ -60,8 +60,8 @@ def test_noise_alone_is_no_derivative_error(tmp_path) -> None:
     form.derivative_errors: the smoothed error is flat, so both errors are far below what
     the 0.4 % lobe gives (0.055 mm/rad, 0.18 mm/rad^2)."""
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.replay import run_offline
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.offline.replay import run_offline
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     doc = default_doc(lobes=1)
     doc['form'] = {'derivative_errors': True}

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.scene.parse import parse_scene
 from scene_docs import default_doc
 
 NOISE = 0.2e-6
@@ -26,8 +26,8 @@ def _doc() -> dict:
 
 @pytest.fixture(scope='module')
 def chatter_report(tmp_path_factory):
-    from cam_metrology.offline import analyze_report
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.offline.analyze import analyze_report
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     scene = parse_scene(yaml.safe_dump(_doc()))
     bag = tmp_path_factory.mktemp('form') / 'chatter'
@@ -58,8 +58,8 @@ def test_chatter_37_upr_recovered_and_rejected(chatter_report) -> None:
 
 
 def test_clean_part_passes_the_form_tolerances(tmp_path) -> None:
-    from cam_metrology.offline import analyze_report
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.offline.analyze import analyze_report
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     scene = parse_scene(yaml.safe_dump(_doc()))
     write_sim_bag(tmp_path / 'clean', scene, SimParams(samples_per_rev=720,
@@ -74,8 +74,8 @@ def test_band_beyond_nyquist_is_one_line_and_the_lobe_stands(tmp_path) -> None:
     """720 samples per revolution resolve 360 UPR: a waviness band to 500 UPR gives the
     one-line reason under skipped (form/lobe_1) and form_error; the nose angle stands and
     the waviness tolerance is 'not checked', never passed."""
-    from cam_metrology.offline import analyze_report
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.offline.analyze import analyze_report
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     doc = _doc()
     doc['form'] = {'cutoff_upr': 50, 'waviness_band_upr': [100, 500]}
@@ -109,7 +109,7 @@ def test_bad_form_block_names_the_key(form, key) -> None:
 
 def test_simulated_chatter_model() -> None:
     """The simulator's chatter is A cos(k theta) on the chattered arc only."""
-    from cam_metrology.simulate import SimParams, chatter
+    from cam_metrology.simulation.bench import SimParams, chatter
 
     theta = np.linspace(0, 2 * np.pi, 721)
     alpha = theta - np.pi

@@ -11,7 +11,7 @@ import yaml
 
 from cam_design.errors import InputError
 from cam_metrology.metrology.journals import analyze_journal, straightness
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.scene.parse import parse_scene
 
 NOISE = 0.1e-6
 SCENE = {'camshaft_id': 'J-1', 'base_circle_radius': 0.017,
@@ -25,8 +25,8 @@ SCENE = {'camshaft_id': 'J-1', 'base_circle_radius': 0.017,
 def report(tmp_path_factory):
     """Three journals, 3-lobed by 1 um, on a shaft bent by 10 um towards 30 deg; the
     probe reads 0 at 16.5 mm (its zero 0.5 mm below the 17 mm base circle)."""
-    from cam_metrology.offline import analyze_report
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.offline.analyze import analyze_report
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     tol = {'roundness_max_um': 3, 'diameter_um': 2}
     doc = dict(SCENE, journals=[dict(j, tolerances=tol) for j in SCENE['journals']])

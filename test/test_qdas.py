@@ -43,7 +43,7 @@ def test_analyze_dfq_round_trip(tmp_path: Path, capsys) -> None:
     chars, part = _read(out)
     from datetime import datetime, timezone
 
-    from cam_metrology.batch import bag_start_ns
+    from cam_metrology.offline.batch import bag_start_ns
     start = datetime.fromtimestamp(bag_start_ns(BAG) // 10**9, timezone.utc).replace(tzinfo=None)
     assert start.day > 12   # the reader reads dd.mm month-first when both could be a month
     assert part.get_data('K1001') == report['camshaft_id']

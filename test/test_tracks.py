@@ -8,7 +8,7 @@ import yaml
 
 from cam_design.errors import InputError
 from cam_metrology.metrology.tracks import taper_and_twist, track_label
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.scene.parse import parse_scene
 from scene_docs import default_doc
 
 
@@ -16,8 +16,8 @@ from scene_docs import default_doc
 def report(tmp_path_factory):
     """Lobe 1 of the default scene on tracks at -5, 0, +5 mm: its nose lift grows 2 um per
     mm of width and its nose turns 0.01 deg per mm; 0.2 um probe noise."""
-    from cam_metrology.offline import analyze_report
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.offline.analyze import analyze_report
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     doc = default_doc(lobes=1)
     bag = tmp_path_factory.mktemp('tracks') / 'tapered'
@@ -87,7 +87,7 @@ def test_two_tracks_are_enough_and_one_is_not() -> None:
 
 def test_taper_and_twist_tolerances_in_the_verdict() -> None:
     from cam_metrology.metrology.tolerances import judge_tracks
-    from cam_metrology.scene import Tolerances
+    from cam_metrology.scene.model import Tolerances
 
     feats = {'l@-2': {'status': 'ok', 'angle_deg': 10.0, 'nose_lift_error_um': -3.0,
                       'track_mm': -2.0, 'track_of': 'l'},

@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
 
 def write_report_dfq(path: str, bag: str, report: dict[str, Any]) -> None:
     """``--dfq``: the report as a Q-DAS DFQ file (the rows ``batch`` tabulates)."""
-    from cam_metrology.batch import bag_start_ns, rows_of_report
+    from cam_metrology.offline.batch import bag_start_ns, rows_of_report
     from cam_metrology.quality.qdas import write_dfq
 
     sha = str((report.get('provenance') or {}).get('bag_sha256') or '')

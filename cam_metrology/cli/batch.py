@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
                         all_cores=args.all_cores,
                         progress=lambda m: print(m, file=sys.stderr, flush=True))
     if args.dfq:
-        from cam_metrology.batch import read_table
+        from cam_metrology.offline.batch import read_table
         from cam_metrology.quality.qdas import write_dfq
         n = write_dfq(args.dfq, read_table(out))
         print(f'cam-bench batch: {n} characteristics in {args.dfq}', file=sys.stderr)

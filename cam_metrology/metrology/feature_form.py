@@ -10,7 +10,7 @@ import numpy as np
 from cam_design.errors import InputError
 from cam_metrology.metrology.form import analyze_form
 from cam_metrology.metrology.lift_error import BASE_MARGIN, feature_referenced
-from cam_metrology.scene import FormSettings
+from cam_metrology.scene.model import FormSettings
 
 
 def lobe_form(table: Any, values: Mapping[str, Any], direction: int,

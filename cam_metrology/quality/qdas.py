@@ -150,7 +150,7 @@ def write_dfq(path: str | Path, rows: list[dict[str, Any]], key: str = '--dfq') 
     cannot be written is one InputError naming ``key``, and an old file stays whole);
     returns the number of characteristics."""
     from cam_design.errors import InputError
-    from cam_metrology.files import write_output
+    from cam_metrology.inputs.files import write_output
 
     if not any(r.get('status') == 'ok' for r in rows):
         raise InputError(key, str(path), 'at least one measured feature to write')

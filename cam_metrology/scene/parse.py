@@ -170,11 +170,11 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
         ctx.warnings.append('lobes[].nominal_phase: given but the scene has no dowel_pin or '
                             'keyway; phases cannot be measured')
     study = {k: _text(k, top[k]) for k in STUDY_KEYS if top.get(k) is not None}
-    from cam_metrology.scene_form import parse_form
+    from cam_metrology.scene.form_and_journals import parse_form
     form = parse_form(ctx.mapping('form', top['form'], ('cutoff_upr', 'waviness_band_upr',
                                                         'derivative_errors'))
                       if top.get('form') is not None else None)
-    from cam_metrology.scene_form import parse_journals, parse_zero_radius
+    from cam_metrology.scene.form_and_journals import parse_journals, parse_zero_radius
     journals = parse_journals(top.get('journals'), ctx.mapping,
                               {lobe.id for lobe in lobes} | set(DATUM_IDS), _band)
     zero_radius = parse_zero_radius(top['probe'].get('zero_radius'))

@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any, Callable, Mapping
 
 from cam_design.errors import InputError, require_finite, require_length, require_positive
-from cam_metrology.scene import FormSettings, Journal, Tolerances
+from cam_metrology.scene.model import FormSettings, Journal, Tolerances
 
 #: highest cut-off or band edge a scene may ask for [UPR] (a 0.01 deg encoder resolves 18 000)
 MAX_UPR = 18_000
