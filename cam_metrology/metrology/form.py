@@ -108,11 +108,11 @@ def harmonics(theta: Any, dev: Any, max_upr: int, *, key: str = 'form.max_upr') 
     """Harmonics 1..``max_upr`` of ``dev`` [m] sampled at ``theta`` [rad] (module doc).
 
     One uniform revolution: its DFT. More samples than ``2 * BIN_FACTOR * max_upr``
-    otherwise (several revolutions, encoder jitter, millions of samples): the means over
-    ``BIN_FACTOR * max_upr`` equal bins of the circle (bounded cost), their DFT when every
-    bin has samples, else least squares over the filled bins weighted by their counts;
-    the bins' averaging transmits harmonic k by sinc(k / bins), which is divided out
-    (1 - sinc is at most 0.26 % at ``max_upr``). Fewer samples: least squares over every
+    otherwise (several revolutions, encoder jitter, millions of samples): the means of
+    angle and deviation over ``BIN_FACTOR * max_upr`` equal bins of the circle (bounded
+    cost), fitted by least squares weighted by the counts; the bins' averaging transmits
+    harmonic k by about sinc(k / bins), which is divided out (1 - sinc is at most 0.26 %
+    at ``max_upr``). Fewer samples: least squares over every
     sample. InputError naming ``key`` when ``max_upr`` exceeds the Nyquist UPR of the
     samples (or there are too few samples for the fit)."""
     th = np.asarray(theta, dtype=float)
@@ -140,20 +140,17 @@ def harmonics(theta: Any, dev: Any, max_upr: int, *, key: str = 'form.max_upr') 
 
 def _binned_spectrum(th: NDArray[np.float64], y: NDArray[np.float64], k: int, nyq: int,
                      bins: int) -> Spectrum:
-    """Harmonics of the bin means over ``bins`` equal bins of the circle, the bins'
-    averaging (sinc) divided out."""
+    """Harmonics of the bin means (angle and deviation) over ``bins`` equal bins of the
+    circle, the bins' averaging (sinc) divided out."""
     width = TWO_PI / bins
-    idx = np.minimum((np.mod(th, TWO_PI) // width).astype(np.int64), bins - 1)
+    angle = np.mod(th, TWO_PI)
+    idx = np.minimum((angle // width).astype(np.int64), bins - 1)
     count = np.bincount(idx, minlength=bins)
-    mean = np.bincount(idx, y, minlength=bins)
     filled = count > 0
-    mean[filled] /= count[filled]
-    centre = (np.arange(bins) + 0.5) * width
-    if np.all(filled):
-        spec = _fft_spectrum(centre, mean, k, nyq)
-    else:
-        w = np.sqrt(count[filled].astype(float))
-        spec = _lsq_spectrum(centre[filled], mean[filled], k, nyq, weights=w)
+    n = count[filled].astype(float)
+    at = np.bincount(idx, angle, minlength=bins)[filled] / n     # where the samples are
+    mean = np.bincount(idx, y, minlength=bins)[filled] / n
+    spec = _lsq_spectrum(at, mean, k, nyq, weights=np.sqrt(n))
     gain = np.sinc(np.arange(1, k + 1) / bins)
     return Spectrum(spec.c0, spec.a / gain, spec.b / gain, nyq)
 
