@@ -6,7 +6,8 @@ Run: ``.venv/bin/python -m benchmarks form`` (writes results/form.md). Time is C
 the machine line gives the load average at the start. Errors: a chatter of 0.8 um at k UPR
 (phase random) on one revolution with Gaussian probe noise sigma, over 20 seeds: RMS of
 (recovered - 0.8 um), against the standard error sigma sqrt(2/N) of a least-squares
-harmonic; a third of the samples removed at random for the gappy rows.
+harmonic; a third of the samples removed at random for the gappy rows; harmonics fitted
+up to max(k, 150) UPR as the report's analysis does with its default 50 UPR cut-off.
 """
 from __future__ import annotations
 
@@ -69,7 +70,8 @@ def error_rows() -> list[str]:
                         rng.normal(0, sigma, n)
                     keep = rng.random(n) > 1 / 3 if gappy else np.ones(n, bool)
                     try:
-                        spec = harmonics(theta[keep], y[keep], k)
+                        # fitted to 150 UPR at least, as analyze_form does (3 cut-offs)
+                        spec = harmonics(theta[keep], y[keep], max(k, 150))
                     except InputError:   # above this sampling's Nyquist UPR: refused
                         refused.append(nyquist_upr(theta[keep]))
                         continue
