@@ -29,7 +29,7 @@ def _cpu() -> float:
 
 def timing_rows() -> list[str]:
     """CPU time of ``analyze_form`` per feature, uniform and gappy, 3600 and 36 000."""
-    from cam_metrology.metrology.form import analyze_form
+    from cam_metrology.metrology.form import FILTER_SPAN, analyze_form
 
     rows = ['| samples | sampling | cut-off [UPR] | harmonics fitted | CPU per feature [ms] '
             '(best of 5) |', '|---|---|---|---|---|']
@@ -45,7 +45,7 @@ def timing_rows() -> list[str]:
                 t0 = _cpu()
                 res = analyze_form(th, y)
                 best = min(best, _cpu() - t0)
-            fitted = min(4 * res.cutoff_upr, res.nyquist_upr)
+            fitted = min(FILTER_SPAN * res.cutoff_upr, res.nyquist_upr)
             rows.append(f'| {n} | {label} | {res.cutoff_upr} | {fitted} | '
                         f'{best * 1e3:.1f} |')
     return rows
