@@ -39,7 +39,8 @@ def timing_rows() -> list[str]:
         dev = 0.8e-6 * np.cos(37 * theta) + rng.normal(0, 0.2e-6, n)
         keep = rng.random(n) > 1 / 3
         for label, th, y in (('uniform (DFT)', theta, dev),
-                             ('1/3 missing (least squares; bin means above 2400)', theta[keep], dev[keep])):
+                             ('1/3 missing (least squares; bin means above 2400)',
+                              theta[keep], dev[keep])):
             best = math.inf
             for _ in range(5):
                 t0 = _cpu()
