@@ -22,6 +22,7 @@ from cam_design.keyway import KeywayGeometry
 from cam_design.errors import InputError, require_positive
 from cam_metrology.cores.contract import merged_parameters
 from cam_metrology.host.heap import trim
+from cam_metrology.report.json_out import json_safe
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_keyway, analyze_lobe, analyze_pin,
                                               seen_lift)
@@ -69,21 +70,6 @@ def _flat(values: dict[str, Any], prefix: str = '') -> dict[str, str]:
         else:
             out[name] = str(val)
     return out
-
-
-def _json_safe(obj: Any) -> Any:
-    """Plain JSON types (numpy scalars -> float/int, non-finite -> None)."""
-    if isinstance(obj, dict):
-        return {k: _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json_safe(v) for v in obj]
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if np.isfinite(obj) else None
-    return obj
 
 
 class MetrologyCore:
@@ -136,6 +122,8 @@ class MetrologyCore:
         self.pending: list[FeatureSamples] = []
         self.results: dict[str, FeatureResult] = {}
         self.report_sent = False
+        #: the final report as data (what ``finish`` publishes as JSON text), for offline use
+        self.final_report: dict[str, Any] | None = None
         self._design: dict[str, Any] = {}
         #: every scene that came into force: (log time [ns], Scene)
         self.scenes: list[tuple[int, Any]] = []
@@ -214,7 +202,8 @@ class MetrologyCore:
         if self.scene is None:
             return out + [self._status(Status('scene', ERROR, 'no scene received: nothing '
                                               'measured'), 0)]
-        out.append(TextOutput(REPORT, json.dumps(self.report(final=True), indent=1)))
+        self.final_report = self.report(final=True)
+        out.append(TextOutput(REPORT, json.dumps(self.final_report, indent=1)))
         self.report_sent = True
         return out
 
@@ -469,7 +458,7 @@ class MetrologyCore:
             extra['shaft'] = shaft_straightness(
                 features, {j.id: j.axial_position for j in scene.journals}) or {
                     'straightness_um': None, 'why': 'fewer than 3 journals measured'}
-        return _json_safe({
+        return json_safe({
             'camshaft_id': scene.camshaft_id,
             'verdict': verdict,
             'direction': scene.direction,

@@ -192,6 +192,7 @@ class Scene:
     keyway: Keyway | None = None              # the other datum (never with a dowel_pin)
     crank: Crank | None = None                # crank datum (needs a pin or keyway)
     study: dict[str, str] = field(default_factory=dict)   # part_id, operator, trial
+    camshaft: Any = None                      # cam_design.camshaft.spec.CamshaftSpec
     form: FormSettings = field(default_factory=FormSettings)
     journals: tuple[Journal, ...] = ()
     probe_zero_radius: float | None = None    # m, radius at which the probe reads 0
