@@ -74,7 +74,7 @@ def error_rows() -> list[str]:
                         # fitted to 150 UPR at least, as analyze_form does (3 cut-offs)
                         spec = harmonics(theta[keep], y[keep], max(k, 150))
                     except InputError:   # above this sampling's Nyquist UPR: refused
-                        refused.append(nyquist_upr(theta[keep]))
+                        refused.append(nyquist_upr(np.asarray(theta[keep], dtype=float)))
                         continue
                     errs.append(spec.amplitude[k - 1] - 0.8e-6)
                 if not errs:

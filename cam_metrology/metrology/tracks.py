@@ -66,6 +66,7 @@ def taper_and_twist(tracks: Mapping[str, Mapping[str, Any]]) -> dict[str, Any] |
                            'nose_angle_difference_deg': float(angle[-1] - angle[0])}
     lift = [t[2].get('nose_lift_error_um') for t in ok]
     if all(v is not None for v in lift):
-        out['taper_um_per_mm'] = float(np.polyfit(z, np.array(lift, float), 1)[0])
-        out['nose_lift_error_um'] = [float(v) for v in lift]
+        values = np.array(lift, dtype=float)
+        out['taper_um_per_mm'] = float(np.polyfit(z, values, 1)[0])
+        out['nose_lift_error_um'] = values.tolist()
     return out

@@ -135,13 +135,13 @@ def dfq_text(rows: list[dict[str, Any]]) -> str:
             ident = r.get('part_id') or r.get('camshaft_id') or part
             for field in CHARACTERISTICS:
                 value = _number(r.get(field))
-                i = index.get((str(r['feature']), field))
-                if value is None or i is None:
+                num = index.get((str(r['feature']), field))
+                if value is None or num is None:
                     continue
-                lines += [f'K0001/{i} {value!r}', f'K0004/{i} {_stamp(r)}']
+                lines += [f'K0001/{num} {value!r}', f'K0004/{num} {_stamp(r)}']
                 if r.get('operator'):
-                    lines.append(f"K0008/{i} {_text(r['operator'])}")
-                lines.append(f'K0014/{i} {_text(ident)}')
+                    lines.append(f"K0008/{num} {_text(r['operator'])}")
+                lines.append(f'K0014/{num} {_text(ident)}')
     return '\r\n'.join(lines) + '\r\n'
 
 

@@ -91,11 +91,17 @@ def _tolerances(key: str, value: Any, mapping: Callable[..., Mapping],
     if value is None:
         return None, None
     block = mapping(key, value, JOURNAL_TOL_KEYS)
-    maxima = {k: require_positive(f'{key}.{k}', block[k], allow_zero=True)
-              for k in JOURNAL_TOL_KEYS[:3] if k in block}
+
+    def maximum(k: str) -> float | None:
+        return require_positive(f'{key}.{k}', block[k], allow_zero=True) \
+            if k in block else None
+
+    tol = Tolerances(runout_max_um=maximum('runout_max_um'),
+                     roundness_max_um=maximum('roundness_max_um'),
+                     waviness_max_um=maximum('waviness_max_um'))
     diameter = band(f'{key}.diameter_um', block['diameter_um']) \
         if 'diameter_um' in block else None
-    return (Tolerances(**maxima) if maxima else None), diameter
+    return (tol if tol.any() else None), diameter
 
 
 def parse_zero_radius(value: Any) -> float | None:
