@@ -111,3 +111,22 @@ def test_folder_search_finds_loose_mcap_files(tmp_path: Path) -> None:
     found = find_bags([str(tmp_path / 'day')])
     assert [p.relative_to(tmp_path / 'day').as_posix() for p in found] == [
         'foreign.mcap', 'part_a', 'sub/other.mcap']
+
+
+def test_dfq_of_the_batch_table(archive: Path, first_run, tmp_path: Path) -> None:
+    """What `batch --dfq` writes: one value per measured bag for each characteristic,
+    read back by the independent AQDEF reader equal to the table's values."""
+    aqdef = pytest.importorskip('aqdefreader')
+    from cam_metrology.quality.qdas import write_dfq
+
+    rows = read_table(first_run[0])
+    path = tmp_path / 'batch.dfq'
+    write_dfq(path, rows)
+    part = aqdef.DfqFile(path.read_text(encoding='utf-8').splitlines()).get_part(0)
+    chars = {c.get_data('K2002'): [float(m.value) for m in c.get_measurements()]
+             for c in part.get_characteristics()}
+    ok = sorted((r.get('bag_start_utc_ns') or 0, r['bag'], r) for r in rows
+                if r['status'] == 'ok' and r['feature'] == 'lobe_1')
+    assert chars['lobe_1 angle_deg'] == [pytest.approx(r['angle_deg'], rel=1e-15)
+                                         for *_, r in ok]
+    assert len(ok) == 2   # part_a and part_b: the copy is a duplicate, broken.mcap failed

@@ -39,6 +39,9 @@ def register(subparsers: Any) -> None:
     p.add_argument('--report', metavar='FILE.html', help='write a self-contained HTML report '
                    '(verdict, cam card, results, plots, provenance)')
     p.add_argument('--csv', metavar='FILE|-', help='write the per-feature results as CSV')
+    p.add_argument('--dfq', metavar='FILE.dfq', help='write the results as a Q-DAS AQDEF '
+                   'transfer file (one characteristic per reported quantity, with the '
+                   "scene tolerances' limits) for SPC packages")
     p.add_argument('--heights-mm', metavar='LIST', default=None,
                    help='cam-card checking heights in mm (default 1,1.27,0.1)')
     p.set_defaults(func=run)
@@ -86,12 +89,23 @@ def run(args: argparse.Namespace) -> int:
         from cam_metrology.inputs.files import write_output
         from cam_metrology.report.html_report import csv_text
         write_output(args.csv, csv_text(report), '--csv')
+    if args.dfq:
+        write_report_dfq(args.dfq, args.bag, report)
     if not any(f.get('status') == 'ok' for f in report.get('features', {}).values()):
         print(f'cam-bench analyze: error: nothing was measured in {args.bag}: no feature '
               f'of the scene was measured from its {JOINT_TOPIC} samples (see the '
               'report)', file=sys.stderr)
         return 1
     return verdict_exit_code(report)
+
+
+def write_report_dfq(path: str, bag: str, report: dict[str, Any]) -> None:
+    """``--dfq``: the report as a Q-DAS DFQ file (the rows ``batch`` tabulates)."""
+    from cam_metrology.offline.batch import bag_start_ns, rows_of_report
+    from cam_metrology.quality.qdas import write_dfq
+
+    sha = str((report.get('provenance') or {}).get('bag_sha256') or '')
+    write_dfq(path, rows_of_report(bag, sha, report, bag_start_ns(Path(bag))))
 
 
 def profiles(outputs: list[tuple[int, Any]]) -> dict[str, tuple[Any, Any]]:
@@ -185,11 +199,46 @@ def human_report(report: dict[str, Any]) -> str:
                      f"{_fmt(dsp, '12.3f')}{_fmt(f.get('phase_deg'), '11.4f')}"
                      f"{_fmt(f.get('phase_error_deg'), '11.4f')}"
                      f"{_fmt(f.get('asymmetry_deg'), '10.5f')}{_fmt(rms, '12.3f')}  {status}")
+    lines += form_lines(report)
     for item in report.get('skipped', []):
         lines.append(f"skipped {item['what']}: {item['why']}")
     from cam_metrology.report.html_report import card_lines
     from cam_metrology.metrology.tolerances import verdict_lines
     return '\n'.join(verdict_lines(report) + lines + card_lines(report))
+
+
+def form_lines(report: dict[str, Any]) -> list[str]:
+    """One line per feature with form results (roundness, waviness, journal diameter and
+    run-out), then the shaft's straightness and each tracked lobe's taper and twist."""
+    lines = []
+    for fid, f in report.get('features', {}).items():
+        wav = f.get('waviness') or {}
+        parts = []
+        if f.get('kind') == 'journal':
+            d = f.get('diameter_deviation_um')
+            parts.append('diameter ' + ('-' if d is None else f'{d:+.2f} µm') +
+                         f", run-out {f['runout_um']:.2f} µm")
+        if f.get('roundness_um') is not None:
+            parts.append(f"roundness {f['roundness_um']:.3f} µm")
+        if wav.get('upr_at_max') is not None:
+            parts.append(f"waviness {wav['max_amplitude_um']:.3f} µm at {wav['upr_at_max']} "
+                         f"UPR ({wav['band_upr'][0]}-{wav['band_upr'][1]}), near "
+                         f"{wav['at_deg']:.1f} deg")
+        if parts:
+            lines.append(f'form {fid}: ' + ', '.join(parts))
+    shaft = report.get('shaft') or {}
+    if shaft.get('straightness_um') is not None:
+        lines.append(f"shaft straightness {shaft['straightness_um']:.2f} µm (bow "
+                     f"{shaft['bow_um']:.2f} µm at {shaft['bow_at_mm']:g} mm towards "
+                     f"{shaft['bow_direction_deg']:.1f} deg)")
+    for lobe, tr in (report.get('lobe_tracks') or {}).items():
+        if 'twist_deg_per_mm' in tr:
+            taper = tr.get('taper_um_per_mm')
+            lines.append(f"tracks {lobe}: taper " + ('-' if taper is None else
+                                                     f'{taper:.3f} µm/mm') +
+                         f", twist {tr['twist_deg_per_mm'] * 3600:.2f} arcsec/mm over "
+                         f"{len(tr['tracks'])} tracks")
+    return lines
 
 
 def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, Any]) -> None:

@@ -21,6 +21,9 @@ def register(subparsers: Any) -> None:
     p.add_argument('inputs', nargs='+', metavar='INPUT')
     p.add_argument('--out', required=True, metavar='FILE.parquet', help='results table')
     p.add_argument('--csv', metavar='FILE.csv', help='also write the table as CSV')
+    p.add_argument('--dfq', metavar='FILE.dfq', help='also write every part of the table '
+                   'as one Q-DAS AQDEF transfer file (values with date/time, operator and '
+                   'part id)')
     p.add_argument('--scheduler', metavar='ADDRESS', help='existing Dask scheduler, e.g. '
                    'tcp://10.0.0.5:8786 (default: a local cluster)')
     p.add_argument('--workers', type=int, default=2, help='local worker processes '
@@ -51,6 +54,11 @@ def run(args: argparse.Namespace) -> int:
                         scheduler=args.scheduler, workers=args.workers, redo=args.redo,
                         all_cores=args.all_cores,
                         progress=lambda m: print(m, file=sys.stderr, flush=True))
+    if args.dfq:
+        from cam_metrology.offline.batch import read_table
+        from cam_metrology.quality.qdas import write_dfq
+        n = write_dfq(args.dfq, read_table(out))
+        print(f'cam-bench batch: {n} characteristics in {args.dfq}', file=sys.stderr)
     print(f'cam-bench batch: {summary.analysed} analysed, {summary.skipped} already in '
           f'{out.name}, {summary.duplicates} duplicates, {summary.failed} failed; '
           f'{summary.rows} rows in {out} ({summary.seconds:.1f} s)')

@@ -5,7 +5,11 @@ quantity asked for (default: angle_deg, phase_error_deg), in the order the parts
 measured (bag start time, then bag name): the individuals and moving-range chart, the
 run rules that fire, and with ``--tolerance QUANTITY=LSL:USL`` Cp, Cpk, Pp and Ppk.
 ``--grr`` runs a gauge R&R study (ANOVA method) instead; the table then needs the
-columns ``part_id``, ``operator`` and ``trial`` (one row per measurement).
+columns ``part_id``, ``operator`` and ``trial`` (one row per measurement); with a
+``--tolerance`` (or the scene's limits) it is also reported against the tolerance (%Tol)
+with the acceptance bands. ``--type1 QUANTITY=REFERENCE`` runs a type-1 gauge study (Cg,
+Cgk, bias and its t-test) of every feature's repeated measurements of one reference part
+against its ``--tolerance``.
 ``--report FILE.html`` writes one self-contained page with the charts inline.
 """
 from __future__ import annotations
@@ -37,6 +41,10 @@ def register(subparsers: Any) -> None:
                         'default: the limits the scene tolerances gave the verdict')
     p.add_argument('--grr', action='store_true', help='gauge R&R study (needs part_id, '
                    'operator, trial columns)')
+    p.add_argument('--type1', action='append', default=[], metavar='NAME=REFERENCE',
+                   help='type-1 gauge study of QUANTITY against its reference value (the '
+                        'rows: repeated measurements of one reference part; needs '
+                        '--tolerance or scene limits for the quantity); repeatable')
     p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
     p.add_argument('--report', metavar='FILE.html', help='self-contained HTML report')
     p.set_defaults(func=run)
@@ -152,9 +160,51 @@ def spc_results(rows: list[dict[str, Any]], quantities: list[str], features: lis
     return out
 
 
+def _tolerance_width(rows: list[dict[str, Any]], quantity: str,
+                     tolerances: dict[str, tuple[float | None, float | None]]
+                     ) -> float | None:
+    """USL - LSL of ``quantity`` (``--tolerance`` first, else the scene's limits); None
+    when either side is missing."""
+    lsl, usl = tolerances.get(quantity) or scene_limits(rows, quantity) or (None, None)
+    return None if lsl is None or usl is None else float(usl) - float(lsl)
+
+
+def type1_results(rows: list[dict[str, Any]], items: list[str], features: list[str] | None,
+                  tolerances: dict[str, tuple[float | None, float | None]]
+                  ) -> list[dict[str, Any]]:
+    """Type-1 gauge study per feature for each ``QUANTITY=REFERENCE`` of ``items``."""
+    from cam_design.errors import InputError
+    from cam_metrology.quality.gauge_type1 import type1_study
+
+    out = []
+    ok = [r for r in rows if r.get('status') == 'ok']
+    for item in items:
+        name, _, ref = item.partition('=')
+        try:
+            reference = float(ref)
+        except ValueError:
+            raise InputError('--type1', item, 'QUANTITY=REFERENCE with a number, e.g. '
+                             'angle_deg=36.7756') from None
+        width = _tolerance_width(rows, name, tolerances)
+        if width is None:
+            raise InputError('--type1', item, f'a tolerance of {name}: --tolerance '
+                             f'{name}=LSL:USL (or a scene tolerance in the table)')
+        for fid in sorted({r['feature'] for r in ok}):
+            if features and fid not in features:
+                continue
+            values = [float(r[name]) for r in _ordered(ok)
+                      if r['feature'] == fid and r.get(name) is not None]
+            study = type1_study(values, reference, width, key=f'--type1 {fid}.{name}')
+            out.append({'feature': fid, 'quantity': name, **study.as_dict()})
+    return out
+
+
 def grr_results(rows: list[dict[str, Any]], quantities: list[str],
-                features: list[str] | None) -> list[dict[str, Any]]:
-    """Gauge R&R per feature x quantity from part_id / operator / trial columns."""
+                features: list[str] | None,
+                tolerances: dict[str, tuple[float | None, float | None]] | None = None,
+                ) -> list[dict[str, Any]]:
+    """Gauge R&R per feature x quantity from part_id / operator / trial columns (and
+    against the quantity's tolerance when one is known)."""
     import numpy as np
 
     from cam_design.errors import InputError
@@ -183,9 +233,10 @@ def grr_results(rows: list[dict[str, Any]], quantities: list[str],
             if np.isnan(y).any():
                 raise InputError('--grr', f'{fid}.{q}', 'a complete study: every part '
                                  'measured by every operator in every trial')
+            width = _tolerance_width(rows, q, tolerances or {})
             out.append({'feature': fid, 'quantity': q, 'parts': len(parts),
                         'operators': len(ops), 'trials': len(trials),
-                        **gauge_rr(y).as_dict()})
+                        **gauge_rr(y).as_dict(width)})
     return out
 
 
@@ -259,8 +310,11 @@ def run(args: argparse.Namespace) -> int:
         quantities = [q for q in quantities if any(q in r and r[q] is not None for r in rows)]
     tol = _tolerances(args.tolerance)
     spc = [] if args.grr else spc_results(rows, quantities, args.feature, tol)
-    grr = grr_results(rows, quantities, args.feature) if args.grr else []
-    doc = {'table': args.table, 'spc': spc, 'gauge_rr': grr}
+    grr = grr_results(rows, quantities, args.feature, tol) if args.grr else []
+    type1 = type1_results(rows, args.type1, args.feature, tol)
+    if type1:
+        spc = []
+    doc = {'table': args.table, 'spc': spc, 'gauge_rr': grr, 'type1': type1}
     if args.json:
         from cam_metrology.report.json_out import write_json
         write_json(args.json, doc, '--json')
@@ -277,8 +331,17 @@ def run(args: argparse.Namespace) -> int:
                 line += f"  ({e['note']})"
             print(line)
         for g in grr:
-            print(f"{g['feature']:<12}{g['quantity']:<18} %GRR {g['percent_grr']:.2f} %  "
-                  f"ndc {g['ndc']}")
+            line = (f"{g['feature']:<12}{g['quantity']:<18} %GRR {g['percent_grr']:.2f} % "
+                    f"({g['acceptance']['percent_grr']})  ndc {g['ndc']}")
+            if 'percent_tolerance' in g:
+                line += (f"  %Tol {g['percent_tolerance']['grr']:.2f} % "
+                         f"({g['acceptance']['percent_tolerance']})")
+            print(line)
+        for t in type1:
+            print(f"{t['feature']:<12}{t['quantity']:<18} type 1: Cg {t['cg']:.2f}  Cgk "
+                  f"{t['cgk']:.2f}  bias {t['bias']:.6g} (p {t['bias_p_value']:.3f}"
+                  f"{', significant' if t['bias_significant'] else ''})  "
+                  f"{'capable' if t['capable'] else 'NOT capable'}")
     if args.report:
         write_report(Path(args.report), args.table, spc, grr)
         print(f'cam-bench spc: wrote {args.report}')

@@ -26,7 +26,10 @@ from cam_metrology.report.json_out import json_safe
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_keyway, analyze_lobe, analyze_pin,
                                               seen_lift)
+from cam_metrology.metrology.derivative_error import derivative_errors
+from cam_metrology.metrology.feature_form import lobe_form
 from cam_metrology.metrology.spill import release, spill
+from cam_metrology.metrology.tracks import nose_lift_error_um, track_label
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
                                               encoder_units_hint, probe_units_problem,
                                               joint_positions, stamp_of)
@@ -254,8 +257,13 @@ class MetrologyCore:
     def _analyze(self, fs: FeatureSamples) -> FeatureResult:
         scene = self.scene
         kind = fs.feature_id if fs.feature_id in DATUM_IDS else 'lobe'
+        journal = scene.journal(fs.feature_id)
+        if journal is not None:
+            kind = 'journal'
         counts = {'samples_received': fs.received, 'samples_nan_dropped': fs.nan_dropped}
         try:
+            if journal is not None:
+                return self._journal(fs, journal, counts)
             units = probe_units_problem(fs)
             if units:
                 raise FeatureFailed(units)
@@ -272,8 +280,9 @@ class MetrologyCore:
                 p = scene.dowel_pin
                 geo = DowelPinGeometry(p.pin_radius, p.circle_radius, p.probe_radius)
                 return analyze_pin(fs, geo, scene.direction, self.settings)
+            track = track_label(fs.feature_id)   # lobe_1@-4: a track across the width
             try:
-                lobe = scene.lobe(fs.feature_id)
+                lobe = scene.lobe(fs.feature_id if track is None else track[0])
             except KeyError:
                 raise FeatureFailed(f'feature {fs.feature_id!r} is not in the scene') from None
             if not scene.wants('nose'):
@@ -281,8 +290,21 @@ class MetrologyCore:
                                      skipped=[('nose', 'compute does not ask for nose')])
             if lobe.id not in self._design:
                 self._design[lobe.id] = seen_lift(lobe, scene.probe, scene.base_circle_radius)
-            return analyze_lobe(fs, self._design[lobe.id], scene.direction, self.settings,
-                                asymmetry=scene.wants('asymmetry'))
+            result = analyze_lobe(fs, self._design[lobe.id], scene.direction, self.settings,
+                                  asymmetry=scene.wants('asymmetry'))
+            form = lobe_form(result.table, result.values, scene.direction, scene.form)
+            result.values.update(form)
+            if 'form_error' in form:
+                result.skipped.append(('form', form['form_error']))
+            if scene.form.derivative_errors or (lobe.tolerances is not None and
+                                                lobe.tolerances.wants_derivatives()):
+                result.values.update(derivative_errors(result.table, result.values,
+                                                       self._design[lobe.id]))
+            if track is not None:
+                result.values.update({'track_of': track[0], 'track_mm': track[1],
+                                      'nose_lift_error_um': nose_lift_error_um(
+                                          result.table, result.values)})
+            return result
         except (FeatureFailed, InputError) as exc:
             return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
                                  failed=str(exc) + encoder_units_hint(fs))
@@ -290,6 +312,24 @@ class MetrologyCore:
             return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
                                  failed=f'numerical failure of the fit ({exc}): check the '
                                  'samples (units: m and rad)' + encoder_units_hint(fs))
+
+    def _journal(self, fs: FeatureSamples, journal: Any, counts: dict[str, Any],
+                 ) -> FeatureResult:
+        """A journal: diameter, run-out and form (``journals.analyze_journal``)."""
+        from cam_metrology.metrology.journals import analyze_journal
+
+        form = self.scene.form
+        values = analyze_journal(fs.theta, fs.s, journal.radius, self.scene.probe_zero_radius,
+                                 cutoff_upr=form.cutoff_upr, band=form.waviness_band_upr,
+                                 key=fs.feature_id)
+        values['axial_position_mm'] = journal.axial_position * 1e3
+        skipped = [('form', values['form_error'])] if 'form_error' in values else []
+        if values['diameter_deviation_um'] is None:
+            skipped.append(('diameter', 'the scene gives no probe.zero_radius (the radius '
+                                        'at which the probe reads 0)'))
+        return FeatureResult(fs.feature_id, 'journal', {**values, **counts,
+                                                        'samples_used': int(fs.theta.size)},
+                             skipped=skipped)
 
     def _datum_id(self) -> str:
         """Feature id of the scene's angular datum (dowel_pin when it has none)."""
@@ -308,8 +348,9 @@ class MetrologyCore:
                 index != self._scene_of.get(self._datum_id(), index):
             return {'phase_deg': None, 'phase_error_deg': None}
         phase = wrap_deg(np.degrees(result.angle_rad - pin))
-        nominal = self.scenes[index][1].lobe(result.feature_id).nominal_phase \
-            if self.scenes else self.scene.lobe(result.feature_id).nominal_phase
+        lobe_id = result.values.get('track_of') or result.feature_id
+        nominal = self.scenes[index][1].lobe(lobe_id).nominal_phase \
+            if self.scenes else self.scene.lobe(lobe_id).nominal_phase
         err = None if nominal is None else wrap_deg(phase - np.degrees(nominal))
         return {'phase_deg': phase, 'phase_error_deg': err}
 
@@ -339,12 +380,18 @@ class MetrologyCore:
     def _expected(self) -> list[str]:
         scene = self.scene
         ids = [lobe.id for lobe in scene.lobes] if scene.wants('nose') else []
+        ids += [j.id for j in scene.journals]
         if scene.datum_id is not None and scene.wants('pin'):
             ids.append(scene.datum_id)
         return ids
 
+    def _measured(self, feature_id: str) -> bool:
+        """True if the feature, or a track of it (``<id>@<z mm>``), has a result."""
+        return feature_id in self.results or any(
+            f.startswith(feature_id + '@') for f in self.results)
+
     def _missing(self) -> list[str]:
-        return [i for i in self._expected() if i not in self.results]
+        return [i for i in self._expected() if not self._measured(i)]
 
     def skipped(self) -> list[dict[str, str]]:
         """What the scene or the data do not allow, with the reason."""
@@ -367,7 +414,7 @@ class MetrologyCore:
         if not scene.wants('asymmetry'):
             out.append({'what': 'asymmetry', 'why': 'compute does not ask for asymmetry'})
         for lobe in scene.lobes:
-            if scene.wants('nose') and lobe.id not in self.results:
+            if scene.wants('nose') and not self._measured(lobe.id):
                 out.append({'what': lobe.id, 'why': 'no samples for this lobe in the data'})
             elif lobe.nominal_phase is None and self._pin_angle() is not None:
                 out.append({'what': f'phase_error/{lobe.id}', 'why': 'lobe has no nominal_phase'})
@@ -412,6 +459,18 @@ class MetrologyCore:
         tables = {f: r.table for f, r in self.results.items() if r.kind == 'lobe'}
         verdict = judge_part(scene, features, tables, self._design)
         release(tables.values())   # the spilled tables read by the verdict
+        tracked = {f.get('track_of') for f in features.values()} - {None}
+        if tracked:
+            from cam_metrology.metrology.tracks import taper_and_twist
+            extra['lobe_tracks'] = {
+                lobe: taper_and_twist({fid: f for fid, f in features.items()
+                                       if f.get('track_of') == lobe}) or
+                {'why': 'fewer than 2 tracks measured'} for lobe in sorted(tracked)}
+        if scene.journals:
+            from cam_metrology.metrology.journals import shaft_straightness
+            extra['shaft'] = shaft_straightness(
+                features, {j.id: j.axial_position for j in scene.journals}) or {
+                    'straightness_um': None, 'why': 'fewer than 3 journals measured'}
         return json_safe({
             'camshaft_id': scene.camshaft_id,
             'verdict': verdict,

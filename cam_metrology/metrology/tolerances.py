@@ -118,7 +118,8 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
     if feature.get('status') != 'ok':
         why = f"feature {feature.get('status', 'missing')}: {feature.get('reason', '')}"
         names = [n for n in ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um',
-                             'runout_max_um', 'duration_deg')
+                             'runout_max_um', 'duration_deg', 'roundness_max_um',
+                             'waviness_max_um')
                  if getattr(tol, n) is not None]
         return _verdict([], [_not(n, why.strip().rstrip(':')) for n in names] or
                         [_not('lift_error_zones', why)])
@@ -143,6 +144,8 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
         else:
             checks.append(check('base_circle_runout_um', value, (None, tol.runout_max_um),
                                 'um'))
+    _form_checks(tol, feature, checks, missing)
+    _derivative_checks(tol, feature, checks, missing)
     needs_table = (tol.max_lift_um, tol.duration_deg, tol.centreline_deg)
     if any(v is not None for v in needs_table):
         if table is None or design is None:
@@ -155,6 +158,42 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
             del table, good
             _table_checks(tol, alpha, lift, design, checks, missing)
     return _verdict(checks, missing)
+
+
+def _form_checks(tol: Tolerances, feature: Mapping[str, Any], checks: list[dict[str, Any]],
+                 missing: list[dict[str, str]]) -> None:
+    """Base-circle roundness and the waviness band's largest harmonic, maxima only."""
+    why = feature.get('form_error') or 'no form analysis for this feature'
+    if tol.roundness_max_um is not None:
+        value = feature.get('roundness_um')
+        if value is None:
+            missing.append(_not('roundness_um', why))
+        else:
+            checks.append(check('roundness_um', value, (None, tol.roundness_max_um), 'um'))
+    if tol.waviness_max_um is not None:
+        value = (feature.get('waviness') or {}).get('max_amplitude_um')
+        if value is None:
+            missing.append(_not('waviness_max_amplitude_um', why))
+        else:
+            checks.append(check('waviness_max_amplitude_um', value,
+                                (None, tol.waviness_max_um), 'um'))
+
+
+def _derivative_checks(tol: Tolerances, feature: Mapping[str, Any],
+                       checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> None:
+    """Largest |velocity| and |acceleration| error on the lobe (maxima only)."""
+    why = feature.get('derivative_error') or 'no velocity/acceleration error computed'
+    for name, limit, unit in (('velocity_error_mm_per_rad', tol.velocity_error_max_mm_per_rad,
+                               'mm/rad'),
+                              ('acceleration_error_mm_per_rad2',
+                               tol.acceleration_error_max_mm_per_rad2, 'mm/rad2')):
+        if limit is None:
+            continue
+        value = (feature.get(name) or {}).get('max_abs')
+        if value is None:
+            missing.append(_not(name, why))
+        else:
+            checks.append(check(name, value, (None, limit), unit))
 
 
 def _table_checks(tol: Tolerances, alpha: Any, lift: Any, design: Callable[..., Any],
@@ -196,6 +235,63 @@ def _table_checks(tol: Tolerances, alpha: Any, lift: Any, design: Callable[..., 
                             tol.centreline_deg, 'deg', math.degrees(0.5 * math.hypot(so, sc))))
 
 
+def judge_tracks(tol: Tolerances | None, lobe_id: str,
+                 features: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+    """Taper and twist of a lobe measured on tracks (``tracks.taper_and_twist``) against
+    ``taper_max_um_per_mm`` and ``twist_max_deg`` (maxima of the magnitudes)."""
+    from cam_metrology.metrology.tracks import taper_and_twist
+
+    checks: list[dict[str, Any]] = []
+    missing: list[dict[str, str]] = []
+    if tol is None or (tol.taper_max_um_per_mm is None and tol.twist_max_deg is None):
+        return _verdict(checks, missing)
+    tracks = taper_and_twist({f: e for f, e in features.items()
+                              if e.get('track_of') == lobe_id}) or {}
+    for name, limit, field in (('taper_um_per_mm', tol.taper_max_um_per_mm, 'taper_um_per_mm'),
+                               ('nose_angle_difference_deg', tol.twist_max_deg,
+                                'nose_angle_difference_deg')):
+        if limit is None:
+            continue
+        if tracks.get(field) is None:
+            missing.append(_not(name, 'fewer than 2 tracks of this lobe measured '
+                                      '(frame_id <lobe>@<z mm>)'))
+        else:
+            checks.append(check(name, abs(tracks[field]), (None, limit),
+                                'um/mm' if field.startswith('taper') else 'deg'))
+    return _verdict(checks, missing)
+
+
+class _Track:
+    """A track of a lobe as the verdict sees it: its own id, the lobe's tolerances."""
+
+    def __init__(self, track_id: str, lobe: Any) -> None:
+        self.id, self.lobe_id, self.tolerances = track_id, lobe.id, lobe.tolerances
+
+
+def judge_journal(journal: Any, feature: Mapping[str, Any]) -> dict[str, Any]:
+    """The verdict of a journal: run-out TIR, roundness, waviness (maxima) and the
+    diameter deviation band."""
+    tol = journal.tolerances or Tolerances()
+    if not tol.any() and journal.diameter_um is None:
+        return {'result': NOT_CHECKED, 'checks': [], 'failed': [],
+                'not_checked': [_not('*', 'no tolerances for this feature')]}
+    if feature.get('status') != 'ok':
+        return _verdict([], [_not('*', f"feature {feature.get('status')}: "
+                                       f"{feature.get('reason', '')}")])
+    checks: list[dict[str, Any]] = []
+    missing: list[dict[str, str]] = []
+    if tol.runout_max_um is not None:
+        checks.append(check('runout_um', feature['runout_um'], (None, tol.runout_max_um), 'um'))
+    _form_checks(tol, feature, checks, missing)
+    if journal.diameter_um is not None:
+        value = feature.get('diameter_deviation_um')
+        if value is None:
+            missing.append(_not('diameter_deviation_um', 'no probe.zero_radius in the scene'))
+        else:
+            checks.append(check('diameter_deviation_um', value, journal.diameter_um, 'um'))
+    return _verdict(checks, missing)
+
+
 def judge_datum(band: Band | None, feature: Mapping[str, Any] | None,
                 nominal_angle_rad: float | None, name: str = 'dowel pin') -> dict[str, Any]:
     """The verdict of the datum (dowel pin or keyway, ``name``): its centre angle minus
@@ -227,25 +323,41 @@ def judge_part(scene: Scene, features: dict[str, dict[str, Any]],
     n = 0
     datum = getattr(scene, 'datum_id', None) or 'dowel_pin'
     pin_std = (features.get(datum) or {}).get('angle_std_deg')
-    for lobe in scene.lobes:
-        has = lobe.tolerances is not None and lobe.tolerances.any()
-        toleranced |= has
-        feature = features.get(lobe.id)
-        if feature is None:
-            if has:
-                missing.append({'feature': lobe.id, 'quantity': '*',
-                                'why': 'lobe not measured (no samples)'})
-            continue
+
+    def lobe_verdict(lobe: Any, feature: dict[str, Any]) -> dict[str, Any]:
         std = feature.get('angle_std_deg')
         phase_std = (math.hypot(std, pin_std) if std is not None and pin_std is not None
                      else None)
-        v = judge_lobe(lobe.tolerances, feature, tables.get(lobe.id), designs.get(lobe.id),
-                       phase_std)
+        return judge_lobe(lobe.tolerances, feature, tables.get(lobe.id),
+                          designs.get(getattr(lobe, 'lobe_id', lobe.id)), phase_std)
+
+    judged = [(lobe, 'lobe', lobe.tolerances is not None and lobe.tolerances.any(),
+               lobe_verdict) for lobe in scene.lobes]
+    for lobe in scene.lobes:   # tracks across the width (lobe_1@-4): the lobe's tolerances
+        judged += [(_Track(fid, lobe), 'track', lobe.tolerances is not None and
+                    lobe.tolerances.any(), lobe_verdict) for fid, f in features.items()
+                   if f.get('track_of') == lobe.id]
+    judged += [(j, 'journal', j.tolerances is not None or j.diameter_um is not None,
+                judge_journal) for j in getattr(scene, 'journals', ())]
+    for item, what, has, judge in judged:
+        toleranced |= has
+        feature = features.get(item.id)
+        if feature is None:
+            if has:
+                missing.append({'feature': item.id, 'quantity': '*',
+                                'why': f'{what} not measured (no samples)'})
+            continue
+        v = judge(item, feature)
         feature['verdict'] = v
         if has:
             n += len(v['checks'])
-            failed += [{'feature': lobe.id, **f} for f in v['failed']]
-            missing += [{'feature': lobe.id, **m} for m in v['not_checked']]
+            failed += [{'feature': item.id, **f} for f in v['failed']]
+            missing += [{'feature': item.id, **m} for m in v['not_checked']]
+    for lobe in scene.lobes:
+        v = judge_tracks(lobe.tolerances, lobe.id, features)
+        n += len(v['checks'])
+        failed += [{'feature': lobe.id, **f} for f in v['failed']]
+        missing += [{'feature': lobe.id, **m} for m in v['not_checked']]
     pin = scene.dowel_pin if datum == 'dowel_pin' else getattr(scene, 'keyway', None)
     if scene.datum_tolerance_deg is not None:
         toleranced = True

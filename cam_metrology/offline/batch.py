@@ -90,7 +90,8 @@ def bag_sha256(bag: Path) -> str:
     return h.hexdigest()
 
 
-def _start_ns(bag: Path) -> int | None:
+def bag_start_ns(bag: Path) -> int | None:
+    """The bag's start time [ns since the epoch] from its metadata.yaml, or None."""
     meta = bag / 'metadata.yaml'
     if not meta.is_file():
         return None
@@ -151,7 +152,7 @@ def analyse_bag(bag: str, all_cores: bool = False) -> list[dict[str, Any]]:
         report = analyze_report(path, only_metrology=not all_cores)
     except Exception as exc:  # noqa: BLE001 -- every failure is reported per bag
         return [_failed(bag, sha, str(exc) or type(exc).__name__)]
-    return rows_of_report(bag, sha, report, _start_ns(path))
+    return rows_of_report(bag, sha, report, bag_start_ns(path))
 
 
 def _failed(bag: str, sha: str, reason: str) -> dict[str, Any]:
@@ -337,18 +338,21 @@ def _analyse_all(todo: list[str], scheduler: str | None, workers: int,
 IN_FLIGHT = 2
 #: bags a local worker analyses before it is replaced by a fresh process
 RECYCLE_AFTER = 100
+RESTART_TIMEOUT_S = 900.0   # seconds a recycled worker may take to come back
 
 
 def _restart_quietly(client: Any) -> None:
     """``client.restart()`` without the nanny's warnings on stderr (a worker killed
-    after its grace period is the expected way a recycled worker ends)."""
+    after its grace period is the expected way a recycled worker ends). A new worker
+    process imports numpy, scipy and the analysis: on a loaded machine that can take
+    minutes, so the wait is RESTART_TIMEOUT_S, not Dask's default of 2 minutes."""
     import logging
 
     nanny = logging.getLogger('distributed.nanny')
     level = nanny.level
     nanny.setLevel(logging.ERROR)
     try:
-        client.restart()
+        client.restart(timeout=RESTART_TIMEOUT_S)
     finally:
         nanny.setLevel(level)
 

@@ -10,6 +10,11 @@ set to zero): repeatability σ²_E = MS_E; interaction σ²_PO = (MS_PO − MS_E
 σ_total (share of the study variation); ndc = floor(1.41 σ_P / σ_GRR). When the
 interaction is not significant (p-value > 0.25, the AIAG convention) it is pooled into
 the error term.
+
+Against a tolerance T (USL - LSL): %Tol = 100 · 6 σ / T for the GRR and each component
+(study variation 6 σ). Acceptance bands of %GRR and %Tol (AIAG MSA): below 10 %
+acceptable, 10–30 % conditionally acceptable (depending on the application), above 30 %
+not acceptable; and ndc >= 5.
 """
 from __future__ import annotations
 
@@ -59,14 +64,47 @@ class GaugeRR:
         """Number of distinct categories, floor(1.41 σ_P / σ_GRR)."""
         return int(math.floor(1.41 * math.sqrt(self.part / self.grr))) if self.grr > 0 else 0
 
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-ready."""
-        return {'anova': self.anova, 'variance': {
+    def percent_tolerance(self, tolerance: float) -> dict[str, float]:
+        """100 · 6 σ / ``tolerance`` of the GRR and of each component."""
+        if not (math.isfinite(tolerance) and tolerance > 0):
+            raise InputError('tolerance', tolerance, 'the tolerance USL - LSL (> 0)')
+        parts = {'grr': self.grr, 'repeatability': self.repeatability,
+                 'reproducibility': self.reproducibility, 'part': self.part}
+        return {k: 600.0 * math.sqrt(v) / tolerance for k, v in parts.items()}
+
+    def as_dict(self, tolerance: float | None = None) -> dict[str, Any]:
+        """JSON-ready; with ``tolerance`` (USL - LSL) also %Tol and its band."""
+        out: dict[str, Any] = {'anova': self.anova, 'variance': {
             'repeatability': self.repeatability, 'operator': self.operator,
             'interaction': self.interaction, 'reproducibility': self.reproducibility,
             'grr': self.grr, 'part': self.part, 'total': self.total},
             'percent_grr': self.percent_grr, 'ndc': self.ndc,
-            'interaction_pooled': self.interaction_pooled}
+            'interaction_pooled': self.interaction_pooled,
+            'acceptance': {'percent_grr': acceptance_band(self.percent_grr),
+                           'ndc': 'acceptable' if self.ndc >= NDC_MIN else
+                           f'not acceptable (ndc < {NDC_MIN})'}}
+        if tolerance is not None:
+            tol = self.percent_tolerance(tolerance)
+            out['tolerance'] = float(tolerance)
+            out['percent_tolerance'] = tol
+            out['acceptance']['percent_tolerance'] = acceptance_band(tol['grr'])
+        return out
+
+
+#: the fewest distinct categories an acceptable gauge resolves (AIAG MSA)
+NDC_MIN = 5
+
+
+def acceptance_band(percent: float) -> str:
+    """AIAG MSA band of a %GRR or %Tol: < 10 acceptable, 10-30 conditionally acceptable,
+    > 30 not acceptable."""
+    if not math.isfinite(percent):
+        return 'not evaluated'
+    if percent < 10.0:
+        return 'acceptable (< 10 %)'
+    if percent <= 30.0:
+        return 'conditionally acceptable (10-30 %)'
+    return 'not acceptable (> 30 %)'
 
 
 def gauge_rr(y: ArrayLike, *, pool_alpha: float = 0.25) -> GaugeRR:

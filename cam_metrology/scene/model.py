@@ -13,8 +13,8 @@ from typing import Any
 from cam_design.follower import Follower
 from cam_design.lift_laws import LiftLaw
 
-__all__ = ['Follower', 'Lobe', 'DowelPin', 'Keyway', 'Crank', 'Seat', 'ValveTrain', 'Scene',
-           'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances']
+__all__ = ['Follower', 'FormSettings', 'Journal', 'Lobe', 'DowelPin', 'Keyway', 'Crank',
+           'Seat', 'ValveTrain', 'Scene', 'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances']
 COMPUTE_ITEMS = ('nose', 'pin', 'asymmetry', 'reconstruction', 'dynamics')
 
 
@@ -47,12 +47,36 @@ class Tolerances:
     runout_max_um: float | None = None
     duration_deg: Band | None = None
     checking_height_mm: float = 1.0
+    roundness_max_um: float | None = None      # base-circle roundness (LSCI), a maximum
+    waviness_max_um: float | None = None       # largest harmonic in the waviness band
+    taper_max_um_per_mm: float | None = None   # |nose lift slope across the tracks|
+    twist_max_deg: float | None = None         # |nose-angle difference, outer tracks|
+    velocity_error_max_mm_per_rad: float | None = None        # |h' measured - design|
+    acceleration_error_max_mm_per_rad2: float | None = None   # |h'' measured - design|
 
     def any(self) -> bool:
         """True if at least one limit is set."""
         limits = (self.lift_error_um, self.centreline_deg, self.phase_deg,
-                  self.max_lift_um, self.runout_max_um, self.duration_deg)
+                  self.max_lift_um, self.runout_max_um, self.duration_deg,
+                  self.roundness_max_um, self.waviness_max_um, self.taper_max_um_per_mm,
+                  self.twist_max_deg, self.velocity_error_max_mm_per_rad,
+                  self.acceleration_error_max_mm_per_rad2)
         return any(v is not None for v in limits) or bool(self.lift_error_zones)
+
+    def wants_derivatives(self) -> bool:
+        """True if a velocity or acceleration error limit is set."""
+        return self.velocity_error_max_mm_per_rad is not None or \
+            self.acceleration_error_max_mm_per_rad2 is not None
+
+
+@dataclass(frozen=True)
+class FormSettings:
+    """Harmonic and form analysis of every feature (docs/scene.md ``form``): the Gaussian
+    filter's cut-off [UPR] and the waviness band [UPR] (None: 15 UPR to the cut-off)."""
+
+    cutoff_upr: int = 50
+    waviness_band_upr: tuple[int, int] | None = None
+    derivative_errors: bool = False   # velocity/acceleration errors of every lobe
 
 
 @dataclass(frozen=True)
@@ -69,6 +93,18 @@ class Lobe:
     role: str | None = None                   # 'intake' | 'exhaust' (crank events)
     cylinder: str = '1'                       # cylinder the lobe serves (crank datum)
     nominal_file: str | None = None           # gauge file the design came from (resolved)
+
+
+@dataclass(frozen=True)
+class Journal:
+    """A journal (bearing seat) measured as a feature: nominal radius and axial position
+    along the shaft [m]; its form and run-out tolerances (µm, keys as a lobe's)."""
+
+    id: str
+    radius: float
+    axial_position: float
+    tolerances: Tolerances | None = None
+    diameter_um: Band | None = None           # diameter deviation band [um]
 
 
 @dataclass(frozen=True)
@@ -157,6 +193,13 @@ class Scene:
     crank: Crank | None = None                # crank datum (needs a pin or keyway)
     study: dict[str, str] = field(default_factory=dict)   # part_id, operator, trial
     camshaft: Any = None                      # cam_design.camshaft.spec.CamshaftSpec
+    form: FormSettings = field(default_factory=FormSettings)
+    journals: tuple[Journal, ...] = ()
+    probe_zero_radius: float | None = None    # m, radius at which the probe reads 0
+
+    def journal(self, journal_id: str) -> Journal | None:
+        """The journal with this id, or None."""
+        return next((j for j in self.journals if j.id == journal_id), None)
 
     @property
     def datum_id(self) -> str | None:

@@ -33,7 +33,7 @@ __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
             'dowel_pin', 'keyway', 'crank', 'compute', 'valve_train', 'idle_timeout',
-            'tolerances', 'part_id', 'operator', 'trial', 'camshaft')
+            'tolerances', 'part_id', 'operator', 'trial', 'camshaft', 'form', 'journals')
 #: top-level keys of a gauge R&R study (carried into the report and the batch table)
 STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
@@ -42,7 +42,11 @@ LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift
              'width', 'tolerances', 'role', 'cylinder', 'nominal_file')
 #: tolerance keys of a lobe (units in the names); the top-level block adds datum_deg
 TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
-TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'runout_max_um', 'checking_height_mm')
+#: tolerance keys that are a maximum only (>= 0)
+TOL_MAXIMA = ('runout_max_um', 'roundness_max_um', 'waviness_max_um', 'taper_max_um_per_mm',
+              'twist_max_deg', 'velocity_error_max_mm_per_rad',
+              'acceleration_error_max_mm_per_rad2')
+TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm') + TOL_MAXIMA
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 #: lift [m] above which a nominal file's row is on the lobe, not the base circle
 NOMINAL_BASE_LEVEL = 1e-7
@@ -184,7 +188,7 @@ def _parse_document(text: str, source: str, base_dir: str | Path | None) -> Scen
         raise InputError('keyway', 'given with a dowel_pin',
                          'one angular datum: either dowel_pin or keyway, not both')
     datum = _datum_tolerance(defaults, pin or keyway)
-    if not lobes and pin is None and keyway is None:
+    if not lobes and pin is None and keyway is None and not top.get('journals'):
         raise InputError('lobes', top.get('lobes', []),
                          'at least one lobe (or a dowel_pin or keyway): nothing to measure')
     crank = _crank(ctx, top.get('crank'), pin or keyway, lobes)
@@ -199,11 +203,20 @@ def _parse_document(text: str, source: str, base_dir: str | Path | None) -> Scen
         ctx.warnings.append('lobes[].nominal_phase: given but the scene has no dowel_pin or '
                             'keyway; phases cannot be measured')
     study = {k: _text(k, top[k]) for k in STUDY_KEYS if top.get(k) is not None}
+    from cam_metrology.scene.form_and_journals import parse_form
+    form = parse_form(ctx.mapping('form', top['form'], ('cutoff_upr', 'waviness_band_upr',
+                                                        'derivative_errors'))
+                      if top.get('form') is not None else None)
+    from cam_metrology.scene.form_and_journals import parse_journals, parse_zero_radius
+    journals = parse_journals(top.get('journals'), ctx.mapping,
+                              {lobe.id for lobe in lobes} | set(DATUM_IDS), _band)
+    zero_radius = parse_zero_radius(top['probe'].get('zero_radius'))
     return Scene(camshaft_id=camshaft_id, direction=direction, probe=probe,
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
-                 crank=crank, study=study, camshaft=shaft)
+                 crank=crank, study=study, camshaft=shaft, form=form, journals=journals,
+                 probe_zero_radius=zero_radius)
 
 
 def _camshaft(block: Any, lobes: list[Lobe]) -> Any:
@@ -269,7 +282,7 @@ def _follower(kind_key: str, radius_key: str, kind: Any, radius: Any,
 
 
 def _probe(ctx: _Ctx, value: Any) -> Follower:
-    probe = ctx.mapping('probe', value, ('kind', 'radius'))
+    probe = ctx.mapping('probe', value, ('kind', 'radius', 'zero_radius'))
     if 'kind' not in probe:
         raise InputError('probe.kind', None, ' | '.join(PROBE_KINDS))
     return _follower('probe.kind', 'probe.radius', probe['kind'], probe.get('radius'),
@@ -765,9 +778,9 @@ def _tolerance_block(ctx: _Ctx, key: str, value: Any, known: tuple[str, ...]
     if 'lift_error_zones' in block:
         out['lift_error_zones'] = _zones(ctx, f'{key}.lift_error_zones',
                                          block['lift_error_zones'])
-    if 'runout_max_um' in block:
-        out['runout_max_um'] = require_positive(f'{key}.runout_max_um', block['runout_max_um'],
-                                                allow_zero=True)
+    for k in TOL_MAXIMA:
+        if k in block:
+            out[k] = require_positive(f'{key}.{k}', block[k], allow_zero=True)
     if 'checking_height_mm' in block:
         out['checking_height_mm'] = require_positive(f'{key}.checking_height_mm',
                                                      block['checking_height_mm'])

@@ -88,6 +88,25 @@ class SimParams:
     reverse: bool = _doc(False, 'shaft turned backwards: theta decreases with time')
     lift_scale: float = _doc(1.0, 'true lift of every lobe = lift_scale x its design lift '
                              '(a form error for acceptance tests; 1: the design)')
+    chatter_upr: int = _doc(0, 'chatter marks on every lobe: a ripple of this many '
+                            'undulations per revolution (0: none)')
+    chatter_amplitude: float = _doc(0.0, 'm, amplitude of the chatter ripple')
+    chatter_extent_deg: float = _doc(360.0, 'cam degrees the chatter covers (360: all round)')
+    chatter_centre_deg: float = _doc(0.0, 'cam angle [deg] from the lobe centreline at the '
+                                     'middle of the chattered arc')
+    journal_lobes: int = _doc(0, 'journals: lobing of this many UPR (3: a 3-lobed journal; '
+                              '0: round)')
+    journal_lobing: float = _doc(0.0, 'm, amplitude of the journals\' lobing')
+    bend: float = _doc(0.0, 'm, bow of a bent shaft: eccentricity of the journals '
+                       'bend * sin(pi (z - z_first) / (z_last - z_first)) along the axis')
+    bend_direction_deg: float = _doc(0.0, 'encoder angle [deg] of the bow\'s direction')
+    lobe_tracks_mm: tuple[float, ...] | None = _doc(
+        None, 'every lobe measured on these tracks across its width [mm from its mid-plane] '
+        'as frame_id <lobe>@<z> (None: one track, frame_id the lobe id)')
+    taper_um_per_mm: float = _doc(0.0, 'tracks: nose lift grows by this many um per mm of '
+                                  'z (the lift scaled by 1 + taper z / max lift)')
+    twist_deg_per_mm: float = _doc(0.0, 'tracks: the nose turns by this many cam degrees per '
+                                   'mm of z')
 
     def validated(self) -> SimParams:
         """Raise InputError for an impossible parameter; return self."""
@@ -116,6 +135,24 @@ class SimParams:
         require_positive('runout', self.runout, allow_zero=True)
         require_positive('feature_gap', self.feature_gap, allow_zero=True)
         require_positive('lift_scale', self.lift_scale)
+        if isinstance(self.chatter_upr, bool) or int(self.chatter_upr) != self.chatter_upr \
+                or self.chatter_upr < 0:
+            raise InputError('chatter_upr', self.chatter_upr, 'a whole number of UPR >= 0')
+        require_positive('chatter_amplitude', self.chatter_amplitude, allow_zero=True)
+        extent = require_positive('chatter_extent_deg', self.chatter_extent_deg)
+        if extent > 360.0:
+            raise InputError('chatter_extent_deg', extent, 'cam degrees in (0, 360]')
+        require_finite('chatter_centre_deg', self.chatter_centre_deg)
+        if isinstance(self.journal_lobes, bool) or int(self.journal_lobes) != \
+                self.journal_lobes or self.journal_lobes < 0:
+            raise InputError('journal_lobes', self.journal_lobes, 'a whole number of UPR >= 0')
+        require_positive('journal_lobing', self.journal_lobing, allow_zero=True)
+        require_positive('bend', self.bend, allow_zero=True)
+        require_finite('bend_direction_deg', self.bend_direction_deg)
+        for j, z in enumerate(self.lobe_tracks_mm or ()):
+            require_finite(f'lobe_tracks_mm[{j}]', z)
+        require_finite('taper_um_per_mm', self.taper_um_per_mm)
+        require_finite('twist_deg_per_mm', self.twist_deg_per_mm)
         if self.true_angles is not None:
             if not isinstance(self.true_angles, dict):
                 raise InputError('true_angles', self.true_angles, 'a mapping id -> rad')
@@ -244,7 +281,10 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     gap_ns = int(round(params.feature_gap * 1e9))
     zero = params.probe_zero_offset
     scale = float(params.lift_scale)
-    order: list[tuple[str, str]] = [(lobe.id, 'lobe') for lobe in scene.lobes]
+    order: list[tuple[str, str]] = [
+        (lobe.id if params.lobe_tracks_mm is None else f'{lobe.id}@{z:g}', 'lobe')
+        for lobe in scene.lobes for z in (params.lobe_tracks_mm or (0.0,))]
+    order += [(j.id, 'journal') for j in scene.journals]
     if scene.datum_id is not None:
         order.append((scene.datum_id, scene.datum_id))
     features: list[SimFeature] = []
@@ -254,13 +294,20 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
     for fid, kind in order:
         k = np.arange(k0, k0 + n, dtype=np.float64)
         theta_true = params.start_theta + (-k if params.reverse else k) * step
-        alpha = wrap_pi(scene.direction * (theta_true - angles[fid]))
+        base_id, _, track = fid.partition('@')
+        alpha = wrap_pi(scene.direction * (theta_true - angles.get(base_id, 0.0)))
         if kind == 'lobe':
-            law = probe_lift(scene, fid)
-            lobe = scene.lobe(fid)
-            conversions[fid] = ('identity' if law is lobe.lift else
-                                f'{lobe.follower.kind} -> {scene.probe.kind}')
+            law = probe_lift(scene, base_id)
+            lobe = scene.lobe(base_id)
+            conversions[base_id] = ('identity' if law is lobe.lift else
+                                    f'{lobe.follower.kind} -> {scene.probe.kind}')
+            if track:
+                law = tapered(law, float(track), params)
             s = zero + (law(alpha) if scale == 1.0 else scale * law(alpha))
+            if params.chatter_upr and params.chatter_amplitude:
+                s = s + chatter(theta_true, alpha, params)
+        elif kind == 'journal':
+            s = zero + journal_reading(scene, fid, theta_true, params)
         elif kind == KEYWAY:
             kw = scene.keyway
             kgeo = KeywayGeometry(kw.width, kw.shaft_radius, kw.probe_radius, kw.depth)
@@ -286,12 +333,57 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
         if params.wrapped:
             theta = np.mod(theta, TWO_PI)
         stamps = t0 + np.round(np.arange(n) * dt_ns).astype(np.int64)
-        features.append(SimFeature(fid, kind, angles[fid], theta, s, stamps))
+        features.append(SimFeature(fid, kind, angles.get(base_id, 0.0), theta, s, stamps))
         k0 += n
         t0 = int(stamps[-1]) + int(round(dt_ns)) + gap_ns
     run = BenchRun(scene, params, features)
     run.truth = _truth(scene, params, angles, conversions, n)
     return run
+
+
+def tapered(law: Callable[..., Any], z_mm: float, params: SimParams) -> Callable[..., Any]:
+    """The lift [m] of a track ``z_mm`` across the lobe's width: ``law`` turned by
+    ``twist_deg_per_mm * z`` and scaled by ``1 + taper_um_per_mm * z / max lift``."""
+    shift = math.radians(params.twist_deg_per_mm * z_mm)
+    grid = np.linspace(-math.pi, math.pi, 7201)
+    factor = 1.0 + params.taper_um_per_mm * 1e-6 * z_mm / float(np.max(law(grid)))
+    return lambda a: factor * law(wrap_pi(np.asarray(a) - shift))
+
+
+def bow(scene: Scene, journal_id: str, params: SimParams) -> float:
+    """Eccentricity [m] of a journal's centre on a bent shaft (``SimParams.bend``)."""
+    z = [j.axial_position for j in scene.journals]
+    j = scene.journal(journal_id)
+    span = max(z) - min(z)
+    if not params.bend or span <= 0:
+        return 0.0
+    return params.bend * math.sin(math.pi * (j.axial_position - min(z)) / span)
+
+
+def journal_reading(scene: Scene, journal_id: str, theta_true: NDArray[np.float64],
+                    params: SimParams) -> NDArray[np.float64]:
+    """Probe reading [m] on a journal above the base-circle reading: the radius
+    difference, the bow of a bent shaft (once per revolution towards
+    ``bend_direction_deg``) and the lobing ``journal_lobing cos(journal_lobes theta)``."""
+    j = scene.journal(journal_id)
+    out = np.full(theta_true.size, j.radius - scene.base_circle_radius)
+    e = bow(scene, journal_id, params)
+    if e:
+        out += e * np.cos(theta_true - math.radians(params.bend_direction_deg))
+    if params.journal_lobes and params.journal_lobing:
+        out += params.journal_lobing * np.cos(int(params.journal_lobes) * theta_true)
+    return out
+
+
+def chatter(theta_true: NDArray[np.float64], alpha: NDArray[np.float64],
+            params: SimParams) -> NDArray[np.float64]:
+    """The chatter ripple [m]: ``chatter_amplitude * cos(chatter_upr * theta_true)`` on
+    the cam angles ``alpha`` [rad] within ``chatter_extent_deg / 2`` of
+    ``chatter_centre_deg``, 0 elsewhere."""
+    off = wrap_pi(alpha - math.radians(params.chatter_centre_deg))
+    inside = np.abs(off) <= math.radians(params.chatter_extent_deg) / 2.0 + 1e-12
+    return np.where(inside, params.chatter_amplitude *
+                    np.cos(int(params.chatter_upr) * theta_true), 0.0)
 
 
 def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
@@ -318,11 +410,29 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
     p = asdict(params)
     if p.get('lift_scale') == 1.0:   # the design itself: truth as before the option existed
         del p['lift_scale']
+    if not p.get('chatter_upr'):     # no chatter: truth as before the option existed
+        for k in ('chatter_upr', 'chatter_amplitude', 'chatter_extent_deg',
+                  'chatter_centre_deg'):
+            del p[k]
+    if p.get('lobe_tracks_mm') is None:   # one track: truth as before the options existed
+        for k in ('lobe_tracks_mm', 'taper_um_per_mm', 'twist_deg_per_mm'):
+            del p[k]
+    else:
+        p['lobe_tracks_mm'] = list(p['lobe_tracks_mm'])
+    if not scene.journals:           # no journals: truth as before the options existed
+        for k in ('journal_lobes', 'journal_lobing', 'bend', 'bend_direction_deg'):
+            del p[k]
+    for j in scene.journals:
+        feats[j.id] = {'kind': 'journal', 'bow_m': bow(scene, j.id, params),
+                       'probe_zero_radius_m': scene.base_circle_radius -
+                       params.probe_zero_offset, 'samples': n}
     return {
         'camshaft_id': scene.camshaft_id,
         'direction': scene.direction,
         'features': feats,
-        'measurement_order': list(feats),
+        'measurement_order': [lobe.id if params.lobe_tracks_mm is None else f'{lobe.id}@{z:g}'
+                              for lobe in scene.lobes for z in (params.lobe_tracks_mm or (0,))] +
+        [j.id for j in scene.journals] + ([datum_id] if pin_angle is not None else []),
         'probe_zero_offset_m': params.probe_zero_offset,
         'probe_noise_m': params.probe_noise,
         'encoder_noise_rad': params.encoder_noise,
