@@ -8,7 +8,6 @@ provenance; tests compare later runs with it within stated tolerances
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
@@ -42,11 +41,11 @@ def run(args: argparse.Namespace) -> int:
     if out.is_dir():
         raise InputError('OUT', args.out, 'a file name, not a directory')
     if not out.parent.is_dir():
-        raise InputError('OUT', out, f'a file in an existing directory ({out.parent} '
+        raise InputError('OUT', args.out, f'a file in an existing directory ({out.parent} '
                          'does not exist)')
     report = golden_of(analyze_report(args.bag, args.params))
-    from cam_metrology.inputs.files import write_output
-    write_output(out, json.dumps(report, indent=1, sort_keys=True) + '\n', 'OUT')
+    from cam_metrology.report.json_out import write_json
+    write_json(out, report, 'OUT', sort_keys=True)
     n = len(report.get('features', {}))
     print(f'cam-bench golden: wrote {out} ({n} features of {args.bag})')
     return 0
