@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     if out.is_dir():
         raise InputError('OUT', args.out, 'a file name, not a directory')
     if not out.parent.is_dir():
-        raise InputError('OUT', out, f'a file in an existing directory ({out.parent} '
+        raise InputError('OUT', args.out, f'a file in an existing directory ({out.parent} '
                          'does not exist)')
     report = golden_of(analyze_report(args.bag, args.params))
     from cam_metrology.report.json_out import write_json

@@ -28,7 +28,9 @@ def read_text_file(path: str | Path, what: str, key: str | None = None, *,
     if str(path) == '-':
         import sys
 
-        data = sys.stdin.buffer.read(max_bytes + 1)
+        raw = getattr(sys.stdin, 'buffer', None)   # a text stream (tests) has none
+        data = raw.read(max_bytes + 1) if raw is not None else \
+            sys.stdin.read(max_bytes + 1).encode('utf-8', errors='surrogateescape')
         if len(data) > max_bytes:
             raise InputError(name, f'more than {max_bytes} bytes on standard input',
                              f'a {what} of at most {max_bytes} bytes')

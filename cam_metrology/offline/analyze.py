@@ -108,9 +108,11 @@ def bag_warnings(bag: str) -> list[str]:
         return []
     ids = [sc.scene.camshaft_id for sc in scenes]
     if len(set(ids)) > 1:   # two parts in one bag: one report would mix them
+        from pathlib import Path
+
         from cam_design.errors import InputError
         first = next(sc for sc in scenes if sc.scene.camshaft_id != ids[0])
-        raise InputError('bag', bag, f'one camshaft per bag: its /bench/scene changes '
+        raise InputError('bag', Path(bag), f'one camshaft per bag: its /bench/scene changes '
                          f'camshaft_id from {ids[0]!r} to {first.scene.camshaft_id!r} at '
                          f'log time {first.stamp_ns / 1e9:.6f} s (two parts: record or '
                          'split them into one bag each)')
