@@ -16,11 +16,12 @@ from cam_design.valve_train import SdofParams
 from cam_design.valve_train.examples import DEG, symmetric_law
 from cam_design.valve_train.mdof import MdofAssembly, mdof_from_mapping, simulate_mdof
 from cam_design.valve_train.cam_input import build_cam_input
-from cam_design.valve_train.mdof_exact import CAM, RV, T, V, _Model, run_exact, static_state
+from cam_design.valve_train.mdof_exact import CAM, RV, T, V, run_exact, static_state
+from cam_design.valve_train.mdof_model import MdofModel as _Model
 from cam_design.valve_train.mdof_reference import reference_mdof
 from cam_design.valve_train.physics import (coil_bind, dynamic_clearance, spring_margin,
                                             train_checks_from)
-from cam_design.valve_train.sdof import NB, _FACT
+from cam_design.valve_train.propagate import FACT as _FACT, NB
 
 from test_valve_train_sdof import BASE, ramp_law
 

@@ -88,6 +88,11 @@ class Run:
     force: NDArray[np.float64]          # cam-follower contact force [N]
     stress: NDArray[np.float64]
     events: dict[str, Any] = field(default_factory=dict)
+    #: torque [N m] the shaft delivers to this lobe (contact force x lever arm, plus the
+    #: friction torque), against alpha; set by ``cam_design.train.run.run_train``
+    drive_torque: NDArray[np.float64] | None = None
+    #: friction torque [N m] of the cam-follower contact against alpha (0 without friction)
+    friction_torque: NDArray[np.float64] | None = None
 
     def table(self) -> NDArray[np.float64]:
         """(rows, 5) in COLUMNS order."""
@@ -105,6 +110,10 @@ class Run:
                 'contact_force_n': self.force.tolist(),
                 'contact_stress_pa': self.stress.tolist(),
             })
+            if self.drive_torque is not None:
+                out['drive_torque_nm'] = self.drive_torque.tolist()
+            if self.friction_torque is not None:
+                out['friction_torque_nm'] = self.friction_torque.tolist()
         out.update(self.events)
         return out
 

@@ -33,7 +33,7 @@ __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
             'dowel_pin', 'keyway', 'crank', 'compute', 'valve_train', 'idle_timeout',
-            'tolerances', 'part_id', 'operator', 'trial')
+            'tolerances', 'part_id', 'operator', 'trial', 'camshaft')
 #: top-level keys of a gauge R&R study (carried into the report and the batch table)
 STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
@@ -192,6 +192,7 @@ def _parse_document(text: str, source: str, base_dir: str | Path | None) -> Scen
     valve = _valve_train(ctx, top['valve_train']) \
         if top.get('valve_train') is not None else None
     idle = require_positive('idle_timeout', top.get('idle_timeout', 1.0))
+    shaft = _camshaft(top.get('camshaft'), lobes)
     _check_conversions(ctx, lobes, base, probe)
     if pin is None and keyway is None and any(lobe.nominal_phase is not None
                                               for lobe in lobes):
@@ -202,7 +203,21 @@ def _parse_document(text: str, source: str, base_dir: str | Path | None) -> Scen
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
-                 crank=crank, study=study)
+                 crank=crank, study=study, camshaft=shaft)
+
+
+def _camshaft(block: Any, lobes: list[Lobe]) -> Any:
+    """``camshaft:`` (``cam_design.camshaft.spec``): every lobe needs its nominal phase,
+    which places it on the shaft."""
+    if block is None:
+        return None
+    from cam_design.camshaft.spec import camshaft_from_mapping
+
+    for i, lobe in enumerate(lobes):
+        if lobe.nominal_phase is None:
+            raise InputError(f'lobes[{i}].nominal_phase', None, 'a nominal phase [rad] for '
+                             'every lobe on the camshaft (it places the lobe on the shaft)')
+    return camshaft_from_mapping(block, [lobe.id for lobe in lobes])
 
 
 def load_scene(path: str | Path) -> Scene:
