@@ -142,6 +142,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         import matplotlib.pyplot as plt
 
+        from cam_design.hydraulic.plot import plot_pressures
         from cam_design.valve_train.sweep import runs_figure
         from cam_metrology.inputs.files import output_dir, safe_name, save_figure
         folder = output_dir(args.plot, '--plot')
