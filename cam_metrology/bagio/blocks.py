@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from cam_metrology.bagio.joints import BLOCK_ISSUES, JointIssue, JointSamples
 from cam_metrology.wire.topics import CAMSHAFT_JOINT, JOINT_TRAJECTORY, PROBE_JOINT
 
-__all__ = ['decode_joint_blocks', 'decode_block_buffer']
+__all__ = ['decode_joint_blocks', 'decode_block_buffer', 'block_sample_count']
 
 #: most joint names in one block (a longer list is an unreadable message)
 MAX_JOINTS = 4096
@@ -399,3 +399,23 @@ def _assemble(blocks: list[_Block], log_ns: NDArray[np.int64],
         theta=np.concatenate([b.theta for b in used]),
         s=np.concatenate([b.s for b in used]),
         names=names, features=features, issues=issues, block_sizes=sizes)
+
+
+def block_sample_count(cdr: bytes) -> int:
+    """Points (samples) of one JointTrajectory CDR message, read from its header
+    without decoding the points (0 for a message too short to say)."""
+    try:
+        if cdr[0] != 0 or cdr[1] > 1:
+            return 0
+        e = '<' if cdr[1] == 1 else '>'
+        u32 = struct.Struct(e + 'I').unpack_from
+        base = 4
+        off = _al(base + 12 + u32(cdr, base + 8)[0], base, 4)
+        count = u32(cdr, off)[0]
+        off += 4
+        for _ in range(min(count, MAX_JOINTS)):
+            off = _al(off, base, 4)
+            off += 4 + u32(cdr, off)[0]
+        return int(u32(cdr, _al(off, base, 4))[0])
+    except (IndexError, struct.error):
+        return 0
