@@ -11,12 +11,14 @@ can reuse it (``topic`` names the messages in issues).
 A block that cannot give its samples is reported, never silently used: a ``JointIssue``
 names the first such block (``topic[i].field``), the value and what would work, and
 counts the blocks. Blocks with a missing joint, positions of another length than
-``joint_names``, a ``time_from_start`` going backwards, an invalid time, samples that
+``joint_names``, a ``time_from_start`` going backwards or invalid, samples that
 overlap the next block in time (a block straddling a feature boundary) or a
 ``frame_id`` that differs from the blocks on both sides of it (inside one feature's
 blocks) give NaN samples (dropped and counted by the feature, the frame id of the
-surrounding feature); an empty block gives none; an unreadable or truncated message
-gives none. The rest is decoded as usual.
+surrounding feature); an empty block, an invalid ``header.stamp`` and an unreadable
+or truncated message give none. The rest is decoded as usual. The checks between
+neighbouring blocks see the blocks decoded together (a live batch, or a streamed read
+of a bag: about 4 MB of chunks at a time).
 
 Speed: a block whose points share one layout (every block cam-bench and a usual
 bench write) is read with strided numpy views (no per-point Python); other blocks are
