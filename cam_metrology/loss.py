@@ -221,7 +221,10 @@ def loss_status(losses: Sequence[SequenceLoss], extra: str = '') -> tuple[int, s
     if bad:
         msg = '; '.join(x.summary() for x in bad)
     else:
-        msg = f'no loss ({sum(x.received for x in losses)} messages received)'
+        msg = f'no loss ({sum(x.received for x in losses)} messages received'
+        blocks = [x for x in losses if x.blocks and x.received]
+        msg += ''.join(f', {x.block_samples} samples in {x.received} blocks on {x.topic}'
+                       for x in blocks) + ')'
     return level, msg + (f'; {extra}' if extra else '')
 
 

@@ -88,6 +88,10 @@ class SimParams:
     reverse: bool = _doc(False, 'shaft turned backwards: theta decreases with time')
     lift_scale: float = _doc(1.0, 'true lift of every lobe = lift_scale x its design lift '
                              '(a form error for acceptance tests; 1: the design)')
+    samples_per_message: int = _doc(1, 'how the bench sends its samples: 1 = one '
+                                    'sensor_msgs/JointState each on /bench/joint_states; '
+                                    'N > 1 = blocks of N per trajectory_msgs/JointTrajectory '
+                                    'on /bench/joint_trajectory')
 
     def validated(self) -> SimParams:
         """Raise InputError for an impossible parameter; return self."""
@@ -116,6 +120,10 @@ class SimParams:
         require_positive('runout', self.runout, allow_zero=True)
         require_positive('feature_gap', self.feature_gap, allow_zero=True)
         require_positive('lift_scale', self.lift_scale)
+        if isinstance(self.samples_per_message, bool) or not isinstance(
+                self.samples_per_message, (int, np.integer)) or self.samples_per_message < 1:
+            raise InputError('samples_per_message', self.samples_per_message,
+                             'an integer >= 1')
         if self.true_angles is not None:
             if not isinstance(self.true_angles, dict):
                 raise InputError('true_angles', self.true_angles, 'a mapping id -> rad')
@@ -318,6 +326,8 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
     p = asdict(params)
     if p.get('lift_scale') == 1.0:   # the design itself: truth as before the option existed
         del p['lift_scale']
+    if p.get('samples_per_message') == 1:   # one sample per message: truth as before
+        del p['samples_per_message']
     return {
         'camshaft_id': scene.camshaft_id,
         'direction': scene.direction,
@@ -346,7 +356,7 @@ def iter_joint_state_messages(run: BenchRun) -> Iterator[tuple[int, str, float, 
 def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = None, *,
                   compression: bool = True,
                   progress: Callable[[int, int], None] | None = None,
-                  rounds: int = 1, samples_per_message: int = 1) -> BenchRun:
+                  rounds: int = 1, samples_per_message: int | None = None) -> BenchRun:
     """Simulate and record a bag as the bench + recorder would (returns the run).
 
     Topics: ``/bench/scene`` (scene YAML) and ``/bench/truth`` (JSON) first, latched;
@@ -355,8 +365,9 @@ def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = Non
     is called every 10 000 samples. ``rounds``: the bench measures every feature that
     many times in a row (the same samples, each round later by the run's duration plus
     ``feature_gap``): a long bag of repeated measurements of one part.
-    ``samples_per_message`` > 1: the samples go in blocks of that many on
-    ``/bench/joint_trajectory`` (log time = the block's last sample) instead.
+    ``samples_per_message`` (default: ``params.samples_per_message``) > 1: the samples
+    go in blocks of that many on ``/bench/joint_trajectory`` (log time = the block's
+    last sample) instead.
     """
     from cam_metrology.bagio import BagWriter
     from cam_metrology.wire.cdr import encode_joint_states, encode_sample_blocks, encode_string
@@ -365,6 +376,8 @@ def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = Non
 
     if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)) or rounds < 1:
         raise InputError('rounds', rounds, 'an integer >= 1')
+    if samples_per_message is None:
+        samples_per_message = (params or SimParams()).samples_per_message
     if isinstance(samples_per_message, bool) or not isinstance(
             samples_per_message, (int, np.integer)) or samples_per_message < 1:
         raise InputError('samples_per_message', samples_per_message, 'an integer >= 1')

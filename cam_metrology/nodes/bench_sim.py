@@ -60,9 +60,6 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     'ack_timeout': (10.0, 's to wait at the end until subscribers acknowledged everything'),
     'max_burst': (200, 'most messages (samples, or blocks) published back to back when '
                        'catching up'),
-    'samples_per_message': (1, '1: one sensor_msgs/JointState per sample on '
-                               '/bench/joint_states; N > 1: blocks of N samples per '
-                               'trajectory_msgs/JointTrajectory on /bench/joint_trajectory'),
     'angle_joint': (CAMSHAFT_JOINT, 'joint name of the encoder angle [rad] in the samples'),
     'lift_joint': (PROBE_JOINT, 'joint name of the probe lift [m] in the samples'),
     'exit_when_done': (True, 'exit after the last feature; false: idle until SIGINT'),
