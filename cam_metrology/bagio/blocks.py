@@ -172,57 +172,45 @@ def _decode_one(data: Any, view: memoryview, a: int, size: int,
         need(end + 1)
     points = _points_uniform(data, off, end, base, e, npts) or \
         _points_walk(data, off, end, base, e, npts, need)
-    pos_off, pos_count, dsec, dnsec = points
+    dsec, dnsec = points.durations()
     rel = dsec * _NS + dnsec
     stamps = stamp + rel
     nan = np.full(npts, np.nan)
-    block = _Block(frame, stamp, names_t, stamps, nan, nan.copy())
+    block = _Block(frame, stamp, names_t, stamps, nan, nan)
     for kind, joint in ((_ANGLE, joints[0]), (_LIFT, joints[1])):
         if joint not in names_t:
             block.usable = False
             raise _Bad(kind, '.joint_names', list(names_t),
                        f'a joint named {joint!r} (joints are looked up by name; the node '
                        'parameters angle_joint and lift_joint name the bench\'s joints)', block)
-    bad_len = pos_count != len(names_t)
+    bad_len = points.counts != len(names_t)
     if np.any(bad_len):
         j = int(np.argmax(bad_len))
         block.usable = False
         raise _Bad(_LENGTHS, f'.points[{j}].positions',
-                   f'{int(pos_count[j])} values for {len(names_t)} joint_names',
-                   'one position per joint name', block)
-    if np.any(dnsec >= _NS):
+                   f'{int(np.broadcast_to(points.counts, (npts,))[j])} values for '
+                   f'{len(names_t)} joint_names', 'one position per joint name', block)
+    if int(dnsec.max()) >= _NS:
         j = int(np.argmax(dnsec >= _NS))
         block.usable = False
         raise _Bad(_STAMP, f'.points[{j}].time_from_start', f'nanosec {int(dnsec[j])}',
                    'a valid duration (nanosec < 1e9)', block)
-    back = np.diff(rel) < 0
-    if np.any(back) or rel[0] < 0:
+    if rel[0] < 0 or (npts > 1 and not bool(np.all(rel[1:] >= rel[:-1]))):
+        back = np.diff(rel) < 0
         j = int(np.argmax(back)) + 1 if np.any(back) else 0
         block.usable = False
         raise _Bad(_BACKWARDS, f'.points[{j}].time_from_start',
                    f'{int(rel[j])} ns after {int(rel[j - 1]) if j else 0} ns',
                    'offsets >= 0 from header.stamp that never decrease (points in '
                    'acquisition order)', block)
-    ia, il = names_t.index(joints[0]), names_t.index(joints[1])
-    block.theta = _f64(data, e, pos_off + 8 * ia)
-    block.s = _f64(data, e, pos_off + 8 * il)
+    block.theta = points.f64(names_t.index(joints[0]))
+    block.s = points.f64(names_t.index(joints[1]))
     return block
 
 
 def _al(off: int, base: int, k: int) -> int:
     """``off`` aligned to ``k`` bytes relative to the CDR payload start ``base``."""
     return off + (-(off - base)) % k
-
-
-def _f64(data: Any, e: str, offsets: NDArray[np.int64]) -> NDArray[np.float64]:
-    """The float64 values at byte ``offsets`` of ``data`` (a copy, native order)."""
-    if offsets.size > 1 and np.all(np.diff(offsets) == offsets[1] - offsets[0]) and \
-            offsets[1] > offsets[0]:
-        stride = int(offsets[1] - offsets[0])
-        out = np.ndarray((offsets.size,), dtype=e + 'f8', buffer=data,
-                         offset=int(offsets[0]), strides=(stride,))
-        return out.astype(np.float64)
-    return np.array([struct.unpack_from(e + 'd', data, int(o))[0] for o in offsets.tolist()])
 
 
 def _point_layout(data: Any, off: int, base: int, e: str, end: int,
@@ -250,11 +238,64 @@ def _point_layout(data: Any, off: int, base: int, e: str, end: int,
     return pos, (counts[0], counts[1], counts[2], counts[3]), off, off + 8
 
 
+class _Strided:
+    """Points of one layout from the second on: point 0 at its own offsets, points
+    1..n-1 every ``stride`` bytes from ``s1`` (positions at ``s1 + pos``, duration at
+    ``s1 + dur``); read with strided numpy views (no per-point Python)."""
+
+    def __init__(self, data: Any, e: str, first: tuple[int, int], s1: int, rel: tuple[int, int],
+                 stride: int, n: int, count: int) -> None:
+        self.data, self.e, self.first, self.s1 = data, e, first, s1
+        self.rel, self.stride, self.n, self.counts = rel, stride, n, count
+
+    def _column(self, dtype: str, first_off: int, rel: int) -> NDArray[Any]:
+        out = np.empty(self.n, dtype=np.dtype(dtype).newbyteorder('='))
+        out[0] = np.frombuffer(self.data, dtype=self.e + dtype, count=1, offset=first_off)[0]
+        if self.n > 1:
+            out[1:] = np.ndarray((self.n - 1,), dtype=self.e + dtype, buffer=self.data,
+                                 offset=self.s1 + rel, strides=(self.stride,))
+        return out
+
+    def durations(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """(sec, nanosec) of every point's ``time_from_start``."""
+        sec = self._column('i4', self.first[1], self.rel[1]).astype(np.int64)
+        nsec = self._column('u4', self.first[1] + 4, self.rel[1] + 4).astype(np.int64)
+        return sec, nsec
+
+    def f64(self, k: int) -> NDArray[np.float64]:
+        """Position ``k`` of every point."""
+        return self._column('f8', self.first[0] + 8 * k, self.rel[0] + 8 * k)
+
+
+class _Walked:
+    """Points walked one by one: per-point offsets of positions and duration."""
+
+    def __init__(self, data: Any, e: str, pos: NDArray[np.int64], dur: NDArray[np.int64],
+                 counts: NDArray[np.int64]) -> None:
+        self.data, self.e, self.pos, self.dur, self.counts = data, e, pos, dur, counts
+
+    def _at(self, fmt: str, offsets: NDArray[np.int64]) -> list[Any]:
+        unpack = struct.Struct(self.e + fmt).unpack_from
+        return [unpack(self.data, o)[0] for o in offsets.tolist()]
+
+    def durations(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """(sec, nanosec) of every point's ``time_from_start``."""
+        return (np.array(self._at('i', self.dur), dtype=np.int64),
+                np.array(self._at('I', self.dur + 4), dtype=np.int64))
+
+    def f64(self, k: int) -> NDArray[np.float64]:
+        """Position ``k`` of every point (NaN where a point has fewer)."""
+        ok = self.counts > k
+        out = np.full(self.pos.size, np.nan)
+        if np.any(ok):
+            out[ok] = self._at('d', self.pos[ok] + 8 * k)
+        return out
+
+
 def _points_uniform(data: Any, off: int, end: int, base: int, e: str, npts: int,
-                    ) -> tuple[NDArray[np.int64], ...] | None:
-    """The points of a block whose points share one layout (vectorised check); None
-    for another block. Returns (positions offsets, positions counts, duration sec,
-    duration nanosec)."""
+                    ) -> _Strided | None:
+    """The points of a block whose points share one layout (checked for every point,
+    vectorised); None for another block."""
     firsts = []
     o = off
     for _ in range(min(npts, 3)):   # the layout is periodic from the 2nd point on
@@ -266,29 +307,23 @@ def _points_uniform(data: Any, off: int, end: int, base: int, e: str, npts: int,
     counts = firsts[0][1][1]
     if any(lay[1] != counts for _, lay in firsts):
         return None
-    if npts <= 3:
-        pos = np.array([lay[0] for _, lay in firsts], dtype=np.int64)
-        dur = np.array([lay[2] for _, lay in firsts], dtype=np.int64)
-    else:
-        s1, s2 = firsts[1][0], firsts[2][0]
-        stride = s2 - s1
-        if firsts[2][1][3] - s2 != stride:
+    first = (firsts[0][1][0], firsts[0][1][2])
+    if npts == 1:
+        return _Strided(data, e, first, 0, (0, 0), 1, 1, counts[0])
+    s1 = firsts[1][0]
+    rel = (firsts[1][1][0] - s1, firsts[1][1][2] - s1)
+    stride = firsts[1][1][3] - s1
+    if npts > 2 and firsts[2][1][3] - firsts[2][0] != stride:
+        return None   # the layout changes from point to point (alignment): walk it
+    m = npts - 1
+    if s1 + m * stride > end:
+        return None
+    for k, c in enumerate(counts):   # every count of every point as the layout says
+        at = _count_offset(firsts[1][1], s1, base, k)
+        got = np.ndarray((m,), dtype=e + 'u4', buffer=data, offset=at, strides=(stride,))
+        if got.min() != c or got.max() != c:
             return None
-        m = npts - 1
-        if s1 + m * stride > end:
-            return None
-        rel = np.array([lay[0] for _, lay in firsts[1:2]] + [firsts[1][1][2]]) - s1
-        starts = s1 + stride * np.arange(m, dtype=np.int64)
-        # every count of every point as the layout says
-        for k, c in enumerate(counts):
-            at = _count_offset(firsts[1][1], s1, base, k)
-            got = np.ndarray((m,), dtype=e + 'u4', buffer=data, offset=at,
-                             strides=(stride,))
-            if np.any(got != c):
-                return None
-        pos = np.concatenate(([firsts[0][1][0]], starts + rel[0]))
-        dur = np.concatenate(([firsts[0][1][2]], starts + rel[1]))
-    return _point_arrays(data, e, pos, dur, counts[0])
+    return _Strided(data, e, first, s1, rel, stride, npts, counts[0])
 
 
 def _count_offset(lay: Any, start: int, base: int, k: int) -> int:
@@ -306,26 +341,8 @@ def _count_offset(lay: Any, start: int, base: int, k: int) -> int:
     raise AssertionError(k)
 
 
-def _point_arrays(data: Any, e: str, pos: NDArray[np.int64], dur: NDArray[np.int64],
-                  count: int | NDArray[np.int64]) -> tuple[NDArray[np.int64], ...]:
-    """(positions offsets, positions counts, duration sec, nanosec) of the points."""
-    n = pos.size
-    if n > 1 and np.all(np.diff(dur) == dur[1] - dur[0]) and dur[1] > dur[0]:
-        stride = int(dur[1] - dur[0])
-        sec = np.ndarray((n,), dtype=e + 'i4', buffer=data, offset=int(dur[0]),
-                         strides=(stride,)).astype(np.int64)
-        nsec = np.ndarray((n,), dtype=e + 'u4', buffer=data, offset=int(dur[0]) + 4,
-                          strides=(stride,)).astype(np.int64)
-    else:
-        pairs = [struct.unpack_from(e + 'iI', data, int(o)) for o in dur.tolist()]
-        sec = np.array([p[0] for p in pairs], dtype=np.int64).reshape(-1)
-        nsec = np.array([p[1] for p in pairs], dtype=np.int64).reshape(-1)
-    counts = np.broadcast_to(np.asarray(count, dtype=np.int64), (n,))
-    return pos, counts, sec, nsec
-
-
 def _points_walk(data: Any, off: int, end: int, base: int, e: str, npts: int,
-                 need: Any) -> tuple[NDArray[np.int64], ...]:
+                 need: Any) -> _Walked:
     """The points of any block, walked one by one (irregular blocks)."""
     pos = np.zeros(npts, dtype=np.int64)
     counts = np.zeros(npts, dtype=np.int64)
@@ -336,7 +353,7 @@ def _points_walk(data: Any, off: int, end: int, base: int, e: str, npts: int,
             need(end + 1)
             raise AssertionError('unreachable')
         pos[j], counts[j], dur[j], off = lay[0], lay[1][0], lay[2], lay[3]
-    return _point_arrays(data, e, pos, dur, counts)
+    return _Walked(data, e, pos, dur, counts)
 
 
 def _cross_checks(blocks: list[_Block], problems: dict[int, list[Any]]) -> None:
