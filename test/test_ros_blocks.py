@@ -8,7 +8,8 @@
 2. A joint_state_broadcaster-style stream (every joint in one JointState, other joint
    names, frame_id a link, on /joint_states) connected with
    ``config/ros2_control_bench.yaml`` and a ``--ros-args -r`` remap, no code: the
-   lobe's nose angle comes out right.
+   lobe's nose angle comes out right, and the recorder (remapped the same way) stores
+   the stream under /bench/joint_states.
 Deadlines everywhere, no fixed sleeps (platform.md: discovery takes up to seconds on a
 loaded machine; keep-all back-pressure slows the stream instead of losing samples).
 """
@@ -172,6 +173,9 @@ def test_a_ros2_control_stream_is_connected_by_a_parameter_file(
     met = _start(['run', 'metrology', '--params', str(config_dir / 'ros2_control_bench.yaml'),
                   '--ros-args', '-r', '/bench/joint_states:=/joint_states'],
                  tmp_path / 'met.log')
+    bag = tmp_path / 'bag'
+    rec = _start(['run', 'recorder', '--ros-args', '-r', '/bench/joint_states:=/joint_states',
+                  '-p', f'output:={bag}'], tmp_path / 'rec.log')
     proc = RosProcess(handle_signals=False)
     try:
         node = proc.add(Node('broadcaster', context=proc.context))
@@ -181,7 +185,7 @@ def test_a_ros2_control_stream_is_connected_by_a_parameter_file(
         node.create_subscription(DiagnosticArray, METROLOGY_RESULT, on_result,
                                  profile(qos_of(METROLOGY_RESULT)))
         scene_pub.publish(String(data=scene_file.read_text(encoding='utf-8')))
-        assert proc.spin_until(lambda: js_pub.get_subscription_count() > 0 and
+        assert proc.spin_until(lambda: js_pub.get_subscription_count() > 1 and
                                scene_pub.get_subscription_count() > 0 and
                                done_pub.get_subscription_count() > 0, 60.0), \
             (tmp_path / 'met.log').read_text()
@@ -194,8 +198,13 @@ def test_a_ros2_control_stream_is_connected_by_a_parameter_file(
         assert proc.spin_until(lambda: 'lobe_1' in results, 120.0), \
             (tmp_path / 'met.log').read_text()[-3000:]
     finally:
-        _stop([met])
+        _stop([met, rec])
         proc.close()
+    # the recorder, remapped the same way, stored the stream under the contract's name
+    from cam_metrology import bagio
+    recorded = bagio.read_joint_states(bag, joints=('cam_encoder', 'lvdt_1'))
+    assert len(recorded) == lobe.theta.size
+    np.testing.assert_allclose(recorded.theta, lobe.theta, rtol=0, atol=1e-12)
     got = results['lobe_1']
     truth = run.truth['features']['lobe_1']['angle_deg']
     err = (float(got['angle_deg']) - truth + 180.0) % 360.0 - 180.0

@@ -324,10 +324,9 @@ def _print_samples(bag: str) -> None:
     summary = bagio.JointSummary()
     counts: dict[str, int] = {}
     first = last = None
-    blocks = 0
+    blocks = bagio.bag_topics(bag).get(JOINT_TRAJECTORY, ('', 0))[1]   # messages
     for block in bagio.iter_joint_states(bag):
         summary.add(block)
-        blocks += 0 if block.block_sizes is None else int(block.block_sizes.size)
         if len(block):
             lo, hi = int(block.log_ns.min()), int(block.log_ns.max())
             first = lo if first is None else min(first, lo)
