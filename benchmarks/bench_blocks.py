@@ -159,8 +159,9 @@ def main(argv: list[str] | None = None) -> None:
     load1 = open('/proc/loadavg', encoding='ascii').read().split()[0]
     lines = ['# Blocks of samples: encode and decode cost (`python -m benchmarks.bench_blocks`)',
              '', f'Machine: {describe()} (1-min load {load0} when measuring started); '
-             f'load average {load1} at the end. CPU time (user + system) of this process, best of several runs; a '
-             f'block = {args.per} samples of (camshaft, probe).', '',
+             f'load average {load1} at the end. CPU time (user + system) of this '
+             f'process, best of several runs; a block = {args.per} samples of '
+             '(camshaft, probe).', '',
              '| per block | CPU per sample [us] |', '|---|---:|']
     lines += [f'| {w} | {c:.3f} |' for w, c in msg]
     lines += ['', f'Reading a bag of {args.samples:,} samples (5 features of the default '

@@ -142,7 +142,6 @@ def one_rate(work: Path, env: dict[str, str], rate: float, per_message: int = 1,
     from rclpy.node import Node
     from std_msgs.msg import String
 
-    from cam_metrology import bagio
     from cam_metrology.nodes.runtime import RosProcess
     from cam_metrology.nodes.topics import profile
     from cam_metrology.wire.topics import qos_of

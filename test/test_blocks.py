@@ -76,8 +76,8 @@ def test_decoder_reads_what_rosbags_wrote_uniform_irregular_and_big_endian():
     # a decode copies the bytes: the values agree to 0 (stated tolerance, not identity)
     np.testing.assert_allclose(js.theta, want_theta, rtol=0, atol=0)
     np.testing.assert_allclose(js.s, want_s, rtol=0, atol=0)
-    want_stamp = np.concatenate([stamp + d + np.array(offs) for d in (0, 2_000_000,
-                                                                       4_000_000)])
+    shifts = (0, 2_000_000, 4_000_000)
+    want_stamp = np.concatenate([stamp + d + np.array(offs) for d in shifts])
     assert js.stamp_ns.tolist() == want_stamp.tolist()
     assert js.log_ns.tolist() == [10] * 6 + [20] * 6 + [30] * 6
     assert set(js.frame_id.tolist()) == {'lobe_1'}
@@ -281,13 +281,13 @@ def test_iter_joint_states_merges_both_sample_topics_in_log_time(tmp_path):
     with BagWriter(tmp_path / 'bag') as w:
         w.add_topic(JOINT_STATES, JOINT_STATE)
         w.add_topic(JOINT_TRAJECTORY, TRAJ)
-        for stamp, cdr in zip(st[:15].tolist(), encode_joint_states('lobe_1', st[:15],
-                                                                     th[:15], s[:15])):
+        head = encode_joint_states('lobe_1', st[:15], th[:15], s[:15])
+        for stamp, cdr in zip(st[:15].tolist(), head):
             w.write(JOINT_STATES, stamp, cdr)
         for log, cdr in encode_sample_blocks('lobe_1', st[15:30], th[15:30], s[15:30], 4):
             w.write(JOINT_TRAJECTORY, log, cdr)
-        for stamp, cdr in zip(st[30:].tolist(), encode_joint_states('lobe_1', st[30:],
-                                                                     th[30:], s[30:])):
+        tail = encode_joint_states('lobe_1', st[30:], th[30:], s[30:])
+        for stamp, cdr in zip(st[30:].tolist(), tail):
             w.write(JOINT_STATES, stamp, cdr)
     for block_bytes in (1, bagio.STREAM_BLOCK_BYTES):
         parts = list(bagio.iter_joint_states(tmp_path / 'bag', block_bytes=block_bytes))

@@ -22,8 +22,9 @@ Units: stamps in ns (int), angles rad, lifts m.
 from __future__ import annotations
 
 # one module per concern: writer (BagWriter), opening (a bag opened for reading),
-# joints (the JointState fast path), blocks (JointTrajectory blocks of samples), stream (blocks of chunks), reader (messages,
-# topics, scenes), copying (copy and recover); the wire contract is in wire/
+# joints (the JointState fast path), blocks (JointTrajectory blocks of samples), stream
+# (blocks of chunks), reader (messages, topics, scenes), copying (copy and recover); the
+# wire contract is in wire/
 from cam_metrology.bagio.blocks import (  # noqa: F401
     block_sample_count,
     decode_joint_blocks)

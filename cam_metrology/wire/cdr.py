@@ -66,6 +66,18 @@ def _header(out: bytearray, stamp_ns: int, frame_id: str) -> None:
     _string(out, frame_id)
 
 
+def _header_and_names(stamp_ns: int, frame_id: str, names: Sequence[str]) -> bytearray:
+    """The CDR start shared by JointState and JointTrajectory: encapsulation, header
+    (stamp [ns], frame id), then the string sequence ``names``."""
+    out = bytearray(_HEAD)
+    _header(out, stamp_ns, frame_id)
+    _align(out, 4)
+    out += _U32.pack(len(names))
+    for name in names:
+        _string(out, name)
+    return out
+
+
 def _float64s(out: bytearray, values: Any) -> None:
     arr = np.ascontiguousarray(values, dtype='<f8').reshape(-1)
     _align(out, 4)
@@ -87,12 +99,7 @@ def encode_joint_state_positions(frame_id: str, stamp_ns: int, names: Sequence[s
                                  velocities: Sequence[float] = ()) -> bytes:
     """CDR of a ``sensor_msgs/JointState`` with ``names``, ``positions`` (any lengths:
     also used to build irregular test bags), optional ``velocities``, no effort."""
-    out = bytearray(_HEAD)
-    _header(out, stamp_ns, frame_id)
-    _align(out, 4)
-    out += _U32.pack(len(names))
-    for name in names:
-        _string(out, name)
+    out = _header_and_names(stamp_ns, frame_id, names)
     _float64s(out, positions)
     _float64s(out, velocities)
     _float64s(out, ())
@@ -186,12 +193,7 @@ def encode_joint_trajectory(frame_id: str, stamp_ns: int, names: Sequence[str],
     if off.size and int(off.min()) < 0:
         raise InputError('encode_joint_trajectory.time_from_start', int(off.min()),
                          'offsets >= 0 ns')
-    out = bytearray(_HEAD)
-    _header(out, stamp_ns, frame_id)
-    _align(out, 4)
-    out += _U32.pack(len(names))
-    for name in names:
-        _string(out, name)
+    out = _header_and_names(stamp_ns, frame_id, names)
     _align(out, 4)
     n, k = pos.shape
     out += _U32.pack(n)
