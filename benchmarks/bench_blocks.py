@@ -108,9 +108,9 @@ def bag_rates(work: Path, samples: int, per: int) -> list[tuple[str, float, floa
     from rosbags.highlevel import AnyReader
 
     from cam_metrology import bagio
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.paths import default_scene_path
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.host.paths import default_scene_path
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
     from cam_metrology.wire.cdr import typestore
     scene = load_scene(default_scene_path())
     revs = samples / (5 * 3600)

@@ -222,7 +222,7 @@ def one_rate(work: Path, env: dict[str, str], rate: float, per_message: int = 1,
 def main(argv: list[str] | None = None) -> None:
     """Run every rate and write the results table."""
     from benchmarks.machine import describe, save_results
-    from cam_metrology.isolation import claim_domain, isolated_env
+    from cam_metrology.host.isolation import claim_domain, isolated_env
 
     import argparse
     parser = argparse.ArgumentParser(prog='python -m benchmarks.bench_ros_sustained')

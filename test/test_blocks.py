@@ -12,10 +12,10 @@ import pytest
 
 from cam_metrology import bagio
 from cam_metrology.bagio import BagWriter, decode_joint_blocks, encode_joint_trajectory
-from cam_metrology.offline import analyze_bag
-from cam_metrology.paths import default_scene_path
-from cam_metrology.scene_parse import load_scene
-from cam_metrology.simulate import SimParams, simulate, write_sim_bag
+from cam_metrology.offline.analyze import analyze_bag
+from cam_metrology.host.paths import default_scene_path
+from cam_metrology.scene.parse import load_scene
+from cam_metrology.simulation.bench import SimParams, simulate, write_sim_bag
 from cam_metrology.wire.cdr import encode_sample_blocks, encode_string, typestore
 from cam_metrology.wire.topics import (FEATURE_DONE, JOINT_TRAJECTORY, JOINT_TRAJECTORY_TYPE,
                                        SCENE, STRING)

@@ -64,8 +64,8 @@ def test_blocks_far_above_the_per_message_ceiling_lose_nothing(
     from cam_metrology import bagio
     from cam_metrology.nodes.runtime import RosProcess
     from cam_metrology.nodes.topics import profile
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, simulate
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, simulate
     from cam_metrology.wire.topics import METROLOGY_REPORT, qos_of
 
     sim_values = {'rate': 100000.0, 'samples_per_rev': 3600, 'revolutions': 10.0,
@@ -148,8 +148,8 @@ def test_a_ros2_control_stream_is_connected_by_a_parameter_file(
 
     from cam_metrology.nodes.runtime import RosProcess, publish_retrying
     from cam_metrology.nodes.topics import keep_all_profile, profile
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, simulate
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, simulate
     from cam_metrology.wire.cdr import encode_named_values
     from cam_metrology.wire.topics import (FEATURE_DONE, METROLOGY_RESULT, SCENE,
                                            qos_of)
