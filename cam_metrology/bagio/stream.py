@@ -17,10 +17,10 @@ from numpy.typing import NDArray
 from cam_design.errors import InputError
 from cam_metrology.bagio.blocks import decode_block_buffer, decode_joint_blocks
 from cam_metrology.bagio.joints import (DEFAULT_JOINTS, NO_CHANNELS, JointIssue, JointSamples,
-                                        _chunk_records, _chunked_summary,
-                                        _decode_joint_buffer, _direct_mcap_files,
-                                        _indexed_messages, _walk_messages, decode_joint_states)
-from cam_metrology.bagio.opening import _open_reader
+                                        chunk_records, chunked_summary, decode_joint_buffer,
+                                        decode_joint_states, direct_mcap_files,
+                                        indexed_messages, walk_messages)
+from cam_metrology.bagio.opening import open_reader
 from cam_metrology.wire.topics import (JOINT_STATE, JOINT_STATES, JOINT_TRAJECTORY,
                                        JOINT_TRAJECTORY_TYPE)
 
@@ -67,7 +67,7 @@ _DECODERS: dict[str, Any] = {
     JOINT_STATE: (
         lambda chunks, logs, first, topic, joints: decode_joint_states(
             chunks, logs, first, joints=joints),
-        lambda data, st, ln, logs, first, topic, joints: _decode_joint_buffer(
+        lambda data, st, ln, logs, first, topic, joints: decode_joint_buffer(
             data, st, ln, logs, first, joints=joints)),
     JOINT_TRAJECTORY_TYPE: (
         lambda chunks, logs, first, topic, joints: decode_joint_blocks(
@@ -81,7 +81,7 @@ def _iter_topic(path: str | Path, topic: str, msgtype: str, direct: bool, block_
                 joints: tuple[str, str]) -> Iterator[JointSamples] | None:
     """The blocks of one sample topic of type ``msgtype``; None if the bag has none
     (InputError for a topic of another type)."""
-    reader = _open_reader(path)
+    reader = open_reader(path)
     close = True
     try:
         conns = [c for c in reader.connections if c.topic == topic]
@@ -208,7 +208,7 @@ def _mcap_stream_plan(bag: Path, topics: Iterable[str],
     otherwise."""
     wanted_topics = set(topics)
 
-    found = _direct_mcap_files(bag)
+    found = direct_mcap_files(bag)
     if found is None:
         return None
     folder, files = found
@@ -216,7 +216,7 @@ def _mcap_stream_plan(bag: Path, topics: Iterable[str],
     for k, name in enumerate(files):
         try:
             with open(folder / name, 'rb') as f:
-                summary = _chunked_summary(f)
+                summary = chunked_summary(f)
         except OSError:
             return None
         if summary is NO_CHANNELS:
@@ -291,14 +291,14 @@ def _read_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str]
             handles[c.file] = open(folder / files[c.file], 'rb')
         f = handles[c.file]
         f.seek(c.index.chunk_start_offset)
-        records = _chunk_records(f.read(c.index.chunk_length))
+        records = chunk_records(f.read(c.index.chunk_length))
         if records is None:
             raise InputError('bag', str(folder / files[c.file]),
                              f'a readable MCAP chunk at byte {c.index.chunk_start_offset} '
                              '(`cam-bench bag check` names the damaged range)')
-        found = _indexed_messages(f, c.index, c.wanted, records) if c.wanted else None
+        found = indexed_messages(f, c.index, c.wanted, records) if c.wanted else None
         if found is None:
-            found = _walk_messages(records, c.chans)
+            found = walk_messages(records, c.chans)
         found_all.append((found[0] + base, found[1], found[2]))
         data += records
         base += len(records)
@@ -310,8 +310,8 @@ def _read_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str]
     return data, starts[order], lengths, logs[order]
 
 
-def _iter_mcap_raw(bag: Path, topics: Iterable[str],
-                   ) -> Iterator[tuple[str, int, bytes]] | None:
+def iter_mcap_raw(bag: Path, topics: Iterable[str],
+                  ) -> Iterator[tuple[str, int, bytes]] | None:
     """(topic, log time, CDR bytes) of the messages of ``topics`` in log-time order
     (ties in recorded order), read straight from the MCAP chunks that hold them (their
     MessageIndex says which): a topic of a few messages is found without reading the
