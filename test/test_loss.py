@@ -124,3 +124,22 @@ def test_split_feature_and_marking() -> None:
     assert doc['features']['lobe_1']['partial'] and not doc['features']['lobe_2']['partial']
     assert doc['input'] == {'samples_lost': 0, 'missed_at_start': 0, 'topics': {
         '/bench/joint_states': {'received': 85, 'lost': 0, 'missed_at_start': 0}}}
+
+
+def test_lost_blocks_are_counted_per_block_and_per_sample():
+    """Blocks of 1000 samples: numbers 4 and 5 missing = 2 blocks = about 2000 samples
+    (the mean block size received), said as such."""
+    from cam_metrology.wire.loss import SequenceLoss, loss_status, loss_values
+    acc = SequenceLoss('/bench/joint_trajectory', blocks=True)
+    assert acc.add([1, 2, 3]) == []
+    acc.add_samples(3000)
+    assert acc.add([6, 7]) == [(0, 2)]
+    acc.add_samples(2000)
+    assert (acc.received, acc.lost, acc.samples_lost) == (5, 2, 2000)
+    level, msg = loss_status([acc])
+    assert level == 2
+    assert msg == ('lost 2 blocks (about 2000 samples) on /bench/joint_trajectory '
+                   '(5 of 7 blocks received, 5000 samples)')
+    values = loss_values([acc])
+    assert values['samples_lost/bench/joint_trajectory'] == '2000'
+    assert values['lost/bench/joint_trajectory'] == '2'

@@ -12,7 +12,9 @@ re-encoded) and writes the rosbag2 QoS metadata of each topic (``/bench/scene``,
 replay latches them). Reading: ``iter_messages`` decodes every message with
 rosbags' ``AnyReader`` in log-time order; ``read_joint_states`` is the fast path
 for ``/bench/joint_states``: it decodes the JointState CDR of the whole topic with
-numpy (no per-message objects), looking the joints up by name.
+numpy (no per-message objects), looking the joints up by name; blocks of samples
+(``/bench/joint_trajectory``, JointTrajectory) are decoded by ``decode_joint_blocks``
+and ``iter_joint_states`` streams both.
 
 Units: stamps in ns (int), angles rad, lifts m.
 """
@@ -20,8 +22,12 @@ Units: stamps in ns (int), angles rad, lifts m.
 from __future__ import annotations
 
 # one module per concern: writer (BagWriter), opening (a bag opened for reading),
-# joints (the JointState fast path), stream (blocks of chunks), reader (messages,
-# topics, scenes), copying (copy and recover); the wire contract is in wire/
+# joints (the JointState fast path), blocks (JointTrajectory blocks of samples), stream
+# (blocks of chunks), reader (messages, topics, scenes), copying (copy and recover); the
+# wire contract is in wire/
+from cam_metrology.bagio.blocks import (  # noqa: F401
+    block_sample_count,
+    decode_joint_blocks)
 from cam_metrology.bagio.copying import (  # noqa: F401
     BagTopic,
     Recovered,
@@ -58,6 +64,7 @@ from cam_metrology.wire.cdr import (  # noqa: F401
     encode_joint_state,
     encode_joint_state_positions,
     encode_joint_states,
+    encode_joint_trajectory,
     encode_string,
     typestore)
 from cam_metrology.wire.layouts import (  # noqa: F401
@@ -69,6 +76,7 @@ from cam_metrology.wire.layouts import (  # noqa: F401
 from cam_metrology.wire.topics import (  # noqa: F401
     CAMSHAFT_JOINT,
     JOINT_STATES,
+    JOINT_TRAJECTORY,
     PROBE_JOINT,
     TOPIC_TYPES,
     default_qos_yaml,
@@ -84,4 +92,5 @@ __all__ = [
     'BagTopic', 'bag_connections', 'JointIssue', 'MAX_NAME_BYTES',
     'topic_qos_yaml', 'copy_bag', 'recover_bag', 'Recovered', 'add_topics_like',
     'topic_definitions', 'iter_joint_states', 'JointSummary', 'STREAM_BLOCK_BYTES',
+    'decode_joint_blocks', 'encode_joint_trajectory', 'JOINT_TRAJECTORY',
 ]

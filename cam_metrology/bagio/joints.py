@@ -17,6 +17,11 @@ from cam_design.errors import InputError
 from cam_metrology.bagio.opening import open_reader
 from cam_metrology.wire.topics import CAMSHAFT_JOINT, JOINT_STATES, PROBE_JOINT
 
+#: the (angle, lift) joint names looked up in every sample message unless told others
+DEFAULT_JOINTS = (CAMSHAFT_JOINT, PROBE_JOINT)
+#: ``JointIssue.order`` of the first block issue (``blocks.py``); below: JointState ones
+BLOCK_ISSUES = 20
+
 
 @dataclass
 class JointSamples:
@@ -39,24 +44,33 @@ class JointSamples:
     names: tuple[tuple[str, ...], ...] = ()
     features: tuple[str, ...] = field(default=())
     issues: tuple[JointIssue, ...] = ()
+    #: samples of each message, for blocks (``blocks.decode_joint_blocks``); None for
+    #: one sample per message
+    block_sizes: NDArray[np.int64] | None = None
 
     def __len__(self) -> int:
         return int(self.theta.size)
 
 
 class JointIssue(NamedTuple):
-    """Messages of a JointState topic that cannot give a sample: ``key`` names the
+    """Messages of a sample topic that cannot give a sample: ``key`` names the
     field of the first such message (``/bench/joint_states[i].name`` or
     ``.position``), ``value`` what it held, ``expected`` what would work, ``count``
-    how many messages have the problem (their samples are NaN: dropped and counted)."""
+    how many messages have the problem (their samples are NaN: dropped and counted);
+    ``order``: the kind of problem (issues are listed by it)."""
 
     key: str
     value: Any
     expected: str
     count: int
+    order: int = 0
 
     def error(self, total: int) -> InputError:
         """The InputError of this issue (``total``: messages on the topic)."""
+        if self.order >= BLOCK_ISSUES:   # a block: its samples (if any) are NaN
+            return InputError(self.key, self.value,
+                              f'{self.expected} ({self.count} block'
+                              f'{"s" if self.count > 1 else ""} not used)')
         return InputError(self.key, self.value,
                           f'{self.expected} ({self.count} of {total} messages)')
 
@@ -66,11 +80,12 @@ class JointIssue(NamedTuple):
 
 
 def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
-                      direct: bool = True) -> JointSamples:
+                      direct: bool = True, joints: tuple[str, str] = DEFAULT_JOINTS,
+                      ) -> JointSamples:
     """Fast decode of every ``sensor_msgs/JointState`` on ``topic`` (numpy, no objects).
 
     Messages are taken in log-time order (ties in recorded order, as AnyReader).
-    Joints are looked up by name ('camshaft', 'probe') per message, so other joint
+    Joints are looked up by name (``joints``: angle, lift) per message, so other joint
     orders and extra joints are fine. CDR in either byte order is accepted.
     ``direct``: read the MCAP chunks directly (no per-message Python objects); bags it
     cannot read that way (SQLite storage, file compression, unindexed MCAP) go through
@@ -86,7 +101,7 @@ def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
             return decode_joint_states([])
         raw = _read_mcap_direct(Path(path), topic) if direct else None
         if raw is not None:
-            return decode_joint_buffer(*raw)
+            return decode_joint_buffer(*raw, joints=joints)
         chunks: list[bytes] = []
         logs: list[int] = []
         for _, stamp, data in reader.messages(connections=conns):
@@ -94,7 +109,7 @@ def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
             logs.append(stamp)
     finally:
         reader.close()
-    return decode_joint_states(chunks, np.asarray(logs, dtype=np.int64))
+    return decode_joint_states(chunks, np.asarray(logs, dtype=np.int64), joints=joints)
 
 
 _MSG_HEAD = struct.Struct('<BQHIQ')   # opcode, record length, channel, sequence, log_time
@@ -272,9 +287,11 @@ def chunk_records(raw: bytes) -> bytes | None:
 
 
 def decode_joint_states(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | None = None,
-                        first: int = 0) -> JointSamples:
+                        first: int = 0, *, joints: tuple[str, str] = DEFAULT_JOINTS,
+                        ) -> JointSamples:
     """Vectorised CDR decode of JointState messages (see ``read_joint_states``);
-    ``first``: index on the topic of the first message (named in errors)."""
+    ``first``: index on the topic of the first message (named in errors); ``joints``:
+    the (angle, lift) joint names."""
     n = len(chunks)
     if log_ns is None:
         log_ns = np.zeros(n, dtype=np.int64)
@@ -286,12 +303,13 @@ def decode_joint_states(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | Non
     start = np.zeros(n, dtype=np.int64)
     np.cumsum(lengths[:-1], out=start[1:])
     return decode_joint_buffer(b''.join(chunks), start, lengths,
-                               np.asarray(log_ns, dtype=np.int64), first)
+                               np.asarray(log_ns, dtype=np.int64), first, joints=joints)
 
 
 def decode_joint_buffer(data: bytes | bytearray, start: NDArray[np.int64],
                         lengths: NDArray[np.int64],
-                        log_ns: NDArray[np.int64], first: int = 0) -> JointSamples:
+                        log_ns: NDArray[np.int64], first: int = 0, *,
+                        joints: tuple[str, str] = DEFAULT_JOINTS) -> JointSamples:
     """Decode the JointState messages at ``data[start:start+lengths]`` (numpy).
 
     ``first``: index of the first of these messages on the topic (a block of a
@@ -366,7 +384,7 @@ def decode_joint_buffer(data: bytes | bytearray, start: NDArray[np.int64],
         check(np.where(has, off + 4, 0))
         nlen = np.where(has, u32(np.where(has, off, 0)), 0)
         check(np.where(has, off + 4 + nlen, 0))
-        for target, idx in ((CAMSHAFT_JOINT, cam_idx), (PROBE_JOINT, probe_idx)):
+        for target, idx in ((joints[0], cam_idx), (joints[1], probe_idx)):
             raw = target.encode() + b'\0'
             hit = has & (nlen == len(raw)) & (idx < 0)
             if np.any(hit):
@@ -392,7 +410,8 @@ def decode_joint_buffer(data: bytes | bytearray, start: NDArray[np.int64],
         return out
 
     names = _distinct_name_lists(name_codes, name_texts, n)
-    issues = _joint_issues(cam_idx, probe_idx, count, pcount, name_codes, name_texts, first)
+    issues = _joint_issues(cam_idx, probe_idx, count, pcount, name_codes, name_texts, first,
+                           joints)
     return JointSamples(frame_id=frame_ids, stamp_ns=stamp.astype(np.int64),
                         log_ns=np.asarray(log_ns, dtype=np.int64),
                         theta=pick(cam_idx), s=pick(probe_idx), names=names,
@@ -402,26 +421,29 @@ def decode_joint_buffer(data: bytes | bytearray, start: NDArray[np.int64],
 def _joint_issues(cam_idx: NDArray[np.int64], probe_idx: NDArray[np.int64],
                   count: NDArray[np.int64], pcount: NDArray[np.int64],
                   codes: list[NDArray[np.int64]], texts: list[NDArray[np.str_]],
-                  first: int = 0) -> tuple[JointIssue, ...]:
+                  first: int = 0, joints: tuple[str, str] | None = None,
+                  ) -> tuple[JointIssue, ...]:
     """What makes messages unusable: a missing ``camshaft`` or ``probe`` joint, fewer
     positions than names (docs/contract.md §2), naming the first message of each."""
     def names_of(i: int) -> list[str]:
         return [str(texts[j][c[i]]) for j, c in enumerate(codes) if c[i] >= 0]
 
     out = []
-    for joint, idx in ((CAMSHAFT_JOINT, cam_idx), (PROBE_JOINT, probe_idx)):
+    for order, joint, idx in ((0, (joints or DEFAULT_JOINTS)[0], cam_idx),
+                              (1, (joints or DEFAULT_JOINTS)[1], probe_idx)):
         bad = idx < 0
         if np.any(bad):
             i = int(np.argmax(bad))
             out.append(JointIssue(f'{JOINT_STATES}[{first + i}].name', names_of(i),
                                   f'a joint named {joint!r} (joints are looked up by name)',
-                                  int(bad.sum())))
+                                  int(bad.sum()), order))
     short = pcount < count
     if np.any(short):
         i = int(np.argmax(short))
         out.append(JointIssue(f'{JOINT_STATES}[{first + i}].position',
                               f'{int(pcount[i])} values for {int(count[i])} names '
-                              f'{names_of(i)}', 'one position per name', int(short.sum())))
+                              f'{names_of(i)}', 'one position per name', int(short.sum()),
+                              2))
     return tuple(out)
 
 

@@ -1,6 +1,9 @@
 """Streamed reads: ``iter_joint_states`` yields the samples in blocks of whole MCAP
 chunks (chunks that overlap in log time stay together), so the reader's memory does not
-grow with the bag; ``JointSummary`` merges what the blocks report."""
+grow with the bag; ``JointSummary`` merges what the blocks report. Both forms of the
+sample stream are read: one sample per ``sensor_msgs/JointState`` and blocks of
+samples (``trajectory_msgs/JointTrajectory``, ``blocks.decode_joint_blocks``), merged
+in log-time order."""
 from __future__ import annotations
 
 import struct
@@ -12,12 +15,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
-from cam_metrology.bagio.joints import (NO_CHANNELS, JointIssue, JointSamples, chunk_records,
-                                        chunked_summary, decode_joint_buffer,
+from cam_metrology.bagio.blocks import decode_block_buffer, decode_joint_blocks
+from cam_metrology.bagio.joints import (DEFAULT_JOINTS, NO_CHANNELS, JointIssue, JointSamples,
+                                        chunk_records, chunked_summary, decode_joint_buffer,
                                         decode_joint_states, direct_mcap_files,
                                         indexed_messages, walk_messages)
 from cam_metrology.bagio.opening import open_reader
-from cam_metrology.wire.topics import CAMSHAFT_JOINT, JOINT_STATES
+from cam_metrology.wire.topics import (JOINT_STATE, JOINT_STATES, JOINT_TRAJECTORY,
+                                       JOINT_TRAJECTORY_TYPE)
 
 
 #: uncompressed MCAP chunk bytes decoded at once by ``iter_joint_states`` (on the
@@ -27,9 +32,15 @@ STREAM_BLOCK_BYTES = 4 << 20
 
 
 def iter_joint_states(path: str | Path, topic: str = JOINT_STATES, *, direct: bool = True,
-                      block_bytes: int = STREAM_BLOCK_BYTES) -> Iterator[JointSamples]:
-    """The samples of ``topic`` as consecutive blocks, in memory bounded by
-    ``block_bytes`` whatever the size of the bag.
+                      block_bytes: int = STREAM_BLOCK_BYTES,
+                      joints: tuple[str, str] = DEFAULT_JOINTS,
+                      blocks_topic: str | None = JOINT_TRAJECTORY,
+                      ) -> Iterator[JointSamples]:
+    """The samples of ``topic`` (JointState) and of ``blocks_topic`` (JointTrajectory
+    blocks; None: not read) as consecutive blocks, in memory bounded by
+    ``block_bytes`` whatever the size of the bag; joints looked up by name
+    (``joints``: angle, lift). When the bag holds both topics their samples are merged
+    in log-time order (ties: the JointState sample first).
 
     Concatenated, the blocks are exactly what ``read_joint_states`` returns (same
     order: log time, ties in recorded order). Each block is a ``JointSamples`` of its
@@ -41,30 +52,123 @@ def iter_joint_states(path: str | Path, topic: str = JOINT_STATES, *, direct: bo
     """
     if block_bytes < 1:
         raise InputError('block_bytes', block_bytes, 'a block size >= 1 byte')
+    streams = [s for s in (
+        _iter_topic(path, topic, JOINT_STATE, direct, block_bytes, joints),
+        _iter_topic(path, blocks_topic, JOINT_TRAJECTORY_TYPE, direct, block_bytes, joints)
+        if blocks_topic else None) if s is not None]
+    if len(streams) == 1:
+        yield from streams[0]
+    elif streams:
+        yield from _merged(streams)
+
+
+#: the decoder of each sample message type: (CDR chunks, buffer) decoders
+_DECODERS: dict[str, Any] = {
+    JOINT_STATE: (
+        lambda chunks, logs, first, topic, joints: decode_joint_states(
+            chunks, logs, first, joints=joints),
+        lambda data, st, ln, logs, first, topic, joints: decode_joint_buffer(
+            data, st, ln, logs, first, joints=joints)),
+    JOINT_TRAJECTORY_TYPE: (
+        lambda chunks, logs, first, topic, joints: decode_joint_blocks(
+            chunks, logs, first, topic=topic, joints=joints),
+        lambda data, st, ln, logs, first, topic, joints: decode_block_buffer(
+            data, st, ln, logs, first, topic=topic, joints=joints)),
+}
+
+
+def _iter_topic(path: str | Path, topic: str, msgtype: str, direct: bool, block_bytes: int,
+                joints: tuple[str, str]) -> Iterator[JointSamples] | None:
+    """The blocks of one sample topic of type ``msgtype``; None if the bag has none
+    (InputError for a topic of another type)."""
     reader = open_reader(path)
     close = True
     try:
         conns = [c for c in reader.connections if c.topic == topic]
         for conn in conns:
-            if conn.msgtype != 'sensor_msgs/msg/JointState':
-                raise InputError(f'topic {topic}', conn.msgtype, 'sensor_msgs/msg/JointState')
+            if conn.msgtype != msgtype:
+                raise InputError(f'topic {topic}', conn.msgtype, msgtype)
         if not conns:
-            return
+            return None
         plan = _mcap_stream_plan(Path(path), [topic]) if direct else None
         if plan is None:   # rosbags' reader, in blocks of messages
             close = False
-            yield from _iter_reader_blocks(reader, conns, block_bytes)
-            return
+            return _iter_reader_blocks(reader, conns, block_bytes, topic, msgtype, joints)
     finally:
         if close:
             reader.close()
-    yield from _iter_mcap_blocks(plan, block_bytes)
+    return _iter_mcap_blocks(plan, block_bytes, topic, msgtype, joints)
+
+
+def _merged(streams: list[Iterator[JointSamples]]) -> Iterator[JointSamples]:
+    """Blocks of several streams (each in log-time order) merged in log-time order
+    (ties: the earlier stream first); each source block's names, features and issues
+    go with the next block yielded."""
+    its: list[Iterator[JointSamples] | None] = list(streams)
+    bufs = [_slice(None, 0, 0)] * len(its)
+    meta: list[JointSamples] = []
+    while True:
+        for k, it in enumerate(its):
+            while it is not None and not len(bufs[k]):
+                nxt = next(it, None)
+                if nxt is None:
+                    its[k] = it = None
+                else:
+                    meta.append(nxt)
+                    bufs[k] = nxt
+        open_ = [k for k, it in enumerate(its) if it is not None]
+        if not open_ and not any(len(b) for b in bufs):
+            if meta:
+                yield _combine([], meta)
+            return
+        limit = min(int(bufs[k].log_ns[-1]) for k in open_) if open_ else None
+        parts = []
+        for k, buf in enumerate(bufs):
+            cut = len(buf) if limit is None else int(
+                np.searchsorted(buf.log_ns, limit, side='right'))
+            parts.append(_slice(buf, 0, cut))
+            bufs[k] = _slice(buf, cut, len(buf))
+        yield _combine(parts, meta)
+        meta = []
+
+
+def _slice(js: JointSamples | None, i: int, j: int) -> JointSamples:
+    """Samples [i, j) of ``js`` (an empty JointSamples for None), no metadata."""
+    if js is None:
+        return decode_joint_states([])
+    return JointSamples(js.frame_id[i:j], js.stamp_ns[i:j], js.log_ns[i:j], js.theta[i:j],
+                        js.s[i:j])
+
+
+def _combine(parts: list[JointSamples], meta: list[JointSamples]) -> JointSamples:
+    """The samples of ``parts`` sorted by log time (stable), with the names, features
+    and issues of the source blocks ``meta``."""
+    parts = [p for p in parts if len(p)]
+    names = tuple(dict.fromkeys(n for m in meta for n in m.names))
+    features = tuple(dict.fromkeys(f for m in meta for f in m.features))
+    issues = tuple(i for m in meta for i in m.issues)
+    if not parts:
+        empty = decode_joint_states([])
+        return JointSamples(empty.frame_id, empty.stamp_ns, empty.log_ns, empty.theta,
+                            empty.s, names, features, issues)
+    log = np.concatenate([p.log_ns for p in parts])
+    order = np.argsort(log, kind='stable')
+    frames = [p.frame_id for p in parts]
+    if any(f.dtype == object for f in frames):
+        frames = [f.astype(object) for f in frames]
+    return JointSamples(np.concatenate(frames)[order],
+                        np.concatenate([p.stamp_ns for p in parts])[order], log[order],
+                        np.concatenate([p.theta for p in parts])[order],
+                        np.concatenate([p.s for p in parts])[order], names, features, issues)
 
 
 def _iter_reader_blocks(reader: Any, conns: Sequence[Any], block_bytes: int,
+                        topic: str = JOINT_STATES, msgtype: str = JOINT_STATE,
+                        joints: tuple[str, str] = DEFAULT_JOINTS,
                         ) -> Iterator[JointSamples]:
     """Blocks of about ``block_bytes`` of messages from a rosbags reader (closed at the
     end)."""
+    decode = _DECODERS[msgtype][0]
     try:
         chunks: list[bytes] = []
         logs: list[int] = []
@@ -74,11 +178,11 @@ def _iter_reader_blocks(reader: Any, conns: Sequence[Any], block_bytes: int,
             logs.append(stamp)
             size += len(data)
             if size >= block_bytes:
-                yield decode_joint_states(chunks, np.asarray(logs, dtype=np.int64), first)
+                yield decode(chunks, np.asarray(logs, dtype=np.int64), first, topic, joints)
                 first += len(chunks)
                 chunks, logs, size = [], [], 0
         if chunks:
-            yield decode_joint_states(chunks, np.asarray(logs, dtype=np.int64), first)
+            yield decode(chunks, np.asarray(logs, dtype=np.int64), first, topic, joints)
     finally:
         reader.close()
 
@@ -132,12 +236,15 @@ def _mcap_stream_plan(bag: Path, topics: Iterable[str],
 
 
 def _iter_mcap_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
-                      block_bytes: int) -> Iterator[JointSamples]:
-    """Decode the planned chunks' JointStates in blocks (``_iter_chunk_blocks``)."""
+                      block_bytes: int, topic: str = JOINT_STATES,
+                      msgtype: str = JOINT_STATE, joints: tuple[str, str] = DEFAULT_JOINTS,
+                      ) -> Iterator[JointSamples]:
+    """Decode the planned chunks' messages in blocks (``_iter_chunk_blocks``)."""
+    decode = _DECODERS[msgtype][1]
     first = 0
     for data, starts, lengths, logs in _iter_chunk_blocks(plan, block_bytes):
-        samples = decode_joint_buffer(data, starts, lengths, logs, first)
-        first += len(samples)
+        samples = decode(data, starts, lengths, logs, first, topic, joints)
+        first += int(starts.size)   # messages (a block message holds many samples)
         yield samples
 
 
@@ -238,10 +345,11 @@ _U16 = struct.Struct('<H')
 @dataclass
 class JointSummary:
     """The whole topic's ``names``, ``features`` and ``issues`` (as
-    ``read_joint_states`` gives them) merged from blocks of ``iter_joint_states``, and
-    ``count``: the messages seen."""
+    ``read_joint_states`` gives them) merged from blocks of ``iter_joint_states``,
+    ``count``: the samples seen, ``usable``: those with a finite angle and lift."""
 
     count: int = 0
+    usable: int = 0   # samples with a finite angle and lift
     names: tuple[tuple[str, ...], ...] = ()
     features: tuple[str, ...] = ()
     issues: tuple[JointIssue, ...] = ()
@@ -249,6 +357,7 @@ class JointSummary:
     def add(self, block: JointSamples) -> None:
         """Merge one block (blocks in stream order)."""
         self.count += len(block)
+        self.usable += int(np.count_nonzero(np.isfinite(block.theta) & np.isfinite(block.s)))
         self.names = self.names + tuple(x for x in block.names if x not in self.names)
         self.features = self.features + tuple(x for x in block.features
                                               if x not in self.features)
@@ -260,7 +369,8 @@ class JointSummary:
         self.issues = tuple(merged[k] for k in sorted(merged))
 
 
-def _issue_kind(issue: JointIssue) -> tuple[bool, bool]:
-    """Sort key and identity of an issue, in the order ``_joint_issues`` lists them:
-    no camshaft joint, no probe joint, too few positions."""
-    return issue.key.endswith('.position'), f'{CAMSHAFT_JOINT!r}' not in issue.expected
+def _issue_kind(issue: JointIssue) -> tuple[int, str]:
+    """Sort key and identity of an issue: its kind (``JointIssue.order``: for
+    JointState no angle joint, no lift joint, too few positions; then the block
+    problems), then its topic."""
+    return issue.order, issue.key.split('[')[0]

@@ -14,6 +14,8 @@ import math
 import sys
 from typing import Any
 
+from cam_metrology.wire.topics import JOINT_TRAJECTORY, SAMPLE_TOPICS
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``scene`` group and the ``simulate`` command."""
@@ -64,6 +66,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help='base-circle run-out amplitude, micrometres (default 0)')
     sim.add_argument('--rate', type=float, default=1000.0, metavar='HZ',
                      help='sample rate for the stamps, samples/s (default 1000)')
+    sim.add_argument('--samples-per-message', type=int, default=1, metavar='N',
+                     help='N > 1: the samples in blocks of N per message on '
+                          '/bench/joint_trajectory (trajectory_msgs/JointTrajectory) instead '
+                          'of one per /bench/joint_states message (default 1)')
     sim.add_argument('--compress', action=argparse.BooleanOptionalAction, default=True,
                      help='zstd chunk compression (default on; --no-compress: plain chunks)')
     sim.add_argument('--quiet', action='store_true', help='no progress output')
@@ -233,6 +239,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.rounds < 1:
         raise InputError('--rounds', args.rounds, 'an integer >= 1 (times every feature '
                          'is measured)')
+    if args.samples_per_message < 1:
+        raise InputError('--samples-per-message', args.samples_per_message,
+                         'an integer >= 1 (1: one sample per JointState message)')
     params = SimParams(samples_per_rev=args.samples_per_rev, revolutions=args.revolutions,
                        wrapped=args.wrapped, reverse=args.reverse,
                        start_theta=math.radians(args.start_deg),
@@ -252,7 +261,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from cam_metrology.inputs.files import atomic_dir
     with atomic_dir(args.out, 'OUT_BAG') as tmp:   # complete bag or nothing (Ctrl-C too)
         run = write_sim_bag(tmp, scene, params, compression=args.compress,
-                            progress=progress, rounds=args.rounds)
+                            progress=progress, rounds=args.rounds,
+                            samples_per_message=args.samples_per_message)
     rounds = f' x {args.rounds} rounds' if args.rounds > 1 else ''
     print(f'wrote {args.out}: {run.sample_count * args.rounds} samples in '
           f'{len(run.features)} features{rounds}')
@@ -303,7 +313,7 @@ def cmd_bag_info(args: argparse.Namespace) -> int:
             print(f'scene: {scene.camshaft_id or "(no id)"}, {len(scene.lobes)} lobes, '
                   f'{_datum_words(scene)}, '
                   f'direction {scene.direction:+d} (log time {sc.stamp_ns / 1e9:.6f} s)')
-    if bagio.JOINT_STATES in topics:
+    if any(t in topics for t in SAMPLE_TOPICS):
         _print_samples(args.bag)
     return 0
 
@@ -318,6 +328,7 @@ def _print_samples(bag: str) -> None:
     summary = bagio.JointSummary()
     counts: dict[str, int] = {}
     first = last = None
+    blocks = bagio.bag_topics(bag).get(JOINT_TRAJECTORY, ('', 0))[1]   # messages
     for block in bagio.iter_joint_states(bag):
         summary.add(block)
         if len(block):
@@ -328,7 +339,8 @@ def _print_samples(bag: str) -> None:
         for fid, k in zip(ids.tolist(), n.tolist()):
             counts[str(fid)] = counts.get(str(fid), 0) + int(k)
     if first is not None and last is not None:
-        print(f'samples: {summary.count} over {(last - first) / 1e9:.3f} s; '
+        inside = f' (in {blocks} blocks on {JOINT_TRAJECTORY})' if blocks else ''
+        print(f'samples: {summary.count}{inside} over {(last - first) / 1e9:.3f} s; '
               f'joints {list(summary.names)}')
     for fid in summary.features:
         print(f'  {fid}: {counts.get(fid, 0)} samples')

@@ -1,6 +1,10 @@
 """Metrology node core (pure Python; the ROS adapter and the offline replay drive it).
 
-Subscribes ``/bench/scene``, ``/bench/joint_states``, ``/bench/feature_done``.
+Subscribes ``/bench/scene``, ``/bench/joint_states`` (one sample per message),
+``/bench/joint_trajectory`` (blocks of samples), ``/bench/feature_done``. The joints
+are looked up by the names of the parameters ``angle_joint`` and ``lift_joint``
+(``camshaft``, ``probe`` by default); ``feature_id`` gives every sample one feature
+when the bench's ``frame_id`` is not the feature (a ros2_control bench).
 Publishes, per completed feature, a status on ``/metrology/result`` (name = feature
 id; ERROR with the reason for a failed feature; ``skipped/<what>`` statuses for what
 is not computed) and its aligned lift table on ``/metrology/lift``; the JSON report
@@ -32,13 +36,14 @@ from cam_metrology.metrology.spill import release, spill
 from cam_metrology.metrology.tracks import nose_lift_error_um, track_label
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
                                               encoder_units_hint, probe_units_problem,
-                                              joint_positions, stamp_of)
+                                              joint_positions, sample_joints, stamp_of)
 from cam_metrology.cores.outputs import (ERROR, OK, WARN, Output, Status, StatusOutput,
                                          TableOutput, TextOutput)
 from cam_metrology.wire import topics as wt
 
 RESULT, LIFT, REPORT = wt.METROLOGY_RESULT, wt.METROLOGY_LIFT, wt.METROLOGY_REPORT
 SCENE, JOINTS, DONE = wt.SCENE, wt.JOINT_STATES, wt.FEATURE_DONE
+BLOCKS = wt.JOINT_TRAJECTORY
 PIN_ID = 'dowel_pin'
 KEYWAY_ID = 'keyway'
 DATUM_IDS = (PIN_ID, KEYWAY_ID)
@@ -77,7 +82,8 @@ class MetrologyCore:
 
     name = 'metrology'
     subscriptions = {SCENE: 'std_msgs/msg/String',
-                     JOINTS: 'sensor_msgs/msg/JointState',
+                     JOINTS: wt.JOINT_STATE,
+                     BLOCKS: wt.JOINT_TRAJECTORY_TYPE,
                      DONE: 'std_msgs/msg/String'}
     publications = {RESULT: 'diagnostic_msgs/msg/DiagnosticArray',
                     LIFT: 'std_msgs/msg/Float64MultiArray',
@@ -108,6 +114,13 @@ class MetrologyCore:
                                '(1.4826 MAD) are rejected and counted (0: keep all)'),
         'idle_timeout': (0.0, 'seconds without samples that end a feature (0: the '
                               "scene's idle_timeout)"),
+        'angle_joint': (wt.CAMSHAFT_JOINT, 'name of the joint whose position is the '
+                                           'camshaft encoder angle [rad]'),
+        'lift_joint': (wt.PROBE_JOINT, 'name of the joint whose position is the probe '
+                                       'lift [m]'),
+        'feature_id': ('', "the feature of every sample ('': the message's "
+                           'header.frame_id); for a bench whose frame_id is not the '
+                           'feature, e.g. a ros2_control joint_state_broadcaster'),
     }
 
     def __init__(self, params: dict[str, Any] | None = None) -> None:
@@ -117,6 +130,8 @@ class MetrologyCore:
         self.idle_timeout_param = require_positive('metrology.idle_timeout',
                                                    params.get('idle_timeout', 0.0),
                                                    allow_zero=True)
+        self.joints = sample_joints(params)
+        self.feature_id = str(params.get('feature_id', '') or '')
         self.scene: Any = None
         self.assembler = FeatureAssembler()
         self.pending: list[FeatureSamples] = []
@@ -167,10 +182,11 @@ class MetrologyCore:
         """Consume one message (scene, sample or feature_done)."""
         if topic == JOINTS:
             try:
-                theta, s = joint_positions(msg)
+                theta, s = joint_positions(msg, self.joints)
             except InputError:   # a message without the joints: a NaN sample, counted
                 theta, s = float('nan'), float('nan')
-            done = self.assembler.add(msg.header.frame_id, stamp_of(msg, stamp_ns),
+            done = self.assembler.add(self.feature_id or msg.header.frame_id,
+                                      stamp_of(msg, stamp_ns),
                                       theta, s, stamp_ns)
             return self._complete_all(done, stamp_ns)
         if topic == DONE:
@@ -198,6 +214,8 @@ class MetrologyCore:
         """
         st = np.asarray(stamp_ns, dtype=np.int64)
         rx = int(st[-1]) if rx_ns is None and st.size else int(rx_ns or 0)
+        if self.feature_id:
+            frame_ids = np.full(st.size, self.feature_id)
         return self._complete_all(self.assembler.add_bulk(frame_ids, st, theta, s, rx), rx)
 
     def tick(self, now_ns: int) -> list[Output]:

@@ -62,18 +62,34 @@ class _OpenFeature:
             self.pending = []
 
 
-def joint_positions(msg: Any) -> tuple[float, float]:
-    """(theta, s) of a JointState message, looked up by joint name.
+def sample_joints(params: dict[str, Any]) -> tuple[str, str]:
+    """(angle joint, lift joint) names from the parameters ``angle_joint`` and
+    ``lift_joint`` (default ``camshaft``, ``probe``); InputError for an empty name or
+    the same name twice."""
+    names = (params.get('angle_joint', CAMSHAFT), params.get('lift_joint', PROBE))
+    for key, name in zip(('angle_joint', 'lift_joint'), names):
+        if not isinstance(name, str) or not name:
+            raise InputError(f'metrology.{key}', name, 'a joint name (non-empty string)')
+    if names[0] == names[1]:
+        raise InputError('metrology.lift_joint', names[1],
+                         f'a joint other than the angle joint {names[0]!r}')
+    return names[0], names[1]
+
+
+def joint_positions(msg: Any, joints: tuple[str, str] = (CAMSHAFT, PROBE),
+                    ) -> tuple[float, float]:
+    """(theta [rad], s [m]) of a JointState message, looked up by joint name
+    (``joints``: the angle and lift joints).
 
     Raises InputError when a joint is missing or the arrays do not match.
     """
     names = list(msg.name)
     pos = msg.position
     try:
-        i, j = names.index(CAMSHAFT), names.index(PROBE)
+        i, j = names.index(joints[0]), names.index(joints[1])
     except ValueError:
         raise InputError('joint_states.name', names,
-                         f'joint names containing {CAMSHAFT!r} and {PROBE!r}') from None
+                         f'joint names containing {joints[0]!r} and {joints[1]!r}') from None
     if len(pos) < len(names):
         raise InputError('joint_states.position', f'{len(pos)} values',
                          f'one position per name ({len(names)})')

@@ -30,6 +30,13 @@
   EventsExecutor (``with_info=False``) this is off: rclpy 7.1.6's EventsExecutor
   raises SystemError for any callback taking MessageInfo, and it runs callbacks in
   event-arrival order anyway;
+* blocks of samples (``/bench/joint_trajectory``, JointTrajectory, when the core
+  subscribes it): always subscribed raw, one callback per block (a block of 1000
+  samples costs what one JointState costs), decoded by ``bagio.decode_joint_blocks``
+  (joints by the core's names) and handed to the core's ``handle_samples`` in order
+  with the held messages like the JointState batches; lost blocks are counted per
+  block and per sample (``loss.SequenceLoss(blocks=True)``); damaged blocks are
+  reported in the input status (WARN, the first one named) and not used;
 * a timer calls ``core.tick(now_ns)`` (idle timeouts);
 * on shutdown, after draining what already arrived, calls ``core.finish()``,
   publishes that, and waits (deadline) until every subscriber acknowledged.
@@ -56,7 +63,7 @@ from cam_metrology.cores.outputs import Output, Status, StatusOutput
 from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages, view_topics
 from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
-                                       SCENE, STATUS, QosSpec, qos_of)
+                                       JOINT_TRAJECTORY, SCENE, STATUS, QosSpec, qos_of)
 
 
 #: most raw samples handed to a core in one call (keeps the worker responsive)
@@ -155,6 +162,7 @@ class CoreNode(Node):
         self._with_info = with_info
         self._ordered = with_info and JOINT_STATES in self.core.subscriptions
         self._bulk = self._ordered and callable(getattr(self.core, 'handle_samples', None))
+        self._block_issues: Any = None   # bagio.JointSummary of damaged blocks
         self._adaptive = AdaptiveSubscriptions(self, self._subscribe)
         for topic, type_name in topics:
             if topic in BENCH_TOPICS:
@@ -178,9 +186,12 @@ class CoreNode(Node):
 
     def _subscribe(self, topic: str, type_name: str, qos: QosSpec) -> None:
         raw = False
-        if topic == JOINT_STATES and self._samples_qos is not None:
+        if topic in (JOINT_STATES, JOINT_TRAJECTORY) and self._samples_qos is not None:
             qos = self._samples_qos
-        if topic == JOINT_STATES and self._bulk:
+        if topic == JOINT_TRAJECTORY:   # blocks: raw, decoded with numpy
+            callback = self._on_blocks_raw if self._with_info else self._on_blocks_plain
+            raw = True
+        elif topic == JOINT_STATES and self._bulk:
             callback: Any = self._on_sample_raw
             raw = True
         elif topic == JOINT_STATES and self._ordered:
@@ -192,7 +203,8 @@ class CoreNode(Node):
         else:
             callback = functools.partial(self._on_message, topic)
         if self._with_info and qos.depth > 1 and topic not in self.losses:
-            self.losses[topic] = SequenceLoss(topic)   # latched depth-1 topics: not counted
+            # latched depth-1 topics: not counted
+            self.losses[topic] = SequenceLoss(topic, blocks=topic == JOINT_TRAJECTORY)
         self._subs[topic] = self.create_subscription(
             message_class(type_name), topic, callback, profile(qos), raw=raw)
 
@@ -268,6 +280,10 @@ class CoreNode(Node):
             for f, n in split.items()))
         if split:
             level = max(level, 1)
+        if self._block_issues is not None and self._block_issues.issues:
+            level = max(level, 1)
+            msg += '; damaged blocks not used: ' + '; '.join(
+                i.text(self._block_issues.count) for i in self._block_issues.issues)
         if not self._with_info:   # EventsExecutor: no MessageInfo, no sequence numbers
             level, msg = max(level, 1), 'loss not checked (EventsExecutor: no MessageInfo)'
         backlog = self._queue.qsize() if self._queue is not None else 0
@@ -313,7 +329,8 @@ class CoreNode(Node):
         self.callbacks_run += 1
         holes = self._count(JOINT_STATES, [_seq(info)])
         if holes:
-            self.feature_loss.add([msg.header.frame_id], holes)
+            forced = getattr(self.core, 'feature_id', '')
+            self.feature_loss.add([forced or msg.header.frame_id], holes)
         with self.lock:
             self._deliver_sample(msg, _source_ns(info))
 
@@ -338,6 +355,20 @@ class CoreNode(Node):
         batch.extend(self._drain_samples(MAX_BATCH - 1))
         with self.lock:
             self._deliver_batch(batch)
+
+    def _on_blocks_raw(self, data: bytes, info: Any) -> None:
+        """One block (JointTrajectory CDR): to the worker, or handled now."""
+        self.callbacks_run += 1
+        item = [(data, _source_ns(info), _seq(info))]
+        if self._queue is not None:
+            self._queue.put(('blocks', item))
+            return
+        with self.lock:
+            self._deliver_batch(item, JOINT_TRAJECTORY)
+
+    def _on_blocks_plain(self, data: bytes) -> None:
+        """A block under the EventsExecutor (no MessageInfo: no loss count)."""
+        self._on_blocks_raw(data, None)
 
     def _drain_samples(self, limit: int) -> list[tuple[Any, int, int]]:
         """Take up to ``limit`` samples already waiting in the reader, in order:
@@ -382,14 +413,14 @@ class CoreNode(Node):
                         self._release_quiet()
                     continue
             extra = 0
-            while kind == 'samples' and len(item) < TAKE_BATCH:
-                # merge the sample batches queued behind this one: one decode and one
-                # core call per merge instead of per receive callback
+            while kind in ('samples', 'blocks') and len(item) < TAKE_BATCH:
+                # merge the sample batches (or blocks) queued behind this one: one
+                # decode and one core call per merge instead of per receive callback
                 try:
                     nxt = self._queue.get_nowait()
                 except queue.Empty:
                     break
-                if nxt[0] != 'samples':
+                if nxt[0] != kind:
                     pending = nxt
                     break
                 item = item + nxt[1]
@@ -399,6 +430,8 @@ class CoreNode(Node):
                 with self.lock:
                     if kind == 'samples':
                         self._deliver_batch(item)
+                    elif kind == 'blocks':
+                        self._deliver_batch(item, JOINT_TRAJECTORY)
                     elif kind == 'held':
                         self._hold(item[1], item[2], item[0])
                     elif kind == 'tick':
@@ -431,16 +464,42 @@ class CoreNode(Node):
             self._worker.join(timeout)
         self._worker = None
 
-    def _deliver_batch(self, batch: list[tuple[bytes, int, int]]) -> None:
-        """Hand raw samples to the core in blocks, releasing each held message just
-        before the first sample published after it (the same order as one by one).
-        Losses (sequence holes) are counted and charged to features first, so a
-        feature that completes in this batch is already marked."""
-        from cam_metrology.bagio import decode_joint_states
-        js = decode_joint_states([b[0] for b in batch])
-        holes = self._count(JOINT_STATES, [b[2] for b in batch])
-        if holes or len(js.frame_id):
-            self.feature_loss.add(js.frame_id, holes)
+    def _deliver_batch(self, batch: list[tuple[bytes, int, int]],
+                       topic: str = JOINT_STATES) -> None:
+        """Hand raw messages of ``topic`` (JointStates, or JointTrajectory blocks) to
+        the core in blocks, releasing each held message just before the first message
+        published after it (the same order as one by one). Losses (sequence holes)
+        are counted and charged to features first, so a feature that completes in this
+        batch is already marked."""
+        import numpy as np
+
+        from cam_metrology.bagio import JointSummary, decode_joint_blocks, decode_joint_states
+        joints = getattr(self.core, 'joints', None) or (None, None)
+        named = {'joints': joints} if joints[0] else {}
+        raws = [b[0] for b in batch]
+        if topic == JOINT_TRAJECTORY:
+            js = decode_joint_blocks(raws, topic=topic, **named)
+            sizes = js.block_sizes if js.block_sizes is not None else np.zeros(0, np.int64)
+            bounds = np.concatenate(([0], np.cumsum(sizes))).tolist()
+            frames = _message_frames(js.frame_id, sizes)
+            if js.issues:
+                if self._block_issues is None:
+                    self._block_issues = JointSummary()
+                self._block_issues.add(js)
+                self._diag_last = 0.0   # say it at the next tick
+        else:
+            js = decode_joint_states(raws, **named)
+            bounds, frames = list(range(len(batch) + 1)), js.frame_id
+        forced = getattr(self.core, 'feature_id', '')
+        if forced:   # the core gives every sample this feature: charge losses to it
+            frames = [forced] * len(frames)
+        holes = self._count(topic, [b[2] for b in batch])
+        acc = self.losses.get(topic)
+        if acc is not None and acc.blocks:
+            acc.add_samples(len(js))
+            holes = [(i, int(round(n * acc.samples_per_message))) for i, n in holes]
+        if holes or len(frames):
+            self.feature_loss.add(frames, holes)
         i = 0
         while i < len(batch):
             while self._held and self._held[0][0] <= batch[i][1]:
@@ -449,7 +508,9 @@ class CoreNode(Node):
             j = i + 1
             while j < len(batch) and (limit is None or batch[j][1] < limit):
                 j += 1
-            self._guarded(f'handle_samples({JOINT_STATES})', self._handle_block, js, i, j)
+            if bounds[j] > bounds[i]:
+                self._guarded(f'handle_samples({topic})', self._handle_block, js,
+                              bounds[i], bounds[j])
             i = j
         self._last_sample = time.monotonic()
 
@@ -529,6 +590,17 @@ class CoreNode(Node):
         """Wait (deadline) until every matched subscriber acknowledged every message."""
         from cam_metrology.nodes.runtime import wait_all_acked
         return wait_all_acked(self._pubs.values(), timeout)
+
+
+def _message_frames(frame_id: Any, sizes: Any) -> list[str]:
+    """The frame id of each block message from its samples' (``sizes`` samples each;
+    an empty block takes the previous block's, '' at the start)."""
+    out: list[str] = []
+    k = 0
+    for n in sizes.tolist():
+        out.append(str(frame_id[k]) if n else (out[-1] if out else ''))
+        k += n
+    return out
 
 
 def _seq(info: Any) -> int:

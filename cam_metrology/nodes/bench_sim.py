@@ -12,10 +12,18 @@ From a scene file it runs ``simulate.simulate(scene, SimParams(...))`` and publi
    = feature id), paced by a loop on the simulated stamps (``rate`` samples/s of
    SimParams, with its ``feature_gap`` between features): each sample goes out when
    its stamp is due on the wall clock; when the OS sleeps late the loop catches up in
-   small bursts, never more than ``max_burst`` back to back;
+   bursts of at most ``max_burst`` back to back, up to ``max_lag`` s behind (further
+   behind, e.g. held back by subscribers, its schedule restarts from now);
    ``/bench/feature_done`` (feature id) after the last sample of each feature;
 4. waits until every subscriber acknowledged everything, then exits (or idles until
    SIGINT if ``exit_when_done`` is false, keeping the latched scene available).
+
+With ``samples_per_message`` N > 1 the samples go out in blocks of N (at most; a block
+never holds two features) on ``/bench/joint_trajectory`` (trajectory_msgs/
+JointTrajectory: header.stamp = the first sample's time, frame_id = feature,
+joint_names = (angle_joint, lift_joint), one point per sample with time_from_start =
+its offset), each block when its last sample is due. The joint names are the
+parameters ``angle_joint`` and ``lift_joint``.
 
 ROS parameters: every field of ``simulate.SimParams`` plus those of ``PARAMETERS``.
 """
@@ -32,11 +40,13 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
+from trajectory_msgs.msg import JointTrajectory
 
 from cam_metrology.nodes.adapter import declare_parameters
 from cam_metrology.nodes.runtime import publish_retrying, wait_all_acked
 from cam_metrology.nodes.topics import keep_all_profile, profile
-from cam_metrology.wire.topics import FEATURE_DONE, JOINT_STATES, SCENE, TOPICS, TRUTH
+from cam_metrology.wire.topics import (CAMSHAFT_JOINT, FEATURE_DONE, JOINT_STATES,
+                                       JOINT_TRAJECTORY, PROBE_JOINT, SCENE, TOPICS, TRUTH)
 
 SAMPLES_WRITER = keep_all_profile()
 
@@ -49,7 +59,13 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
                        'nodes that must be up before results flow)'),
     'match_timeout': (10.0, 's to wait for those subscriptions (then exit 4)'),
     'ack_timeout': (10.0, 's to wait at the end until subscribers acknowledged everything'),
-    'max_burst': (200, 'most samples published back to back when catching up'),
+    'max_burst': (200, 'most messages (samples, or blocks) published back to back when '
+                       'catching up'),
+    'max_lag': (1.0, 's of lateness the stream catches up (in bursts of max_burst); '
+                     'further behind (subscribers holding it back) its schedule restarts '
+                     'from now and the achieved rate is logged'),
+    'angle_joint': (CAMSHAFT_JOINT, 'joint name of the encoder angle [rad] in the samples'),
+    'lift_joint': (PROBE_JOINT, 'joint name of the probe lift [m] in the samples'),
     'exit_when_done': (True, 'exit after the last feature; false: idle until SIGINT'),
 }
 
@@ -152,10 +168,19 @@ class BenchSimNode(Node):
         # logged). A deep keep-last writer history was measured to cost 100-300 us per
         # publish once full (Fast DDS drops its oldest sample from the front of a
         # vector); keep-all holds only the unacknowledged samples (heartbeat 0.1 s).
+        self.per_message = int(self.params['samples_per_message'])
+        if self.per_message < 1:
+            from cam_design.errors import InputError
+            raise InputError('bench_sim.samples_per_message', self.per_message,
+                             'an integer >= 1')
+        self.samples_topic = JOINT_STATES if self.per_message == 1 else JOINT_TRAJECTORY
+        self.joint_names = (str(self.params['angle_joint']), str(self.params['lift_joint']))
+        sample_cls = JointState if self.per_message == 1 else JointTrajectory
         self.pub = {topic: self.create_publisher(
-            cls, topic, (SAMPLES_WRITER if topic == JOINT_STATES else profile(TOPICS[topic][1])))
+            cls, topic,
+            (SAMPLES_WRITER if topic == self.samples_topic else profile(TOPICS[topic][1])))
             for topic, cls in ((SCENE, String), (TRUTH, String),
-                               (JOINT_STATES, JointState), (FEATURE_DONE, String))}
+                               (self.samples_topic, sample_cls), (FEATURE_DONE, String))}
         self.sent = 0
         self.publish_errors = 0
         self.stamp_offset_ns = 0
@@ -171,9 +196,29 @@ class BenchSimNode(Node):
         self.pub[TRUTH].publish(String(data=truth_json(self.run_data)))
 
     def matched(self) -> tuple[int, int, int]:
-        """Matched subscriptions on /bench/joint_states, /bench/scene, /bench/feature_done."""
+        """Matched subscriptions on the samples topic (/bench/joint_states or
+        /bench/joint_trajectory), /bench/scene, /bench/feature_done."""
         return tuple(self.pub[t].get_subscription_count()  # type: ignore[return-value]
-                     for t in (JOINT_STATES, SCENE, FEATURE_DONE))
+                     for t in (self.samples_topic, SCENE, FEATURE_DONE))
+
+    def messages(self, fid: str, theta: Any, s: Any, stamp: Any,
+                 ) -> tuple[list[bytes], Any, Any]:
+        """One feature's sample messages: (CDR per message, the stamp [ns] each is due
+        (its last sample), samples per message), stamps on the system clock."""
+        from cam_metrology.wire.cdr import (encode_joint_states, encode_named_values,
+                                            encode_sample_blocks)
+        st = stamp + self.stamp_offset_ns
+        if self.per_message == 1:
+            if self.joint_names == (CAMSHAFT_JOINT, PROBE_JOINT):
+                frames = encode_joint_states(fid, st, theta, s)
+            else:
+                frames = encode_named_values(fid, st, self.joint_names,
+                                             np.column_stack((theta, s)))
+            return frames, stamp, np.ones(stamp.size, dtype=np.int64)
+        blocks = encode_sample_blocks(fid, st, theta, s, self.per_message, self.joint_names)
+        due = np.array([b[0] for b in blocks], dtype=np.int64) - self.stamp_offset_ns
+        sizes = np.diff(np.append(np.arange(0, stamp.size, self.per_message), stamp.size))
+        return [b[1] for b in blocks], due, sizes
 
     def wait_for_subscribers(self, need: int, timeout: float) -> bool:
         """Wait (deadline) for ``need`` matches on samples and scene, and for the scene to
@@ -192,7 +237,7 @@ class BenchSimNode(Node):
         """Publish, retrying on RCLError (a blocked reliable writer) for up to 5 s."""
         self.publish_errors += publish_retrying(self.pub[topic], msg, 5.0)
 
-    def run(self, max_burst: int = 200, should_stop: Any = None,
+    def run(self, max_burst: int = 200, should_stop: Any = None, max_lag: float = 1.0,
             block_timeout: float = 30.0) -> int:
         """Publish every sample when its stamp is due; returns the samples sent.
 
@@ -203,37 +248,43 @@ class BenchSimNode(Node):
         published within the loop's lateness of it. ``self.stamp_offset_ns`` is the
         shift applied to ``simulate()``'s stamps.
 
-        Pacing: every pass publishes all samples already due (at most ``max_burst``
-        back to back), then sleeps until the next one is due (at least 0.5 ms, so a
-        20 000/s stream costs ~2000 sleeps per second, not 20 000). A reliable
+        Pacing: every pass publishes all messages already due (at most ``max_burst``
+        back to back; a block is due when its last sample is), then sleeps until the
+        next one is due (at least 0.5 ms, so a 20 000/s stream costs ~2000 sleeps per
+        second, not 20 000). A reliable
         keep-all writer that is full (a subscriber not keeping up) raises RCLError:
         retried until ``block_timeout`` s, counted in ``publish_errors``.
         """
         from rclpy._rclpy_pybind11 import RCLError
 
-        from cam_metrology.bagio import encode_joint_states
         if not self.features:
             return 0
         stamp0 = int(self.features[0][3][0]) if self.features[0][3].size else 0
         self.stamp_offset_ns = time.time_ns() - stamp0
         t0 = time.monotonic()
         rate = float(self.params.get('rate', 1000.0))
-        burst_s = max(1, max_burst) / rate
+        # lateness caught up: at least max_lag s, so that a process descheduled for a
+        # few ms on a loaded machine does not lose its schedule (it did: with the window
+        # at max_burst samples, 10 ms at 20 000/s, a load of 12 held 20 000/s asked to
+        # 1 700/s with every process below 16 % CPU)
+        burst_s = max(float(max_lag), max(1, max_burst) * self.per_message / rate)
         burst = max(1, int(max_burst))
-        handle = self.pub[JOINT_STATES].handle
+        pub = self.pub[self.samples_topic]
+        handle = pub.handle
         k = 0
         for fid, theta, s, stamp in self.features:
             # pre-serialised CDR (the same bytes rclpy would send): publishing bytes
             # skips per-sample message construction and the position setter's checks
-            frames = encode_joint_states(fid, stamp + self.stamp_offset_ns, theta, s)
-            due = (stamp - stamp0) * 1e-9
-            i, n = 0, theta.size
+            frames, due_ns, sizes = self.messages(fid, theta, s, stamp)
+            due = (due_ns - stamp0) * 1e-9
+            ends = np.cumsum(sizes)
+            i, n = 0, len(frames)
             while i < n:
                 now = time.monotonic() - t0
                 if due[i] > now:
                     time.sleep(max(due[i] - now, 0.0005))
                     continue
-                if now - due[i] > burst_s:   # late: never catch up more than max_burst
+                if now - due[i] > burst_s:   # late: never catch up more than burst_s
                     t0 += now - due[i] - burst_s
                     now = time.monotonic() - t0
                 j = min(n, i + burst, int(np.searchsorted(due, now, side='right')))
@@ -244,8 +295,8 @@ class BenchSimNode(Node):
                             handle.publish_raw(frame)
                         except RCLError:
                             self.publish_errors += publish_retrying(
-                                self.pub[JOINT_STATES], frame, block_timeout) + 1
-                k += j - i
+                                pub, frame, block_timeout) + 1
+                k += int(ends[j - 1] - (ends[i - 1] if i else 0))
                 i = j
                 if should_stop is not None and should_stop():
                     self.sent = k
@@ -283,7 +334,7 @@ def run_bench_sim(args: Sequence[str] | None = None,
                       f'{p["match_timeout"]} s')
             return 4
         t0 = time.monotonic()
-        sent = node.run(int(p['max_burst']), lambda: proc.stopping)
+        sent = node.run(int(p['max_burst']), lambda: proc.stopping, float(p['max_lag']))
         dt = time.monotonic() - t0
         acked = node.wait_acked(float(p['ack_timeout']))
         achieved = sent / max(dt, 1e-9)

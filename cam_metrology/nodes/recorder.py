@@ -4,6 +4,7 @@
   came off the wire and writes them unchanged with ``bagio.BagWriter`` (never
   ``serialize_message``, docs/ros.md).
 * Topics: the bench inputs (/bench/scene, /bench/truth, /bench/joint_states,
+  /bench/joint_trajectory (blocks of samples: loss counted per block and per sample),
   /bench/feature_done), every output and plot topic of ``wire.topics`` (not
   /diagnostics: the recorder writes its own status there), plus extras
   (``/topic`` or ``/topic:pkg/msg/Type``).
@@ -54,13 +55,13 @@ from typing import Any, Sequence
 
 from rclpy.node import Node
 
-from cam_metrology.bagio import BagWriter
+from cam_metrology.bagio import BagWriter, block_sample_count
 from cam_metrology.wire.loss import OK, WARN, SequenceLoss, loss_status, loss_values
 from cam_metrology.nodes.adapter import RX_LINGER
 from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
 from cam_metrology.wire.layouts import encode_statuses
-from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, JOINT_STATES, STATUS, TOPICS,
-                                       QosSpec, qos_of)
+from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, JOINT_STATES,
+                                       JOINT_TRAJECTORY, STATUS, TOPICS, QosSpec, qos_of)
 from cam_metrology.cores.outputs import Status
 
 PARAMETERS: dict[str, tuple[Any, str]] = {
@@ -237,7 +238,7 @@ class RecorderNode(Node):
         reader = reader or self._reader_qos.get(topic)
         self.counts.setdefault(topic, 0)
         if self._with_info and (reader or qos).depth > 1 and topic != DIAGNOSTICS:
-            self.losses.setdefault(topic, SequenceLoss(topic))
+            self.losses.setdefault(topic, SequenceLoss(topic, blocks=topic == JOINT_TRAJECTORY))
         callback = self._on_message if self._with_info else self._on_message_no_info
         self._subs[topic] = self.create_subscription(
             message_class(type_name), topic, functools.partial(callback, topic),
@@ -271,6 +272,8 @@ class RecorderNode(Node):
         self.counts[topic] += len(datas)
         self.callbacks_run += len(datas)
         acc = self.losses.get(topic)
+        if acc is not None and acc.blocks:   # blocks: samples counted too
+            acc.add_samples(sum(block_sample_count(d) for d in datas))
         if acc is not None and seqs[0] > 0 and acc.add(seqs):
             self._diag_last = 0.0   # a new hole: say it now
 

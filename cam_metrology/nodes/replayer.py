@@ -7,10 +7,11 @@
 * The latched topics' first messages are published first, then the player waits
   (deadline ``match_timeout``) for **every subscriber the user expects**: each node
   of ``expect`` (default ``metrology`` and ``recorder``; ``NODE:/topic`` for a node
-  that does not take the busiest topic) must show a subscription in the graph and be
+  that does not take the sample stream) must show a subscription in the graph and be
   matched by the player's publisher, and at least ``wait_subscribers`` subscriptions
-  must match the busiest topic (the sample stream); then until the latched messages
-  are acknowledged. A subscriber still missing at the deadline stops the replay before
+  must match the sample stream (/bench/joint_states or /bench/joint_trajectory; the
+  busiest topic in a bag without one); then until the latched messages are
+  acknowledged. A subscriber still missing at the deadline stops the replay before
   the first sample (exit 4, naming it) unless ``start_anyway``: starting as soon as
   *one* subscriber matched once left a recorder with 681 of 18 000 samples. Then the
   rest streams in log-time order at ``t_wall0 + (t_bag - t_bag0) / rate`` (``rate``
@@ -131,8 +132,13 @@ class ReplayNode(Node):
         self.latched = {t for t, (_, lat) in conns.items() if lat}
         from cam_metrology.bagio import bag_topics
         counts = {t: n for t, (_, n) in bag_topics(self.bag).items() if t in conns}
-        #: the topic with the most messages (the sample stream): the one waited for
-        self.main_topic = max(counts, key=lambda t: counts[t]) if counts else None
+        #: the sample stream (JointStates or blocks), else the topic with the most
+        #: messages: the one waited for (a bag of blocks has fewer sample messages than
+        #: plot points)
+        from cam_metrology.wire.topics import SAMPLE_TOPICS
+        samples = [t for t in SAMPLE_TOPICS if counts.get(t)]
+        self.main_topic = samples[0] if samples else \
+            max(counts, key=lambda t: counts[t]) if counts else None
         self.pubs = {t: self.create_publisher(message_class(type_name), t, replay_qos(lat))
                      for t, (type_name, lat) in conns.items()}
 

@@ -211,7 +211,8 @@ def analyze_bag(bag: str, params: str | None = None, *, only_metrology: bool = F
         raise InputError('bag', bag, f'{JOINT_STATES} samples (the bag has none: '
                          'nothing to measure)')
     for issue in result.joint_issues:
-        if issue.count >= result.samples:   # not one usable sample: name the field
+        if issue.count >= result.samples or not result.usable_samples:
+            # not one usable sample: name the field
             raise issue.error(result.samples)
         warnings.append(f'{issue.text(result.samples)}: those samples are dropped and '
                         'counted (samples_nan_dropped)')

@@ -49,7 +49,8 @@ from cam_metrology.cores.outputs import Output, TableOutput, TextOutput
 from cam_metrology.wire.cdr import decode
 from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages
-from cam_metrology.wire.topics import JOINT_STATES, METROLOGY_REPORT, PLOT_TOPICS
+from cam_metrology.wire.topics import (JOINT_STATES, JOINT_TRAJECTORY, METROLOGY_REPORT,
+                                       PLOT_TOPICS)
 
 __all__ = ['StampedOutput', 'OfflineResult', 'run_offline', 'write_outputs',
            'OutputBagWriter', 'regenerated_topics',
@@ -84,6 +85,7 @@ class OfflineResult:
     regenerated_topics: tuple[str, ...] = ()
     #: JointState messages that could not give a sample (bagio.JointIssue)
     joint_issues: tuple[Any, ...] = ()
+    usable_samples: int = 0   # samples with a finite angle and lift
 
     def by_topic(self, topic: str) -> list[Output]:
         """The outputs published on ``topic``, in order."""
@@ -226,10 +228,15 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     result = OfflineResult(bag=bag, regenerated_topics=tuple(sorted(published & set(topics))))
     router = _Router(cores, result, superseded_tables, sink)
     joints = JOINT_STATES
-    feed_joints = joints in wanted and joints in topics
-    blocks = bagio.iter_joint_states(bag, block_bytes=block_bytes) if feed_joints else iter(())
-    others = bagio.iter_messages(bag, sorted(wanted - {joints})) \
-        if wanted - {joints} else iter(())
+    # both forms of the sample stream (one per JointState, blocks) feed the sample
+    # subscribers; joint names (angle, lift) from the first core that has them
+    feed_joints = joints in wanted and (joints in topics or JOINT_TRAJECTORY in topics)
+    names = next((c.joints for c in cores if getattr(c, 'joints', None)), None)
+    blocks = bagio.iter_joint_states(
+        bag, block_bytes=block_bytes, **({'joints': names} if names else {})) \
+        if feed_joints else iter(())
+    others = bagio.iter_messages(bag, sorted(wanted - {joints, JOINT_TRAJECTORY})) \
+        if wanted - {joints, JOINT_TRAJECTORY} else iter(())
     total = sum(topics[t][1] for t in wanted if t in topics)
     summary = bagio.JointSummary()
     joint_cores = router.subscribers.get(joints, [])
@@ -303,6 +310,7 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
         deliver(nxt)
         nxt = next(others, None)
     result.samples = summary.count
+    result.usable_samples = summary.usable
     result.joint_issues = summary.issues
     if summary.count:
         result.delivered[joints] = summary.count

@@ -107,6 +107,10 @@ class SimParams:
                                   'z (the lift scaled by 1 + taper z / max lift)')
     twist_deg_per_mm: float = _doc(0.0, 'tracks: the nose turns by this many cam degrees per '
                                    'mm of z')
+    samples_per_message: int = _doc(1, 'how the bench sends its samples: 1 = one '
+                                    'sensor_msgs/JointState each on /bench/joint_states; '
+                                    'N > 1 = blocks of N per trajectory_msgs/JointTrajectory '
+                                    'on /bench/joint_trajectory')
 
     def validated(self) -> SimParams:
         """Raise InputError for an impossible parameter; return self."""
@@ -153,6 +157,10 @@ class SimParams:
             require_finite(f'lobe_tracks_mm[{j}]', z)
         require_finite('taper_um_per_mm', self.taper_um_per_mm)
         require_finite('twist_deg_per_mm', self.twist_deg_per_mm)
+        if isinstance(self.samples_per_message, bool) or not isinstance(
+                self.samples_per_message, (int, np.integer)) or self.samples_per_message < 1:
+            raise InputError('samples_per_message', self.samples_per_message,
+                             'an integer >= 1')
         if self.true_angles is not None:
             if not isinstance(self.true_angles, dict):
                 raise InputError('true_angles', self.true_angles, 'a mapping id -> rad')
@@ -426,6 +434,8 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
         feats[j.id] = {'kind': 'journal', 'bow_m': bow(scene, j.id, params),
                        'probe_zero_radius_m': scene.base_circle_radius -
                        params.probe_zero_offset, 'samples': n}
+    if p.get('samples_per_message') == 1:   # one sample per message: truth as before
+        del p['samples_per_message']
     return {
         'camshaft_id': scene.camshaft_id,
         'direction': scene.direction,
@@ -456,7 +466,7 @@ def iter_joint_state_messages(run: BenchRun) -> Iterator[tuple[int, str, float, 
 def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = None, *,
                   compression: bool = True,
                   progress: Callable[[int, int], None] | None = None,
-                  rounds: int = 1) -> BenchRun:
+                  rounds: int = 1, samples_per_message: int | None = None) -> BenchRun:
     """Simulate and record a bag as the bench + recorder would (returns the run).
 
     Topics: ``/bench/scene`` (scene YAML) and ``/bench/truth`` (JSON) first, latched;
@@ -465,13 +475,23 @@ def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = Non
     is called every 10 000 samples. ``rounds``: the bench measures every feature that
     many times in a row (the same samples, each round later by the run's duration plus
     ``feature_gap``): a long bag of repeated measurements of one part.
+    ``samples_per_message`` (default: ``params.samples_per_message``) > 1: the samples
+    go in blocks of that many on ``/bench/joint_trajectory`` (log time = the block's
+    last sample) instead.
     """
     from cam_metrology.bagio import BagWriter
-    from cam_metrology.wire.cdr import encode_joint_states, encode_string
-    from cam_metrology.wire.topics import FEATURE_DONE, JOINT_STATES, SCENE, TOPIC_TYPES, TRUTH
+    from cam_metrology.wire.cdr import encode_joint_states, encode_sample_blocks, encode_string
+    from cam_metrology.wire.topics import (FEATURE_DONE, JOINT_STATES, JOINT_TRAJECTORY, SCENE,
+                                           TOPIC_TYPES, TRUTH)
 
     if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)) or rounds < 1:
         raise InputError('rounds', rounds, 'an integer >= 1')
+    if samples_per_message is None:
+        samples_per_message = (params or SimParams()).samples_per_message
+    if isinstance(samples_per_message, bool) or not isinstance(
+            samples_per_message, (int, np.integer)) or samples_per_message < 1:
+        raise InputError('samples_per_message', samples_per_message, 'an integer >= 1')
+    samples_topic = JOINT_STATES if samples_per_message == 1 else JOINT_TRAJECTORY
     run = simulate(scene, params)
     total = run.sample_count * int(rounds)
     first = int(run.features[0].stamp_ns[0]) if run.features else DEFAULT_START_NS
@@ -481,7 +501,7 @@ def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = Non
         period = int(run.features[-1].stamp_ns[-1]) - first + int(round(1e9 / p.rate)) + \
             int(round(p.feature_gap * 1e9))
     with BagWriter(path, compression=compression) as writer:
-        for topic in (SCENE, TRUTH, JOINT_STATES, FEATURE_DONE):
+        for topic in (SCENE, TRUTH, samples_topic, FEATURE_DONE):
             writer.add_topic(topic, TOPIC_TYPES[topic])
         writer.write(SCENE, first - 2_000_000, encode_string(scene.text))
         writer.write(TRUTH, first - 1_000_000,
@@ -490,6 +510,15 @@ def write_sim_bag(path: str | Path, scene: Scene, params: SimParams | None = Non
         write = writer.write
         for feat in (f for r in range(int(rounds)) for f in _shifted(run, r * period)):
             stamps = feat.stamp_ns.tolist()
+            if samples_per_message > 1:
+                for stamp, cdr in encode_sample_blocks(feat.id, feat.stamp_ns, feat.theta,
+                                                       feat.s, samples_per_message):
+                    write(JOINT_TRAJECTORY, stamp, cdr)
+                done += len(stamps)
+                if progress is not None:
+                    progress(done, total)
+                writer.write(FEATURE_DONE, stamps[-1] + 1000, encode_string(feat.id))
+                continue
             cdrs = encode_joint_states(feat.id, feat.stamp_ns, feat.theta, feat.s)
             for stamp, cdr in zip(stamps, cdrs):
                 write(JOINT_STATES, stamp, cdr)

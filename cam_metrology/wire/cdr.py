@@ -1,6 +1,7 @@
 """CDR (little endian, ROS 2 Jazzy) of the messages cam-bench writes, without rclpy.
 
-The fast path: ``std_msgs/String``, ``sensor_msgs/JointState`` and
+The fast path: ``std_msgs/String``, ``sensor_msgs/JointState``,
+``trajectory_msgs/JointTrajectory`` (blocks of samples) and
 ``std_msgs/Float64MultiArray`` are packed with ``struct``/numpy (byte-identical to
 the rosbags typestore's ``serialize_cdr``, test/test_wire.py); other types go through
 the rosbags ROS2_JAZZY typestore (``typestore()``), which also decodes everything
@@ -20,7 +21,7 @@ from cam_metrology.wire.topics import CAMSHAFT_JOINT, PROBE_JOINT
 
 __all__ = ['typestore', 'decode', 'encode_string', 'encode_joint_state',
            'encode_joint_states', 'encode_joint_state_positions', 'encode_float64_array',
-           'encode_named_values']
+           'encode_named_values', 'encode_joint_trajectory', 'encode_sample_blocks']
 
 _TYPESTORE: Any = None
 _U32 = struct.Struct('<I')
@@ -65,6 +66,18 @@ def _header(out: bytearray, stamp_ns: int, frame_id: str) -> None:
     _string(out, frame_id)
 
 
+def _header_and_names(stamp_ns: int, frame_id: str, names: Sequence[str]) -> bytearray:
+    """The CDR start shared by JointState and JointTrajectory: encapsulation, header
+    (stamp [ns], frame id), then the string sequence ``names``."""
+    out = bytearray(_HEAD)
+    _header(out, stamp_ns, frame_id)
+    _align(out, 4)
+    out += _U32.pack(len(names))
+    for name in names:
+        _string(out, name)
+    return out
+
+
 def _float64s(out: bytearray, values: Any) -> None:
     arr = np.ascontiguousarray(values, dtype='<f8').reshape(-1)
     _align(out, 4)
@@ -86,12 +99,7 @@ def encode_joint_state_positions(frame_id: str, stamp_ns: int, names: Sequence[s
                                  velocities: Sequence[float] = ()) -> bytes:
     """CDR of a ``sensor_msgs/JointState`` with ``names``, ``positions`` (any lengths:
     also used to build irregular test bags), optional ``velocities``, no effort."""
-    out = bytearray(_HEAD)
-    _header(out, stamp_ns, frame_id)
-    _align(out, 4)
-    out += _U32.pack(len(names))
-    for name in names:
-        _string(out, name)
+    out = _header_and_names(stamp_ns, frame_id, names)
     _float64s(out, positions)
     _float64s(out, velocities)
     _float64s(out, ())
@@ -164,3 +172,69 @@ def encode_float64_array(dims: Sequence[tuple[str, int, int]], data: Any,
     out += _U32.pack(int(data_offset))
     _float64s(out, data)
     return bytes(out)
+
+
+def encode_joint_trajectory(frame_id: str, stamp_ns: int, names: Sequence[str],
+                            positions: Any, offsets_ns: Any) -> bytes:
+    """CDR of a ``trajectory_msgs/JointTrajectory`` block of samples (vectorised).
+
+    ``positions`` (n x len(names)) in joint order [rad, m], ``offsets_ns`` (n,) each
+    point's ``time_from_start`` [ns] (>= 0) from ``stamp_ns`` (``header.stamp``, the
+    first sample's time); velocities, accelerations and effort empty. Byte-identical to
+    the rosbags typestore's ``serialize_cdr`` (test/test_blocks.py).
+    """
+    pos = np.ascontiguousarray(positions, dtype='<f8')
+    if pos.ndim == 1 and len(names) == 1:
+        pos = pos.reshape(-1, 1)
+    off = np.asarray(offsets_ns, dtype=np.int64).reshape(-1)
+    if pos.ndim != 2 or pos.shape[1] != len(names) or pos.shape[0] != off.size:
+        raise InputError('encode_joint_trajectory', (pos.shape, off.size),
+                         f'positions of shape (n, {len(names)}) and n offsets')
+    if off.size and int(off.min()) < 0:
+        raise InputError('encode_joint_trajectory.time_from_start', int(off.min()),
+                         'offsets >= 0 ns')
+    out = _header_and_names(stamp_ns, frame_id, names)
+    _align(out, 4)
+    n, k = pos.shape
+    out += _U32.pack(n)
+    if n == 0:
+        return bytes(out)
+    sec, nsec = np.divmod(off, 1_000_000_000)
+    # the first point alone (its doubles may need a 4-byte pad); from the second on
+    # every point starts at 4 mod 8, so the rest is one packed record array
+    _float64s(out, pos[0])
+    out += b'\0' * 12   # empty velocities, accelerations, effort
+    out += struct.pack('<iI', int(sec[0]), int(nsec[0]))
+    if n > 1:
+        rec = np.zeros(n - 1, dtype=[('count', '<u4'), ('pos', '<f8', (k,)),
+                                     ('empty', '<u4', (3,)), ('sec', '<i4'), ('nsec', '<u4')])
+        rec['count'] = k
+        rec['pos'] = pos[1:]
+        rec['sec'] = sec[1:]
+        rec['nsec'] = nsec[1:]
+        out += rec.tobytes()
+    return bytes(out)
+
+
+def encode_sample_blocks(frame_id: str, stamp_ns: Any, theta: Any, s: Any,
+                         per_message: int,
+                         names: Sequence[str] = (CAMSHAFT_JOINT, PROBE_JOINT),
+                         ) -> list[tuple[int, bytes]]:
+    """One feature's samples as JointTrajectory blocks of at most ``per_message``
+    samples: (stamp of the block's last sample [ns], CDR) per block. Stamps [ns] int64
+    (non-decreasing), theta [rad], s [m] of one length; joints ``names`` (angle, lift)."""
+    st = np.asarray(stamp_ns, dtype=np.int64).reshape(-1)
+    pos = np.column_stack((np.asarray(theta, dtype='<f8').reshape(-1),
+                           np.asarray(s, dtype='<f8').reshape(-1)))
+    if st.size != pos.shape[0]:
+        raise InputError('encode_sample_blocks', (st.size, pos.shape[0]),
+                         'stamps, theta and s of the same length')
+    if isinstance(per_message, bool) or int(per_message) < 1:
+        raise InputError('samples_per_message', per_message, 'an integer >= 1')
+    out = []
+    for a in range(0, st.size, int(per_message)):
+        b = min(st.size, a + int(per_message))
+        t0 = int(st[a])
+        out.append((int(st[b - 1]), encode_joint_trajectory(frame_id, t0, names, pos[a:b],
+                                                            st[a:b] - t0)))
+    return out

@@ -19,6 +19,10 @@ exactly, with no help from the publisher.
   predecessor ``s - 1`` is always the best fit); with loss and several publishers the
   split between them can be off, the total rarely. One publisher per topic (the
   bench) is exact.
+* Blocks (``/bench/joint_trajectory``: many samples per message): the holes count
+  lost blocks; ``SequenceLoss(blocks=True)`` also counts the samples of the blocks
+  received (``add_samples``) and gives the samples lost as the lost blocks times the
+  mean block size received (``samples_lost``, said "about N samples").
 * ``FeatureLoss``: the holes attributed to the features (JointState ``frame_id``) of
   the samples around them; a hole between two features is charged to both (its
   samples belonged to one or the other), so a feature computed on partial data is
@@ -45,6 +49,29 @@ class SequenceLoss:
     lost: int = 0                 # holes after the first sample of a stream
     missed_at_start: int = 0      # numbers below the first one received of each stream
     streams: list[int] = field(default_factory=list)   # last number of each stream
+    blocks: bool = False          # a message holds many samples (a block)
+    block_samples: int = 0        # samples in the blocks received (blocks only)
+
+    def add_samples(self, n: int) -> None:
+        """Count ``n`` samples received in blocks (blocks only)."""
+        self.block_samples += int(n)
+
+    @property
+    def samples_per_message(self) -> float:
+        """Mean samples per message received (1 for one sample per message)."""
+        if not self.blocks or not self.received:
+            return 1.0
+        return self.block_samples / self.received
+
+    @property
+    def samples_lost(self) -> int:
+        """Samples lost: the lost messages (blocks: times the mean block size)."""
+        return int(round(self.lost * self.samples_per_message))
+
+    @property
+    def samples_missed_at_start(self) -> int:
+        """Samples published before the first one received (blocks: estimated)."""
+        return int(round(self.missed_at_start * self.samples_per_message))
 
     def add(self, seqs: Iterable[int] | np.ndarray) -> list[tuple[int, int]]:
         """Account for ``seqs`` (in the order received); returns [(index in seqs,
@@ -87,6 +114,8 @@ class SequenceLoss:
 
     def summary(self) -> str:
         """One line: 'lost N samples on TOPIC (of M)' or 'no loss on TOPIC (M samples)'."""
+        if self.blocks:
+            return self._block_summary()
         parts = []
         if self.lost:
             parts.append(f'lost {self.lost} samples on {self.topic} '
@@ -95,6 +124,20 @@ class SequenceLoss:
             parts.append(f'missed {self.missed_at_start} samples on {self.topic} '
                          'published before the first one received')
         return '; '.join(parts) or f'no loss on {self.topic} ({self.received} received)'
+
+    def _block_summary(self) -> str:
+        """``summary`` of a block topic: blocks and (estimated) samples."""
+        parts = []
+        if self.lost:
+            parts.append(f'lost {self.lost} blocks (about {self.samples_lost} samples) on '
+                         f'{self.topic} ({self.received} of {self.expected} blocks received'
+                         f', {self.block_samples} samples)')
+        if self.missed_at_start:
+            parts.append(f'missed {self.missed_at_start} blocks (about '
+                         f'{self.samples_missed_at_start} samples) on {self.topic} '
+                         'published before the first one received')
+        return '; '.join(parts) or (f'no loss on {self.topic} ({self.received} blocks, '
+                                    f'{self.block_samples} samples received)')
 
     @property
     def level(self) -> int:
@@ -164,6 +207,9 @@ def loss_values(losses: Iterable[SequenceLoss]) -> dict[str, str]:
         out[f'received{loss.topic}'] = str(loss.received)
         out[f'lost{loss.topic}'] = str(loss.lost)
         out[f'missed_at_start{loss.topic}'] = str(loss.missed_at_start)
+        if loss.blocks:
+            out[f'samples_received{loss.topic}'] = str(loss.block_samples)
+            out[f'samples_lost{loss.topic}'] = str(loss.samples_lost)
     return out
 
 
@@ -175,7 +221,10 @@ def loss_status(losses: Sequence[SequenceLoss], extra: str = '') -> tuple[int, s
     if bad:
         msg = '; '.join(x.summary() for x in bad)
     else:
-        msg = f'no loss ({sum(x.received for x in losses)} messages received)'
+        msg = f'no loss ({sum(x.received for x in losses)} messages received'
+        blocks = [x for x in losses if x.blocks and x.received]
+        msg += ''.join(f', {x.block_samples} samples in {x.received} blocks on {x.topic}'
+                       for x in blocks) + ')'
     return level, msg + (f'; {extra}' if extra else '')
 
 
@@ -233,11 +282,19 @@ def mark_partial(outputs: Sequence[Any], features: FeatureLoss, losses: Sequence
                         if why:
                             entry['partial_reason'] = why
                 doc['input'] = {
-                    'samples_lost': sum(x.lost for x in losses),
-                    'missed_at_start': sum(x.missed_at_start for x in losses),
-                    'topics': {x.topic: {'received': x.received, 'lost': x.lost,
-                                         'missed_at_start': x.missed_at_start}
-                               for x in losses}}
+                    'samples_lost': sum(x.samples_lost for x in losses),
+                    'missed_at_start': sum(x.samples_missed_at_start for x in losses),
+                    'topics': {x.topic: _topic_counts(x) for x in losses}}
                 o = dataclasses.replace(o, text=json.dumps(doc, indent=1))
         out.append(o)
+    return out
+
+
+def _topic_counts(loss: SequenceLoss) -> dict[str, int]:
+    """Report counts of one topic: messages received, lost and missed at the start;
+    for blocks also the samples received and (estimated) lost."""
+    out = {'received': loss.received, 'lost': loss.lost,
+           'missed_at_start': loss.missed_at_start}
+    if loss.blocks:
+        out.update(samples_received=loss.block_samples, samples_lost=loss.samples_lost)
     return out

@@ -20,7 +20,8 @@ __all__ = [
     'PLOT_LIFT', 'PLOT_PROFILE', 'PLOT_MOTION',
     'TOPICS', 'BENCH_TOPICS', 'OUTPUT_TOPICS', 'PLOT_TOPICS', 'TOPIC_TYPES',
     'LATCHED_TOPICS', 'qos_of', 'type_of', 'qos_yaml', 'default_qos_yaml',
-    'CAMSHAFT_JOINT', 'PROBE_JOINT',
+    'CAMSHAFT_JOINT', 'PROBE_JOINT', 'JOINT_TRAJECTORY', 'JOINT_TRAJECTORY_TYPE', 'BLOCKS',
+    'SAMPLE_TOPICS',
 ]
 
 #: joints of a bench sample (``/bench/joint_states``), looked up by name
@@ -55,6 +56,9 @@ LATCHED = QosSpec(reliable=True, transient_local=True, depth=1)
 #: the contract asks of a bench publisher and the depth of every committed fixture
 #: bag, so a replayed bag offers what a real bench offers.
 SAMPLES = QosSpec(reliable=True, transient_local=False, depth=1000, keep_all=True)
+#: /bench/joint_trajectory (blocks of samples): as SAMPLES; a bag stores keep last 100
+#: blocks (100 000 samples at 1000 samples per block)
+BLOCKS = QosSpec(reliable=True, transient_local=False, depth=100, keep_all=True)
 EVENTS = QosSpec(reliable=True, transient_local=False, depth=10)
 #: node outputs: reliable, offered transient local (a late subscriber, e.g. the
 #: recorder on a loaded machine, still gets the last 100 messages)
@@ -69,9 +73,12 @@ STRING = 'std_msgs/msg/String'
 TABLE = 'std_msgs/msg/Float64MultiArray'
 STATUS = 'diagnostic_msgs/msg/DiagnosticArray'
 JOINT_STATE = 'sensor_msgs/msg/JointState'
+JOINT_TRAJECTORY_TYPE = 'trajectory_msgs/msg/JointTrajectory'
 
 SCENE = '/bench/scene'
 JOINT_STATES = '/bench/joint_states'
+#: blocks of samples: one JointTrajectory point per sample (docs/contract.md §2)
+JOINT_TRAJECTORY = '/bench/joint_trajectory'
 FEATURE_DONE = '/bench/feature_done'
 TRUTH = '/bench/truth'
 METROLOGY_RESULT = '/metrology/result'
@@ -93,6 +100,7 @@ PLOT_MOTION = '/plot/valve_motion'
 TOPICS: dict[str, tuple[str, QosSpec]] = {
     SCENE: (STRING, LATCHED),
     JOINT_STATES: (JOINT_STATE, SAMPLES),
+    JOINT_TRAJECTORY: (JOINT_TRAJECTORY_TYPE, BLOCKS),
     FEATURE_DONE: (STRING, EVENTS),
     TRUTH: (STRING, LATCHED),
     METROLOGY_RESULT: (STATUS, RESULTS),
@@ -109,7 +117,9 @@ TOPICS: dict[str, tuple[str, QosSpec]] = {
     PLOT_MOTION: (JOINT_STATE, PLOT_POINTS),
 }
 
-BENCH_TOPICS = (SCENE, TRUTH, JOINT_STATES, FEATURE_DONE)
+BENCH_TOPICS = (SCENE, TRUTH, JOINT_STATES, JOINT_TRAJECTORY, FEATURE_DONE)
+#: the two forms of the sample stream: one sample per message, and blocks
+SAMPLE_TOPICS = (JOINT_STATES, JOINT_TRAJECTORY)
 PLOT_TOPICS = (METROLOGY_VALUES, PLOT_LIFT, PLOT_PROFILE, PLOT_MOTION)
 #: what the node cores publish (the plot views and /diagnostics are derived from it)
 OUTPUT_TOPICS = tuple(t for t in TOPICS
