@@ -1,0 +1,401 @@
+"""One lift table -> one lobe law: the component every route that reads a lift table
+uses (a table file, a scene lobe table, a gauge nominal file, a reconstruction's
+profile, the measured table of the metrology node).
+
+``lobe_law(alpha, lift, key=...)`` returns a ``TableLobe``: a lift law (rad -> m,
+callable as ``law(alpha, nu)`` for nu = 0..3, continuous up to h''' everywhere) in the
+table's own angle frame, with a ``LobeInfo`` (``law.lobe``) saying what was done and
+what the rows could not tell. The rules (docs/methods.md, "One table, one lobe"):
+
+* **frame**: a table over the whole turn is turned so that the seam (+-180 deg) lies
+  in the middle of its longest base-circle run (a lobe across +-180 deg is not cut);
+  one with no base-circle run (an eccentric) is periodic, its lowest row at the seam.
+  Angles of the law are those of the table (the turn is undone).
+* **smoothing**: the rows are interpolated (quintic spline through every row) when
+  their scatter about a smooth curve is no more than their rounding explains and the
+  rounding, carried through the interpolant, stays below ``ROUNDING_ACC_SHARE`` of the
+  lobe's peak h''; otherwise they are smoothed by the reconstruction spline with the
+  risk criterion (noise: the rounding's q/sqrt(12), or the engine's estimate).
+* **lobe ends**: the lobe is the run of the curve above the base-circle level
+  ``tau`` around the highest row; at each end it is joined to the base circle by a
+  degree-7 Hermite segment from (h, h', h'', h''') = 0 to the curve's values (never a
+  lift step), over the angle 2 h/h' a constant-velocity ramp would take.
+* a table that starts or ends mid-lobe (no base-circle row before or after the lobe)
+  is joined the same way, with a warning; above ``MID_LOBE_LIMIT`` of the max lift it
+  is refused. Several lobes: the highest is taken, the others named in a warning.
+* results no cam can have are refused: a max lift above every row by more than the
+  noise, a peak acceleration far above what the lobe's lift and duration allow.
+
+The engine (``reconstruction.spline``) is called through its public entry points only.
+This module belongs with the engine; both should move to a pure-numerics package of
+cam_design together.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cam_design.errors import InputError
+from cam_design.valve_train.cam_input import JetTableLift
+from cam_metrology.reconstruction.samples import clean_samples, other_lobes_warning, wrap_pi
+
+TWO_PI = 2.0 * math.pi
+#: largest step [deg] of the grid on which the lobe's jets are tabulated for the
+#: degree-7 Hermite law (a divisor of the table step, so that every row is a node)
+GRID_DEG = 0.1
+#: rows scatter at most this many times the rounding's q/sqrt(12): "only rounded"
+SCATTER_RATIO = 1.5
+#: interpolate a rounded table only while its rounding carried into h'' (ROUNDING_GAIN
+#: q/sqrt(12)/step^2) stays below this share of the lobe's peak |h''|
+ROUNDING_ACC_SHARE = 0.02
+#: std of the quintic interpolant's h'' at unit white noise on unit steps (measured on
+#: 1e4 rows of unit noise: 9.7 at the rows, up to 11 between; the larger is used)
+ROUNDING_GAIN = 11.0
+#: the scatter of every second row at least this many times that of all rows: shape
+SHAPE_GROWTH = 4.0
+#: a table starting / ending above this share of its max lift is refused
+MID_LOBE_LIMIT = 0.5
+#: smallest join [deg]: half a table step, at least this
+JOIN_MIN_DEG = 0.25
+#: a lobe law whose peak |h''| exceeds this many times 2 H / (half-duration)^2 (what a
+#: constant-acceleration rise of the same lift and duration needs) is refused
+ACC_PLAUSIBLE = 100.0
+#: a cam-angle lobe wider than this [deg] seat to seat is probably in crank degrees
+CRANK_SUSPECT_DEG = 200.0
+#: inch gauges round to 0.0001 in: a quantum in inches [m per in]
+INCH = 0.0254
+
+
+@dataclass
+class LobeInfo:
+    """What ``lobe_law`` did with a table. Angles [rad], lengths [m].
+
+    ``method``: 'interpolated' or 'smoothed'; ``why``: the sentence behind it;
+    ``sigma``: the noise the rows carry (rounding or estimate); ``quantum``: the
+    rounding step q (0: not rounded); ``offset``: the turn applied to the rows (frame);
+    ``periodic``: no base circle (an eccentric); ``joins``: (start, end) of each join
+    segment; ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
+    ``rows``: the rows as given (alpha, lift) for replicas; ``rec``: the engine's
+    Reconstruction when smoothed."""
+
+    key: str
+    method: str
+    why: str
+    sigma: float
+    quantum: float
+    step: float
+    offset: float
+    periodic: bool
+    level: float
+    joins: list[tuple[float, float]] = field(default_factory=list)
+    mid_lobe: tuple[str, ...] = ()
+    warnings: list[str] = field(default_factory=list)
+    rows: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+    rec: object = None
+
+    def note(self) -> str:
+        """One sentence for a route's output: how the table became the lobe."""
+        return (f'{self.key}: lobe law from a table every {math.degrees(self.step):.3g} deg, '
+                f'{self.method} ({self.why})'
+                + (f'; lifts quantised to {self.quantum * 1e3:g} mm' if self.quantum else '')
+                + ('; periodic (no base circle)' if self.periodic else
+                   '; joined to the base circle with zero lift, velocity, acceleration and '
+                   'jerk at ' + ', '.join(f'{math.degrees(a):.2f}..{math.degrees(b):.2f} deg'
+                                          for a, b in self.joins))
+                + (f'; rows turned by {math.degrees(self.offset):.1f} deg to keep the lobe '
+                   'off the +-180 deg seam (angles reported in the table frame)'
+                   if self.offset else ''))
+
+
+class TableLobe(JetTableLift):
+    """The lobe law of a table (``lobe_law``): the degree-7 Hermite interpolant of the
+    lobe's jets (C3), with ``lobe`` (LobeInfo) and ``table`` (rows, q, sigma)."""
+
+    lobe: LobeInfo
+
+
+def table_quantum(lift: ArrayLike) -> float:
+    """The rounding step q [m] of lifts [m] rounded in mm or in inches (0: not rounded)."""
+    from cam_metrology.reconstruction.spline import quantisation_step
+
+    v = np.asarray(lift, dtype=float)
+    # both: an inch quantum in m is also a (much finer) whole multiple of 1e-8 m
+    return float(max(quantisation_step(v), INCH * quantisation_step(v / INCH)))
+
+
+def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float
+           ) -> tuple[float, bool]:
+    """(offset [rad], periodic) of the rows (sorted, in (-pi, pi]): offset 0 unless the
+    table covers the whole turn and its lobe crosses the seam."""
+    if a[-1] - a[0] < TWO_PI - 1.5 * step:           # part of the turn: keep its frame
+        return 0.0, False
+    top = float(np.max(h))
+    base = h <= float(np.min(h)) + 0.02 * (top - float(np.min(h)))
+    if np.count_nonzero(base) < 2:                     # an eccentric: periodic
+        return float(a[int(np.argmin(h))]) + math.pi, True
+    if base[0] and base[-1]:
+        return 0.0, False
+    # the longest cyclic run of base rows: its middle goes to the seam
+    n = a.size
+    start = int(np.flatnonzero(~base)[0])
+    order = (np.arange(n) + start) % n
+    best, best_len, run = None, -1.0, []
+    for k in list(order) + [order[0]]:
+        if base[k]:
+            run.append(k)
+            continue
+        if run:
+            span = (a[run[-1]] - a[run[0]]) % TWO_PI
+            if span > best_len:
+                best, best_len = (run[0], run[-1]), span
+        run = []
+    assert best is not None
+    mid = a[best[0]] + 0.5 * ((a[best[1]] - a[best[0]]) % TWO_PI)
+    return float(wrap_pi(mid - math.pi)), False
+
+
+def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool):
+    """Quintic interpolating spline of the rows (periodic over the turn if asked)."""
+    from scipy.interpolate import make_interp_spline
+
+    if periodic:
+        x = np.append(b, b[0] + TWO_PI)
+        y = np.append(h, h[0])
+        return make_interp_spline(x, y, k=5, bc_type='periodic')
+    return make_interp_spline(b, h, k=5)
+
+
+def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[float, bool]:
+    """(scatter [m], shape): the engine's noise estimate of the rows, and whether it is
+    the lobe's shape rather than noise: the estimate of every second row is at least
+    ``SHAPE_GROWTH`` times larger (noise per row does not grow with the step; the
+    misfit of a smooth shape grows as a high power of it)."""
+    from cam_metrology.reconstruction.spline import rebound_fairing
+
+    full = float(rebound_fairing(b, h).sigma)
+    if b.size < 24 or full <= 0.0:
+        return full, full <= 0.0
+    half = min(float(rebound_fairing(b[0::2], h[0::2]).sigma),
+               float(rebound_fairing(b[1::2], h[1::2]).sigma))
+    return full, half >= SHAPE_GROWTH * full
+
+
+def _grid_step(step: float) -> float:
+    g = math.radians(GRID_DEG)
+    return step / max(1, math.ceil(step / g - 1e-9))
+
+
+def _join(at: float, width: float, jets: NDArray[np.float64], side: int):
+    """The degree-7 Hermite join from the base circle (all jets 0) to ``jets`` (4,) at
+    ``at`` over ``width`` [rad]; side -1: before the lobe, +1: after it."""
+    from scipy.interpolate import BPoly
+
+    zero = [0.0, 0.0, 0.0, 0.0]
+    if side < 0:
+        return BPoly.from_derivatives([at - width, at], [zero, list(jets)])
+    return BPoly.from_derivatives([at, at + width], [list(jets), zero])
+
+
+def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], top: int, tau: float,
+          side: int, min_width: float, key: str) -> tuple[float, float, bool]:
+    """(join point [rad], join width [rad], mid-lobe) on one side of the lobe: walk out
+    from the top to the last grid point above ``tau``, then back in until the join a
+    ramp would need, 2 h/|h'|, is at least ``min_width``."""
+    idx = np.arange(top, -1, -1) if side < 0 else np.arange(top, x.size)
+    below = np.flatnonzero(y[idx] <= tau)
+    mid_lobe = below.size == 0
+    k = int(idx[-1]) if mid_lobe else int(idx[below[0] - 1])
+    while True:
+        h = float(y[k])
+        v = float(curve(x[k], 1)) * -side       # rising towards the top: positive
+        width = 2.0 * h / v if v > 0 else math.inf
+        if width >= min_width or k == top:
+            break
+        k += side * -1
+    return float(x[k]), width, mid_lobe
+
+
+def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table') -> TableLobe:
+    """The lobe law of a lift table, ``alpha`` [rad] (any frame), ``lift`` [m] (module
+    doc for the rules). InputError naming ``key`` when the rows cannot define a lobe."""
+    from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
+
+    raw_a = np.asarray(alpha, dtype=float).reshape(-1)
+    raw_h = np.asarray(lift, dtype=float).reshape(-1)
+    ok = np.isfinite(raw_a)
+    lo_a, hi_a = (float(np.min(raw_a[ok])), float(np.max(raw_a[ok]))) if ok.any() else (0, 0)
+    # a table over part of the turn keeps its angles contiguous (0..300 deg is not cut
+    # at 180 deg); a whole turn is wrapped to (-180, 180] (a repeated 0/360 row merged)
+    centre = 0.5 * (lo_a + hi_a) if hi_a - lo_a < TWO_PI - 1e-9 else 0.0
+    data = clean_samples(raw_a - centre, raw_h, key=key, min_points=8)
+    notes = [n for n in data.notes if not n.startswith('wrapped')]
+    a0, h = data.alpha + centre, data.lift
+    top_row = float(np.max(h))
+    if not top_row > 0:
+        raise InputError(f'{key}.lift', f'largest lift {top_row:g} m',
+                         'a lobe: lifts above the base circle (0)')
+    step = float(np.median(np.diff(a0)))
+    offset, periodic = _frame(a0, h, step)
+    b = wrap_pi(a0 - offset) if offset else a0
+    if offset:
+        order = np.argsort(b, kind='stable')
+        b, h = b[order], h[order]
+    if periodic:   # lift from the lowest row: the base circle of an eccentric
+        h = h - float(np.min(h))
+    q = table_quantum(h)
+    sigma_q = q / math.sqrt(12.0)
+    scatter, shape = _scatter(b, h)
+    span = float(np.ptp(h))
+    floor = max(SCATTER_RATIO * sigma_q, 1e-9 * span)
+    method = 'interpolated'
+    curve = _interpolant(b, h, periodic)
+    if scatter > floor and not shape:
+        why = (f'rows scatter {scatter * 1e6:.3g} um about a smooth curve, more than their '
+               f'rounding explains ({floor * 1e6:.3g} um)')
+        method = 'smoothed'
+    else:
+        dense = np.linspace(b[0], b[-1] + (TWO_PI - (b[-1] - b[0]) if periodic else 0.0),
+                            4001)
+        peak_acc = float(np.max(np.abs(curve(dense, 2))))
+        carried = ROUNDING_GAIN * sigma_q / step ** 2
+        if carried > ROUNDING_ACC_SHARE * peak_acc:
+            why = (f'rounding to {q * 1e3:g} mm at a {math.degrees(step):.3g} deg step would '
+                   f'carry {carried:.3g} m/rad^2 into h\'\' ({carried / peak_acc * 100:.0f} % '
+                   f'of the peak; at most {ROUNDING_ACC_SHARE * 100:g} % interpolated)')
+            method = 'smoothed'
+        else:
+            why = ('exact rows' if not q else f'rows only rounded (to {q * 1e3:g} mm)') + \
+                ': quintic interpolant through every row'
+    rec = None
+    sigma = sigma_q if method == 'interpolated' else max(scatter, sigma_q)
+    if method == 'smoothed':
+        opts = SplineOptions(criterion='risk', sigma=sigma_q if scatter <= floor else None)
+        rec = reconstruct_spline(b, h, opts)
+        sigma = max(float(rec.sigma), sigma_q)
+        why += f'; smoothed by the reconstruction spline ({rec.why})'
+        if periodic:
+            curve = _interpolant(b, np.asarray(rec.evaluate(b, 0), dtype=float), True)
+        else:
+            curve = _Evaluated(rec.evaluate)
+    tau = max(3.0 * sigma, 0.5 * q, 1e-9 * span)
+    info = LobeInfo(key=key, method=method, why=why, sigma=sigma, quantum=q, step=step,
+                    offset=offset, periodic=periodic, level=tau, rec=rec,
+                    rows=(raw_a.copy(), raw_h.copy()))
+    g = _grid_step(step)
+    if periodic:
+        x = b[0] + g * np.arange(int(round(TWO_PI / g)) + 1)
+        jets = np.stack([np.asarray(curve(x, nu), dtype=float) for nu in range(4)])
+        jets[0] -= float(np.min(jets[0]))
+    else:
+        x, jets = _lobe_jets(curve, b, h, tau, step, g, info)
+    law = TableLobe(x + offset, jets, key=key, trim=-1.0)
+    law.lobe = info
+    law.table = (info.rows[0], info.rows[1], q or None, sigma)
+    info.warnings.extend(_checks(law, b, h, info, notes))
+    return law
+
+
+class _Evaluated:
+    """A Reconstruction's ``evaluate`` as ``curve(x, nu)``."""
+
+    def __init__(self, evaluate) -> None:
+        self._f = evaluate
+
+    def __call__(self, x, nu: int = 0):
+        return np.asarray(self._f(np.asarray(x, dtype=float), nu), dtype=float)
+
+
+def _lobe_jets(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float,
+               step: float, g: float, info: LobeInfo
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Grid [rad] and (4, n) jets of the lobe between its joins, joins included."""
+    x = np.arange(int(math.floor((b[-1] - b[0]) / g + 1e-9)) + 1) * g + b[0]
+    y = np.asarray(curve(x, 0), dtype=float)
+    top = int(np.argmax(y))
+    min_width = max(0.5 * step, math.radians(JOIN_MIN_DEG))
+    lo, w_lo, mid_lo = _edge(curve, x, y, top, tau, -1, min_width, info.key)
+    hi, w_hi, mid_hi = _edge(curve, x, y, top, tau, +1, min_width, info.key)
+    peak = float(y[top])
+    mids = []
+    for name, at, width, mid in (('start', lo, w_lo, mid_lo), ('end', hi, w_hi, mid_hi)):
+        level = float(curve(at, 0))
+        if mid:
+            mids.append(name)
+        if level > MID_LOBE_LIMIT * peak or not math.isfinite(width):
+            raise InputError(info.key, f'a table that {name}s at {level * 1e3:.4g} mm '
+                             f'({level / peak * 100:.0f} % of its max lift)',
+                             f'rows down to the base circle at its {name} (or below '
+                             f'{MID_LOBE_LIMIT * 100:.0f} % of the lift, joined to it): '
+                             'give the whole lobe')
+    info.mid_lobe = tuple(mids)
+    core = np.concatenate([[lo], x[(x > lo + 1e-12) & (x < hi - 1e-12)], [hi]])
+    jets = np.stack([np.asarray(curve(core, nu), dtype=float) for nu in range(4)])
+    pieces_x, pieces_j = [], []
+    for side, at, width in ((-1, lo, w_lo), (1, hi, w_hi)):
+        end = jets[:, 0] if side < 0 else jets[:, -1]
+        seg = _join(at, width, end, side)
+        n = max(2, int(math.ceil(width / g)) + 1)
+        xs = np.linspace(at - width, at, n) if side < 0 else np.linspace(at, at + width, n)
+        js = np.stack([seg(xs, nu) if nu else seg(xs) for nu in range(4)])
+        if side < 0:
+            js[:, 0] = 0.0
+            pieces_x.append(xs[:-1])
+            pieces_j.append(js[:, :-1])
+        else:
+            js[:, -1] = 0.0
+            pieces_x.append(xs[1:])
+            pieces_j.append(js[:, 1:])
+        info.joins.append((at - width, at) if side < 0 else (at, at + width))
+    gx = np.concatenate([pieces_x[0], core, pieces_x[1]])
+    gj = np.concatenate([pieces_j[0], jets, pieces_j[1]], axis=1)
+    return gx, gj
+
+
+def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
+            info: LobeInfo, notes: list[str]) -> list[str]:
+    """Warnings on the law; InputError for a lobe no cam can have."""
+    out: list[str] = []
+    grid = np.linspace(*law.support, 8001)
+    lift = law(grid, 0)
+    top = float(np.max(lift))
+    allowed = float(np.max(h)) + max(3.0 * info.sigma, info.quantum, 1e-6)
+    if top > allowed:
+        raise InputError(info.key, f'max lift {top * 1e3:.4f} mm from rows up to '
+                         f'{float(np.max(h)) * 1e3:.4f} mm',
+                         'rows that define the lobe (the curve leaves the rows\' range: '
+                         'a gap in the table?): tabulate the whole lobe')
+    if float(np.min(lift)) < -max(3.0 * info.sigma, info.quantum, 1e-6):
+        out.append(f'the lobe law dips to {float(np.min(lift)) * 1e6:.3g} um below the base '
+                   'circle: the rows are too coarse for their shape')
+    on = np.flatnonzero(lift > 0.01 * top)
+    half = 0.5 * float(grid[on[-1]] - grid[on[0]]) if on.size > 1 else math.pi
+    acc = float(np.max(np.abs(law(grid, 2))))
+    plausible = ACC_PLAUSIBLE * 2.0 * top / max(half, 1e-6) ** 2
+    if acc > plausible and not info.periodic:
+        raise InputError(info.key, f"peak acceleration {acc:.3g} m/rad^2",
+                         f'a lobe its lift ({top * 1e3:.3g} mm) and duration '
+                         f'({math.degrees(2 * half):.0f} deg) allow (at most '
+                         f'{plausible:.3g} m/rad^2): the rows are noisier than they look; '
+                         'smooth or re-measure the table')
+    for side in info.mid_lobe:
+        j = info.joins[0] if side == 'start' else info.joins[1]
+        at = j[1] if side == 'start' else j[0]
+        level = float(law(np.array([at + info.offset]), 0)[0])
+        out.append(f'the table {side}s mid-lobe ({level * 1e3:.4g} mm, '
+                   f'{level / top * 100:.0f} % of the max lift, no base-circle row): joined '
+                   f'to the base circle over {math.degrees(j[1] - j[0]):.2f} deg; events '
+                   f'below {level * 1e3:.4g} mm are the join\'s, not the cam\'s')
+    width = math.degrees(law.support[1] - law.support[0])
+    if not info.periodic and width > CRANK_SUSPECT_DEG:
+        out.append(f'the lobe is {width:.0f} cam deg wide seat to seat (more than '
+                   f'{CRANK_SUSPECT_DEG:.0f}): are the angles crank degrees? name the '
+                   'column crank_deg (or halve the angles)')
+    other = other_lobes_warning(b, h)
+    if other:
+        out.append(other)
+    if notes:
+        out.append('rows: ' + '; '.join(notes))
+    return out
