@@ -48,18 +48,29 @@ TWO_PI = 2.0 * math.pi
 GRID_DEG = 0.1
 #: rows scatter at most this many times the rounding's q/sqrt(12): "only rounded"
 SCATTER_RATIO = 1.5
+#: rows scattering less than this share of the lift range are exact (8 nm on 8 mm)
+EXACT_SCATTER_REL = 1e-6
 #: interpolate a rounded table only while its rounding carried into h'' (ROUNDING_GAIN
 #: q/sqrt(12)/step^2) stays below this share of the lobe's peak |h''|
 ROUNDING_ACC_SHARE = 0.02
 #: std of the quintic interpolant's h'' at unit white noise on unit steps (measured on
 #: 1e4 rows of unit noise: 9.7 at the rows, up to 11 between; the larger is used)
 ROUNDING_GAIN = 11.0
-#: the scatter of every second row at least this many times that of all rows: shape
-SHAPE_GROWTH = 4.0
+#: a run of base-circle rows shorter than this [deg] is the bottom of an eccentric
+BASE_MIN_DEG = 20.0
+#: the misfit of a smooth shape grows at least this much when the step doubles (the
+#: engine's estimate on exact tables of ramped, cycloidal and harmonic lobes at
+#: 0.5-5 deg: 14 to 1e9; on noisy tables 0.7 to 1.7)
+SHAPE_GROWTH = 8.0
+#: repeated rows differing by more than this share of the lift range are refused
+REPEAT_SPREAD = 0.01
 #: a table starting / ending above this share of its max lift is refused
 MID_LOBE_LIMIT = 0.5
 #: smallest join [deg]: half a table step, at least this
 JOIN_MIN_DEG = 0.25
+#: a join ending on a row may be this share of the smallest join (a lift rising as
+#: t^n from the base circle needs 2 t/n: n up to 10 at one step from the base row)
+ROW_JOIN_SHARE = 0.4
 #: a lobe law whose peak |h''| exceeds this many times 2 H / (half-duration)^2 (what a
 #: constant-acceleration rise of the same lift and duration needs) is refused
 ACC_PLAUSIBLE = 100.0
@@ -95,6 +106,7 @@ class LobeInfo:
     warnings: list[str] = field(default_factory=list)
     rows: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
     rec: object = None
+    steps: list[str] = field(default_factory=list)
 
     def note(self) -> str:
         """One sentence for a route's output: how the table became the lobe."""
@@ -107,7 +119,9 @@ class LobeInfo:
                                           for a, b in self.joins))
                 + (f'; rows turned by {math.degrees(self.offset):.1f} deg to keep the lobe '
                    'off the +-180 deg seam (angles reported in the table frame)'
-                   if self.offset else ''))
+                   if self.offset else '')
+                + ''.join(f'; {s}: lifts, velocities and events near it are the law\'s '
+                          'bridge over the step, not the cam' for s in self.steps))
 
 
 class TableLobe(JetTableLift):
@@ -126,25 +140,23 @@ def table_quantum(lift: ArrayLike) -> float:
     return float(max(quantisation_step(v), INCH * quantisation_step(v / INCH)))
 
 
-def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float
+def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: float
            ) -> tuple[float, bool]:
     """(offset [rad], periodic) of the rows (sorted, in (-pi, pi]): offset 0 unless the
-    table covers the whole turn and its lobe crosses the seam."""
+    table covers the whole turn and its lobe crosses the seam. Base circle: the rows
+    within ``level`` [m] of the lowest (a few noise sigmas); a run of them shorter than ``BASE_MIN_DEG`` is
+    the bottom of an eccentric, not a base circle (the law is then periodic)."""
     if a[-1] - a[0] < TWO_PI - 1.5 * step:           # part of the turn: keep its frame
         return 0.0, False
-    top = float(np.max(h))
-    base = h <= float(np.min(h)) + 0.02 * (top - float(np.min(h)))
-    if np.count_nonzero(base) < 2:                     # an eccentric: periodic
-        return float(a[int(np.argmin(h))]) + math.pi, True
-    if base[0] and base[-1]:
-        return 0.0, False
-    # the longest cyclic run of base rows: its middle goes to the seam
+    base = h <= float(np.min(h)) + level
     n = a.size
+    if base.all():
+        return 0.0, False
+    # the cyclic runs of base rows; the longest one's middle goes to the seam
     start = int(np.flatnonzero(~base)[0])
-    order = (np.arange(n) + start) % n
     best, best_len, run = None, -1.0, []
-    for k in list(order) + [order[0]]:
-        if base[k]:
+    for k in [int((i + start) % n) for i in range(n + 1)]:
+        if base[k] and len(run) < n:
             run.append(k)
             continue
         if run:
@@ -152,7 +164,10 @@ def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float
             if span > best_len:
                 best, best_len = (run[0], run[-1]), span
         run = []
-    assert best is not None
+    if best is None or best_len < math.radians(BASE_MIN_DEG):
+        return float(wrap_pi(a[int(np.argmin(h))] + math.pi)), True   # an eccentric
+    if base[0] and base[-1]:
+        return 0.0, False
     mid = a[best[0]] + 0.5 * ((a[best[1]] - a[best[0]]) % TWO_PI)
     return float(wrap_pi(mid - math.pi)), False
 
@@ -168,19 +183,20 @@ def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool)
     return make_interp_spline(b, h, k=5)
 
 
-def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[float, bool]:
-    """(scatter [m], shape): the engine's noise estimate of the rows, and whether it is
-    the lobe's shape rather than noise: the estimate of every second row is at least
-    ``SHAPE_GROWTH`` times larger (noise per row does not grow with the step; the
-    misfit of a smooth shape grows as a high power of it)."""
+def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> float:
+    """The scatter [m] of the rows about a smooth curve: the engine's noise estimate
+    less the part of it that is the lobe's shape. The shape's share is judged from the
+    estimate of every second row: noise per row does not grow with the step, the misfit
+    of a smooth shape grows as a power of it (at least ``SHAPE_GROWTH`` times when the
+    step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2."""
     from cam_metrology.reconstruction.spline import rebound_fairing
 
     full = float(rebound_fairing(b, h).sigma)
     if b.size < 24 or full <= 0.0:
-        return full, full <= 0.0
+        return max(full, 0.0)
     half = min(float(rebound_fairing(b[0::2], h[0::2]).sigma),
                float(rebound_fairing(b[1::2], h[1::2]).sigma))
-    return full, half >= SHAPE_GROWTH * full
+    return math.sqrt(max(full ** 2 - (half / SHAPE_GROWTH) ** 2, 0.0))
 
 
 def _grid_step(step: float) -> float:
@@ -199,28 +215,48 @@ def _join(at: float, width: float, jets: NDArray[np.float64], side: int):
     return BPoly.from_derivatives([at, at + width], [list(jets), zero])
 
 
-def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], top: int, tau: float,
-          side: int, min_width: float, key: str) -> tuple[float, float, bool]:
+def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[np.float64],
+          top: int, tau: float, side: int, min_width: float) -> tuple[float, float, bool]:
     """(join point [rad], join width [rad], mid-lobe) on one side of the lobe: walk out
-    from the top to the last grid point above ``tau``, then back in until the join a
-    ramp would need, 2 h/|h'|, is at least ``min_width``."""
+    from the top to the last grid point above ``tau``; the join ends on the first row
+    inside it (so the law passes through every lobe row) when the join a ramp would
+    need there, 2 h/|h'|, is at least ``min_width``; else further in, on the grid."""
     idx = np.arange(top, -1, -1) if side < 0 else np.arange(top, x.size)
     below = np.flatnonzero(y[idx] <= tau)
     mid_lobe = below.size == 0
     k = int(idx[-1]) if mid_lobe else int(idx[below[0] - 1])
+
+    def width_at(at: float) -> float:
+        h = float(curve(at, 0))
+        v = float(curve(at, 1)) * -side       # rising towards the top: positive
+        return 2.0 * h / v if v > 0 and h > 0 else math.inf
+
+    lo, hi = sorted((float(x[k]), float(x[top])))
+    inside = rows[(rows >= lo - 1e-12) & (rows <= hi + 1e-12)]
+    if inside.size:
+        at = float(inside[0] if side < 0 else inside[-1])
+        width = width_at(at)
+        if ROW_JOIN_SHARE * min_width <= width < math.inf:   # a lobe row: keep it
+            return at, width, mid_lobe
     while True:
-        h = float(y[k])
-        v = float(curve(x[k], 1)) * -side       # rising towards the top: positive
-        width = 2.0 * h / v if v > 0 else math.inf
-        if width >= min_width or k == top:
+        width = width_at(float(x[k]))
+        if (min_width <= width < math.inf) or k == top:
             break
-        k += side * -1
+        k -= side
     return float(x[k]), width, mid_lobe
 
 
-def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table') -> TableLobe:
+def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
+             allow_steps: bool = False, noise: float | None = None) -> TableLobe:
     """The lobe law of a lift table, ``alpha`` [rad] (any frame), ``lift`` [m] (module
-    doc for the rules). InputError naming ``key`` when the rows cannot define a lobe."""
+    doc for the rules). InputError naming ``key`` when the rows cannot define a lobe.
+
+    A lift step between two rows (a ramp cut off, a velocity step at the base circle) is
+    an impact no lobe law drawn through the rows can give: refused unless
+    ``allow_steps`` (a cam card, whose events away from the step are still right; the
+    note then names the step). ``noise`` [m]: the rows' noise when the caller knows it
+    (a replica of a table with a drawn noise), instead of the estimate."""
+    from cam_metrology.reconstruction.samples import find_steps, step_warnings
     from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
 
     raw_a = np.asarray(alpha, dtype=float).reshape(-1)
@@ -229,30 +265,42 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table') -> TableL
     lo_a, hi_a = (float(np.min(raw_a[ok])), float(np.max(raw_a[ok]))) if ok.any() else (0, 0)
     # a table over part of the turn keeps its angles contiguous (0..300 deg is not cut
     # at 180 deg); a whole turn is wrapped to (-180, 180] (a repeated 0/360 row merged)
-    centre = 0.5 * (lo_a + hi_a) if hi_a - lo_a < TWO_PI - 1e-9 else 0.0
+    gaps = np.diff(np.unique(raw_a[ok]))
+    row_step = float(np.median(gaps)) if gaps.size else 0.0
+    centre = 0.5 * (lo_a + hi_a) if hi_a - lo_a < TWO_PI - 1.5 * row_step else 0.0
     data = clean_samples(raw_a - centre, raw_h, key=key, min_points=8)
     notes = [n for n in data.notes if not n.startswith('wrapped')]
+    _check_repeats(raw_a - centre, raw_h, notes, key)
     a0, h = data.alpha + centre, data.lift
     top_row = float(np.max(h))
     if not top_row > 0:
         raise InputError(f'{key}.lift', f'largest lift {top_row:g} m',
                          'a lobe: lifts above the base circle (0)')
     step = float(np.median(np.diff(a0)))
-    offset, periodic = _frame(a0, h, step)
+    q = table_quantum(h)
+    sigma_q = q / math.sqrt(12.0)
+    span = float(np.ptp(h))
+    scatter = noise = _scatter(a0, h) if noise is None else float(noise)
+    offset, periodic = _frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
     b = wrap_pi(a0 - offset) if offset else a0
-    if offset:
+    if periodic:   # the turn [-pi, pi) from the lowest row
+        b = np.mod(a0 - offset + math.pi, TWO_PI) - math.pi
+    if offset or periodic:
         order = np.argsort(b, kind='stable')
         b, h = b[order], h[order]
     if periodic:   # lift from the lowest row: the base circle of an eccentric
         h = h - float(np.min(h))
-    q = table_quantum(h)
-    sigma_q = q / math.sqrt(12.0)
-    scatter, shape = _scatter(b, h)
-    span = float(np.ptp(h))
-    floor = max(SCATTER_RATIO * sigma_q, 1e-9 * span)
+    floor = max(SCATTER_RATIO * sigma_q, EXACT_SCATTER_REL * span)
+    steps = [w.split(':')[0] for w in
+             step_warnings(find_steps(b, h, max(noise, sigma_q, 1e-9 * span)))]
+    if steps and not allow_steps:
+        raise InputError(key, f'{b.size} points',
+                         f'a table without steps ({steps[0]}; a velocity step is an impact '
+                         'the dynamics cannot take from a table): tabulate the ramp finer '
+                         'or give the lift law')
     method = 'interpolated'
     curve = _interpolant(b, h, periodic)
-    if scatter > floor and not shape:
+    if scatter > floor:
         why = (f'rows scatter {scatter * 1e6:.3g} um about a smooth curve, more than their '
                f'rounding explains ({floor * 1e6:.3g} um)')
         method = 'smoothed'
@@ -272,30 +320,125 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table') -> TableL
     rec = None
     sigma = sigma_q if method == 'interpolated' else max(scatter, sigma_q)
     if method == 'smoothed':
-        opts = SplineOptions(criterion='risk', sigma=sigma_q if scatter <= floor else None)
-        rec = reconstruct_spline(b, h, opts)
+        known = sigma_q if scatter <= floor else None
+        if periodic:
+            rec, curve = _periodic_smooth(b, h, known)
+        else:
+            rec = reconstruct_spline(b, h, SplineOptions(criterion='risk', sigma=known))
+            curve = _Evaluated(rec.evaluate)
         sigma = max(float(rec.sigma), sigma_q)
         why += f'; smoothed by the reconstruction spline ({rec.why})'
-        if periodic:
-            curve = _interpolant(b, np.asarray(rec.evaluate(b, 0), dtype=float), True)
-        else:
-            curve = _Evaluated(rec.evaluate)
+        limit = max(5.0 * sigma_q, 1e-3 * span, 5.0 * noise)
+        if rec.rms_residual > limit:
+            raise InputError(key, f'{b.size} points',
+                             'a table fine enough to define the lobe: the reconstruction '
+                             f'spline misses its rows by {rec.rms_residual:.3g} m rms (more '
+                             f'than {limit:.3g} m' + (f'; {"; ".join(notes)}' if notes else '')
+                             + '): tabulate more points')
     tau = max(3.0 * sigma, 0.5 * q, 1e-9 * span)
     info = LobeInfo(key=key, method=method, why=why, sigma=sigma, quantum=q, step=step,
                     offset=offset, periodic=periodic, level=tau, rec=rec,
-                    rows=(raw_a.copy(), raw_h.copy()))
-    g = _grid_step(step)
-    if periodic:
+                    rows=(raw_a.copy(), raw_h.copy()), steps=steps)
+    law = _build(curve, b, h, info)
+    info.warnings.extend(notes_warning(notes))
+    return law
+
+
+def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -> TableLobe:
+    """The lobe law of a reconstructed profile: ``jets`` (4, n) of the lift and its
+    first three derivatives [m, m/rad^k] on ``alpha`` [rad] (a reconstruction's grid:
+    already smooth), by the same frame and lobe-end rules as ``lobe_law``; the
+    base-circle level is 3 x the ripple of the profile's lowest 20 % of rows."""
+    a = np.asarray(alpha, dtype=float).reshape(-1)
+    j = np.asarray(jets, dtype=float)
+    curve = JetTableLift(a, j, key=key, trim=-1.0)
+    h = j[0]
+    step = float(np.median(np.diff(a)))
+    offset, periodic = _frame(a, h, step, max(1e-4 * float(np.ptp(h)), 1e-6))
+    if offset or periodic:
+        # a lobe across the seam of the profile's grid: its lift rows, re-framed
+        return lobe_law(a, h, key=key)
+    low = h <= np.quantile(h, 0.2)
+    ripple = float(np.std(h[low])) if np.count_nonzero(low) > 2 else 0.0
+    info = LobeInfo(key=key, method='reconstructed', why="a reconstruction's jets",
+                    sigma=ripple, quantum=0.0, step=step, offset=0.0, periodic=False,
+                    level=max(3.0 * ripple, 1e-9 * float(np.ptp(h))))
+    return _build(_Evaluated(curve), a, h, info)
+
+
+def _build(curve, b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo
+           ) -> TableLobe:
+    """The TableLobe of ``curve`` (callable (x, nu)) fitted to rows ``b`` [rad], ``h``
+    [m] in the lobe frame, by the lobe-end rule; checks filled into ``info``."""
+    g = _grid_step(info.step)
+    if info.periodic:
         x = b[0] + g * np.arange(int(round(TWO_PI / g)) + 1)
         jets = np.stack([np.asarray(curve(x, nu), dtype=float) for nu in range(4)])
         jets[0] -= float(np.min(jets[0]))
     else:
-        x, jets = _lobe_jets(curve, b, h, tau, step, g, info)
-    law = TableLobe(x + offset, jets, key=key, trim=-1.0)
+        x, jets = _lobe_jets(curve, b, h, info.level, info.step, g, info)
+    law = TableLobe(x + info.offset, jets, key=info.key, trim=-1.0)
     law.lobe = info
-    law.table = (info.rows[0], info.rows[1], q or None, sigma)
-    info.warnings.extend(_checks(law, b, h, info, notes))
+    rows = info.rows or (b, h)
+    law.table = (rows[0], rows[1], info.quantum or None, info.sigma)
+    info.warnings.extend(_checks(law, b, h, info))
     return law
+
+
+def notes_warning(notes: list[str]) -> list[str]:
+    """What the row cleaning did, as one warning (or none)."""
+    return ['rows: ' + '; '.join(notes)] if notes else []
+
+def _check_repeats(a: NDArray[np.float64], h: NDArray[np.float64], notes: list[str],
+                   key: str) -> None:
+    """Refuse rows repeated at one angle whose lifts differ by more than
+    ``REPEAT_SPREAD`` of the lift range (and 20 um): a row pasted from elsewhere, which
+    averaging would hide."""
+    ok = np.isfinite(a) & np.isfinite(h)
+    w = np.asarray(wrap_pi(a[ok]), dtype=float)
+    v = h[ok]
+    order = np.argsort(w, kind='stable')
+    w, v = w[order], v[order]
+    same = np.flatnonzero(np.diff(w) <= 1e-9)
+    if same.size == 0:
+        return
+    gap = np.abs(v[same + 1] - v[same])
+    worst = int(np.argmax(gap))
+    if gap[worst] > max(REPEAT_SPREAD * float(np.ptp(v)), 20e-6):
+        raise InputError(key, f'rows at {math.degrees(float(w[same[worst]])):.3f} deg with '
+                         f'lifts {v[same[worst]] * 1e3:.4g} and '
+                         f'{v[same[worst] + 1] * 1e3:.4g} mm',
+                         'one lift per angle (' + '; '.join(notes) + '): mend the '
+                         'repeated rows')
+
+
+#: a periodic table is smoothed over 1 + 2 x this share of a turn, compressed by
+#: PERIODIC_SCALE into the engine's (-pi, pi]; the middle turn is kept
+PERIODIC_PAD = 0.25
+PERIODIC_SCALE = 0.6
+
+
+def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: float | None):
+    """(Reconstruction, curve) of a whole-turn table without a base circle: the rows
+    repeated a quarter turn beyond each end (so the fit has no free end on the turn)
+    and smoothed in the variable s = PERIODIC_SCALE x alpha; the curve undoes the
+    change of variable (d^nu/dalpha^nu = PERIODIC_SCALE^nu d^nu/ds^nu)."""
+    from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
+
+    pad = PERIODIC_PAD * TWO_PI
+    x = np.concatenate([b[b >= b[-1] - pad] - TWO_PI, b, b[b <= b[0] + pad] + TWO_PI])
+    y = np.concatenate([h[b >= b[-1] - pad], h, h[b <= b[0] + pad]])
+    centre = 0.5 * (x[0] + x[-1])
+    k = PERIODIC_SCALE
+    rec = reconstruct_spline(k * (x - centre), y,
+                             SplineOptions(criterion='risk', sigma=sigma,
+                                           expected_sign_changes=None))
+
+    def curve(a, nu: int = 0):
+        s = k * (np.asarray(a, dtype=float) - centre)
+        return np.asarray(rec.evaluate(s, nu), dtype=float) * k ** nu
+
+    return rec, curve
 
 
 class _Evaluated:
@@ -316,8 +459,8 @@ def _lobe_jets(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float
     y = np.asarray(curve(x, 0), dtype=float)
     top = int(np.argmax(y))
     min_width = max(0.5 * step, math.radians(JOIN_MIN_DEG))
-    lo, w_lo, mid_lo = _edge(curve, x, y, top, tau, -1, min_width, info.key)
-    hi, w_hi, mid_hi = _edge(curve, x, y, top, tau, +1, min_width, info.key)
+    lo, w_lo, mid_lo = _edge(curve, x, y, b, top, tau, -1, min_width)
+    hi, w_hi, mid_hi = _edge(curve, x, y, b, top, tau, +1, min_width)
     peak = float(y[top])
     mids = []
     for name, at, width, mid in (('start', lo, w_lo, mid_lo), ('end', hi, w_hi, mid_hi)):
@@ -355,13 +498,15 @@ def _lobe_jets(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float
 
 
 def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
-            info: LobeInfo, notes: list[str]) -> list[str]:
+            info: LobeInfo) -> list[str]:
     """Warnings on the law; InputError for a lobe no cam can have."""
     out: list[str] = []
     grid = np.linspace(*law.support, 8001)
     lift = law(grid, 0)
     top = float(np.max(lift))
-    allowed = float(np.max(h)) + max(3.0 * info.sigma, info.quantum, 1e-6)
+    # between rows a lobe rises above its highest row by up to |h''| (step/2)^2 / 2
+    rise = 0.125 * float(np.max(np.abs(law(grid, 2)))) * info.step ** 2
+    allowed = float(np.max(h)) + 2.0 * rise + max(3.0 * info.sigma, info.quantum, 1e-6)
     if top > allowed:
         raise InputError(info.key, f'max lift {top * 1e3:.4f} mm from rows up to '
                          f'{float(np.max(h)) * 1e3:.4f} mm',
@@ -396,6 +541,4 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
     other = other_lobes_warning(b, h)
     if other:
         out.append(other)
-    if notes:
-        out.append('rows: ' + '; '.join(notes))
     return out
