@@ -411,7 +411,11 @@ def lift_law_from_spec(spec: Mapping[str, Any], key: str) -> LiftLaw:
                          'a lift-law family; lift_law: family not available in this '
                          'build (cam_design.lift_laws.registry missing); use a lift table')
     try:
-        law = registry.from_spec(spec, key)
+        if spec.get('family') == 'table':   # a table: its lobe law, as on every route
+            from cam_metrology.reconstruction.lobe_table import law_from_spec
+            law = law_from_spec(spec, key)
+        else:
+            law = registry.from_spec(spec, key)
     except InputError:
         raise
     except (TypeError, ValueError, KeyError, ArithmeticError) as exc:

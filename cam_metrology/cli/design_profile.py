@@ -71,31 +71,22 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _load_law(doc: Any, path: str) -> Any:
-    """The lift law of the file: a table (TabulatedLift) or a lift_law spec (from_spec)."""
-    import numpy as np
-
+    """The lift law of the file: a table (``alpha``/``h``, at the top or under ``lift``:
+    its lobe law, as on every route) or a lift_law spec."""
     from cam_design.errors import InputError
-    from cam_design.lift_laws import TabulatedLift
+    from cam_metrology.cli.design_law import _law_spec
+    from cam_metrology.reconstruction.lobe_table import law_from_spec
 
     if isinstance(doc, dict):
         table = doc.get('lift', doc)
         if isinstance(table, dict) and 'alpha' in table and 'h' in table:
             key = 'lift' if table is not doc else path
-            values = {}
-            for name in ('alpha', 'h'):
-                try:
-                    values[name] = np.asarray(table[name], dtype=float)
-                except (TypeError, ValueError):
-                    raise InputError(f'{key}.{name}', table[name],
-                                     'a list of numbers (rad for alpha, m for h)') from None
-            return TabulatedLift(values['alpha'], values['h'], key=key)
-    from cam_design.lift_laws import from_spec
-    from cam_metrology.cli.design_law import _law_spec
-
+            return law_from_spec({'family': 'table', 'alpha': table['alpha'],
+                                  'h': table['h']}, key)
     if not isinstance(doc, dict):
         raise InputError(path, type(doc).__name__, 'a mapping with lift_law: or alpha/h')
     spec, key = _law_spec(doc, path)
-    return from_spec(spec, key)
+    return law_from_spec(spec, key)
 
 
 def _scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:

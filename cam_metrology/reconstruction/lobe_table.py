@@ -33,7 +33,9 @@ cam_design together.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -46,6 +48,8 @@ TWO_PI = 2.0 * math.pi
 #: largest step [deg] of the grid on which the lobe's jets are tabulated for the
 #: degree-7 Hermite law (a divisor of the table step, so that every row is a node)
 GRID_DEG = 0.1
+#: fewer rows than this are interpolated: noise cannot be told from shape
+JUDGE_ROWS = 24
 #: rows scatter at most this many times the rounding's q/sqrt(12): "only rounded"
 SCATTER_RATIO = 1.5
 #: rows scattering less than this share of the lift range are exact (8 nm on 8 mm)
@@ -216,11 +220,16 @@ def _join(at: float, width: float, jets: NDArray[np.float64], side: int):
 
 
 def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[np.float64],
-          top: int, tau: float, side: int, min_width: float) -> tuple[float, float, bool]:
+          base: NDArray[np.float64], top: int, tau: float, side: int, min_width: float,
+          step: float) -> tuple[float, float, bool]:
     """(join point [rad], join width [rad], mid-lobe) on one side of the lobe: walk out
     from the top to the last grid point above ``tau``; the join ends on the first row
     inside it (so the law passes through every lobe row) when the join a ramp would
-    need there, 2 h/|h'|, is at least ``min_width``; else further in, on the grid."""
+    need there, 2 h/|h'|, is at least ``min_width``; else further in, on the grid. The
+    join starts at most one table step ``step`` beyond the table's last base-circle row
+    (``base``: the angles of the rows at or below ``tau``) on that side: the lobe runs
+    out to its own rows (a velocity step there, a ramp's start, is rounded over the
+    step on either side of that row)."""
     idx = np.arange(top, -1, -1) if side < 0 else np.arange(top, x.size)
     below = np.flatnonzero(y[idx] <= tau)
     mid_lobe = below.size == 0
@@ -231,19 +240,26 @@ def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[n
         v = float(curve(at, 1)) * -side       # rising towards the top: positive
         return 2.0 * h / v if v > 0 and h > 0 else math.inf
 
+    def limited(at: float, width: float) -> float:
+        outside = base[base < at] if side < 0 else base[base > at]
+        if outside.size:
+            last = float(outside[-1] if side < 0 else outside[0])
+            width = min(width, abs(at - last) + step)
+        return width
+
     lo, hi = sorted((float(x[k]), float(x[top])))
     inside = rows[(rows >= lo - 1e-12) & (rows <= hi + 1e-12)]
     if inside.size:
         at = float(inside[0] if side < 0 else inside[-1])
         width = width_at(at)
         if ROW_JOIN_SHARE * min_width <= width < math.inf:   # a lobe row: keep it
-            return at, width, mid_lobe
+            return at, limited(at, width), mid_lobe
     while True:
         width = width_at(float(x[k]))
         if (min_width <= width < math.inf) or k == top:
             break
         k -= side
-    return float(x[k]), width, mid_lobe
+    return float(x[k]), limited(float(x[k]), width), mid_lobe
 
 
 def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
@@ -268,7 +284,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     gaps = np.diff(np.unique(raw_a[ok]))
     row_step = float(np.median(gaps)) if gaps.size else 0.0
     centre = 0.5 * (lo_a + hi_a) if hi_a - lo_a < TWO_PI - 1.5 * row_step else 0.0
-    data = clean_samples(raw_a - centre, raw_h, key=key, min_points=8)
+    data = clean_samples(raw_a - centre, raw_h, key=key, min_points=6)
     notes = [n for n in data.notes if not n.startswith('wrapped')]
     _check_repeats(raw_a - centre, raw_h, notes, key)
     a0, h = data.alpha + centre, data.lift
@@ -300,11 +316,14 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                          'or give the lift law')
     method = 'interpolated'
     curve = _interpolant(b, h, periodic)
-    if scatter > floor:
+    if b.size < JUDGE_ROWS:
+        why = (f'{b.size} rows, too few to tell noise from shape (at least {JUDGE_ROWS}): '
+               'quintic interpolant through every row')
+    elif scatter > floor:
         why = (f'rows scatter {scatter * 1e6:.3g} um about a smooth curve, more than their '
                f'rounding explains ({floor * 1e6:.3g} um)')
         method = 'smoothed'
-    else:
+    if method == 'interpolated' and b.size >= JUDGE_ROWS:
         dense = np.linspace(b[0], b[-1] + (TWO_PI - (b[-1] - b[0]) if periodic else 0.0),
                             4001)
         peak_acc = float(np.max(np.abs(curve(dense, 2))))
@@ -459,8 +478,9 @@ def _lobe_jets(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float
     y = np.asarray(curve(x, 0), dtype=float)
     top = int(np.argmax(y))
     min_width = max(0.5 * step, math.radians(JOIN_MIN_DEG))
-    lo, w_lo, mid_lo = _edge(curve, x, y, b, top, tau, -1, min_width)
-    hi, w_hi, mid_hi = _edge(curve, x, y, b, top, tau, +1, min_width)
+    base = b[h <= tau]
+    lo, w_lo, mid_lo = _edge(curve, x, y, b, base, top, tau, -1, min_width, step)
+    hi, w_hi, mid_hi = _edge(curve, x, y, b, base, top, tau, +1, min_width, step)
     peak = float(y[top])
     mids = []
     for name, at, width, mid in (('start', lo, w_lo, mid_lo), ('end', hi, w_hi, mid_hi)):
@@ -542,3 +562,21 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
     if other:
         out.append(other)
     return out
+
+
+def law_from_spec(spec: Mapping[str, Any], key: str) -> Any:
+    """A lift law from a ``lift_law`` mapping: the ``table`` family (``alpha`` [rad],
+    ``h`` [m], a design table) through ``lobe_law``, so that a table given to the design
+    commands is the same lobe as on every other route; any other family from the
+    lift-law registry (``cam_design.lift_laws.from_spec``)."""
+    from cam_design.lift_laws import from_spec
+    from cam_design.lift_laws import params as P
+    from cam_design.lift_laws.base import check_design_table
+
+    if isinstance(spec, Mapping) and spec.get('family') == 'table':
+        P.reject_unknown({k: v for k, v in spec.items() if k != 'family'}, key,
+                         ('alpha', 'h'))
+        a, v = check_design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'),
+                                  key)
+        return lobe_law(a, v, key=key)
+    return from_spec(spec, key)
