@@ -136,7 +136,8 @@ def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
 #: column names (lower case, unit removed) of the angle, crank angle and lift columns
 ANGLE_NAMES = ('alpha', 'angle', 'cam', 'cam_angle', 'camangle', 'cam angle', 'theta')
 CRANK_NAMES = ('crank', 'crank_angle', 'crankangle', 'crank angle')
-LIFT_NAMES = ('lift', 'h', 'cam_lift', 'cam lift')
+LIFT_NAMES = ('lift', 'h', 'cam_lift', 'cam lift', 'valve_lift', 'valve lift',
+              'follower_lift', 'follower lift', 'tappet_lift', 'tappet lift')
 #: unit spellings accepted in headers
 ANGLE_SPELLING = {'rad': 'rad', 'radian': 'rad', 'radians': 'rad', 'deg': 'deg',
                   'degree': 'deg', 'degrees': 'deg', '°': 'deg'}
@@ -308,11 +309,18 @@ _EXCEL_SEP = re.compile(r'^sep=[,;\t]$', re.IGNORECASE)
 def _one_each(cols: list[_Column], header: list[str], name: str) -> None:
     """InputError unless the header has one angle, one lift and at most one design column."""
     roles = [c.role for c in cols]
-    if roles.count('cam') + roles.count('crank') != 1 or roles.count('lift') != 1 or \
-            roles.count('design') > 1:
+    angles = roles.count('cam') + roles.count('crank')
+    if angles != 1 or roles.count('lift') != 1 or roles.count('design') > 1:
+        read = {c.index for c in cols}
+        unread = [h for i, h in enumerate(header) if i not in read and h]
+        missing = [w for w, n in (('angle', angles), ('lift', roles.count('lift'))) if n == 0]
+        said = (f'; no {" and no ".join(missing)} column among them, and '
+                + ', '.join(repr(h) for h in unread) + ' could not be read as one'
+                if missing and unread else '')
         raise InputError(f'{name}:header', ','.join(header),
-                         'one angle column (alpha_deg, alpha_rad or crank_deg) and one '
-                         'lift column (lift_mm, lift_um, lift_m, lift_in or h_mm)')
+                         'one angle column (alpha_deg, alpha_rad or crank_deg, e.g. '
+                         '"Crank Angle [deg]") and one lift column (lift_mm, lift_um, '
+                         'lift_m, lift_in or h_mm, e.g. "Valve Lift [mm]")' + said)
 
 
 def _next_content(lines: list[str], number: int) -> int:
