@@ -541,7 +541,7 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
     half = 0.5 * float(grid[on[-1]] - grid[on[0]]) if on.size > 1 else math.pi
     acc = float(np.max(np.abs(law(grid, 2))))
     plausible = ACC_PLAUSIBLE * 2.0 * top / max(half, 1e-6) ** 2
-    if acc > plausible and not info.periodic:
+    if acc > plausible:
         raise InputError(info.key, f"peak acceleration {acc:.3g} m/rad^2",
                          f'a lobe its lift ({top * 1e3:.3g} mm) and duration '
                          f'({math.degrees(2 * half):.0f} deg) allow (at most '
@@ -552,7 +552,7 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
         at = j[1] if side == 'start' else j[0]
         level = float(law(np.array([at + info.offset]), 0)[0])
         out.append(f'the table {side}s mid-lobe ({level * 1e3:.4g} mm, '
-                   f'{level / top * 100:.0f} % of the max lift, no base-circle row): joined '
+                   f'{level / top * 100:.2g} % of the max lift, no base-circle row): joined '
                    f'to the base circle over {math.degrees(j[1] - j[0]):.2f} deg; events '
                    f'below {level * 1e3:.4g} mm are the join\'s, not the cam\'s')
     width = math.degrees(law.support[1] - law.support[0])
