@@ -134,6 +134,9 @@ def run(args: argparse.Namespace) -> int:
               'features': features, 'skipped': skipped}
     if args.json:
         from cam_metrology.files import write_output
+        if kind == 'table':   # the rows' lobe law, the one every table route reads
+            for fid in features:
+                features[fid]['lobe'] = lobe_entry(core.tables[fid], fid)
         write_output(args.json, json.dumps(result, indent=1, allow_nan=False) + '\n',
                      '--json')
         if args.json != '-':
@@ -149,6 +152,30 @@ def run(args: argparse.Namespace) -> int:
         write_nominal(core, args, follower)
     ok = any(m.get('ok') for f in features.values() for m in f.values())
     return 0 if ok else 1
+
+
+def lobe_entry(table: Any, key: str) -> dict[str, Any]:
+    """``features.<id>.lobe`` of the JSON: the table's lobe law (``lobe_table``) on a
+    0.1 deg grid over its support, as the methods' arrays (what `dynamics r.json`
+    reads first), with its note and warnings; or ``ok: false`` and the refusal."""
+    import numpy as np
+
+    from cam_design.errors import InputError
+    from cam_metrology.reconstruction.lobe_table import lobe_law
+
+    try:
+        law = lobe_law(table.alpha, table.lift, key=key, allow_steps=True)
+    except InputError as exc:
+        return {'ok': False, 'error': str(exc)}
+    lo, hi = law.support
+    grid = np.linspace(lo, hi, int(np.ceil(np.degrees(hi - lo) / 0.1)) + 1)
+    jets = law.derivatives(grid)
+    names = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk_m_per_rad3')
+    out: dict[str, Any] = {'ok': True, 'method': law.lobe.method, 'note': law.lobe.note(),
+                           'warnings': list(law.lobe.warnings),
+                           'max_lift_m': float(np.max(jets[0])), 'alpha_rad': grid.tolist()}
+    out.update({n: v.tolist() for n, v in zip(names, jets)})
+    return out
 
 
 def write_nominal(core: Any, args: argparse.Namespace, follower: dict[str, Any]) -> None:

@@ -60,7 +60,7 @@ def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, JetTableLif
     if feature not in feats:
         raise InputError('--feature', feature, 'one of ' + ', '.join(sorted(feats)))
     methods = feats[feature]
-    names = [m for m in ('spline', 'harmonic') if isinstance(methods.get(m), dict)
+    names = [m for m in ('lobe', 'spline', 'harmonic') if isinstance(methods.get(m), dict)
              and methods[m].get('ok') and 'alpha_rad' in methods[m]]
     if not names:
         raise InputError(f'{path.name}: features.{feature}', 'no method with arrays',

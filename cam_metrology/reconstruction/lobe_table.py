@@ -369,7 +369,9 @@ def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -
     """The lobe law of a reconstructed profile: ``jets`` (4, n) of the lift and its
     first three derivatives [m, m/rad^k] on ``alpha`` [rad] (a reconstruction's grid:
     already smooth), by the same frame and lobe-end rules as ``lobe_law``; the
-    base-circle level is 3 x the ripple of the profile's lowest 20 % of rows."""
+    base-circle level is 3 x the ripple of its base circle (the rows within 1 % of
+    the lift range of the lowest whose slope is below 0.1 % of the largest, when they
+    span ``BASE_MIN_DEG``)."""
     a = np.asarray(alpha, dtype=float).reshape(-1)
     j = np.asarray(jets, dtype=float)
     curve = JetTableLift(a, j, key=key, trim=-1.0)
@@ -379,11 +381,14 @@ def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -
     if offset or periodic:
         # a lobe across the seam of the profile's grid: its lift rows, re-framed
         return lobe_law(a, h, key=key)
-    low = h <= np.quantile(h, 0.2)
-    ripple = float(np.std(h[low])) if np.count_nonzero(low) > 2 else 0.0
+    span = float(np.ptp(h))
+    # the base circle, if the grid has one: low and flat (a ramp is low, not flat)
+    low = (h <= 0.01 * span + float(np.min(h))) & (np.abs(j[1]) <= 1e-3 * np.max(np.abs(j[1])))
+    ripple = (float(np.std(h[low])) if np.count_nonzero(low) * step >= math.radians(
+        BASE_MIN_DEG) else 0.0)
     info = LobeInfo(key=key, method='reconstructed', why="a reconstruction's jets",
                     sigma=ripple, quantum=0.0, step=step, offset=0.0, periodic=False,
-                    level=max(3.0 * ripple, 1e-9 * float(np.ptp(h))))
+                    level=max(3.0 * ripple, EXACT_SCATTER_REL * span))
     return _build(_Evaluated(curve), a, h, info)
 
 
