@@ -412,7 +412,7 @@ def lift_law_from_spec(spec: Mapping[str, Any], key: str) -> LiftLaw:
                          'build (cam_design.lift_laws.registry missing); use a lift table')
     try:
         if spec.get('family') == 'table':   # a table: its lobe law, as on every route
-            from cam_metrology.reconstruction.lobe_table import law_from_spec
+            from cam_metrology.reconstruction.lobe_routes import law_from_spec
             law = law_from_spec(spec, key)
         else:
             law = registry.from_spec(spec, key)

@@ -278,8 +278,8 @@ def test_cut_ramps_are_joined_never_a_step(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize('kind', ['q01_5deg', 'q01_2p5deg_seam'])
-def test_jump_speed_same_through_table_scene_and_reconstruct(tmp_path: Path,
-                                                              kind: str) -> None:
+def test_jump_speed_same_through_table_scene_and_reconstruct(tmp_path: Path, kind: str
+                                                             ) -> None:
     """The jump speed of the table through `dynamics TABLE`, through a scene lobe table
     of the same rows, and through `reconstruct --json` then `dynamics r.json`, against
     the analytic lobe: within 2 % of the cam, within 0.5 % of each other."""

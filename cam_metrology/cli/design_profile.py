@@ -75,7 +75,7 @@ def _load_law(doc: Any, path: str) -> Any:
     its lobe law, as on every route) or a lift_law spec."""
     from cam_design.errors import InputError
     from cam_metrology.cli.design_law import _law_spec
-    from cam_metrology.reconstruction.lobe_table import law_from_spec
+    from cam_metrology.reconstruction.lobe_routes import law_from_spec
 
     if isinstance(doc, dict):
         table = doc.get('lift', doc)

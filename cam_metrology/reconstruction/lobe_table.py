@@ -33,9 +33,7 @@ cam_design together.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -68,8 +66,6 @@ BASE_MIN_DEG = 20.0
 SHAPE_GROWTH = 8.0
 #: repeated rows differing by more than this share of the lift range are refused
 REPEAT_SPREAD = 0.01
-#: a fit rising this share of the lift above every row and the lobe law left the rows
-BEYOND_ROWS = 0.01
 #: a table starting / ending above this share of its max lift is refused
 MID_LOBE_LIMIT = 0.5
 #: smallest join [deg]: half a table step, at least this
@@ -150,8 +146,9 @@ def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: f
            ) -> tuple[float, bool]:
     """(offset [rad], periodic) of the rows (sorted, in (-pi, pi]): offset 0 unless the
     table covers the whole turn and its lobe crosses the seam. Base circle: the rows
-    within ``level`` [m] of the lowest (a few noise sigmas); a run of them shorter than ``BASE_MIN_DEG`` is
-    the bottom of an eccentric, not a base circle (the law is then periodic)."""
+    within ``level`` [m] of the lowest (a few noise sigmas); a run of them shorter than
+    ``BASE_MIN_DEG`` is the bottom of an eccentric, not a base circle (the law is then
+    periodic)."""
     if a[-1] - a[0] < TWO_PI - 1.5 * step:           # part of the turn: keep its frame
         return 0.0, False
     base = h <= float(np.min(h)) + level
@@ -415,6 +412,7 @@ def notes_warning(notes: list[str]) -> list[str]:
     """What the row cleaning did, as one warning (or none)."""
     return ['rows: ' + '; '.join(notes)] if notes else []
 
+
 def _check_repeats(a: NDArray[np.float64], h: NDArray[np.float64], notes: list[str],
                    key: str) -> None:
     """Refuse rows repeated at one angle whose lifts differ by more than
@@ -569,57 +567,3 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
     if other:
         out.append(other)
     return out
-
-
-def law_from_spec(spec: Mapping[str, Any], key: str) -> Any:
-    """A lift law from a ``lift_law`` mapping: the ``table`` family (``alpha`` [rad],
-    ``h`` [m], a design table) through ``lobe_law``, so that a table given to the design
-    commands is the same lobe as on every other route; any other family from the
-    lift-law registry (``cam_design.lift_laws.from_spec``)."""
-    from cam_design.lift_laws import from_spec
-    from cam_design.lift_laws import params as P
-    from cam_design.lift_laws.base import check_design_table
-
-    if isinstance(spec, Mapping) and spec.get('family') == 'table':
-        P.reject_unknown({k: v for k, v in spec.items() if k != 'family'}, key,
-                         ('alpha', 'h'))
-        a, v = check_design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'),
-                                  key)
-        return lobe_law(a, v, key=key)
-    return from_spec(spec, key)
-
-
-def lobe_warnings(alpha: ArrayLike, lift: ArrayLike, key: str = 'table'
-                  ) -> tuple[TableLobe | None, list[str]]:
-    """(lobe law or None, warnings) of a table for a route that keeps its own fit (the
-    reconstruction's spline and harmonic series): what the lobe law of the same rows
-    says about them (mid-lobe ends, a crank-degree suspicion, several lobes, a lobe
-    across +-180 deg), or why no lobe law can be drawn through them."""
-    try:
-        law = lobe_law(alpha, lift, key=key, allow_steps=True)
-    except InputError as exc:
-        return None, [f'no lobe law from these rows: {exc}']
-    out = [w for w in law.lobe.warnings if not w.startswith('rows:')]
-    if law.lobe.offset:
-        out.append(f'the lobe crosses +-180 deg: a fit over (-180, 180] is cut inside the '
-                   f'lobe there; its lobe law (card, dynamics) turns the rows by '
-                   f'{math.degrees(law.lobe.offset):.1f} deg first')
-    return law, out
-
-
-def beyond_rows(law: TableLobe | None, lift: NDArray[np.float64], rows: ArrayLike) -> str:
-    """A warning when a fit's ``lift`` [m] rises above every row and the lobe law by
-    more than ``BEYOND_ROWS`` of the lift (a gap bridged by the fit), else ''."""
-    h = np.asarray(rows, dtype=float)
-    h = h[np.isfinite(h)]
-    if law is None or not h.size or not lift.size:
-        return ''
-    top = float(np.max(lift))
-    limit = float(np.max(law(np.linspace(*law.support, 4001), 0)))
-    allowed = max(limit, float(np.max(h))) + max(3.0 * law.lobe.sigma, law.lobe.quantum,
-                                                 BEYOND_ROWS * float(np.max(h)))
-    if top <= allowed:
-        return ''
-    return (f'max lift {top * 1e3:.4f} mm is above every row ({float(np.max(h)) * 1e3:.4f} '
-            'mm) and above the lobe law of the same rows '
-            f'({limit * 1e3:.4f} mm): the fit bridges a gap in the table; not the cam')

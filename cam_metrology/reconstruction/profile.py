@@ -204,7 +204,7 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
                                    other_lobes_warning(data.alpha, data.lift)) if w]
     lobe = None
     if design is None:   # a table on its own: what its lobe law says of the same rows
-        from cam_metrology.reconstruction.lobe_table import lobe_warnings
+        from cam_metrology.reconstruction.lobe_routes import lobe_warnings
         lobe, said = lobe_warnings(table.alpha, table.lift, key=table.feature)
         table_warnings += [w for w in said if w not in table_warnings
                            and not w.startswith('the table holds')]
@@ -250,7 +250,7 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         rec.notes = list(table.notes) + rec.notes + table_notes
         rec.warnings = table_warnings + rec.warnings
         if lobe is not None:
-            from cam_metrology.reconstruction.lobe_table import beyond_rows
+            from cam_metrology.reconstruction.lobe_routes import beyond_rows
             gap = beyond_rows(lobe, rec.lift, data.lift)
             if gap:
                 rec.warnings.append(gap)
