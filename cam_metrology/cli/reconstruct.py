@@ -135,8 +135,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         from cam_metrology.files import write_output
         if kind == 'table':   # the rows' lobe law, the one every table route reads
-            for fid in features:
-                features[fid]['lobe'] = lobe_entry(core.tables[fid], fid)
+            result['lobes'] = {fid: lobe_entry(core.tables[fid], fid) for fid in features}
         write_output(args.json, json.dumps(result, indent=1, allow_nan=False) + '\n',
                      '--json')
         if args.json != '-':
@@ -155,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def lobe_entry(table: Any, key: str) -> dict[str, Any]:
-    """``features.<id>.lobe`` of the JSON: the table's lobe law (``lobe_table``) on a
+    """``lobes.<id>`` of the JSON: the table's lobe law (``lobe_table``) on a
     0.1 deg grid over its support, as the methods' arrays (what `dynamics r.json`
     reads first), with its note and warnings; or ``ok: false`` and the refusal."""
     import numpy as np

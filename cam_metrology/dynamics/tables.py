@@ -59,7 +59,10 @@ def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, JetTableLif
         feature = sorted(feats)[0]
     if feature not in feats:
         raise InputError('--feature', feature, 'one of ' + ', '.join(sorted(feats)))
-    methods = feats[feature]
+    methods = dict(feats[feature])
+    lobe = (doc.get('lobes') or {}).get(feature)
+    if isinstance(lobe, dict):   # the rows' lobe law: what every table route reads
+        methods['lobe'] = lobe
     names = [m for m in ('lobe', 'spline', 'harmonic') if isinstance(methods.get(m), dict)
              and methods[m].get('ok') and 'alpha_rad' in methods[m]]
     if not names:
@@ -74,7 +77,8 @@ def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, JetTableLif
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f'{path.name}: features.{feature}.{names[0]}', str(exc),
                          'arrays ' + ', '.join(('alpha_rad',) + cols)) from None
-    law = lobe_from_jets(a, jets, key=f'{path.name}: features.{feature}.{names[0]}')
+    where = (f'lobes.{feature}' if names[0] == 'lobe' else f'features.{feature}.{names[0]}')
+    law = lobe_from_jets(a, jets, key=f'{path.name}: {where}')
     return feature, law, f'reconstruct:{names[0]}', (
         f'reconstructed profile ({names[0]}) from {path.name}: ' + law.lobe.note()
         + ''.join(f'; WARNING: {w}' for w in law.lobe.warnings))
