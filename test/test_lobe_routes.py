@@ -367,3 +367,29 @@ def test_header_refusal_names_the_column(tmp_path: Path, capsys) -> None:
     assert main(['card', str(bad)]) == 2
     err = capsys.readouterr().err
     assert "'Ventilhub [mm]' could not be read" in err and 'no lift column' in err
+
+
+def test_trace_of_the_open_valve_only_is_never_bridged(tmp_path: Path, capsys) -> None:
+    """A trace that covers only the open part of a lobe whose nose is at 180 deg (rows
+    118..242 deg, 236 deg of the turn absent): the lobe law keeps the rows contiguous
+    and never rises above them (joined to the base circle, warned as mid-lobe on both
+    sides); the reconstruction, which fits over (-180, 180], says when its fit bridges
+    the gap above the rows."""
+    deg = np.arange(118.0, 242.1, 1.0)
+    lift_mm = np.round(LOBE((deg - 180.0) * D) * 1e5) / 1e2
+    law = lobe_law(deg * D, lift_mm * 1e-3, key='open.csv')
+    x = np.linspace(*law.support, 20001)
+    assert float(np.max(law(x))) <= float(np.max(lift_mm)) * 1e-3 + 1e-5
+    assert law.support[0] < 118.0 * D and law.support[1] > 242.0 * D
+    assert sum('mid-lobe' in w for w in law.lobe.warnings) == 2
+    table = tmp_path / 'open.csv'
+    table.write_text('alpha_deg,lift_mm\n' + ''.join(f'{a:g},{v:.2f}\n'
+                                                     for a, v in zip(deg, lift_mm)))
+    out = tmp_path / 'rec.json'
+    main(['reconstruct', str(table), '--json', str(out)])
+    doc = json.loads(out.read_text(encoding='utf-8'))
+    lobe = doc['lobes']['open']
+    assert lobe['max_lift_m'] == pytest.approx(float(np.max(lift_mm)) * 1e-3, abs=1e-5)
+    for method in doc['features']['open'].values():
+        if method.get('ok') and max(method['lift_m']) > 1.01 * float(np.max(lift_mm)) * 1e-3:
+            assert any('bridges a gap' in w for w in method['warnings'])

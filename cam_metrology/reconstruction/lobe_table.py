@@ -342,8 +342,11 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         if periodic:
             rec, curve = _periodic_smooth(b, h, known)
         else:
-            rec = reconstruct_spline(b, h, SplineOptions(criterion='risk', sigma=known))
-            curve = _Evaluated(rec.evaluate)
+            # the engine works in (-pi, pi]: a part-turn table beyond it (118..242 deg)
+            # is fitted about its own middle and moved back
+            mid = 0.5 * (float(b[0]) + float(b[-1]))
+            rec = reconstruct_spline(b - mid, h, SplineOptions(criterion='risk', sigma=known))
+            curve = _Evaluated(rec.evaluate, mid)
         sigma = max(float(rec.sigma), sigma_q)
         why += f'; smoothed by the reconstruction spline ({rec.why})'
         limit = max(5.0 * sigma_q, 1e-3 * span, 5.0 * noise)
@@ -466,13 +469,15 @@ def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: floa
 
 
 class _Evaluated:
-    """A Reconstruction's ``evaluate`` as ``curve(x, nu)``."""
+    """A Reconstruction's ``evaluate`` (fitted in angles less ``shift`` [rad]) as
+    ``curve(x, nu)`` in the table's angles."""
 
-    def __init__(self, evaluate) -> None:
+    def __init__(self, evaluate, shift: float = 0.0) -> None:
         self._f = evaluate
+        self._shift = shift
 
     def __call__(self, x, nu: int = 0):
-        return np.asarray(self._f(np.asarray(x, dtype=float), nu), dtype=float)
+        return np.asarray(self._f(np.asarray(x, dtype=float) - self._shift, nu), dtype=float)
 
 
 def _lobe_jets(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float,
