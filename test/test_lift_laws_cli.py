@@ -192,11 +192,7 @@ def test_law_and_check_accept_a_tabulated_scene_lobe(tmp_path: Path,
     assert main(['design', 'law', str(scene), '--step-deg', '0.5', '--json', '-']) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc['family'] == 'table'
-    # the lobe law joins the corners at +-0.3 rad to the base circle with zero velocity
-    # (one table step beyond the base-circle rows at most): the support holds the table
-    lo, hi = doc['support_deg']
-    assert -math.degrees(0.4) - 1e-9 <= lo <= -math.degrees(0.3)
-    assert math.degrees(0.3) <= hi <= math.degrees(0.4) + 1e-9
+    assert doc['support_deg'] == pytest.approx([-math.degrees(0.3), math.degrees(0.3)])
     assert doc['max_lift_mm'] == pytest.approx(3.0, abs=1e-12)
     assert math.isclose(doc['rows'][0][1], 0.0, abs_tol=1e-12)
     assert main(['design', 'check', str(scene), '--json', '-']) == 0

@@ -103,10 +103,11 @@ def test_card_route_matches_the_lobe_and_the_cam(tmp_path: Path, kind: str) -> N
     direct = cc.card_from_law(law, tuple(x * 1e-3 for x in HEIGHTS_MM))
     _deg, _lift, nose, q_mm = _rows(kind)
     q = q_mm * 1e-3
-    # route vs the component: the same law, numbers to rounding of the JSON
+    # route vs the component: the same law; the CSV carries the lifts to 1e-12 m (the
+    # exact table) or to its own rounding, which the jerk at a ramp's start feels most
     assert card['max_lift_m'] == pytest.approx(direct['max_lift_m'], abs=1e-9)
     for k in ('acceleration_max_si', 'acceleration_min_si', 'velocity_max_si', 'jerk_max_si'):
-        assert card[k] == pytest.approx(direct[k], rel=1e-6)
+        assert card[k] == pytest.approx(direct[k], rel=2e-5)
     # the component vs the cam: max lift within the rounding (+1 um of smoothing bias)
     truth = _truth()
     assert card['max_lift_m'] == pytest.approx(truth['max_lift_m'], abs=q + 2e-6)

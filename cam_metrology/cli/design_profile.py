@@ -73,6 +73,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _load_law(doc: Any, path: str) -> Any:
     """The lift law of the file: a table (``alpha``/``h``, at the top or under ``lift``:
     its lobe law, as on every route) or a lift_law spec."""
+    import numpy as np
+
     from cam_design.errors import InputError
     from cam_metrology.cli.design_law import _law_spec
     from cam_metrology.reconstruction.lobe_routes import law_from_spec
@@ -81,8 +83,14 @@ def _load_law(doc: Any, path: str) -> Any:
         table = doc.get('lift', doc)
         if isinstance(table, dict) and 'alpha' in table and 'h' in table:
             key = 'lift' if table is not doc else path
-            return law_from_spec({'family': 'table', 'alpha': table['alpha'],
-                                  'h': table['h']}, key)
+            values = {}
+            for name in ('alpha', 'h'):
+                try:
+                    values[name] = np.asarray(table[name], dtype=float).tolist()
+                except (TypeError, ValueError):
+                    raise InputError(f'{key}.{name}', table[name],
+                                     'a list of numbers (rad for alpha, m for h)') from None
+            return law_from_spec(dict(values, family='table'), key)
     if not isinstance(doc, dict):
         raise InputError(path, type(doc).__name__, 'a mapping with lift_law: or alpha/h')
     spec, key = _law_spec(doc, path)
@@ -172,8 +180,8 @@ def compute(args: argparse.Namespace) -> tuple[Any, Any, float]:
     else:
         if args.lobe is not None:
             raise InputError('--lobe', args.lobe, 'a scene file (with lobes:)')
+        base = _base_radius(args, doc)   # the options before the (costlier) table
         law = _load_law(doc, args.file)
-        base = _base_radius(args, doc)
     step = args.step_deg
     if not (math.isfinite(step) and STEP_DEG[0] <= step <= STEP_DEG[1]):
         raise InputError('--step-deg', step, f'a step in [{STEP_DEG[0]:g}, {STEP_DEG[1]:g}] '

@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
+from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.cam_input import JetTableLift
 from cam_metrology.reconstruction.samples import clean_samples, other_lobes_warning, wrap_pi
 
@@ -46,6 +47,8 @@ TWO_PI = 2.0 * math.pi
 #: largest step [deg] of the grid on which the lobe's jets are tabulated for the
 #: degree-7 Hermite law (a divisor of the table step, so that every row is a node)
 GRID_DEG = 0.1
+#: lifts below this share of the lift range are base circle even in exact rows
+BASE_LEVEL_REL = 1e-9
 #: fewer rows than this are interpolated: noise cannot be told from shape
 JUDGE_ROWS = 24
 #: rows scatter at most this many times the rounding's q/sqrt(12): "only rounded"
@@ -89,8 +92,9 @@ class LobeInfo:
     ``method``: 'interpolated' or 'smoothed'; ``why``: the sentence behind it;
     ``sigma``: the noise the rows carry (rounding or estimate); ``quantum``: the
     rounding step q (0: not rounded); ``offset``: the turn applied to the rows (frame);
-    ``periodic``: no base circle (an eccentric); ``joins``: (start, end) of each join
-    segment; ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
+    ``periodic``: no base circle (an eccentric); ``joins``: (start, end) of the join
+    before and after the lobe (None: the lobe runs out to the table's own rows);
+    ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
     ``rows``: the rows as given (alpha, lift) for replicas; ``rec``: the engine's
     Reconstruction when smoothed."""
 
@@ -103,7 +107,7 @@ class LobeInfo:
     offset: float
     periodic: bool
     level: float
-    joins: list[tuple[float, float]] = field(default_factory=list)
+    joins: list[tuple[float, float] | None] = field(default_factory=list)
     mid_lobe: tuple[str, ...] = ()
     warnings: list[str] = field(default_factory=list)
     rows: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
@@ -116,9 +120,10 @@ class LobeInfo:
                 f'{self.method} ({self.why})'
                 + (f'; lifts quantised to {self.quantum * 1e3:g} mm' if self.quantum else '')
                 + ('; periodic (no base circle)' if self.periodic else
+                   '; runs out to the table\'s base-circle rows' if not any(self.joins) else
                    '; joined to the base circle with zero lift, velocity, acceleration and '
-                   'jerk at ' + ', '.join(f'{math.degrees(a):.2f}..{math.degrees(b):.2f} deg'
-                                          for a, b in self.joins))
+                   'jerk at ' + ', '.join(f'{math.degrees(j[0]):.2f}..{math.degrees(j[1]):.2f}'
+                                          ' deg' for j in self.joins if j))
                 + (f'; rows turned by {math.degrees(self.offset):.1f} deg to keep the lobe '
                    'off the +-180 deg seam (angles reported in the table frame)'
                    if self.offset else '')
@@ -126,11 +131,39 @@ class LobeInfo:
                           'bridge over the step, not the cam' for s in self.steps))
 
 
-class TableLobe(JetTableLift):
-    """The lobe law of a table (``lobe_law``): the degree-7 Hermite interpolant of the
-    lobe's jets (C3), with ``lobe`` (LobeInfo) and ``table`` (rows, q, sigma)."""
+class TableLobe(LiftLaw):
+    """The lobe law of a table (``lobe_law``): pieces (lo, hi, f) in the lobe frame
+    [rad] (the joins to the base circle and, between them, the curve through or near
+    the rows: the quintic interpolant or the engine's smoothing spline, evaluated as
+    they are), C3 everywhere; angles of the table = lobe frame + ``offset``. A periodic
+    law (an eccentric) is one piece over the turn, its lift measured from ``floor``.
+    ``lobe`` (LobeInfo) says what was done, ``table`` (rows, q, sigma) what a replica
+    of the table needs."""
 
+    continuity_order = 3
     lobe: LobeInfo
+    table: tuple
+
+    def __init__(self, pieces: list, offset: float, floor: float = 0.0) -> None:
+        self._pieces = pieces
+        self._offset = offset
+        self._floor = floor
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return (self._pieces[0][0] + self._offset, self._pieces[-1][1] + self._offset)
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        x = alpha - self._offset
+        out = np.zeros_like(x)
+        for k, (lo, hi, f) in enumerate(self._pieces):
+            last = k == len(self._pieces) - 1
+            sel = (x >= lo) & ((x <= hi) if last else (x < hi))
+            if np.any(sel):
+                out[sel] = np.asarray(f(x[sel], nu), dtype=float)
+        if nu == 0 and self._floor:
+            out -= self._floor
+        return out
 
 
 def table_quantum(lift: ArrayLike) -> float:
@@ -219,16 +252,11 @@ def _join(at: float, width: float, jets: NDArray[np.float64], side: int):
 
 
 def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[np.float64],
-          base: NDArray[np.float64], top: int, tau: float, side: int, min_width: float,
-          step: float) -> tuple[float, float, bool]:
+          top: int, tau: float, side: int, min_width: float) -> tuple[float, float, bool]:
     """(join point [rad], join width [rad], mid-lobe) on one side of the lobe: walk out
     from the top to the last grid point above ``tau``; the join ends on the first row
     inside it (so the law passes through every lobe row) when the join a ramp would
-    need there, 2 h/|h'|, is at least ``min_width``; else further in, on the grid. The
-    join starts at most one table step ``step`` beyond the table's last base-circle row
-    (``base``: the angles of the rows at or below ``tau``) on that side: the lobe runs
-    out to its own rows (a velocity step there, a ramp's start, is rounded over the
-    step on either side of that row)."""
+    need there, 2 h/|h'|, is at least ``min_width``; else further in, on the grid."""
     idx = np.arange(top, -1, -1) if side < 0 else np.arange(top, x.size)
     below = np.flatnonzero(y[idx] <= tau)
     mid_lobe = below.size == 0
@@ -239,26 +267,19 @@ def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[n
         v = float(curve(at, 1)) * -side       # rising towards the top: positive
         return 2.0 * h / v if v > 0 and h > 0 else math.inf
 
-    def limited(at: float, width: float) -> float:
-        outside = base[base < at] if side < 0 else base[base > at]
-        if outside.size:
-            last = float(outside[-1] if side < 0 else outside[0])
-            width = min(width, abs(at - last) + step)
-        return width
-
     lo, hi = sorted((float(x[k]), float(x[top])))
     inside = rows[(rows >= lo - 1e-12) & (rows <= hi + 1e-12)]
     if inside.size:
         at = float(inside[0] if side < 0 else inside[-1])
         width = width_at(at)
         if ROW_JOIN_SHARE * min_width <= width < math.inf:   # a lobe row: keep it
-            return at, limited(at, width), mid_lobe
+            return at, width, mid_lobe
     while True:
         width = width_at(float(x[k]))
         if (min_width <= width < math.inf) or k == top:
             break
         k -= side
-    return float(x[k]), limited(float(x[k]), width), mid_lobe
+    return float(x[k]), width, mid_lobe
 
 
 def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
@@ -283,10 +304,17 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     gaps = np.diff(np.unique(raw_a[ok]))
     row_step = float(np.median(gaps)) if gaps.size else 0.0
     centre = 0.5 * (lo_a + hi_a) if hi_a - lo_a < TWO_PI - 1.5 * row_step else 0.0
-    data = clean_samples(raw_a - centre, raw_h, key=key, min_points=6)
-    notes = [n for n in data.notes if not n.startswith('wrapped')]
-    _check_repeats(raw_a - centre, raw_h, notes, key)
-    a0, h = data.alpha + centre, data.lift
+    clean = (raw_a.size >= 6 and bool(np.all(np.isfinite(raw_a)))
+             and bool(np.all(np.isfinite(raw_h))) and bool(np.all(np.diff(raw_a) > 1e-9))
+             and -math.pi - 1e-12 <= lo_a and hi_a <= math.pi + 1e-12)
+    if clean:   # rows as given (a design table over [-pi, pi] keeps both end rows)
+        notes: list[str] = []
+        a0, h = raw_a.copy(), raw_h.copy()
+    else:
+        data = clean_samples(raw_a - centre, raw_h, key=key, min_points=6)
+        notes = [n for n in data.notes if not n.startswith('wrapped')]
+        _check_repeats(raw_a - centre, raw_h, notes, key)
+        a0, h = data.alpha + centre, data.lift
     top_row = float(np.max(h))
     if not top_row > 0:
         raise InputError(f'{key}.lift', f'largest lift {top_row:g} m',
@@ -298,7 +326,9 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     scatter = noise = _scatter(a0, h) if noise is None else float(noise)
     offset, periodic = _frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
     b = wrap_pi(a0 - offset) if offset else a0
-    if periodic:   # the turn [-pi, pi) from the lowest row
+    if periodic:   # the turn [-pi, pi) from the lowest row (a closing row merged)
+        if a0[-1] - a0[0] >= TWO_PI - 1e-9:
+            a0, h = a0[:-1], h[:-1]
         b = np.mod(a0 - offset + math.pi, TWO_PI) - math.pi
     if offset or periodic:
         order = np.argsort(b, kind='stable')
@@ -356,7 +386,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                              f'spline misses its rows by {rec.rms_residual:.3g} m rms (more '
                              f'than {limit:.3g} m' + (f'; {"; ".join(notes)}' if notes else '')
                              + '): tabulate more points')
-    tau = max(3.0 * sigma, 0.5 * q, 1e-9 * span)
+    tau = max(3.0 * sigma, 0.5 * q, BASE_LEVEL_REL * span)
     info = LobeInfo(key=key, method=method, why=why, sigma=sigma, quantum=q, step=step,
                     offset=offset, periodic=periodic, level=tau, rec=rec,
                     rows=(raw_a.copy(), raw_h.copy()), steps=steps)
@@ -396,14 +426,13 @@ def _build(curve, b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo
            ) -> TableLobe:
     """The TableLobe of ``curve`` (callable (x, nu)) fitted to rows ``b`` [rad], ``h``
     [m] in the lobe frame, by the lobe-end rule; checks filled into ``info``."""
-    g = _grid_step(info.step)
     if info.periodic:
-        x = b[0] + g * np.arange(int(round(TWO_PI / g)) + 1)
-        jets = np.stack([np.asarray(curve(x, nu), dtype=float) for nu in range(4)])
-        jets[0] -= float(np.min(jets[0]))
+        x = np.linspace(b[0], b[0] + TWO_PI, 7201)
+        floor = float(np.min(np.asarray(curve(x, 0), dtype=float)))
+        law = TableLobe([(float(b[0]), float(b[0]) + TWO_PI, curve)], info.offset, floor)
     else:
-        x, jets = _lobe_jets(curve, b, h, info.level, info.step, g, info)
-    law = TableLobe(x + info.offset, jets, key=info.key, trim=-1.0)
+        law = TableLobe(_lobe_pieces(curve, b, h, info.level, info.step,
+                                     _grid_step(info.step), info), info.offset)
     law.lobe = info
     rows = info.rows or (b, h)
     law.table = (rows[0], rows[1], info.quantum or None, info.sigma)
@@ -480,17 +509,17 @@ class _Evaluated:
         return np.asarray(self._f(np.asarray(x, dtype=float) - self._shift, nu), dtype=float)
 
 
-def _lobe_jets(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float,
-               step: float, g: float, info: LobeInfo
-               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Grid [rad] and (4, n) jets of the lobe between its joins, joins included."""
+def _lobe_pieces(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float,
+                 step: float, g: float, info: LobeInfo) -> list:
+    """The pieces (lo, hi, f) of the lobe: the join before it, the curve, the join
+    after it (the grid of step ``g`` [rad] serves to find the edges)."""
     x = np.arange(int(math.floor((b[-1] - b[0]) / g + 1e-9)) + 1) * g + b[0]
+    x = np.unique(np.concatenate([x[x < b[-1]], b[-1:]]))   # the last row is a node
     y = np.asarray(curve(x, 0), dtype=float)
     top = int(np.argmax(y))
     min_width = max(0.5 * step, math.radians(JOIN_MIN_DEG))
-    base = b[h <= tau]
-    lo, w_lo, mid_lo = _edge(curve, x, y, b, base, top, tau, -1, min_width, step)
-    hi, w_hi, mid_hi = _edge(curve, x, y, b, base, top, tau, +1, min_width, step)
+    lo, w_lo, mid_lo = _edge(curve, x, y, b, top, tau, -1, min_width)
+    hi, w_hi, mid_hi = _edge(curve, x, y, b, top, tau, +1, min_width)
     peak = float(y[top])
     mids = []
     for name, at, width, mid in (('start', lo, w_lo, mid_lo), ('end', hi, w_hi, mid_hi)):
@@ -504,27 +533,26 @@ def _lobe_jets(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float
                              f'{MID_LOBE_LIMIT * 100:.0f} % of the lift, joined to it): '
                              'give the whole lobe')
     info.mid_lobe = tuple(mids)
-    core = np.concatenate([[lo], x[(x > lo + 1e-12) & (x < hi - 1e-12)], [hi]])
-    jets = np.stack([np.asarray(curve(core, nu), dtype=float) for nu in range(4)])
-    pieces_x, pieces_j = [], []
-    for side, at, width in ((-1, lo, w_lo), (1, hi, w_hi)):
-        end = jets[:, 0] if side < 0 else jets[:, -1]
-        seg = _join(at, width, end, side)
-        n = max(2, int(math.ceil(width / g)) + 1)
-        xs = np.linspace(at - width, at, n) if side < 0 else np.linspace(at, at + width, n)
-        js = np.stack([seg(xs, nu) if nu else seg(xs) for nu in range(4)])
-        if side < 0:
-            js[:, 0] = 0.0
-            pieces_x.append(xs[:-1])
-            pieces_j.append(js[:, :-1])
-        else:
-            js[:, -1] = 0.0
-            pieces_x.append(xs[1:])
-            pieces_j.append(js[:, 1:])
-        info.joins.append((at - width, at) if side < 0 else (at, at + width))
-    gx = np.concatenate([pieces_x[0], core, pieces_x[1]])
-    gj = np.concatenate([pieces_j[0], jets, pieces_j[1]], axis=1)
-    return gx, gj
+    ends = np.stack([np.asarray(curve(np.array([lo, hi]), nu), dtype=float)
+                     for nu in range(4)])
+    # rows interpolated down to their own base-circle rows: the lobe runs out to the
+    # table's end rows (the interpolant through zeros is the base circle); else (and at
+    # a mid-lobe end) the join
+    run_lo = info.method == 'interpolated' and not mid_lo
+    run_hi = info.method == 'interpolated' and not mid_hi
+    info.joins[:] = [None if run_lo else (lo - w_lo, lo), None if run_hi else (hi, hi + w_hi)]
+    # the base-circle rows next to the lobe (not the table's ends: another lobe may lie
+    # beyond them)
+    before, after = b[(b <= lo) & (h <= tau)], b[(b >= hi) & (h <= tau)]
+    run_lo, run_hi = run_lo and before.size > 0, run_hi and after.size > 0
+    info.joins[:] = [None if run_lo else (lo - w_lo, lo), None if run_hi else (hi, hi + w_hi)]
+    start = float(before[-1]) if run_lo else lo
+    stop = float(after[0]) if run_hi else hi
+    pieces = [] if run_lo else [(lo - w_lo, lo, _join(lo, w_lo, ends[:, 0], -1))]
+    pieces.append((start, stop, curve))
+    if not run_hi:
+        pieces.append((hi, hi + w_hi, _join(hi, w_hi, ends[:, 1], 1)))
+    return pieces
 
 
 def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
@@ -563,12 +591,13 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
                    f'{level / top * 100:.2g} % of the max lift, no base-circle row): joined '
                    f'to the base circle over {math.degrees(j[1] - j[0]):.2f} deg; events '
                    f'below {level * 1e3:.4g} mm are the join\'s, not the cam\'s')
-    width = math.degrees(law.support[1] - law.support[0])
+    seat = np.flatnonzero(lift > max(info.level, 1e-4 * top))   # seat to seat
+    width = math.degrees(float(grid[seat[-1]] - grid[seat[0]])) if seat.size > 1 else 0.0
     if not info.periodic and width > CRANK_SUSPECT_DEG:
         out.append(f'the lobe is {width:.0f} cam deg wide seat to seat (more than '
                    f'{CRANK_SUSPECT_DEG:.0f}): are the angles crank degrees? name the '
                    'column crank_deg (or halve the angles)')
-    other = other_lobes_warning(b, h)
+    other = other_lobes_warning(wrap_pi(b + info.offset), h)   # in the table frame
     if other:
         out.append(other)
     return out
