@@ -63,7 +63,7 @@ def main() -> None:
     from cam_metrology.reconstruction.lobe_table import lobe_law
     from cam_metrology.reconstruction.profile import reconstruct_table
     from cam_metrology.reconstruction.samples import LiftTable
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     law = from_spec({'family': 'preset', 'name': 'methods_example'})
     rows = ['| table | rows | method | route | CPU [ms] | wall [ms] |',

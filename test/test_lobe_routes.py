@@ -165,7 +165,7 @@ def test_scene_table_design_check_and_card_read_one_lobe(tmp_path: Path, kind: s
                                                          capsys) -> None:
     """A scene lobe table (rad, m): the scene parser's law is the table's lobe law, and
     design check reports the h'' extremes of the card of the same rows (item 6)."""
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     a, h = _mm(kind)
     sel = np.abs(a) <= math.pi - 1e-12

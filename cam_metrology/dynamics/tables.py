@@ -6,7 +6,7 @@
 * ``table_input(path, ...)``: (feature, law, source, note) from a CSV / gauge file
   (``cam_metrology.reconstruction.samples.read_table_file``) or the JSON that
   ``cam-bench reconstruct`` writes.
-* the valve train comes from ``scene_parse.load_valve_train``.
+* the valve train comes from ``scene.parse.load_valve_train``.
 * ``jump_uncertainty``: the jump speed's uncertainty that a table's noise or
   quantisation carries (re-quantised replicas of the table through the same spline).
 """
