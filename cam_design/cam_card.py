@@ -104,6 +104,13 @@ def law_events(law: Callable[..., Any], height: float, key: str = 'height'
                          f'({peak * 1e3:.4f} mm)')
     above = np.nonzero(h >= height)[0]
     i, j = int(above[0]), int(above[-1])
+    if i == 0 or j == a.size - 1:
+        lo, hi = getattr(law, 'support', (a[0], a[-1]))
+        raise InputError(key, f'{height * 1e3:g} mm',
+                         f'a checking height above the lift at the ends of the law\'s '
+                         f'support ({float(h[0]) * 1e3:.4g} / {float(h[-1]) * 1e3:.4g} mm at '
+                         f'{math.degrees(lo):.2f} / {math.degrees(hi):.2f} deg): the lobe '
+                         'does not come down to the base circle there')
 
     def f(x: float) -> float:
         return float(law(np.array([x]), 0)[0]) - height
@@ -293,16 +300,39 @@ def _common(max_lift: float, peak_alpha: float, entries: list[dict[str, Any]],
 def card_from_law(law: Callable[..., Any], heights: Sequence[float] = DEFAULT_HEIGHTS_M,
                   *, rocker_ratio: float | None = None, key: str = 'heights',
                   derivatives: Callable[..., Any] | None = None,
-                  derivative_points: int = _GRID) -> dict[str, Any]:
+                  derivative_points: int = _GRID, floor: float = 0.0,
+                  joins: Sequence[tuple[float, float, float]] = ()) -> dict[str, Any]:
     """The design card of a lift law (module doc for every field).
 
     ``derivatives``: the law whose h', h'', h''' are reported (default ``law``; e.g. the
     exact converted lift when ``law`` is its C2 tabulation, whose h''' has spikes),
-    sampled at ``derivative_points`` evenly spaced angles over the support."""
+    sampled at ``derivative_points`` evenly spaced angles over the support.
+
+    A law from a table: ``floor`` [m] is the lift its rows cannot tell from the base
+    circle (noise, rounding): a height at or below it gets the duration seat to seat
+    (where the law leaves and rejoins the base circle) and a note; ``joins`` (start,
+    end [rad], lift [m]) are the law's joins to the base circle where the table stops
+    mid-lobe: a height below that lift gets a note that its events are the join's.
+    A height at or above the max lift is refused (InputError naming it)."""
     from scipy.integrate import quad
 
     peak_alpha, max_lift = law_peak(law)
-    events = [(y, *law_events(law, y, f'{key}[{j}]')) for j, y in enumerate(heights)]
+    notes: dict[int, str] = {}
+    events = []
+    for j, y in enumerate(heights):
+        if 0.0 < y <= floor < max_lift:
+            lo, hi = law.support
+            events.append((y, float(lo), float(hi)))
+            notes[j] = (f'at or below the base-circle level the rows can tell '
+                        f'({floor * 1e3:.4g} mm): events where the lobe leaves and rejoins '
+                        'the base circle')
+            continue
+        events.append((y, *law_events(law, y, f'{key}[{j}]')))
+        low = [lift for _a, _b, lift in joins if y < lift]
+        if low:
+            notes[j] = (f'below the lift where the table stops mid-lobe '
+                        f'({max(low) * 1e3:.4g} mm): the events are those of the join to '
+                        'the base circle, not of measured rows')
     lo, hi = law.support
     a, h = _grid(law)
     on = np.nonzero(h > 0)[0]
@@ -310,8 +340,10 @@ def card_from_law(law: Callable[..., Any], heights: Sequence[float] = DEFAULT_HE
     breaks = sorted(set([lo, hi] + [j for j in getattr(law, 'junctions', ()) if lo < j < hi]))
     area = sum(quad(lambda x: float(law(np.array([x]), 0)[0]), b0, b1, limit=200,
                     epsabs=1e-16, epsrel=1e-12)[0] for b0, b1 in zip(breaks, breaks[1:]))
-    card = _common(max_lift, peak_alpha, _height_entries(events), area, support,
-                   rocker_ratio)
+    entries = _height_entries(events)
+    for j, text in notes.items():
+        entries[j]['note'] = text
+    card = _common(max_lift, peak_alpha, entries, area, support, rocker_ratio)
     card['source'] = 'design'
     dlaw = law if derivatives is None else derivatives
     ad = a if derivative_points == _GRID else np.linspace(lo, hi, derivative_points)

@@ -1,7 +1,7 @@
 """A measured table of a lobe that crosses +-180 deg (an eccentric whose nose is not at
 0, as a gauge that starts its table anywhere prints it) through `dynamics TABLE`: the
-spline is fitted on the turn that starts at the table's lowest point, so the lobe is
-not cut at the seam (it was: a 3 mm step at -180 deg made the valve fly off the cam).
+lobe law is periodic over the turn that starts at the table's lowest point, so the lobe
+is not cut at the seam (it was: a 3 mm step at -180 deg made the valve fly off the cam).
 Truth: the rigid-train closed form w = sqrt((F0 + 2 k e) / (m e)) of an eccentric
 under a flat follower."""
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from cam_metrology.cli import main
-from cam_metrology.reconstruction.table_law import seam_turn, spline_law
+from cam_metrology.reconstruction.lobe_table import lobe_law
 
 M, K, F0, E = 0.1, 2.0e4, 200.0, 4.0e-3
 TRUTH_RPM = math.sqrt((F0 + 2 * K * E) / (M * E)) * 30.0 / math.pi
@@ -26,19 +26,22 @@ def _table(peak_deg: float, step_deg: float) -> tuple[np.ndarray, np.ndarray]:
     return a, np.round(E * (1.0 + np.cos(a - math.radians(peak_deg))) / 1e-6) * 1e-6
 
 
-def test_seam_turn_only_for_lobes_across_the_seam() -> None:
+def test_frame_turned_only_for_lobes_across_the_seam() -> None:
     a = np.radians(np.arange(-180.0, 180.0, 2.0))
     lobe = np.where(np.abs(a) < 1.0, 5e-3 * np.cos(a * 1.5) ** 2, 0.0)
-    assert seam_turn(a, lobe) == 0.0
+    law = lobe_law(a, lobe)
+    assert law.lobe.offset == 0.0 and not law.lobe.periodic
     a, h = _table(-90.0, 2.0)
-    assert math.degrees(seam_turn(a, h)) == pytest.approx(90.0 - 180.0, abs=1e-9)
+    law = lobe_law(a, h)
+    assert law.lobe.periodic   # the lowest row (90 deg) goes to the seam
+    assert math.degrees(law.lobe.offset) == pytest.approx(90.0 - 180.0, abs=1e-9)
 
 
 @pytest.mark.parametrize('peak_deg', [-90.0, 100.0, 180.0])
 def test_eccentric_table_lift_is_whole(peak_deg: float) -> None:
     a, h = _table(peak_deg, 2.0)
-    law, note = spline_law(a, h, 'ecc.csv')
-    assert 'crosses +-180 deg' in note
+    law = lobe_law(a, h, key='ecc.csv')
+    assert 'periodic (no base circle)' in law.lobe.note()
     lo, hi = law.support
     assert hi - lo == pytest.approx(2 * math.pi, abs=1e-12)   # one turn, from the base
     assert float(law(np.array([lo]), 0)[0]) == pytest.approx(0.0, abs=1e-9)
@@ -49,7 +52,7 @@ def test_eccentric_table_lift_is_whole(peak_deg: float) -> None:
         sel = (b >= lo) & (b < hi)
         y[sel] += np.asarray(law(b[sel], 0), dtype=float)
     exact = E * (1.0 + np.cos(x - math.radians(peak_deg)))
-    assert np.max(np.abs(y - exact)) < 3e-6   # 1 um rounding, smoothing, seam bridge
+    assert np.max(np.abs(y - exact)) < 3e-6   # 1 um rounding, smoothing
 
 
 @pytest.mark.parametrize('peak_deg', [-90.0, 100.0])

@@ -277,7 +277,7 @@ def test_quantised_table_gives_the_analytic_jump_speed(tmp_path: Path, capsys) -
     assert main(['dynamics', str(table), '--valve-train', str(vt), '--step-deg', '0.5',
                  '--sweep', '2000:4000:1000', '--json', str(out)]) == 0
     entry = json.loads(out.read_text())['features']['lobe']
-    assert entry['source'] == 'table:spline' and 'reconstruction spline' in entry['note']
+    assert entry['source'] == 'table:smoothed' and 'reconstruction spline' in entry['note']
     assert entry['jump_speed_rpm'] == pytest.approx(truth, rel=0.01)
     assert abs(entry['jump_speed_rpm'] - truth) <= entry['jump_speed_uncertainty_rpm']
     assert 'gauge step 0.01 mm' in entry['jump_uncertainty_note']
@@ -309,7 +309,7 @@ def test_table_jump_speed_uncertainty_covers_the_cam(name: str, offset: float) -
     spline) must contain the analytic cam's jump speed, and stay a few percent."""
     from cam_design.valve_train.examples import CycloidalLobe, HarmonicLobe
     from cam_metrology.dynamics.tables import jump_uncertainty
-    from cam_metrology.reconstruction.table_law import spline_law
+    from cam_metrology.reconstruction.lobe_table import lobe_law
 
     law = {'polynomial 70/70': PiecewisePolynomialLaw([-70 * D, 0.0, 70 * D], [
         smoothstep(-70 * D, 0.0, 0.0, 9e-3), smoothstep(70 * D, 0.0, 0.0, 9e-3)]),
@@ -321,7 +321,7 @@ def test_table_jump_speed_uncertainty_covers_the_cam(name: str, offset: float) -
     grid = np.array([0.6, 0.9, 1.2, 1.5]) * centre
     truth = sweep(law, p, grid, step_deg=1.0, tol_rpm=2.0, check=False).jump.speed
     deg = np.arange(-180.0 + offset, 180.0, 5.0)
-    table, _note = spline_law(deg * D, np.round(law(deg * D) * 1e5) / 1e5, 'lobe.csv')
+    table = lobe_law(deg * D, np.round(law(deg * D) * 1e5) / 1e5, key='lobe.csv')
     found = sweep(table, p, grid, step_deg=1.0, tol_rpm=2.0, check=False).jump.speed
     assert truth is not None and found is not None
     u, text = jump_uncertainty(table, p, found, 1.0)

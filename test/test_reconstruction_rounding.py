@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from cam_design.lift_laws.registry import from_spec
-from cam_metrology.reconstruction.table_law import spline_law
+from cam_metrology.reconstruction.lobe_table import lobe_law
 
 DEG = math.pi / 180.0
 
@@ -22,7 +22,7 @@ def test_rounded_one_degree_table_acceleration(q: float, limit: float) -> None:
     # without the floor: 0.033 and 0.057 of the largest |h''|
     law = from_spec({'family': 'preset', 'name': 'methods_example'})
     a = np.arange(-180.0, 180.0, 1.0) * DEG
-    smooth, _ = spline_law(a, np.round(np.asarray(law(a, 0)) / q) * q, 'table')
+    smooth = lobe_law(a, np.round(np.asarray(law(a, 0)) / q) * q, key='table')
     lo, hi = law.support
     x = np.linspace(lo + 0.01, hi - 0.01, 5000)
     err = np.asarray(smooth(x, 2)) - np.asarray(law(x, 2))
@@ -34,7 +34,8 @@ def test_rounded_two_degree_eccentric_acceleration() -> None:
     e = 4e-3
     a = np.arange(-180.0, 180.0, 2.0) * DEG
     h = np.round(e * (1.0 + np.cos(a)) / 1e-6) * 1e-6
-    smooth, note = spline_law(a, h, 'eccentric')
+    smooth = lobe_law(a, h, key='eccentric')
+    note = smooth.lobe.note()
     x = np.radians(np.arange(-150.0, 150.0, 0.25))
     assert np.max(np.abs(np.asarray(smooth(x, 2)) + e * np.cos(x))) < 0.04 * e
     assert 'grid noise 2.89e-07 m' in note   # the floor q/sqrt(12), not the spectrum's

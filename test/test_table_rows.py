@@ -10,7 +10,7 @@ import pytest
 
 from cam_design.errors import InputError
 from cam_metrology.reconstruction.samples import clean_samples
-from cam_metrology.reconstruction.table_law import spline_law
+from cam_metrology.reconstruction.lobe_table import lobe_law
 
 D = math.pi / 180.0
 
@@ -34,8 +34,8 @@ def test_dynamics_table_says_what_was_dropped() -> None:
     deg = np.arange(-175.0, 180.0, 5.0)
     h = _lobe(deg)
     h[deg == 10.0] = np.nan
-    _law, note = spline_law(deg * D, h, 'lobe.csv')
-    assert 'rows: dropped 1 non-finite sample(s)' in note
+    law = lobe_law(deg * D, h, key='lobe.csv')
+    assert 'rows: dropped 1 non-finite sample(s)' in '; '.join(law.lobe.warnings)
 
 
 def test_a_conflicting_repeat_is_named_in_the_refusal() -> None:
@@ -44,6 +44,6 @@ def test_a_conflicting_repeat_is_named_in_the_refusal() -> None:
     a = np.append(deg, -85.0) * D
     v = np.append(h, 3e-3)   # the lobe is 0 there: a row pasted from elsewhere
     with pytest.raises(InputError) as err:
-        spline_law(a, v, 'lobe.csv')
+        lobe_law(a, v, key='lobe.csv')
     text = str(err.value)
     assert 'largest spread 3 mm at -85.000 deg' in text and 'mend the repeated rows' in text

@@ -154,13 +154,20 @@ def _float_array(values: ArrayLike, key: str, what: str) -> NDArray[np.float64]:
 
 
 def design_table(alpha: NDArray[np.float64], h: NDArray[np.float64], key: str) -> TabulatedLift:
-    """A design lift table as a TabulatedLift, with the rules of a nominal lobe.
+    """A design lift table as a TabulatedLift (``check_design_table``'s rules). Used by
+    the ``table`` lift-law family; the scene parser and the command line read tables
+    through their one lobe law instead (cam_metrology.reconstruction.lobe_table)."""
+    a, v = check_design_table(alpha, h, key)
+    return TabulatedLift(a, v, key=key)
 
-    Beyond TabulatedLift's own checks: angles [rad] within [-pi, pi] from the lobe
-    centreline, lifts >= 0 m, h = 0 (within ``DESIGN_TABLE_TOLERANCE``) at both ends
-    (the table covers the whole lobe down to the base circle), a positive lift, and
-    lifts in m (not mm). Used by the scene parser and the ``table`` lift-law family.
-    """
+
+def check_design_table(alpha: ArrayLike, h: ArrayLike, key: str
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(alpha, h) of a design lift table that keeps the rules of a nominal lobe, else
+    InputError naming the key: structure (``_checked_table``), angles [rad] within
+    [-pi, pi] from the lobe centreline, lifts >= 0 m, h = 0 (within
+    ``DESIGN_TABLE_TOLERANCE``) at both ends (the table covers the whole lobe down to the
+    base circle), a positive lift, and lifts in m (not mm)."""
     a, v = _checked_table(alpha, h, key)
     tol = DESIGN_TABLE_TOLERANCE
     for j in (0, a.size - 1):
@@ -181,7 +188,7 @@ def design_table(alpha: NDArray[np.float64], h: NDArray[np.float64], key: str) -
         raise InputError(f'{key}.h', 'all zero', 'a lobe with a positive lift in m')
     if float(np.max(v)) > 0.1:
         raise InputError(f'{key}.h', float(np.max(v)), 'lifts in m (mm given?)')
-    return TabulatedLift(a, v, key=key)
+    return a, v
 
 
 def _checked_table(alpha: ArrayLike, h: ArrayLike, key: str,

@@ -172,50 +172,39 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
     write_output(args.nominal, text, '--nominal')
 
 
-#: median step [deg] above which a table's card is read from its reconstruction spline:
-#: the local fits need 3 samples within +-1 deg of each event, which only a step of at
-#: most 2/3 deg guarantees (a 1 deg table has 2 there whenever the event falls mid-step)
-COARSE_TABLE_DEG = 0.5
-
-
 def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
                ) -> dict[str, Any]:
-    """The card of a lift table [rad, m]. A table coarser than ``COARSE_TABLE_DEG``
-    (a gauge's 1-5 deg steps) has too few points around the nose and the events for
-    local fits: its card is that of the reconstruction spline (the same smoothing the
-    dynamics use), with ``source`` and ``note`` saying so."""
-    import numpy as np
+    """The card of a lift table [rad, m]: that of its lobe law
+    (``reconstruction.lobe_table.lobe_law``, the same lobe every route reads from the
+    rows), with ``source`` and ``note`` saying how the rows became the lobe and
+    ``warning`` what they could not tell."""
+    from cam_design.cam_card import card_from_law
+    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_metrology.reconstruction.samples import base_circle_warning
 
-    from cam_design.cam_card import card_from_law, card_from_table
-    from cam_design.errors import InputError
-    from cam_metrology.reconstruction.samples import base_circle_warning, other_lobes_warning
-    from cam_metrology.reconstruction.table_law import spline_law
-
-    a = np.asarray(alpha, dtype=float)
-    h = np.asarray(lift, dtype=float)
-    ok = np.isfinite(a) & np.isfinite(h)
-    a, h = a[ok], h[ok]
-    # Work in the frame of the table's highest point, so that a lobe across +-180 deg
-    # (a nose far from 0, an eccentric) is not cut in two; the angles are shifted back.
-    shift = float(a[int(np.argmax(h))]) if a.size else 0.0
-    a = np.mod(a - shift + np.pi, 2.0 * np.pi) - np.pi
-    step = float(np.degrees(np.median(np.diff(np.sort(a))))) if a.size > 1 else 0.0
-    if step <= COARSE_TABLE_DEG:
-        card = card_from_table(a, h, heights, key='--heights-mm', source='table')
-    else:
-        try:
-            law, note = spline_law(a, h, name, allow_steps=True)
-        except InputError as exc:
-            raise InputError(name, f'a table every {step:.3g} deg',
-                             'a table the reconstruction spline can follow (a coarse table '
-                             f'is read through it): {exc.expected}') from None
-        card = card_from_law(law, heights, key='--heights-mm')
-        card['source'] = 'table (reconstruction spline)'
-        card['note'] = note
-    said = [w for w in (base_circle_warning(a, h), other_lobes_warning(a, h)) if w]
+    law = lobe_law(alpha, lift, key=name, allow_steps=True)
+    card = card_from_law(law, heights, key='--heights-mm', floor=law.lobe.level,
+                         joins=law_joins(law))
+    card['source'] = f'table ({law.lobe.method})'
+    card['note'] = law.lobe.note()
+    said = [w for w in (base_circle_warning(alpha, lift), *law.lobe.warnings) if w]
     if said:
         card['warning'] = '; '.join(said)
-    return _shifted(card, math.degrees(shift))
+    return _shifted(card, 0.0)
+
+
+def law_joins(law: Any) -> list[tuple[float, float, float]]:
+    """(start, end [rad], lift at the lobe end [m]) of each mid-lobe join of a table's
+    lobe law: below that lift the events are the join's, not the table's."""
+    info = getattr(law, 'lobe', None)
+    if info is None:
+        return []
+    out = []
+    for side in info.mid_lobe:
+        lo, hi = info.joins[0] if side == 'start' else info.joins[1]
+        at = (hi if side == 'start' else lo) + info.offset
+        out.append((lo + info.offset, hi + info.offset, float(law(at))))
+    return out
 
 
 def _shifted(card: dict[str, Any], shift_deg: float) -> dict[str, Any]:

@@ -70,11 +70,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def load_law(doc: Any, path: str) -> Any:
-    """The lift law of the file: a table (TabulatedLift) or a lift_law spec (from_spec)."""
+    """The lift law of the file: a table (``alpha``/``h``, at the top or under ``lift``:
+    its lobe law, as on every route) or a lift_law spec."""
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_design.lift_laws import TabulatedLift
+    from cam_metrology.cli.design_law import law_spec
+    from cam_metrology.reconstruction.lobe_routes import law_from_spec
 
     if isinstance(doc, dict):
         table = doc.get('lift', doc)
@@ -83,18 +85,15 @@ def load_law(doc: Any, path: str) -> Any:
             values = {}
             for name in ('alpha', 'h'):
                 try:
-                    values[name] = np.asarray(table[name], dtype=float)
+                    values[name] = np.asarray(table[name], dtype=float).tolist()
                 except (TypeError, ValueError):
                     raise InputError(f'{key}.{name}', table[name],
                                      'a list of numbers (rad for alpha, m for h)') from None
-            return TabulatedLift(values['alpha'], values['h'], key=key)
-    from cam_design.lift_laws import from_spec
-    from cam_metrology.cli.design_law import law_spec
-
+            return law_from_spec(dict(values, family='table'), key)
     if not isinstance(doc, dict):
         raise InputError(path, type(doc).__name__, 'a mapping with lift_law: or alpha/h')
     spec, key = law_spec(doc, path)
-    return from_spec(spec, key)
+    return law_from_spec(spec, key)
 
 
 def scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
@@ -181,8 +180,8 @@ def compute(args: argparse.Namespace) -> tuple[Any, Any, float]:
     else:
         if args.lobe is not None:
             raise InputError('--lobe', args.lobe, 'a scene file (with lobes:)')
+        base = base_radius_of(args, doc)   # the options before the (costlier) table
         law = load_law(doc, args.file)
-        base = base_radius_of(args, doc)
     step = args.step_deg
     if not (math.isfinite(step) and STEP_DEG[0] <= step <= STEP_DEG[1]):
         raise InputError('--step-deg', step, f'a step in [{STEP_DEG[0]:g}, {STEP_DEG[1]:g}] '

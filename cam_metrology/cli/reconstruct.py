@@ -135,6 +135,8 @@ def run(args: argparse.Namespace) -> int:
               'features': features, 'skipped': skipped}
     if args.json:
         from cam_metrology.report.json_out import write_json
+        if kind == 'table':   # the rows' lobe law, the one every table route reads
+            result['lobes'] = {fid: lobe_entry(core.tables[fid], fid) for fid in features}
         write_json(args.json, result, '--json')
         if args.json != '-':
             done = [f'{fid}/{m}' for fid, ms in features.items() for m, v in ms.items()
@@ -149,6 +151,30 @@ def run(args: argparse.Namespace) -> int:
         write_nominal(core, args, follower)
     ok = any(m.get('ok') for f in features.values() for m in f.values())
     return 0 if ok else 1
+
+
+def lobe_entry(table: Any, key: str) -> dict[str, Any]:
+    """``lobes.<id>`` of the JSON: the table's lobe law (``lobe_table``) on a
+    0.1 deg grid over its support, as the methods' arrays (what `dynamics r.json`
+    reads first), with its note and warnings; or ``ok: false`` and the refusal."""
+    import numpy as np
+
+    from cam_design.errors import InputError
+    from cam_metrology.reconstruction.lobe_table import lobe_law
+
+    try:
+        law = lobe_law(table.alpha, table.lift, key=key, allow_steps=True)
+    except InputError as exc:
+        return {'ok': False, 'error': str(exc)}
+    lo, hi = law.support
+    grid = np.linspace(lo, hi, int(np.ceil(np.degrees(hi - lo) / 0.1)) + 1)
+    jets = law.derivatives(grid)
+    names = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk_m_per_rad3')
+    out: dict[str, Any] = {'ok': True, 'method': law.lobe.method, 'note': law.lobe.note(),
+                           'warnings': list(law.lobe.warnings),
+                           'max_lift_m': float(np.max(jets[0])), 'alpha_rad': grid.tolist()}
+    out.update({n: v.tolist() for n, v in zip(names, jets)})
+    return out
 
 
 def write_nominal(core: Any, args: argparse.Namespace, follower: dict[str, Any]) -> None:

@@ -74,8 +74,9 @@ def law_from_profile(cols: tuple[str, ...], data: np.ndarray, key: str) -> JetTa
     if missing:
         raise InputError(f'{key}.columns', ','.join(cols), ','.join(PROFILE_COLUMNS))
     idx = [cols.index(c) for c in PROFILE_COLUMNS]
-    a = data[:, idx[0]]
-    return JetTableLift(a, data[:, idx[1:]].T, key=key)
+    from cam_metrology.reconstruction.lobe_table import lobe_from_jets
+
+    return lobe_from_jets(data[:, idx[0]], data[:, idx[1:]].T, key=key)
 
 
 class DynamicsCore:

@@ -1,12 +1,12 @@
 """Lift tables into the dynamics: measured or nominal tables and reconstruct JSON
 (docs/dynamics.md "Tables").
 
-* tables go through ``reconstruction.table_law.spline_law`` (the reconstruction's
-  smoothing spline as a ``JetTableLift``, with a sentence saying what was done).
+* tables go through ``reconstruction.lobe_table.lobe_law`` (the one lobe law of a
+  table, with a sentence saying what was done and the table's warnings).
 * ``table_input(path, ...)``: (feature, law, source, note) from a CSV / gauge file
   (``cam_metrology.reconstruction.samples.read_table_file``) or the JSON that
   ``cam-bench reconstruct`` writes.
-* the valve train comes from ``scene_parse.load_valve_train``.
+* the valve train comes from ``scene.parse.load_valve_train``.
 * ``jump_uncertainty``: the jump speed's uncertainty that a table's noise or
   quantisation carries (re-quantised replicas of the table through the same spline).
 """
@@ -19,7 +19,7 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_design.valve_train.cam_input import JetTableLift
-from cam_metrology.reconstruction.table_law import spline_law
+from cam_metrology.reconstruction.lobe_table import lobe_from_jets, lobe_law
 
 #: replicas of a table for the jump-speed uncertainty, and the coverage factor on their
 #: standard deviation (the spread of one noise realisation: 3 sigma covered every
@@ -37,11 +37,12 @@ def table_input(path: Path, *, feature: str | None = None, angle_unit: str = 'de
 
     table = read_table_file(path, angle_unit=angle_unit, length_unit=length_unit)
     name = feature or table.feature or path.stem
-    law, note = spline_law(table.alpha, table.lift, path.name)
+    law = lobe_law(table.alpha, table.lift, key=path.name)
+    note = law.lobe.note() + ''.join(f'; WARNING: {w}' for w in law.lobe.warnings)
     offset = base_circle_warning(table.alpha, table.lift)
     if offset:   # the train sees the offset as extra (or less) lash: say so
         note += f'; WARNING: {offset} (the valve train sees it as a lash change)'
-    return name, law, 'table:spline', note
+    return name, law, f'table:{law.lobe.method}', note
 
 
 def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, JetTableLift, str, str]:
@@ -58,8 +59,11 @@ def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, JetTableLif
         feature = sorted(feats)[0]
     if feature not in feats:
         raise InputError('--feature', feature, 'one of ' + ', '.join(sorted(feats)))
-    methods = feats[feature]
-    names = [m for m in ('spline', 'harmonic') if isinstance(methods.get(m), dict)
+    methods = dict(feats[feature])
+    lobe = (doc.get('lobes') or {}).get(feature)
+    if isinstance(lobe, dict):   # the rows' lobe law: what every table route reads
+        methods['lobe'] = lobe
+    names = [m for m in ('lobe', 'spline', 'harmonic') if isinstance(methods.get(m), dict)
              and methods[m].get('ok') and 'alpha_rad' in methods[m]]
     if not names:
         raise InputError(f'{path.name}: features.{feature}', 'no method with arrays',
@@ -73,15 +77,17 @@ def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, JetTableLif
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(f'{path.name}: features.{feature}.{names[0]}', str(exc),
                          'arrays ' + ', '.join(('alpha_rad',) + cols)) from None
-    law = JetTableLift(a, jets, key=f'{path.name}: features.{feature}.{names[0]}')
+    where = (f'lobes.{feature}' if names[0] == 'lobe' else f'features.{feature}.{names[0]}')
+    law = lobe_from_jets(a, jets, key=f'{path.name}: {where}')
     return feature, law, f'reconstruct:{names[0]}', (
-        f'reconstructed profile ({names[0]}) from {path.name}')
+        f'reconstructed profile ({names[0]}) from {path.name}: ' + law.lobe.note()
+        + ''.join(f'; WARNING: {w}' for w in law.lobe.warnings))
 
 
 def jump_uncertainty(law: JetTableLift, params: object, jump_rpm: float, step_deg: float,
                      *, replicas: int = REPLICAS, seed: int = 0) -> tuple[float, str] | None:
     """(U [rpm], sentence) of the jump speed ``jump_rpm`` found on a table's spline law,
-    or None when the law did not come from a table (``spline_law``).
+    or None when the law did not come from a table (``lobe_law``).
 
     The table's rows carry noise (a gauge step q: rounding, uniform of width q; else the
     noise sigma the spline estimated). ``replicas`` copies of the table with a fresh
@@ -106,7 +112,8 @@ def jump_uncertainty(law: JetTableLift, params: object, jump_rpm: float, step_de
             noise = rng.uniform(-0.5 * q, 0.5 * q, h.size)
         else:
             noise = rng.normal(0.0, sigma, h.size)
-        rep, _note = spline_law(a, h + noise * lobe, 'replica')
+        rep = lobe_law(a, h + noise * lobe, key='replica',
+                       noise=max(sigma, (q or 0.0) / math.sqrt(12.0)))
         run_at, _single = runners(rep, params, step_deg)
 
         def fails(rpm: float) -> bool:

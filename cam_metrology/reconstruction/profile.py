@@ -202,6 +202,12 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     table_warnings += [w for w in (base_circle_warning(data.alpha, data.lift),
                                    None if design is not None else   # the design says
                                    other_lobes_warning(data.alpha, data.lift)) if w]
+    lobe = None
+    if design is None:   # a table on its own: what its lobe law says of the same rows
+        from cam_metrology.reconstruction.lobe_routes import lobe_warnings
+        lobe, said = lobe_warnings(table.alpha, table.lift, key=table.feature)
+        table_warnings += [w for w in said if w not in table_warnings
+                           and not w.startswith('the table holds')]
     table_notes = []
     if steps and np.any(fairing.outlier):
         # the rebound of a step rings over its neighbours: they are not outliers
@@ -243,6 +249,11 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
             continue
         rec.notes = list(table.notes) + rec.notes + table_notes
         rec.warnings = table_warnings + rec.warnings
+        if lobe is not None:
+            from cam_metrology.reconstruction.lobe_routes import beyond_rows
+            gap = beyond_rows(lobe, rec.lift, data.lift)
+            if gap:
+                rec.warnings.append(gap)
         outcome.reconstruction = rec
         if design is not None:
             outcome.design_errors = design_errors(rec, design)

@@ -136,7 +136,8 @@ def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
 #: column names (lower case, unit removed) of the angle, crank angle and lift columns
 ANGLE_NAMES = ('alpha', 'angle', 'cam', 'cam_angle', 'camangle', 'cam angle', 'theta')
 CRANK_NAMES = ('crank', 'crank_angle', 'crankangle', 'crank angle')
-LIFT_NAMES = ('lift', 'h', 'cam_lift', 'cam lift')
+LIFT_NAMES = ('lift', 'h', 'cam_lift', 'cam lift', 'valve_lift', 'valve lift',
+              'follower_lift', 'follower lift', 'tappet_lift', 'tappet lift')
 #: unit spellings accepted in headers
 ANGLE_SPELLING = {'rad': 'rad', 'radian': 'rad', 'radians': 'rad', 'deg': 'deg',
                   'degree': 'deg', 'degrees': 'deg', '°': 'deg'}
@@ -308,11 +309,18 @@ _EXCEL_SEP = re.compile(r'^sep=[,;\t]$', re.IGNORECASE)
 def _one_each(cols: list[_Column], header: list[str], name: str) -> None:
     """InputError unless the header has one angle, one lift and at most one design column."""
     roles = [c.role for c in cols]
-    if roles.count('cam') + roles.count('crank') != 1 or roles.count('lift') != 1 or \
-            roles.count('design') > 1:
+    angles = roles.count('cam') + roles.count('crank')
+    if angles != 1 or roles.count('lift') != 1 or roles.count('design') > 1:
+        read = {c.index for c in cols}
+        unread = [h for i, h in enumerate(header) if i not in read and h]
+        missing = [w for w, n in (('angle', angles), ('lift', roles.count('lift'))) if n == 0]
+        said = (f'; no {" and no ".join(missing)} column among them, and '
+                + ', '.join(repr(h) for h in unread) + ' could not be read as one'
+                if missing and unread else '')
         raise InputError(f'{name}:header', ','.join(header),
-                         'one angle column (alpha_deg, alpha_rad or crank_deg) and one '
-                         'lift column (lift_mm, lift_um, lift_m, lift_in or h_mm)')
+                         'one angle column (alpha_deg, alpha_rad or crank_deg, e.g. '
+                         '"Crank Angle [deg]") and one lift column (lift_mm, lift_um, '
+                         'lift_m, lift_in or h_mm, e.g. "Valve Lift [mm]")' + said)
 
 
 def _next_content(lines: list[str], number: int) -> int:
@@ -638,26 +646,28 @@ def find_steps(alpha: NDArray[np.float64], lift: NDArray[np.float64], sigma: flo
     dh = np.diff(h)
     slope = dh / np.diff(a)
     rng = float(np.ptp(h))
+    s, d = np.abs(slope), np.abs(dh)
+    none = np.array([-np.inf])
+    s_l, s_r = np.concatenate([none, s[:-1]]), np.concatenate([s[1:], none])
+    d_l, d_r = np.concatenate([none, d[:-1]]), np.concatenate([d[1:], none])
+    dh_l = np.concatenate([[0.0], dh[:-1]])
+    dh_r = np.concatenate([dh[1:], [0.0]])
+    near = np.maximum(d_l, d_r)
+    jump = (s > STEP_RATIO * np.maximum(s_l, s_r)) & (d - near > max(10.0 * sigma, 0.01 * rng))
+    # leaving (or reaching) the base circle in one row: a lift that starts with a
+    # continuous velocity rises at most 1/3 as much in its first row as in the
+    # next (1:3 for constant h''); a cut ramp rises about as much
+    flat = max(10.0 * sigma, 0.002 * rng)
+    big = d > max(10.0 * sigma, 0.05 * rng)
+    inner = np.zeros(d.size, dtype=bool)
+    inner[1:-1] = True
+    from_left = inner & (d_l <= flat) & big & (dh * dh_r > 0) & (s >= 0.5 * s_r)
+    from_right = inner & (d_r <= flat) & big & (dh * dh_l > 0) & (s >= 0.5 * s_l)
     out = []
-    for k in range(dh.size):
-        side = [abs(slope[j]) for j in (k - 1, k + 1) if 0 <= j < dh.size]
-        near = [abs(dh[j]) for j in (k - 1, k + 1) if 0 <= j < dh.size]
-        if abs(slope[k]) > STEP_RATIO * max(side) and \
-                abs(dh[k]) - max(near) > max(10.0 * sigma, 0.01 * rng):
-            out.append((k, float(a[k]), float(a[k + 1]), float(dh[k]), float(max(near))))
-            continue
-        # leaving (or reaching) the base circle in one row: a lift that starts with a
-        # continuous velocity rises at most 1/3 as much in its first row as in the
-        # next (1:3 for constant h''); a cut ramp rises about as much
-        for before, after in ((k - 1, k + 1), (k + 1, k - 1)):
-            if not (0 <= before < dh.size and 0 <= after < dh.size):
-                continue
-            flat = abs(dh[before]) <= max(10.0 * sigma, 0.002 * rng)
-            if flat and abs(dh[k]) > max(10.0 * sigma, 0.05 * rng) and \
-                    dh[k] * dh[after] > 0 and abs(slope[k]) >= 0.5 * abs(slope[after]):
-                out.append((k, float(a[k]), float(a[k + 1]), float(dh[k]),
-                            float(abs(dh[before]))))
-                break
+    for k in np.flatnonzero(jump | from_left | from_right):
+        k = int(k)
+        neighbour = float(near[k] if jump[k] else (d_l[k] if from_left[k] else d_r[k]))
+        out.append((k, float(a[k]), float(a[k + 1]), float(dh[k]), neighbour))
     return out
 
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from cam_design.errors import InputError, require_finite, require_length, require_positive
 from cam_design.lift_laws import LiftLaw
-from cam_design.lift_laws.base import design_table
+from cam_design.lift_laws.base import check_design_table
 from cam_metrology.inputs.files import read_text_file
 from cam_metrology.scene.model import (COMPUTE_ITEMS, Band, Crank, DowelPin, Follower, Keyway,
                                        Lobe, Scene, Seat, ToleranceZone, Tolerances, ValveTrain)
@@ -48,8 +48,6 @@ TOL_MAXIMA = ('runout_max_um', 'roundness_max_um', 'waviness_max_um', 'taper_max
               'acceleration_error_max_mm_per_rad2')
 TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm') + TOL_MAXIMA
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
-#: lift [m] above which a nominal file's row is on the lobe, not the base circle
-NOMINAL_BASE_LEVEL = 1e-7
 KEYWAY_KEYS = ('width', 'shaft_radius', 'probe_radius', 'depth', 'nominal_angle')
 CRANK_KEYS = ('tdc_deg', 'cylinder_tdc_deg')
 #: feature ids of the datums (no lobe may take them)
@@ -359,7 +357,7 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
     the file's probe radius, a knife for 0); a lobe ``follower`` that differs is an
     error. Relative paths start from the scene file's folder."""
     from cam_metrology.reconstruction.samples import (check_angle_magnitude,
-                                                      check_lift_magnitude, clean_samples,
+                                                      check_lift_magnitude,
                                                       read_gauge_file)
 
     raw = _text(f'{key}.nominal_file', lobe['nominal_file'])
@@ -383,17 +381,13 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
         raise InputError(f'{key}.follower', lobe['follower'],
                          f'no follower, or the file\'s ({kind}, radius {radius:g} m): the '
                          'nominal file says which follower its lift is for')
-    # a gauge may write 0..360 deg (the nose at 0 and 360) or -180..180: angles wrapped
-    # to (-180, 180] and sorted, the repeated closing angle merged
-    data = clean_samples(table.alpha, table.lift, key=f'{key}.nominal_file')
-    # the file covers the whole turn: the lobe is where it rises off the base circle
-    # (one base-circle row kept on each side), so that the base circle stays base circle
-    up = np.nonzero(data.lift > NOMINAL_BASE_LEVEL)[0]
-    if up.size == 0:
+    # a gauge may write 0..360 deg (the nose at 0 and 360) or -180..180: the lobe law
+    # takes the whole turn (wrapped, the repeated closing angle merged) and finds the
+    # lobe where it rises off the base circle
+    if not float(np.max(table.lift)) > 0:
         raise InputError(f'{key}.nominal_file', raw, 'a lift profile (every lift is 0)')
-    i0, i1 = max(int(up[0]) - 1, 0), min(int(up[-1]) + 1, data.lift.size - 1)
-    alpha, lift = data.alpha[i0:i1 + 1], data.lift[i0:i1 + 1]
-    return _table_law(ctx, f'{key}.nominal_file', alpha, lift), own, str(path)
+    return _table_law(ctx, f'{key}.nominal_file', table.alpha, table.lift,
+                      design=False), own, str(path)
 
 
 def _lobe_follower(key: str, lobe: Mapping[str, Any]) -> Follower:
@@ -442,18 +436,18 @@ def _lift_table(ctx: _Ctx, key: str, value: Any) -> LiftLaw:
     return _table_law(ctx, key, alpha, h)
 
 
-def _table_law(ctx: _Ctx, key: str, alpha: np.ndarray, h: np.ndarray) -> LiftLaw:
-    """The quintic interpolant of a design table, or (a coarse table whose interpolant
-    rings) the reconstruction spline, with a warning."""
-    try:
-        return design_table(alpha, h, key)
-    except InputError as exc:
-        if 'quintic interpolant' not in str(exc):
-            raise
-    # a coarse table whose interpolant rings: the reconstruction spline instead (said)
-    from cam_metrology.reconstruction.table_law import spline_law
-    law, note = spline_law(alpha, h, key)
-    ctx.warnings.append(f'{key}: {note} (its quintic interpolant dips below the base circle)')
+def _table_law(ctx: _Ctx, key: str, alpha: np.ndarray, h: np.ndarray, *,
+               design: bool = True) -> LiftLaw:
+    """The lobe law of a design table (``reconstruction.lobe_table``: the same lobe as
+    every other route reads from these rows; ``design``: first the rules of a scene
+    table, ``check_design_table``); its warnings go to the scene's."""
+    from cam_metrology.reconstruction.lobe_table import lobe_law
+
+    a, v = (check_design_table(alpha, h, key) if design else (alpha, h))
+    law = lobe_law(a, v, key=key)
+    if law.lobe.method != 'interpolated' or law.lobe.warnings:
+        ctx.warnings.append(f'{key}: ' + law.lobe.note()
+                            + ''.join(f'; {w}' for w in law.lobe.warnings))
     return law
 
 
@@ -477,7 +471,11 @@ def lift_law_from_spec(spec: Mapping[str, Any], key: str) -> LiftLaw:
                          'a lift-law family; lift_law: family not available in this '
                          'build (cam_design.lift_laws.registry missing); use a lift table')
     try:
-        law = registry.from_spec(spec, key)
+        if spec.get('family') == 'table':   # a table: its lobe law, as on every route
+            from cam_metrology.reconstruction.lobe_routes import law_from_spec
+            law = law_from_spec(spec, key)
+        else:
+            law = registry.from_spec(spec, key)
     except InputError:
         raise
     except (TypeError, ValueError, KeyError, ArithmeticError) as exc:

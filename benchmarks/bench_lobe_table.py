@@ -1,0 +1,112 @@
+"""Time of each route from a lift table to its answer, on one lobe law.
+
+The methods-example lobe (8.3 mm, ramps) tabulated over the whole turn every 5 deg
+(72 rows) and every 0.1 deg (3600 rows), exact and rounded to 0.01 mm. Per table: the
+lobe law alone (``lobe_law``: the frame, the interpolate-or-smooth decision, the joins,
+the checks), and each route that reads it: the cam card of the table, a scene lobe
+table parsed, ``design check`` of that scene, ``dynamics TABLE`` at one speed (SDOF,
+1 deg), and ``reconstruct`` of the table (its own spline and harmonic fits plus the lobe
+law's warnings). Best of 3 runs, CPU time (user + sys of this process) and wall time;
+the target is the lobe law in under 20 ms. Run: ``python -m benchmarks lobe_table``.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.machine import report
+
+OUT = Path(__file__).resolve().parent / 'results' / 'lobe_table.md'
+DEG = math.pi / 180.0
+REPEATS = 3
+VT = ('valve_train: {model: sdof, rocker_ratio: 1.0, lash: 0.0, mass: 0.1, '
+      'stiffness: 3.0e8, damping: 1.1e4, spring_rate: 2.0e4, spring_preload: 200, '
+      'cam_speed_rpm: [2000]}\n')
+
+
+def _cpu() -> float:
+    return time.process_time()   # user + sys of this process, ns resolution
+
+
+def _best(fn) -> tuple[float, float]:
+    """(best CPU [s], best wall [s]) over REPEATS calls of ``fn``."""
+    cpu, wall = math.inf, math.inf
+    for _ in range(REPEATS):
+        c0, w0 = _cpu(), time.perf_counter()
+        fn()
+        cpu = min(cpu, _cpu() - c0)
+        wall = min(wall, time.perf_counter() - w0)
+    return cpu, wall
+
+
+def _quiet(argv: list[str]) -> None:
+    from cam_metrology.cli import main
+
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        code = main(argv)
+    if code != 0:
+        raise RuntimeError(f'{argv[0]} exited {code}')
+
+
+def main() -> None:
+    """Run and write benchmarks/results/lobe_table.md."""
+    from cam_design.lift_laws.registry import from_spec
+    from cam_metrology.cli.card import table_card
+    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_metrology.reconstruction.profile import reconstruct_table
+    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_metrology.scene.parse import load_scene
+
+    law = from_spec({'family': 'preset', 'name': 'methods_example'})
+    rows = ['| table | rows | method | route | CPU [ms] | wall [ms] |',
+            '|---|---:|---|---|---:|---:|']
+    tmp = Path(tempfile.mkdtemp(prefix='bench_lobe_'))
+    (tmp / 'vt.yaml').write_text(VT, encoding='utf-8')
+    for step, label in ((5.0, '5 deg'), (0.1, '0.1 deg')):
+        deg = np.arange(-180.0, 180.0, step)
+        exact = np.asarray(law(deg * DEG), dtype=float)
+        for name, lift in ((f'{label} exact', exact),
+                           (f'{label} 0.01 mm', np.round(exact * 1e5) / 1e5)):
+            a = deg * DEG
+            built = lobe_law(a, lift, key='bench')
+            csv = tmp / 'lobe.csv'
+            csv.write_text('alpha_deg,lift_mm\n' + ''.join(
+                f'{x:g},{v * 1e3:.9f}\n' for x, v in zip(deg, lift)), encoding='utf-8')
+            scene = tmp / 'scene.yaml'
+            scene.write_text(
+                'camshaft_id: bench\nprobe: {kind: flat, radius: 0}\n'
+                'base_circle_radius: 0.018\nlobes:\n  - id: lobe\n    follower: flat\n'
+                f'    lift: {{alpha: {json.dumps(a.tolist())}, h: {json.dumps(lift.tolist())}}}'
+                '\n' + VT, encoding='utf-8')
+            routes = {
+                'lobe law (lobe_law)': lambda: lobe_law(a, lift, key='bench'),
+                'card of the table': lambda: table_card(a, lift, (1e-3, 1e-4), 'bench'),
+                'scene lobe table parsed': lambda: load_scene(str(scene)),
+                'design check (scene)': lambda: _quiet(['design', 'check', str(scene),
+                                                        '--json', str(tmp / 'c.json')]),
+                'dynamics TABLE, 1 speed': lambda: _quiet(
+                    ['dynamics', str(csv), '--valve-train', str(tmp / 'vt.yaml'),
+                     '--step-deg', '1', '--rpm', '2000', '--json', str(tmp / 'd.json')]),
+                'reconstruct (spline + harmonic)': lambda: reconstruct_table(
+                    LiftTable('bench', a, lift)),
+            }
+            for route, fn in routes.items():
+                cpu, wall = _best(fn)
+                rows.append(f'| {name} | {deg.size} | {built.lobe.method} | {route} | '
+                            f'{cpu * 1e3:.1f} | {wall * 1e3:.1f} |')
+    rows.append('')
+    rows.append(f'load average at the end: {os.getloadavg()[0]:.2f}; the lobe law target: '
+                '< 20 ms')
+    report('Lift table to lobe law, per route', __doc__, rows, OUT)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,73 @@
+"""The lobe law of a table for the routes that are not a table reader themselves:
+the ``table`` lift-law family of the design commands and scenes (``law_from_spec``),
+and what the reconstruction, which keeps its own fits, is told about the same rows
+(``lobe_warnings``, ``beyond_rows``). The rules are ``lobe_table``'s.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cam_design.errors import InputError
+from cam_metrology.reconstruction.lobe_table import TableLobe, lobe_law
+
+#: a fit rising this share of the lift above every row and the lobe law left the rows
+BEYOND_ROWS = 0.01
+
+
+def law_from_spec(spec: Mapping[str, Any], key: str) -> Any:
+    """A lift law from a ``lift_law`` mapping: the ``table`` family (``alpha`` [rad],
+    ``h`` [m], a design table) through ``lobe_law``, so that a table given to the design
+    commands is the same lobe as on every other route; any other family from the
+    lift-law registry (``cam_design.lift_laws.from_spec``)."""
+    from cam_design.lift_laws import from_spec
+    from cam_design.lift_laws import params as P
+    from cam_design.lift_laws.base import check_design_table
+
+    if isinstance(spec, Mapping) and spec.get('family') == 'table':
+        P.reject_unknown({k: v for k, v in spec.items() if k != 'family'}, key,
+                         ('alpha', 'h'))
+        a, v = check_design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'),
+                                  key)
+        return lobe_law(a, v, key=key)
+    return from_spec(spec, key)
+
+
+def lobe_warnings(alpha: ArrayLike, lift: ArrayLike, key: str = 'table'
+                  ) -> tuple[TableLobe | None, list[str]]:
+    """(lobe law or None, warnings) of a table for a route that keeps its own fit (the
+    reconstruction's spline and harmonic series): what the lobe law of the same rows
+    says about them (mid-lobe ends, a crank-degree suspicion, several lobes, a lobe
+    across +-180 deg), or why no lobe law can be drawn through them."""
+    try:
+        law = lobe_law(alpha, lift, key=key, allow_steps=True)
+    except InputError as exc:
+        return None, [f'no lobe law from these rows: {exc}']
+    out = [w for w in law.lobe.warnings if not w.startswith('rows:')]
+    if law.lobe.offset:
+        out.append(f'the lobe crosses +-180 deg: a fit over (-180, 180] is cut inside the '
+                   f'lobe there; its lobe law (card, dynamics) turns the rows by '
+                   f'{math.degrees(law.lobe.offset):.1f} deg first')
+    return law, out
+
+
+def beyond_rows(law: TableLobe | None, lift: NDArray[np.float64], rows: ArrayLike) -> str:
+    """A warning when a fit's ``lift`` [m] rises above every row and the lobe law by
+    more than ``BEYOND_ROWS`` of the lift (a gap bridged by the fit), else ''."""
+    h = np.asarray(rows, dtype=float)
+    h = h[np.isfinite(h)]
+    if law is None or not h.size or not lift.size:
+        return ''
+    top = float(np.max(lift))
+    limit = float(np.max(law(np.linspace(*law.support, 4001), 0)))
+    allowed = max(limit, float(np.max(h))) + max(3.0 * law.lobe.sigma, law.lobe.quantum,
+                                                 BEYOND_ROWS * float(np.max(h)))
+    if top <= allowed:
+        return ''
+    return (f'max lift {top * 1e3:.4f} mm is above every row ({float(np.max(h)) * 1e3:.4f} '
+            'mm) and above the lobe law of the same rows '
+            f'({limit * 1e3:.4f} mm): the fit bridges a gap in the table; not the cam')

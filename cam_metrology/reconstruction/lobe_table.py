@@ -1,0 +1,603 @@
+"""One lift table -> one lobe law: the component every route that reads a lift table
+uses (a table file, a scene lobe table, a gauge nominal file, a reconstruction's
+profile, the measured table of the metrology node).
+
+``lobe_law(alpha, lift, key=...)`` returns a ``TableLobe``: a lift law (rad -> m,
+callable as ``law(alpha, nu)`` for nu = 0..3, continuous up to h''' everywhere) in the
+table's own angle frame, with a ``LobeInfo`` (``law.lobe``) saying what was done and
+what the rows could not tell. The rules (docs/methods.md, "One table, one lobe"):
+
+* **frame**: a table over the whole turn is turned so that the seam (+-180 deg) lies
+  in the middle of its longest base-circle run (a lobe across +-180 deg is not cut);
+  one with no base-circle run (an eccentric) is periodic, its lowest row at the seam.
+  Angles of the law are those of the table (the turn is undone).
+* **smoothing**: the rows are interpolated (quintic spline through every row) when
+  their scatter about a smooth curve is no more than their rounding explains and the
+  rounding, carried through the interpolant, stays below ``ROUNDING_ACC_SHARE`` of the
+  lobe's peak h''; otherwise they are smoothed by the reconstruction spline with the
+  risk criterion (noise: the rounding's q/sqrt(12), or the engine's estimate).
+* **lobe ends**: the lobe is the run of the curve above the base-circle level
+  ``tau`` around the highest row; at each end it is joined to the base circle by a
+  degree-7 Hermite segment from (h, h', h'', h''') = 0 to the curve's values (never a
+  lift step), over the angle 2 h/h' a constant-velocity ramp would take.
+* a table that starts or ends mid-lobe (no base-circle row before or after the lobe)
+  is joined the same way, with a warning; above ``MID_LOBE_LIMIT`` of the max lift it
+  is refused. Several lobes: the highest is taken, the others named in a warning.
+* results no cam can have are refused: a max lift above every row by more than the
+  noise, a peak acceleration far above what the lobe's lift and duration allow.
+
+The engine (``reconstruction.spline``) is called through its public entry points only.
+This module belongs with the engine; both should move to a pure-numerics package of
+cam_design together.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cam_design.errors import InputError
+from cam_design.lift_laws.base import LiftLaw
+from cam_design.valve_train.cam_input import JetTableLift
+from cam_metrology.reconstruction.samples import clean_samples, other_lobes_warning, wrap_pi
+
+TWO_PI = 2.0 * math.pi
+#: largest step [deg] of the grid on which the lobe's jets are tabulated for the
+#: degree-7 Hermite law (a divisor of the table step, so that every row is a node)
+GRID_DEG = 0.1
+#: lifts below this share of the lift range are base circle even in exact rows
+BASE_LEVEL_REL = 1e-9
+#: fewer rows than this are interpolated: noise cannot be told from shape
+JUDGE_ROWS = 24
+#: rows scatter at most this many times the rounding's q/sqrt(12): "only rounded"
+SCATTER_RATIO = 1.5
+#: rows scattering less than this share of the lift range are exact (8 nm on 8 mm)
+EXACT_SCATTER_REL = 1e-6
+#: interpolate a rounded table only while its rounding carried into h'' (ROUNDING_GAIN
+#: q/sqrt(12)/step^2) stays below this share of the lobe's peak |h''|
+ROUNDING_ACC_SHARE = 0.02
+#: std of the quintic interpolant's h'' at unit white noise on unit steps (measured on
+#: 1e4 rows of unit noise: 9.7 at the rows, up to 11 between; the larger is used)
+ROUNDING_GAIN = 11.0
+#: a run of base-circle rows shorter than this [deg] is the bottom of an eccentric
+BASE_MIN_DEG = 20.0
+#: the misfit of a smooth shape grows at least this much when the step doubles (the
+#: engine's estimate on exact tables of ramped, cycloidal and harmonic lobes at
+#: 0.5-5 deg: 14 to 1e9; on noisy tables 0.7 to 1.7)
+SHAPE_GROWTH = 8.0
+#: repeated rows differing by more than this share of the lift range are refused
+REPEAT_SPREAD = 0.01
+#: a table starting / ending above this share of its max lift is refused
+MID_LOBE_LIMIT = 0.5
+#: smallest join [deg]: half a table step, at least this
+JOIN_MIN_DEG = 0.25
+#: a join ending on a row may be this share of the smallest join (a lift rising as
+#: t^n from the base circle needs 2 t/n: n up to 10 at one step from the base row)
+ROW_JOIN_SHARE = 0.4
+#: a lobe law whose peak |h''| exceeds this many times 2 H / (half-duration)^2 (what a
+#: constant-acceleration rise of the same lift and duration needs) is refused
+ACC_PLAUSIBLE = 100.0
+#: a cam-angle lobe wider than this [deg] seat to seat is probably in crank degrees
+CRANK_SUSPECT_DEG = 200.0
+#: inch gauges round to 0.0001 in: a quantum in inches [m per in]
+INCH = 0.0254
+
+
+@dataclass
+class LobeInfo:
+    """What ``lobe_law`` did with a table. Angles [rad], lengths [m].
+
+    ``method``: 'interpolated' or 'smoothed'; ``why``: the sentence behind it;
+    ``sigma``: the noise the rows carry (rounding or estimate); ``quantum``: the
+    rounding step q (0: not rounded); ``offset``: the turn applied to the rows (frame);
+    ``periodic``: no base circle (an eccentric); ``joins``: (start, end) of the join
+    before and after the lobe (None: the lobe runs out to the table's own rows);
+    ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
+    ``rows``: the rows as given (alpha, lift) for replicas; ``rec``: the engine's
+    Reconstruction when smoothed."""
+
+    key: str
+    method: str
+    why: str
+    sigma: float
+    quantum: float
+    step: float
+    offset: float
+    periodic: bool
+    level: float
+    joins: list[tuple[float, float] | None] = field(default_factory=list)
+    mid_lobe: tuple[str, ...] = ()
+    warnings: list[str] = field(default_factory=list)
+    rows: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+    rec: object = None
+    steps: list[str] = field(default_factory=list)
+
+    def note(self) -> str:
+        """One sentence for a route's output: how the table became the lobe."""
+        return (f'{self.key}: lobe law from a table every {math.degrees(self.step):.3g} deg, '
+                f'{self.method} ({self.why})'
+                + (f'; lifts quantised to {self.quantum * 1e3:g} mm' if self.quantum else '')
+                + ('; periodic (no base circle)' if self.periodic else
+                   '; runs out to the table\'s base-circle rows' if not any(self.joins) else
+                   '; joined to the base circle with zero lift, velocity, acceleration and '
+                   'jerk at ' + ', '.join(f'{math.degrees(j[0]):.2f}..{math.degrees(j[1]):.2f}'
+                                          ' deg' for j in self.joins if j))
+                + (f'; rows turned by {math.degrees(self.offset):.1f} deg to keep the lobe '
+                   'off the +-180 deg seam (angles reported in the table frame)'
+                   if self.offset else '')
+                + ''.join(f'; {s}: lifts, velocities and events near it are the law\'s '
+                          'bridge over the step, not the cam' for s in self.steps))
+
+
+class TableLobe(LiftLaw):
+    """The lobe law of a table (``lobe_law``): pieces (lo, hi, f) in the lobe frame
+    [rad] (the joins to the base circle and, between them, the curve through or near
+    the rows: the quintic interpolant or the engine's smoothing spline, evaluated as
+    they are), C3 everywhere; angles of the table = lobe frame + ``offset``. A periodic
+    law (an eccentric) is one piece over the turn, its lift measured from ``floor``.
+    ``lobe`` (LobeInfo) says what was done, ``table`` (rows, q, sigma) what a replica
+    of the table needs."""
+
+    continuity_order = 3
+    lobe: LobeInfo
+    table: tuple
+
+    def __init__(self, pieces: list, offset: float, floor: float = 0.0) -> None:
+        self._pieces = pieces
+        self._offset = offset
+        self._floor = floor
+
+    @property
+    def support(self) -> tuple[float, float]:
+        return (self._pieces[0][0] + self._offset, self._pieces[-1][1] + self._offset)
+
+    def _evaluate(self, alpha: NDArray[np.float64], nu: int) -> NDArray[np.float64]:
+        x = alpha - self._offset
+        out = np.zeros_like(x)
+        for k, (lo, hi, f) in enumerate(self._pieces):
+            last = k == len(self._pieces) - 1
+            sel = (x >= lo) & ((x <= hi) if last else (x < hi))
+            if np.any(sel):
+                out[sel] = np.asarray(f(x[sel], nu), dtype=float)
+        if nu == 0 and self._floor:
+            out -= self._floor
+        return out
+
+
+def table_quantum(lift: ArrayLike) -> float:
+    """The rounding step q [m] of lifts [m] rounded in mm or in inches (0: not rounded)."""
+    from cam_metrology.reconstruction.spline import quantisation_step
+
+    v = np.asarray(lift, dtype=float)
+    # both: an inch quantum in m is also a (much finer) whole multiple of 1e-8 m
+    return float(max(quantisation_step(v), INCH * quantisation_step(v / INCH)))
+
+
+def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: float
+           ) -> tuple[float, bool]:
+    """(offset [rad], periodic) of the rows (sorted, in (-pi, pi]): offset 0 unless the
+    table covers the whole turn and its lobe crosses the seam. Base circle: the rows
+    within ``level`` [m] of the lowest (a few noise sigmas); a run of them shorter than
+    ``BASE_MIN_DEG`` is the bottom of an eccentric, not a base circle (the law is then
+    periodic)."""
+    if a[-1] - a[0] < TWO_PI - 1.5 * step:           # part of the turn: keep its frame
+        return 0.0, False
+    base = h <= float(np.min(h)) + level
+    n = a.size
+    if base.all():
+        return 0.0, False
+    # the cyclic runs of base rows; the longest one's middle goes to the seam
+    start = int(np.flatnonzero(~base)[0])
+    best, best_len, run = None, -1.0, []
+    for k in [int((i + start) % n) for i in range(n + 1)]:
+        if base[k] and len(run) < n:
+            run.append(k)
+            continue
+        if run:
+            span = (a[run[-1]] - a[run[0]]) % TWO_PI
+            if span > best_len:
+                best, best_len = (run[0], run[-1]), span
+        run = []
+    if best is None or best_len < math.radians(BASE_MIN_DEG):
+        return float(wrap_pi(a[int(np.argmin(h))] + math.pi)), True   # an eccentric
+    if base[0] and base[-1]:
+        return 0.0, False
+    mid = a[best[0]] + 0.5 * ((a[best[1]] - a[best[0]]) % TWO_PI)
+    return float(wrap_pi(mid - math.pi)), False
+
+
+def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool):
+    """Quintic interpolating spline of the rows (periodic over the turn if asked)."""
+    from scipy.interpolate import make_interp_spline
+
+    if periodic:
+        x = np.append(b, b[0] + TWO_PI)
+        y = np.append(h, h[0])
+        return make_interp_spline(x, y, k=5, bc_type='periodic')
+    return make_interp_spline(b, h, k=5)
+
+
+def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> float:
+    """The scatter [m] of the rows about a smooth curve: the engine's noise estimate
+    less the part of it that is the lobe's shape. The shape's share is judged from the
+    estimate of every second row: noise per row does not grow with the step, the misfit
+    of a smooth shape grows as a power of it (at least ``SHAPE_GROWTH`` times when the
+    step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2."""
+    from cam_metrology.reconstruction.spline import rebound_fairing
+
+    full = float(rebound_fairing(b, h).sigma)
+    if b.size < 24 or full <= 0.0:
+        return max(full, 0.0)
+    half = min(float(rebound_fairing(b[0::2], h[0::2]).sigma),
+               float(rebound_fairing(b[1::2], h[1::2]).sigma))
+    return math.sqrt(max(full ** 2 - (half / SHAPE_GROWTH) ** 2, 0.0))
+
+
+def _grid_step(step: float) -> float:
+    g = math.radians(GRID_DEG)
+    return step / max(1, math.ceil(step / g - 1e-9))
+
+
+def _join(at: float, width: float, jets: NDArray[np.float64], side: int):
+    """The degree-7 Hermite join from the base circle (all jets 0) to ``jets`` (4,) at
+    ``at`` over ``width`` [rad]; side -1: before the lobe, +1: after it."""
+    from scipy.interpolate import BPoly
+
+    zero = [0.0, 0.0, 0.0, 0.0]
+    if side < 0:
+        return BPoly.from_derivatives([at - width, at], [zero, list(jets)])
+    return BPoly.from_derivatives([at, at + width], [list(jets), zero])
+
+
+def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[np.float64],
+          top: int, tau: float, side: int, min_width: float) -> tuple[float, float, bool]:
+    """(join point [rad], join width [rad], mid-lobe) on one side of the lobe: walk out
+    from the top to the last grid point above ``tau``; the join ends on the first row
+    inside it (so the law passes through every lobe row) when the join a ramp would
+    need there, 2 h/|h'|, is at least ``min_width``; else further in, on the grid."""
+    idx = np.arange(top, -1, -1) if side < 0 else np.arange(top, x.size)
+    below = np.flatnonzero(y[idx] <= tau)
+    mid_lobe = below.size == 0
+    k = int(idx[-1]) if mid_lobe else int(idx[below[0] - 1])
+
+    def width_at(at: float) -> float:
+        h = float(curve(at, 0))
+        v = float(curve(at, 1)) * -side       # rising towards the top: positive
+        return 2.0 * h / v if v > 0 and h > 0 else math.inf
+
+    lo, hi = sorted((float(x[k]), float(x[top])))
+    inside = rows[(rows >= lo - 1e-12) & (rows <= hi + 1e-12)]
+    if inside.size:
+        at = float(inside[0] if side < 0 else inside[-1])
+        width = width_at(at)
+        if ROW_JOIN_SHARE * min_width <= width < math.inf:   # a lobe row: keep it
+            return at, width, mid_lobe
+    while True:
+        width = width_at(float(x[k]))
+        if (min_width <= width < math.inf) or k == top:
+            break
+        k -= side
+    return float(x[k]), width, mid_lobe
+
+
+def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
+             allow_steps: bool = False, noise: float | None = None) -> TableLobe:
+    """The lobe law of a lift table, ``alpha`` [rad] (any frame), ``lift`` [m] (module
+    doc for the rules). InputError naming ``key`` when the rows cannot define a lobe.
+
+    A lift step between two rows (a ramp cut off, a velocity step at the base circle) is
+    an impact no lobe law drawn through the rows can give: refused unless
+    ``allow_steps`` (a cam card, whose events away from the step are still right; the
+    note then names the step). ``noise`` [m]: the rows' noise when the caller knows it
+    (a replica of a table with a drawn noise), instead of the estimate."""
+    from cam_metrology.reconstruction.samples import find_steps, step_warnings
+    from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
+
+    raw_a = np.asarray(alpha, dtype=float).reshape(-1)
+    raw_h = np.asarray(lift, dtype=float).reshape(-1)
+    ok = np.isfinite(raw_a)
+    lo_a, hi_a = (float(np.min(raw_a[ok])), float(np.max(raw_a[ok]))) if ok.any() else (0, 0)
+    # a table over part of the turn keeps its angles contiguous (0..300 deg is not cut
+    # at 180 deg); a whole turn is wrapped to (-180, 180] (a repeated 0/360 row merged)
+    gaps = np.diff(np.unique(raw_a[ok]))
+    row_step = float(np.median(gaps)) if gaps.size else 0.0
+    centre = 0.5 * (lo_a + hi_a) if hi_a - lo_a < TWO_PI - 1.5 * row_step else 0.0
+    clean = (raw_a.size >= 6 and bool(np.all(np.isfinite(raw_a)))
+             and bool(np.all(np.isfinite(raw_h))) and bool(np.all(np.diff(raw_a) > 1e-9))
+             and -math.pi - 1e-12 <= lo_a and hi_a <= math.pi + 1e-12)
+    if clean:   # rows as given (a design table over [-pi, pi] keeps both end rows)
+        notes: list[str] = []
+        a0, h = raw_a.copy(), raw_h.copy()
+    else:
+        data = clean_samples(raw_a - centre, raw_h, key=key, min_points=6)
+        notes = [n for n in data.notes if not n.startswith('wrapped')]
+        _check_repeats(raw_a - centre, raw_h, notes, key)
+        a0, h = data.alpha + centre, data.lift
+    top_row = float(np.max(h))
+    if not top_row > 0:
+        raise InputError(f'{key}.lift', f'largest lift {top_row:g} m',
+                         'a lobe: lifts above the base circle (0)')
+    step = float(np.median(np.diff(a0)))
+    q = table_quantum(h)
+    sigma_q = q / math.sqrt(12.0)
+    span = float(np.ptp(h))
+    scatter = noise = _scatter(a0, h) if noise is None else float(noise)
+    offset, periodic = _frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
+    b = wrap_pi(a0 - offset) if offset else a0
+    if periodic:   # the turn [-pi, pi) from the lowest row (a closing row merged)
+        if a0[-1] - a0[0] >= TWO_PI - 1e-9:
+            a0, h = a0[:-1], h[:-1]
+        b = np.mod(a0 - offset + math.pi, TWO_PI) - math.pi
+    if offset or periodic:
+        order = np.argsort(b, kind='stable')
+        b, h = b[order], h[order]
+    if periodic:   # lift from the lowest row: the base circle of an eccentric
+        h = h - float(np.min(h))
+    floor = max(SCATTER_RATIO * sigma_q, EXACT_SCATTER_REL * span)
+    steps = [w.split(':')[0] for w in
+             step_warnings(find_steps(b, h, max(noise, sigma_q, 1e-9 * span)))]
+    if steps and not allow_steps:
+        raise InputError(key, f'{b.size} points',
+                         f'a table without steps ({steps[0]}; a velocity step is an impact '
+                         'the dynamics cannot take from a table): tabulate the ramp finer '
+                         'or give the lift law')
+    method = 'interpolated'
+    curve = _interpolant(b, h, periodic)
+    if b.size < JUDGE_ROWS:
+        why = (f'{b.size} rows, too few to tell noise from shape (at least {JUDGE_ROWS}): '
+               'quintic interpolant through every row')
+    elif scatter > floor:
+        why = (f'rows scatter {scatter * 1e6:.3g} um about a smooth curve, more than their '
+               f'rounding explains ({floor * 1e6:.3g} um)')
+        method = 'smoothed'
+    if method == 'interpolated' and b.size >= JUDGE_ROWS:
+        dense = np.linspace(b[0], b[-1] + (TWO_PI - (b[-1] - b[0]) if periodic else 0.0),
+                            4001)
+        peak_acc = float(np.max(np.abs(curve(dense, 2))))
+        carried = ROUNDING_GAIN * sigma_q / step ** 2
+        if carried > ROUNDING_ACC_SHARE * peak_acc:
+            why = (f'rounding to {q * 1e3:g} mm at a {math.degrees(step):.3g} deg step would '
+                   f'carry {carried:.3g} m/rad^2 into h\'\' ({carried / peak_acc * 100:.0f} % '
+                   f'of the peak; at most {ROUNDING_ACC_SHARE * 100:g} % interpolated)')
+            method = 'smoothed'
+        else:
+            why = ('exact rows' if not q else f'rows only rounded (to {q * 1e3:g} mm)') + \
+                ': quintic interpolant through every row'
+    rec = None
+    sigma = sigma_q if method == 'interpolated' else max(scatter, sigma_q)
+    if method == 'smoothed':
+        known = sigma_q if scatter <= floor else None
+        if periodic:
+            rec, curve = _periodic_smooth(b, h, known)
+        else:
+            # the engine works in (-pi, pi]: a part-turn table beyond it (118..242 deg)
+            # is fitted about its own middle and moved back
+            mid = 0.5 * (float(b[0]) + float(b[-1]))
+            rec = reconstruct_spline(b - mid, h, SplineOptions(criterion='risk', sigma=known))
+            curve = _Evaluated(rec.evaluate, mid)
+        sigma = max(float(rec.sigma), sigma_q)
+        why += f'; smoothed by the reconstruction spline ({rec.why})'
+        limit = max(5.0 * sigma_q, 1e-3 * span, 5.0 * noise)
+        if rec.rms_residual > limit:
+            raise InputError(key, f'{b.size} points',
+                             'a table fine enough to define the lobe: the reconstruction '
+                             f'spline misses its rows by {rec.rms_residual:.3g} m rms (more '
+                             f'than {limit:.3g} m' + (f'; {"; ".join(notes)}' if notes else '')
+                             + '): tabulate more points')
+    tau = max(3.0 * sigma, 0.5 * q, BASE_LEVEL_REL * span)
+    info = LobeInfo(key=key, method=method, why=why, sigma=sigma, quantum=q, step=step,
+                    offset=offset, periodic=periodic, level=tau, rec=rec,
+                    rows=(raw_a.copy(), raw_h.copy()), steps=steps)
+    law = _build(curve, b, h, info)
+    info.warnings.extend(notes_warning(notes))
+    return law
+
+
+def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -> TableLobe:
+    """The lobe law of a reconstructed profile: ``jets`` (4, n) of the lift and its
+    first three derivatives [m, m/rad^k] on ``alpha`` [rad] (a reconstruction's grid:
+    already smooth), by the same frame and lobe-end rules as ``lobe_law``; the
+    base-circle level is 3 x the ripple of its base circle (the rows within 1 % of
+    the lift range of the lowest whose slope is below 0.1 % of the largest, when they
+    span ``BASE_MIN_DEG``)."""
+    a = np.asarray(alpha, dtype=float).reshape(-1)
+    j = np.asarray(jets, dtype=float)
+    curve = JetTableLift(a, j, key=key, trim=-1.0)
+    h = j[0]
+    step = float(np.median(np.diff(a)))
+    offset, periodic = _frame(a, h, step, max(1e-4 * float(np.ptp(h)), 1e-6))
+    if offset or periodic:
+        # a lobe across the seam of the profile's grid: its lift rows, re-framed
+        return lobe_law(a, h, key=key)
+    span = float(np.ptp(h))
+    # the base circle, if the grid has one: low and flat (a ramp is low, not flat)
+    low = (h <= 0.01 * span + float(np.min(h))) & (np.abs(j[1]) <= 1e-3 * np.max(np.abs(j[1])))
+    ripple = (float(np.std(h[low])) if np.count_nonzero(low) * step >= math.radians(
+        BASE_MIN_DEG) else 0.0)
+    info = LobeInfo(key=key, method='reconstructed', why="a reconstruction's jets",
+                    sigma=ripple, quantum=0.0, step=step, offset=0.0, periodic=False,
+                    level=max(3.0 * ripple, EXACT_SCATTER_REL * span))
+    return _build(_Evaluated(curve), a, h, info)
+
+
+def _build(curve, b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo
+           ) -> TableLobe:
+    """The TableLobe of ``curve`` (callable (x, nu)) fitted to rows ``b`` [rad], ``h``
+    [m] in the lobe frame, by the lobe-end rule; checks filled into ``info``."""
+    if info.periodic:
+        x = np.linspace(b[0], b[0] + TWO_PI, 7201)
+        floor = float(np.min(np.asarray(curve(x, 0), dtype=float)))
+        law = TableLobe([(float(b[0]), float(b[0]) + TWO_PI, curve)], info.offset, floor)
+    else:
+        law = TableLobe(_lobe_pieces(curve, b, h, info.level, info.step,
+                                     _grid_step(info.step), info), info.offset)
+    law.lobe = info
+    rows = info.rows or (b, h)
+    law.table = (rows[0], rows[1], info.quantum or None, info.sigma)
+    info.warnings.extend(_checks(law, b, h, info))
+    return law
+
+
+def notes_warning(notes: list[str]) -> list[str]:
+    """What the row cleaning did, as one warning (or none)."""
+    return ['rows: ' + '; '.join(notes)] if notes else []
+
+
+def _check_repeats(a: NDArray[np.float64], h: NDArray[np.float64], notes: list[str],
+                   key: str) -> None:
+    """Refuse rows repeated at one angle whose lifts differ by more than
+    ``REPEAT_SPREAD`` of the lift range (and 20 um): a row pasted from elsewhere, which
+    averaging would hide."""
+    ok = np.isfinite(a) & np.isfinite(h)
+    w = np.asarray(wrap_pi(a[ok]), dtype=float)
+    v = h[ok]
+    order = np.argsort(w, kind='stable')
+    w, v = w[order], v[order]
+    same = np.flatnonzero(np.diff(w) <= 1e-9)
+    if same.size == 0:
+        return
+    gap = np.abs(v[same + 1] - v[same])
+    worst = int(np.argmax(gap))
+    if gap[worst] > max(REPEAT_SPREAD * float(np.ptp(v)), 20e-6):
+        raise InputError(key, f'rows at {math.degrees(float(w[same[worst]])):.3f} deg with '
+                         f'lifts {v[same[worst]] * 1e3:.4g} and '
+                         f'{v[same[worst] + 1] * 1e3:.4g} mm',
+                         'one lift per angle (' + '; '.join(notes) + '): mend the '
+                         'repeated rows')
+
+
+#: a periodic table is smoothed over 1 + 2 x this share of a turn, compressed by
+#: PERIODIC_SCALE into the engine's (-pi, pi]; the middle turn is kept
+PERIODIC_PAD = 0.25
+PERIODIC_SCALE = 0.6
+
+
+def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: float | None):
+    """(Reconstruction, curve) of a whole-turn table without a base circle: the rows
+    repeated a quarter turn beyond each end (so the fit has no free end on the turn)
+    and smoothed in the variable s = PERIODIC_SCALE x alpha; the curve undoes the
+    change of variable (d^nu/dalpha^nu = PERIODIC_SCALE^nu d^nu/ds^nu)."""
+    from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
+
+    pad = PERIODIC_PAD * TWO_PI
+    x = np.concatenate([b[b >= b[-1] - pad] - TWO_PI, b, b[b <= b[0] + pad] + TWO_PI])
+    y = np.concatenate([h[b >= b[-1] - pad], h, h[b <= b[0] + pad]])
+    centre = 0.5 * (x[0] + x[-1])
+    k = PERIODIC_SCALE
+    rec = reconstruct_spline(k * (x - centre), y,
+                             SplineOptions(criterion='risk', sigma=sigma,
+                                           expected_sign_changes=None))
+
+    def curve(a, nu: int = 0):
+        s = k * (np.asarray(a, dtype=float) - centre)
+        return np.asarray(rec.evaluate(s, nu), dtype=float) * k ** nu
+
+    return rec, curve
+
+
+class _Evaluated:
+    """A Reconstruction's ``evaluate`` (fitted in angles less ``shift`` [rad]) as
+    ``curve(x, nu)`` in the table's angles."""
+
+    def __init__(self, evaluate, shift: float = 0.0) -> None:
+        self._f = evaluate
+        self._shift = shift
+
+    def __call__(self, x, nu: int = 0):
+        return np.asarray(self._f(np.asarray(x, dtype=float) - self._shift, nu), dtype=float)
+
+
+def _lobe_pieces(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float,
+                 step: float, g: float, info: LobeInfo) -> list:
+    """The pieces (lo, hi, f) of the lobe: the join before it, the curve, the join
+    after it (the grid of step ``g`` [rad] serves to find the edges)."""
+    x = np.arange(int(math.floor((b[-1] - b[0]) / g + 1e-9)) + 1) * g + b[0]
+    x = np.unique(np.concatenate([x[x < b[-1]], b[-1:]]))   # the last row is a node
+    y = np.asarray(curve(x, 0), dtype=float)
+    top = int(np.argmax(y))
+    min_width = max(0.5 * step, math.radians(JOIN_MIN_DEG))
+    lo, w_lo, mid_lo = _edge(curve, x, y, b, top, tau, -1, min_width)
+    hi, w_hi, mid_hi = _edge(curve, x, y, b, top, tau, +1, min_width)
+    peak = float(y[top])
+    mids = []
+    for name, at, width, mid in (('start', lo, w_lo, mid_lo), ('end', hi, w_hi, mid_hi)):
+        level = float(curve(at, 0))
+        if mid:
+            mids.append(name)
+        if level > MID_LOBE_LIMIT * peak or not math.isfinite(width):
+            raise InputError(info.key, f'a table that {name}s at {level * 1e3:.4g} mm '
+                             f'({level / peak * 100:.0f} % of its max lift)',
+                             f'rows down to the base circle at its {name} (or below '
+                             f'{MID_LOBE_LIMIT * 100:.0f} % of the lift, joined to it): '
+                             'give the whole lobe')
+    info.mid_lobe = tuple(mids)
+    ends = np.stack([np.asarray(curve(np.array([lo, hi]), nu), dtype=float)
+                     for nu in range(4)])
+    # rows interpolated down to their own base-circle rows: the lobe runs out to the
+    # table's end rows (the interpolant through zeros is the base circle); else (and at
+    # a mid-lobe end) the join
+    run_lo = info.method == 'interpolated' and not mid_lo
+    run_hi = info.method == 'interpolated' and not mid_hi
+    info.joins[:] = [None if run_lo else (lo - w_lo, lo), None if run_hi else (hi, hi + w_hi)]
+    # the base-circle rows next to the lobe (not the table's ends: another lobe may lie
+    # beyond them)
+    before, after = b[(b <= lo) & (h <= tau)], b[(b >= hi) & (h <= tau)]
+    run_lo, run_hi = run_lo and before.size > 0, run_hi and after.size > 0
+    info.joins[:] = [None if run_lo else (lo - w_lo, lo), None if run_hi else (hi, hi + w_hi)]
+    start = float(before[-1]) if run_lo else lo
+    stop = float(after[0]) if run_hi else hi
+    pieces = [] if run_lo else [(lo - w_lo, lo, _join(lo, w_lo, ends[:, 0], -1))]
+    pieces.append((start, stop, curve))
+    if not run_hi:
+        pieces.append((hi, hi + w_hi, _join(hi, w_hi, ends[:, 1], 1)))
+    return pieces
+
+
+def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
+            info: LobeInfo) -> list[str]:
+    """Warnings on the law; InputError for a lobe no cam can have."""
+    out: list[str] = []
+    grid = np.linspace(*law.support, 8001)
+    lift = law(grid, 0)
+    top = float(np.max(lift))
+    # between rows a lobe rises above its highest row by up to |h''| (step/2)^2 / 2
+    rise = 0.125 * float(np.max(np.abs(law(grid, 2)))) * info.step ** 2
+    allowed = float(np.max(h)) + 2.0 * rise + max(3.0 * info.sigma, info.quantum, 1e-6)
+    if top > allowed:
+        raise InputError(info.key, f'max lift {top * 1e3:.4f} mm from rows up to '
+                         f'{float(np.max(h)) * 1e3:.4f} mm',
+                         'rows that define the lobe (the curve leaves the rows\' range: '
+                         'a gap in the table?): tabulate the whole lobe')
+    if float(np.min(lift)) < -max(3.0 * info.sigma, info.quantum, 1e-6):
+        out.append(f'the lobe law dips to {float(np.min(lift)) * 1e6:.3g} um below the base '
+                   'circle: the rows are too coarse for their shape')
+    on = np.flatnonzero(lift > 0.01 * top)
+    half = 0.5 * float(grid[on[-1]] - grid[on[0]]) if on.size > 1 else math.pi
+    acc = float(np.max(np.abs(law(grid, 2))))
+    plausible = ACC_PLAUSIBLE * 2.0 * top / max(half, 1e-6) ** 2
+    if acc > plausible:
+        raise InputError(info.key, f"peak acceleration {acc:.3g} m/rad^2",
+                         f'a lobe its lift ({top * 1e3:.3g} mm) and duration '
+                         f'({math.degrees(2 * half):.0f} deg) allow (at most '
+                         f'{plausible:.3g} m/rad^2): the rows are noisier than they look; '
+                         'smooth or re-measure the table')
+    for side in info.mid_lobe:
+        j = info.joins[0] if side == 'start' else info.joins[1]
+        at = j[1] if side == 'start' else j[0]
+        level = float(law(np.array([at + info.offset]), 0)[0])
+        out.append(f'the table {side}s mid-lobe ({level * 1e3:.4g} mm, '
+                   f'{level / top * 100:.2g} % of the max lift, no base-circle row): joined '
+                   f'to the base circle over {math.degrees(j[1] - j[0]):.2f} deg; events '
+                   f'below {level * 1e3:.4g} mm are the join\'s, not the cam\'s')
+    seat = np.flatnonzero(lift > max(info.level, 1e-4 * top))   # seat to seat
+    width = math.degrees(float(grid[seat[-1]] - grid[seat[0]])) if seat.size > 1 else 0.0
+    if not info.periodic and width > CRANK_SUSPECT_DEG:
+        out.append(f'the lobe is {width:.0f} cam deg wide seat to seat (more than '
+                   f'{CRANK_SUSPECT_DEG:.0f}): are the angles crank degrees? name the '
+                   'column crank_deg (or halve the angles)')
+    other = other_lobes_warning(wrap_pi(b + info.offset), h)   # in the table frame
+    if other:
+        out.append(other)
+    return out
