@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Callable
 
 import numpy as np
 from numpy.polynomial import Polynomial
@@ -124,7 +125,7 @@ def _hinges_on(length: float) -> tuple[Polynomial, Polynomial]:
 @lru_cache(maxsize=64)
 def _hinge_coefficients(length: float, nu: int) -> tuple[NDArray[np.float64], ...]:
     """Power-series coefficients of the nu-th derivatives of g2 and g3."""
-    return tuple(p.deriv(nu).coef for p in _hinges_on(length))
+    return tuple(np.asarray(p.deriv(nu).coef, dtype=float) for p in _hinges_on(length))
 
 
 def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
@@ -423,7 +424,8 @@ def _refine(values: NDArray[np.float64], taus: list[float], lam: float) -> list[
 class JunctionSpline:
     """The smooth part's interpolant plus the hinges: ``spline(x, nu)`` [m/rad^nu]."""
 
-    def __init__(self, smooth: object, junctions: JunctionFit) -> None:
+    def __init__(self, smooth: Callable[..., NDArray[np.float64]],
+                 junctions: JunctionFit) -> None:
         self.smooth = smooth
         self.junctions = junctions
 
