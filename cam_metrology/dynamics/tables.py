@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from cam_design.errors import InputError
+from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.cam_input import JetTableLift
 from cam_metrology.reconstruction.lobe_table import lobe_from_jets, lobe_law
 
@@ -29,7 +30,7 @@ COVERAGE = 3.0
 
 
 def table_input(path: Path, *, feature: str | None = None, angle_unit: str = 'deg',
-                length_unit: str = 'mm') -> tuple[str, JetTableLift, str, str]:
+                length_unit: str = 'mm') -> tuple[str, LiftLaw, str, str]:
     """(feature, law, source, note) of a TABLE given to ``cam-bench dynamics``."""
     if path.suffix.lower() == '.json':
         return _reconstruct_json(path, feature)
@@ -45,7 +46,7 @@ def table_input(path: Path, *, feature: str | None = None, angle_unit: str = 'de
     return name, law, f'table:{law.lobe.method}', note
 
 
-def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, JetTableLift, str, str]:
+def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, LiftLaw, str, str]:
     try:
         doc = json.loads(path.read_text(encoding='utf-8'))
     except (OSError, UnicodeDecodeError, ValueError) as exc:

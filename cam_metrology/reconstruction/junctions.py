@@ -25,10 +25,10 @@ and the search repeats. Angles in rad, lifts in m.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Callable
 
 import numpy as np
 from numpy.polynomial import Polynomial

@@ -190,7 +190,8 @@ def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: f
         return 0.0, False
     # the cyclic runs of base rows; the longest one's middle goes to the seam
     start = int(np.flatnonzero(~base)[0])
-    best, best_len, run = None, -1.0, []
+    best, best_len = None, -1.0
+    run: list[int] = []
     for k in [int((i + start) % n) for i in range(n + 1)]:
         if base[k] and len(run) < n:
             run.append(k)
@@ -585,6 +586,7 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
                          'smooth or re-measure the table')
     for side in info.mid_lobe:
         j = info.joins[0] if side == 'start' else info.joins[1]
+        assert j is not None   # a mid-lobe end is always joined
         at = j[1] if side == 'start' else j[0]
         level = float(law(np.array([at + info.offset]), 0)[0])
         out.append(f'the table {side}s mid-lobe ({level * 1e3:.4g} mm, '

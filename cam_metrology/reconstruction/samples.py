@@ -663,9 +663,9 @@ def find_steps(alpha: NDArray[np.float64], lift: NDArray[np.float64], sigma: flo
     inner[1:-1] = True
     from_left = inner & (d_l <= flat) & big & (dh * dh_r > 0) & (s >= 0.5 * s_r)
     from_right = inner & (d_r <= flat) & big & (dh * dh_l > 0) & (s >= 0.5 * s_l)
-    out = []
-    for k in np.flatnonzero(jump | from_left | from_right):
-        k = int(k)
+    out: list[tuple[int, float, float, float, float]] = []
+    for kk in np.flatnonzero(jump | from_left | from_right):
+        k = int(kk)
         neighbour = float(near[k] if jump[k] else (d_l[k] if from_left[k] else d_r[k]))
         out.append((k, float(a[k]), float(a[k + 1]), float(dh[k]), neighbour))
     return out

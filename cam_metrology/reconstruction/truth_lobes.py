@@ -114,9 +114,10 @@ class Family:
 
 def _registry_family(name: str, spec: dict) -> Family:
     """A lobe of the lift-law registry, with the junctions where its h'' jumps."""
-    from cam_design.lift_laws import from_spec
+    from cam_design.lift_laws import PiecewiseLaw, from_spec
 
     law = from_spec(spec, 'truth')
+    assert isinstance(law, PiecewiseLaw)
     scale = float(np.max(np.abs(law(np.linspace(-math.pi, math.pi, 7201), 2))))
     report = law.junction_report  # type: ignore[attr-defined]  # segment laws have it
     jumps = tuple(float(j.alpha) for j in report
@@ -150,7 +151,7 @@ def measured_table(law: Law, step: float, *, sigma: float = 0.0, quantum: float 
     rows, then rounding to ``quantum`` [m] (0: none). Returns (alpha, lift)."""
     rng = np.random.default_rng(seed)
     n = int(round(2 * math.pi / step))
-    a = -math.pi + step * np.arange(1, n + 1)
+    a: NDArray[np.float64] = -math.pi + step * np.arange(1, n + 1, dtype=np.float64)
     h = law(a) + rng.normal(0.0, sigma, a.size)
     if outliers:
         lobe = np.flatnonzero(law(a) > 1e-4)
