@@ -1,0 +1,121 @@
+"""Camshaft speed and a smooth encoder angle on the time clock (docs/methods.md "Rig").
+
+The encoder angle is unwrapped, and a least-squares cubic spline theta(t) with knots
+every 1/8 revolution is fitted through it: quantisation steps and counting jitter
+average out, a speed ripple of a few harmonics per revolution is kept. The speed is
+its derivative; its mean, standard deviation and range describe the run.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam_design.errors import InputError
+
+#: spline knots per revolution of the camshaft
+KNOTS_PER_REV = 16
+#: fewest full revolutions a run must cover
+MIN_REVOLUTIONS = 1.5
+
+
+@dataclass(frozen=True)
+class Speed:
+    """Encoder result: ``theta`` [rad] smoothed, unwrapped, increasing (sign folded in
+    ``sign``: +1 when the encoder counts up); ``rpm`` mean, ``rpm_std`` and ``rpm_min``,
+    ``rpm_max`` over the run; ``revolutions`` covered; ``quantum`` [rad] the smallest
+    encoder step seen (0 for a continuous encoder)."""
+
+    theta: NDArray[np.float64]
+    sign: int
+    rpm: float
+    rpm_std: float
+    rpm_min: float
+    rpm_max: float
+    revolutions: float
+    quantum: float
+
+    @property
+    def encoder(self) -> NDArray[np.float64]:
+        """The smoothed encoder angle as the encoder counts [rad]; a quantised reading n q
+        stands for the interval [n q, (n + 1) q), so its middle is used (+q/2)."""
+        return self.sign * self.theta + 0.5 * self.quantum
+
+    @property
+    def variation(self) -> float:
+        """(max - min) / mean of the speed within the run."""
+        return (self.rpm_max - self.rpm_min) / self.rpm
+
+
+def unwrap_angle(angle: NDArray[np.float64], name: str) -> NDArray[np.float64]:
+    """The encoder angle unwrapped (a wrapped [0, 2 pi) reading made continuous)."""
+    d = np.diff(angle)
+    if d.size and np.median(np.abs(d)) > math.pi / 2:
+        raise InputError(f'run {name} cam_angle_rad', f'steps of {np.median(np.abs(d)):.3g} '
+                         'rad between samples', 'less than a quarter revolution per sample '
+                         '(sample the encoder faster)')
+    return np.unwrap(angle)
+
+
+def encoder_quantum(angle: NDArray[np.float64]) -> float:
+    """The encoder's count step [rad] when the reading is quantised, else 0.
+
+    Quantised: samples repeat a count (zero steps), or every step is a whole number of
+    the smallest step while the steps differ. A continuous angle sampled so that every
+    step is the same cannot be told from counts and is taken as continuous.
+    """
+    d = np.abs(np.diff(angle))
+    d = d[d < math.pi]                 # wraps are not steps
+    pos = d[d > 0]
+    if pos.size < 2:
+        return 0.0
+    q = float(np.min(pos))
+    ratio = pos / q
+    lattice = bool(np.all(np.abs(ratio - np.round(ratio)) < 1e-6))
+    if np.mean(d == 0) > 0.01 or (lattice and np.std(pos) > 0.01 * q):
+        return q
+    return 0.0
+
+
+def encoder_speed(time: NDArray[np.float64], angle: NDArray[np.float64], name: str,
+                  max_variation: float) -> Speed:
+    """Fit the smooth angle and the speed of a run; InputError when the run covers too
+    few revolutions or its speed varies by more than ``max_variation``."""
+    from scipy.interpolate import make_lsq_spline
+
+    th = unwrap_angle(angle, name)
+    span = th[-1] - th[0]
+    sign = 1 if span >= 0 else -1
+    th = sign * th
+    revs = abs(span) / (2 * math.pi)
+    if revs < MIN_REVOLUTIONS:
+        raise InputError(f'run {name}', f'{revs:.2f} camshaft revolutions',
+                         f'at least {MIN_REVOLUTIONS:g} revolutions at a steady speed '
+                         '(record longer)')
+    t0, t1 = float(time[0]), float(time[-1])
+    nk = max(2, int(math.ceil(revs * KNOTS_PER_REV)))
+    inner = np.linspace(t0, t1, nk + 1)[1:-1]
+    knots = np.concatenate([[t0] * 4, inner, [t1] * 4])
+    spl = make_lsq_spline(time, th, knots, k=3)
+    fit = spl(time)
+    grid = np.linspace(t0, t1, max(200, 16 * nk))
+    w = spl.derivative()(grid[2:-2])   # ends of a spline fit are loose: not judged
+    to_rpm = 30.0 / math.pi
+    rpm = span * sign / (t1 - t0) * to_rpm
+    quantum = encoder_quantum(angle)
+    out = Speed(theta=fit, sign=sign, rpm=float(rpm), rpm_std=float(np.std(w) * to_rpm),
+                rpm_min=float(np.min(w) * to_rpm), rpm_max=float(np.max(w) * to_rpm),
+                revolutions=float(revs), quantum=quantum)
+    if out.rpm <= 0:
+        raise InputError(f'run {name} cam_angle_rad', 'a standing shaft',
+                         'a turning camshaft')
+    if out.variation > max_variation:
+        raise InputError(f'run {name} speed',
+                         f'{out.rpm_min:.0f} to {out.rpm_max:.0f} rpm '
+                         f'({100 * out.variation:.1f} % of {out.rpm:.0f} rpm)',
+                         f'a steady speed within {100 * max_variation:g} % (rig.max_speed_'
+                         'variation): split the run where the speed changes, or record '
+                         'it at a steady speed')
+    return out
