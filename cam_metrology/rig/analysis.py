@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cam_metrology.rig.cycles import TWO_PI, Cycles, average_cycles
+from cam_metrology.rig.cycles import TWO_PI, Cycles, average_cycles, bin_means
 from cam_metrology.rig.encoder import Speed, encoder_speed
 from cam_metrology.rig.events import measured_events
 from cam_metrology.rig.model import Prediction, lobe_alpha, predicted_bins
@@ -48,6 +48,14 @@ def rigid_lift(law: Any, vt: Any, alpha: NDArray[np.float64]) -> NDArray[np.floa
     return vt.rocker_ratio * law(alpha) - vt.lash
 
 
+def rigid_bins(data: RunData, law: Any, vt: Any, nose: float, direction: int
+               ) -> NDArray[np.float64]:
+    """The rigid lift averaged into the run's bins like the measurement [m]."""
+    cyc = data.cycles
+    u = rigid_lift(law, vt, lobe_alpha(cyc.enc, nose, direction))
+    return bin_means(cyc.index, u, cyc.phi.size)[0]
+
+
 def initial_nose(data: RunData, law: Any, vt: Any, direction: int) -> float:
     """Encoder angle [rad] of the nose that best matches the rigid lift to the averaged
     lift, searched over every bin (the fit refines it)."""
@@ -55,7 +63,7 @@ def initial_nose(data: RunData, law: Any, vt: Any, direction: int) -> float:
     m = np.nan_to_num(cyc.lift)
     best, best_sse = 0.0, math.inf
     for nose in cyc.phi:
-        u = np.maximum(rigid_lift(law, vt, lobe_alpha(cyc.phi, nose, direction)), 0.0)
+        u = np.maximum(rigid_lift(law, vt, lobe_alpha(cyc.phi_mean, nose, direction)), 0.0)
         sse = float(np.sum((m - u) ** 2))
         if sse < best_sse:
             best, best_sse = float(nose), sse
@@ -68,7 +76,7 @@ def residual_stats(data: RunData, pbins: NDArray[np.float64], nose: float,
     r = data.cycles.lift - pbins
     ok = np.isfinite(r)
     i = int(np.nanargmax(np.abs(r)))
-    alpha = lobe_alpha(data.cycles.phi[i], nose, direction)
+    alpha = lobe_alpha(data.cycles.phi_mean[i], nose, direction)
     return {'rms_m': float(np.sqrt(np.mean(r[ok] ** 2))), 'max_m': float(r[i]),
             'max_deg': math.degrees(float(alpha))}
 
@@ -78,8 +86,9 @@ def compare_run(data: RunData, pred: Prediction, law: Any, vt: Any, nose: float,
     """The JSON entry of a run: speed, revolutions, measured events, the prediction's
     events at the measured speed, and the residual."""
     cyc = data.cycles
-    alpha = lobe_alpha(cyc.phi, nose, direction)
-    ev = measured_events(alpha, cyc.lift, cyc.stderr, rigid_lift(law, vt, alpha), data.omega,
+    alpha = lobe_alpha(cyc.phi_mean, nose, direction)
+    ev = measured_events(alpha, cyc.lift, cyc.stderr, rigid_bins(data, law, vt, nose, direction),
+                         data.omega,
                          spec.checking_height, spec.separation_sigmas, spec.separation_min,
                          cyc.velocity)
     pbins = predicted_bins(pred, cyc, nose, direction)
@@ -121,7 +130,7 @@ def curves(data: RunData, pbins: NDArray[np.float64], nose: float, direction: in
     """Arrays of the overlay plot, sorted by lobe angle: alpha_deg, measured, scatter,
     predicted [m]."""
     cyc = data.cycles
-    a = np.degrees(lobe_alpha(cyc.phi, nose, direction))
+    a = np.degrees(lobe_alpha(cyc.phi_mean, nose, direction))
     o = np.argsort(a)
     return {'alpha_deg': a[o], 'measured_m': cyc.lift[o], 'scatter_m': cyc.scatter[o],
             'predicted_m': pbins[o]}

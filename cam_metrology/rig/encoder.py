@@ -59,23 +59,49 @@ def unwrap_angle(angle: NDArray[np.float64], name: str) -> NDArray[np.float64]:
     return np.unwrap(angle)
 
 
+def _float_gcd(values: NDArray[np.float64], rel: float = 1e-6) -> float:
+    """Greatest common divisor of positive floats (0 when there is none above
+    ``rel`` times the smallest: not a lattice)."""
+    g = float(values[0])
+    floor = rel * g
+    for v in values[1:32]:
+        a, b = float(v), g
+        while b > floor:
+            a, b = b, math.fmod(a, b)
+            if b > a - floor:        # remainder within rounding of the divisor
+                b = 0.0
+        g = a
+        if g <= floor:
+            return 0.0
+    return g
+
+
 def encoder_quantum(angle: NDArray[np.float64]) -> float:
     """The encoder's count step [rad] when the reading is quantised, else 0.
 
-    Quantised: samples repeat a count (zero steps), or every step is a whole number of
-    the smallest step while the steps differ. A continuous angle sampled so that every
-    step is the same cannot be told from counts and is taken as continuous.
+    Quantised: the readings (wrapped to one revolution) sit on a lattice of a whole
+    number of counts per revolution, and the steps between samples differ (or repeat a
+    count). A continuous angle sampled so that every step is the same cannot be told
+    from counts and is taken as continuous.
     """
     d = np.abs(np.diff(angle))
     d = d[d < math.pi]                 # wraps are not steps
     pos = d[d > 0]
     if pos.size < 2:
         return 0.0
-    q = float(np.min(pos))
-    ratio = pos / q
-    lattice = bool(np.all(np.abs(ratio - np.round(ratio)) < 1e-6))
-    if np.mean(d == 0) > 0.01 or (lattice and np.std(pos) > 0.01 * q):
-        return q
+    values = np.unique(np.mod(angle, 2 * math.pi))
+    gaps = np.diff(values)
+    gaps = gaps[gaps > 1e-12]
+    if gaps.size == 0:
+        return 0.0
+    q = _float_gcd(np.unique(np.round(gaps / np.min(gaps), 6)) * float(np.min(gaps)))
+    if q <= 0:
+        return 0.0
+    on_lattice = np.abs((values - values[0]) / q - np.round((values - values[0]) / q))
+    counts = 2 * math.pi / q
+    lattice = bool(np.all(on_lattice < 1e-3)) and abs(counts - round(counts)) < 1e-3
+    if lattice and (np.mean(d == 0) > 0.01 or np.std(pos) > 0.01 * q):
+        return 2 * math.pi / round(counts)
     return 0.0
 
 

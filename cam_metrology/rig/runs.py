@@ -17,8 +17,9 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError
 
-RIG_TOPIC = '/rig/joint_states'
-CAMSHAFT, VALVE = 'camshaft', 'valve'
+from cam_metrology.wire.topics import CAMSHAFT_JOINT as CAMSHAFT
+from cam_metrology.wire.topics import RIG_JOINT_STATES as RIG_TOPIC
+from cam_metrology.wire.topics import VALVE_JOINT as VALVE
 CSV_REQUIRED = ('time_s', 'cam_angle_rad', 'valve_lift_m')
 CSV_VELOCITY = 'valve_velocity_m_per_s'
 CSV_HEADER = 'time_s,cam_angle_rad,valve_lift_m[,valve_velocity_m_per_s,...]'

@@ -80,3 +80,35 @@ def simulate_run(law: Any, vt: Any, rpm: float, *, nose: float, direction: int =
         vel = slope * direction * w + rng.normal(0.0, 1e3 * noise.laser_noise, n)
     return RigRun(name=name or f'run_{rpm:g}rpm', time=t, angle=enc, lift=lift,
                   velocity=vel)
+
+
+def true_train(scene: Any, spec: Any) -> tuple[Any, str | None]:
+    """The simulator's valve train: ``rig.true_valve_train`` (validated), else the
+    nominal one (with a note saying so)."""
+    if spec.true_valve_train is None:
+        return scene.valve_train, ('the scene has no rig.true_valve_train: the runs are '
+                                   'simulated with the nominal valve_train')
+    from cam_metrology.scene_parse import valve_train_from_mapping
+
+    return valve_train_from_mapping(spec.true_valve_train, 'rig.true_valve_train'), None
+
+
+def simulate_scene_runs(scene: Any, rpms: Any, *, revolutions: float = 4.0,
+                        noise: RigNoise = RigNoise(), seed: int = 0
+                        ) -> tuple[list[RigRun], str | None]:
+    """Runs at every speed of ``rpms`` of a scene with a rig block (the nose at
+    ``rig.nose_angle_deg``, 0 when absent), and a note for the reader or None."""
+    from cam_design.valve_train.params import require_rpm
+    from cam_metrology.rig.session import RigSetup
+
+    setup = RigSetup.of_scene(scene)
+    train, note = true_train(scene, setup.spec)
+    nose = setup.spec.nose_angle if setup.spec.nose_angle is not None else 0.0
+    runs = []
+    for i, rpm in enumerate(rpms):
+        rpm = require_rpm(f'--rpm[{i}]', rpm)
+        runs.append(simulate_run(setup.law, train, rpm, nose=nose,
+                                 direction=setup.direction, revolutions=revolutions,
+                                 noise=noise, seed=seed + i, name=f'run_{rpm:g}rpm',
+                                 start_angle=0.37 * (i + 1)))
+    return runs, note

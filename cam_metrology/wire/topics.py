@@ -20,12 +20,14 @@ __all__ = [
     'PLOT_LIFT', 'PLOT_PROFILE', 'PLOT_MOTION',
     'TOPICS', 'BENCH_TOPICS', 'OUTPUT_TOPICS', 'PLOT_TOPICS', 'TOPIC_TYPES',
     'LATCHED_TOPICS', 'qos_of', 'type_of', 'qos_yaml', 'default_qos_yaml',
-    'CAMSHAFT_JOINT', 'PROBE_JOINT',
+    'CAMSHAFT_JOINT', 'PROBE_JOINT', 'RIG_JOINT_STATES', 'RIG_TOPICS', 'VALVE_JOINT',
 ]
 
 #: joints of a bench sample (``/bench/joint_states``), looked up by name
 CAMSHAFT_JOINT = 'camshaft'
 PROBE_JOINT = 'probe'
+#: joint of a rig sample (``/rig/joint_states``): the valve lift [m] (velocity [m/s])
+VALVE_JOINT = 'valve'
 
 
 @dataclass(frozen=True)
@@ -73,6 +75,8 @@ JOINT_STATE = 'sensor_msgs/msg/JointState'
 SCENE = '/bench/scene'
 JOINT_STATES = '/bench/joint_states'
 FEATURE_DONE = '/bench/feature_done'
+#: valve-train rig input: joints 'camshaft' [rad] and 'valve' [m], frame_id = run
+RIG_JOINT_STATES = '/rig/joint_states'
 TRUTH = '/bench/truth'
 METROLOGY_RESULT = '/metrology/result'
 METROLOGY_LIFT = '/metrology/lift'
@@ -94,6 +98,7 @@ TOPICS: dict[str, tuple[str, QosSpec]] = {
     SCENE: (STRING, LATCHED),
     JOINT_STATES: (JOINT_STATE, SAMPLES),
     FEATURE_DONE: (STRING, EVENTS),
+    RIG_JOINT_STATES: (JOINT_STATE, SAMPLES),
     TRUTH: (STRING, LATCHED),
     METROLOGY_RESULT: (STATUS, RESULTS),
     METROLOGY_LIFT: (TABLE, RESULTS),
@@ -111,9 +116,12 @@ TOPICS: dict[str, tuple[str, QosSpec]] = {
 
 BENCH_TOPICS = (SCENE, TRUTH, JOINT_STATES, FEATURE_DONE)
 PLOT_TOPICS = (METROLOGY_VALUES, PLOT_LIFT, PLOT_PROFILE, PLOT_MOTION)
+#: the valve-train rig's inputs (docs/contract.md "Valve-train rig")
+RIG_TOPICS = (RIG_JOINT_STATES,)
 #: what the node cores publish (the plot views and /diagnostics are derived from it)
 OUTPUT_TOPICS = tuple(t for t in TOPICS
-                      if t not in BENCH_TOPICS and t not in PLOT_TOPICS and t != DIAGNOSTICS)
+                      if t not in BENCH_TOPICS and t not in PLOT_TOPICS and t != DIAGNOSTICS
+                      and t not in RIG_TOPICS)
 #: topic -> ROS type name
 TOPIC_TYPES: dict[str, str] = {t: ty for t, (ty, _) in TOPICS.items()}
 LATCHED_TOPICS = frozenset(t for t, (_, q) in TOPICS.items() if q == LATCHED)
