@@ -10,10 +10,13 @@ ones positive) finds the minimum.
 
 Uncertainty: covariance s^2 (J^T J)^-1 at the minimum, J the Jacobian of the weighted
 residuals, s^2 = chi^2 / (m - p) (so unmodelled cycle-to-cycle variation widens the
-uncertainty instead of being ignored); the correlation matrix from it. A parameter pair
-with |correlation| > ``WARN_CORRELATION`` is reported as poorly identifiable with the
-run that would separate them; above ``REFUSE_CORRELATION`` (at the nominal train,
-before any fit) the calibration is refused.
+uncertainty instead of being ignored); the correlation matrix from it.
+
+Identifiability: before any fit, the Jacobian at the nominal train is checked: a
+parameter the runs do not depend on, or a pair with |correlation| >
+``REFUSE_CORRELATION`` (0.99: near-singular), refuses the calibration with one line
+naming the parameters and the run that would separate them. After the fit, a pair with
+|correlation| > ``WARN_CORRELATION`` is reported as a warning, with the same advice.
 """
 from __future__ import annotations
 
@@ -28,8 +31,8 @@ from cam_metrology.rig.analysis import RunData
 from cam_metrology.rig.model import (ZERO_SCALE, Prediction, predict, predicted_bins,
                                      train_value, with_value)
 
-WARN_CORRELATION = 0.99
-REFUSE_CORRELATION = 0.999
+WARN_CORRELATION = 0.95
+REFUSE_CORRELATION = 0.99
 #: relative forward-difference step of the Jacobian (the solver is exact to rounding)
 DIFF_STEP = 1e-4
 #: parameters that may be zero (the others stay strictly positive)
@@ -219,7 +222,7 @@ def calibrate(problem: Problem, progress: Callable[[str], None] | None = None) -
         for j in range(i + 1, p):
             if abs(corr[i, j]) > WARN_CORRELATION:
                 fit.warnings.append(
-                    f'{names[i]} and {names[j]} are hardly identifiable from these runs '
+                    f'{names[i]} and {names[j]} are poorly identifiable from these runs '
                     f'({speeds} rpm; correlation {corr[i, j]:+.4f}): '
                     f'{advice(names[i], names[j])} would separate them')
     for n in names:

@@ -36,12 +36,13 @@ class Speed:
     rpm_max: float
     revolutions: float
     quantum: float
+    offset: float = 0.0
 
     @property
     def encoder(self) -> NDArray[np.float64]:
-        """The smoothed encoder angle as the encoder counts [rad]; a quantised reading n q
-        stands for the interval [n q, (n + 1) q), so its middle is used (+q/2)."""
-        return self.sign * self.theta + 0.5 * self.quantum
+        """The smoothed encoder angle as the encoder counts [rad], with the quantisation
+        offset (``quantisation_offset``) added."""
+        return self.sign * self.theta + self.offset
 
     @property
     def variation(self) -> float:
@@ -105,6 +106,21 @@ def encoder_quantum(angle: NDArray[np.float64]) -> float:
     return 0.0
 
 
+def quantisation_offset(read: NDArray[np.float64], fit: NDArray[np.float64],
+                        quantum: float) -> float:
+    """The constant [rad] to add to a smooth fit of quantised readings.
+
+    A reading n q means the angle lies in [n q, (n + 1) q). With r = reading - fit, the
+    true angle fit + b satisfies max r <= b < min r + q; the middle of that interval is
+    taken (robust quantiles instead of the extremes). For readings spread evenly over
+    the counts this is q/2; for a sampling locked to the counts (an rpm and a sampling
+    rate in a simple ratio) it removes the bias that the fixed q/2 would leave.
+    """
+    r = read - fit
+    hi, lo = np.quantile(r, [0.995, 0.005])
+    return float(0.5 * (hi + lo + quantum))
+
+
 def encoder_speed(time: NDArray[np.float64], angle: NDArray[np.float64], name: str,
                   max_variation: float) -> Speed:
     """Fit the smooth angle and the speed of a run; InputError when the run covers too
@@ -131,9 +147,10 @@ def encoder_speed(time: NDArray[np.float64], angle: NDArray[np.float64], name: s
     to_rpm = 30.0 / math.pi
     rpm = span * sign / (t1 - t0) * to_rpm
     quantum = encoder_quantum(angle)
+    offset = quantisation_offset(sign * th, sign * fit, quantum) if quantum else 0.0
     out = Speed(theta=fit, sign=sign, rpm=float(rpm), rpm_std=float(np.std(w) * to_rpm),
                 rpm_min=float(np.min(w) * to_rpm), rpm_max=float(np.max(w) * to_rpm),
-                revolutions=float(revs), quantum=quantum)
+                revolutions=float(revs), quantum=quantum, offset=offset)
     if out.rpm <= 0:
         raise InputError(f'run {name} cam_angle_rad', 'a standing shaft',
                          'a turning camshaft')
