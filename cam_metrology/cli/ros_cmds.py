@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-NODE_CHOICES = ('metrology', 'reconstruction', 'dynamics', 'bench-sim', 'recorder')
+NODE_CHOICES = ('metrology', 'reconstruction', 'dynamics', 'rig', 'bench-sim', 'recorder')
 
 
 def _positive_or_zero(text: str) -> float:

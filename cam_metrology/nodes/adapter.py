@@ -75,10 +75,11 @@ RX_LINGER = 0.005
 
 def load_core(name: str) -> Any:
     """The core class registered for node ``name`` (ValueError for another name)."""
-    from cam_metrology.registry import CORES
-    if name not in CORES:
-        raise ValueError(f'no core registered for node {name!r}; known: {sorted(CORES)}')
-    return CORES[name]
+    from cam_metrology.registry import CORES, RIG_CORES, load_core_class
+    if name not in CORES and name not in RIG_CORES:
+        raise ValueError(f'no core registered for node {name!r}; known: '
+                         f'{sorted(CORES) + sorted(RIG_CORES)}')
+    return load_core_class(name)
 
 
 def descriptor(name: str, default: Any, description: str) -> ParameterDescriptor:

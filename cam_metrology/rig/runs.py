@@ -106,8 +106,9 @@ def read_csv_run(path: str | Path) -> RigRun:
                   lift=col['valve_lift_m'], velocity=col.get(CSV_VELOCITY), channels=extra)
 
 
-def _joint_rows(messages: Iterable[Any], bag: str) -> list[RigRun]:
-    """Runs from JointState messages (grouped by contiguous ``header.frame_id``)."""
+def runs_of_messages(messages: Iterable[Any], bag: str) -> list[RigRun]:
+    """Runs from JointState messages (grouped by contiguous ``header.frame_id``);
+    ``bag`` names their source in refusals."""
     groups: list[tuple[str, list[Any]]] = []
     for i, msg in enumerate(messages):
         frame = str(msg.header.frame_id) or 'run'
@@ -164,7 +165,7 @@ def read_bag_runs(path: str | Path) -> tuple[list[RigRun], str | None]:
         raise InputError(str(path), f'no {RIG_TOPIC} messages',
                          f'a bag with rig samples on {RIG_TOPIC} (sensor_msgs/JointState, '
                          "joints 'camshaft' and 'valve')")
-    return _joint_rows(msgs, str(path)), scene_text
+    return runs_of_messages(msgs, str(path)), scene_text
 
 
 def read_runs(paths: Iterable[str | Path]) -> tuple[list[RigRun], str | None]:

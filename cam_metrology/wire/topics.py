@@ -21,6 +21,7 @@ __all__ = [
     'TOPICS', 'BENCH_TOPICS', 'OUTPUT_TOPICS', 'PLOT_TOPICS', 'TOPIC_TYPES',
     'LATCHED_TOPICS', 'qos_of', 'type_of', 'qos_yaml', 'default_qos_yaml',
     'CAMSHAFT_JOINT', 'PROBE_JOINT', 'RIG_JOINT_STATES', 'RIG_TOPICS', 'VALVE_JOINT',
+    'RIG_RESULT', 'RIG_MOTION', 'PLOT_RIG',
 ]
 
 #: joints of a bench sample (``/bench/joint_states``), looked up by name
@@ -92,6 +93,10 @@ METROLOGY_VALUES = '/metrology/values'
 PLOT_LIFT = '/plot/lift'
 PLOT_PROFILE = '/plot/profile'
 PLOT_MOTION = '/plot/valve_motion'
+#: rig node: per run a status (speed, separation, residual) and the averaged lift table
+RIG_RESULT = '/rig/result'
+RIG_MOTION = '/rig/valve_motion'
+PLOT_RIG = '/plot/rig_motion'
 
 #: topic -> (ROS type name, QoS): the bench inputs first, then every output.
 TOPICS: dict[str, tuple[str, QosSpec]] = {
@@ -112,10 +117,13 @@ TOPICS: dict[str, tuple[str, QosSpec]] = {
     PLOT_LIFT: (JOINT_STATE, PLOT_POINTS),
     PLOT_PROFILE: (JOINT_STATE, PLOT_POINTS),
     PLOT_MOTION: (JOINT_STATE, PLOT_POINTS),
+    RIG_RESULT: (STATUS, RESULTS),
+    RIG_MOTION: (TABLE, RESULTS),
+    PLOT_RIG: (JOINT_STATE, PLOT_POINTS),
 }
 
 BENCH_TOPICS = (SCENE, TRUTH, JOINT_STATES, FEATURE_DONE)
-PLOT_TOPICS = (METROLOGY_VALUES, PLOT_LIFT, PLOT_PROFILE, PLOT_MOTION)
+PLOT_TOPICS = (METROLOGY_VALUES, PLOT_LIFT, PLOT_PROFILE, PLOT_MOTION, PLOT_RIG)
 #: the valve-train rig's inputs (docs/contract.md "Valve-train rig")
 RIG_TOPICS = (RIG_JOINT_STATES,)
 #: what the node cores publish (the plot views and /diagnostics are derived from it)
