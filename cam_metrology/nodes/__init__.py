@@ -20,7 +20,8 @@ CORE_NODES = ('metrology', 'reconstruction', 'dynamics', 'rig')
 NODES = CORE_NODES + ('bench-sim', 'recorder')
 #: ROS node name of each runnable node (the key of its parameter YAML)
 NODE_NAMES = {'metrology': 'metrology', 'reconstruction': 'reconstruction',
-              'dynamics': 'dynamics', 'bench-sim': 'bench_sim', 'recorder': 'recorder'}
+              'dynamics': 'dynamics', 'bench-sim': 'bench_sim', 'recorder': 'recorder',
+              'rig': 'rig'}
 
 
 def default_params_file(name: str) -> Path | None:

@@ -55,7 +55,7 @@ from cam_metrology.outputs import Output, Status, StatusOutput
 from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages, view_topics
 from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
-                                       SCENE, STATUS, QosSpec, qos_of)
+                                       RIG_TOPICS, SCENE, STATUS, QosSpec, qos_of)
 
 
 #: most raw samples handed to a core in one call (keeps the worker responsive)
@@ -157,7 +157,7 @@ class CoreNode(Node):
         self._bulk = self._ordered and callable(getattr(self.core, 'handle_samples', None))
         self._adaptive = AdaptiveSubscriptions(self, self._subscribe)
         for topic, type_name in topics:
-            if topic in BENCH_TOPICS:
+            if topic in BENCH_TOPICS or topic in RIG_TOPICS:   # inputs: our QoS (keep all)
                 self._subscribe(topic, type_name, qos_of(topic))
             else:   # another node's output: QoS from its publishers (late joiners)
                 self._adaptive.add(topic, type_name, qos_of(topic).depth)

@@ -4,7 +4,9 @@ Subscribes ``/bench/scene`` (the scene with its ``rig`` block) and ``/rig/joint_
 (joints ``camshaft``, ``valve``, further channels; ``frame_id`` = run). A run ends when
 the next ``frame_id`` starts, when the stream is quiet for the scene's ``idle_timeout``,
 or at the end; it is then analysed exactly as ``cam-bench rig analyze`` does
-(``session.analyze``) and published:
+(``session.analyze``) and published (if samples of a run ended by the idle timeout
+arrive later, the run continues and its status is published again: the last one
+counts):
 
 * ``/rig/result``: one DiagnosticStatus per run (name = run): speed, revolutions,
   measured separation and its angle, seating velocity, bounces, residual rms against
@@ -48,6 +50,7 @@ class RigCore:
         self.rows: list[Any] = []
         self.last_ns = 0
         self.results: dict[str, dict[str, Any]] = {}
+        self.flushed: list[Any] = []     # the samples of the last run ended
 
     def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:
         """Scene: keep it; sample: buffer it (a new frame_id ends the previous run)."""
@@ -65,6 +68,10 @@ class RigCore:
             return []
         frame = str(msg.header.frame_id) or 'run'
         out = self._flush(stamp_ns) if frame != self.frame and self.rows else []
+        if frame == self.frame and not self.rows and self.flushed:
+            # the stream resumed the run that an idle timeout had ended (a stall of the
+            # sender or of this node): continue it; its status is published again
+            self.rows = self.flushed
         self.frame = frame
         self.rows.append(msg)
         self.last_ns = stamp_ns
@@ -85,6 +92,7 @@ class RigCore:
         if not self.rows:
             return []
         rows, self.rows = self.rows, []
+        self.flushed = rows
         name = self.frame or 'run'
         if self.scene is None:
             return [self._status(Status(name, ERROR, 'no scene on /bench/scene before the '
