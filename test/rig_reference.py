@@ -1,6 +1,7 @@
 """An independent time-domain solver of the SDOF valve train for the rig tests.
 
-Not the product's propagator: ``scipy.integrate.solve_ivp`` (Radau, rtol 1e-8, exact Jacobian) on the
+Not the product's propagator: ``scipy.integrate.solve_ivp`` (Radau, rtol 1e-8, exact
+Jacobian) on the
 contract's equations in time, with the camshaft angle a function of time (steady speed
 plus a ripple), and terminal events at every regime switch (cam contact lost / made,
 seat contact made / lost), restarting in the new regime. The valve starts seated at

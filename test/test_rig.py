@@ -229,5 +229,5 @@ def test_encoder_quantum(angle, expected):
     """Quantised readings give their count step, continuous ones 0."""
     from cam_metrology.rig.encoder import encoder_quantum
 
-    assert encoder_quantum(np.mod(angle, 2 * math.pi)) == pytest.approx(expected, rel=1e-9,
-                                                                         abs=1e-15)
+    got = encoder_quantum(np.mod(angle, 2 * math.pi))
+    assert got == pytest.approx(expected, rel=1e-9, abs=1e-15)

@@ -63,8 +63,8 @@ def test_analyze_csv_and_bag_agree(runs, tmp_path, capsys):
     assert [r['name'] for r in ra['runs']] == [r['name'] for r in rb['runs']]
     for x, y in zip(ra['runs'], rb['runs']):
         assert x['rpm'] == pytest.approx(y['rpm'], abs=1e-6)
-        assert x['residual_rms_m']['nominal'] == pytest.approx(y['residual_rms_m']['nominal'],
-                                                              abs=1e-12)
+        assert x['residual_rms_m']['nominal'] == pytest.approx(
+            y['residual_rms_m']['nominal'], abs=1e-12)
         for key in ('rpm', 'separated', 'separation_angle_deg', 'revolutions', 'vibrometer'):
             assert key in x
         assert x['vibrometer'] is True

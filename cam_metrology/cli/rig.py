@@ -47,8 +47,8 @@ def register(subparsers: Any) -> None:
                        help='scene YAML with lobes, valve_train and rig: {lobe, '
                             'nose_angle_deg} (default: the scene recorded in the bag)')
         q.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
-        q.add_argument('--plot', metavar='DIR', help='write <run>.png (overlay and residual) '
-                                                    'to DIR')
+        q.add_argument('--plot', metavar='DIR',
+                       help='write <run>.png (overlay and residual) to DIR')
         q.add_argument('--html', metavar='FILE', help='write an HTML report with the plots')
         q.add_argument('--no-jump', action='store_true',
                        help='skip the jump-speed sweeps (faster)')
@@ -70,8 +70,8 @@ def register(subparsers: Any) -> None:
                    help='mean camshaft speed [rpm]; repeat for several runs')
     s.add_argument('--revolutions', type=float, default=4.0, help='per run (default 4)')
     s.add_argument('--sample-rate', type=float, default=50_000.0, help='Hz (default 50000)')
-    s.add_argument('--noise-um', type=float, default=1.0, help='laser noise rms [um] '
-                                                                '(default 1)')
+    s.add_argument('--noise-um', type=float, default=1.0,
+                   help='laser noise rms [um] (default 1)')
     s.add_argument('--encoder-counts', type=int, default=3600,
                    help='encoder counts per revolution, 0 for exact angles (default 3600)')
     s.add_argument('--ripple', type=float, default=0.005,

@@ -32,7 +32,8 @@ class Cycles:
     """Cycle-averaged run on encoder-angle bins.
 
     phi: (B,) bin centres [rad] in [0, 2 pi); phi_mean: (B,) mean encoder angle of the
-    bin's samples [rad] (where its mean lift belongs; the centre when empty); step [rad]; index: (N,) bin of each
+    bin's samples [rad] (where its mean lift belongs; the centre when empty);
+    step [rad]; index: (N,) bin of each
     sample; enc: (N,) smoothed encoder angle of each sample [rad] (unwrapped, as the
     encoder counts); count: (B,) samples per bin; lift: (B,) mean lift [m] referenced to
     the seated valve (NaN in an empty bin); scatter: (B,) standard deviation [m] of the
@@ -141,7 +142,8 @@ def average_cycles(enc: NDArray[np.float64], lift: NDArray[np.float64],
     vel = None if velocity is None else bin_means(index, velocity, nb)[0]
     centre = (np.arange(nb) + 0.5) * width
     at = bin_means(index, phi_s, nb)[0]
-    return Cycles(phi=centre, phi_mean=np.where(np.isfinite(at), at, centre), step=width, index=index, enc=enc,
+    return Cycles(phi=centre, phi_mean=np.where(np.isfinite(at), at, centre), step=width,
+                  index=index, enc=enc,
                   count=count, lift=raw - zero, scatter=scatter, velocity=vel, zero=zero,
                   noise=noise, cycles=int(math.floor(abs(enc[-1] - enc[0]) / TWO_PI)),
                   base=base)
