@@ -117,36 +117,9 @@ def _emit(outcome: Any, args: argparse.Namespace, title: str) -> None:
         print(f'warning: {w}', file=sys.stderr)
     if args.json == '-':
         return
+    from cam_metrology.rig.report import summary_lines
     for line in summary_lines(result):
         print(line)
-
-
-def summary_lines(result: dict[str, Any]) -> list[str]:
-    """Human summary of a rig result."""
-    std = result.get('nose_angle_std_deg')
-    lines = [f"lobe {result['lobe']}: nose angle {result['nose_angle_deg']:.4f} deg"
-             + (f' +- {std:.4f}' if std is not None else '')
-             + f" ({result['nose_angle_source']})"]
-    for r in result['runs']:
-        res = r['residual_rms_m']
-        cal = f", calibrated {res['calibrated'] * 1e6:.2f}" if 'calibrated' in res else ''
-        sep = (f"separated at {r['separation_angle_deg']:.1f} deg" if r['separated']
-               else 'no separation')
-        vs = r['seating_velocity_m_s']
-        lines.append(f"{r['name']}: {r['rpm']:.1f} rpm (+-{100 * r['speed_variation'] / 2:.2f}"
-                     f" %), {r['revolutions']:.1f} rev; {sep}; {r['bounce_count']} bounce(s); "
-                     f"seating {'-' if vs is None else f'{vs:.3f} m/s'}; residual rms nominal "
-                     f"{res['nominal'] * 1e6:.2f} um{cal}")
-    for n, p in result.get('parameters', {}).items():
-        lines.append(f"{n}: {p['value']:.6g} +- {p['std']:.3g} {p['unit']} (nominal "
-                     f"{p['nominal']:.6g})")
-    j = result['jump_speed_rpm']
-    if j.get('skipped'):
-        return lines + ['jump speed: skipped (--no-jump)']
-    fmt = (lambda v: 'above 3x the fastest run' if v is None else f'{v:.0f} rpm')
-    lines.append('jump speed: nominal ' + fmt(j.get('nominal'))
-                 + (f", calibrated {fmt(j.get('calibrated'))}" if 'calibrated' in j else ''))
-    return lines
 
 
 def run_analyze(args: argparse.Namespace) -> int:

@@ -128,7 +128,7 @@ def run_rig_demo(scene_path: str | None, out: str | None, timeout: float,
         for name in ('rig', 'recorder'):
             stop_child(children[name], waiter=waiter)
         proc.close()
-    from cam_metrology.cli.rig import summary_lines
+    from cam_metrology.rig.report import summary_lines
     from cam_metrology.rig.runs import read_bag_runs
     from cam_metrology.rig.session import calibrate_runs
     from cam_metrology.rig.simulate import true_train
