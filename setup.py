@@ -34,7 +34,7 @@ setup(
             'recorder = cam_metrology.nodes.entry:recorder',
         ],
         # pytest over recorded bags: fixtures cam_bench_analysis / cam_bench_report and
-        # the option --cam-bench-bags DIR (cam_metrology/pytest_plugin.py)
-        'pytest11': ['cam_bench = cam_metrology.pytest_plugin'],
+        # the option --cam-bench-bags DIR (cam_metrology/offline/pytest_plugin.py)
+        'pytest11': ['cam_bench = cam_metrology.offline.pytest_plugin'],
     },
 )

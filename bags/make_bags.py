@@ -25,9 +25,9 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 from cam_metrology import bagio  # noqa: E402
-from cam_metrology.scene_parse import load_scene, parse_scene  # noqa: E402
-from cam_metrology.simulate import (SimParams, scene_with_direction, simulate,  # noqa: E402
-                                    write_sim_bag)
+from cam_metrology.scene.parse import load_scene, parse_scene  # noqa: E402
+from cam_metrology.simulation.bench import (  # noqa: E402
+    SimParams, scene_with_direction, simulate, write_sim_bag)
 
 TABLE_STEP_DEG = 0.25
 

@@ -21,9 +21,9 @@ DEG = math.pi / 180.0
 def form_error_rows() -> list[str]:
     """A lobe ground lift_scale x the design: true max-lift error vs what is reported."""
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.replay import run_offline
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.offline.replay import run_offline
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
     import tempfile
 
     scene = load_scene('config/default_scene.yaml')

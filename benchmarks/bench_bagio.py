@@ -22,9 +22,9 @@ import numpy as np
 
 from benchmarks.machine import describe, save_results
 from cam_metrology import bagio
-from cam_metrology.paths import default_scene_path
-from cam_metrology.scene_parse import load_scene
-from cam_metrology.simulate import SimParams, simulate, write_sim_bag
+from cam_metrology.host.paths import default_scene_path
+from cam_metrology.scene.parse import load_scene
+from cam_metrology.simulation.bench import SimParams, simulate, write_sim_bag
 
 RESULTS = Path(__file__).resolve().parent / 'results' / 'bagio.md'
 
@@ -160,7 +160,7 @@ def run(samples: int, repeat: int) -> str:
                      err(js.theta, js.s)))
 
         # integrity: chunk walk + decompression + CRC-32 (cached per file after the first)
-        from cam_metrology import bagcheck
+        from cam_metrology.bagio import check as bagcheck
 
         zbag = tmp / 'decode_zstd'
         write_sim_bag(zbag, scene, params, compression=True)
@@ -208,7 +208,7 @@ def run(samples: int, repeat: int) -> str:
 
 
 def _stream(run_: Any) -> Any:
-    from cam_metrology.simulate import iter_joint_state_messages
+    from cam_metrology.simulation.bench import iter_joint_state_messages
 
     return iter_joint_state_messages(run_)
 

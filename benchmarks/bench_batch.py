@@ -29,7 +29,7 @@ def _samples(bags: list[Path]) -> int:
 
 
 def run(n: int) -> list[str]:
-    from cam_metrology.batch import run_batch
+    from cam_metrology.offline.batch import run_batch
 
     rows = ['| workers | bags | wall [s] | bags/s | samples/s | scaling | failed |',
             '|---|---|---|---|---|---|---|']

@@ -55,9 +55,9 @@ _WRAPPER = ('import resource, subprocess, sys, time\n'
 def write_bag(path: Path, samples: int, shape: str) -> int:
     """Simulate a bag of about ``samples`` samples of the given shape; returns the
     exact number of samples."""
-    from cam_metrology.paths import default_scene_path
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.host.paths import default_scene_path
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     scene = load_scene(default_scene_path())
     if shape == 'rounds':

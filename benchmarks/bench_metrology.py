@@ -38,8 +38,8 @@ def _lobe():
     """(exact converted lift, its tabulated version used by the core, scene) of the
     default scene's lobe_1."""
     from cam_metrology.metrology.analysis import seen_lift
-    from cam_metrology.paths import default_scene_path
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.host.paths import default_scene_path
+    from cam_metrology.scene.parse import load_scene
 
     scene = load_scene(default_scene_path())
     lobe = scene.lobes[0]
@@ -120,9 +120,9 @@ def _decode_all(bag: Path) -> int:
 def speed() -> list[str]:
     """Markdown rows: decode vs analyze of a 200k-sample bag."""
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.offline import make_cores
-    from cam_metrology.replay import run_offline
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.offline.analyze import make_cores
+    from cam_metrology.offline.replay import run_offline
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     _, _, scene = _lobe()
     rows = []

@@ -33,7 +33,7 @@ TRUE = {'stiffness': 1.0e7, 'damping': 90.0, 'mass': 0.125}
 
 
 def _setup():
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
     from cam_metrology.rig.session import RigSetup
 
     scene = load_scene(SCENE)

@@ -41,7 +41,7 @@ def _cam_bench(args: list[str], env: dict[str, str], log: Path) -> subprocess.Po
 
 
 def _one_lobe_scene(work: Path) -> Path:
-    from cam_metrology.paths import default_scene_path
+    from cam_metrology.host.paths import default_scene_path
     doc = yaml.safe_load(default_scene_path().read_text(encoding='utf-8'))
     doc['lobes'] = doc['lobes'][:1]
     doc.pop('dowel_pin', None)
@@ -235,7 +235,7 @@ def _verdict(run: dict[str, Any]) -> str:
 def main() -> None:
     """Run the three benchmarks and write benchmarks/results/ros.md."""
     from benchmarks.machine import describe, save_results
-    from cam_metrology.isolation import claim_domain, isolated_env
+    from cam_metrology.host.isolation import claim_domain, isolated_env
 
     machine = describe()
     t_start = time.perf_counter()

@@ -198,7 +198,7 @@ def one_rate(work: Path, env: dict[str, str], rate: float) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> None:
     """Run every rate and write the results table."""
     from benchmarks.machine import describe, save_results
-    from cam_metrology.isolation import claim_domain, isolated_env
+    from cam_metrology.host.isolation import claim_domain, isolated_env
 
     rates = [float(a) for a in (argv if argv is not None else sys.argv[1:])] or list(RATES)
     machine = describe()

@@ -22,7 +22,7 @@ CONFIG = REPO / 'config'
 @pytest.fixture(scope='session')
 def ros_domain(tmp_path_factory: pytest.TempPathFactory) -> int:
     """Claim an isolated ROS domain for this pytest process; returns its id."""
-    from cam_metrology.isolation import claim_domain
+    from cam_metrology.host.isolation import claim_domain
 
     domain = claim_domain()
     os.environ['ROS_DOMAIN_ID'] = str(domain)

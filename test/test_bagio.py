@@ -13,7 +13,7 @@ import yaml
 
 from cam_design.errors import InputError
 from cam_metrology import bagio
-from cam_metrology.outputs import ERROR, OK, Status, StatusOutput, TableOutput, TextOutput
+from cam_metrology.cores.outputs import ERROR, OK, Status, StatusOutput, TableOutput, TextOutput
 
 JS = 'sensor_msgs/msg/JointState'
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from cam_metrology import bagio
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.scene.parse import parse_scene
 
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 NAMES = ['default_clean', 'default_noisy_dirneg_wrapped', 'no_pin_no_valve_train',
@@ -210,7 +210,7 @@ def test_cli_bag_info_on_a_fixture(capsys):
 def test_metrology_core_recovers_the_documented_truth(name):
     """End to end through replay.run_offline: the fixtures are consistent with their truth."""
     core_module = pytest.importorskip('cam_metrology.metrology.core')
-    from cam_metrology.replay import run_offline
+    from cam_metrology.offline.replay import run_offline
 
     bag = BAGS / name
     truth = _truth(bag)

@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 from cam_design.errors import InputError
-from cam_metrology import bagcheck, bagio
+from cam_metrology import bagio
+from cam_metrology.bagio import check as bagcheck
 from cam_metrology.cli import main
 
 SCENE_FILE = Path(__file__).resolve().parents[1] / 'bags' / 'scenes' / 'two_lobes_no_pin.yaml'
@@ -33,8 +34,8 @@ SRV_DEF = ('=' * 80 + '\nSRV: example_interfaces/srv/AddTwoInts\nint64 a\nint64 
 @pytest.fixture(scope='module')
 def clean(tmp_path_factory):
     """A clean two-lobe bag (720 samples per lobe, 0.5 um noise) and its report."""
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     root = tmp_path_factory.mktemp('clean')
     bag = root / 'clean'
@@ -232,8 +233,8 @@ def test_scene_change_inside_the_core_closes_the_open_feature():
     """Direct core check: samples of lobe_1, then another scene, without any sample of
     another feature in between: lobe_1 is analysed with the first scene."""
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.scene_parse import load_scene, parse_scene
-    from cam_metrology.simulate import SimParams, simulate
+    from cam_metrology.scene.parse import load_scene, parse_scene
+    from cam_metrology.simulation.bench import SimParams, simulate
 
     scene = load_scene(SCENE_FILE)
     run = simulate(scene, SimParams(samples_per_rev=720, seed=3))

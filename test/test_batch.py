@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from cam_design.errors import InputError
-from cam_metrology.batch import find_bags, read_table, run_batch
-from cam_metrology.offline import analyze_report
+from cam_metrology.offline.batch import find_bags, read_table, run_batch
+from cam_metrology.offline.analyze import analyze_report
 
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 

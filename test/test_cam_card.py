@@ -169,7 +169,7 @@ def test_card_cli_on_the_default_scene(capsys) -> None:
 ])
 def test_nominal_file_round_trip(tmp_path, args, radius) -> None:
     from cam_metrology.reconstruction.samples import read_gauge_file
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     if args[0].startswith('test/_'):
         path = tmp_path / 'law.yaml'
@@ -220,7 +220,7 @@ def test_scene_lobe_from_a_nominal_file(tmp_path, capsys) -> None:
     that takes its design from that file (relative path, roller of the file's radius)
     reproduces the lift to 0.1 um over the lobe and stays on the base circle outside."""
     from cam_metrology.metrology.analysis import seen_lift
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     scene = load_scene('config/default_scene.yaml')
     law = seen_lift(scene.lobe('lobe_2'), scene.probe, scene.base_circle_radius,
@@ -249,8 +249,8 @@ def test_scene_lobe_from_a_nominal_file(tmp_path, capsys) -> None:
      'lobes[0].lift'),
 ])
 def test_scene_nominal_file_bad_input(tmp_path, edit, key) -> None:
-    from cam_metrology.nominal_file import law_gauge_text
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.report.nominal_file import law_gauge_text
+    from cam_metrology.scene.parse import load_scene
 
     (tmp_path / 'files').mkdir()
     (tmp_path / 'files' / 'lobe.txt').write_text(law_gauge_text(from_spec(SPEC), 0.5, 0.0))

@@ -13,7 +13,7 @@ import yaml
 from cam_design.errors import InputError
 from cam_metrology.dynamics.core import (MOTION, PROFILE, RESULT, DynamicsCore,
                                          law_from_profile)
-from cam_metrology.outputs import StatusOutput, TableOutput
+from cam_metrology.cores.outputs import StatusOutput, TableOutput
 
 REPO = Path(__file__).resolve().parent.parent
 SCENE = (REPO / 'config' / 'default_scene.yaml').read_text()

@@ -346,7 +346,7 @@ def test_node_runs_a_full_revolution_lobe_like_the_cli(tmp_path: Path) -> None:
     from types import SimpleNamespace as NS
 
     from cam_metrology.dynamics.core import DynamicsCore
-    from cam_metrology.outputs import OK, WARN, StatusOutput
+    from cam_metrology.cores.outputs import OK, WARN, StatusOutput
 
     e = 4.0e-3
     a = np.linspace(-math.pi, math.pi, 25)

@@ -1,7 +1,7 @@
 """Faults a bench meets: hostile YAML, a full or read-only disk, outputs in the way,
 names from input used as file names, Ctrl-C in the middle of a run.
 
-Each class has one promise (README, "Reliability"): one line naming the option or key,
+Each class has one promise (docs/reliability.md): one line naming the option or key,
 exit 2, and no output file that looks complete but is not.
 """
 from __future__ import annotations
@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from cam_design.errors import InputError
-from cam_metrology.files import atomic_dir, safe_name, write_output
-from cam_metrology.yaml_input import load_yaml
+from cam_metrology.inputs.files import atomic_dir, safe_name, write_output
+from cam_metrology.inputs.yaml_input import load_yaml
 
 REPO = Path(__file__).resolve().parent.parent
 CLI = [sys.executable, '-m', 'cam_metrology']

@@ -1,10 +1,10 @@
-"""cam_metrology.files.read_text_file: one-line errors for the user's text files."""
+"""cam_metrology.inputs.files.read_text_file: one-line errors for the user's text files."""
 from __future__ import annotations
 
 import pytest
 
 from cam_design.errors import InputError
-from cam_metrology.files import read_text_file
+from cam_metrology.inputs.files import read_text_file
 
 
 def test_reads_utf8_text(tmp_path) -> None:

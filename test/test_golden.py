@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from cam_metrology.cli import main
-from cam_metrology.golden import assert_report_matches, compare_reports, golden_of
+from cam_metrology.report.golden import assert_report_matches, compare_reports, golden_of
 
 pytest_plugins = ['pytester']
 
@@ -126,7 +126,7 @@ def test_golden_command_round_trip(tmp_path: Path, capsys: pytest.CaptureFixture
     assert len(gold['features']) == 5 and 'provenance' not in gold
     assert main(['golden', str(BAG), str(out)]) == 2              # refuses to overwrite
     assert 'or --force' in capsys.readouterr().err
-    from cam_metrology.offline import analyze_report
+    from cam_metrology.offline.analyze import analyze_report
     assert_report_matches(analyze_report(BAG), gold, angle_tol_arcsec=0.01, lift_tol_um=1e-3)
 
 
@@ -142,7 +142,7 @@ def test_golden_command_bad_out(tmp_path: Path, out: str, expected: str,
 USER_TEST = '''
 import json
 from pathlib import Path
-from cam_metrology.golden import assert_report_matches
+from cam_metrology.golden import assert_report_matches   # the documented path
 
 def test_lobes_ok(cam_bench_report):
     for fid, f in cam_bench_report['features'].items():
@@ -171,6 +171,16 @@ def test_plugin_runs_user_tests_over_bags(pytester: pytest.Pytester, user_projec
     result = pytester.runpytest_subprocess('--cam-bench-bags', str(user_project), '-v')
     result.assert_outcomes(passed=2)
     result.stdout.fnmatch_lines(['*test_lobes_ok?part_001? PASSED*'])
+
+
+def test_plugin_by_its_module_path_without_autoload(pytester: pytest.Pytester,
+                                                     user_project: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """``-p cam_metrology.pytest_plugin`` (the module path users name) still loads it."""
+    monkeypatch.setenv('PYTEST_DISABLE_PLUGIN_AUTOLOAD', '1')
+    result = pytester.runpytest_subprocess('-p', 'cam_metrology.pytest_plugin',
+                                           '--cam-bench-bags', str(user_project))
+    result.assert_outcomes(passed=2)
 
 
 def test_plugin_failure_shows_the_difference(pytester: pytest.Pytester,

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from cam_metrology.golden import assert_report_matches
+from cam_metrology.report.golden import assert_report_matches
 
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 NAMES = sorted(p.stem for p in (BAGS / 'golden').glob('*.json'))

@@ -151,7 +151,7 @@ def test_cli_table_several_radii(cam_file: Path, capsys: pytest.CaptureFixture) 
 
 def test_cli_table_scene_and_machine(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     """A scene lobe (its lift, follower and base circle) with the section from --machine."""
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     repo = Path(__file__).resolve().parent.parent
     machine = tmp_path / 'machine.yaml'
@@ -639,8 +639,8 @@ def test_end_to_end_simulate_analyze_correct() -> None:
     from cam_design.lift_laws import TabulatedLift
     from cam_metrology.metrology.analysis import Settings, analyze_lobe, seen_lift
     from cam_metrology.metrology.features import clean_feature
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, simulate
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, simulate
 
     scene = load_scene(Path(__file__).resolve().parent.parent / 'config' /
                        'default_scene.yaml')
@@ -732,8 +732,8 @@ def test_cli_correct_reads_a_measurement_bag(tmp_path: Path, capsys) -> None:
 
     from cam_design.grinding.machining_error import GroundCam, MachineErrors
     from cam_design.lift_laws import TabulatedLift
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     scene_path = Path(__file__).resolve().parent.parent / 'config' / 'default_scene.yaml'
     scene = load_scene(scene_path)

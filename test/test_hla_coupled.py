@@ -140,7 +140,7 @@ def test_scene_hla_reports_pump_up_in_json_and_human_output(tmp_path, capsys) ->
     (('revolutions: 3', 'chamber_volume: -1.0e-7'), 'valve_train.hla.chamber_volume'),
 ])
 def test_bad_hla_block_names_the_key(tmp_path, edit, key) -> None:
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     with pytest.raises(InputError) as err:
         load_scene(_scene(tmp_path, HLA_BLOCK.replace(*edit)))
@@ -148,7 +148,7 @@ def test_bad_hla_block_names_the_key(tmp_path, edit, key) -> None:
 
 
 def test_hla_refused_with_the_hard_seat_and_the_hydraulic_model(tmp_path) -> None:
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     hard = HLA_BLOCK + '  seat: {restitution: 0.3}\n'
     text = _scene(tmp_path, hard).read_text()

@@ -15,7 +15,7 @@ import pytest
 from cam_design.errors import InputError
 from cam_design.hydraulic.run import hydraulic_params, run_hydraulic
 from cam_design.lift_laws import from_spec
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.scene.parse import parse_scene
 
 REPO = Path(__file__).resolve().parent.parent
 LAW = from_spec({'family': 'preset', 'name': 'flat_tappet_intake'}, 'lobe')

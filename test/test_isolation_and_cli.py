@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from cam_metrology import isolation
+from cam_metrology.host import isolation
 from cam_metrology.cli import main
 
 
@@ -15,7 +15,7 @@ def test_claim_is_exclusive_across_processes() -> None:
     mine = isolation.claim_domain()
     assert 1 <= mine <= 100
     assert isolation.claim_domain() == mine   # idempotent
-    code = ('from cam_metrology import isolation; '
+    code = ('from cam_metrology.host import isolation; '
             f'print(isolation.claim_domain(lo={mine}, hi={mine}))')
     proc = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                           timeout=60)

@@ -131,13 +131,13 @@ lobes:
 
 
 def _scene(extra: str):
-    from cam_metrology.scene_parse import parse_scene
+    from cam_metrology.scene.parse import parse_scene
 
     return parse_scene(BASE + extra)
 
 
 def test_scene_role_must_be_intake_or_exhaust():
-    from cam_metrology.scene_parse import parse_scene
+    from cam_metrology.scene.parse import parse_scene
 
     with pytest.raises(InputError) as exc:
         parse_scene(BASE.replace('role: intake', 'role: inlet'))
@@ -192,8 +192,8 @@ def test_analyze_keyway_camshaft_end_to_end(tmp_path):
     """The example keyway scene simulated with noise and run-out: the keyway centre and
     the lobes' phases (against the keyway) within 4 reported sigma of the truth."""
     from cam_metrology.cli import main
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     bag = tmp_path / 'kw'
     run = write_sim_bag(bag, load_scene(REPO / 'config' / 'keyway_scene.yaml'),

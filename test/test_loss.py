@@ -1,4 +1,4 @@
-"""cam_metrology.loss: lost-sample accounting from sequence numbers (no rclpy).
+"""cam_metrology.wire.loss: lost-sample accounting from sequence numbers (no rclpy).
 
 Truth is constructed: a writer numbers 1..N, a known set is removed (the holes a
 keep-last history makes), and the counts must equal the removed set exactly.
@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cam_metrology.loss import ERROR, OK, WARN, FeatureLoss, SequenceLoss, loss_status
+from cam_metrology.wire.loss import ERROR, OK, WARN, FeatureLoss, SequenceLoss, loss_status
 
 
 def test_no_loss_in_batches_is_ok() -> None:
@@ -98,8 +98,8 @@ def test_feature_attribution_and_status_message() -> None:
 def test_split_feature_and_marking() -> None:
     import json
 
-    from cam_metrology.loss import mark_partial
-    from cam_metrology.outputs import Status, StatusOutput, TextOutput
+    from cam_metrology.wire.loss import mark_partial
+    from cam_metrology.cores.outputs import Status, StatusOutput, TextOutput
 
     acc, feats = SequenceLoss('/bench/joint_states'), FeatureLoss()
     feats.add(['lobe_1'] * 50, acc.add(range(1, 51)))

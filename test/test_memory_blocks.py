@@ -142,8 +142,8 @@ def test_out_bag_written_during_the_replay_reads_back_as_the_one_written_after(t
     from pathlib import Path
 
     from cam_metrology import bagio
-    from cam_metrology.offline import analyze_bag, make_cores
-    from cam_metrology.replay import run_offline, write_outputs
+    from cam_metrology.offline.analyze import analyze_bag, make_cores
+    from cam_metrology.offline.replay import run_offline, write_outputs
     from cam_metrology.wire.topics import METROLOGY_REPORT
 
     bag = Path(__file__).resolve().parents[1] / 'bags' / 'default_clean'
@@ -224,7 +224,7 @@ def test_analysis_without_plot_tables_gives_the_same_report() -> None:
     import json
     from pathlib import Path
 
-    from cam_metrology.offline import analyze_bag
+    from cam_metrology.offline.analyze import analyze_bag
 
     bag = str(Path(__file__).resolve().parent.parent / 'bags' / 'irregular')
     with_tables = analyze_bag(bag, plot_tables=True)

@@ -9,15 +9,15 @@ import pytest
 
 from cam_metrology.cli import main
 
-pytest.importorskip('cam_metrology.simulate')
+pytest.importorskip('cam_metrology.simulation.bench')
 
 
 @pytest.fixture(scope='module')
 def sim_bag(tmp_path_factory):
     """The default scene simulated at 720 samples/rev, noise-free, wrapped angles."""
-    from cam_metrology.paths import default_scene_path
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.host.paths import default_scene_path
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     path = tmp_path_factory.mktemp('bags') / 'sim'
     run = write_sim_bag(path, load_scene(default_scene_path()),
@@ -114,10 +114,10 @@ def test_analyze_noisy_bag_with_runout_and_encoder_noise(tmp_path):
     """Probe noise, encoder noise and run-out: errors within 4 reported sigma (+ bias
     of the unmodelled run-out, checked with fit_runout)."""
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.paths import default_scene_path
-    from cam_metrology.replay import run_offline
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.host.paths import default_scene_path
+    from cam_metrology.offline.replay import run_offline
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     bag = tmp_path / 'noisy'
     run = write_sim_bag(bag, load_scene(default_scene_path()),

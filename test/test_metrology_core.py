@@ -13,8 +13,8 @@ from cam_design.errors import InputError
 from cam_metrology.bagio import LightJointState
 from cam_metrology.metrology.core import LIFT, REPORT, RESULT, MetrologyCore
 from cam_metrology.metrology.synthetic import PolynomialRampCam, sample_lobe, sample_pin
-from cam_metrology.outputs import ERROR, OK, StatusOutput, TableOutput, TextOutput
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.cores.outputs import ERROR, OK, StatusOutput, TableOutput, TextOutput
+from cam_metrology.scene.parse import parse_scene
 
 CAM = PolynomialRampCam(rise=7e-3, half_angle=np.radians(55))
 PIN = DowelPinGeometry(2.5e-3, 11.5e-3, 2.0e-3)
@@ -253,7 +253,7 @@ def test_invalid_scene_is_reported():
 def test_default_scene_roller_probe_flat_design():
     """The embedded default scene (flat-tappet lobes, 12.5 mm roller probe)."""
     from cam_metrology.metrology.analysis import seen_lift
-    from cam_metrology.paths import default_scene_path
+    from cam_metrology.host.paths import default_scene_path
     try:
         scene = parse_scene(default_scene_path().read_text())
     except (InputError, FileNotFoundError) as exc:

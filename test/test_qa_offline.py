@@ -116,7 +116,7 @@ def test_reader_on_a_yaml_file_raises_input_error():
 # --- #19: --out-bag checked before the analysis -------------------------------------
 
 def test_out_bag_existing_fails_before_the_replay(tmp_path, capsys, monkeypatch):
-    from cam_metrology import offline
+    from cam_metrology.offline import analyze as offline
 
     calls = []
     monkeypatch.setattr(offline, 'replay', lambda *a, **k: calls.append(a))
@@ -154,8 +154,8 @@ def test_simulate_errors_name_the_option(tmp_path, capsys, option, value, expect
 def fixture_tables():
     """The /metrology/lift tables and the report of the clean fixture bag."""
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.outputs import TableOutput
-    from cam_metrology.replay import run_offline
+    from cam_metrology.cores.outputs import TableOutput
+    from cam_metrology.offline.replay import run_offline
 
     result = run_offline(CLEAN, [MetrologyCore()])
     tables = {o.output.label: o.output.data for o in result.outputs
@@ -180,7 +180,7 @@ def test_plot_legend_hides_no_data_and_x_label(fixture_tables, label, xlabel):
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from cam_metrology.plots import lift_figure
+    from cam_metrology.report.plots import lift_figure
 
     tables, report = fixture_tables
     fig = lift_figure(label, tables[label], report['features'][label])
@@ -242,7 +242,7 @@ def test_analyze_and_run_read_parameter_files_alike(tmp_path, config_dir):
     """`analyze --params` and `run --params` share one reader (rcl's YAML typing): the
     shipped files and a YAML-1.1 exponent without a dot give the same values to both."""
     from cam_metrology.cli.analyze import load_params
-    from cam_metrology.params import read_params_file
+    from cam_metrology.inputs.params import read_params_file
     for node in ('metrology', 'reconstruction', 'dynamics'):
         path = config_dir / f'{node}.yaml'
         assert load_params(str(path))[node] == read_params_file(path, node)

@@ -10,11 +10,11 @@ import yaml
 
 from cam_design.errors import InputError
 from cam_design.follower import convert_lift
-from cam_metrology.outputs import ERROR, OK, WARN, StatusOutput, TableOutput
+from cam_metrology.cores.outputs import ERROR, OK, WARN, StatusOutput, TableOutput
 from cam_metrology.reconstruction.core import PROFILE_COLUMNS, ReconstructionCore
 from cam_metrology.reconstruction.synthetic import simulate
-from cam_metrology.registry import load_core_class
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.offline.registry import load_core_class
+from cam_metrology.scene.parse import parse_scene
 
 REPO = Path(__file__).resolve().parent.parent
 SCENE_TEXT = (REPO / 'config' / 'default_scene.yaml').read_text()

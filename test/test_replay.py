@@ -6,8 +6,8 @@ import pytest
 
 from cam_design.errors import InputError
 from cam_metrology import bagio
-from cam_metrology.outputs import OK, Status, StatusOutput, TableOutput, TextOutput
-from cam_metrology.replay import order_cores, run_offline, write_outputs
+from cam_metrology.cores.outputs import OK, Status, StatusOutput, TableOutput, TextOutput
+from cam_metrology.offline.replay import order_cores, run_offline, write_outputs
 
 JS = bagio.JOINT_STATES
 LIFT = '/metrology/lift'

@@ -22,8 +22,8 @@ from cam_metrology.cli import main
 @pytest.fixture(scope='module')
 def analysed(tmp_path_factory):
     """A bag of a part with a 0.3 % form error against tolerances, analysed once."""
-    from cam_metrology.scene_parse import parse_scene
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.scene.parse import parse_scene
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     with open('config/default_scene.yaml', encoding='utf-8') as f:
         doc = yaml.safe_load(f)
@@ -137,8 +137,8 @@ def test_velocity_acceleration_plot_scaled_to_the_measured_curve() -> None:
     import numpy as np
 
     from cam_design.lift_laws.registry import from_spec
-    from cam_metrology.html_report import html_report
-    from cam_metrology.plots import derivative_figure
+    from cam_metrology.report.html_report import html_report
+    from cam_metrology.report.plots import derivative_figure
 
     law = from_spec({'family': 'constant_acceleration', 'ramp': 'none', 'rise': 8e-3,
                      'half_angle': math.radians(60), 'positive_width': math.radians(20)})

@@ -28,7 +28,7 @@ COUNTS = 3600                                        # encoder counts per revolu
 
 def scene_with(**rig):
     """The rig scene with its rig block changed (None removes a key)."""
-    from cam_metrology.scene_parse import parse_scene
+    from cam_metrology.scene.parse import parse_scene
 
     doc = yaml.safe_load(SCENE.read_text())
     doc['rig'].pop('true_valve_train')
@@ -42,7 +42,7 @@ def scene_with(**rig):
 
 @pytest.fixture(scope='module')
 def law():
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
     return load_scene(SCENE).lobe('lobe_1').lift
 
 
@@ -120,7 +120,7 @@ def test_fitted_nose_angle(reference):
     scene = scene_with(nose_angle_deg=None)
     doc = yaml.safe_load(scene.text)
     doc['valve_train'].update(stiffness=TRUE.stiffness, damping=TRUE.damping)
-    from cam_metrology.scene_parse import parse_scene
+    from cam_metrology.scene.parse import parse_scene
     scene = parse_scene(yaml.safe_dump(doc))
     runs = [measured(reference(rpm), 5 + i) for i, rpm in enumerate((900, 1510))]
     res = analyze(scene, runs, jump=False).result

@@ -23,7 +23,7 @@ def runs(tmp_path_factory):
     test_rig.py against the independent solver) as CSV files and as one bag."""
     from cam_metrology.rig.bag import write_rig_bag
     from cam_metrology.rig.simulate import RigNoise, simulate_scene_runs
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     folder = tmp_path_factory.mktemp('rig')
     scene = load_scene(SCENE)
@@ -78,7 +78,7 @@ def test_analyze_csv_and_bag_agree(runs, tmp_path, capsys):
 def test_calibrate_scene_out(runs, tmp_path, capsys):
     """calibrate writes the JSON of the contract and a scene with the calibrated values
     that parses again."""
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     _, paths = runs
     out, scene_out = tmp_path / 'c.json', tmp_path / 'cal.yaml'
@@ -135,7 +135,7 @@ def test_bad_speed_changes_too_much(tmp_path, capsys):
     """A run whose speed ramps by 20 %: refused, naming the run, the speed range and
     what to do."""
     from cam_metrology.rig.simulate import RigNoise, simulate_run
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     scene = load_scene(SCENE)
     r = simulate_run(scene.lobe('lobe_1').lift, scene.valve_train, 1200, nose=2.0,
@@ -192,11 +192,11 @@ def test_rig_core_replays_a_bag_like_the_cli(runs):
     """The rig node's core fed the bag's messages in order (the live code path) gives
     the runs of `rig analyze BAG`: statuses on /rig/result, tables on /rig/valve_motion."""
     from cam_metrology.bagio import iter_messages
-    from cam_metrology.outputs import StatusOutput, TableOutput
+    from cam_metrology.cores.outputs import StatusOutput, TableOutput
     from cam_metrology.rig.core import MOTION_COLUMNS, RigCore
     from cam_metrology.rig.session import analyze
     from cam_metrology.rig.runs import read_bag_runs
-    from cam_metrology.scene_parse import parse_scene
+    from cam_metrology.scene.parse import parse_scene
     from cam_metrology.wire.topics import RIG_JOINT_STATES, RIG_MOTION, RIG_RESULT, SCENE
 
     folder, _ = runs

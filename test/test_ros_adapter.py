@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cam_metrology.outputs import ERROR, OK, Status, StatusOutput, TableOutput, TextOutput
+from cam_metrology.cores.outputs import ERROR, OK, Status, StatusOutput, TableOutput, TextOutput
 
 pytestmark = pytest.mark.ros
 

@@ -22,7 +22,7 @@ def _must_not_run(*_args: Any, **_kwargs: Any) -> Any:
 @pytest.fixture()
 def no_ros(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every entry point that would init rclpy, claim a domain or spawn a child fails."""
-    import cam_metrology.isolation as isolation
+    import cam_metrology.host.isolation as isolation
     import cam_metrology.nodes.adapter as adapter
     import cam_metrology.nodes.demo as demo
     import cam_metrology.nodes.runtime as runtime
@@ -102,7 +102,7 @@ def test_run_params_file_malformed_or_mistyped(no_ros: None, tmp_path: Path,
 
 def test_default_parameter_files_pass(config_dir: Path) -> None:
     from cam_metrology.nodes import NODES, NODE_NAMES, parameter_table, validate_parameters
-    from cam_metrology.params import read_params_file
+    from cam_metrology.inputs.params import read_params_file
 
     for name in NODES:
         path = config_dir / f'{NODE_NAMES[name]}.yaml'
@@ -116,7 +116,7 @@ def test_default_parameter_files_pass(config_dir: Path) -> None:
 
 
 def test_parameter_type_messages() -> None:
-    from cam_metrology.params import check_value, expected_type
+    from cam_metrology.inputs.params import check_value, expected_type
 
     assert expected_type(3) == 'an integer'
     assert expected_type(True) == 'true or false'

@@ -25,7 +25,7 @@ CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:
 def test_demo_end_to_end(ros_domain: int, tmp_path: Path, config_dir: Path) -> None:
     from rosbags.highlevel import AnyReader
 
-    from cam_metrology.registry import available_cores
+    from cam_metrology.offline.registry import available_cores
 
     scene = short_scene(config_dir, tmp_path / 'scene.yaml')
     bag, other = tmp_path / 'demo_bag', tmp_path / 'other_bag'

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cam_metrology.outputs import OK, Status, StatusOutput, TextOutput
+from cam_metrology.cores.outputs import OK, Status, StatusOutput, TextOutput
 
 pytestmark = pytest.mark.ros
 

@@ -35,7 +35,7 @@ def test_rig_live_recorded_and_analysed(ros_domain: int, tmp_path: Path) -> None
     from cam_metrology.nodes.runtime import RosProcess
     from cam_metrology.nodes.topics import profile
     from cam_metrology.rig.simulate import RigNoise, simulate_scene_runs
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
     from cam_metrology.wire.topics import RIG_JOINT_STATES, RIG_RESULT, SCENE, TOPICS
 
     scene = load_scene(ROOT / 'config' / 'rig_scene.yaml')

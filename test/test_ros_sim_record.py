@@ -39,8 +39,8 @@ def test_sim_to_recorder_bag_equals_simulation(ros_domain: int, tmp_path: Path,
     from cam_metrology.nodes.bench_sim import truth_json
     from cam_metrology.nodes.recorder import RecorderNode
     from cam_metrology.nodes.runtime import RosProcess
-    from cam_metrology.scene_parse import load_scene
-    from cam_metrology.simulate import SimParams, simulate
+    from cam_metrology.scene.parse import load_scene
+    from cam_metrology.simulation.bench import SimParams, simulate
 
     scene_file = short_scene(config_dir, tmp_path / 'scene.yaml')
     params = tmp_path / 'sim.yaml'
@@ -98,7 +98,7 @@ def test_sim_to_recorder_bag_equals_simulation(ros_domain: int, tmp_path: Path,
     assert done[0] == 2 + 1800 and done[1] == len(order) - 1
     # one QoS per topic: the recorder stores what simulate and the bag writer store,
     # the wire table's (transient local scene and truth, keep last 1000 samples, ...)
-    from cam_metrology.simulate import write_sim_bag
+    from cam_metrology.simulation.bench import write_sim_bag
     from cam_metrology.wire.topics import BENCH_TOPICS, qos_of
     write_sim_bag(tmp_path / 'offline', load_scene(scene_file), SimParams(**SIM))
     recorded, offline = bagio.topic_qos_yaml(bag), bagio.topic_qos_yaml(tmp_path / 'offline')

@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 from cam_design.errors import InputError
-from cam_metrology.scene_parse import load_scene, parse_scene
+from cam_metrology.scene.parse import load_scene, parse_scene
 
 
 def _table(n: int = 41, lift: float = 4e-3, half: float = 1.5) -> dict:
@@ -414,7 +414,7 @@ def test_lift_law_not_a_mapping():
 
 
 def test_lift_law_without_registry(monkeypatch):
-    import cam_metrology.scene_parse as sp
+    import cam_metrology.scene.parse as sp
 
     monkeypatch.setattr(sp, '_registry', lambda: None)
 

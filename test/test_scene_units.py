@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from cam_metrology.cli import main
-from cam_metrology.paths import default_scene_path
+from cam_metrology.host.paths import default_scene_path
 
 
 def _scene(tmp_path: Path, edit) -> Path:

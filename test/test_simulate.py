@@ -12,10 +12,10 @@ from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.errors import InputError
 from cam_design.follower import Follower
 from cam_metrology import bagio
-from cam_metrology.scene_parse import load_scene, parse_scene
-from cam_metrology.simulate import (DOWEL_PIN, SimParams, iter_joint_state_messages,
-                                    probe_lift, scene_with_direction, simulate,
-                                    write_sim_bag)
+from cam_metrology.scene.parse import load_scene, parse_scene
+from cam_metrology.simulation.bench import (DOWEL_PIN, SimParams, iter_joint_state_messages,
+                                            probe_lift, scene_with_direction, simulate,
+                                            write_sim_bag)
 
 DEG = math.pi / 180.0
 
@@ -341,8 +341,8 @@ def test_cli_simulate_rounds_repeats_every_feature(tmp_path, capsys):
     js = bagio.read_joint_states(out)
     assert len(js) == 3 * 5 * 360
     done = [str(m.msg.data) for m in bagio.iter_messages(out, ['/bench/feature_done'])]
-    from cam_metrology.paths import default_scene_path
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.host.paths import default_scene_path
+    from cam_metrology.scene.parse import load_scene
     scene = load_scene(default_scene_path())
     ids = [lobe.id for lobe in scene.lobes] + [scene.datum_id]
     assert len(ids) == 5 and done == ids * 3

@@ -1,6 +1,6 @@
 """Streamed reading of bags: blocks of samples equal the whole-bag read, reports equal
 the whole-bag analysis, and the peak memory of an analysis does not grow with a bag
-of repeated measurements (docs/contract.md §4, README known limits)."""
+of repeated measurements (docs/contract.md §4, docs/limits.md)."""
 from __future__ import annotations
 
 import json
@@ -15,10 +15,10 @@ import pytest
 from cam_design.errors import InputError
 from cam_metrology import bagio
 from cam_metrology.metrology.core import MetrologyCore
-from cam_metrology.paths import default_scene_path
-from cam_metrology.replay import run_offline
-from cam_metrology.scene_parse import load_scene
-from cam_metrology.simulate import SimParams, write_sim_bag
+from cam_metrology.host.paths import default_scene_path
+from cam_metrology.offline.replay import run_offline
+from cam_metrology.scene.parse import load_scene
+from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
 REPO = Path(__file__).resolve().parent.parent
 BAGS = sorted(p.parent for p in (REPO / 'bags').glob('*/metadata.yaml'))
@@ -182,7 +182,7 @@ _CHILD = '''
 import json, sys
 from cam_metrology import bagio
 from cam_metrology.metrology.core import MetrologyCore
-from cam_metrology.replay import run_offline
+from cam_metrology.offline.replay import run_offline
 def status_mb(key):
     with open('/proc/self/status') as f:
         return next(int(l.split()[1]) for l in f if l.startswith(key + ':')) / 1024

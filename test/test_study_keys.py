@@ -10,12 +10,12 @@ import pytest
 import yaml
 
 from cam_design.errors import InputError
-from cam_metrology.batch import analyse_bag, rows_of_report
+from cam_metrology.offline.batch import analyse_bag, rows_of_report
 from cam_metrology.cli import main
 from cam_metrology.cli.spc import grr_results
-from cam_metrology.paths import default_scene_path
+from cam_metrology.host.paths import default_scene_path
 from cam_metrology.quality.gauge_rr import gauge_rr
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.scene.parse import parse_scene
 
 
 def _scene_text(**study) -> str:

@@ -216,7 +216,7 @@ def test_scene_nominal_file_from_0_to_360_deg(tmp_path, decimal) -> None:
     degrees given?' for a file in degrees); 0..360 is wrapped. The lobe's card then has
     the closed-form durations 2 beta/pi acos(2 y/L - 1)."""
     from cam_design.cam_card import card_from_law
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     (tmp_path / 'lobe.txt').write_text(_gauge_0_360(decimal), encoding='utf-8')
     (tmp_path / 's.yaml').write_text('probe: {kind: knife}\nbase_circle_radius: 0.02\n'
@@ -233,7 +233,7 @@ def test_scene_nominal_file_from_0_to_360_deg(tmp_path, decimal) -> None:
     ({'scale': 1000.0}, 'the values look like micrometres'),
 ])
 def test_scene_nominal_file_in_other_units_names_them(tmp_path, kwargs, words) -> None:
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     (tmp_path / 'lobe.txt').write_text(_gauge_0_360(**kwargs), encoding='utf-8')
     (tmp_path / 's.yaml').write_text('probe: {kind: knife}\nbase_circle_radius: 0.02\n'

@@ -14,8 +14,8 @@ from cam_design.errors import InputError
 from cam_design.lift_laws.registry import from_spec
 from cam_metrology.metrology.tolerances import (FAIL, NOT_CHECKED, PASS, check, judge_datum,
                                                 judge_lobe, judge_part)
-from cam_metrology.scene import Tolerances, ToleranceZone
-from cam_metrology.scene_parse import parse_scene
+from cam_metrology.scene.model import Tolerances, ToleranceZone
+from cam_metrology.scene.parse import parse_scene
 
 DEG = math.pi / 180.0
 # constant-acceleration lobe without ramps: H = 8 mm, alpha0 = 60 deg, phi1 = 20 deg
@@ -247,7 +247,7 @@ def test_part_verdict_combines_features() -> None:
 # ------------------------------------------------------- analyze on simulated bags
 @pytest.fixture(scope='module')
 def bags(tmp_path_factory):
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     doc = _scene_doc()
     doc['tolerances'] = {'lift_error_um': 10, 'phase_deg': 0.6, 'datum_deg': 1.5,
@@ -389,7 +389,7 @@ def test_bag_violating_one_limit(tmp_path, capsys, name, tol, params, quantity, 
     limit to the estimator's exactness, and the check's margin is that small): analyze's
     verdict, exit status and the failing quantity follow."""
     from cam_metrology.cli import main
-    from cam_metrology.simulate import SimParams, write_sim_bag
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
 
     scene = _parse(_one_lobe_doc(tol))
     bag = tmp_path / 'bag'

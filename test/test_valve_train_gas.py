@@ -117,7 +117,7 @@ def test_scene_gas_block_runs_through_the_cli(tmp_path) -> None:
     (('pressure_pa: [2.0e5, ', 'pressure_pa: ['), 'valve_train.gas.pressure_pa'),
 ])
 def test_bad_gas_block_names_the_key(tmp_path, edit, key) -> None:
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     with pytest.raises(InputError) as err:
         load_scene(_scene(tmp_path, GAS_BLOCK.replace(*edit)))
@@ -125,7 +125,7 @@ def test_bad_gas_block_names_the_key(tmp_path, edit, key) -> None:
 
 
 def test_unknown_gas_key_is_a_warning_like_every_scene_key(tmp_path) -> None:
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     scene = load_scene(_scene(tmp_path, GAS_BLOCK.replace('  gas:\n', '  gas:\n    bore: 0.08\n')))
     assert any('valve_train.gas.bore' in w for w in scene.warnings)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from cam_design.errors import InputError
-from cam_metrology.outputs import OK, WARN, Status, StatusOutput, TableOutput, TextOutput
+from cam_metrology.cores.outputs import OK, WARN, Status, StatusOutput, TableOutput, TextOutput
 from cam_metrology.wire import cdr, layouts, plots, topics
 
 REPO = Path(__file__).resolve().parent.parent
@@ -176,7 +176,7 @@ def test_every_topic_has_one_qos_whoever_writes_the_bag(demo_bag: Path,
 
 def test_bags_are_zstd_by_default_and_plain_ones_read_too(demo_bag: Path) -> None:
     from cam_metrology import bagio
-    from cam_metrology.bagcheck import mcap_files
+    from cam_metrology.bagio.check import mcap_files
 
     def compressions(bag: Path) -> set[str]:
         from mcap.reader import make_reader

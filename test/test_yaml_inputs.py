@@ -10,7 +10,7 @@ import pytest
 
 from cam_design.errors import InputError
 from cam_metrology.cli import main
-from cam_metrology.yaml_input import load_yaml
+from cam_metrology.inputs.yaml_input import load_yaml
 
 CHECK = ('lift_law: {family: preset, name: flat_tappet_intake}\n'
          'base_radius: 0.0165\nrocker_ratio: 1.0\nlash: 0.0002\n')

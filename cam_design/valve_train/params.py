@@ -78,7 +78,7 @@ class SdofParams:
 
     @classmethod
     def from_valve_train(cls, vt: Any, key: str = 'valve_train') -> 'SdofParams':
-        """Build from a ``cam_metrology.scene.ValveTrain``-like object (duck-typed)."""
+        """Build from a ``cam_metrology.scene.model.ValveTrain``-like object (duck-typed)."""
         seat = getattr(vt, 'seat', None)
         return cls(mass=vt.mass, stiffness=vt.stiffness, damping=vt.damping,
                    spring_rate=vt.spring_rate, spring_preload=vt.spring_preload,

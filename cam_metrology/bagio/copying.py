@@ -115,8 +115,8 @@ def recover_bag(src: str | Path, dst: str | Path, *, compression: bool = False,
     torn tail are dropped and listed in the result's ``damaged``. Returns messages
     kept per topic.
     """
-    from cam_metrology.bagcheck import (iter_records, mcap_files, parse_channel,
-                                        parse_message, parse_schema, walk)
+    from cam_metrology.bagio.check import (iter_records, mcap_files, parse_channel,
+                                           parse_message, parse_schema, walk)
 
     source = Path(src)
     files = [source] if source.is_file() else mcap_files(source) if source.exists() else []

@@ -183,7 +183,7 @@ def _direct_mcap_files(bag: Path) -> tuple[Path, list[str]] | None:
     if bag.is_file():
         return bag.parent, [bag.name]
     try:
-        from cam_metrology.yaml_input import load_yaml
+        from cam_metrology.inputs.yaml_input import load_yaml
         info = load_yaml((bag / 'metadata.yaml').read_text(), 'metadata.yaml')[
             'rosbag2_bagfile_information']
     except (OSError, KeyError, TypeError, yaml.YAMLError, InputError):

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any, Iterator, NamedTuple, Sequence
 
 from cam_design.errors import InputError
-from cam_metrology.bagcheck import require_intact
+from cam_metrology.bagio.check import require_intact
 from cam_metrology.bagio.writer import _parse_qos
 from cam_metrology.wire.cdr import typestore
 

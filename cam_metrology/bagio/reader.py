@@ -75,7 +75,7 @@ class BagScene(NamedTuple):
 def bag_scenes(path: str | Path) -> list[BagScene]:
     """Every scene message of a bag in log-time order, parsed (the one place where a
     bag's scene is read: ``bag info`` and ``analyze`` use it)."""
-    from cam_metrology.scene_parse import parse_scene
+    from cam_metrology.scene.parse import parse_scene
 
     out = []
     for m in iter_messages(path, [SCENE_TOPIC]):

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from cam_design.errors import InputError
-from cam_metrology.outputs import Output
+from cam_metrology.cores.outputs import Output
 from cam_metrology.wire.cdr import typestore
 from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.topics import TOPIC_TYPES, default_qos_yaml
@@ -134,7 +134,7 @@ class BagWriter:
             self.closed = True
             self._writer.close()
             if not self._crc_inline:   # another rosbags: fill the CRCs after the fact
-                from cam_metrology.bagcheck import fill_chunk_crcs, mcap_files
+                from cam_metrology.bagio.check import fill_chunk_crcs, mcap_files
 
                 for path in mcap_files(self.path):
                     fill_chunk_crcs(path)

@@ -40,14 +40,14 @@ COMMAND_MODULES = (
 EPILOG = """\
 Units: SI in files and messages (m, rad, kg, N, s); reports add _deg, _um, _mm, _rpm
 fields. Bad input exits with code 2 and a message naming the key, the value and what
-was expected. See README.md for the topics, the scene file and the report schema."""
+was expected. See docs/contract.md for the topics and the report schema, docs/scene.md for the scene file."""
 
 
 class _Version(argparse.Action):
     """``--version``: the version and git commit (git is run only when asked)."""
 
     def __call__(self, parser: argparse.ArgumentParser, *_: object) -> None:
-        from cam_metrology.provenance import version_text
+        from cam_metrology.report.provenance import version_text
         print(version_text())
         parser.exit(0)
 

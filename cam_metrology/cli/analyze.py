@@ -15,9 +15,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cam_metrology.offline import (add_cards_and_provenance, analyze_bag,  # noqa: F401
-                                   bag_warnings, load_params)
-from cam_metrology.plots import lift_figure
+from cam_metrology.offline.analyze import (add_cards_and_provenance, analyze_bag,  # noqa: F401
+                                           bag_warnings, load_params)
+from cam_metrology.report.plots import lift_figure
 from cam_metrology.wire.topics import JOINT_STATES as JOINT_TOPIC
 from cam_metrology.wire.topics import METROLOGY_LIFT as LIFT_TOPIC
 
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from cam_metrology.cli.card import heights_from
 
     if args.out_bag:   # written during the replay: complete or not there at all
-        from cam_metrology.files import atomic_dir
+        from cam_metrology.inputs.files import atomic_dir
         with atomic_dir(args.out_bag, '--out-bag') as tmp:
             run_ = analyze_bag(args.bag, args.params, only_metrology=args.only_metrology,
                                heights=heights_from(args), out_bag=str(tmp),
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     for line in run_.warnings:
         print(f'cam-bench analyze: warning: {line}', file=sys.stderr)
     if args.json:
-        from cam_metrology.files import write_output
+        from cam_metrology.inputs.files import write_output
         write_output(args.json, json.dumps(report, indent=1) + '\n', '--json')
     else:
         print(human_report(report))
@@ -79,13 +79,13 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         write_plots(outputs, Path(args.plot), report)
     if args.report:
-        from cam_metrology.files import write_output
-        from cam_metrology.html_report import html_report
+        from cam_metrology.inputs.files import write_output
+        from cam_metrology.report.html_report import html_report
         write_output(args.report, html_report(report, tables, profiles(outputs),
                                               getattr(metrology, '_design', {})), '--report')
     if args.csv:
-        from cam_metrology.files import write_output
-        from cam_metrology.html_report import csv_text
+        from cam_metrology.inputs.files import write_output
+        from cam_metrology.report.html_report import csv_text
         write_output(args.csv, csv_text(report), '--csv')
     if not any(f.get('status') == 'ok' for f in report.get('features', {}).values()):
         print(f'cam-bench analyze: error: nothing was measured in {args.bag}: no feature '
@@ -100,7 +100,7 @@ def profiles(outputs: list[tuple[int, Any]]) -> dict[str, tuple[Any, Any]]:
     by the probe (label ``<id>/<method>/probe`` when the design follower differs from
     the probe, else ``<id>/<method>``): the velocity and acceleration of the HTML
     report, drawn beside the design as seen by the probe."""
-    from cam_metrology.outputs import TableOutput
+    from cam_metrology.cores.outputs import TableOutput
 
     probe: dict[str, tuple[Any, Any]] = {}
     plain: dict[str, tuple[Any, Any]] = {}
@@ -115,7 +115,7 @@ def profiles(outputs: list[tuple[int, Any]]) -> dict[str, tuple[Any, Any]]:
 def core_summaries(outputs: list[tuple[int, Any]]) -> list[str]:
     """One line per other core (reconstruction, dynamics): each result's name and level
     (with its message when not OK), so what ``analyze`` computed is shown, not hidden."""
-    from cam_metrology.outputs import StatusOutput
+    from cam_metrology.cores.outputs import StatusOutput
 
     levels = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
     found: dict[str, list[str]] = {}
@@ -188,7 +188,7 @@ def human_report(report: dict[str, Any]) -> str:
                      f"{_fmt(f.get('asymmetry_deg'), '10.5f')}{_fmt(rms, '12.3f')}  {status}")
     for item in report.get('skipped', []):
         lines.append(f"skipped {item['what']}: {item['why']}")
-    from cam_metrology.html_report import card_lines
+    from cam_metrology.report.html_report import card_lines
     from cam_metrology.metrology.tolerances import verdict_lines
     return '\n'.join(verdict_lines(report) + lines + card_lines(report))
 
@@ -199,9 +199,9 @@ def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, 
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from cam_metrology.outputs import TableOutput
+    from cam_metrology.cores.outputs import TableOutput
 
-    from cam_metrology.files import output_dir, safe_name, save_figure
+    from cam_metrology.inputs.files import output_dir, safe_name, save_figure
 
     from cam_metrology.metrology.lift_error import feature_referenced
 

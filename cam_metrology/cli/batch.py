@@ -36,7 +36,7 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Handler: 0 when every bag was analysed, 1 when some failed, 2 for bad input."""
     from cam_design.errors import InputError
-    from cam_metrology.batch import find_bags, run_batch
+    from cam_metrology.offline.batch import find_bags, run_batch
 
     out = Path(args.out)
     if out.is_dir() or not out.parent.is_dir():

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from cam_design.cam_card import DEFAULT_HEIGHTS_M
-from cam_metrology.acceptance import both_crank_timings, crank_timing, measured_cards
+from cam_metrology.offline.acceptance import both_crank_timings, crank_timing, measured_cards
 
 
 def register(subparsers: Any) -> None:
@@ -99,7 +99,7 @@ def scene_cards(path: str, heights: tuple[float, ...], lobe: str | None
     """Design cards of a scene's lobes (design follower) and their nominal phases [deg]."""
     from cam_design.cam_card import card_from_law
     from cam_design.errors import InputError
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     scene = load_scene(path)
     ids = [lb.id for lb in scene.lobes]
@@ -120,7 +120,7 @@ def scene_cards(path: str, heights: tuple[float, ...], lobe: str | None
 def bag_cards(bag: str, heights: tuple[float, ...], lobe: str | None
               ) -> tuple[dict[str, Any], dict[str, float | None]]:
     """Measured vs nominal cards of a bag (metrology core only) and measured phases."""
-    from cam_metrology.offline import final_report, make_cores, replay
+    from cam_metrology.offline.analyze import final_report, make_cores, replay
 
     cores, _ = make_cores({}, True)
     result = replay(bag, cores)
@@ -147,8 +147,8 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_metrology.files import write_output
-    from cam_metrology.nominal_file import gauge_text, law_gauge_text
+    from cam_metrology.inputs.files import write_output
+    from cam_metrology.report.nominal_file import gauge_text, law_gauge_text
     from cam_metrology.reconstruction.samples import clean_samples
 
     ids = list(cards)
@@ -159,7 +159,7 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
     note = [f'from {args.input} ({kind}), lobe {lobe}; deg and mm']
     if kind == 'scene':
         from cam_metrology.metrology.analysis import seen_lift
-        from cam_metrology.scene_parse import load_scene
+        from cam_metrology.scene.parse import load_scene
 
         scene = load_scene(args.input)
         law = seen_lift(scene.lobe(lobe), scene.probe, scene.base_circle_radius,
@@ -285,7 +285,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError('--intake-centreline-deg', args.intake_centreline_deg,
                          'also --pair INTAKE,EXHAUST (the lobes it applies to)')
     if args.json:
-        from cam_metrology.files import write_output
+        from cam_metrology.inputs.files import write_output
         write_output(args.json, json.dumps(doc, indent=1) + '\n', '--json')
         return 0
     errors = {k: v['error'] for k, v in flat.items() if 'error' in v}

@@ -63,11 +63,11 @@ def load_yaml(path: str) -> Any:
     import yaml
 
     from cam_design.errors import InputError
-    from cam_metrology.files import read_text_file
+    from cam_metrology.inputs.files import read_text_file
 
     text = read_text_file(path, 'YAML file', key=path)
     try:
-        from cam_metrology.yaml_input import load_yaml, syntax_error_text
+        from cam_metrology.inputs.yaml_input import load_yaml, syntax_error_text
         return load_yaml(text, path)
     except yaml.YAMLError as exc:
         raise InputError(path, 'invalid YAML',
@@ -77,7 +77,7 @@ def load_yaml(path: str) -> Any:
 def write_text(target: str, text: str, key: str = 'output') -> None:
     """Write ``text`` to the file ``target`` (all or nothing), or to stdout for '-';
     errors name ``key`` (the option)."""
-    from cam_metrology.files import write_output
+    from cam_metrology.inputs.files import write_output
 
     write_output(target, text, key)
 
@@ -174,14 +174,14 @@ def write_nominal(args: argparse.Namespace, law: Any, key: str) -> None:
     """``--nominal``: the gauge file of the law; for a scene lobe, converted to the
     scene's probe (the gauge measures with it), else the law's own lift with probe
     radius 0 and a comment naming that."""
-    from cam_metrology.files import write_output
-    from cam_metrology.nominal_file import law_gauge_text
+    from cam_metrology.inputs.files import write_output
+    from cam_metrology.report.nominal_file import law_gauge_text
 
     doc = load_yaml(args.file)
     radius, notes = 0.0, [f'nominal lift of {args.file} ({key}), deg and mm']
     if isinstance(doc, dict) and isinstance(doc.get('lobes'), list) and 'probe' in doc:
         from cam_metrology.metrology.analysis import seen_lift
-        from cam_metrology.scene_parse import load_scene
+        from cam_metrology.scene.parse import load_scene
 
         scene = load_scene(args.file)
         lobe = scene.lobe(args.lobe) if args.lobe else scene.lobes[0]
@@ -210,7 +210,7 @@ def _plot(path: str, table: Any, title: str) -> None:
     axes[-1].set_xlabel('alpha [deg] (rise flank < 0)')
     axes[0].set_title(title)
     fig.tight_layout()
-    from cam_metrology.files import save_figure
+    from cam_metrology.inputs.files import save_figure
     try:
         save_figure(fig, path, '--plot', dpi=110)
     finally:

@@ -69,7 +69,7 @@ def _plot(folder: Path, res: Any, start_spec: dict[str, Any] | None,
 
     from cam_design.lift_laws import from_spec
 
-    from cam_metrology.files import output_dir, save_figure
+    from cam_metrology.inputs.files import output_dir, save_figure
     folder = output_dir(folder, '--plot')
     fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True, figsize=(8, 6.5))
     laws = [('optimum', from_spec(res.lift_law, 'optimum'), '-')]

@@ -102,7 +102,7 @@ def _scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
     """(lift law, design follower, base radius) of a lobe of the scene file ``args.file``:
     ``args.lobe``, else the first lobe (``args.lobe`` is then set to its id)."""
     from cam_design.errors import InputError
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     scene = load_scene(args.file)
     ids = [lobe.id for lobe in scene.lobes]
@@ -319,7 +319,7 @@ def _plot(path: str, prof: Any) -> None:
     ax3.set_xlabel('alpha [deg]')
     ax3.grid(True, alpha=0.3)
     fig.tight_layout()
-    from cam_metrology.files import save_figure
+    from cam_metrology.inputs.files import save_figure
     try:
         save_figure(fig, path, '--plot', dpi=110)
     finally:

@@ -122,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         from types import SimpleNamespace
 
-        from cam_metrology.scene_parse import load_scene
+        from cam_metrology.scene.parse import load_scene
 
         scene = load_scene(path)
         if args.feature is not None and args.feature not in [lb.id for lb in scene.lobes]:
@@ -138,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
     _write(result, args)
     if args.plot:
         from cam_design.valve_train.sweep import plot_runs
-        from cam_metrology.files import output_dir, safe_name
+        from cam_metrology.inputs.files import output_dir, safe_name
         folder = output_dir(args.plot, '--plot')
         for feature, runs in core.runs.items():
             if args.feature and feature != args.feature:
@@ -149,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
                 import matplotlib.pyplot as plt
 
                 from cam_design.hydraulic.plot import plot_pressures
-                from cam_metrology.files import save_figure
+                from cam_metrology.inputs.files import save_figure
                 fig = plot_pressures(hydraulic, title=f'{feature}: hydraulic valve gear')
                 save_figure(fig, folder / f'{safe_name(feature)}_pressure.png', '--plot',
                             dpi=110)
@@ -164,7 +164,7 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
     from cam_design.errors import InputError
     from cam_metrology.dynamics.core import compute_run, parse_speeds, rpm_label
     from cam_metrology.dynamics.tables import table_input
-    from cam_metrology.scene_parse import load_valve_train
+    from cam_metrology.scene.parse import load_valve_train
 
     if not args.valve_train:
         raise InputError('--valve-train', None, 'a scene or valve-train YAML with a TABLE '
@@ -215,8 +215,8 @@ def _scene_text(scene: Any, feature: str | None) -> str:
 
 def _replay(path: Path, core: Any) -> None:
     """Feed the bag through metrology -> reconstruction -> dynamics (what exists)."""
-    from cam_metrology.registry import available_cores
-    from cam_metrology.replay import run_offline
+    from cam_metrology.offline.registry import available_cores
+    from cam_metrology.offline.replay import run_offline
 
     cores = [cls() for name, cls in available_cores().items() if name != 'dynamics']
     run_offline(path, [*cores, core])
@@ -346,7 +346,7 @@ def _law_key(core: Any, feature: str) -> str:
 def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
     text = json.dumps(result, indent=1)
     if args.json:
-        from cam_metrology.files import write_output
+        from cam_metrology.inputs.files import write_output
         write_output(args.json, text + '\n', '--json')
     for feature, entry in result['features'].items():
         if 'note' in entry:         # stderr: seen also with --json -

@@ -2,8 +2,8 @@
 
 The golden file is the JSON report of ``cam-bench analyze BAG`` without the run's
 provenance; tests compare later runs with it within stated tolerances
-(``cam_metrology.golden.assert_report_matches``, or the pytest plugin's
-``cam_bench_analysis`` fixture: see the README, "pytest over your own bags").
+(``cam_metrology.report.golden.assert_report_matches``, or the pytest plugin's
+``cam_bench_analysis`` fixture: see docs/cli.md, "pytest over your own bags").
 """
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from cam_metrology.offline import analyze_report  # noqa: F401 (re-exported)
+from cam_metrology.offline.analyze import analyze_report  # noqa: F401 (re-exported)
 
 
 def register(subparsers: Any) -> None:
@@ -34,7 +34,7 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``cam-bench golden``: 0 when written, 2 for bad input."""
     from cam_design.errors import InputError
-    from cam_metrology.golden import golden_of
+    from cam_metrology.report.golden import golden_of
 
     out = Path(args.out)
     if out.exists() and not args.force:

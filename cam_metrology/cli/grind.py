@@ -371,7 +371,7 @@ def _measured_bag(bag: str, lobe: str | None, key: str = '--measured') -> tuple[
     of one lobe of a measurement bag, through the offline metrology (as ``analyze``)."""
     from cam_design.errors import InputError
     from cam_metrology.metrology.lift_error import feature_referenced
-    from cam_metrology.offline import make_cores, replay
+    from cam_metrology.offline.analyze import make_cores, replay
 
     cores, _ = make_cores({}, True)
     replay(bag, cores)
@@ -396,7 +396,7 @@ def _measured(path_text: str, key: str = '--measured',
 
     from cam_design.errors import InputError
     from cam_metrology.bagio import looks_like_bag
-    from cam_metrology.files import read_text_file
+    from cam_metrology.inputs.files import read_text_file
 
     if looks_like_bag(path_text):
         return _measured_bag(path_text, lobe, key)

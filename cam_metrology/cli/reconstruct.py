@@ -133,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     result = {'input': str(path), 'kind': kind, 'follower': follower,
               'features': features, 'skipped': skipped}
     if args.json:
-        from cam_metrology.files import write_output
+        from cam_metrology.inputs.files import write_output
         write_output(args.json, json.dumps(result, indent=1, allow_nan=False) + '\n',
                      '--json')
         if args.json != '-':
@@ -153,13 +153,13 @@ def run(args: argparse.Namespace) -> int:
 
 def write_nominal(core: Any, args: argparse.Namespace, follower: dict[str, Any]) -> None:
     """``--nominal``: the reconstructed lift (as seen by the measuring probe) as a gauge
-    nominal-profile file (cam_metrology.nominal_file); the gauge format knows a roller
+    nominal-profile file (cam_metrology.report.nominal_file); the gauge format knows a roller
     (its radius) or a point (radius 0), not a flat follower."""
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_metrology.files import write_output
-    from cam_metrology.nominal_file import gauge_text
+    from cam_metrology.inputs.files import write_output
+    from cam_metrology.report.nominal_file import gauge_text
 
     ids = [f for f in core.results if args.feature is None or f == args.feature]
     if len(ids) != 1:
@@ -252,7 +252,7 @@ def _bag(path: Path, core: Any) -> tuple[dict[str, Any], list[str]]:
     from cam_design.errors import InputError
     from cam_metrology.bagio import bag_topics
     from cam_metrology.metrology.core import MetrologyCore
-    from cam_metrology.replay import run_offline
+    from cam_metrology.offline.replay import run_offline
     from cam_metrology.wire.topics import (JOINT_STATES, METROLOGY_RESULT,
                                            RECONSTRUCTION_RESULT, SCENE)
 
@@ -275,7 +275,7 @@ def _bag(path: Path, core: Any) -> tuple[dict[str, Any], list[str]]:
 
 def _statuses(output: Any) -> list[dict[str, str]]:
     """name, level (OK/WARN/ERROR) and message of the statuses of a StatusOutput."""
-    from cam_metrology.outputs import ERROR, WARN
+    from cam_metrology.cores.outputs import ERROR, WARN
 
     names = {ERROR: 'ERROR', WARN: 'WARN'}
     return [{'name': s.name, 'level': names.get(s.level, 'OK'), 'message': s.message}
@@ -347,8 +347,8 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from cam_metrology.files import output_dir, safe_name, save_figure
-    from cam_metrology.plots import scale_to_curve
+    from cam_metrology.inputs.files import output_dir, safe_name, save_figure
+    from cam_metrology.report.plots import scale_to_curve
     from cam_metrology.reconstruction.profile import design_from_table
 
     folder = output_dir(folder, '--plot')

@@ -87,7 +87,7 @@ def register(subparsers: Any) -> None:
 def _scene_and_runs(args: argparse.Namespace) -> tuple[Any, list[Any]]:
     from cam_design.errors import InputError
     from cam_metrology.rig.runs import read_runs
-    from cam_metrology.scene_parse import load_scene, parse_scene
+    from cam_metrology.scene.parse import load_scene, parse_scene
 
     runs, bag_scene = read_runs(args.runs)
     if args.scene:
@@ -101,7 +101,7 @@ def _scene_and_runs(args: argparse.Namespace) -> tuple[Any, list[Any]]:
 
 
 def _emit(outcome: Any, args: argparse.Namespace, title: str) -> None:
-    from cam_metrology.files import write_output
+    from cam_metrology.inputs.files import write_output
 
     result = outcome.result
     text = json.dumps(result, indent=1, allow_nan=False)
@@ -141,7 +141,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     scene, runs = _scene_and_runs(args)
     outcome, fit = calibrate_runs(scene, runs, names, jump=not args.no_jump)
     if args.scene_out:
-        from cam_metrology.files import write_output
+        from cam_metrology.inputs.files import write_output
         from cam_metrology.rig.scene_out import calibrated_scene_text
         write_output(args.scene_out, calibrated_scene_text(scene.text, fit), '--scene-out')
     _emit(outcome, args, 'cam-bench rig calibrate')
@@ -152,7 +152,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     """Handler of ``cam-bench rig simulate``."""
     from cam_design.errors import InputError, require_positive
     from cam_metrology.rig.simulate import RigNoise, simulate_scene_runs
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
 
     scene = load_scene(args.scene)
     require_positive('--revolutions', args.revolutions)
@@ -170,7 +170,7 @@ def run_simulate(args: argparse.Namespace) -> int:
         write_rig_bag(out, scene.text, runs)
         print(f'wrote {out} ({len(runs)} runs on /rig/joint_states)')
         return 0
-    from cam_metrology.files import output_dir
+    from cam_metrology.inputs.files import output_dir
     from cam_metrology.rig.runs import write_csv_run
     folder = output_dir(out, 'OUT')
     for r in runs:

@@ -170,7 +170,7 @@ def _demo(args: argparse.Namespace) -> int:
         return run_rig_demo(args.scene, args.out, args.timeout or 120.0)
     from cam_metrology.nodes.bench_sim import sim_param_table
     from cam_metrology.nodes.demo import DemoOptions, run_demo
-    from cam_metrology.params import parse_assignments
+    from cam_metrology.inputs.params import parse_assignments
     # names and types checked before anything starts (bench-sim would ignore an unknown name)
     parse_assignments(args.sim, 'SimParams', sim_param_table(), '--sim')
     return run_demo(DemoOptions(scene=args.scene, out=args.out, rate=args.rate,

@@ -105,7 +105,7 @@ def _group(sub: argparse._SubParsersAction, name: str, help_text: str,
 
 
 def _load(path: str) -> Any:
-    from cam_metrology.scene_parse import load_scene, parse_scene
+    from cam_metrology.scene.parse import load_scene, parse_scene
 
     if path == '-':
         return parse_scene(sys.stdin.read(), source='<stdin>')
@@ -220,8 +220,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     import json
 
     from cam_design.errors import InputError
-    from cam_metrology.paths import default_scene_path
-    from cam_metrology.simulate import SimParams, scene_with_direction, write_sim_bag
+    from cam_metrology.host.paths import default_scene_path
+    from cam_metrology.simulation.bench import SimParams, scene_with_direction, write_sim_bag
 
     scene = _load(args.scene or str(default_scene_path()))
     if args.direction is not None:
@@ -247,7 +247,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise InputError(option, getattr(args, option[2:].replace('-', '_')),
                          exc.expected) from None
     progress = None if args.quiet else _progress_printer()
-    from cam_metrology.files import atomic_dir
+    from cam_metrology.inputs.files import atomic_dir
     with atomic_dir(args.out, 'OUT_BAG') as tmp:   # complete bag or nothing (Ctrl-C too)
         run = write_sim_bag(tmp, scene, params, compression=args.compress,
                             progress=progress, rounds=args.rounds)
@@ -337,7 +337,7 @@ def cmd_bag_check(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from cam_design.errors import InputError
-    from cam_metrology.bagcheck import describe, scan_bag
+    from cam_metrology.bagio.check import describe, scan_bag
 
     if not Path(args.bag).exists():
         raise InputError('BAG', args.bag, 'an existing rosbag2 directory or .mcap file')
@@ -364,7 +364,7 @@ def cmd_bag_check(args: argparse.Namespace) -> int:
 def cmd_bag_recover(args: argparse.Namespace) -> int:
     """Recover an interrupted or damaged recording."""
     from cam_metrology import bagio
-    from cam_metrology.bagcheck import describe
+    from cam_metrology.bagio.check import describe
 
     counts = bagio.recover_bag(args.src, args.dst)
     print(f'recovered into {args.dst}:')

@@ -247,7 +247,7 @@ def write_report(path: Path, table: str, spc: list[dict[str, Any]],
                      f"<p>%GRR {g['percent_grr']:.2f} %, ndc {g['ndc']}, {g['parts']} parts x "
                      f"{g['operators']} operators x {g['trials']} trials</p>")
     parts.append('</body></html>')
-    from cam_metrology.files import write_output
+    from cam_metrology.inputs.files import write_output
     write_output(path, '\n'.join(parts), '--report')
 
 
@@ -263,7 +263,7 @@ def run(args: argparse.Namespace) -> int:
     doc = {'table': args.table, 'spc': spc, 'gauge_rr': grr}
     if args.json:
         text = json.dumps(doc, indent=1, default=lambda v: None) + '\n'
-        from cam_metrology.files import write_output
+        from cam_metrology.inputs.files import write_output
         write_output(args.json, text, '--json')
     else:
         for e in spc:

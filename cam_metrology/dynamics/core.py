@@ -32,8 +32,8 @@ from cam_design.valve_train.cam_input import JetTableLift
 from cam_design.valve_train.params import SdofParams, require_rpm, require_step_deg
 from cam_design.valve_train.report import (COLUMNS, ContactGeometry, Run, finish_run,
                                            run_sdof)
-from cam_metrology.core import merged_parameters
-from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
+from cam_metrology.cores.contract import merged_parameters
+from cam_metrology.cores.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
 from cam_metrology.wire.layouts import table_from_msg
 from cam_metrology.wire.topics import (DYNAMICS_MOTION, DYNAMICS_RESULT, RECONSTRUCTION_PROFILE,
                                        SCENE)
@@ -144,7 +144,7 @@ class DynamicsCore:
 
     # -- work --------------------------------------------------------------------
     def _scene(self, text: str, stamp_ns: int) -> list[Output]:
-        from cam_metrology.scene_parse import parse_scene
+        from cam_metrology.scene.parse import parse_scene
 
         self.done.clear()
         self.laws.clear()

@@ -20,8 +20,8 @@ from numpy.typing import ArrayLike
 from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.keyway import KeywayGeometry
 from cam_design.errors import InputError, require_positive
-from cam_metrology.core import merged_parameters
-from cam_metrology.heap import trim
+from cam_metrology.cores.contract import merged_parameters
+from cam_metrology.host.heap import trim
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_keyway, analyze_lobe, analyze_pin,
                                               seen_lift)
@@ -29,8 +29,8 @@ from cam_metrology.metrology.spill import release, spill
 from cam_metrology.metrology.features import (FeatureAssembler, FeatureSamples,
                                               encoder_units_hint, probe_units_problem,
                                               joint_positions, stamp_of)
-from cam_metrology.outputs import (ERROR, OK, WARN, Output, Status, StatusOutput,
-                                   TableOutput, TextOutput)
+from cam_metrology.cores.outputs import (ERROR, OK, WARN, Output, Status, StatusOutput,
+                                         TableOutput, TextOutput)
 from cam_metrology.wire import topics as wt
 
 RESULT, LIFT, REPORT = wt.METROLOGY_RESULT, wt.METROLOGY_LIFT, wt.METROLOGY_REPORT
@@ -173,7 +173,7 @@ class MetrologyCore:
             return self._complete_all(self.assembler.close(str(msg.data)), stamp_ns)
         if topic == SCENE:
             try:
-                from cam_metrology.scene_parse import parse_scene
+                from cam_metrology.scene.parse import parse_scene
                 scene = parse_scene(str(msg.data), source=SCENE)
             except ImportError:
                 return [self._status(Status('scene', ERROR, 'scene parser not available'),

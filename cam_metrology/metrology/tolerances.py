@@ -26,7 +26,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from cam_metrology.metrology.lift_error import feature_referenced
-from cam_metrology.scene import Band, Scene, Tolerances
+from cam_metrology.scene.model import Band, Scene, Tolerances
 
 __all__ = ['check', 'judge_lobe', 'judge_datum', 'judge_part', 'PASS', 'FAIL', 'NOT_CHECKED']
 

@@ -26,7 +26,7 @@ NODE_NAMES = {'metrology': 'metrology', 'reconstruction': 'reconstruction',
 
 def default_params_file(name: str) -> Path | None:
     """``config/<node_name>.yaml`` if it exists."""
-    from cam_metrology.paths import config_dir
+    from cam_metrology.host.paths import config_dir
     try:
         path = config_dir() / f'{NODE_NAMES[name]}.yaml'
     except FileNotFoundError:
@@ -51,7 +51,7 @@ def ros_arguments(params_file: str | Path | None, ros_args: Sequence[str] = ()) 
 def parameter_table(name: str) -> dict[str, Any] | None:
     """``{parameter: (default, description)}`` of node ``name`` (None for an unknown name)."""
     if name in CORE_NODES:
-        from cam_metrology.registry import load_core_class
+        from cam_metrology.offline.registry import load_core_class
         return dict(getattr(load_core_class(name), 'PARAMETERS', {}))
     if name == 'bench-sim':
         from cam_metrology.nodes import bench_sim
@@ -71,14 +71,14 @@ def validate_parameters(name: str, params_file: str | Path | None,
     """Check the parameter file and the ``-p`` items of node ``name`` before rclpy reads
     them: InputError (one line) instead of rclpy's RCLError or
     InvalidParameterTypeException tracebacks."""
-    from cam_metrology.params import check_params, parse_assignments, read_params_file
+    from cam_metrology.inputs.params import check_params, parse_assignments, read_params_file
     table = parameter_table(name)
     if table is None:
         return
     node_name = NODE_NAMES[name]
     if params_file is not None:
         check_params(node_name, read_params_file(params_file, node_name), table)
-    from cam_metrology.params import BUILTIN_PARAMETERS
+    from cam_metrology.inputs.params import BUILTIN_PARAMETERS
     items = [item for item in cli_assignments(ros_args)
              if item.partition(':=')[0] not in BUILTIN_PARAMETERS]
     parse_assignments(items, node_name, table, '-p')

@@ -49,9 +49,10 @@ from typing import Any, Sequence
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
-from cam_metrology.loss import FeatureLoss, SequenceLoss, loss_status, loss_values, mark_partial
+from cam_metrology.wire.loss import (FeatureLoss, SequenceLoss, loss_status, loss_values,
+                                     mark_partial)
 from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
-from cam_metrology.outputs import Output, Status, StatusOutput
+from cam_metrology.cores.outputs import Output, Status, StatusOutput
 from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages, view_topics
 from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
@@ -75,7 +76,7 @@ RX_LINGER = 0.005
 
 def load_core(name: str) -> Any:
     """The core class registered for node ``name`` (ValueError for another name)."""
-    from cam_metrology.registry import CORES, RIG_CORES, load_core_class
+    from cam_metrology.offline.registry import CORES, RIG_CORES, load_core_class
     if name not in CORES and name not in RIG_CORES:
         raise ValueError(f'no core registered for node {name!r}; known: '
                          f'{sorted(CORES) + sorted(RIG_CORES)}')
@@ -99,7 +100,7 @@ def declare_parameters(node: Node, table: dict[str, tuple[Any, str]]) -> dict[st
     """
     from rclpy.exceptions import InvalidParameterTypeException
 
-    from cam_metrology.params import check_value, expected_type
+    from cam_metrology.inputs.params import check_value, expected_type
 
     values: dict[str, Any] = {}
     for name, (default, description) in table.items():
@@ -141,7 +142,7 @@ class CoreNode(Node):
         self._last_sample = 0.0        # monotonic s of the last sample handled
         self._last_held = 0.0          # monotonic s of the last message put on hold
         self._samples_qos = samples_qos
-        # loss accounting (DDS publication sequence numbers, cam_metrology.loss)
+        # loss accounting (DDS publication sequence numbers, cam_metrology.wire.loss)
         self.losses: dict[str, SequenceLoss] = {}
         self.feature_loss = FeatureLoss()
         self._diag_pub: Any = None

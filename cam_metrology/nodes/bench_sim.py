@@ -56,7 +56,7 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
 
 def sim_param_table() -> dict[str, tuple[Any, str]]:
     """{name: (default, description)} of the fields of ``simulate.SimParams``."""
-    from cam_metrology.simulate import SimParams
+    from cam_metrology.simulation.bench import SimParams
 
     table: dict[str, tuple[Any, str]] = {}
     for f in dataclasses.fields(SimParams):
@@ -76,7 +76,7 @@ def sim_param_table() -> dict[str, tuple[Any, str]]:
 
 def make_sim_params(values: dict[str, Any]) -> Any:
     """SimParams from ROS parameter values (lists back to tuples where needed)."""
-    from cam_metrology.simulate import SimParams
+    from cam_metrology.simulation.bench import SimParams
 
     kwargs = {}
     for f in dataclasses.fields(SimParams):
@@ -138,9 +138,9 @@ class BenchSimNode(Node):
         for name, value in (overrides or {}).items():
             table[name] = (value, table.get(name, (None, ''))[1])
         self.params = declare_parameters(self, table)
-        from cam_metrology.paths import default_scene_path
-        from cam_metrology.scene_parse import load_scene
-        from cam_metrology.simulate import simulate
+        from cam_metrology.host.paths import default_scene_path
+        from cam_metrology.scene.parse import load_scene
+        from cam_metrology.simulation.bench import simulate
 
         scene_path = Path(self.params['scene_file'] or default_scene_path())
         self.scene = load_scene(scene_path)

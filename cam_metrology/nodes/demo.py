@@ -296,10 +296,10 @@ def downstream_subscriptions(core_classes: list[Any]) -> dict[str, int]:
 
 def run_demo(opts: DemoOptions) -> int:
     """Run the demo; returns the exit code (0 ok, 1 failure with the reason printed)."""
-    from cam_metrology.isolation import claim_domain, isolated_env
-    from cam_metrology.registry import CORES
+    from cam_metrology.host.isolation import claim_domain, isolated_env
+    from cam_metrology.offline.registry import CORES
     from cam_metrology.nodes.runtime import RosProcess
-    from cam_metrology.paths import default_scene_path
+    from cam_metrology.host.paths import default_scene_path
 
     t_start = time.monotonic()
     out = opts.stream
@@ -313,7 +313,7 @@ def run_demo(opts: DemoOptions) -> int:
     scene = Path(opts.scene) if opts.scene else default_scene_path()
     if not scene.is_file():
         raise FileNotFoundError(f'scene file {scene} does not exist')
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
     load_scene(scene)   # a bad scene: InputError now, before any node or bag directory
     bag = Path(opts.out) if opts.out else Path('demo-out') / time.strftime(
         'demo_%Y%m%dT%H%M%SZ', time.gmtime())

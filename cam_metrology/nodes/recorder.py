@@ -33,7 +33,7 @@
   keeps the publish order of one publisher in practice, but not by contract.
 * Loss is never silent: every topic deeper than 1 (not the latched ones) is counted
   against the DDS publication sequence numbers of MessageInfo
-  (``cam_metrology.loss``). The recorder's status ("lost N samples on TOPIC", or "no
+  (``cam_metrology.wire.loss``). The recorder's status ("lost N samples on TOPIC", or "no
   loss") goes to /diagnostics every second and whenever a new hole appears, into the
   bag itself (its /diagnostics topic, the same DiagnosticArray, final one at close),
   and into the "bag closed" line; ``cam-bench record`` exits 1 when samples were lost
@@ -55,13 +55,13 @@ from typing import Any, Sequence
 from rclpy.node import Node
 
 from cam_metrology.bagio import BagWriter
-from cam_metrology.loss import OK, WARN, SequenceLoss, loss_status, loss_values
+from cam_metrology.wire.loss import OK, WARN, SequenceLoss, loss_status, loss_values
 from cam_metrology.nodes.adapter import RX_LINGER
 from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
 from cam_metrology.wire.layouts import encode_statuses
 from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, JOINT_STATES, RIG_TOPICS,
                                        STATUS, TOPICS, QosSpec, qos_of)
-from cam_metrology.outputs import Status
+from cam_metrology.cores.outputs import Status
 
 PARAMETERS: dict[str, tuple[Any, str]] = {
     'output': ('', 'bag directory to create (must not exist); empty: '

@@ -70,12 +70,12 @@ def run_rig_demo(scene_path: str | None, out: str | None, timeout: float,
     """The loop of the module docstring; exit code 0, or 1 with the reason."""
     from diagnostic_msgs.msg import DiagnosticArray
 
-    from cam_metrology.isolation import claim_domain, isolated_env
+    from cam_metrology.host.isolation import claim_domain, isolated_env
     from cam_metrology.nodes.runtime import RosProcess
     from cam_metrology.nodes.topics import profile
-    from cam_metrology.paths import config_dir
+    from cam_metrology.host.paths import config_dir
     from cam_metrology.rig.simulate import RigNoise, simulate_scene_runs
-    from cam_metrology.scene_parse import load_scene
+    from cam_metrology.scene.parse import load_scene
     from cam_metrology.wire.topics import RIG_RESULT, TOPICS
 
     t_start = time.monotonic()

@@ -27,8 +27,8 @@ from typing import Any
 import numpy as np
 
 from cam_design.errors import InputError, require_positive
-from cam_metrology.core import merged_parameters
-from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
+from cam_metrology.cores.contract import merged_parameters
+from cam_metrology.cores.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
 from cam_metrology.wire import topics as wire_topics
 from cam_metrology.reconstruction.harmonic import MIN_ORDER, ORDER_EXPECTED, HarmonicOptions
 from cam_metrology.reconstruction.profile import (Conversion, MethodOutcome, check_options,
@@ -172,7 +172,7 @@ class ReconstructionCore:
 
     # -- internals -----------------------------------------------------------------------
     def _on_scene(self, text: str, stamp_ns: int) -> list[Output]:
-        from cam_metrology.scene_parse import parse_scene
+        from cam_metrology.scene.parse import parse_scene
 
         try:
             self.scene = parse_scene(text, SCENE)

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
-from cam_metrology.files import read_text_file
+from cam_metrology.inputs.files import read_text_file
 from cam_metrology.wire.layouts import table_from_msg
 from cam_metrology.wire.topics import METROLOGY_LIFT
 

@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 from cam_design.errors import InputError
-from cam_metrology.core import merged_parameters
-from cam_metrology.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
+from cam_metrology.cores.contract import merged_parameters
+from cam_metrology.cores.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
 from cam_metrology.wire.topics import RIG_JOINT_STATES, RIG_MOTION, RIG_RESULT, SCENE
 
 MOTION_COLUMNS = ('alpha_rad', 'measured_lift_m', 'scatter_m', 'predicted_lift_m')
@@ -55,7 +55,7 @@ class RigCore:
     def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:
         """Scene: keep it; sample: buffer it (a new frame_id ends the previous run)."""
         if topic == SCENE:
-            from cam_metrology.scene_parse import parse_scene
+            from cam_metrology.scene.parse import parse_scene
             out = self._flush(stamp_ns)
             try:
                 self.scene = parse_scene(str(msg.data), SCENE)

@@ -52,7 +52,7 @@ def write_plots(curves: Sequence[Mapping[str, Any]], folder: Any) -> list[Any]:
     """One PNG per run in ``folder`` (``<run>.png``); the paths."""
     import matplotlib.pyplot as plt
 
-    from cam_metrology.files import output_dir, safe_name, save_figure
+    from cam_metrology.inputs.files import output_dir, safe_name, save_figure
 
     out = output_dir(folder, '--plot')
     paths = []

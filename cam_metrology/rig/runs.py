@@ -83,7 +83,7 @@ def _float_rows(lines: list[str], ncol: int, path: Path, header: list[str]) -> N
 def read_csv_run(path: str | Path) -> RigRun:
     """A run from a CSV file with the header ``time_s,cam_angle_rad,valve_lift_m``
     (optional ``valve_velocity_m_per_s``, further columns kept as channels)."""
-    from cam_metrology.files import read_text_file
+    from cam_metrology.inputs.files import read_text_file
 
     p = Path(path)
     text = read_text_file(p, 'rig run CSV file')
@@ -193,7 +193,7 @@ def read_runs(paths: Iterable[str | Path]) -> tuple[list[RigRun], str | None]:
 
 def write_csv_run(run: RigRun, path: str | Path) -> None:
     """Write a run as the rig CSV (full float precision)."""
-    from cam_metrology.files import write_output
+    from cam_metrology.inputs.files import write_output
 
     cols = [run.time, run.angle, run.lift]
     header = list(CSV_REQUIRED)

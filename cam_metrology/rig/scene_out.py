@@ -12,7 +12,7 @@ def calibrated_scene_text(scene_text: str, fit: Any) -> str:
     """YAML text of the scene with the fitted values of ``fit`` (validated again)."""
     import yaml
 
-    from cam_metrology.scene_parse import parse_scene
+    from cam_metrology.scene.parse import parse_scene
 
     doc = yaml.safe_load(scene_text)
     vt = doc['valve_train']

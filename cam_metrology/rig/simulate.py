@@ -88,7 +88,7 @@ def true_train(scene: Any, spec: Any) -> tuple[Any, str | None]:
     if spec.true_valve_train is None:
         return scene.valve_train, ('the scene has no rig.true_valve_train: the runs are '
                                    'simulated with the nominal valve_train')
-    from cam_metrology.scene_parse import valve_train_from_mapping
+    from cam_metrology.scene.parse import valve_train_from_mapping
 
     return valve_train_from_mapping(spec.true_valve_train, 'rig.true_valve_train'), None
 

@@ -44,7 +44,7 @@ def rig_block(scene_text: str) -> Mapping[str, Any] | None:
     """The raw ``rig`` mapping of a scene YAML text (None when absent)."""
     import yaml
 
-    from cam_metrology.yaml_input import load_yaml
+    from cam_metrology.inputs.yaml_input import load_yaml
 
     doc = load_yaml(scene_text, 'scene', getattr(yaml, 'CSafeLoader', yaml.SafeLoader))
     if not isinstance(doc, Mapping):

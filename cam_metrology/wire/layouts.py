@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
-from cam_metrology.outputs import Output, StatusOutput, TableOutput, TextOutput
+from cam_metrology.cores.outputs import Output, StatusOutput, TableOutput, TextOutput
 from cam_metrology.wire.cdr import (encode_float64_array, encode_named_values,
                                     encode_string, typestore)
 from cam_metrology.wire.topics import STATUS, STRING, TABLE

@@ -37,7 +37,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from cam_metrology.outputs import Output, Status, StatusOutput, TableOutput, TextOutput
+from cam_metrology.cores.outputs import Output, Status, StatusOutput, TableOutput, TextOutput
 from cam_metrology.wire.cdr import encode_named_values
 from cam_metrology.wire.layouts import encode_statuses
 from cam_metrology.wire.topics import (DIAGNOSTICS, DYNAMICS_MOTION, DYNAMICS_RESULT,

@@ -18,7 +18,7 @@ from typing import Any
 
 from cam_metrology import __version__
 
-SOURCE = Path(__file__).resolve().parent.parent
+SOURCE = Path(__file__).resolve().parents[2]
 
 
 def git_commit(root: Path = SOURCE) -> dict[str, Any]:

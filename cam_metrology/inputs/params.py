@@ -99,7 +99,7 @@ def load_params_doc(path: str | Path) -> Mapping[str, Any]:
     except UnicodeDecodeError:
         raise InputError('--params', str(path), 'a UTF-8 YAML text file') from None
     try:
-        from cam_metrology.yaml_input import load_yaml
+        from cam_metrology.inputs.yaml_input import load_yaml
         doc = load_yaml(text, '--params', _RosYamlLoader)
     except yaml.YAMLError as exc:
         where = getattr(exc, 'problem_mark', None)
@@ -159,7 +159,7 @@ def parse_assignments(items: Iterable[str], node_name: str,
         if name not in table:
             raise InputError(key, name, f'a {node_name} parameter: {", ".join(sorted(table))}')
         try:
-            from cam_metrology.yaml_input import load_yaml
+            from cam_metrology.inputs.yaml_input import load_yaml
             value = load_yaml(text, f'{key} {name}', _RosYamlLoader) if text else ''
         except yaml.YAMLError:
             value = text

@@ -1,13 +1,13 @@
 """The contract between node cores (pure Python) and their transports.
 
 A *core* holds a node's logic with no rclpy import. It is fed decoded messages and
-returns outputs (``cam_metrology.outputs``). Three transports drive the same cores,
+returns outputs (``cam_metrology.cores.outputs``). Three transports drive the same cores,
 so live and offline results come from one code path:
 
 * the ROS adapter (``cam_metrology.nodes``): one subscription per entry of
   ``subscriptions``; every callback calls ``handle`` and publishes what it returns;
   a timer calls ``tick`` for idle timeouts; shutdown calls ``finish``;
-* the in-process replay (``cam_metrology.replay``): reads a bag and calls ``handle``
+* the in-process replay (``cam_metrology.offline.replay``): reads a bag and calls ``handle``
   in recorded order, routing each output to the other cores that subscribe to it;
 * tests, which call the methods directly.
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 from typing import Any, Mapping, Protocol
 
 from cam_design.errors import InputError
-from cam_metrology.outputs import Output
+from cam_metrology.cores.outputs import Output
 
 
 class NodeCore(Protocol):

@@ -146,7 +146,7 @@ def analyse_bag(bag: str, all_cores: bool = False) -> list[dict[str, Any]]:
         sha = ''
         return [_failed(bag, sha, f'unreadable: {exc.strerror}')]
     try:
-        from cam_metrology.offline import analyze_report
+        from cam_metrology.offline.analyze import analyze_report
         report = analyze_report(path, only_metrology=not all_cores)
     except Exception as exc:  # noqa: BLE001 -- every failure is reported per bag
         return [_failed(bag, sha, str(exc) or type(exc).__name__)]

@@ -14,7 +14,7 @@ PACKAGE = 'cam_metrology'
 
 def config_dir() -> Path:
     """The directory holding the default scene and the node parameter files."""
-    source = Path(__file__).resolve().parent.parent / 'config'
+    source = Path(__file__).resolve().parents[2] / 'config'
     if source.is_dir():
         return source
     installed = Path(sys.prefix) / 'share' / PACKAGE / 'config'

@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError, require_finite, require_positive
-from cam_metrology.scene import Scene
+from cam_metrology.scene.model import Scene
 
 __all__ = ['SimParams', 'SimFeature', 'BenchRun', 'simulate', 'probe_lift',
            'iter_joint_state_messages', 'write_sim_bag', 'wrap_pi', 'DOWEL_PIN',
@@ -172,7 +172,7 @@ def scene_with_direction(scene: Scene, direction: int) -> Scene:
     (comments kept), so that the /bench/scene a bag carries describes the data."""
     import re
 
-    from cam_metrology.scene_parse import parse_scene
+    from cam_metrology.scene.parse import parse_scene
 
     if direction not in (1, -1):
         raise InputError('direction', direction, '+1 or -1')

@@ -23,9 +23,9 @@ import numpy as np
 from cam_design.errors import InputError, require_finite, require_length, require_positive
 from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import design_table
-from cam_metrology.files import read_text_file
-from cam_metrology.scene import (COMPUTE_ITEMS, Band, Crank, DowelPin, Follower, Keyway, Lobe,
-                                 Scene, Seat, ToleranceZone, Tolerances, ValveTrain)
+from cam_metrology.inputs.files import read_text_file
+from cam_metrology.scene.model import (COMPUTE_ITEMS, Band, Crank, DowelPin, Follower, Keyway,
+                                       Lobe, Scene, Seat, ToleranceZone, Tolerances, ValveTrain)
 
 __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
@@ -123,7 +123,7 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
         raise InputError('scene', f'{len(text)} characters',
                          f'a scene file of at most {MAX_TEXT} characters')
     try:
-        from cam_metrology.yaml_input import load_yaml, syntax_error_text
+        from cam_metrology.inputs.yaml_input import load_yaml, syntax_error_text
         doc = load_yaml(text, 'scene', getattr(yaml, 'CSafeLoader', yaml.SafeLoader))
     except yaml.YAMLError as exc:
         raise InputError('scene', source, f'valid YAML ({syntax_error_text(exc, text)})') \
@@ -778,7 +778,7 @@ def load_valve_train(path: Path) -> tuple[ValveTrain, Scene | None]:
     ``valve_train`` block (with or without the ``valve_train:`` key): ``--valve-train``."""
     import yaml
 
-    from cam_metrology.yaml_input import load_yaml, syntax_error_text
+    from cam_metrology.inputs.yaml_input import load_yaml, syntax_error_text
 
     if not path.is_file():
         raise FileNotFoundError(f'no such valve-train file: {path}')

@@ -60,7 +60,7 @@ def feature_figure(fid: str, table: Any, feature: Mapping[str, Any]) -> Any:
     """The lift figure of ``analyze --plot`` (``plots.lift_figure``: tolerance band and
     zones on the lift-error axis). For a lobe, ``table`` is the base-referenced table
     the verdict uses."""
-    from cam_metrology.plots import lift_figure
+    from cam_metrology.report.plots import lift_figure
 
     return lift_figure(fid, table, dict(feature))
 
@@ -210,7 +210,7 @@ def html_report(report: Mapping[str, Any], tables: Mapping[str, Any],
         finally:
             plt.close(fig)
         if profiles and fid in profiles:
-            from cam_metrology.plots import derivative_figure
+            from cam_metrology.report.plots import derivative_figure
             fig = derivative_figure(fid, *profiles[fid], (designs or {}).get(fid))
             try:
                 parts.append(f'<img class="plot" alt="{_e(fid)} velocity and acceleration" '

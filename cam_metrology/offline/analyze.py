@@ -15,7 +15,7 @@ def make_cores(params: dict[str, dict[str, Any]], only_metrology: bool,
                ) -> tuple[list[Any], list[dict[str, str]]]:
     """The metrology core first, then (unless ``only_metrology``) every other core of the
     registry; the second item (what was skipped) is empty: every core is in the tree."""
-    from cam_metrology.registry import CORES
+    from cam_metrology.offline.registry import CORES
 
     nodes = ['metrology'] + ([] if only_metrology else [n for n in CORES if n != 'metrology'])
     return [CORES[node](params.get(node)) for node in nodes], []
@@ -28,7 +28,7 @@ def replay(bag: str, cores: list[Any], *, keep_all: bool = True,
     last is kept (memory bounded whatever the bag's length). ``out_bag``: a new bag
     with the input messages and every output, written during the replay
     (``replay.OutputBagWriter``: the outputs are not held for it)."""
-    from cam_metrology.replay import OutputBagWriter, regenerated_topics, run_offline
+    from cam_metrology.offline.replay import OutputBagWriter, regenerated_topics, run_offline
 
     if out_bag is None:
         return run_offline(bag, cores, superseded_tables=keep_all)
@@ -44,7 +44,7 @@ def replay(bag: str, cores: list[Any], *, keep_all: bool = True,
 
 def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, Any]:
     """The last report the metrology core published (its final one)."""
-    from cam_metrology.outputs import TextOutput
+    from cam_metrology.cores.outputs import TextOutput
 
     texts = [o.text for _, o in outputs if isinstance(o, TextOutput) and o.topic == REPORT_TOPIC]
     if texts:
@@ -57,7 +57,7 @@ def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, An
 
 def other_skips(outputs: list[tuple[int, Any]]) -> list[dict[str, str]]:
     """``skipped/<what>`` statuses of the other cores' result topics."""
-    from cam_metrology.outputs import StatusOutput
+    from cam_metrology.cores.outputs import StatusOutput
 
     out = []
     for _, o in outputs:
@@ -78,8 +78,8 @@ def load_params(path: str | None) -> dict[str, dict[str, Any]]:
     if path is None:
         return {}
     from cam_design.errors import InputError
-    from cam_metrology.params import load_params_doc, section_values
-    from cam_metrology.registry import CORES
+    from cam_metrology.inputs.params import load_params_doc, section_values
+    from cam_metrology.offline.registry import CORES
 
     doc = load_params_doc(path)   # the reader `cam-bench run --params` uses
     for node in doc:
@@ -114,10 +114,10 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
     lobes referenced to the base circle as the verdict uses them ({} without
     ``plot_tables``: no referenced copies made, for a caller that draws nothing)."""
-    from cam_metrology.acceptance import both_crank_timings, measured_cards
+    from cam_metrology.offline.acceptance import both_crank_timings, measured_cards
     from cam_metrology.metrology.lift_error import feature_referenced
     from cam_metrology.metrology.spill import release, spill
-    from cam_metrology.provenance import provenance
+    from cam_metrology.report.provenance import provenance
 
     results = getattr(metrology, 'results', {})
     tables = {f: r.table for f, r in results.items() if r.table is not None}
@@ -168,7 +168,7 @@ def analyze_bag(bag: str, params: str | None = None, *, only_metrology: bool = F
     file (the CLI's exit 2)."""
     from cam_design.cam_card import DEFAULT_HEIGHTS_M
     from cam_design.errors import InputError
-    from cam_metrology.heap import bounded_heap
+    from cam_metrology.host.heap import bounded_heap
     from cam_metrology.wire.topics import JOINT_STATES
 
     bounded_heap()   # whole-feature arrays returned to the system when freed

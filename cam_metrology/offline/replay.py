@@ -45,7 +45,7 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_metrology import bagio
-from cam_metrology.outputs import Output, TableOutput, TextOutput
+from cam_metrology.cores.outputs import Output, TableOutput, TextOutput
 from cam_metrology.wire.cdr import decode
 from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages

@@ -181,7 +181,7 @@ def loss_status(losses: Sequence[SequenceLoss], extra: str = '') -> tuple[int, s
 
 def mark_partial(outputs: Sequence[Any], features: FeatureLoss, losses: Sequence[SequenceLoss],
                  topic: str = JOINT_STATES) -> list[Any]:
-    """Outputs of a core with the input loss made visible (``cam_metrology.outputs``):
+    """Outputs of a core with the input loss made visible (``cam_metrology.cores.outputs``):
 
     * a Status named after a feature with lost samples, or one split in parts (its
       samples came again after its result: a pause longer than the idle timeout ended
@@ -197,7 +197,7 @@ def mark_partial(outputs: Sequence[Any], features: FeatureLoss, losses: Sequence
     import dataclasses
     import json
 
-    from cam_metrology.outputs import StatusOutput, TextOutput
+    from cam_metrology.cores.outputs import StatusOutput, TextOutput
     out: list[Any] = []
     for o in outputs:
         if isinstance(o, StatusOutput):

@@ -1,0 +1,1 @@
+"""The contract between node cores and their transports: the core protocol and its outputs."""

@@ -1,0 +1,1 @@
+"""Reading the user's inputs: text files, bounded YAML, ROS parameter files (no rclpy)."""

@@ -1,0 +1,1 @@
+"""The scene: its typed model and the validating parser."""

@@ -1,0 +1,1 @@
+"""The simulated measuring bench (pure numpy) and the bags it writes."""
