@@ -21,7 +21,7 @@ __all__ = [
     'TOPICS', 'BENCH_TOPICS', 'OUTPUT_TOPICS', 'PLOT_TOPICS', 'TOPIC_TYPES',
     'LATCHED_TOPICS', 'qos_of', 'type_of', 'qos_yaml', 'default_qos_yaml',
     'CAMSHAFT_JOINT', 'PROBE_JOINT', 'RIG_JOINT_STATES', 'RIG_TOPICS', 'VALVE_JOINT',
-    'RIG_RESULT', 'RIG_MOTION', 'PLOT_RIG',
+    'RIG_RESULT', 'RIG_MOTION', 'PLOT_RIG', 'RIG_GRAPH',
 ]
 
 #: joints of a bench sample (``/bench/joint_states``), looked up by name
@@ -123,13 +123,16 @@ TOPICS: dict[str, tuple[str, QosSpec]] = {
 }
 
 BENCH_TOPICS = (SCENE, TRUTH, JOINT_STATES, FEATURE_DONE)
-PLOT_TOPICS = (METROLOGY_VALUES, PLOT_LIFT, PLOT_PROFILE, PLOT_MOTION, PLOT_RIG)
+PLOT_TOPICS = (METROLOGY_VALUES, PLOT_LIFT, PLOT_PROFILE, PLOT_MOTION)
 #: the valve-train rig's inputs (docs/contract.md "Valve-train rig")
 RIG_TOPICS = (RIG_JOINT_STATES,)
+#: every topic of the rig's own graph (its input, the rig node's outputs and plot view):
+#: not part of a bench bag, nor of what ``analyze`` and the bench ``demo`` produce
+RIG_GRAPH = (RIG_JOINT_STATES, RIG_RESULT, RIG_MOTION, PLOT_RIG)
 #: what the node cores publish (the plot views and /diagnostics are derived from it)
 OUTPUT_TOPICS = tuple(t for t in TOPICS
                       if t not in BENCH_TOPICS and t not in PLOT_TOPICS and t != DIAGNOSTICS
-                      and t not in RIG_TOPICS)
+                      and t not in RIG_TOPICS and t != PLOT_RIG)
 #: topic -> ROS type name
 TOPIC_TYPES: dict[str, str] = {t: ty for t, (ty, _) in TOPICS.items()}
 LATCHED_TOPICS = frozenset(t for t, (_, q) in TOPICS.items() if q == LATCHED)
