@@ -174,8 +174,8 @@ def test_plugin_runs_user_tests_over_bags(pytester: pytest.Pytester, user_projec
 
 
 def test_plugin_by_its_module_path_without_autoload(pytester: pytest.Pytester,
-                                                     user_project: Path,
-                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+                                                    user_project: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     """``-p cam_metrology.pytest_plugin`` (the module path users name) still loads it."""
     monkeypatch.setenv('PYTEST_DISABLE_PLUGIN_AUTOLOAD', '1')
     result = pytester.runpytest_subprocess('-p', 'cam_metrology.pytest_plugin',
