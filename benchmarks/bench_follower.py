@@ -58,7 +58,7 @@ def realistic() -> list[str]:
 
 def brute_force() -> list[str]:
     """Baseline of methods §2.6: max over sampled profile points (lift_from_profile)."""
-    from cam_design.follower import flat_profile, lift_from_profile
+    from cam_design.cam_profile import flat_profile, lift_from_profile
 
     law = EccentricDiscLift(RC, E, Follower('flat'))
     alpha = np.linspace(-math.pi, math.pi, 3600, endpoint=False)

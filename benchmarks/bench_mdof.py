@@ -79,10 +79,10 @@ def shooting_rows(law, mp, rpm: float) -> list[str]:
     lines.append(f'| Newton shooting (default) | {res.revolutions} | '
                  f'{res.periodic_residual:.1e} | {res.settled} | {t:.3f} |')
     from cam_design.valve_train.cam_input import build_cam_input
-    from cam_design.valve_train.mdof import _Assembly
+    from cam_design.valve_train.mdof import MdofAssembly
     from cam_design.valve_train.mdof_exact import run_exact
 
-    asm = _Assembly(mp)
+    asm = MdofAssembly(mp)
     cam = build_cam_input(law, mp.base.rocker_ratio, 0.0, math.radians(0.5),
                           pre=math.radians(1.0))
     for revs in (res.revolutions, 12, 40):

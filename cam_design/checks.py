@@ -413,7 +413,7 @@ def run_checks(law: Any, cfg: Mapping[str, Any], *, samples: int = 7201) -> dict
         rho = flat_tappet_curvature(h, h2, r0)
         cos_p = np.ones_like(a)
     else:   # roller/knife geometry belongs to cam_design.follower (eq. 2.7, erratum 5)
-        from cam_design.follower import roller_profile
+        from cam_design.cam_profile import roller_profile
 
         prof = roller_profile(law, r0, roller, a)
         rho, cos_p = prof.rho, np.cos(prof.pressure_angle)

@@ -1,5 +1,6 @@
-"""Follower geometry: cam profile coordinates, curvature, pressure angle, undercut, and
-lift conversion between follower kinds through the cam profile (docs/follower.md).
+"""Followers and the lift conversion between follower kinds through the cam profile
+(docs/follower.md); the profile geometry itself is ``cam_design.cam_profile``, the
+order-3 Taylor arithmetic it differentiates with ``cam_design.jets``.
 
 Conventions: alpha [rad] is the cam angle from the lobe centreline (see
 ``cam_design.lift_laws.base``); ``base_radius`` R0 [m] is the radius of the cam's base
@@ -14,6 +15,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.jets import (JET_ORDER, jet_atan2, jet_const, jet_deriv, jet_div,
+                             jet_inverse_compose, jet_mul, jet_sqrt)
 from cam_design.lift_laws.base import LiftLaw, SolvedLift
 
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
@@ -39,86 +42,6 @@ class Follower:
                              'a roller radius > 0 (use kind: knife for a point follower)')
 
 
-# ---------------------------------------------------------------------------------------
-# Truncated Taylor arithmetic ("jets") of order 3, vectorised over points.
-#
-# A jet is an array of shape (4, n): the coefficients c0..c3 of c0 + c1 e + c2 e^2 + c3 e^3
-# for a small increment e of the curve parameter. Composing jets gives the exact
-# derivatives up to order 3 of any smooth expression, with no finite differences.
-# ---------------------------------------------------------------------------------------
-
-JET_ORDER = 3
-
-
-def _jet_const(value: ArrayLike, n: int) -> NDArray[np.float64]:
-    out = np.zeros((JET_ORDER + 1, n))
-    out[0] = value
-    return out
-
-
-def _jet_mul(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    out = np.zeros(np.broadcast_shapes(a.shape, b.shape))
-    for k in range(JET_ORDER + 1):
-        for j in range(k + 1):
-            out[k] += a[j] * b[k - j]
-    return out
-
-
-def _jet_div(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    out = np.zeros(np.broadcast_shapes(a.shape, b.shape))
-    for k in range(JET_ORDER + 1):
-        acc = a[k].copy()
-        for j in range(1, k + 1):
-            acc -= b[j] * out[k - j]
-        out[k] = acc / b[0]
-    return out
-
-
-def _jet_sqrt(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    out = np.zeros(a.shape)
-    out[0] = np.sqrt(a[0])
-    for k in range(1, JET_ORDER + 1):
-        acc = a[k].copy()
-        for j in range(1, k):
-            acc -= out[j] * out[k - j]
-        out[k] = acc / (2.0 * out[0])
-    return out
-
-
-def _jet_deriv(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Jet of the derivative (the order-3 coefficient becomes 0: a cubic's derivative)."""
-    out = np.zeros(a.shape)
-    for k in range(JET_ORDER):
-        out[k] = (k + 1) * a[k + 1]
-    return out
-
-
-def _jet_atan2(y: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Jet of atan2(y, x): value from np.arctan2, higher terms from (y'x - yx')/(x^2+y^2)."""
-    rate = _jet_div(_jet_mul(_jet_deriv(y), x) - _jet_mul(y, _jet_deriv(x)),
-                    _jet_mul(x, x) + _jet_mul(y, y))
-    out = np.zeros(rate.shape)
-    out[0] = np.arctan2(y[0], x[0])
-    for k in range(1, JET_ORDER + 1):
-        out[k] = rate[k - 1] / k
-    return out
-
-
-def _jet_inverse_compose(angle: NDArray[np.float64],
-                         value: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Derivatives d^k value / d angle^k (k = 0..3), shape (4, n), by series reversion.
-
-    ``angle`` and ``value`` are jets in the same parameter; ``angle[1]`` must be non-zero.
-    """
-    a1, a2, a3 = angle[1], angle[2], angle[3]
-    b1 = 1.0 / a1
-    b2 = -a2 * b1 ** 3
-    b3 = (2.0 * a2 * a2 - a1 * a3) * b1 ** 5
-    q0, q1, q2, q3 = value
-    return np.stack([q0, q1 * b1, 2.0 * (q1 * b2 + q2 * b1 * b1),
-                     6.0 * (q1 * b3 + 2.0 * q2 * b1 * b2 + q3 * b1 ** 3)])
-
-
 def _circle_ray(c: ArrayLike, radius: ArrayLike, x: NDArray[np.float64], sign: float
                 ) -> NDArray[np.float64]:
     """(4, n): D and dD/dx^k (k = 1..3) of D = c cos x + sign sqrt(radius^2 - c^2 sin^2 x),
@@ -136,8 +59,8 @@ def _circle_ray(c: ArrayLike, radius: ArrayLike, x: NDArray[np.float64], sign: f
                      c * si + sign * q3])
 
 
-def _wrap(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Angles wrapped to [-pi, pi)."""
+def wrap_angle(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Angles [rad] wrapped to [-pi, pi)."""
     return (alpha + np.pi) % (2.0 * np.pi) - np.pi
 
 
@@ -169,14 +92,15 @@ SWITCH_ITER = 30
 SOLVE_BLOCK = 2048
 
 
-def _radius(f: Follower) -> float:
+def contact_radius(f: Follower) -> float:
+    """Radius [m] of the circle that touches the cam: 0 for a knife (point) follower."""
     return 0.0 if f.kind == 'knife' else f.radius
 
 
 def _same_follower(a: Follower, b: Follower) -> bool:
     if a.kind == 'flat' and b.kind == 'flat':
         return True
-    return a.kind == b.kind and _radius(a) == _radius(b)
+    return a.kind == b.kind and contact_radius(a) == contact_radius(b)
 
 
 class ConvertedLift(SolvedLift):
@@ -226,24 +150,24 @@ class ConvertedLift(SolvedLift):
     def _jets(self, s: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
         """Jets (psi, H, T) of the profile at source angles ``s`` (unwrapped, rad)."""
         n = s.size
-        sw = _wrap(s)
+        sw = wrap_angle(s)
         hj = np.stack([self.law(sw, k) / math.factorial(k) for k in range(JET_ORDER + 1)])
-        param = _jet_const(s, n)
+        param = jet_const(s, n)
         param[1] = 1.0
         r0 = self.base_radius
         if self.source.kind == 'flat':
             height = hj.copy()
             height[0] += r0
-            return param, height, _jet_deriv(hj)
-        r1 = _radius(self.source)
+            return param, height, jet_deriv(hj)
+        r1 = contact_radius(self.source)
         g = hj.copy()
         g[0] += r0 + r1
-        gp = _jet_deriv(g)
-        w = _jet_sqrt(_jet_mul(g, g) + _jet_mul(gp, gp))
-        psi = param - _jet_atan2(gp, g)
-        height = _jet_div(_jet_mul(g, g), w)
+        gp = jet_deriv(g)
+        w = jet_sqrt(jet_mul(g, g) + jet_mul(gp, gp))
+        psi = param - jet_atan2(gp, g)
+        height = jet_div(jet_mul(g, g), w)
         height[0] -= r1
-        return psi, height, _jet_div(_jet_mul(g, gp), w)
+        return psi, height, jet_div(jet_mul(g, gp), w)
 
     def _target_jets(self, s: NDArray[np.float64], check: bool = True
                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -256,11 +180,11 @@ class ConvertedLift(SolvedLift):
             lift = height.copy()
             lift[0] -= r0
             return psi, lift
-        r2 = _radius(self.target)
+        r2 = contact_radius(self.target)
         hr = height.copy()
         hr[0] += r2
-        angle = psi + _jet_atan2(tang, hr)
-        lift = _jet_sqrt(_jet_mul(hr, hr) + _jet_mul(tang, tang))
+        angle = psi + jet_atan2(tang, hr)
+        lift = jet_sqrt(jet_mul(hr, hr) + jet_mul(tang, tang))
         lift[0] -= r0 + r2
         return angle, lift
 
@@ -275,7 +199,7 @@ class ConvertedLift(SolvedLift):
             i = int(np.argmax(bad))
             raise InputError(
                 self.key, f'undercut (cusp) of the {self.source.kind} design profile at '
-                f'alpha = {_wrap(s[i:i + 1])[0]:.6g} rad',
+                f'alpha = {wrap_angle(s[i:i + 1])[0]:.6g} rad',
                 'a lift law whose cam profile is realisable (radius of curvature > 0 for a '
                 'flat design, pitch radius of curvature > roller radius for a roller)')
 
@@ -286,7 +210,7 @@ class ConvertedLift(SolvedLift):
             raise InputError(f'{self.key}.support', (lo, hi),
                              'an interval inside [-pi, pi] rad (alpha from the lobe centreline)')
         cands = [lo, hi] + [float(j) for j in self.law.junctions if lo < j < hi]
-        wrapped = sorted(set(float(x) for x in _wrap(np.asarray(cands))))
+        wrapped = sorted(set(float(x) for x in wrap_angle(np.asarray(cands))))
         out: list[float] = []
         for b in wrapped:
             if out and abs(b - out[-1]) < 1e-12:
@@ -296,7 +220,7 @@ class ConvertedLift(SolvedLift):
             out.pop()
         edges = []
         for b in out:
-            side = _wrap(np.array([b - SIDE_EPS, b + SIDE_EPS]))
+            side = wrap_angle(np.array([b - SIDE_EPS, b + SIDE_EPS]))
             h = self.law(side, 0)
             hp = self.law(side, 1)
             if abs(h[1] - h[0]) > POSITION_TOL + 2 * SIDE_EPS * float(np.max(np.abs(hp))):
@@ -322,7 +246,7 @@ class ConvertedLift(SolvedLift):
         h_b = float(self.law(np.array([b]))[0])
         if self.source.kind == 'flat':
             return b, 'flat', self.base_radius + h_b
-        r1, r2 = _radius(self.source), _radius(self.target)
+        r1, r2 = contact_radius(self.source), contact_radius(self.target)
         if step <= STEP_REJECT:
             return None          # too small to matter (< 1e-16 m)
         if self.target.kind == 'flat' or r2 > r1:
@@ -384,7 +308,7 @@ class ConvertedLift(SolvedLift):
         # the target bridges a concave flank next to the base circle)
         lo, hi = self._src_support
         ends, _ = self._target_jets(np.array([lo - SIDE_EPS, hi + SIDE_EPS]), check=False)
-        wrapped = _wrap(s)
+        wrapped = wrap_angle(s)
         flank = (wrapped >= lo) & (wrapped <= hi)
         seen = raw[flank] - (s[flank] - wrapped[flank])
         self._support = (float(min(ends[0][0], lo, np.min(seen, initial=lo))),
@@ -397,7 +321,7 @@ class ConvertedLift(SolvedLift):
             marks.append(self._target_jets(np.asarray(inner, dtype=float), check=False)[0][0])
         if len(self._runs) > 1:
             marks.append(np.asarray(self._contact_switches()))
-        self._junctions = tuple(sorted(set(float(x) for x in _wrap(np.concatenate(marks)))))
+        self._junctions = tuple(sorted(set(float(x) for x in wrap_angle(np.concatenate(marks)))))
 
     @property
     def support(self) -> tuple[float, float]:
@@ -504,7 +428,7 @@ class ConvertedLift(SolvedLift):
             x = x_new
             if moved < 1e-13 or np.all(np.abs(diff) < 1e-15):
                 break
-        return [float(v) for v in _wrap(x)]
+        return [float(v) for v in wrap_angle(x)]
 
     def _run_lift(self, a: NDArray[np.float64], runs: NDArray[np.int64]
                   ) -> NDArray[np.float64]:
@@ -548,10 +472,10 @@ class ConvertedLift(SolvedLift):
         x = alpha - b.
         """
         b = 0.5 * (self._s[idx] + self._s[idx + 1])
-        which = np.argmin(np.abs(_wrap(b[:, None] - self._edge_b[None, :])), axis=1)
+        which = np.argmin(np.abs(wrap_angle(b[:, None] - self._edge_b[None, :])), axis=1)
         value = self._edge_v[which]
         arc = self._edge_arc[which]
-        r2 = _radius(self.target)
+        r2 = contact_radius(self.target)
         x = aa - b
         out = np.empty((JET_ORDER + 1, aa.size))
         flat = ~arc
@@ -561,7 +485,7 @@ class ConvertedLift(SolvedLift):
             out[:, flat] = np.stack([c * sec, c * sec * tan, c * (sec * tan * tan + sec ** 3),
                                      c * sec * tan * (tan * tan + 5.0 * sec * sec)])
         if np.any(arc):
-            out[:, arc] = _circle_ray(value[arc], _radius(self.source) - r2, x[arc], -1.0)
+            out[:, arc] = _circle_ray(value[arc], contact_radius(self.source) - r2, x[arc], -1.0)
         out[0] -= self.base_radius + r2
         return out
 
@@ -588,7 +512,7 @@ class ConvertedLift(SolvedLift):
             s = np.where(np.abs(f) < NEWTON_TOL, s,
                          np.where(inside, step, 0.5 * (s_lo + s_hi)))
         with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-            derivs = _jet_inverse_compose(angle, lift)
+            derivs = jet_inverse_compose(angle, lift)
             for k in range(JET_ORDER):     # first-order correction for the residual angle
                 derivs[k] -= f * derivs[k + 1]
         return derivs, angle[1]
@@ -619,296 +543,6 @@ def convert_lift(law: LiftLaw, base_radius: float, source: Follower, target: Fol
     return ConvertedLift(law, r0, source, target, key=key)
 
 
-# ---------------------------------------------------------------------------------------
-# Cam profile coordinates, radius of curvature, pressure angle, undercut (docs/follower.md)
-# ---------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Profile:
-    """A sampled cam profile in the cam-fixed frame (all lengths m, angles rad).
-
-    ``alpha``: the cam angle of each sample; ``x, y``: the actual (working) profile;
-    ``pitch_x, pitch_y``: the roller-centre (pitch) curve, equal to x, y for a knife and
-    for a flat tappet the contact point as well; ``rho``: signed radius of curvature of
-    the actual profile (> 0 convex, < 0 concave); ``rho_pitch``: of the pitch curve (flat
-    tappet: equal to rho); ``pressure_angle``: angle between the contact normal and the
-    follower's direction of motion at the roller centre (0 for a flat face);
-    ``undercut``: bool per sample, True where the envelope reverses (cusp, rho in
-    (0, radius) of a roller, rho <= 0 of a flat face); ``face_offset``: the contact's
-    distance from the tappet axis (flat tappet: h', the face must be wider than its max).
-    """
-
-    kind: str
-    alpha: NDArray[np.float64]
-    x: NDArray[np.float64]
-    y: NDArray[np.float64]
-    pitch_x: NDArray[np.float64]
-    pitch_y: NDArray[np.float64]
-    rho: NDArray[np.float64]
-    rho_pitch: NDArray[np.float64]
-    pressure_angle: NDArray[np.float64]
-    undercut: NDArray[np.bool_]
-    face_offset: NDArray[np.float64]
-
-    def undercut_intervals(self) -> list[tuple[float, float]]:
-        """(alpha_first, alpha_last) [rad] of each run of undercut samples."""
-        edges = np.diff(np.concatenate([[0], np.asarray(self.undercut, dtype=int), [0]]))
-        first = np.flatnonzero(edges == 1)
-        last = np.flatnonzero(edges == -1) - 1
-        return [(float(self.alpha[i]), float(self.alpha[j])) for i, j in zip(first, last)]
-
-    def summary(self) -> dict[str, object]:
-        """Key numbers for a report: extreme radii, pressure angle, undercut intervals."""
-        return {
-            'kind': self.kind,
-            'points': int(self.alpha.size),
-            'rho_min_m': float(np.min(self.rho)),
-            'rho_min_alpha_rad': float(self.alpha[int(np.argmin(self.rho))]),
-            'rho_pitch_min_m': float(np.min(self.rho_pitch)),
-            'pressure_angle_max_deg': float(np.degrees(np.max(np.abs(self.pressure_angle)))),
-            'face_offset_max_m': float(np.max(np.abs(self.face_offset))),
-            'undercut': bool(np.any(self.undercut)),
-            'undercut_intervals_rad': self.undercut_intervals(),
-        }
-
-    def columns(self) -> dict[str, NDArray[np.float64]]:
-        """The per-sample arrays, in CSV column order (SI units in the names)."""
-        return {
-            'alpha_rad': self.alpha, 'x_m': self.x, 'y_m': self.y,
-            'pitch_x_m': self.pitch_x, 'pitch_y_m': self.pitch_y, 'rho_m': self.rho,
-            'rho_pitch_m': self.rho_pitch, 'pressure_angle_rad': self.pressure_angle,
-            'undercut': self.undercut.astype(float), 'face_offset_m': self.face_offset,
-        }
-
-
-def _alpha_grid(alpha: ArrayLike) -> NDArray[np.float64]:
-    a = np.asarray(alpha, dtype=float).reshape(-1)
-    if a.size == 0:
-        raise InputError('alpha', 'an empty list', 'at least one angle in rad')
-    if not np.all(np.isfinite(a)):
-        raise InputError('alpha', 'non-finite entries', 'finite angles in rad')
-    return a
-
-
-def _unit(angle: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.stack([np.cos(angle), np.sin(angle)])
-
-
-def _perp(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rotate (2, n) vectors by +90 degrees."""
-    return np.stack([-v[1], v[0]])
-
-
-def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    return a[0] * b[1] - a[1] * b[0]
-
-
-def inner_envelope(pitch: NDArray[np.float64], d1: NDArray[np.float64],
-                   d2: NDArray[np.float64], radius: float) -> dict[str, NDArray[np.float64]]:
-    """Inner envelope of circles of ``radius`` [m] centred on a pitch curve (docs/follower.md).
-
-    ``pitch``, ``d1``, ``d2``: (2, n) arrays of P, dP/dphi, d2P/dphi2 (analytic). The side
-    is picked numerically: the offset P + sign r n (n the left normal) with the smaller
-    mean distance from the cam centre is the inner one. Returns ``profile`` (2, n),
-    ``normal`` (2, n, unit, pointing from the profile to the roller centre),
-    ``rho_pitch`` and ``rho`` (signed radii, > 0 where the pitch curve bends towards the
-    cam: rho = rho_pitch - r), ``undercut`` (bool: dQ/dphi . dP/dphi <= 0).
-    """
-    speed = np.hypot(d1[0], d1[1])
-    if np.any(speed == 0):
-        raise InputError('pitch curve', 'a stationary point', 'a regular pitch curve')
-    left = _perp(d1) / speed
-    kappa = _cross(d1, d2) / speed ** 3      # signed curvature, + when turning left
-    candidates = [pitch + sign * radius * left for sign in (1.0, -1.0)]
-    means = [float(np.mean(np.hypot(c[0], c[1]))) for c in candidates]
-    sign = 1.0 if means[0] <= means[1] else -1.0
-    profile = candidates[0] if sign > 0 else candidates[1]
-    # centre of curvature at P + left / kappa; towards the inner side when sign*kappa > 0
-    with np.errstate(divide='ignore'):
-        rho_pitch = np.where(kappa != 0, sign / np.where(kappa != 0, kappa, 1.0), np.inf)
-    # Q' = P' (1 - sign r kappa): reversed where sign * r * kappa >= 1
-    factor = 1.0 - sign * radius * kappa
-    return {'profile': profile, 'normal': -sign * left, 'rho_pitch': rho_pitch,
-            'rho': rho_pitch - radius, 'undercut': factor <= 0}
-
-
-def flat_profile(law: LiftLaw, base_radius: float, alpha: ArrayLike) -> Profile:
-    """Flat-faced translating tappet profile, Shang eq. 2.15 (docs/follower.md).
-
-    Cam frame: origin at the cam centre, nose on +Y; the tappet axis at cam angle alpha is
-    at theta = pi/2 + alpha. x = p cos(theta) - h' sin(theta), y = h' cos(theta) +
-    p sin(theta), p = R0 + h; rho1 = R0 + h + h'' (eq. 2.6); undercut where rho1 <= 0.
-    """
-    r0 = require_positive('base_radius', base_radius)
-    a = _alpha_grid(alpha)
-    h, h1, h2, _ = law.derivatives(a)
-    theta = a + 0.5 * math.pi
-    p = r0 + h
-    c, s = np.cos(theta), np.sin(theta)
-    x = p * c - h1 * s
-    y = h1 * c + p * s
-    rho = r0 + h + h2
-    return Profile('flat', a, x, y, x.copy(), y.copy(), rho, rho.copy(), np.zeros_like(a),
-                   rho <= 0, h1)
-
-
-def _pitch_profile(kind: str, a: NDArray[np.float64], pitch: NDArray[np.float64],
-                   d1: NDArray[np.float64], d2: NDArray[np.float64], radius: float,
-                   motion: NDArray[np.float64]) -> Profile:
-    """Shared tail of the roller profiles: envelope, curvature, pressure angle."""
-    env = inner_envelope(pitch, d1, d2, radius)
-    cos_p = np.abs(np.sum(env['normal'] * motion, axis=0))
-    pressure = np.arccos(np.clip(cos_p, 0.0, 1.0))
-    prof = env['profile']
-    return Profile(kind, a, prof[0], prof[1], pitch[0], pitch[1], env['rho'],
-                   env['rho_pitch'], pressure, env['undercut'], np.zeros_like(a))
-
-
-def roller_profile(law: LiftLaw, base_radius: float, radius: float,
-                   alpha: ArrayLike) -> Profile:
-    """In-line translating roller (or knife, radius 0) tappet profile, Shang eq. 2.16.
-
-    Same frame as :func:`flat_profile`. g = R0 + r + h is the pitch radius (R0 the base
-    radius of the profile, r the roller radius R00); the profile is the inner envelope,
-    rho_pitch = (g^2 + g'^2)^1.5 / (g^2 + 2g'^2 - g g''), rho1 = rho_pitch - r
-    (erratum 5: subtract the roller radius). Pressure angle atan(|g'| / g).
-    """
-    r0 = require_positive('base_radius', base_radius)
-    r = require_positive('radius', radius, allow_zero=True)
-    a = _alpha_grid(alpha)
-    h, h1, h2, _ = law.derivatives(a)
-    theta = a + 0.5 * math.pi
-    u, w = _unit(theta), _perp(_unit(theta))
-    g = r0 + r + h
-    pitch = g * u
-    d1 = h1 * u + g * w
-    d2 = (h2 - g) * u + 2.0 * h1 * w
-    return _pitch_profile('roller' if r > 0 else 'knife', a, pitch, d1, d2, r, u)
-
-
-def _rotation_apply(angle: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.stack([c * v[0] - s * v[1], s * v[0] + c * v[1]])
-
-
-def _sign_param(key: str, value: int, allowed: tuple[int, ...]) -> int:
-    if isinstance(value, bool) or value not in allowed:
-        raise InputError(key, value, ' or '.join(f'{v:+d}' for v in allowed))
-    return int(value)
-
-
-def offset_roller_profile(law: LiftLaw, base_radius: float, radius: float, offset: float,
-                          alpha: ArrayLike, *, eta: int = 1, delta: int = 1) -> Profile:
-    """Offset translating roller follower, thesis (S3) reverse-method form (docs/follower.md).
-
-    Frame: x-axis along the follower's rise direction. phi = alpha is the cam angle, s =
-    h(phi) the lift; ``eta`` = +1 clockwise cam, -1 counter-clockwise; ``delta`` = +1/-1
-    for a guide line offset to the +y/-y side by ``offset`` e >= 0 [m]. The pitch base
-    radius is r0 = R0 + r (R0 = ``base_radius`` of the profile), s0 = sqrt(r0^2 - e^2):
-    x = (s0+s) cos(eta phi) - delta e sin(eta phi), y = (s0+s) sin(eta phi) + delta e cos(eta phi).
-    Pressure angle: tan = |s' - eta delta e| / (s0 + s) (equal to the pitch-normal angle).
-    """
-    r, e, eta, delta, s0 = _offset_params(base_radius, radius, offset, eta, delta)
-    a = _alpha_grid(alpha)
-    h, h1, h2, _ = law.derivatives(a)
-    turn = eta * a
-    v = np.stack([s0 + h, np.full_like(a, delta * e)])
-    pitch = _rotation_apply(turn, v)
-    d1 = _rotation_apply(turn, np.stack([h1 - eta * delta * e, eta * (s0 + h)]))
-    d2 = _rotation_apply(turn, np.stack([h2 - (s0 + h), 2.0 * eta * h1 - delta * e]))
-    kind = 'offset-roller' if r > 0 else 'offset-knife'
-    return _pitch_profile(kind, a, pitch, d1, d2, r, _unit(turn))
-
-
-def offset_pressure_angle(law: LiftLaw, base_radius: float, radius: float, offset: float,
-                          alpha: ArrayLike, *, eta: int = 1, delta: int = 1
-                          ) -> NDArray[np.float64]:
-    """Closed-form pressure angle [rad] (docs/follower.md): atan(|s' - eta delta e| / (s0 + s))."""
-    _, e, eta, delta, s0 = _offset_params(base_radius, radius, offset, eta, delta)
-    a = _alpha_grid(alpha)
-    return np.arctan(np.abs(law(a, 1) - eta * delta * e) / (s0 + law(a)))
-
-
-def _offset_params(base_radius: float, radius: float, offset: float, eta: int, delta: int
-                   ) -> tuple[float, float, int, int, float]:
-    """Validated (r, e, eta, delta, s0) of the offset translating follower."""
-    r0 = require_positive('base_radius', base_radius)
-    r = require_positive('radius', radius, allow_zero=True)
-    e = require_positive('offset', offset, allow_zero=True)
-    eta = _sign_param('eta', eta, (1, -1))
-    delta = _sign_param('delta', delta, (1, -1, 0))
-    if delta == 0 and e > 0:
-        raise InputError('delta', delta, '+1 or -1 for an offset guide line (offset > 0)')
-    rp = r0 + r
-    if e >= rp:
-        raise InputError('offset', e, f'an offset smaller than the pitch base radius {rp} m')
-    return r, e, eta, delta, math.sqrt(rp * rp - e * e)
-
-
-def _rocker_check(base_radius: float, radius: float, centre_distance: float,
-                  arm_length: float) -> tuple[float, float, float, float]:
-    r0 = require_positive('base_radius', base_radius)
-    r = require_positive('radius', radius, allow_zero=True)
-    dist = require_positive('centre_distance', centre_distance)
-    arm = require_positive('arm_length', arm_length)
-    rp = r0 + r
-    if not abs(dist - arm) < rp < dist + arm:
-        raise InputError('centre_distance', dist, f'|a - l| < r0 < a + l with pitch base '
-                         f'radius r0 = {rp} m and arm length l = {arm} m')
-    psi0 = math.acos((dist * dist + arm * arm - rp * rp) / (2.0 * dist * arm))
-    return r, dist, arm, psi0
-
-
-def rocker_profile(law: LiftLaw, base_radius: float, radius: float, centre_distance: float,
-                   arm_length: float, alpha: ArrayLike, *, eta: int = 1, delta: int = 1
-                   ) -> Profile:
-    """Oscillating (rocker) roller follower, thesis form (docs/follower.md).
-
-    Frame: x-axis along OA (cam centre O to pivot A, distance a = ``centre_distance``),
-    arm length l; the swing is psi = h(phi) / l [rad] (the law gives the roller centre's
-    arc lift, m); psi0 = arccos((a^2 + l^2 - r0^2) / (2al)) with r0 = R0 + r;
-    ``eta`` = +1 clockwise cam, ``delta`` = +1/-1 the swing direction during the rise:
-    x = a cos(eta phi) - l cos(eta phi - delta (psi0 + psi)), y likewise with sin.
-    Pressure angle: between the contact normal and the roller centre's velocity
-    (perpendicular to the arm).
-    """
-    r, dist, arm, psi0 = _rocker_check(base_radius, radius, centre_distance, arm_length)
-    eta = _sign_param('eta', eta, (1, -1))
-    delta = _sign_param('delta', delta, (1, -1))
-    a = _alpha_grid(alpha)
-    h, h1, h2, _ = law.derivatives(a)
-    turn = eta * a
-    big = turn - delta * (psi0 + h / arm)
-    big1 = eta - delta * h1 / arm
-    big2 = -delta * h2 / arm
-    pitch = dist * _unit(turn) - arm * _unit(big)
-    d1 = dist * eta * _perp(_unit(turn)) - arm * big1 * _perp(_unit(big))
-    d2 = -dist * _unit(turn) - arm * big2 * _perp(_unit(big)) + arm * big1 ** 2 * _unit(big)
-    kind = 'rocker' if r > 0 else 'rocker-knife'
-    return _pitch_profile(kind, a, pitch, d1, d2, r, _perp(_unit(big)))
-
-
-def rocker_polar(law: LiftLaw, base_radius: float, radius: float, frame_length: float,
-                 arm_length: float, alpha: ArrayLike, *, co_directional: bool = False
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Pitch curve of the rocker follower in the CG paper's polar form (S1 eqs 1-6).
-
-    rho = sqrt(L^2 + l^2 - 2 L l cos(psi0 + psi)); theta = phi + (beta0 - beta) for the
-    counter-directional type (逆向) and phi - (beta0 - beta) for the co-directional type
-    (同向), with beta = atan2(l sin(psi0 + psi), L - l cos(psi0 + psi)). Returns (rho [m],
-    theta [rad]). Same curve as :func:`rocker_profile` with eta = +1 and delta = -1
-    (counter) or +1 (co), rotated by -delta beta0.
-    """
-    _, dist, arm, psi0 = _rocker_check(base_radius, radius, frame_length, arm_length)
-    a = _alpha_grid(alpha)
-    big = psi0 + law(a) / arm
-    rho = np.sqrt(dist * dist + arm * arm - 2.0 * dist * arm * np.cos(big))
-    beta = np.arctan2(arm * np.sin(big), dist - arm * np.cos(big))
-    beta0 = math.atan2(arm * math.sin(psi0), dist - arm * math.cos(psi0))
-    sign = -1.0 if co_directional else 1.0
-    return rho, a + sign * (beta0 - beta)
-
-
 class EccentricDiscLift(LiftLaw):
     """Exact lift of an eccentric disc (docs/follower.md; docs/methods.md case 13) for a follower.
 
@@ -936,7 +570,7 @@ class EccentricDiscLift(LiftLaw):
         if self.follower.kind == 'flat':
             c, s = np.cos(alpha), np.sin(alpha)
             return (e * (1.0 + c), -e * s, -e * c, e * s)[nu]
-        r = _radius(self.follower)
+        r = contact_radius(self.follower)
         out = _circle_ray(e, self.disc_radius + r, alpha, 1.0)[nu]
         return out - (self.disc_radius - e + r) if nu == 0 else out
 
@@ -971,88 +605,3 @@ def ground_lift(law: LiftLaw, base_radius: float, design: Follower, wheel_radius
     path = wheel_centre_lift(law, base_radius, design, rw)
     return convert_lift(path, base_radius, Follower('roller', rw + dr),
                         design if target is None else target, key='ground lift')
-
-
-#: target angles per block in lift_from_profile (memory: block x points doubles).
-POINTS_BLOCK = 128
-
-
-def lift_from_profile(x: ArrayLike, y: ArrayLike, alpha: ArrayLike, follower: Follower,
-                      base_radius: float | None = None) -> NDArray[np.float64]:
-    """Lift [m] of a translating follower on a cam given by dense profile points (§2.6).
-
-    ``x, y`` [m]: profile points in the cam frame of :func:`flat_profile` (nose on +Y,
-    the follower axis at alpha is at theta = pi/2 + alpha), ordered along the closed
-    profile and roughly evenly spaced. Flat: h = max_i P_i.u - R0; roller/knife of
-    radius r: D = max over |P_i.u_perp| <= r of [P_i.u + sqrt(r^2 - (P_i.u_perp)^2)],
-    h = D - (R0 + r). The discrete max is refined by a parabola through the best point
-    and its two neighbours (error well below the raw ds^2/(8 rho)). ``base_radius`` R0
-    defaults to the smallest support/centre distance found (h >= 0). For exact
-    conversions of a design lift use :func:`convert_lift`; this is for measured or
-    drawn coordinates (and as an independent reference).
-    """
-    px = np.asarray(x, dtype=float).reshape(-1)
-    py = np.asarray(y, dtype=float).reshape(-1)
-    if px.size != py.size or px.size < 8:
-        raise InputError('profile', f'{px.size} x and {py.size} y values',
-                         'as many x as y values, at least 8 points')
-    if not (np.all(np.isfinite(px)) and np.all(np.isfinite(py))):
-        raise InputError('profile', 'non-finite coordinates', 'finite x, y in m')
-    if not isinstance(follower, Follower):
-        raise InputError('follower', follower, 'a cam_design.follower.Follower')
-    a = _alpha_grid(alpha)
-    r = _radius(follower)
-    if follower.kind == 'knife':
-        out = _radial_function(px, py, a + 0.5 * math.pi)
-    else:
-        out = _support_max(px, py, a, follower.kind == 'flat', r)
-    if base_radius is None:
-        base = float(np.min(out)) - r
-    else:
-        base = require_positive('base_radius', base_radius)
-    return out - base - r
-
-
-def _radial_function(px: NDArray[np.float64], py: NDArray[np.float64],
-                     theta: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Distance from the centre to a star-shaped closed curve in the directions theta
-    (periodic cubic spline of radius against polar angle)."""
-    from scipy.interpolate import CubicSpline
-
-    ang = np.arctan2(py, px)
-    order = np.argsort(ang)
-    ang, rad = ang[order], np.hypot(px, py)[order]
-    if np.any(np.diff(ang) <= 0):
-        raise InputError('profile', 'repeated polar angles',
-                         'a profile seen once from the cam centre (star-shaped)')
-    spline = CubicSpline(np.append(ang, ang[0] + 2 * math.pi), np.append(rad, rad[0]),
-                         bc_type='periodic')
-    return spline(ang[0] + np.mod(theta - ang[0], 2 * math.pi))
-
-
-def _support_max(px: NDArray[np.float64], py: NDArray[np.float64], a: NDArray[np.float64],
-                 flat: bool, r: float) -> NDArray[np.float64]:
-    """Refined discrete max of the flat support / roller centre distance (§2.6)."""
-    out = np.empty(a.size)
-    n = px.size
-    for start in range(0, a.size, POINTS_BLOCK):
-        theta = a[start:start + POINTS_BLOCK, None] + 0.5 * math.pi
-        c, s = np.cos(theta), np.sin(theta)
-        along = px * c + py * s
-        if flat:
-            val = along
-        else:
-            across = -px * s + py * c
-            val = along + np.sqrt(np.clip(r * r - across * across, 0.0, None))
-            val = np.where(np.abs(across) <= r, val, -np.inf)
-        i = np.argmax(val, axis=1)
-        rows = np.arange(val.shape[0])
-        f0 = val[rows, (i - 1) % n]
-        f1 = val[rows, i]
-        f2 = val[rows, (i + 1) % n]
-        with np.errstate(divide='ignore', invalid='ignore'):
-            curv = f0 - 2.0 * f1 + f2
-            ok = np.isfinite(f0) & np.isfinite(f2) & (curv < 0)
-            peak = f1 - np.where(ok, (f2 - f0) ** 2 / (8.0 * curv), 0.0)
-        out[start:start + POINTS_BLOCK] = peak
-    return out

@@ -478,7 +478,7 @@ def metrics_of(spec: Spec, law: Any) -> dict[str, float]:
         if spec.follower[0] == 'flat':
             rho = spec.base_radius + h + h2
         else:
-            from cam_design.follower import roller_profile
+            from cam_design.cam_profile import roller_profile
             rho = roller_profile(law, spec.base_radius, spec.follower[1], a).rho
         out['min_radius_of_curvature'] = float(rho.min())
         if 'min_nose_oil_film' in need:   # at the nose: over a flank the film of (2.12)

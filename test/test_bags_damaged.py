@@ -21,6 +21,7 @@ import pytest
 from cam_design.errors import InputError
 from cam_metrology import bagio
 from cam_metrology.bagio import check as bagcheck
+from cam_metrology.scene.recorded import require_scenes
 from cam_metrology.cli import main
 
 SCENE_FILE = Path(__file__).resolve().parents[1] / 'bags' / 'scenes' / 'two_lobes_no_pin.yaml'
@@ -126,7 +127,7 @@ def test_invalid_scene_names_its_key_in_analyze_and_bag_info(clean, tmp_path, ca
     assert main(['bag', 'info', str(bag)]) == 0
     assert 'scene: invalid: /bench/scene.base_circle_radius: got -3' in capsys.readouterr().out
     with pytest.raises(InputError) as exc:
-        bagio.require_scenes(bag)
+        require_scenes(bag)
     assert exc.value.key == '/bench/scene.base_circle_radius'
 
 

@@ -315,7 +315,7 @@ def test_roller_hertz_on_concave_flank_uses_signed_curvature() -> None:
     (k = 1, no lash; its minimum is checked against min_contact_force_n), sigma = 0.418
     sqrt(E F/cos(p) (1/r + 1/rho) / W) with rho and the pressure angle p from
     cam_design.follower.roller_profile on a fine grid."""
-    from cam_design.follower import roller_profile
+    from cam_design.cam_profile import roller_profile
 
     law = from_spec(PRESETS['flat_tappet_intake'], 'l')
     r, f0, rate, m, rpm, w, e = 10 * MM, 250.0, 3e4, 0.12, 3000.0, 0.012, 2.06e11

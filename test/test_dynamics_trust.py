@@ -20,7 +20,7 @@ from cam_design.valve_train.cam_input import build_cam_input
 from cam_design.valve_train.examples import (CircularArcKnifeLaw, EccentricFlatLaw,
                                              PiecewisePolynomialLaw, smoothstep)
 from cam_design.valve_train.params import SdofParams
-from cam_design.valve_train.sdof import _Model, _one_rev, simulate, simulate_cam
+from cam_design.valve_train.sdof import SdofModel, _one_rev, simulate, simulate_cam
 from cam_design.valve_train.sweep import CLEAN, sweep
 
 D = math.pi / 180.0
@@ -138,7 +138,7 @@ def test_shooting_satisfies_the_one_revolution_map() -> None:
     res = simulate_cam(cam, p, omega)
     assert res.settled and res.shooting_iterations >= 1
     z0 = (float(res.y[0]), float(res.v[0]))
-    again = _one_rev(_Model(p, omega), cam, z0, int(res.regime[0]))
+    again = _one_rev(SdofModel(p, omega), cam, z0, int(res.regime[0]))
     wn = math.sqrt((p.stiffness + p.spring_rate) / p.mass)
     assert abs(again.z[0] - z0[0]) < 1e-12 and abs(again.z[1] - z0[1]) / wn < 1e-12
     assert not res.events.separations and not res.left_cam

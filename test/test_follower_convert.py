@@ -198,7 +198,7 @@ def test_undercut_flat_design_rejected() -> None:
 def test_concave_roller_design_bridged_by_flat_and_large_roller(target: Follower) -> None:
     # a roller design with concave flanks: a flat face (or a roller larger than the
     # hollow) bridges them; the lift is the max over the convex runs (methods §2.6)
-    from cam_design.follower import lift_from_profile, roller_profile
+    from cam_design.cam_profile import lift_from_profile, roller_profile
 
     law = smooth_bump(0.006, 0.8)
     r0, r = 0.012, 0.002
@@ -400,7 +400,7 @@ def roller_design_profile_points(law: LiftLaw, r0: float, r1: float) -> np.ndarr
 @pytest.mark.parametrize('target', [Follower('knife'), Follower('roller', 0.004),
                                     Follower('roller', 0.01 - 1e-6)])
 def test_roller_design_with_velocity_steps(target: Follower) -> None:
-    from cam_design.follower import lift_from_profile
+    from cam_design.cam_profile import lift_from_profile
 
     lobe = RampLobe(vm=0.0015)          # used as a roller design: h' steps up 4 times
     r0, r1 = 0.018, 0.01
@@ -415,7 +415,7 @@ def test_roller_design_with_velocity_steps(target: Follower) -> None:
 @pytest.mark.parametrize('target', [FLAT, Follower('roller', 0.012)])
 def test_roller_design_steps_bridged(target: Follower) -> None:
     # a flat face or a larger roller bridges the concave arcs at the h' steps
-    from cam_design.follower import lift_from_profile
+    from cam_design.cam_profile import lift_from_profile
 
     lobe = RampLobe(vm=0.0015)
     r0, r1 = 0.018, 0.01

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from cam_design.errors import InputError
-from cam_design.follower import (Follower, flat_profile, offset_pressure_angle,
-                                 offset_roller_profile, rocker_polar, rocker_profile,
-                                 roller_profile)
+from cam_design.cam_profile import (flat_profile, offset_pressure_angle, offset_roller_profile,
+                                    rocker_polar, rocker_profile, roller_profile)
+from cam_design.follower import Follower
 from test_follower_convert import E, R0, RC, DiscLift, smooth_bump
 
 ALPHA = np.linspace(-math.pi, math.pi, 2001)
@@ -203,7 +203,7 @@ def test_converted_roller_profile_has_the_flat_designs_curvature() -> None:
                                           (Follower('roller', 0.008), 1e-9),
                                           (Follower('knife'), 1e-13)])
 def test_lift_from_profile_points_on_the_disc(follower: Follower, tol: float) -> None:
-    from cam_design.follower import lift_from_profile
+    from cam_design.cam_profile import lift_from_profile
 
     s = np.linspace(-math.pi, math.pi, 2000, endpoint=False)
     prof = flat_profile(DiscLift(Follower('flat')), R0, s)
@@ -214,7 +214,8 @@ def test_lift_from_profile_points_on_the_disc(follower: Follower, tol: float) ->
 
 
 def test_lift_from_profile_agrees_with_convert_lift_on_a_real_lobe() -> None:
-    from cam_design.follower import convert_lift, lift_from_profile
+    from cam_design.cam_profile import lift_from_profile
+    from cam_design.follower import convert_lift
     from cam_design.lift_laws import from_spec
 
     law = from_spec({'family': 'preset', 'name': 'flat_tappet_intake'}, 'test')
@@ -228,7 +229,7 @@ def test_lift_from_profile_agrees_with_convert_lift_on_a_real_lobe() -> None:
 
 
 def test_lift_from_profile_bad_input() -> None:
-    from cam_design.follower import lift_from_profile
+    from cam_design.cam_profile import lift_from_profile
 
     with pytest.raises(InputError, match='profile'):
         lift_from_profile([0.0, 1.0], [0.0, 1.0], [0.0], Follower('flat'))
@@ -256,7 +257,8 @@ def test_roller_rho_matches_book_formula_on_a_lobe() -> None:
 def test_concave_roller_design_converted_to_smaller_followers(target: Follower) -> None:
     # a roller design with concave flanks: knives and rollers that fit the hollow are
     # converted exactly (checked against the brute-force max over profile points)
-    from cam_design.follower import convert_lift, lift_from_profile
+    from cam_design.cam_profile import lift_from_profile
+    from cam_design.follower import convert_lift
 
     law = smooth_bump(0.006, 0.8)
     r0, r = 0.012, 0.002
@@ -271,7 +273,8 @@ def test_concave_roller_design_converted_to_smaller_followers(target: Follower) 
 def test_noisy_roller_lift_to_flat_bridges_the_noise() -> None:
     # a ball-probe lift with 0.1 um noise (a tabulated measurement): its profile has many
     # tiny hollows, which a flat face bridges (max over runs) - checked by brute force
-    from cam_design.follower import convert_lift, lift_from_profile
+    from cam_design.cam_profile import lift_from_profile
+    from cam_design.follower import convert_lift
     from cam_design.lift_laws import TabulatedLift
 
     rng = np.random.default_rng(3)

@@ -9,8 +9,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from cam_design.errors import InputError
-from cam_design.follower import (EccentricDiscLift, Follower, convert_lift, flat_profile,
-                                 offset_roller_profile, rocker_profile)
+from cam_design.cam_profile import flat_profile, offset_roller_profile, rocker_profile
+from cam_design.follower import EccentricDiscLift, Follower, convert_lift
 from cam_design.grinding.wheel_path import Design, WheelPath, equivalent_inline
 from cam_design.lift_laws import from_spec
 from cam_metrology.cli import main
@@ -408,12 +408,12 @@ def test_master_radius_against_exact_cradle_balance() -> None:
     master = MasterCam(path, Cradle(0.35, 0.45, 0.3, 0.5, 0.1, -1), 'roller', rm)
 
     def pitch(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        from cam_design.follower import _jet_mul
+        from cam_design.jets import jet_mul
         from cam_design.grinding.curve import jet_cos_sin
 
         st = master.jets(s)
         c, sn = jet_cos_sin(st['angle'])
-        return -_jet_mul(st['value'], sn), _jet_mul(st['value'], c)
+        return -jet_mul(st['value'], sn), jet_mul(st['value'], c)
 
     d_m0 = master.base_value
     pitch_lift = PolarCurveLift(pitch, d_m0)

@@ -107,7 +107,7 @@ def test_cli_on_a_yaml_file_is_one_line(capsys, argv):
 def test_reader_on_a_yaml_file_raises_input_error():
     """The shared reader (analyze, bag info and the live replayer use it)."""
     for call in (bagio.bag_topics, lambda p: list(bagio.iter_messages(p)),
-                 bagio._open_reader):
+                 bagio.open_reader):
         with pytest.raises(InputError) as exc:
             call(NOT_A_BAG)
         assert exc.value.key == 'bag'

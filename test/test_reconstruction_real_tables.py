@@ -21,38 +21,11 @@ from cam_metrology.cli import main
 from cam_metrology.reconstruction.profile import reconstruct_table
 from cam_metrology.reconstruction.samples import LiftTable, find_steps, read_table_file
 from cam_metrology.reconstruction.synthetic import PolynomialLobe, simulate
+from cam_metrology.reconstruction.truth_lobes import CircularArcCam
 
 DEG = math.pi / 180.0
 ROOT = Path(__file__).resolve().parents[1]
 LOBE = PolynomialLobe()                 # 8.3 mm, ramps of 0.3 mm over 30 deg
-
-
-class CircularArcCam:
-    """Symmetric circular-arc cam under a flat follower (lengths in m, alpha [rad] from
-    the nose): nose arc r_n, flank arcs R_f tangent to the base circle R0 and to the
-    nose. h = r_n + d cos(alpha) - R0 on the nose, R_f + e cos(|alpha| + b) - R0 on the
-    flank (support functions of the arcs), 0 on the base circle. C1 only."""
-
-    def __init__(self, r0=18e-3, lift=8e-3, r_nose=5e-3, r_flank=60e-3):
-        self.r0, self.rn, self.rf = r0, r_nose, r_flank
-        self.d = r0 + lift - r_nose                       # nose centre from the axis
-        self.e = r_flank - r0                             # flank centre from the axis
-        cos_b = (self.e ** 2 + self.d ** 2 - (r_flank - r_nose) ** 2) / (2 * self.e * self.d)
-        self.b = math.acos(cos_b)
-        self.end = math.pi - self.b                       # base circle beyond
-        self.tangent = math.atan2(self.e * math.sin(self.b), self.d - self.e * cos_b)
-
-    def __call__(self, alpha, nu=0):
-        a = np.asarray(alpha, dtype=float)
-        u = np.abs(a)
-        sign = np.sign(a) ** nu if nu % 2 else 1.0
-        nose = self.d * np.cos(u + nu * np.pi / 2)
-        flank = self.e * np.cos(u + self.b + nu * np.pi / 2)
-        if nu == 0:
-            nose = nose + self.rn - self.r0
-            flank = flank + self.rf - self.r0
-        out = np.where(u <= self.tangent, nose, np.where(u < self.end, flank, 0.0))
-        return out * sign
 
 
 class AsymmetricLobe:

@@ -50,8 +50,8 @@ def test_surge_frequencies_of_lumped_chain() -> None:
     n, rate, mass = 8, 1.2e4, 0.03
     mp = mdof_from_mapping({'springs': [{'rate': rate, 'mass': mass, 'coils': n,
                                          'preload_share': 1.0}]}, p)
-    from cam_design.valve_train.mdof import _Assembly
-    surge = np.array(_Assembly(mp).surge_hz[0])
+    from cam_design.valve_train.mdof import MdofAssembly
+    surge = np.array(MdofAssembly(mp).surge_hz[0])
     ke, me = (n + 1) * rate, mass / n
     j = np.arange(1, n + 1)
     exact = np.sqrt(ke / me) * np.sin(j * math.pi / (2 * (n + 1))) / math.pi
@@ -86,11 +86,11 @@ def test_invalid_mdof_named(spec: dict, key: str) -> None:
 
 
 def test_sampled_events_of_a_window_that_starts_open() -> None:
-    """The ODE paths' event rule (mdof._events) follows the exact solvers': a revolution
+    """The ODE paths' event rule (mdof.sampled_events) follows the exact solvers': a revolution
     that starts with the valve in the air opened at its last lift-off, one revolution
     earlier; lift-off and seating between nodes are interpolated. Truth by construction:
     sine lifts over [-210.2, -60.2] and [149.8, 299.8] deg on 0.5 deg nodes."""
-    from cam_design.valve_train.mdof import _events
+    from cam_design.valve_train.mdof import sampled_events
 
     a = np.linspace(-math.pi, math.pi, 721)
     deg = np.degrees(a)
@@ -100,9 +100,9 @@ def test_sampled_events_of_a_window_that_starts_open() -> None:
         return np.where((x > -0.1) & (x < math.pi + 0.1), 1e-3 * np.sin(x), -1e-4)
 
     y = np.maximum(lobe(-210.2), lobe(149.8))
-    ev = _events(a, y, np.zeros_like(y), np.ones_like(y), y)
+    ev = sampled_events(a, y, np.zeros_like(y), np.ones_like(y), y)
     assert ev['opening_deg'] == pytest.approx(-210.2, abs=2e-3)
     assert ev['closing_deg'] == pytest.approx(-60.2, abs=2e-3)
     y = lobe(-100.2)
-    ev = _events(a, y, np.zeros_like(y), np.ones_like(y), y)
+    ev = sampled_events(a, y, np.zeros_like(y), np.ones_like(y), y)
     assert ev['opening_deg'] == pytest.approx(-100.2, abs=2e-3)

@@ -14,13 +14,14 @@ from cam_design import checks
 from cam_design.errors import InputError
 from cam_design.valve_train import SdofParams
 from cam_design.valve_train.examples import DEG, symmetric_law
-from cam_design.valve_train.mdof import _Assembly, mdof_from_mapping, simulate_mdof
+from cam_design.valve_train.mdof import MdofAssembly, mdof_from_mapping, simulate_mdof
 from cam_design.valve_train.cam_input import build_cam_input
-from cam_design.valve_train.mdof_exact import CAM, RV, T, V, _Model, run_exact, static_state
+from cam_design.valve_train.mdof_exact import CAM, RV, T, V, run_exact, static_state
+from cam_design.valve_train.mdof_model import MdofModel as _Model
 from cam_design.valve_train.mdof_reference import reference_mdof
 from cam_design.valve_train.physics import (coil_bind, dynamic_clearance, spring_margin,
                                             train_checks_from)
-from cam_design.valve_train.sdof import NB, _FACT
+from cam_design.valve_train.propagate import FACT as _FACT, NB
 
 from test_valve_train_sdof import BASE, ramp_law
 
@@ -80,7 +81,7 @@ def test_exact_hard_seat_bounces_match_radau(law) -> None:
     terminal events, started from the exact state 0.3 deg before the first seating."""
     p = SdofParams(**BASE, restitution=0.6)
     mp = mdof_from_mapping(SMALL, p)
-    asm = _Assembly(mp)
+    asm = MdofAssembly(mp)
     cam = build_cam_input(law, p.rocker_ratio, 0.0, math.radians(0.05), pre=math.radians(1))
     ex = run_exact(asm, cam, 2000.0 * math.pi / 30, max_revolutions=1)
     imp = ex.events.impacts
@@ -110,7 +111,7 @@ def test_propagator_matches_modal_closed_form() -> None:
     with (w_i^2, phi_i) from eigh(K, M); the exact propagator to 1e-10 relative."""
     p = SdofParams(**{**BASE, 'damping': 0.0})
     mp = mdof_from_mapping({**SMALL, 'coil_beta': 0.0}, p)
-    asm = _Assembly(mp)
+    asm = MdofAssembly(mp)
     model = _Model(asm, 1000.0)
     n = asm.n
     r = CAM | RV
@@ -145,7 +146,7 @@ def test_shooting_reaches_periodic_state(law) -> None:
     repeated revolutions alone are far from it (weakly damped coils)."""
     p = SdofParams(**BASE)
     mp = mdof_from_mapping(SMALL, p)
-    asm = _Assembly(mp)
+    asm = MdofAssembly(mp)
     cam = build_cam_input(law, p.rocker_ratio, 0.0, math.radians(0.5), pre=math.radians(1))
     ex = run_exact(asm, cam, 2000.0 * math.pi / 30, max_revolutions=10, periodic_tol=1e-12)
     assert ex.settled and ex.periodic_residual < 1e-12 and ex.revolutions <= 6
@@ -171,7 +172,7 @@ def test_runaway_is_not_settled(law) -> None:
 
 def test_static_state_is_equilibrium(law) -> None:
     p = SdofParams(**BASE)
-    asm = _Assembly(mdof_from_mapping(SMALL, p))
+    asm = MdofAssembly(mdof_from_mapping(SMALL, p))
     model = _Model(asm, 100.0)
     z, r = static_state(model, 0.0)
     kk, cc, f, _, _ = model.mats(r)

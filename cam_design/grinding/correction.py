@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -187,7 +188,7 @@ def corrected_curve(path: WheelPath, fit: ErrorFit, *, cradle: Cradle | None = N
     return curve, radius
 
 
-def _inline_design(path: WheelPath):
+def _inline_design(path: WheelPath) -> Any:
     from cam_design.grinding.wheel_path import Design
 
     f = path.design_follower

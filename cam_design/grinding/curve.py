@@ -15,8 +15,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
-from cam_design.follower import (JET_ORDER, _jet_atan2, _jet_const, _jet_inverse_compose,
-                                 _jet_mul, _jet_sqrt, _wrap)
+from cam_design.follower import wrap_angle
+from cam_design.jets import (JET_ORDER, jet_atan2, jet_const, jet_inverse_compose, jet_mul,
+                             jet_sqrt)
 from cam_design.lift_laws.base import LiftLaw, SolvedLift
 
 Jet = NDArray[np.float64]
@@ -32,14 +33,14 @@ NEWTON_MAX_ITER = 50
 def param_jet(s: ArrayLike) -> Jet:
     """The jet of the parameter itself: s + e."""
     s = np.asarray(s, dtype=float).reshape(-1)
-    out = _jet_const(s, s.size)
+    out = jet_const(s, s.size)
     out[1] = 1.0
     return out
 
 
 def law_jet(law: LiftLaw, s: NDArray[np.float64]) -> Jet:
     """Jet of h(s) (s wrapped into [-pi, pi)): h^(k) / k!."""
-    d = law.derivatives(_wrap(np.asarray(s, dtype=float)))
+    d = law.derivatives(wrap_angle(np.asarray(s, dtype=float)))
     return np.stack([d[k] / math.factorial(k) for k in range(JET_ORDER + 1)])
 
 
@@ -47,8 +48,8 @@ def jet_cos_sin(x: Jet) -> tuple[Jet, Jet]:
     """Jets of cos x and sin x (d = x - x0 starts at order 1: d^4 is dropped)."""
     d = x.copy()
     d[0] = 0.0
-    d2 = _jet_mul(d, d)
-    d3 = _jet_mul(d2, d)
+    d2 = jet_mul(d, d)
+    d3 = jet_mul(d2, d)
     cd = -0.5 * d2
     cd[0] += 1.0
     sd = d - d3 / 6.0
@@ -58,7 +59,7 @@ def jet_cos_sin(x: Jet) -> tuple[Jet, Jet]:
 
 def polar_jets(x: Jet, y: Jet) -> tuple[Jet, Jet]:
     """Jets of the radius sqrt(x^2 + y^2) and of the polar angle atan2(y, x)."""
-    return _jet_sqrt(_jet_mul(x, x) + _jet_mul(y, y)), _jet_atan2(y, x)
+    return jet_sqrt(jet_mul(x, x) + jet_mul(y, y)), jet_atan2(y, x)
 
 
 def derivs_of(jet: Jet) -> NDArray[np.float64]:
@@ -99,11 +100,11 @@ class PolarCurveLift(SolvedLift):
         if full:
             self._support = (-math.pi, math.pi)
         else:
-            ends = _wrap(self.to_alpha(np.array([lo, hi])))
+            ends = wrap_angle(self.to_alpha(np.array([lo, hi])))
             self._support = (float(ends[0]), float(ends[1]))
             if not self._support[0] < self._support[1]:
                 raise InputError(key + '.support', support, 'a support that does not wrap')
-        self._junctions = tuple(float(j) for j in _wrap(self.to_alpha(np.asarray(
+        self._junctions = tuple(float(j) for j in wrap_angle(self.to_alpha(np.asarray(
             junctions, dtype=float)))) if junctions else ()
         self._cache: tuple[bytes, NDArray[np.float64]] | None = None
 
@@ -117,7 +118,7 @@ class PolarCurveLift(SolvedLift):
 
     def to_alpha(self, s: NDArray[np.float64]) -> NDArray[np.float64]:
         """alpha [rad, wrapped] of the curve points at parameters s."""
-        return _wrap(self._angle_rad(np.asarray(s, dtype=float).reshape(-1))[0][0])
+        return wrap_angle(self._angle_rad(np.asarray(s, dtype=float).reshape(-1))[0][0])
 
     def parameter(self, alpha: ArrayLike) -> NDArray[np.float64]:
         """Curve parameter s whose point lies at ``alpha`` (Newton on the polar angle)."""
@@ -130,7 +131,7 @@ class PolarCurveLift(SolvedLift):
         s = lo + frac * (hi - lo)
         for _ in range(NEWTON_MAX_ITER):
             ang, _ = self._angle_rad(s)
-            f = _wrap(ang[0] - tt)
+            f = wrap_angle(ang[0] - tt)
             if np.max(np.abs(f), initial=0.0) < NEWTON_TOL:
                 break
             hi = np.where(f > 0, s, hi)
@@ -146,8 +147,8 @@ class PolarCurveLift(SolvedLift):
         ang, rad = self._angle_rad(s)
         rad = rad.copy()
         rad[0] -= self.base
-        out = _jet_inverse_compose(ang, rad)
-        f = _wrap(ang[0] - t)
+        out = jet_inverse_compose(ang, rad)
+        f = wrap_angle(ang[0] - t)
         for k in range(JET_ORDER):
             out[k] -= f * out[k + 1]
         if not np.all(np.isfinite(out)):

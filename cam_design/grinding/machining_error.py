@@ -32,7 +32,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, require_finite
-from cam_design.follower import Follower, _jet_mul, _jet_sqrt, convert_lift
+from cam_design.follower import Follower, convert_lift
+from cam_design.jets import jet_mul, jet_sqrt
 from cam_design.grinding.curve import jet_cos_sin, law_jet, param_jet, polar_jets
 from cam_design.grinding.master_cam import Cradle, MasterCam
 from cam_design.grinding.wheel_path import WheelPath
@@ -75,7 +76,7 @@ def path_curve(path: WheelPath) -> TableCurve:
         d = law_jet(path.lift, s)
         d[0] += d0
         c, sn = jet_cos_sin(param_jet(s))
-        return -_jet_mul(d, sn), _jet_mul(d, c)
+        return -jet_mul(d, sn), jet_mul(d, c)
     return curve
 
 
@@ -137,11 +138,11 @@ class GroundCam:
             return out
         q = -x * ua[1] + y * ua[0]
         rr = (self.wheel - self.r) ** 2
-        inner = -_jet_mul(q, q)
+        inner = -jet_mul(q, q)
         inner[0] += rr
         if np.any(~(inner[0] > 0)):
             return np.full_like(p, np.nan)
-        return p - _jet_sqrt(inner)
+        return p - jet_sqrt(inner)
 
     def lift(self, alpha: ArrayLike, s_start: ArrayLike | None = None
              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -281,7 +282,7 @@ def _master_radius_dn(master: MasterCam, s: NDArray[np.float64], state: dict,
     # master pitch curve (master frame) and its outward normal, into the master-cradle frame
     val, ang = st['value'], st['angle']
     c, sn = jet_cos_sin(ang)
-    px, py = -_jet_mul(val, sn), _jet_mul(val, c)
+    px, py = -jet_mul(val, sn), jet_mul(val, c)
     speed = np.hypot(px[1], py[1])
     mnx, mny = py[1] / speed, -px[1] / speed
     mnx, mny = _rot(mnx, mny, st['phim'][0] - 0.5 * math.pi - ang[0])

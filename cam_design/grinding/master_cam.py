@@ -31,8 +31,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, require_finite, require_positive
-from cam_design.follower import (Profile, _jet_inverse_compose, _jet_mul, _jet_sqrt,
-                                 _wrap, inner_envelope)
+from cam_design.cam_profile import Profile, inner_envelope
+from cam_design.follower import wrap_angle
+from cam_design.jets import jet_inverse_compose, jet_mul, jet_sqrt
 from cam_design.grinding.curve import jet_cos_sin, law_jet, param_jet, polar_jets
 from cam_design.grinding.wheel_path import WheelPath
 
@@ -71,16 +72,16 @@ class Cradle:
         """
         a, b = self.pivot_to_work, self.pivot_to_wheel
         am, c = self.pivot_to_master, self.pivot_to_master_follower
-        dd = _jet_mul(d, d)
+        dd = jet_mul(d, d)
         wx = dd / (2.0 * a)
         wx[0] += (a * a - b * b) / (2.0 * a)
-        rad = dd - _jet_mul(wx, wx)
+        rad = dd - jet_mul(wx, wx)
         if np.any(~(rad[0] > 0)):
             i = int(np.argmax(~(rad[0] > 0)))
             raise InputError('grinding.cradle', f'wheel-centre distance {d[0][i]:.6g} m',
                              f'a cradle whose triangle closes: |a - b| < D < a + b with '
                              f'a = pivot_to_work = {a} m, b = pivot_to_wheel = {b} m')
-        wy = self.side * _jet_sqrt(rad)
+        wy = self.side * jet_sqrt(rad)
         vx, vy = wx / b, wy / b
         vx[0] -= a / b
         cd, sd = math.cos(self.master_angle), math.sin(self.master_angle)
@@ -157,7 +158,7 @@ class MasterCam:
         nx = cos_d * n0x - sin_d * n0y
         ny = sin_d * n0x + cos_d * n0y
         st['nx'], st['ny'] = nx, ny
-        return _jet_mul(st['mx'], nx) + _jet_mul(st['my'], ny)
+        return jet_mul(st['mx'], nx) + jet_mul(st['my'], ny)
 
     def jets(self, s: ArrayLike) -> dict[str, NDArray[np.float64]]:
         """Jets in the wheel angle s: ``theta`` (spindle angle), ``value`` (D_m or H),
@@ -209,7 +210,7 @@ class MasterCam:
         st = self.jets(s)
         value = st['value'].copy()
         value[0] -= self._h0
-        out = _jet_inverse_compose(st['theta'], value)
+        out = jet_inverse_compose(st['theta'], value)
         return out
 
     def approximate_lift(self, theta: ArrayLike) -> NDArray[np.float64]:
@@ -228,7 +229,7 @@ class MasterCam:
         if self.kind == 'roller':
             c, sn = jet_cos_sin(angle)
             # polar angle pi/2 + alpha: (cos, sin)(pi/2 + x) = (-sin x, cos x)
-            px, py = -_jet_mul(value, sn), _jet_mul(value, c)
+            px, py = -jet_mul(value, sn), jet_mul(value, c)
             pitch = np.stack([px[0], py[0]])
             d1 = np.stack([px[1], py[1]])
             d2 = 2.0 * np.stack([px[2], py[2]])
@@ -238,10 +239,10 @@ class MasterCam:
             pressure = np.arccos(np.clip(cos_p, 0.0, 1.0))
             prof = env['profile']
             undercut = env['undercut'] | (angle[1] <= 0)
-            return Profile('master-roller', _wrap(angle[0]), prof[0], prof[1], pitch[0],
+            return Profile('master-roller', wrap_angle(angle[0]), prof[0], prof[1], pitch[0],
                            pitch[1], env['rho'], env['rho_pitch'], pressure, undercut,
                            np.zeros(points))
-        der = _jet_inverse_compose(angle, value)      # H, dH/dpsi, d2H/dpsi2
+        der = jet_inverse_compose(angle, value)      # H, dH/dpsi, d2H/dpsi2
         h, h1, h2 = der[0], der[1], der[2]
         psi = angle[0]
         ux, uy = -np.sin(psi), np.cos(psi)
@@ -249,7 +250,7 @@ class MasterCam:
         y = h * uy + h1 * ux
         rho = h + h2
         undercut = ~(rho > 0) | ~(angle[1] > 0)
-        return Profile('master-flat', _wrap(psi), x, y, x.copy(), y.copy(), rho, rho.copy(),
+        return Profile('master-flat', wrap_angle(psi), x, y, x.copy(), y.copy(), rho, rho.copy(),
                        np.zeros(points), undercut, h1)
 
     def lift_table(self, theta: ArrayLike) -> dict[str, NDArray[np.float64]]:
@@ -264,7 +265,7 @@ class MasterCam:
                 'master_lift_approx_m': approx, 'approx_error_m': approx - exact,
                 'wheel_angle_rad': s, 'wheel_centre_distance_m': st['d'][0],
                 'cradle_angle_rad': st['gamma'],
-                'master_angle_rad': _wrap(st['angle'][0])}
+                'master_angle_rad': wrap_angle(st['angle'][0])}
 
 
 def master_from_section(path: WheelPath, section: dict) -> MasterCam:

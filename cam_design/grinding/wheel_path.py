@@ -21,8 +21,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, require_positive
-from cam_design.follower import (Follower, _jet_mul, _offset_params, _rocker_check,
-                                 _sign_param, _wrap, convert_lift, roller_profile)
+from cam_design.cam_profile import offset_params, rocker_check, roller_profile, sign_param
+from cam_design.follower import Follower, convert_lift, wrap_angle
+from cam_design.jets import jet_mul
 from cam_design.grinding.curve import PolarCurveLift, jet_cos_sin, law_jet, param_jet
 from cam_design.lift_laws.base import LiftLaw
 
@@ -79,20 +80,20 @@ def equivalent_inline(law: LiftLaw, base_radius: float, design: Design, *,
     if design.inline:
         return law, Follower(design.kind, design.radius)
     r = design.radius
-    eta = _sign_param('design.eta', design.eta, (1, -1))
+    eta = sign_param('design.eta', design.eta, (1, -1))
     if design.kind == 'offset-roller':
-        r, e, eta, delta, s0 = _offset_params(r0, r, design.offset, eta, design.delta)
+        r, e, eta, delta, s0 = offset_params(r0, r, design.offset, eta, design.delta)
 
         def curve(s: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
             h = law_jet(law, s)
             c, sn = jet_cos_sin(eta * param_jet(s))
             vx = h.copy()
             vx[0] += s0
-            return _jet_mul(c, vx) - sn * (delta * e), _jet_mul(sn, vx) + c * (delta * e)
+            return jet_mul(c, vx) - sn * (delta * e), jet_mul(sn, vx) + c * (delta * e)
         base_dir = math.atan2(delta * e, s0)
     else:
-        r, dist, arm, psi0 = _rocker_check(r0, r, design.centre_distance, design.arm_length)
-        delta = _sign_param('design.delta', design.delta, (1, -1))
+        r, dist, arm, psi0 = rocker_check(r0, r, design.centre_distance, design.arm_length)
+        delta = sign_param('design.delta', design.delta, (1, -1))
 
         def curve(s: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
             turn = eta * param_jet(s)
@@ -152,7 +153,7 @@ class WheelPath:
         a = np.asarray(alpha, dtype=float).reshape(-1)
         if not np.all(np.isfinite(a)):
             raise InputError('alpha', 'non-finite angles', 'finite angles [rad]')
-        out = self.lift.derivatives(_wrap(a))
+        out = self.lift.derivatives(wrap_angle(a))
         out[0] += self.base_radius + self.wheel_radius
         return out
 

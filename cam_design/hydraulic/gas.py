@@ -17,7 +17,7 @@ from cam_design.errors import InputError, require_positive
 
 
 def gas_force(crank_deg: ArrayLike, pressure: ArrayLike, head_diameter: float,
-              back_pressure: float = 0.0):
+              back_pressure: float = 0.0) -> Callable[[float], float]:
     """The cylinder-gas force on a valve head [N] as a function of crank angle [deg]:
     (p_cyl - p_port) pi d^2 / 4, from a pressure table (gauge Pa) interpolated linearly and
     periodically over 720 deg. Returns a callable of crank angle [deg]."""

@@ -120,9 +120,9 @@ class _Train:
             self.k_c = self.b_c = 0.0
             self.it = None
         else:
-            from cam_design.valve_train.mdof import R, T, V, _Assembly
+            from cam_design.valve_train.mdof import MdofAssembly, R, T, V
 
-            asm = _Assembly(mdof)
+            asm = MdofAssembly(mdof)
             self.n, self.iv, self.ia, self.it = asm.n, V, R, T
             self.m, self.k_lin, self.c_lin = asm.m, asm.k_lin, asm.c_lin
             self.preload = asm.preload
@@ -183,7 +183,8 @@ def _cam_function(law: Any, ratio: float, omega: float, step: float
 
 
 def _rhs_factory(tr: _Train, u: Callable[[float], tuple[float, float]],
-                 gas: Callable[[float], float] | None, a0: float, omega: float):
+                 gas: Callable[[float], float] | None, a0: float, omega: float
+                 ) -> tuple[Callable[..., Any], Callable[..., Any]]:
     n, iv, ia, it = tr.n, tr.iv, tr.ia, tr.it
     b = tr.base
     minv = 1.0 / tr.m
@@ -371,7 +372,7 @@ def run_with_hla(law: Any, params: SdofParams, hla_spec: Mapping[str, Any], rpm:
     closing, separations, seating velocity on the sampled solution) and the HLA's
     (``hla_*``; pump-up also in the ``note``). ``settled`` is the HLA's: its extension
     no longer changes from one revolution to the next."""
-    from cam_design.valve_train.mdof import _events
+    from cam_design.valve_train.mdof import sampled_events
     from cam_design.valve_train.report import finish_run
 
     hla, revs = hla_from_mapping(hla_spec)
@@ -379,7 +380,7 @@ def run_with_hla(law: Any, params: SdofParams, hla_spec: Mapping[str, Any], rpm:
                        step_deg=max(step_deg, 0.5), gas=gas)
     u = params.rocker_ratio * law(res.alpha)
     contact = res.element_force if mdof is None else res.cam_force
-    events = _events(res.alpha, res.y, res.v, contact, u)
+    events = sampled_events(res.alpha, res.y, res.v, contact, u)
     events.update(res.events)
     if gas is not None:
         events.update(gas_events(gas, res.alpha, events.get('opening_deg')))
@@ -489,12 +490,12 @@ def _periodic_start(tr: _Train, mdof: Any, law: Any, base: SdofParams, omega: fl
     """The exact MDOF solver's periodic state without the gas force at the window
     start (the coil surge of the previous lift included), as the start of the gas run;
     ``fallback`` when that solver does not settle."""
-    from cam_design.valve_train.mdof import _Assembly
+    from cam_design.valve_train.mdof import MdofAssembly
     from cam_design.valve_train.mdof_exact import run_exact
 
     cam = build_cam_input(law, base.rocker_ratio, 0.0, step)
     try:
-        ex = run_exact(_Assembly(mdof), cam, omega, max_revolutions=8, periodic_tol=1e-10)
+        ex = run_exact(MdofAssembly(mdof), cam, omega, max_revolutions=8, periodic_tol=1e-10)
     except Exception:           # noqa: BLE001 - any failure: start from rest instead
         return fallback
     if not ex.settled or (tr.hard and (ex.z[0][tr.iv] != 0.0 or ex.z[0][tr.n + tr.iv] != 0.0)):
@@ -544,13 +545,13 @@ def run_gas_ode(law: Any, params: SdofParams, mdof: Any, rpm: float, *,
     """A ``Run`` of the MDOF train (any seat) or of the SDOF train with the hard seat
     (``mdof`` None) with the cylinder-gas force (``simulate_gas_train``): events on the
     sampled last revolution, ``settled`` when two revolutions agree."""
-    from cam_design.valve_train.mdof import _events
+    from cam_design.valve_train.mdof import sampled_events
     from cam_design.valve_train.report import finish_run
 
     res = simulate_gas_train(law, params, rpm, mdof=mdof, gas=gas, revolutions=revolutions,
                              step_deg=max(step_deg, 0.5))
     u = params.rocker_ratio * law(res['alpha'])
-    events = _events(res['alpha'], res['y'], res['v'], res['cam_force'], u)
+    events = sampled_events(res['alpha'], res['y'], res['v'], res['cam_force'], u)
     events.update({'revolutions': revolutions, 'settled': res['settled'],
                    'periodic_residual_m': res['periodic_residual_m'], 'left_cam': False,
                    'integration': 'ODE path (gas force, docs/hydraulic.md)'})

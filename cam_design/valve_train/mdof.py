@@ -137,8 +137,14 @@ def mdof_from_mapping(spec: Mapping[str, Any] | None, base: SdofParams,
                                                         allow_zero=True))
 
 
-class _Assembly:
-    """Mass vector, linear stiffness/damping matrices and the unilateral elements."""
+class MdofAssembly:
+    """The assembled 4 + N1 + N2 train, shared by the exact, scipy-reference and HLA solvers.
+
+    ``m`` masses [kg], ``k_lin`` [N/m] and ``c_lin`` [N s/m] the linear stiffness and
+    damping matrices, ``preload`` [N] the constant forces, ``k_c``/``b_c`` and
+    ``k_rv``/``b_rv`` the rates of the unilateral cam-tappet and rocker-valve contacts,
+    ``surge_hz`` the coil surge frequencies of each spring [Hz].
+    """
 
     def __init__(self, mp: MdofParams) -> None:
         b = mp.base
@@ -271,7 +277,7 @@ class MdofRunner:
         self.span = span
         self.max_revolutions = int(max_revolutions)
         self.periodic_tol = periodic_tol
-        self.asm = _Assembly(mp)
+        self.asm = MdofAssembly(mp)
         self.cam = build_cam_input(law, mp.base.rocker_ratio, 0.0, step,
                                    pre=math.radians(require_positive('pre_deg', pre_deg)))
 
@@ -321,7 +327,7 @@ def _deg(x: float | None) -> float | None:
     return None if x is None else math.degrees(x)
 
 
-def _cam_force(asm: '_Assembly', z: NDArray, u: NDArray, ud: NDArray,
+def _cam_force(asm: 'MdofAssembly', z: NDArray, u: NDArray, ud: NDArray,
                contact: NDArray) -> NDArray:
     """Valve-side cam contact force F_c [N] at the nodes (0 off contact)."""
     d = u - z[:, T]
@@ -335,7 +341,7 @@ def _simulate_ivp(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float,
     """The scipy path (one span from rest, switches inside the right-hand side)."""
     omega = omega_of_rpm(rpm)
     step = math.radians(require_step_deg('step_deg', step_deg))
-    asm = _Assembly(mp)
+    asm = MdofAssembly(mp)
     b = mp.base
     k = b.rocker_ratio
     n = asm.n
@@ -418,7 +424,7 @@ def _simulate_ivp(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float,
     xd = sol.y[n:]
     fc = np.array([forces(t, x[:, i], xd[:, i])[1] for i, t in enumerate(sol.t)])
     y = x[V]
-    events = _events(alpha, y, xd[V], fc, k * law(alpha) - b.lash)
+    events = sampled_events(alpha, y, xd[V], fc, k * law(alpha) - b.lash)
     _seat_events(events, a0 + omega * sol.t_events[0], sol.y_events[0][:, n + V]
                  if sol.y_events[0].size else np.zeros(0), float(alpha[int(np.argmax(y))]))
     return MdofResult(alpha=alpha, y=y, v=xd[V], cam_force=k * fc,
@@ -428,7 +434,7 @@ def _simulate_ivp(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float,
                       settled=False)
 
 
-def _static(asm: _Assembly, mp: MdofParams, uc: float) -> NDArray[np.float64]:
+def _static(asm: MdofAssembly, mp: MdofParams, uc: float) -> NDArray[np.float64]:
     """Static equilibrium on the base circle (cam contact closed, lash open if any)."""
     b = mp.base
     n = asm.n
@@ -463,8 +469,12 @@ def _seat_events(events: dict, a_cross: NDArray, v_cross: NDArray, a_top: float)
         events['bounce_count'] = sum(1 for a, _ in ups if a > after[0][0])
 
 
-def _events(alpha: NDArray, y: NDArray, v: NDArray, fc: NDArray, u: NDArray) -> dict:
-    """Opening/closing/separations/bounces from the sampled solution (grid accuracy)."""
+def sampled_events(alpha: NDArray, y: NDArray, v: NDArray, fc: NDArray, u: NDArray) -> dict:
+    """Opening/closing/separations/bounces from the sampled solution (grid accuracy).
+
+    ``alpha`` cam angle [rad], ``y``/``v`` valve lift [m] and speed [m/s], ``fc`` contact
+    force [N], ``u`` the cam's input lift [m]; angles in the result in degrees.
+    """
     up = y > 0
     out: dict[str, Any] = {'opening_deg': None, 'closing_deg': None, 'separations': [],
                            'seating_velocity_m_s': None, 'bounce_count': 0,

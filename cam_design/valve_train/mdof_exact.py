@@ -8,11 +8,11 @@ with g = k_c u + b_c u' the cam forcing on the tappet in contact (u = k h, a deg
 polynomial on each step, ``cam_input``). Every step is propagated exactly with the
 exponential of A_r augmented by the polynomial basis and the constant input (one
 ``expm`` of a (2n + 9)-square matrix per regime and step length, cached; velocities
-scaled to balance it). The method is that of ``sdof`` (whose building blocks are
-reused: ``expm``, the cubic-Hermite dip test ``_dips`` and the Newton bracket on the
-switching polynomials): switching functions are checked at sub-nodes spaced at most
-pi/4 / |lambda_max| of the regime, and a switch is located on the Taylor series of the
-exact local solution (order 22) to ~1e-14 of the sub-step.
+scaled to balance it). The method is that of ``sdof`` (its building blocks are
+reused from ``propagate``: ``expm``, the cubic-Hermite dip test ``dips`` and the
+Newton bracket on the switching polynomials): switching functions are checked at
+sub-nodes spaced at most pi/4 / |lambda_max| of the regime, and a switch is located on
+the Taylor series of the exact local solution (order 22) to ~1e-14 of the sub-step.
 
 Hard seat (``restitution`` e): y_V >= 0; at an impact v_V -> -e v_V (only the valve:
 the coil masses keep their velocities); below 1e-9 m/s the valve is held on the seat
@@ -29,208 +29,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.valve_train.cam_input import CamInput
-from cam_design.valve_train.sdof import (BOUNCE_TOL, NB, SolverError, _FACT, _GRID9,
-                                         _VG9, _dips, _eval_min, _newton_bracket,
-                                         _shift, expm, sub_node_jets)
+from cam_design.valve_train.mdof_model import (CAM, RV, SEAT, SUB, MdofModel, R, T, V,
+                                               switch_flags)
+from cam_design.valve_train.propagate import (BOUNCE_TOL, FACT, GRID9, NB, VG9, SolverError,
+                                              eval_min, newton_bracket, shift)
 
-T, P, R, V = 0, 1, 2, 3
-CAM, RV, SEAT = 1, 2, 4
-_SUB = math.pi / 4.0
 _TAYLOR = 22
 _MAX_EVENTS = 20000
 _STICK = 1e-9          # m/s: hard-seat rebound below this holds the valve
 OPEN_TOL = 1e-6        # m: a lift-off counts as the opening once the valve rises this high
-
-
-class _Model:
-    """Regime matrices, cached propagators and switching functions at one speed.
-
-    ``asm``: ``mdof._Assembly`` (masses m, k_lin, c_lin, preload, contact rates)."""
-
-    def __init__(self, asm: Any, omega: float) -> None:
-        b = asm.mp.base
-        self.asm = asm
-        self.n = asm.n
-        self.omega = omega
-        self.hard = b.hard_seat
-        self.e = b.restitution if b.hard_seat else 0.0
-        self.lash = b.lash
-        self.ks, self.bs = b.seat_stiffness, b.seat_damping
-        self.minv = 1.0 / asm.m
-        self._mats: dict[int, tuple[NDArray, NDArray, NDArray, NDArray, float]] = {}
-        self.cache: dict[tuple[int, float, int], tuple[NDArray, NDArray, NDArray]] = {}
-
-    def held(self, r: int) -> bool:
-        return self.hard and bool(r & SEAT)
-
-    def mats(self, r: int) -> tuple[NDArray, NDArray, NDArray, NDArray, float]:
-        """(K, C, f, A, rho) of regime r: stiffness, damping and constant force of the
-        free equations M x'' = f - K x - C x' (+ cam on T), the first-order matrix A
-        (valve rows zero when held) and its spectral radius [1/s]."""
-        hit = self._mats.get(r)
-        if hit is not None:
-            return hit
-        a = self.asm
-        n = self.n
-        kk, cc, f = a.k_lin.copy(), a.c_lin.copy(), a.preload.copy()
-        if r & CAM:
-            kk[T, T] += a.k_c
-            cc[T, T] += a.b_c
-        if r & RV:
-            for (i, j, sgn) in ((R, R, 1), (V, V, 1), (R, V, -1), (V, R, -1)):
-                kk[i, j] += sgn * a.k_rv
-                cc[i, j] += sgn * a.b_rv
-            f[R] += a.k_rv * self.lash
-            f[V] -= a.k_rv * self.lash
-        if r & SEAT and not self.hard:
-            kk[V, V] += self.ks
-            cc[V, V] += self.bs
-        am = np.zeros((2 * n, 2 * n))
-        am[:n, n:] = np.eye(n)
-        am[n:, :n] = -kk * self.minv[:, None]
-        am[n:, n:] = -cc * self.minv[:, None]
-        if self.held(r):
-            am[V, :] = 0.0
-            am[n + V, :] = 0.0
-        rho = float(np.max(np.abs(np.linalg.eigvals(am))))
-        out = (kk, cc, f, am, max(rho, 1e-12))
-        self._mats[r] = out
-        return out
-
-    def const_rate(self, r: int) -> NDArray:
-        """Constant part b_r of z' [(2n,)]."""
-        _, _, f, _, _ = self.mats(r)
-        n = self.n
-        b = np.zeros(2 * n)
-        b[n:] = f * self.minv
-        if self.held(r):
-            b[n + V] = 0.0
-        return b
-
-    def propagator(self, r: int, lt: float, m: int) -> tuple[NDArray, NDArray, NDArray]:
-        """(Phi (m, 2n, 2n), Gq (m, 2n, NB), G1 (m, 2n)) at the sub-nodes j lt/m,
-        j = 1..m: z_j = Phi_j z_0 + Gq_j q + G1_j for the cam forcing coefficients q in
-        the basis sigma^i / i! (sigma = t / lt)."""
-        key = (r, lt, m)
-        hit = self.cache.get(key)
-        if hit is not None:
-            return hit
-        n = self.n
-        _, _, f, am, rho = self.mats(r)
-        s = rho                                   # velocity scale: balances G
-        na = 2 * n + NB + 1
-        g = np.zeros((na, na))
-        g[:n, n:2 * n] = am[:n, n:] * s
-        g[n:2 * n, :n] = am[n:, :n] / s
-        g[n:2 * n, n:2 * n] = am[n:, n:]
-        g[n + T, 2 * n] = self.minv[T] / s
-        g[n:2 * n, na - 1] = self.const_rate(r)[n:] / s
-        for j in range(NB - 1):
-            g[2 * n + j, 2 * n + j + 1] = 1.0 / lt
-        e1 = expm(g * (lt / m))
-        phis = np.empty((m, 2 * n, 2 * n))
-        gq = np.empty((m, 2 * n, NB))
-        g1 = np.empty((m, 2 * n))
-        e = e1
-        for j in range(m):
-            if j:
-                e = e @ e1
-            phis[j] = e[:2 * n, :2 * n]
-            gq[j] = e[:2 * n, 2 * n:2 * n + NB]
-            g1[j] = e[:2 * n, na - 1]
-        phis[:, :n, n:] /= s
-        phis[:, n:, :n] *= s
-        gq[:, n:, :] *= s
-        g1[:, n:] *= s
-        if len(self.cache) > 512:
-            self.cache.clear()
-        out = (phis, gq, g1)
-        self.cache[key] = out
-        return out
-
-    def cam_forcing(self, r: int, ucoef: NDArray, la: NDArray | float) -> NDArray:
-        """Monomial coefficients (..., NB) of g = k_c u + b_c du/dt [N] (0 off the cam)."""
-        if not r & CAM:
-            return np.zeros(np.shape(ucoef))
-        du = np.zeros(np.shape(ucoef))
-        du[..., :-1] = ucoef[..., 1:] * np.arange(1, NB)
-        rate = np.asarray(self.omega / np.asarray(la, dtype=float))[..., None]
-        return self.asm.k_c * ucoef + self.asm.b_c * rate * du
-
-    # -- switching functions --------------------------------------------------------
-    def groups(self, r: int, x: Any, xd: Any, xdd: Any, u: Any, ud: Any,
-               udd: Any, one: Any = 1.0) -> list[tuple[float, list[Any], list[Any]]]:
-        """Switching groups (sign, values, time derivatives) of regime r; the regime
-        holds while sign * min(values) >= 0 for every group. x, xd, xdd: (..., n).
-        ``one``: the constant 1 (its coefficient vector when the inputs are
-        polynomial coefficients along the first axis)."""
-        a = self.asm
-        out = []
-        delta, dd, ddd = u - x[..., T], ud - xd[..., T], udd - xdd[..., T]
-        out.append((1.0 if r & CAM else -1.0,
-                    [delta, a.k_c * delta + a.b_c * dd], [dd, a.k_c * dd + a.b_c * ddd]))
-        d2 = x[..., R] - x[..., V] - self.lash * one
-        v2 = xd[..., R] - xd[..., V]
-        a2 = xdd[..., R] - xdd[..., V]
-        out.append((1.0 if r & RV else -1.0,
-                    [d2, a.k_rv * d2 + a.b_rv * v2], [v2, a.k_rv * v2 + a.b_rv * a2]))
-        if self.hard:
-            if r & SEAT:
-                fv, dfv = self.valve_force(r, x, xd, xdd, one)
-                out.append((1.0, [-fv], [-dfv]))
-            else:
-                out.append((1.0, [x[..., V]], [xd[..., V]]))
-        else:
-            gs = -self.ks * x[..., V] - self.bs * xd[..., V]
-            dgs = -self.ks * xd[..., V] - self.bs * xdd[..., V]
-            out.append((1.0 if r & SEAT else -1.0, [-x[..., V], gs], [-xd[..., V], dgs]))
-        return out
-
-    def valve_force(self, r: int, x: Any, xd: Any, xdd: Any,
-                    one: Any = 1.0) -> tuple[Any, Any]:
-        """Net force [N] on the held valve from rocker, coils and preload (> 0 opens it)
-        and its time derivative."""
-        kk, cc, f, _, _ = self.mats(r)
-        fv = f[V] * one - x @ kk[V] - xd @ cc[V]
-        dfv = -(xd @ kk[V]) - xdd @ cc[V]
-        return fv, dfv
-
-    def accel(self, r: int, x: NDArray, xd: NDArray, g: Any) -> NDArray:
-        """x'' of regime r (..., n) for the cam forcing g [N] (..., )."""
-        kk, cc, f, _, _ = self.mats(r)
-        acc = (f - x @ kk.T - xd @ cc.T) * self.minv
-        acc[..., T] += np.asarray(g) * self.minv[T]
-        if self.held(r):
-            acc[..., V] = 0.0
-        return acc
-
-
-def _flags(model: _Model, r: int, ucoef: NDArray, gmono: NDArray, la: NDArray,
-           lt: NDArray, zall: NDArray) -> NDArray:
-    """(q, m) True where sub-interval j of step q may hold a switch of regime r.
-
-    ucoef, gmono: (q, NB) monomials of u and the cam forcing; la, lt: (q,) step angle
-    and time; zall: (q, m+1, 2n) states at the sub-nodes j/m, j = 0..m."""
-    n = model.n
-    m = zall.shape[1] - 1
-    u, ud, udd, v0 = sub_node_jets(ucoef, m, model.omega, la)
-    g = gmono @ v0
-    x, xd = zall[..., :n], zall[..., n:]
-    xdd = model.accel(r, x, xd, g)
-    h = (lt / m)[:, None]
-    vals, ders, kinds = [], [], []
-    for sign, vs, ds in model.groups(r, x, xd, xdd, u, ud, udd):
-        kinds.append((sign, len(vs)))
-        vals += [sign * v for v in vs]
-        ders += [sign * d * h for d in ds]
-    dips = _dips(np.stack(vals), np.stack(ders))
-    bad = np.zeros(dips.shape[1:], dtype=bool)
-    i = 0
-    for sign, cnt in kinds:
-        grp = dips[i:i + cnt]
-        bad |= np.any(grp, axis=0) if sign > 0 else np.all(grp, axis=0)
-        i += cnt
-    return bad
 
 
 @dataclass
@@ -248,9 +55,9 @@ class MdofEvents:
 
 
 class _Run:
-    """One revolution over the steps of a CamInput (state machine as ``sdof._Run``)."""
+    """One revolution over the steps of a CamInput (state machine as ``sdof_run.SdofRun``)."""
 
-    def __init__(self, model: _Model, cam: CamInput, bounce_mass: float,
+    def __init__(self, model: MdofModel, cam: CamInput, bounce_mass: float,
                  preload: float) -> None:
         self.model = model
         self.cam = cam
@@ -278,12 +85,12 @@ class _Run:
         la = cam.lengths[ks]
         ucoef = cam.coeffs[ks]
         gmono = model.cam_forcing(r, ucoef, la)
-        fco = gmono * _FACT
+        fco = gmono * FACT
         rho = model.mats(r)[4]
         uniq, inv = np.unique(lt, return_inverse=True)
         props = []
         for L in uniq.tolist():
-            m = min(max(2, int(math.ceil(rho * L / _SUB))), 4096)
+            m = min(max(2, int(math.ceil(rho * L / SUB))), 4096)
             props.append((m, *model.propagator(r, L, m)))
         nz = 2 * model.n
         w = np.empty((ks.size, nz))
@@ -309,7 +116,7 @@ class _Run:
             zs = (np.einsum('mab,qb->qma', phis, z0) + np.einsum('mab,qb->qma', gq, fco[idx])
                   + g1[None])
             zall = np.concatenate([z0[:, None, :], zs], axis=1)
-            flags = _flags(model, r, ucoef[idx], gmono[idx], la[idx], lt[idx], zall)
+            flags = switch_flags(model, r, ucoef[idx], gmono[idx], la[idx], lt[idx], zall)
             bad = np.nonzero(np.any(flags, axis=1))[0]
             if bad.size and int(idx[bad[0]]) < clean:
                 clean = int(idx[bad[0]])
@@ -331,20 +138,20 @@ class _Run:
             w = 1.0 - s0
             if w <= 1e-15:
                 return z, r
-            uco = _shift(cam.coeffs[k], s0, w)
+            uco = shift(cam.coeffs[k], s0, w)
             lt, la = lt_step * w, la_step * w
             rho = model.mats(r)[4]
-            m = min(max(2, int(math.ceil(rho * lt / _SUB))), 4096)
+            m = min(max(2, int(math.ceil(rho * lt / SUB))), 4096)
             gmono = model.cam_forcing(r, uco, la)
             phis, gq, g1 = model.propagator(r, lt, m)
-            zs = phis @ z + gq @ (gmono * _FACT) + g1
+            zs = phis @ z + gq @ (gmono * FACT) + g1
             zall = np.concatenate([z[None, :], zs], axis=0)
-            flags = _flags(model, r, uco[None, :], gmono[None, :], np.array([la]),
-                           np.array([lt]), zall[None])[0]
+            flags = switch_flags(model, r, uco[None, :], gmono[None, :], np.array([la]),
+                                 np.array([lt]), zall[None])[0]
             found = None
             for j in np.nonzero(flags)[0].tolist():
-                g_loc = _shift(gmono, j / m, 1.0 / m)
-                u_loc = _shift(uco, j / m, 1.0 / m)
+                g_loc = shift(gmono, j / m, 1.0 / m)
+                u_loc = shift(uco, j / m, 1.0 / m)
                 cz = self._taylor(r, zall[j], g_loc, lt / m)
                 hit = self._first_switch(r, cz, u_loc, lt / m)
                 if hit is not None:
@@ -481,10 +288,10 @@ class _Run:
         comps = []
         for sign, vals, _ in groups:
             comps.append((sign, [np.asarray(v)[::-1].tolist() for v in vals]))
-        vg = _VG9[:nt]
-        bad_any = np.zeros(_GRID9.size, dtype=bool)
+        vg = VG9[:nt]
+        bad_any = np.zeros(GRID9.size, dtype=bool)
         for sign, polys in comps:
-            low = np.full(_GRID9.size, np.inf)
+            low = np.full(GRID9.size, np.inf)
             for c in polys:
                 low = np.minimum(low, np.asarray(c[::-1]) @ vg)
             bad_any |= sign * low < 0
@@ -492,12 +299,12 @@ class _Run:
         if not np.any(bad_any):
             return None
         i = int(np.argmax(bad_any))
-        a, b = float(_GRID9[i - 1]), float(_GRID9[i])
+        a, b = float(GRID9[i - 1]), float(GRID9[i])
         best = None
         for which, comp in zip((CAM, RV, SEAT), comps):
-            fa, fb = _eval_min(comp, a)[0], _eval_min(comp, b)[0]
+            fa, fb = eval_min(comp, a)[0], eval_min(comp, b)[0]
             if fb < 0 <= fa:
-                _, tb = _newton_bracket(comp, a, b)
+                _, tb = newton_bracket(comp, a, b)
             elif fb < 0 and fa < 0:
                 tb = a
             else:
@@ -593,7 +400,7 @@ class _Run:
                 return
 
     def commit_next_cycle(self, alpha: float) -> None:
-        """As ``sdof._Run.commit_next_cycle``: a periodic revolution that starts inside
+        """As ``sdof_run.SdofRun.commit_next_cycle``: a periodic revolution that starts inside
         an open phase holds the next cycle's open phase after its closing; its
         separations and tosses are this orbit's when the valve rose OPEN_TOL in it."""
         cyc, self.next_cycle = self.next_cycle, None
@@ -674,7 +481,7 @@ def _horner_vec(c: NDArray, t: float) -> NDArray:
     return acc
 
 
-def static_state(model: _Model, u0: float) -> tuple[NDArray, int]:
+def static_state(model: MdofModel, u0: float) -> tuple[NDArray, int]:
     """Static equilibrium on the base circle (cam displacement u0) and its regime."""
     n = model.n
     order = (CAM | SEAT, CAM | RV | SEAT, CAM, CAM | RV, SEAT, RV | SEAT, 0, RV)
@@ -704,7 +511,7 @@ def static_state(model: _Model, u0: float) -> tuple[NDArray, int]:
     raise SolverError('no consistent static state on the base circle')
 
 
-def _consistent(model: _Model, r: int, z: NDArray, u0: float) -> bool:
+def _consistent(model: MdofModel, r: int, z: NDArray, u0: float) -> bool:
     """z is a state of regime r at the start node (cam at rest on the base circle)."""
     n = model.n
     x, xd = z[:n], z[n:]
@@ -744,7 +551,7 @@ def run_exact(asm: Any, cam: CamInput, omega: float, *, max_revolutions: int = 1
     and the saltation matrices of the switches) when the revolution ended in the regime
     it started in and the Newton point is a consistent state; otherwise plain
     repetition (z <- P(z))."""
-    model = _Model(asm, omega)
+    model = MdofModel(asm, omega)
     u0 = float(cam.coeffs[0, 0])
     z0, r0 = static_state(model, u0)
     n = model.n

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.valve_train.mdof import MdofParams, _Assembly
+from cam_design.valve_train.mdof import MdofAssembly, MdofParams
 from cam_design.valve_train.params import omega_of_rpm
 
 T, P, R, V = 0, 1, 2, 3
@@ -41,7 +41,7 @@ class MdofReference:
 class _Eq:
     def __init__(self, law: LiftLaw, mp: MdofParams, omega: float, a0: float) -> None:
         self.law, self.mp, self.omega, self.a0 = law, mp, omega, a0
-        self.asm = _Assembly(mp)
+        self.asm = MdofAssembly(mp)
         self.n = self.asm.n
         b = mp.base
         self.hard = b.hard_seat

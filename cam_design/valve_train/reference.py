@@ -18,7 +18,7 @@ from scipy.optimize import brentq
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.params import SdofParams, omega_of_rpm
-from cam_design.valve_train.sdof import CONTACT, SEAT, _inside
+from cam_design.valve_train.sdof_model import CONTACT, SEAT, inside
 
 _MAX_RESTARTS = 5000
 
@@ -62,7 +62,7 @@ class _Rhs:
 
     def inside(self, t: float, z: NDArray, r: int) -> tuple[float, float]:
         u, ud = self.cam(t)
-        ic, is_ = _inside(self.model, r, float(z[0]), float(z[1]), u, ud)
+        ic, is_ = inside(self.model, r, float(z[0]), float(z[1]), u, ud)
         return float(ic), float(is_)
 
 

@@ -66,7 +66,7 @@ def contact_stress(law: LiftLaw, alpha: NDArray[np.float64], force: NDArray[np.f
             sig[ok] = checks.hertz_stress_steel(force[ok], geom.width, rho1[ok], math.inf,
                                                 e1=geom.youngs_modulus)
         return sig
-    from cam_design.follower import roller_profile
+    from cam_design.cam_profile import roller_profile
 
     rho = roller_profile(law, geom.base_radius, geom.radius, alpha).rho
     rho = np.where(np.abs(rho) < 1e-9, 1e-9, rho)
@@ -88,6 +88,11 @@ class Run:
     force: NDArray[np.float64]          # cam-follower contact force [N]
     stress: NDArray[np.float64]
     events: dict[str, Any] = field(default_factory=dict)
+    #: torque [N m] the shaft delivers to this lobe (contact force x lever arm, plus the
+    #: friction torque), against alpha; set by ``cam_design.train.run.run_train``
+    drive_torque: NDArray[np.float64] | None = None
+    #: friction torque [N m] of the cam-follower contact against alpha (0 without friction)
+    friction_torque: NDArray[np.float64] | None = None
 
     def table(self) -> NDArray[np.float64]:
         """(rows, 5) in COLUMNS order."""
@@ -105,6 +110,10 @@ class Run:
                 'contact_force_n': self.force.tolist(),
                 'contact_stress_pa': self.stress.tolist(),
             })
+            if self.drive_torque is not None:
+                out['drive_torque_nm'] = self.drive_torque.tolist()
+            if self.friction_torque is not None:
+                out['friction_torque_nm'] = self.friction_torque.tolist()
         out.update(self.events)
         return out
 

@@ -41,15 +41,11 @@ from cam_metrology.bagio.joints import (  # noqa: F401
     read_joint_states)
 from cam_metrology.bagio.opening import (  # noqa: F401
     BagMessage,
-    _open_reader,
-    looks_like_bag)
+    looks_like_bag,
+    open_reader)
 from cam_metrology.bagio.reader import (  # noqa: F401
-    BagScene,
-    SCENE_TOPIC,
-    bag_scenes,
     bag_topics,
-    iter_messages,
-    require_scenes)
+    iter_messages)
 from cam_metrology.bagio.stream import (  # noqa: F401
     JointSummary,
     STREAM_BLOCK_BYTES,
@@ -85,8 +81,7 @@ __all__ = [
     'encode_joint_state_positions', 'encode_string', 'encode_output', 'encode_table',
     'encode_statuses', 'decode', 'table_from_msg', 'statuses_from_msg', 'iter_messages',
     'read_joint_states', 'decode_joint_states', 'light_joint_states', 'bag_topics',
-    'BagTopic', 'bag_connections', 'JointIssue', 'MAX_NAME_BYTES', 'BagScene',
-    'bag_scenes', 'require_scenes',
+    'BagTopic', 'bag_connections', 'JointIssue', 'MAX_NAME_BYTES',
     'topic_qos_yaml', 'copy_bag', 'recover_bag', 'Recovered', 'add_topics_like',
     'topic_definitions', 'iter_joint_states', 'JointSummary', 'STREAM_BLOCK_BYTES',
 ]

@@ -6,9 +6,9 @@ from pathlib import Path
 from typing import Any, Iterable, NamedTuple
 
 from cam_design.errors import InputError
-from cam_metrology.bagio.opening import _open_reader
+from cam_metrology.bagio.opening import open_reader
 from cam_metrology.bagio.reader import bag_topics, iter_messages
-from cam_metrology.bagio.writer import BagWriter, MCAP_MAGIC, _dump_qos
+from cam_metrology.bagio.writer import BagWriter, MCAP_MAGIC, qos_to_yaml
 from cam_metrology.wire.cdr import typestore
 
 
@@ -25,7 +25,7 @@ class BagTopic(NamedTuple):
 def bag_connections(path: str | Path) -> dict[str, BagTopic]:
     """topic -> BagTopic(msgtype, count, qos_yaml, latched) of a bag (rosbag2 directory
     or bare .mcap); counts and latching summed over the topic's connections."""
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         out: dict[str, BagTopic] = {}
         for conn in reader.connections:
@@ -36,7 +36,7 @@ def bag_connections(path: str | Path) -> dict[str, BagTopic]:
             out[conn.topic] = BagTopic(
                 conn.msgtype, conn.msgcount + (prev.count if prev else 0),
                 prev.qos_yaml if prev and prev.qos_yaml else
-                (_dump_qos(profiles) if profiles else ''),
+                (qos_to_yaml(profiles) if profiles else ''),
                 latched or bool(prev and prev.latched))
         return out
     finally:
@@ -45,13 +45,13 @@ def bag_connections(path: str | Path) -> dict[str, BagTopic]:
 
 def topic_qos_yaml(path: str | Path) -> dict[str, str]:
     """topic -> offered QoS YAML recorded in a bag (topics without QoS are absent)."""
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         out: dict[str, str] = {}
         for conn in reader.connections:
             profiles = getattr(conn.ext, 'offered_qos_profiles', None)
             if profiles and conn.topic not in out:
-                out[conn.topic] = _dump_qos(list(profiles))
+                out[conn.topic] = qos_to_yaml(list(profiles))
         return out
     finally:
         reader.close()
@@ -60,7 +60,7 @@ def topic_qos_yaml(path: str | Path) -> dict[str, str]:
 def topic_definitions(path: str | Path) -> dict[str, str]:
     """topic -> message definition text recorded in a bag, for the topics whose type
     ROS 2 Jazzy does not know (what ``BagWriter.add_topic(msgdef=...)`` needs)."""
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         store = typestore()
         return {c.topic: getattr(c.msgdef, 'data', '') or '' for c in reader.connections

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
-from cam_metrology.bagio.opening import _open_reader
+from cam_metrology.bagio.opening import open_reader
 from cam_metrology.wire.topics import CAMSHAFT_JOINT, JOINT_STATES, PROBE_JOINT
 
 
@@ -76,7 +76,7 @@ def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
     cannot read that way (SQLite storage, file compression, unindexed MCAP) go through
     AnyReader's raw iteration. Both give identical results.
     """
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         conns = [c for c in reader.connections if c.topic == topic]
         for conn in conns:
@@ -86,7 +86,7 @@ def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
             return decode_joint_states([])
         raw = _read_mcap_direct(Path(path), topic) if direct else None
         if raw is not None:
-            return _decode_joint_buffer(*raw)
+            return decode_joint_buffer(*raw)
         chunks: list[bytes] = []
         logs: list[int] = []
         for _, stamp, data in reader.messages(connections=conns):
@@ -100,11 +100,11 @@ def read_joint_states(path: str | Path, topic: str = JOINT_STATES, *,
 _MSG_HEAD = struct.Struct('<BQHIQ')   # opcode, record length, channel, sequence, log_time
 
 
-#: what ``_chunked_summary`` returns for an MCAP file without channels (nothing in it)
+#: what ``chunked_summary`` returns for an MCAP file without channels (nothing in it)
 NO_CHANNELS = object()
 
 
-def _chunked_summary(f: Any) -> Any:
+def chunked_summary(f: Any) -> Any:
     """The MCAP summary of the open file ``f`` when the direct readers can take it (its
     chunks are indexed); ``NO_CHANNELS`` for a file without channels (skip it); None
     otherwise (the caller falls back to AnyReader)."""
@@ -126,7 +126,7 @@ def _read_mcap_direct(bag: Path, topic: str,
     straight from the MCAP chunks of a rosbag2 directory; None if the bag is not an
     indexed, chunked MCAP bag without file compression (the caller falls back)."""
 
-    found_files = _direct_mcap_files(bag)
+    found_files = direct_mcap_files(bag)
     if found_files is None:
         return None
     bag, files = found_files
@@ -141,7 +141,7 @@ def _read_mcap_direct(bag: Path, topic: str,
         except OSError:
             return None
         with f:
-            summary = _chunked_summary(f)
+            summary = chunked_summary(f)
             if summary is NO_CHANNELS:
                 continue
             if summary is None:
@@ -155,12 +155,12 @@ def _read_mcap_direct(bag: Path, topic: str,
                 if indexed and not wanted:
                     continue   # no message of the topic in this chunk
                 f.seek(index.chunk_start_offset)
-                records = _chunk_records(f.read(index.chunk_length))
+                records = chunk_records(f.read(index.chunk_length))
                 if records is None:
                     return None
-                found = _indexed_messages(f, index, wanted, records) if wanted else None
+                found = indexed_messages(f, index, wanted, records) if wanted else None
                 if found is None:
-                    found = _walk_messages(records, chans)
+                    found = walk_messages(records, chans)
                 for arr, out in zip(found, (starts, lengths, logs)):
                     out.append(arr + base if out is starts else arr)
                 parts.append(records)
@@ -174,7 +174,7 @@ def _read_mcap_direct(bag: Path, topic: str,
             log_arr[order])
 
 
-def _direct_mcap_files(bag: Path) -> tuple[Path, list[str]] | None:
+def direct_mcap_files(bag: Path) -> tuple[Path, list[str]] | None:
     """(directory, MCAP file names) of a bag the direct readers can take: a bare
     ``.mcap`` file, or a rosbag2 directory with MCAP storage and no file compression;
     None otherwise (the caller goes through the rosbags reader)."""
@@ -195,8 +195,8 @@ def _direct_mcap_files(bag: Path) -> tuple[Path, list[str]] | None:
                                                          for f in info.get('files', [])])
 
 
-def _indexed_messages(f: Any, index: Any, chans: list[int], records: bytes,
-                      ) -> tuple[NDArray[np.int64], ...] | None:
+def indexed_messages(f: Any, index: Any, chans: list[int], records: bytes,
+                     ) -> tuple[NDArray[np.int64], ...] | None:
     """(starts, lengths, log times) of the channels' messages in one chunk's records,
     from the chunk's MessageIndex records (vectorised); None if they are unusable."""
     offs: list[NDArray[np.int64]] = []
@@ -225,7 +225,7 @@ def _indexed_messages(f: Any, index: Any, chans: list[int], records: bytes,
     return off + 31, length - 22, np.concatenate(logs)
 
 
-def _walk_messages(records: bytes, chans: set[int]) -> tuple[NDArray[np.int64], ...]:
+def walk_messages(records: bytes, chans: set[int]) -> tuple[NDArray[np.int64], ...]:
     """(starts, lengths, log times) of the channels' messages, walking every record."""
     starts: list[int] = []
     lengths: list[int] = []
@@ -246,7 +246,7 @@ def _walk_messages(records: bytes, chans: set[int]) -> tuple[NDArray[np.int64], 
             np.asarray(logs, dtype=np.int64))
 
 
-def _chunk_records(raw: bytes) -> bytes | None:
+def chunk_records(raw: bytes) -> bytes | None:
     """The (decompressed) records of one MCAP Chunk record; None if unsupported."""
     if len(raw) < 9 or raw[0] != 0x06:
         return None
@@ -285,13 +285,13 @@ def decode_joint_states(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | Non
     lengths = np.fromiter((len(c) for c in chunks), dtype=np.int64, count=n)
     start = np.zeros(n, dtype=np.int64)
     np.cumsum(lengths[:-1], out=start[1:])
-    return _decode_joint_buffer(b''.join(chunks), start, lengths,
-                                np.asarray(log_ns, dtype=np.int64), first)
+    return decode_joint_buffer(b''.join(chunks), start, lengths,
+                               np.asarray(log_ns, dtype=np.int64), first)
 
 
-def _decode_joint_buffer(data: bytes | bytearray, start: NDArray[np.int64],
-                         lengths: NDArray[np.int64],
-                         log_ns: NDArray[np.int64], first: int = 0) -> JointSamples:
+def decode_joint_buffer(data: bytes | bytearray, start: NDArray[np.int64],
+                        lengths: NDArray[np.int64],
+                        log_ns: NDArray[np.int64], first: int = 0) -> JointSamples:
     """Decode the JointState messages at ``data[start:start+lengths]`` (numpy).
 
     ``first``: index of the first of these messages on the topic (a block of a

@@ -8,7 +8,7 @@ from typing import Any, Iterator, NamedTuple, Sequence
 
 from cam_design.errors import InputError
 from cam_metrology.bagio.check import require_intact
-from cam_metrology.bagio.writer import _parse_qos
+from cam_metrology.bagio.writer import qos_from_yaml
 from cam_metrology.wire.cdr import typestore
 
 
@@ -29,7 +29,7 @@ def looks_like_bag(path: str | Path) -> bool:
     return p.is_dir() or p.suffix == '.mcap'
 
 
-def _open_reader(path: str | Path, *, check: bool = True) -> Any:
+def open_reader(path: str | Path, *, check: bool = True) -> Any:
     """A reader of the bag at ``path`` with ``connections`` (topic, msgtype, msgcount,
     msgdef, ext.offered_qos_profiles), ``messages(connections)`` -> (conn, log time,
     CDR bytes) in log-time order, ``deserialize(data, msgtype)`` and ``close()``.
@@ -185,7 +185,7 @@ class _BareMcapReader:
             schema = summary.schemas.get(ch.schema_id)
             qos = ch.metadata.get('offered_qos_profiles')
             try:
-                profiles = _parse_qos(qos) if qos else []
+                profiles = qos_from_yaml(qos) if qos else []
             except InputError:
                 profiles = []
             msgdef = _schema_msgdef(schema)

@@ -12,11 +12,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
-from cam_metrology.bagio.joints import (NO_CHANNELS, JointIssue, JointSamples,
-                                        _chunk_records, _chunked_summary,
-                                        _decode_joint_buffer, _direct_mcap_files,
-                                        _indexed_messages, _walk_messages, decode_joint_states)
-from cam_metrology.bagio.opening import _open_reader
+from cam_metrology.bagio.joints import (NO_CHANNELS, JointIssue, JointSamples, chunk_records,
+                                        chunked_summary, decode_joint_buffer,
+                                        decode_joint_states, direct_mcap_files,
+                                        indexed_messages, walk_messages)
+from cam_metrology.bagio.opening import open_reader
 from cam_metrology.wire.topics import CAMSHAFT_JOINT, JOINT_STATES
 
 
@@ -41,7 +41,7 @@ def iter_joint_states(path: str | Path, topic: str = JOINT_STATES, *, direct: bo
     """
     if block_bytes < 1:
         raise InputError('block_bytes', block_bytes, 'a block size >= 1 byte')
-    reader = _open_reader(path)
+    reader = open_reader(path)
     close = True
     try:
         conns = [c for c in reader.connections if c.topic == topic]
@@ -104,7 +104,7 @@ def _mcap_stream_plan(bag: Path, topics: Iterable[str],
     otherwise."""
     wanted_topics = set(topics)
 
-    found = _direct_mcap_files(bag)
+    found = direct_mcap_files(bag)
     if found is None:
         return None
     folder, files = found
@@ -112,7 +112,7 @@ def _mcap_stream_plan(bag: Path, topics: Iterable[str],
     for k, name in enumerate(files):
         try:
             with open(folder / name, 'rb') as f:
-                summary = _chunked_summary(f)
+                summary = chunked_summary(f)
         except OSError:
             return None
         if summary is NO_CHANNELS:
@@ -136,7 +136,7 @@ def _iter_mcap_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
     """Decode the planned chunks' JointStates in blocks (``_iter_chunk_blocks``)."""
     first = 0
     for data, starts, lengths, logs in _iter_chunk_blocks(plan, block_bytes):
-        samples = _decode_joint_buffer(data, starts, lengths, logs, first)
+        samples = decode_joint_buffer(data, starts, lengths, logs, first)
         first += len(samples)
         yield samples
 
@@ -184,14 +184,14 @@ def _read_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str]
             handles[c.file] = open(folder / files[c.file], 'rb')
         f = handles[c.file]
         f.seek(c.index.chunk_start_offset)
-        records = _chunk_records(f.read(c.index.chunk_length))
+        records = chunk_records(f.read(c.index.chunk_length))
         if records is None:
             raise InputError('bag', str(folder / files[c.file]),
                              f'a readable MCAP chunk at byte {c.index.chunk_start_offset} '
                              '(`cam-bench bag check` names the damaged range)')
-        found = _indexed_messages(f, c.index, c.wanted, records) if c.wanted else None
+        found = indexed_messages(f, c.index, c.wanted, records) if c.wanted else None
         if found is None:
-            found = _walk_messages(records, c.chans)
+            found = walk_messages(records, c.chans)
         found_all.append((found[0] + base, found[1], found[2]))
         data += records
         base += len(records)
@@ -203,8 +203,8 @@ def _read_chunk_block(block: list[_PlannedChunk], folder: Path, files: list[str]
     return data, starts[order], lengths, logs[order]
 
 
-def _iter_mcap_raw(bag: Path, topics: Iterable[str],
-                   ) -> Iterator[tuple[str, int, bytes]] | None:
+def iter_mcap_raw(bag: Path, topics: Iterable[str],
+                  ) -> Iterator[tuple[str, int, bytes]] | None:
     """(topic, log time, CDR bytes) of the messages of ``topics`` in log-time order
     (ties in recorded order), read straight from the MCAP chunks that hold them (their
     MessageIndex says which): a topic of a few messages is found without reading the

@@ -16,7 +16,8 @@ from cam_metrology.wire.topics import TOPIC_TYPES, default_qos_yaml
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 
 
-def _dump_qos(profiles: list[Any]) -> str:
+def qos_to_yaml(profiles: list[Any]) -> str:
+    """rosbag2 ``offered_qos_profiles`` YAML (metadata version 9) of QoS profiles."""
     from io import StringIO
 
     from rosbags.rosbag2.metadata import dump_qos_v9
@@ -29,7 +30,8 @@ def _dump_qos(profiles: list[Any]) -> str:
     return stream.getvalue().strip()
 
 
-def _parse_qos(text: str) -> list[Any]:
+def qos_from_yaml(text: str) -> list[Any]:
+    """QoS profiles of a rosbag2 ``offered_qos_profiles`` YAML; malformed: ``InputError``."""
     from rosbags.rosbag2.metadata import parse_qos
 
     try:
@@ -85,7 +87,7 @@ class BagWriter:
                                  f'its registered type {self._connections[topic].msgtype}')
             return
         store = typestore()
-        profiles = _parse_qos(qos_yaml if qos_yaml is not None else default_qos_yaml(topic))
+        profiles = qos_from_yaml(qos_yaml if qos_yaml is not None else default_qos_yaml(topic))
         if msgtype in store.types:
             conn = self._writer.add_connection(topic, msgtype, typestore=store,
                                                offered_qos_profiles=profiles)

@@ -40,8 +40,8 @@ COMMAND_MODULES = (
 EPILOG = """\
 Units: SI in files and messages (m, rad, kg, N, s); reports add _deg, _um, _mm, _rpm
 fields. Bad input exits with code 2 and a message naming the key, the value and what
-was expected. See docs/contract.md for the topics and the report schema, docs/scene.md
-for the scene file."""
+was expected. See docs/contract.md for the topics and the report schema,
+docs/scene.md for the scene file."""
 
 
 class _Version(argparse.Action):

@@ -10,7 +10,6 @@ writes a copy of the bag plus every output the cores produced.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -70,8 +69,8 @@ def run(args: argparse.Namespace) -> int:
     for line in run_.warnings:
         print(f'cam-bench analyze: warning: {line}', file=sys.stderr)
     if args.json:
-        from cam_metrology.inputs.files import write_output
-        write_output(args.json, json.dumps(report, indent=1) + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, report, '--json')
     else:
         print(human_report(report))
         for line in core_summaries(outputs):

@@ -8,7 +8,6 @@ design as seen by the same probe). Definitions: docs/cam_card.md.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -285,8 +284,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError('--intake-centreline-deg', args.intake_centreline_deg,
                          'also --pair INTAKE,EXHAUST (the lobes it applies to)')
     if args.json:
-        from cam_metrology.inputs.files import write_output
-        write_output(args.json, json.dumps(doc, indent=1) + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, doc, '--json')
         return 0
     errors = {k: v['error'] for k, v in flat.items() if 'error' in v}
     print(card_text({k: v for k, v in flat.items() if 'error' not in v}))

@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from typing import Any
 
@@ -118,19 +117,13 @@ def write_table(args: argparse.Namespace, columns: list[str], table: Any,
         wrote = True
     if getattr(args, 'json', None):
         doc = dict(summary, columns=list(columns), rows=table.tolist())
-        write_text(args.json, json.dumps(doc, indent=1) + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, doc, '--json')
         wrote = True
     return wrote
 
 
 # kept for callers of the former private names (cli/design_profile.py)
-_load_yaml, _write = load_yaml, write_text
-
-
-def _law_spec(doc: Any, path: str) -> tuple[Any, str]:
-    return law_spec(doc, path)
-
-
 def cmd_law(args: argparse.Namespace) -> int:
     """Evaluate the law on a grid."""
     import numpy as np
@@ -243,7 +236,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         raise check_input_error(exc, args.rpm, scene=isinstance(doc.get('lobes'), list),
                                 law_key=key) from None
     if args.json:
-        write_text(args.json, json.dumps(res, indent=1) + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, res, '--json')
     else:
         for k, v in res.items():
             print(f'{k:34s} {v:.6g}' if isinstance(v, float) else f'{k:34s} {v}')
@@ -337,7 +331,8 @@ def cmd_rocker(args: argparse.Namespace) -> int:
         out['eccentricity_m'] = r.eccentricity
         out['projected_frame_length_m'] = r.projected_frame_length
     if args.json:
-        write_text(args.json, json.dumps(out, indent=1) + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, out, '--json')
     else:
         for k, v in out.items():
             print(f'{k:26s} {v}')

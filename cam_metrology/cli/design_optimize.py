@@ -9,8 +9,6 @@ slack and whether it is active, and the gain over the start design.
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -113,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``design optimize``."""
     from cam_design.errors import InputError
     from cam_design.optimize import candidate_spec, optimize, pareto, parse_spec
-    from cam_metrology.cli.design_law import load_yaml, write_text
+    from cam_metrology.cli.design_law import load_yaml
 
     spec = parse_spec(load_yaml(args.spec), 'spec')
     names = None
@@ -131,9 +129,8 @@ def run(args: argparse.Namespace) -> int:
     if front is not None:
         out['pareto'] = {'metrics': list(names), 'points': front}
     if args.json:
-        text = json.dumps(out, indent=1, default=lambda v: None if not math.isfinite(v)
-                          else v) + '\n'
-        write_text(args.json, text, '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, out, '--json')
         if args.json != '-':
             print(f'cam-bench design optimize: wrote {args.json} ({res.status})')
     else:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import math
 from typing import Any, Iterator
 
@@ -70,7 +69,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_profile)
 
 
-def _load_law(doc: Any, path: str) -> Any:
+def load_law(doc: Any, path: str) -> Any:
     """The lift law of the file: a table (TabulatedLift) or a lift_law spec (from_spec)."""
     import numpy as np
 
@@ -90,15 +89,15 @@ def _load_law(doc: Any, path: str) -> Any:
                                      'a list of numbers (rad for alpha, m for h)') from None
             return TabulatedLift(values['alpha'], values['h'], key=key)
     from cam_design.lift_laws import from_spec
-    from cam_metrology.cli.design_law import _law_spec
+    from cam_metrology.cli.design_law import law_spec
 
     if not isinstance(doc, dict):
         raise InputError(path, type(doc).__name__, 'a mapping with lift_law: or alpha/h')
-    spec, key = _law_spec(doc, path)
+    spec, key = law_spec(doc, path)
     return from_spec(spec, key)
 
 
-def _scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
+def scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
     """(lift law, design follower, base radius) of a lobe of the scene file ``args.file``:
     ``args.lobe``, else the first lobe (``args.lobe`` is then set to its id)."""
     from cam_design.errors import InputError
@@ -114,7 +113,8 @@ def _scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
     return lobe.lift, lobe.follower, scene.base_circle_radius
 
 
-def _base_radius(args: argparse.Namespace, doc: Any) -> float:
+def base_radius_of(args: argparse.Namespace, doc: Any) -> float:
+    """Base-circle radius [m]: ``--base-radius``, else ``base_radius`` of the file."""
     from cam_design.errors import InputError, require_length
     from cam_design.lift_laws.params import MAX_RADIUS_M
 
@@ -165,14 +165,14 @@ def compute(args: argparse.Namespace) -> tuple[Any, Any, float]:
     """(Profile, the lift law used, base radius [m]) for the parsed arguments."""
     import numpy as np
 
-    from cam_design import follower as fl
+    from cam_design import cam_profile as fl
     from cam_design.errors import InputError
-    from cam_metrology.cli.design_law import _load_yaml
+    from cam_metrology.cli.design_law import load_yaml
 
-    doc = _load_yaml(args.file)
+    doc = load_yaml(args.file)
     radius = _follower_radius(args) if args.follower != 'flat' else 0.0
     if isinstance(doc, dict) and 'lobes' in doc:
-        law, design, base = _scene_lobe(args)
+        law, design, base = scene_lobe(args)
         if args.base_radius is not None:
             raise InputError('--base-radius', args.base_radius,
                              'no value with a scene (its base_circle_radius is used)')
@@ -181,8 +181,8 @@ def compute(args: argparse.Namespace) -> tuple[Any, Any, float]:
     else:
         if args.lobe is not None:
             raise InputError('--lobe', args.lobe, 'a scene file (with lobes:)')
-        law = _load_law(doc, args.file)
-        base = _base_radius(args, doc)
+        law = load_law(doc, args.file)
+        base = base_radius_of(args, doc)
     step = args.step_deg
     if not (math.isfinite(step) and STEP_DEG[0] <= step <= STEP_DEG[1]):
         raise InputError('--step-deg', step, f'a step in [{STEP_DEG[0]:g}, {STEP_DEG[1]:g}] '
@@ -232,7 +232,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
     """Compute the profile and write the requested outputs (text summary by default)."""
     import numpy as np
 
-    from cam_metrology.cli.design_law import _write
+    from cam_metrology.cli.design_law import write_text
 
     prof, law, base = compute(args)
     summary = prof.summary()
@@ -250,13 +250,14 @@ def cmd_profile(args: argparse.Namespace) -> int:
     wrote = False
     if args.csv:
         lines = [','.join(names)] + [','.join(f'{v:.12g}' for v in row) for row in table]
-        _write(args.csv, '\n'.join(lines) + '\n')
+        write_text(args.csv, '\n'.join(lines) + '\n')
         wrote = True
     if args.json:
         rows = np.where(np.isfinite(table), table, np.nan).tolist()
         rows = [[None if v != v else v for v in row] for row in rows]   # NaN/inf -> null
         doc = dict(summary, columns=names, rows=rows)
-        _write(args.json, json.dumps(doc, indent=1) + '\n')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, doc, '--json')
         wrote = True
     if args.plot:
         _plot(args.plot, prof)
@@ -279,7 +280,7 @@ def _polar_columns(args: argparse.Namespace, prof: Any, law: Any, base: float
                    ) -> dict[str, Any]:
     """S1 polar form of the rocker pitch curve (docs/follower.md) for the same samples."""
     from cam_design.errors import InputError
-    from cam_design.follower import rocker_polar
+    from cam_design.cam_profile import rocker_polar
 
     if args.follower != 'rocker' or args.eta != 1:
         raise InputError('--polar', True, 'a rocker follower with --eta 1 (S1 polar form)')

@@ -28,7 +28,6 @@ Limits: ``--step-deg`` in [0.01, 5], speeds in (0, 1e5] rpm.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -52,7 +51,9 @@ def register(subparsers: Any) -> None:
                    help='angle unit of a gauge TABLE (default deg)')
     p.add_argument('--length-unit', choices=('mm', 'um', 'm'),
                    help='length unit of a gauge TABLE (default mm)')
-    p.add_argument('--feature', metavar='ID', help='only this lobe (default: all lobes)')
+    p.add_argument('--lobe', metavar='ID', dest='feature',
+                   help='only this lobe (default: all lobes)')
+    p.add_argument('--feature', dest='feature', help=argparse.SUPPRESS)   # old spelling
     p.add_argument('--model', choices=('sdof', 'mdof', 'hydraulic'),
                    help="model (default: the scene's valve_train.model)")
     p.add_argument('--rpm', type=float, action='append', metavar='R',
@@ -126,15 +127,17 @@ def run(args: argparse.Namespace) -> int:
 
         scene = load_scene(path)
         if args.feature is not None and args.feature not in [lb.id for lb in scene.lobes]:
-            raise InputError('--feature', args.feature,
+            raise InputError('--lobe', args.feature,
                              'one of ' + ', '.join(lb.id for lb in scene.lobes))
         core = DynamicsCore(_core_params(args, 'design'))
         if scene.valve_train is None:
             raise InputError('valve_train', None, 'a valve_train block in the scene')
         from cam_metrology.wire.topics import SCENE
-        core.handle(SCENE, SimpleNamespace(data=_scene_text(scene, args.feature)), 0)
+        text = scene.text if scene.camshaft is not None else _scene_text(scene, args.feature)
+        core.handle(SCENE, SimpleNamespace(data=text), 0)   # the shaft carries every lobe
         kind = 'scene'
     result = _result(core, args, kind, sweep_speeds)
+    shaft_sweep = _camshaft_block(core, args, result, sweep_speeds)
     _write(result, args)
     if args.plot:
         from cam_design.valve_train.sweep import plot_runs
@@ -144,6 +147,13 @@ def run(args: argparse.Namespace) -> int:
             if args.feature and feature != args.feature:
                 continue
             plot_runs(runs, folder / f'{safe_name(feature)}.png', title=feature)
+            if getattr(core, 'camshaft_runs', None):
+                from cam_design.camshaft.report import plot_camshaft
+                plot_camshaft(core.camshaft_runs, folder / 'camshaft.png',
+                              title=f'camshaft {scene_id(core)}')
+                if shaft_sweep:
+                    plot_camshaft(shaft_sweep, folder / 'camshaft_sweep.png',
+                                  title=f'camshaft {scene_id(core)}: sweep')
             hydraulic = [r for r in runs if hasattr(r, 'pump_pressure')]
             if hydraulic:
                 import matplotlib.pyplot as plt
@@ -157,12 +167,46 @@ def run(args: argparse.Namespace) -> int:
     return 1 if any('failures' in e for e in result['features'].values()) else 0
 
 
+def scene_id(core: Any) -> str:
+    """The scene's camshaft_id (or '')."""
+    return str(getattr(core.scene, 'camshaft_id', '') or '')
+
+
+def _camshaft_block(core: Any, args: argparse.Namespace, result: dict[str, Any],
+                    sweep_speeds: Any) -> list[Any]:
+    """With a ``camshaft:`` block: the result's ``camshaft`` (per-speed arrays of the
+    runs' speeds; ``sweep``: the same over the --sweep speeds) and the sweep's runs."""
+    spec = getattr(core.scene, 'camshaft', None) if core.scene is not None else None
+    if spec is None or not getattr(core, 'active', False):
+        result['camshaft'] = None
+        return []
+    from cam_design.camshaft.report import camshaft_summary
+
+    block = camshaft_summary(spec, core.camshaft_runs, core.camshaft_failures)
+    runs: list[Any] = []
+    if sweep_speeds is not None:
+        from cam_design.train.run import train_from_valve_train
+        from cam_metrology.dynamics.camshaft import run_speeds
+        from cam_metrology.dynamics.core import lobe_key
+
+        scene = core.scene
+        train = train_from_valve_train(scene.valve_train, args.model)
+        runs, failures = run_speeds(scene, train, sweep_speeds, step_deg=core.step_deg,
+                                    cam_width=core.cam_width, youngs=core.youngs,
+                                    max_revolutions=core.max_revolutions,
+                                    keys={lb.id: lobe_key(scene, lb.id) for lb in scene.lobes})
+        block['sweep'] = camshaft_summary(spec, runs, failures)
+    result['camshaft'] = block
+    return runs
+
+
 def _table_core(path: Path, args: argparse.Namespace) -> Any:
     """A stand-in for the node core holding the runs of a TABLE (``--valve-train``)."""
     from types import SimpleNamespace
 
     from cam_design.errors import InputError
-    from cam_metrology.dynamics.core import compute_run, parse_speeds, rpm_label
+    from cam_design.train.run import run_train, train_from_valve_train
+    from cam_metrology.dynamics.core import parse_speeds, rpm_label
     from cam_metrology.dynamics.tables import table_input
     from cam_metrology.scene.parse import load_valve_train
 
@@ -170,9 +214,6 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
         raise InputError('--valve-train', None, 'a scene or valve-train YAML with a TABLE '
                          '(the table gives only the lift)')
     vt, scene = load_valve_train(Path(args.valve_train))
-    if args.model:
-        from dataclasses import replace
-        vt = replace(vt, model=args.model)
     feature, law, source, note = table_input(path, feature=args.feature,
                                              angle_unit=args.angle_unit or 'deg',
                                              length_unit=args.length_unit or 'mm')
@@ -191,9 +232,16 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
         notes={feature: note}, keys={feature: path.name}, table_note=True)
     speeds = parse_speeds([float(r) for r in args.rpm], '--rpm') if args.rpm else \
         tuple(vt.cam_speed_rpm)
+    try:        # a refusal of the train fails each of its speeds
+        train: Any = train_from_valve_train(vt, args.model)
+    except (InputError, RuntimeError, ValueError) as exc:
+        train = exc
     for rpm in speeds:
         try:
-            run = compute_run(law, vt, rpm, args.step_deg, geom, key=path.name)
+            if isinstance(train, Exception):
+                raise train
+            run = run_train(law, train, rpm, step_deg=args.step_deg, geometry=geom,
+                            key=path.name)
         except (InputError, RuntimeError, ValueError) as exc:
             core.failures[f'{feature}/{rpm_label(rpm)}rpm'] = str(exc)
             continue
@@ -203,7 +251,7 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
 
 
 def _scene_text(scene: Any, feature: str | None) -> str:
-    """The scene YAML, restricted to one lobe when ``--feature`` is given."""
+    """The scene YAML, restricted to one lobe when ``--lobe`` is given."""
     if feature is None:
         return scene.text
     import yaml
@@ -224,7 +272,7 @@ def _replay(path: Path, core: Any) -> None:
 
 def _result(core: Any, args: argparse.Namespace, kind: str,
             sweep_speeds: Any) -> dict[str, Any]:
-    from cam_metrology.metrology.core import _json_safe
+    from cam_metrology.report.json_out import json_safe
 
     scene = core.scene
     out: dict[str, Any] = {'input': str(args.input), 'kind': kind,
@@ -247,20 +295,14 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
         if failed:
             entry['failures'] = failed
         if sweep_speeds is not None and _model(scene.valve_train, args) == 'hydraulic':
-            entry.update(_hydraulic_sweep(law, scene.valve_train, sweep_speeds))
+            entry.update(_hydraulic_sweep(law, scene.valve_train, args, sweep_speeds))
         elif sweep_speeds is not None:
-            from cam_design.valve_train.sweep import sweep
+            from cam_design.train.run import sweep_train, train_from_valve_train
 
-            from cam_design.errors import InputError
-
-            if getattr(scene.valve_train, 'hla', None) is not None:
-                raise InputError('--sweep', 'with valve_train.hla',
-                                 'single speeds (--rpm) for a train with a hydraulic lash '
-                                 'adjuster; the sweep does not take it yet')
-            params = _sweep_params(scene.valve_train, args)
-            from cam_metrology.dynamics.core import gas_of
-            res = sweep(law, params, sweep_speeds, step_deg=args.step_deg,
-                        key=_law_key(core, feature), gas=gas_of(scene.valve_train, law))
+            train = train_from_valve_train(scene.valve_train, args.model)
+            params = train.sweep_params('--sweep', args.sweep)
+            res = sweep_train(law, train, sweep_speeds, step_deg=args.step_deg,
+                              key=_law_key(core, feature))
             entry['jump_speed_rpm'] = res.jump_speed_rpm
             unc = None
             if str(source).startswith('table:') and res.jump_speed_rpm is not None:
@@ -283,7 +325,7 @@ def _result(core: Any, args: argparse.Namespace, kind: str,
                          bounce_bracket_rpm=None, sweep=None, jump_speed_uncertainty_rpm=None,
                          no_open_speed_rpm=None, no_open_bracket_rpm=None)
         out['features'][feature] = entry
-    return _json_safe(out)
+    return json_safe(out)
 
 
 #: why a cam-driven train has no no-open speed (JSON ``no_open_note``)
@@ -297,15 +339,14 @@ def _model(vt: Any, args: argparse.Namespace) -> str:
     return args.model or getattr(vt, 'model', None) or 'sdof'
 
 
-def _hydraulic_sweep(law: Any, vt: Any, speeds: Any) -> dict[str, Any]:
+def _hydraulic_sweep(law: Any, vt: Any, args: argparse.Namespace,
+                     speeds: Any) -> dict[str, Any]:
     """The feature's sweep fields for the hydraulic gear: the per-speed table and the
     no-open speed (``cam_design.hydraulic.speed_limit``); the mechanical trains' jump
     and bounce speeds are null (the gear has no cam contact to lose)."""
-    from cam_design.hydraulic.run import hydraulic_from_valve_train
-    from cam_design.hydraulic.speed_limit import hydraulic_sweep
-    from cam_metrology.dynamics.core import gas_of
+    from cam_design.train.run import sweep_train, train_from_valve_train
 
-    res = hydraulic_sweep(law, hydraulic_from_valve_train(vt), speeds, gas=gas_of(vt, law))
+    res = sweep_train(law, train_from_valve_train(vt, args.model), speeds)
     lo, hi = float(speeds[0]), float(speeds[-1])
     return {'no_open_speed_rpm': res.no_open.speed,
             'no_open_bracket_rpm': res.no_open.bracket,
@@ -313,23 +354,6 @@ def _hydraulic_sweep(law: Any, vt: Any, speeds: Any) -> dict[str, Any]:
             'jump_speed_rpm': None, 'jump_bracket_rpm': None, 'bounce_onset_rpm': None,
             'bounce_bracket_rpm': None, 'jump_speed_uncertainty_rpm': None,
             'sweep': {'model': 'hydraulic', **res.as_dict()}}
-
-
-def _sweep_params(vt: Any, args: argparse.Namespace) -> Any:
-    """The model a sweep runs: SdofParams (sdof) or MdofParams (mdof, the scene's
-    ``valve_train.mdof`` block); the hydraulic model has no sweep (refused by option)."""
-    from cam_design.errors import InputError
-    from cam_design.valve_train.params import SdofParams
-
-    model = _model(vt, args)
-    base = SdofParams.from_valve_train(vt)
-    if model == 'mdof':
-        from cam_design.valve_train.mdof import mdof_from_mapping
-        return mdof_from_mapping(getattr(vt, 'mdof', None), base)
-    if model != 'sdof':
-        raise InputError('--sweep', args.sweep, f'model sdof or mdof (model {model} has no '
-                         'sweep; use --rpm)')
-    return base
 
 
 def _law_key(core: Any, feature: str) -> str:
@@ -344,10 +368,9 @@ def _law_key(core: Any, feature: str) -> str:
 
 
 def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
-    text = json.dumps(result, indent=1)
     if args.json:
-        from cam_metrology.inputs.files import write_output
-        write_output(args.json, text + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, result, '--json')
     for feature, entry in result['features'].items():
         if 'note' in entry:         # stderr: seen also with --json -
             word = 'note' if str(entry.get('source', '')).startswith(
@@ -379,8 +402,42 @@ def _write(result: dict[str, Any], args: argparse.Namespace) -> None:
                 span = (f' ({min(forces):.1f} to {max(forces):.1f} N over the sweep)'
                         if forces else '')
                 print(f"{feature}: no-open speed none: {entry['no_open_note']}{span}")
+        for line in camshaft_lines(result.get('camshaft')):
+            print(line)
         for s in result['skipped']:
             print(f"skipped {s['what']}: {s['why']}")
+
+
+def camshaft_lines(block: dict[str, Any] | None) -> list[str]:
+    """Human lines of the camshaft: natural frequencies, then per speed the drive torque
+    (mean, peak, largest order), the friction loss and the lobes' timing shifts."""
+    if not block:
+        return []
+    freqs = ', '.join(f'{f:.0f}' for f in block['natural_frequencies_hz'][:4])
+    lines = [f"camshaft: torsional natural frequencies {freqs} Hz (drive {block['drive']})"]
+    for part, label in ((block, 'run'), (block.get('sweep'), 'sweep')):
+        if not part:
+            continue
+        tq = part['drive_torque_nm']
+        for i, rpm in enumerate(part['cam_speed_rpm']):
+            orders = tq['orders'][i]
+            top = max(range(len(orders)), key=lambda n: orders[n])
+            shifts = ', '.join(f"{lid} {v['timing_shift_deg'][i]:+.3f}"
+                               for lid, v in part['lobes'].items())
+            lines.append(
+                f"camshaft {label} {rpm:g} rpm: drive torque mean {tq['mean'][i]:.2f} N m, "
+                f"peak {tq['peak'][i]:.1f} N m, largest order {top + 1} "
+                f"({orders[top]:.1f} N m); friction {part['friction_loss_j_per_rev'][i]:.2f} "
+                f"J/rev ({part['friction_power_w'][i]:.0f} W); timing shift [deg] {shifts}"
+                + ('' if part['converged'][i] else '; NOT CONVERGED'))
+        for name, why in part.get('failures', {}).items():
+            lines.append(f'camshaft {label} {name}: FAILED: {why}')
+    crossings = [c for c in block['order_crossings'] if c['order'] <= 12][:6]
+    if crossings:
+        lines.append('camshaft: order crossings ' + ', '.join(
+            f"order {c['order']} x mode {c['mode']} at {c['cam_speed_rpm']:.0f} rpm"
+            for c in crossings))
+    return lines
 
 
 def hydraulic_sweep_lines(feature: str, entry: dict[str, Any]) -> list[str]:

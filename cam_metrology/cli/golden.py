@@ -8,7 +8,6 @@ provenance; tests compare later runs with it within stated tolerances
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
@@ -45,13 +44,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError('OUT', args.out, f'a file in an existing directory ({out.parent} '
                          'does not exist)')
     report = golden_of(analyze_report(args.bag, args.params))
-    tmp = out.with_name(f'.{out.name}.partial')
-    try:
-        tmp.write_text(json.dumps(report, indent=1, sort_keys=True) + '\n', encoding='utf-8')
-        tmp.replace(out)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise InputError('OUT', args.out, f'a writable path ({exc.strerror})') from None
+    from cam_metrology.report.json_out import write_json
+    write_json(out, report, 'OUT', sort_keys=True)
     n = len(report.get('features', {}))
     print(f'cam-bench golden: wrote {out} ({n} features of {args.bag})')
     return 0

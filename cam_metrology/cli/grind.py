@@ -10,7 +10,6 @@ sensitivities), ``correct`` (fit a measured lift error, write a corrected table)
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from typing import Any
 
@@ -103,7 +102,7 @@ def load(args: argparse.Namespace) -> tuple[Any, float, Any, dict[str, Any]]:
     from cam_design.grinding import spec as gs
     from cam_design.grinding.wheel_path import Design
     from cam_metrology.cli.design_law import load_yaml
-    from cam_metrology.cli.design_profile import _base_radius, _load_law, _scene_lobe
+    from cam_metrology.cli.design_profile import base_radius_of, load_law, scene_lobe
 
     doc = load_yaml(args.file)
     if args.machine:
@@ -114,7 +113,7 @@ def load(args: argparse.Namespace) -> tuple[Any, float, Any, dict[str, Any]]:
     else:
         section = dict(gs.section(doc))
     if isinstance(doc, dict) and 'lobes' in doc:
-        law, follower, base = _scene_lobe(args)
+        law, follower, base = scene_lobe(args)
         if args.base_radius is not None:
             raise InputError('--base-radius', args.base_radius,
                              'no value with a scene (its base_circle_radius is used)')
@@ -125,8 +124,8 @@ def load(args: argparse.Namespace) -> tuple[Any, float, Any, dict[str, Any]]:
     else:
         if args.lobe is not None:
             raise InputError('--lobe', args.lobe, 'a scene file (with lobes:)')
-        law = _load_law(doc, args.file)
-        base = _base_radius(args, doc)
+        law = load_law(doc, args.file)
+        base = base_radius_of(args, doc)
         design = gs.design(section.get('design', 'flat'))
     return law, base, design, section
 
@@ -146,9 +145,8 @@ def _write(args: argparse.Namespace, columns: dict[str, Any], summary: dict[str,
         write_text(args.csv, '\n'.join(lines) + '\n', '--csv')
         wrote = True
     if args.json:
-        rows = [[None if not math.isfinite(v) else v for v in row] for row in table.tolist()]
-        write_text(args.json, json.dumps(dict(summary, columns=names, rows=rows), indent=1)
-                   + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, dict(summary, columns=names, rows=table), '--json')
         wrote = True
     return wrote
 
@@ -470,8 +468,8 @@ def cmd_correct(args: argparse.Namespace) -> int:
     summary['fit']['std'] = {k: (None if v != v else v) for k, v in fit.std.items()}
     wrote = _write(args, cols, summary) if cols else False
     if not cols and args.json:
-        from cam_metrology.cli.design_law import write_text
-        write_text(args.json, json.dumps(summary, indent=1) + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, summary, '--json')
         wrote = True
     if not wrote:
         for k, v in fit.values.items():

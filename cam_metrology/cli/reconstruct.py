@@ -21,7 +21,6 @@ per-second arrays with ``--rpm``, ``design_errors`` when the design is known,
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -35,7 +34,9 @@ def register(subparsers: Any) -> None:
                     'reconstruction of measured cam lifts from a bag or a lift table.')
     p.add_argument('input', metavar='BAG|TABLE',
                    help='rosbag2 directory (or .mcap), CSV table or gauge profile file')
-    p.add_argument('--feature', metavar='ID', help='only this feature (default: all lobes)')
+    p.add_argument('--lobe', metavar='ID', dest='feature',
+                   help='only this lobe (default: all lobes)')
+    p.add_argument('--feature', dest='feature', help=argparse.SUPPRESS)   # old spelling
     p.add_argument('--method', choices=('spline', 'harmonic', 'both'), default='both')
     p.add_argument('--harmonics', type=int, metavar='N',
                    help='harmonic order, >= 2 (default: automatic)')
@@ -68,7 +69,7 @@ def register(subparsers: Any) -> None:
     p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
     p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
     p.add_argument('--nominal', metavar='FILE',
-                   help='write the reconstructed lift of --feature (or the only lobe) as a '
+                   help='write the reconstructed lift of --lobe (or the only lobe) as a '
                         'gauge nominal-profile file, -180..180 deg every --step-deg, from '
                         'the first method that succeeded (--method to choose)')
     p.set_defaults(func=run)
@@ -128,14 +129,13 @@ def run(args: argparse.Namespace) -> int:
                 if args.feature is None or fid == args.feature}
     if args.feature is not None and args.feature not in features:
         from cam_design.errors import InputError
-        raise InputError('--feature', args.feature,
+        raise InputError('--lobe', args.feature,
                          'one of ' + (', '.join(sorted(core.results)) or '(no feature)'))
     result = {'input': str(path), 'kind': kind, 'follower': follower,
               'features': features, 'skipped': skipped}
     if args.json:
-        from cam_metrology.inputs.files import write_output
-        write_output(args.json, json.dumps(result, indent=1, allow_nan=False) + '\n',
-                     '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, result, '--json')
         if args.json != '-':
             done = [f'{fid}/{m}' for fid, ms in features.items() for m, v in ms.items()
                     if isinstance(v, dict) and v.get('ok')]
@@ -163,7 +163,7 @@ def write_nominal(core: Any, args: argparse.Namespace, follower: dict[str, Any])
 
     ids = [f for f in core.results if args.feature is None or f == args.feature]
     if len(ids) != 1:
-        raise InputError('--nominal', args.nominal, 'one feature: --feature ID (one of '
+        raise InputError('--nominal', args.nominal, 'one lobe: --lobe ID (one of '
                          + ', '.join(ids) + ')')
     fid = ids[0]
     outcome = next((o for o in core.results[fid].values()

@@ -283,6 +283,7 @@ def _progress_printer() -> Any:
 def cmd_bag_info(args: argparse.Namespace) -> int:
     """Summarise a bag."""
     from cam_metrology import bagio
+    from cam_metrology.wire.topics import SCENE as SCENE_TOPIC
 
     topics = bagio.bag_topics(args.bag)
     qos = bagio.topic_qos_yaml(args.bag)
@@ -290,8 +291,9 @@ def cmd_bag_info(args: argparse.Namespace) -> int:
     for topic, (msgtype, count) in sorted(topics.items()):
         latched = 'transient_local' in qos.get(topic, '')
         print(f'  {topic:28s} {msgtype:40s} {count:9d}' + ('  latched' if latched else ''))
-    if bagio.SCENE_TOPIC in topics:
-        for sc in bagio.bag_scenes(args.bag):
+    if SCENE_TOPIC in topics:
+        from cam_metrology.scene.recorded import bag_scenes
+        for sc in bag_scenes(args.bag):
             if sc.scene is None:
                 print(f'scene: invalid: {sc.error}')
                 continue

@@ -262,9 +262,8 @@ def run(args: argparse.Namespace) -> int:
     grr = grr_results(rows, quantities, args.feature) if args.grr else []
     doc = {'table': args.table, 'spc': spc, 'gauge_rr': grr}
     if args.json:
-        text = json.dumps(doc, indent=1, default=lambda v: None) + '\n'
-        from cam_metrology.inputs.files import write_output
-        write_output(args.json, text, '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, doc, '--json')
     else:
         for e in spc:
             c = e.get('chart')

@@ -17,6 +17,12 @@ the penalty or hard seat; ``mdof``: §4.2) and publishes
   ``skipped/dynamics`` when the scene has no ``valve_train`` or ``compute`` omits
   ``dynamics``.
 
+With a scene ``camshaft:`` block and ``source=design`` every lobe runs on the scene's
+flexible camshaft (``cam_design.camshaft``, docs/camshaft.md): the coupled runs are
+published as above, their events carry ``timing_shift_deg``, and ``camshaft_runs`` keeps
+the shaft's figures (all speeds are computed when the scene arrives: seconds per speed
+and lobe count). Measured profiles run on a rigid shaft.
+
 Lift source (parameter ``source``): ``auto`` uses the reconstructed profile of a lobe
 when one arrives and the design law for lobes without one at ``finish``; ``profile``
 only profiles; ``design`` the scene's design laws as soon as the scene arrives.
@@ -29,9 +35,9 @@ import numpy as np
 
 from cam_design.errors import InputError, require_positive
 from cam_design.valve_train.cam_input import JetTableLift
-from cam_design.valve_train.params import SdofParams, require_rpm, require_step_deg
-from cam_design.valve_train.report import (COLUMNS, ContactGeometry, Run, finish_run,
-                                           run_sdof)
+from cam_design.train.run import TrainSpec, run_train, train_from_valve_train
+from cam_design.valve_train.params import require_rpm, require_step_deg
+from cam_design.valve_train.report import COLUMNS, ContactGeometry, Run
 from cam_metrology.cores.contract import merged_parameters
 from cam_metrology.cores.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
 from cam_metrology.wire.layouts import table_from_msg
@@ -118,6 +124,8 @@ class DynamicsCore:
         self.runs: dict[str, list[Run]] = {}
         self.failures: dict[str, str] = {}
         self.notes: dict[str, str] = {}
+        self.camshaft_runs: list[Any] = []        # cam_design.camshaft CamshaftRun
+        self.camshaft_failures: dict[str, str] = {}
 
     # -- protocol ------------------------------------------------------------------
     def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:
@@ -151,6 +159,7 @@ class DynamicsCore:
         self.runs.clear()
         self.failures.clear()
         self.notes.clear()
+        self.camshaft_runs, self.camshaft_failures = [], {}
         self.active = False
         try:
             scene = parse_scene(text, SCENE)
@@ -165,6 +174,8 @@ class DynamicsCore:
         self.active = True
         if self.source != 'design':
             return []
+        if scene.camshaft is not None:
+            return self._compute_camshaft(stamp_ns)
         out: list[Output] = []
         for lobe in scene.lobes:
             out += self._compute(lobe.id, lobe.lift, 'design', stamp_ns)
@@ -204,50 +215,99 @@ class DynamicsCore:
         if note:
             self.notes[feature] = note
         vt = self.scene.valve_train
-        if self.model:
-            from dataclasses import replace
-            vt = replace(vt, model=self.model)
         lobe = self.scene.lobe(feature)
         speeds = self.speeds or tuple(vt.cam_speed_rpm)
+        try:        # a refusal of the train fails each of its speeds (as it always did)
+            train: TrainSpec | Exception = train_from_valve_train(vt, self.model or None)
+        except (InputError, RuntimeError, ValueError) as exc:
+            train = exc
         width, width_source = cam_width_of(lobe, self.cam_width)
         geom = ContactGeometry(base_radius=self.scene.base_circle_radius,
                                follower=lobe.follower.kind, radius=lobe.follower.radius,
                                width=width, youngs_modulus=self.youngs)
         out: list[Output] = []
-        statuses = []
+        statuses: list[Any] = []
         key = (lobe_key(self.scene, feature) if source == 'design'
                else f'{PROFILE} {feature}/{source.split(":", 1)[-1]}')
         for rpm in speeds:
             name = f'{feature}/{rpm_label(rpm)}rpm'
             try:
-                run = compute_run(law, vt, rpm, self.step_deg, geom, self.max_revolutions,
-                                  key=key)
+                if isinstance(train, Exception):
+                    raise train
+                run = run_train(law, train, rpm, step_deg=self.step_deg, geometry=geom,
+                                max_revolutions=self.max_revolutions, key=key)
             except (InputError, RuntimeError, ValueError) as exc:
-                self.failures[name] = str(exc)
-                statuses.append(Status(name, ERROR, f'dynamics failed: {exc}',
-                                       {'source': source, **({'source_note': note}
-                                                             if note else {})}))
+                self._failed(name, str(exc), source, note, statuses)
                 continue
-            self.runs.setdefault(feature, []).append(run)
-            out.append(TableOutput(MOTION, name, COLUMNS, run.table()))
-            if hasattr(run, 'pressure_table'):   # hydraulic model: chamber pressures
-                from cam_design.hydraulic.run import PRESSURE_COLUMNS
-
-                out.append(TableOutput(MOTION, f'{name}/pressure', PRESSURE_COLUMNS,
-                                       run.pressure_table()))
-            ev = run.events
-            level = WARN if (ev.get('jump') or ev.get('bounce_count') or ev.get('left_cam')
-                             or ev.get('settled') is False) else OK
-            msg = ('valve leaves the cam' if ev.get('left_cam') else
-                   'not settled' if ev.get('settled') is False else
-                   'separation' if ev.get('jump') else
-                   'bounce' if ev.get('bounce_count') else 'ok')
             run.events['cam_width_source'] = width_source
-            values = {'source': source, 'model': run.model}
-            if note:
-                values['source_note'] = note
-            values.update({k: _fmt(v) for k, v in ev.items()})
-            statuses.append(Status(name, level, msg, values))
+            out += self._publish(feature, name, run, source, note, statuses)
+        out.append(StatusOutput(RESULT, tuple(statuses), stamp_ns))
+        return out
+
+    def _failed(self, name: str, why: str, source: str, note: str | None,
+                statuses: list[Status]) -> None:
+        self.failures[name] = why
+        statuses.append(Status(name, ERROR, f'dynamics failed: {why}',
+                               {'source': source, **({'source_note': note}
+                                                     if note else {})}))
+
+    def _publish(self, feature: str, name: str, run: Run, source: str, note: str | None,
+                 statuses: list[Status]) -> list[Output]:
+        """Keep a run; its motion table(s) and its status (appended to ``statuses``)."""
+        self.runs.setdefault(feature, []).append(run)
+        out: list[Output] = [TableOutput(MOTION, name, COLUMNS, run.table())]
+        if hasattr(run, 'pressure_table'):   # hydraulic model: chamber pressures
+            from cam_design.hydraulic.run import PRESSURE_COLUMNS
+
+            out.append(TableOutput(MOTION, f'{name}/pressure', PRESSURE_COLUMNS,
+                                   run.pressure_table()))
+        ev = run.events
+        level = WARN if (ev.get('jump') or ev.get('bounce_count') or ev.get('left_cam')
+                         or ev.get('settled') is False) else OK
+        msg = ('valve leaves the cam' if ev.get('left_cam') else
+               'not settled' if ev.get('settled') is False else
+               'separation' if ev.get('jump') else
+               'bounce' if ev.get('bounce_count') else 'ok')
+        values = {'source': source, 'model': run.model}
+        if note:
+            values['source_note'] = note
+        values.update({k: _fmt(v) for k, v in ev.items()})
+        statuses.append(Status(name, level, msg, values))
+        return out
+
+    def _compute_camshaft(self, stamp_ns: int) -> list[Output]:
+        """Every lobe's design law on the scene's flexible camshaft (docs/camshaft.md):
+        the coupled runs per speed, published like single runs (their events carry the
+        lobe's ``timing_shift_deg``); ``self.camshaft_runs`` keeps the shaft's results."""
+        from cam_metrology.dynamics.camshaft import run_speeds
+
+        scene = self.scene
+        speeds = self.speeds or tuple(scene.valve_train.cam_speed_rpm)
+        keys = {lb.id: lobe_key(scene, lb.id) for lb in scene.lobes}
+        for lb in scene.lobes:
+            self.done.add(lb.id)
+            self.laws[lb.id] = (lb.lift, 'design')
+        statuses: list[Status] = []
+        out: list[Output] = []
+        try:
+            train = train_from_valve_train(scene.valve_train, self.model or None)
+            runs, failures = run_speeds(scene, train, speeds, step_deg=self.step_deg,
+                                        cam_width=self.cam_width, youngs=self.youngs,
+                                        max_revolutions=self.max_revolutions, keys=keys)
+        except (InputError, RuntimeError, ValueError) as exc:
+            runs, failures = [], {f'{rpm_label(r)}rpm': str(exc) for r in speeds}
+        self.camshaft_runs = runs
+        self.camshaft_failures = failures
+        for label, why in failures.items():
+            for lb in scene.lobes:
+                self._failed(f'{lb.id}/{label}', why, 'design', None, statuses)
+        for cr in runs:
+            for lb in scene.lobes:
+                run = cr.runs[lb.id]
+                run.events['timing_shift_deg'] = cr.extras[lb.id]['timing_shift_deg']
+                run.events['cam_width_source'] = cam_width_of(lb, self.cam_width)[1]
+                out += self._publish(lb.id, f'{lb.id}/{rpm_label(cr.rpm)}rpm', run,
+                                     'design', None, statuses)
         out.append(StatusOutput(RESULT, tuple(statuses), stamp_ns))
         return out
 
@@ -293,63 +353,3 @@ def lobe_key(scene: Any, feature: str) -> str:
             spec = getattr(lobe, 'lift_spec', None)
             return f'lobes[{i}].lift_law' if spec is not None else f'lobes[{i}].lift'
     return 'lift'
-
-
-def gas_of(vt: Any, law: Any) -> Any:
-    """The scene's cylinder-gas force on the valve as a function of cam angle [N], or
-    None (``valve_train.gas``; docs/dynamics.md)."""
-    if getattr(vt, 'gas', None) is None:
-        return None
-    from cam_design.hydraulic.gas import gas_force, on_cam_angle
-
-    g = vt.gas
-    return on_cam_angle(gas_force(g['crank_deg'], g['pressure_pa'], g['head_diameter'],
-                                  g.get('back_pressure_pa', 0.0)),
-                        g['lobe_start_crank_deg'], float(law.support[0]))
-
-
-def compute_run(law: Any, vt: Any, rpm: float, step_deg: float,
-                geom: ContactGeometry | None, max_revolutions: int = 4,
-                key: str = 'lift') -> Run:
-    """One run of the scene's valve-train model (``vt``: scene ValveTrain); ``key``
-    names the lobe's lift in refusals."""
-    if getattr(vt, 'model', 'sdof') == 'hydraulic':
-        from cam_design.hydraulic.run import hydraulic_from_valve_train, run_hydraulic
-
-        return run_hydraulic(law, hydraulic_from_valve_train(vt), rpm, geom,
-                             gas=gas_of(vt, law))
-    params = SdofParams.from_valve_train(vt)
-    from cam_design.valve_train.physics import train_checks_from
-    tc = train_checks_from(getattr(vt, 'spring', None), getattr(vt, 'piston', None))
-    if getattr(vt, 'hla', None) is not None:
-        from cam_design.hydraulic.hla_coupled import run_with_hla
-
-        mp = None
-        if getattr(vt, 'model', 'sdof') == 'mdof':
-            from cam_design.valve_train.mdof import mdof_from_mapping
-
-            mp = mdof_from_mapping(vt.mdof, params)
-        return run_with_hla(law, params, vt.hla, rpm, mdof=mp, step_deg=step_deg,
-                            gas=gas_of(vt, law), geometry=geom, train_checks=tc)
-    if getattr(vt, 'gas', None) is not None and (
-            getattr(vt, 'model', 'sdof') == 'mdof' or params.hard_seat):
-        from cam_design.hydraulic.hla_coupled import run_gas_ode
-        from cam_design.valve_train.mdof import mdof_from_mapping
-
-        mp = (mdof_from_mapping(vt.mdof, params) if getattr(vt, 'model', 'sdof') == 'mdof'
-              else None)
-        return run_gas_ode(law, params, mp, rpm, gas=gas_of(vt, law), step_deg=step_deg,
-                           geometry=geom, train_checks=tc)
-    if getattr(vt, 'model', 'sdof') == 'mdof':
-        from cam_design.valve_train.mdof import mdof_from_mapping, simulate_mdof
-
-        mp = mdof_from_mapping(vt.mdof, params)
-        res = simulate_mdof(law, mp, rpm, step_deg=step_deg)
-        events = dict(res.events)
-        events['natural_frequencies_hz'] = [float(f) for f in res.natural_frequencies_hz[:6]]
-        events['spring_surge_hz'] = [float(s[0]) for s in res.surge_hz]
-        return finish_run(law, params, rpm, 'mdof', res.alpha, res.y, res.v, res.cam_force,
-                          events, geom, tc)
-    gas = gas_of(vt, law)
-    return run_sdof(law, params, rpm, step_deg=step_deg, geometry=geom, gas=gas,
-                    max_revolutions=max_revolutions, train_checks=tc, key=key)

@@ -22,6 +22,7 @@ from cam_design.keyway import KeywayGeometry
 from cam_design.errors import InputError, require_positive
 from cam_metrology.cores.contract import merged_parameters
 from cam_metrology.host.heap import trim
+from cam_metrology.report.json_out import json_safe
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_keyway, analyze_lobe, analyze_pin,
                                               seen_lift)
@@ -66,21 +67,6 @@ def _flat(values: dict[str, Any], prefix: str = '') -> dict[str, str]:
         else:
             out[name] = str(val)
     return out
-
-
-def _json_safe(obj: Any) -> Any:
-    """Plain JSON types (numpy scalars -> float/int, non-finite -> None)."""
-    if isinstance(obj, dict):
-        return {k: _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json_safe(v) for v in obj]
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if np.isfinite(obj) else None
-    return obj
 
 
 class MetrologyCore:
@@ -133,6 +119,8 @@ class MetrologyCore:
         self.pending: list[FeatureSamples] = []
         self.results: dict[str, FeatureResult] = {}
         self.report_sent = False
+        #: the final report as data (what ``finish`` publishes as JSON text), for offline use
+        self.final_report: dict[str, Any] | None = None
         self._design: dict[str, Any] = {}
         #: every scene that came into force: (log time [ns], Scene)
         self.scenes: list[tuple[int, Any]] = []
@@ -211,7 +199,8 @@ class MetrologyCore:
         if self.scene is None:
             return out + [self._status(Status('scene', ERROR, 'no scene received: nothing '
                                               'measured'), 0)]
-        out.append(TextOutput(REPORT, json.dumps(self.report(final=True), indent=1)))
+        self.final_report = self.report(final=True)
+        out.append(TextOutput(REPORT, json.dumps(self.final_report, indent=1)))
         self.report_sent = True
         return out
 
@@ -410,7 +399,7 @@ class MetrologyCore:
         tables = {f: r.table for f, r in self.results.items() if r.kind == 'lobe'}
         verdict = judge_part(scene, features, tables, self._design)
         release(tables.values())   # the spilled tables read by the verdict
-        return _json_safe({
+        return json_safe({
             'camshaft_id': scene.camshaft_id,
             'verdict': verdict,
             'direction': scene.direction,

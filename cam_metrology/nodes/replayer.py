@@ -62,9 +62,9 @@ def _latched_in_bag(conn: Any) -> bool:
 def bag_connections(path: str | Path) -> dict[str, tuple[str, bool]]:
     """topic -> (ROS type, latched) of a bag (latched: recorded as transient local or
     latched by architecture.md)."""
-    from cam_metrology.bagio import _open_reader   # shared validation of the bag path
+    from cam_metrology.bagio import open_reader   # shared validation of the bag path
 
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         out: dict[str, tuple[str, bool]] = {}
         for conn in reader.connections:

@@ -56,10 +56,6 @@ def measured_cards(scene: Any, features: dict[str, Any], tables: dict[str, Any],
     """lobe id -> {measured, nominal} cards (both as seen by the probe), or {error}.
     ``referenced``: filled with lobe id -> (alpha [rad], lift [m], probe radius [m]) of
     the measured tables referenced to the base circle (for a nominal-profile file)."""
-    from cam_design.cam_card import card_from_law, card_from_table
-    from cam_design.errors import InputError
-
-    rocker = scene.valve_train.rocker_ratio if scene.valve_train else None
     out: dict[str, dict[str, Any]] = {}
     for fid, table in tables.items():
         design = designs.get(fid)
@@ -73,17 +69,28 @@ def measured_cards(scene: Any, features: dict[str, Any], tables: dict[str, Any],
         if referenced is not None:
             referenced[fid] = (alpha, lift,
                                scene.probe.radius if scene.probe.kind == 'roller' else 0.0)
-        try:
-            out[fid] = {
-                'measured': card_from_table(alpha, lift, heights, design,
-                                            rocker_ratio=rocker, key='--heights-mm'),
-                'nominal': card_from_law(design, heights, rocker_ratio=rocker,
-                                         key='--heights-mm', derivatives=exact_seen(
-                                             scene, fid, design), derivative_points=3601),
-                'follower': 'the probe (' + scene.probe.kind + ')'}
-        except InputError as exc:
-            out[fid] = {'error': str(exc)}
+        out[fid] = lobe_cards(scene, fid, alpha, lift, design, heights)
     return out
+
+
+def lobe_cards(scene: Any, fid: str, alpha: Any, lift: Any, design: Any,
+               heights: tuple[float, ...]) -> dict[str, Any]:
+    """{measured, nominal, follower} cards of one lobe (both as seen by the probe) from its
+    base-referenced samples: ``alpha`` [rad], ``lift`` [m]; or {error} naming the problem."""
+    from cam_design.cam_card import card_from_law, card_from_table
+    from cam_design.errors import InputError
+
+    rocker = scene.valve_train.rocker_ratio if scene.valve_train else None
+    try:
+        return {
+            'measured': card_from_table(alpha, lift, heights, design,
+                                        rocker_ratio=rocker, key='--heights-mm'),
+            'nominal': card_from_law(design, heights, rocker_ratio=rocker,
+                                     key='--heights-mm', derivatives=exact_seen(
+                                         scene, fid, design), derivative_points=3601),
+            'follower': 'the probe (' + scene.probe.kind + ')'}
+    except InputError as exc:
+        return {'error': str(exc)}
 
 
 def exact_seen(scene: Any, fid: str, fallback: Any) -> Any:

@@ -43,9 +43,13 @@ def replay(bag: str, cores: list[Any], *, keep_all: bool = True,
 
 
 def final_report(outputs: list[tuple[int, Any]], metrology: Any) -> dict[str, Any]:
-    """The last report the metrology core published (its final one)."""
+    """The last report the metrology core published (its final one), taken as data from
+    the core when it is the final report (no JSON text read back)."""
     from cam_metrology.cores.outputs import TextOutput
 
+    kept = getattr(metrology, 'final_report', None)
+    if kept is not None:
+        return kept
     texts = [o.text for _, o in outputs if isinstance(o, TextOutput) and o.topic == REPORT_TOPIC]
     if texts:
         return json.loads(texts[-1])
@@ -95,7 +99,7 @@ def bag_warnings(bag: str) -> list[str]:
     damaged bag (naming the range), a bag without a scene or with an invalid scene
     (naming its bad key); a warning line when the scene changes during the bag (each
     feature is then analysed with the scene in force when it was measured)."""
-    from cam_metrology.bagio import require_scenes
+    from cam_metrology.scene.recorded import require_scenes
 
     scenes = require_scenes(bag)
     if len(scenes) < 2:
@@ -114,7 +118,9 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
     lobes referenced to the base circle as the verdict uses them ({} without
     ``plot_tables``: no referenced copies made, for a caller that draws nothing)."""
-    from cam_metrology.offline.acceptance import both_crank_timings, measured_cards
+    import numpy as np
+
+    from cam_metrology.offline.acceptance import both_crank_timings, lobe_cards
     from cam_metrology.metrology.lift_error import feature_referenced
     from cam_metrology.metrology.spill import release, spill
     from cam_metrology.report.provenance import provenance
@@ -123,20 +129,30 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     tables = {f: r.table for f, r in results.items() if r.table is not None}
     scene = getattr(metrology, 'scene', None)
     if scene is not None:
-        lobes = {f: t for f, t in tables.items() if results[f].kind == 'lobe'}
-        cards = measured_cards(scene, report.get('features', {}), lobes,
-                               getattr(metrology, '_design', {}), heights)
-        release(lobes.values())
-        crank = both_crank_timings(scene, report.get('features', {}), cards)
+        features = report.get('features', {})
+        designs = getattr(metrology, '_design', {})
+        cards: dict[str, dict[str, Any]] = {}
+        for fid, table in tables.items():   # one lobe at a time, referenced once
+            feature = features.get(fid) or {}
+            card = designs.get(fid) is not None and feature.get('status') == 'ok'
+            if results[fid].kind != 'lobe' or not (card or plot_tables):
+                continue
+            ref, good = feature_referenced(table, feature)
+            release(table)
+            kept = ref[good]   # the rows the verdict used: for the cards and the plots
+            del ref, good
+            if card:
+                cards[fid] = lobe_cards(scene, fid, np.ascontiguousarray(kept[:, 0]),
+                                        np.ascontiguousarray(kept[:, 1]), designs[fid],
+                                        heights)
+            if plot_tables:
+                tables[fid] = spill(kept)
+            del kept
+        crank = both_crank_timings(scene, features, cards)
         if crank is not None:
             report['crank'] = crank
-        for fid, card in cards.items():
-            report['features'][fid]['cam_card'] = card
-        for fid, table in lobes.items() if plot_tables else ():   # one table at a time
-            ref, good = feature_referenced(table, report['features'].get(fid, {}))
-            release(table)
-            tables[fid] = spill(ref[good])
-            del ref, good
+        for fid, card_ in cards.items():
+            report['features'][fid]['cam_card'] = card_
     report['provenance'] = provenance(
         bag=bag, scene_text=scene.text if scene is not None else None,
         params=load_params(params) or None, command='analyze')
@@ -173,9 +189,12 @@ def analyze_bag(bag: str, params: str | None = None, *, only_metrology: bool = F
 
     bounded_heap()   # whole-feature arrays returned to the system when freed
 
+    from cam_metrology.scene.parse import shared_parses
+
     cores, missing = make_cores(load_params(params), only_metrology)
-    warnings = bag_warnings(bag)   # damaged bag, no or invalid scene: InputError here
-    result = replay(bag, cores, keep_all=keep_all, out_bag=out_bag)
+    with shared_parses():   # the bag's scene parsed once, for the checks and every core
+        warnings = bag_warnings(bag)   # damaged bag, no or invalid scene: InputError here
+        result = replay(bag, cores, keep_all=keep_all, out_bag=out_bag)
     if result.samples == 0:
         raise InputError('bag', bag, f'{JOINT_STATES} samples (the bag has none: '
                          'nothing to measure)')

@@ -47,6 +47,9 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
 from cam_metrology.reconstruction.blas import single_thread_blas
+from cam_metrology.reconstruction.junctions import (JunctionSpline, find_junctions,
+                                                    golden_minimum, refit)
+from cam_metrology.reconstruction.noise import rebound_sigma
 from cam_metrology.reconstruction.result import Reconstruction, output_grid, sign_pattern
 from cam_metrology.reconstruction.samples import CleanSamples, clean_samples
 
@@ -295,11 +298,13 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     quantum = quantisation_step(y)
     floor = max(min_tolerance_rel * span, 1e-300)
     if sigma is None:
-        sigma = MAD_TO_SIGMA * float(np.median(np.abs(u - np.median(u))))
+        # judged from the rows' scatter, rows sitting on a flat run left out when the
+        # rest looks like noise (noise.py): digits do not make a table exact
+        sigma = rebound_sigma(u, y)
         exact = sigma < EXACT_NOISE_REL * span
         # rounding to a step q is noise of std q / sqrt(12) on the lobe, where the MAD
         # of a table whose base circle rounds to exact zeros does not see it
-        sigma = math.sqrt(sigma ** 2 + quantum ** 2 / 12.0)
+        sigma = rebound_sigma(u, y, quantum)
     else:
         sigma = require_positive('sigma', sigma, allow_zero=True)
         exact = sigma < EXACT_NOISE_REL * span
@@ -546,19 +551,7 @@ def choose_smoothing(values: NDArray[np.float64], step: float, *, criterion: str
     s = [score(v) for v in grid]
     i = int(np.argmin(s))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = score(c), score(d)
-    for _ in range(22):
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = score(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = score(d)
-    log_lam = 0.5 * (a + b)
+    log_lam = golden_minimum(score, a, b, 22)
     lam_d = 10.0 ** log_lam
     edf = float(np.sum(1.0 / (1.0 + lam_d * score.m3)))
     what = ('minimum of the estimated acceleration error (SURE)' if criterion == 'risk'
@@ -743,6 +736,7 @@ class SplineOptions:
     sigma: float | None = None              # instrument noise [m]; None: estimated
     expected_sign_changes: int | None = 2   # of h'' (None: no check)
     step: float | None = None               # output grid step [rad]; None: data step
+    junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
@@ -832,10 +826,24 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                                  fair.sigma, f'set by the caller: lam = {lam:.4g} rad^5')
     why = choice.why
     lam_d = choice.lam_d
+    found = None
+    # not on tables coarser than VERY_COARSE_RAD: a few rows per segment cannot tell a
+    # step of h'' from a steep smooth change (the cards and jump speeds of 5 deg, 0.01 mm
+    # tables got worse with them)
+    if (opt.junctions and uniform and not exact and opt.smoothing is None
+            and step <= VERY_COARSE_RAD):
+        found = find_junctions(grid, values, lam_d, gamma=gamma, sigma_floor=floor)
+        if found is not None:
+            lam_d = found.lam_d
+            why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
+                    f'chosen again with them: lam_d = {lam_d:.4g}')
 
     ylift = fair.lift.copy()
 
     def fit_spline(lam: float) -> Any:
+        if uniform and found is not None:
+            fit = refit(grid, values, missing, found, lam)
+            return JunctionSpline(make_interp_spline(grid, fit.smooth, k=5), fit)
         if uniform:
             return make_interp_spline(grid, smooth_grid(values, missing, lam), k=5)
         return _pspline(x[kept], ylift[kept], data.count[kept], grid, lam * density)
@@ -879,7 +887,8 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     out = output_grid(x[0], x[-1], out_step)
     acc = spline(out, 2)
     expected = opt.expected_sign_changes
-    if expected is not None and opt.smoothing is None:
+    # a junction fit explains the steps of h'' itself: its level is not raised for them
+    if expected is not None and opt.smoothing is None and found is None:
         raised = 0
         # more smoothing is only accepted while the fit still follows the data (RMS
         # residual within 25 % of the noise): a real feature (a second lobe) stays
@@ -906,6 +915,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         'max_rebound_m': float(np.max(np.abs(fair.rebound0[1:-1]))),
         'median_rebound_m': float(np.median(np.abs(fair.rebound0[1:-1]))),
     }
+    if isinstance(spline, JunctionSpline):
+        parameter['edf'] = spline.junctions.edf
+        parameter['junctions_deg'] = [math.degrees(t) for t in spline.junctions.angles]
+        parameter['acceleration_jumps_m_per_rad2'] = list(spline.junctions.jumps)
+        notes.append("h'' jumps at " + ', '.join(
+            f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2)'
+            for t, j in zip(spline.junctions.angles, spline.junctions.jumps)))
     rec = Reconstruction(
         method='spline', alpha=out, lift=spline(out), velocity=spline(out, 1),
         acceleration=acc, jerk=spline(out, 3), data_alpha=x[kept],

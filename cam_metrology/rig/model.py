@@ -1,8 +1,9 @@
 """The dynamics' prediction of a rig run and the valve-train parameters a fit may move.
 
 The prediction is the periodic valve motion of the scene's valve train at the run's
-measured mean speed, computed by the dynamics node's own entry (``compute_run``: the
-same solver as ``cam-bench dynamics`` and the live node). It is evaluated at every
+measured mean speed, computed by the valve-train run the dynamics node uses
+(``cam_design.train.run.run_train``: the same solver as ``cam-bench dynamics`` and the
+live node). It is evaluated at every
 sample's lobe angle and averaged into the run's bins exactly as the measurement is, and
 referenced to its own seated level over the same base-circle bins, so averaging and
 the laser zero cancel between measured and predicted.
@@ -89,10 +90,10 @@ class Prediction:
 
 
 def predict(law: Any, vt: Any, rpm: float, key: str = 'lift') -> Prediction:
-    """The dynamics' periodic valve motion at ``rpm`` (the dynamics node's entry)."""
-    from cam_metrology.dynamics.core import compute_run
+    """The dynamics' periodic valve motion at ``rpm`` (the dynamics node's run)."""
+    from cam_design.train.run import run_train, train_from_valve_train
 
-    run = compute_run(law, vt, rpm, PREDICT_STEP_DEG, None, key=key)
+    run = run_train(law, train_from_valve_train(vt), rpm, step_deg=PREDICT_STEP_DEG, key=key)
     omega = rpm * math.pi / 30.0
     alpha = np.asarray(run.alpha, dtype=float)
     if alpha[-1] - alpha[0] < TWO_PI - 1e-9:

@@ -156,6 +156,7 @@ class Scene:
     keyway: Keyway | None = None              # the other datum (never with a dowel_pin)
     crank: Crank | None = None                # crank datum (needs a pin or keyway)
     study: dict[str, str] = field(default_factory=dict)   # part_id, operator, trial
+    camshaft: Any = None                      # cam_design.camshaft.spec.CamshaftSpec
 
     @property
     def datum_id(self) -> str | None:

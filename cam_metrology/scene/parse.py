@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import importlib
 import math
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 
@@ -31,7 +33,7 @@ __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
             'dowel_pin', 'keyway', 'crank', 'compute', 'valve_train', 'idle_timeout',
-            'tolerances', 'part_id', 'operator', 'trial', 'rig')
+            'tolerances', 'part_id', 'operator', 'trial', 'camshaft', 'rig')
 #: top-level keys of a gauge R&R study (carried into the report and the batch table)
 STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
@@ -107,14 +109,44 @@ class _Ctx:
         return value
 
 
+#: text, source, base dir -> Scene of the texts parsed inside ``shared_parses()``
+_SHARED: ContextVar[dict[tuple[str, str, str], Scene] | None] = ContextVar(
+    'shared_scene_parses', default=None)
+
+
+@contextmanager
+def shared_parses() -> Iterator[None]:
+    """Within the block, each scene text is parsed once: later ``parse_scene`` calls of
+    the same text (same source and base dir) get the same frozen ``Scene``. The offline
+    analysis wraps its bag checks and replay in it, so the bag's scene check and every
+    core share one parse; outside the block nothing is kept (a nominal file read again)."""
+    token = _SHARED.set({})
+    try:
+        yield
+    finally:
+        _SHARED.reset(token)
+
+
 def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None = None
                 ) -> Scene:
     """Validate a scene YAML document and return the Scene (InputError if invalid).
 
     ``source`` names the document in YAML syntax errors (a file name); ``base_dir`` is
     the folder relative ``lobes[i].nominal_file`` paths start from (default: the
-    working directory).
+    working directory). Inside ``shared_parses()`` a text already parsed is not parsed
+    again.
     """
+    memo = _SHARED.get()
+    if memo is None:
+        return _parse_document(text, source, base_dir)
+    key = (text, source, '' if base_dir is None else str(base_dir))
+    if key not in memo:
+        memo[key] = _parse_document(text, source, base_dir)
+    return memo[key]
+
+
+def _parse_document(text: str, source: str, base_dir: str | Path | None) -> Scene:
+    """``parse_scene`` without the sharing: the validation itself."""
     import yaml
 
     if not isinstance(text, str):
@@ -160,6 +192,7 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
     valve = _valve_train(ctx, top['valve_train']) \
         if top.get('valve_train') is not None else None
     idle = require_positive('idle_timeout', top.get('idle_timeout', 1.0))
+    shaft = _camshaft(top.get('camshaft'), lobes)
     _check_conversions(ctx, lobes, base, probe)
     if pin is None and keyway is None and any(lobe.nominal_phase is not None
                                               for lobe in lobes):
@@ -170,7 +203,21 @@ def parse_scene(text: str, source: str = '<scene>', base_dir: str | Path | None 
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
-                 crank=crank, study=study)
+                 crank=crank, study=study, camshaft=shaft)
+
+
+def _camshaft(block: Any, lobes: list[Lobe]) -> Any:
+    """``camshaft:`` (``cam_design.camshaft.spec``): every lobe needs its nominal phase,
+    which places it on the shaft."""
+    if block is None:
+        return None
+    from cam_design.camshaft.spec import camshaft_from_mapping
+
+    for i, lobe in enumerate(lobes):
+        if lobe.nominal_phase is None:
+            raise InputError(f'lobes[{i}].nominal_phase', None, 'a nominal phase [rad] for '
+                             'every lobe on the camshaft (it places the lobe on the shaft)')
+    return camshaft_from_mapping(block, [lobe.id for lobe in lobes])
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -1,0 +1,304 @@
+"""Every valve train of an engine on one twisting camshaft (docs/camshaft.md).
+
+At a camshaft speed omega the periodic coupled state is found by fixed-point iteration:
+1. each lobe's valve train runs (``run_train``) on its lift seen through the shaft's
+   current twist at the lobe (``twist.TwistedLift``; none at the start);
+2. it loads the shaft at its station with T = F h'(a + psi) + T_friction (contact force
+   times its lever arm, plus the cam-follower friction torque); the journals take the
+   bearing friction of the lobe forces they carry (lever rule along the shaft);
+3. the shaft's periodic response to these loads (``torsion.respond``) gives the new
+   twist; repeat until the twist at the lobes changes by less than ``tol`` rad.
+The twist at convergence is the coupled solution: each train is solved exactly for the
+cam motion the shaft imposes, and the shaft exactly (in the sampled Fourier series) for
+the torques the trains return.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam_design.camshaft.friction import (bearing_friction_torque, flat_friction_torque,
+                                          roller_friction_torque, roller_slip)
+from cam_design.camshaft.spec import SPROCKET, CamshaftSpec
+from cam_design.camshaft.torsion import (Response, Shaft, assemble, damping_work,
+                                         harmonic_orders, natural_frequencies, respond)
+from cam_design.camshaft.twist import PeriodicJets, TwistedLift
+from cam_design.errors import InputError
+from cam_design.lift_laws.base import LiftLaw
+from cam_design.train.run import TrainSpec, run_train
+from cam_design.valve_train.params import omega_of_rpm, require_step_deg
+from cam_design.valve_train.report import ContactGeometry, Run
+
+#: harmonic orders of the drive torque reported
+ORDERS = 24
+
+
+@dataclass(frozen=True)
+class LobeOnShaft:
+    """One lobe and its valve train: ``law`` on the lobe's own angle axis, ``shift``
+    [rad] the lobe angle at shaft angle 0 (a = alpha + shift), the train, the contact
+    geometry (Hertz stress; None: none), the follower kind and roller radius [m], and
+    the key naming the lobe's lift in refusals."""
+
+    id: str
+    law: LiftLaw
+    shift: float
+    train: TrainSpec
+    base_radius: float
+    follower: str = 'flat'
+    roller_radius: float = 0.0
+    geometry: ContactGeometry | None = None
+    key: str = 'lift'
+
+
+@dataclass
+class CamshaftRun:
+    """The coupled periodic state at one speed, on the shaft grid alpha [rad] (N points
+    over a revolution): each lobe's Run (on its own axis), its twist psi [rad], the
+    load torques [N m] per station, the drive torque [N m], the friction torque [N m]
+    (all cam-follower and bearing), energies per revolution [J] and the convergence."""
+
+    rpm: float
+    alpha: NDArray[np.float64]
+    runs: dict[str, Run]
+    twist: dict[str, NDArray[np.float64]]
+    loads: NDArray[np.float64]
+    drive: NDArray[np.float64]
+    friction: NDArray[np.float64]
+    friction_loss: float
+    contact_work: float
+    damping_work: float
+    drive_work: float
+    iterations: int
+    change: float
+    converged: bool
+    extras: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready per-speed figures: drive torque (mean, peak, orders), friction
+        loss and mean power, and per lobe the timing shift at the nose and the twist
+        range [deg]."""
+        omega = omega_of_rpm(self.rpm)
+        lobes = {}
+        for lid, psi in self.twist.items():
+            lobes[lid] = {'timing_shift_deg': self.extras[lid]['timing_shift_deg'],
+                          'twist_min_deg': math.degrees(float(psi.min())),
+                          'twist_max_deg': math.degrees(float(psi.max())),
+                          **{k: v for k, v in self.extras[lid].items()
+                             if k != 'timing_shift_deg'}}
+        return {'cam_speed_rpm': self.rpm,
+                'drive_torque_nm': {'mean': float(np.mean(self.drive)),
+                                    'peak': float(np.max(self.drive)),
+                                    'min': float(np.min(self.drive)),
+                                    'orders': harmonic_orders(self.drive, ORDERS)},
+                'friction_loss_j_per_rev': self.friction_loss,
+                'friction_power_w': self.friction_loss * omega / (2.0 * math.pi),
+                'drive_work_j_per_rev': self.drive_work,
+                'damping_work_j_per_rev': self.damping_work,
+                'iterations': self.iterations, 'converged': self.converged,
+                'twist_change_rad': self.change, 'lobes': lobes}
+
+
+def grid_size(step_deg: float) -> int:
+    """Points per revolution of the shaft grid; ``step_deg`` must divide 360 deg."""
+    step = require_step_deg('step_deg', step_deg)
+    n = round(360.0 / step)
+    if abs(n * step - 360.0) > 1e-9 * 360.0:
+        raise InputError('step_deg', step_deg, 'a step dividing 360 deg (the shaft grid)')
+    return int(n)
+
+
+def _on_grid(run: Run, shift: float, N: int) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """Grid indices of a run's angles (a - shift on the shaft grid) and which rows of
+    the run are on it (all but the repeated end of the window)."""
+    pos = (run.alpha - shift) / (2.0 * math.pi / N)
+    k = np.rint(pos)
+    if np.max(np.abs(pos - k)) > 1e-6:
+        raise InputError('lobes[].nominal_phase', 'off the shaft grid',
+                         'lobe angles on the step grid (the runs share the shaft grid)')
+    idx = k.astype(np.int64) % N
+    first = np.zeros(N, dtype=bool)
+    keep = np.zeros(idx.size, dtype=bool)
+    for r, i in enumerate(idx):
+        if not first[i]:
+            first[i] = True
+            keep[r] = True
+    if not np.all(first):
+        raise InputError('step_deg', N, 'runs covering the whole revolution')
+    return idx, keep
+
+
+def _journal_shares(spec: CamshaftSpec, lobe_ids: list[str]
+                    ) -> dict[str, list[tuple[int, float]]]:
+    """Per lobe: (journal station index, share of its radial load), lever rule between
+    the neighbouring journals along the shaft (all to the nearest one outside them)."""
+    x = np.concatenate([[0.0], np.cumsum([s.length for s in spec.sections])])
+    journals = [i for i, s in enumerate(spec.stations)
+                if s != SPROCKET and s not in lobe_ids]
+    out: dict[str, list[tuple[int, float]]] = {}
+    for lid in lobe_ids:
+        i = spec.stations.index(lid)
+        left = [j for j in journals if x[j] <= x[i]]
+        right = [j for j in journals if x[j] >= x[i]]
+        if left and right:
+            a, b = left[-1], right[0]
+            w = 0.5 if x[b] == x[a] else (x[b] - x[i]) / (x[b] - x[a])
+            out[lid] = [(a, w), (b, 1.0 - w)]
+        elif left or right:
+            out[lid] = [((left or right)[-1 if left else 0], 1.0)]
+        else:
+            out[lid] = []
+    return out
+
+
+def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
+                 step_deg: float = 0.1, max_revolutions: int = 4, tol: float = 1e-9,
+                 max_iter: int = 40, shaft: Shaft | None = None,
+                 depth: int = 6) -> CamshaftRun:
+    """The coupled periodic state of ``lobes`` on the shaft ``spec`` at ``rpm`` (module
+    docstring); ``tol`` [rad] on the change of the twist at the lobes; ``depth``: the
+    Anderson acceleration's memory (0: plain iteration)."""
+    N = grid_size(step_deg)
+    omega = omega_of_rpm(rpm)
+    shaft = shaft or assemble(spec)
+    ids = [lb.id for lb in lobes]
+    station = {lid: spec.stations.index(lid) for lid in ids}
+    shares = _journal_shares(spec, ids)
+    fr = spec.friction
+    phaser = math.radians(spec.drive.phaser_deg)
+    alpha: NDArray[np.float64] = np.arange(N, dtype=np.float64) * (2.0 * math.pi / N)
+    response: Response | None = None
+    change, it, converged = math.inf, 0, False
+    lobe_rows = [station[i] for i in ids]
+    mixer = _Anderson(depth)
+    while it < max_iter:
+        it += 1
+        loads = np.zeros((len(spec.stations), N))
+        contact = np.zeros((len(spec.stations), N))
+        runs: dict[str, Run] = {}
+        extras: dict[str, dict[str, Any]] = {}
+        for lb in lobes:
+            s = station[lb.id]
+            law: LiftLaw = lb.law
+            jets = None
+            if response is not None or phaser:
+                psi = np.zeros((4, N)) if response is None else np.stack(
+                    [response.psi[s], response.dpsi[s], response.d2psi[s], response.d3psi[s]])
+                psi[0] += phaser
+                jets = PeriodicJets(psi)
+                law = TwistedLift(lb.law, jets, lb.shift)
+            run = run_train(law, lb.train, rpm, step_deg=step_deg, geometry=lb.geometry,
+                            max_revolutions=max_revolutions, key=lb.key)
+            idx, keep = _on_grid(run, lb.shift, N)
+            force = np.zeros(N)
+            force[idx[keep]] = run.force[keep]
+            a = alpha + lb.shift
+            d = np.zeros((4, N)) if jets is None else jets(alpha)
+            lo = float(lb.law.support[0])
+            theta = lo + np.mod(a + d[0] - lo, 2.0 * math.pi)     # the lobe's own window
+            h = lb.law.derivatives(theta)
+            t_contact = force * h[1]
+            t_fric = np.zeros(N)
+            extra: dict[str, Any] = {}
+            if lb.follower == 'roller' and fr.roller is not None:
+                t_fric = roller_friction_torque(force, h[0], h[1], lb.base_radius,
+                                                lb.roller_radius, fr.roller)
+                extra = roller_slip(force, h[0], h[1], alpha, lb.base_radius,
+                                    lb.roller_radius, fr.roller, omega)
+            elif lb.follower == 'flat' and fr.flat is not None:
+                t_fric = flat_friction_torque(force, h[0], h[2], lb.base_radius, fr.flat,
+                                              rpm)
+            loads[s] += t_contact + t_fric
+            contact[s] += t_contact
+            for j, w in shares[lb.id]:
+                if fr.bearing > 0:
+                    loads[j] += bearing_friction_torque(w * force, fr.bearing,
+                                                        spec.journal_radius)
+            run.drive_torque = t_contact[idx] + t_fric[idx]
+            run.friction_torque = t_fric[idx]
+            runs[lb.id] = run
+            extras[lb.id] = {**extra, 'timing_shift_deg': _nose_shift(lb, d[0], alpha)}
+        new = respond(shaft, loads, omega)
+        resid = new.psi[lobe_rows] - (0.0 if response is None else response.psi[lobe_rows])
+        change = float(np.max(np.abs(resid)))
+        if change < tol or response is None and change == 0.0:
+            response, converged = new, True
+            break
+        response = mixer.next(response, new, resid)
+    if response is None or not converged:
+        response = new
+    dpsi = response.dpsi
+    step = 2.0 * math.pi / N
+    friction = loads - contact
+    fric_loss = float(np.sum(friction * (1.0 + dpsi)) * step)
+    contact_work = float(np.sum(contact * (1.0 + dpsi)) * step)
+    return CamshaftRun(
+        rpm=float(rpm), alpha=alpha, runs=runs,
+        twist={i: response.psi[station[i]] for i in ids}, loads=loads,
+        drive=response.drive, friction=friction.sum(axis=0), friction_loss=fric_loss,
+        contact_work=contact_work, damping_work=damping_work(shaft, response, omega),
+        drive_work=float(np.sum(response.drive) * step), iterations=it, change=change,
+        converged=converged, extras=extras)
+
+
+class _Anderson:
+    """Anderson acceleration of the fixed point x = G(x) on the shaft's response
+    (Walker & Ni 2011, type II): with the last ``depth`` residuals f = G(x) - x, the
+    next iterate is G(x_k) - dG gamma, gamma the least-squares fit of f_k by the
+    residual differences dF (measured on the twist at the lobes). The response is linear
+    in the loads, so a combination of responses is one."""
+
+    def __init__(self, depth: int) -> None:
+        self.depth = depth
+        self.f: list[NDArray[np.float64]] = []
+        self.g: list[NDArray[np.float64]] = []
+
+    def next(self, x: Response | None, g: Response, f: NDArray[np.float64]) -> Response:
+        gv = _pack(g)
+        self.f.append(f.ravel())
+        self.g.append(gv)
+        if len(self.f) > self.depth + 1:
+            self.f.pop(0)
+            self.g.pop(0)
+        if x is None or len(self.f) < 2 or self.depth == 0:
+            return g
+        dF = np.stack([b - a for a, b in zip(self.f[:-1], self.f[1:])], axis=1)
+        dG = np.stack([b - a for a, b in zip(self.g[:-1], self.g[1:])], axis=1)
+        gamma = np.linalg.lstsq(dF, self.f[-1], rcond=None)[0]
+        return _unpack(gv - dG @ gamma, g)
+
+
+def _pack(r: Response) -> NDArray[np.float64]:
+    return np.concatenate([r.psi.ravel(), r.dpsi.ravel(), r.d2psi.ravel(), r.d3psi.ravel(),
+                           r.drive, r.spectrum.real.ravel(), r.spectrum.imag.ravel()])
+
+
+def _unpack(v: NDArray[np.float64], like: Response) -> Response:
+    parts, pos = [], 0
+    for arr in (like.psi, like.dpsi, like.d2psi, like.d3psi, like.drive,
+                like.spectrum.real, like.spectrum.imag):
+        parts.append(v[pos:pos + arr.size].reshape(arr.shape))
+        pos += arr.size
+    return Response(spectrum=parts[5] + 1j * parts[6], psi=parts[0], dpsi=parts[1],
+                    d2psi=parts[2], d3psi=parts[3], drive=parts[4])
+
+
+def _nose_shift(lb: LobeOnShaft, delta: NDArray[np.float64], alpha: NDArray[np.float64]
+                ) -> float:
+    """Timing shift [deg] of the lobe: its deviation at the nose (positive: the events
+    come earlier)."""
+    lo, hi = lb.law.support
+    grid = np.linspace(lo, hi, 2001)
+    nose = float(grid[int(np.argmax(lb.law(grid)))])
+    N = alpha.size
+    k = int(round((nose - lb.shift) / (2.0 * math.pi / N))) % N
+    return math.degrees(float(delta[k]))
+
+
+def shaft_modes(spec: CamshaftSpec) -> NDArray[np.float64]:
+    """Torsional natural frequencies [Hz] of the shaft of ``spec``."""
+    return natural_frequencies(assemble(spec))

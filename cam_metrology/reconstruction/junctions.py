@@ -1,0 +1,447 @@
+"""Junction-aware smoothing: find where h'' jumps and let the smoothing spline jump there.
+
+A lift law is often pieced together from segments whose accelerations differ at the
+seams (ramp ends, the segments of a constant-acceleration cam, dwell edges, the arcs of
+a circular-arc cam). A smoothing spline that penalises h''' spreads such a step over
+its bandwidth. Here the lift on a uniform grid is modelled as a *partial spline*
+(Wahba's semi-parametric smoothing spline)
+
+    y = f + sum_j c_j (x - t_j)_+^2 / 2 + noise,
+
+with f smooth (discrete quintic smoother: penalty on third differences with free ends)
+and one hinge per junction t_j carrying the step c_j of h''. With free ends a quadratic
+is not penalised at all, so the hinge costs the smooth part nothing away from t_j. For
+a fixed smoothing level the c_j are a small least-squares problem (banded solves, O(N)
+per level); the generalised cross-validation score of the whole fit (the partial
+spline's hat-matrix trace) chooses the level.
+
+Junctions are found greedily. For one more junction at t the drop of the penalised
+residual is b^2 / (g'Rg), b = g'e (e the current residual, R = I - S); under noise
+alone T = b^2 / (sigma^2 g'R^2 g) is chi-square with one degree of freedom. T is
+computed at every quarter step at once (a correlation of the residual with the hinge);
+the largest T above 2 ln(4 N / alpha) is added, every junction's angle is refined to a
+fraction of a step by minimising the penalised residual, the level is chosen again,
+and the search repeats. Angles in rad, lifts in m.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from numpy.polynomial import Polynomial
+from numpy.polynomial.polynomial import polyval
+from numpy.typing import NDArray
+from scipy.linalg import cho_solve_banded, cholesky_banded
+from scipy.signal import fftconvolve
+
+#: family-wise false-alarm probability of the junction search on a lobe without one
+FALSE_ALARM = 1e-3
+#: most junctions searched for (ramps and three acceleration segments per flank: ten)
+MAX_JUNCTIONS = 12
+#: a junction is kept when it lowers N ln(GCV) of the whole fit by this much (a step
+#: that only stands in for the smoothing bias of a smooth lobe raises the score)
+GCV_GAIN = 12.0
+#: a junction may lower the smoothing level of the rest by at most this factor
+MIN_LEVEL_RATIO = 0.5
+#: no junction is sought within this fraction of the table from either end
+END_MARGIN = 0.02
+#: the search ends after this many candidates refused by the GCV test
+MAX_REFUSED = 8
+#: positions tried per grid step by the scan
+SCAN_OFFSETS = (0.0, 0.25, 0.5, 0.75)
+
+
+def third_difference_gram(m: int) -> NDArray[np.float64]:
+    """D3^T D3 (free ends) for m >= 4 unknowns in upper banded storage (4 x m)."""
+    c = np.array([-1.0, 3.0, -3.0, 1.0])
+    ab = np.zeros((4, m))
+    for o in range(4):
+        diag = np.convolve(np.ones(m - 3), c[:4 - o] * c[o:])     # length m - o
+        ab[3 - o, o:] = diag[:m - o]
+    return ab
+
+
+@lru_cache(maxsize=16)
+def _penalty(m: int) -> NDArray[np.float64]:
+    ab = third_difference_gram(m)
+    ab.setflags(write=False)
+    return ab
+
+
+@lru_cache(maxsize=8)
+def _factor(n: int, lam_d: float) -> NDArray[np.float64]:
+    """Banded Cholesky factor of I + lam_d D3'D3 (read-only, cached: the search asks
+    for the same level many times)."""
+    ab = lam_d * _penalty(n)
+    ab[3] += 1.0
+    c = cholesky_banded(ab, check_finite=False)
+    c.setflags(write=False)
+    return c
+
+
+def _smooth(rhs: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """(I + lam_d D3'D3)^-1 rhs (rhs (n,) or (n, k))."""
+    return cho_solve_banded((_factor(rhs.shape[0], float(lam_d)), False), rhs,
+                            check_finite=False)
+
+
+def _trace_smoother(n: int, lam_d: float) -> float:
+    """tr (I + lam_d D3'D3)^-1: the three unpenalised quadratics plus the reflective
+    spectrum mu_k^3 of the other modes (boundary terms of order one left out)."""
+    mu = 2.0 - 2.0 * np.cos(np.pi * np.arange(1, n - 2) / n)
+    return 3.0 + float(np.sum(1.0 / (1.0 + lam_d * mu ** 3)))
+
+
+def _smoothstep() -> Polynomial:
+    """S(v) = v^6 sum_k C(5 + k, k) (1 - v)^k: 0 at 0, 1 at 1, flat to 5th order."""
+    v = Polynomial([0.0, 1.0])
+    return v ** 6 * sum(math.comb(5 + k, k) * Polynomial([1.0, -1.0]) ** k
+                        for k in range(6))
+
+
+def side_of(tau: float, n: int) -> int:
+    """+1: the junction at node ``tau`` opens to the right (its longer side), else -1."""
+    return 1 if tau <= 0.5 * (n - 1) else -1
+
+
+def taper_nodes(n: int) -> float:
+    """Length [nodes] of a junction's cubic hinge (long beside the smoother's
+    bandwidth, short enough to keep its values, and the rounding of R g, small)."""
+    return max(min(0.25 * (n - 1), 60.0 + 0.02 * n), 4.0)
+
+
+@lru_cache(maxsize=64)
+def _hinges_on(length: float) -> tuple[Polynomial, Polynomial]:
+    """g2 = u^2/2 on u > 0 (no taper: the free ends do not penalise a quadratic) and
+    g3 = u^3/6 w(u) on [0, L], w = 1 - S(u / L), 0 beyond (C5 there, 1 + O(u^6) at
+    0): unit steps of the second and third derivatives at 0, in node units."""
+    taper = 1.0 - _smoothstep()(Polynomial([0.0, 1.0 / length]))
+    return Polynomial([0.0, 0.0, 0.5]), Polynomial([0.0, 0.0, 0.0, 1.0 / 6.0]) * taper
+
+
+@lru_cache(maxsize=64)
+def _hinge_coefficients(length: float, nu: int) -> tuple[NDArray[np.float64], ...]:
+    """Power-series coefficients of the nu-th derivatives of g2 and g3."""
+    return tuple(p.deriv(nu).coef for p in _hinges_on(length))
+
+
+def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
+    """(len(u), 2): nu-th u-derivatives of g2 and g3 (node units), ``u`` nodes from a
+    junction that opens to the right."""
+    u = np.asarray(u, dtype=float)
+    out = np.zeros((u.size, 2))
+    quad, cubic = _hinge_coefficients(float(length), nu)
+    pos = u > 0
+    near = pos & (u < length)
+    out[pos, 0] = polyval(u[pos], quad)
+    out[near, 1] = polyval(u[near], cubic)
+    return out
+
+
+@lru_cache(maxsize=16)
+def _quadratics(n: int) -> NDArray[np.float64]:
+    """Orthonormal basis (n, 3) of the quadratics on n nodes (read-only, cached)."""
+    x = np.linspace(-1.0, 1.0, n)
+    q, _ = np.linalg.qr(np.column_stack([np.ones(n), x, x * x]))
+    q.setflags(write=False)
+    return q
+
+
+def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
+    """r without its quadratic part. R r is orthogonal to the quadratics (the free
+    ends reproduce them); the banded solve's rounding, amplified by the condition
+    number, is not, and a long hinge would sum it up."""
+    q = _quadratics(r.shape[0])
+    return r - q @ (q.T @ r)
+
+
+def _residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """R g = (I + lam_d P)^-1 lam_d P g, P = D3'D3: the same as g - S g, but formed from
+    third differences, so that the long quadratic tail of a hinge (S reproduces it)
+    adds no rounding."""
+    d3 = np.diff(g, 3, axis=0)
+    pg = np.zeros(g.shape)
+    for j, c in enumerate((-1.0, 3.0, -3.0, 1.0)):
+        pg[j:j + d3.shape[0]] += c * d3
+    return _deflate(_smooth(lam_d * pg, lam_d))
+
+
+def _hinge_columns(n: int, taus: list[float]) -> NDArray[np.float64]:
+    """(n, 2J): g2 and g3 of each junction, opening on its longer side (node units)."""
+    nodes = np.arange(n, dtype=float)
+    cols = [hinge_values(side_of(t, n) * (nodes - t), taper_nodes(n)) for t in taus]
+    return np.concatenate(cols, axis=1) if cols else np.zeros((n, 0))
+
+
+@dataclass(frozen=True)
+class PartialFit:
+    """A partial-spline fit at one level: smooth part ``smooth`` [m] on the grid, hinge
+    coefficients ``coef`` [m per node^2], residual sum of squares ``rss`` [m^2], trace
+    of the hat matrix ``edf``, penalised residual ``objective`` [m^2], ``resid``."""
+
+    smooth: NDArray[np.float64]
+    coef: NDArray[np.float64]
+    rss: float
+    edf: float
+    objective: float
+    resid: NDArray[np.float64]
+
+
+def partial_fit(values: NDArray[np.float64], taus: list[float], lam_d: float
+                ) -> PartialFit:
+    """Partial spline of uniform ``values`` [m] with hinges at node positions ``taus``."""
+    n = values.size
+    g = _hinge_columns(n, taus)
+    ry = _deflate(values - _smooth(values, lam_d))
+    if g.shape[1]:
+        rg = _residual_operator(g, lam_d)
+        m = g.T @ rg
+        m = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
+        coef = np.linalg.solve(m, g.T @ ry)
+        extra = float(np.trace(np.linalg.solve(m, rg.T @ rg)))
+        resid = ry - rg @ coef
+        z = values - g @ coef
+    else:
+        coef, extra, resid, z = np.zeros(0), 0.0, ry, values
+    smooth = z - resid                       # S (y - G c)
+    edf = _trace_smoother(n, lam_d) + extra
+    return PartialFit(smooth, coef, float(resid @ resid), edf, float(z @ resid), resid)
+
+
+def _gcv(values: NDArray[np.float64], taus: list[float], lam_d: float, gamma: float) -> float:
+    f = partial_fit(values, taus, lam_d)
+    n = values.size
+    return n * f.rss / max(n - gamma * f.edf, 1e-9) ** 2
+
+
+def golden_minimum(fun, a: float, b: float, iterations: int) -> float:
+    """Minimiser of a unimodal ``fun`` on [a, b] (golden section)."""
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = fun(c), fun(d)
+    for _ in range(iterations):
+        if fc < fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = fun(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = fun(d)
+    return 0.5 * (a + b)
+
+
+def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
+                 lam0: float) -> float:
+    """The GCV-minimising discrete level with these hinges, searched around ``lam0``."""
+    c0 = math.log10(max(lam0, 1e-6))
+    grid = np.arange(c0 - 2.0, c0 + 2.01, 0.5)
+    s = [_gcv(values, taus, 10.0 ** v, gamma) for v in grid]
+    i = int(np.argmin(s))
+    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    return 10.0 ** golden_minimum(lambda v: _gcv(values, taus, 10.0 ** v, gamma), a, b, 8)
+
+
+def _hinge_gram(lam_d: float, offset: float, length: float
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(G'RG, G'R^2G), 2 x 2 in node units, of one right-opening junction far from the
+    ends: R G vanishes away from the hinge and its taper, so a window covering them
+    and a few dozen smoother bandwidths gives them."""
+    bw = int(40 * max(lam_d, 1.0) ** (1.0 / 6.0) + 20)
+    left = 2 * bw
+    nodes = np.arange(left + int(math.ceil(length)) + 3 * bw, dtype=float)
+    g = hinge_values(nodes - (left + offset), length)
+    rg = _residual_operator(g, lam_d)
+    core = slice(bw, nodes.size - bw)          # clear of the window's own ends
+    return g[core].T @ rg[core], rg[core].T @ rg[core]
+
+
+def _scan_right(resid: NDArray[np.float64], lam_d: float, sigma: float, length: float
+                ) -> NDArray[np.float64]:
+    """T at node j + offset of right-opening junctions, (n, len(SCAN_OFFSETS))."""
+    n = resid.size
+    padded = np.concatenate([resid, np.zeros(n)])
+    out = np.zeros((n, len(SCAN_OFFSETS)))
+    for col, off in enumerate(SCAN_OFFSETS):
+        m, v = _hinge_gram(lam_d, off, length)
+        # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
+        w = np.array([1.0, -m[0, 1] / m[1, 1]])
+        var = float(w @ v @ w) * sigma ** 2
+        kern = hinge_values(np.arange(n, dtype=float) - off, length)
+        # b_c(j) = sum_i g_c(i - off) e_{j+i}: correlations of the residual
+        b = [fftconvolve(padded, kern[::-1, c], mode='valid')[:n] for c in range(2)]
+        out[:, col] = (w[0] * b[0] + w[1] * b[1]) ** 2 / max(var, 1e-300)
+    return out
+
+
+def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
+         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(node positions tau, statistic T) of one more junction at every quarter node,
+    ``margin`` nodes from the ends, each opening on its longer side as in the fit. T
+    tests a step of h'' with a step of h''' allowed at the same place: chi-square with
+    one degree of freedom where the lift has neither (white noise ``sigma`` [m])."""
+    n = resid.size
+    length = taper_nodes(n)
+    offs = np.asarray(SCAN_OFFSETS)
+    right = _scan_right(resid, lam_d, sigma, length)
+    left = _scan_right(resid[::-1], lam_d, sigma, length)
+    nodes = np.arange(n, dtype=float)
+    pos_r = (nodes[:, None] + offs[None, :]).ravel()
+    pos_l = ((n - 1 - nodes)[:, None] - offs[None, :]).ravel()
+    pos = np.concatenate([pos_r, pos_l])
+    stat = np.concatenate([right.ravel(), left.ravel()])
+    opens = np.concatenate([np.ones(pos_r.size), -np.ones(pos_l.size)])
+    own = np.where(pos <= 0.5 * (n - 1), 1.0, -1.0) == opens
+    keep = own & (pos >= margin) & (pos <= n - 1 - margin)
+    order = np.argsort(pos[keep])
+    return pos[keep][order], stat[keep][order]
+
+
+@dataclass(frozen=True)
+class JunctionFit:
+    """The partial-spline fit with its junctions: ``angles`` [rad], acceleration
+    ``jumps`` [m/rad^2] (h''(t+) - h''(t-)), the discrete level ``lam_d``, the smooth
+    part ``smooth`` [m] on the grid, ``edf``, the search statistics ``scores``;
+    ``step`` [rad], ``x0`` [rad], ``nodes`` and ``coef`` (node units) for the hinges."""
+
+    angles: tuple[float, ...]
+    jumps: tuple[float, ...]
+    lam_d: float
+    smooth: NDArray[np.float64]
+    edf: float
+    scores: tuple[float, ...]
+    step: float
+    x0: float
+    nodes: int
+    coef: NDArray[np.float64]
+
+    def hinge_part(self, x: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
+        """Sum of the hinges' nu-th derivative [m/rad^nu] at ``x`` [rad]."""
+        x = np.asarray(x, dtype=float)
+        u = ((x - self.x0) / self.step).ravel()
+        out = np.zeros(u.size)
+        length = taper_nodes(self.nodes)
+        for k, t in enumerate(self.angles):
+            tau = (t - self.x0) / self.step
+            side = side_of(tau, self.nodes)
+            cols = hinge_values(side * (u - tau), length, nu) * float(side) ** nu
+            out += cols @ self.coef[2 * k:2 * k + 2]
+        return out.reshape(x.shape) / self.step ** nu
+
+
+def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
+                fit: PartialFit, scores: list[float]) -> JunctionFit:
+    step = float(grid[1] - grid[0])
+    n = grid.size
+    order = np.argsort(taus)
+    coef = np.concatenate([fit.coef[2 * i:2 * i + 2] for i in order])
+    jumps = tuple(side_of(taus[i], n) * float(fit.coef[2 * i]) / step ** 2 for i in order)
+    return JunctionFit(tuple(float(grid[0] + taus[i] * step) for i in order), jumps,
+                       lam_d, fit.smooth, fit.edf, tuple(scores[i] for i in order), step,
+                       float(grid[0]), n, coef)
+
+
+def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0: float,
+                   *, gamma: float = 1.0, sigma_floor: float = 0.0,
+                   false_alarm: float = FALSE_ALARM) -> JunctionFit | None:
+    """Greedy junction search and partial-spline fit of uniform ``values`` [m] on
+    ``grid`` [rad], starting from the plain smoother's level ``lam0``. None when no
+    junction is significant (the plain smoothing spline stands)."""
+    n = grid.size
+    if n < 16:
+        return None
+    threshold = 2.0 * math.log(4.0 * n / false_alarm)
+    lam = choose_level(values, [], gamma, lam0)
+    taus: list[float] = []
+    scores: list[float] = []
+    vetoed: list[float] = []
+    for _ in range(2 * MAX_JUNCTIONS):
+        if len(taus) >= MAX_JUNCTIONS:
+            break
+        fit = partial_fit(values, taus, lam)
+        sigma = max(math.sqrt(fit.rss / max(n - fit.edf, 1.0)), sigma_floor, 1e-300)
+        # clear of the table's ends by a few bandwidths (the scan's variance is that of
+        # the interior), and of the junctions taken or refused by one
+        bandwidth = max(lam, 1.0) ** (1.0 / 6.0)
+        pos, stat = scan(fit.resid, lam, sigma,
+                         margin=int(max(3 + 6 * bandwidth, END_MARGIN * n)))
+        if taus or vetoed:
+            near = np.min(np.abs(pos[:, None] - np.asarray(taus + vetoed)[None, :]), axis=1)
+            stat = np.where(near > max(1.5, bandwidth), stat, 0.0)
+        i = int(np.argmax(stat)) if stat.size else -1
+        if i < 0 or stat[i] < threshold:
+            break
+        trial = _refine(values, taus + [float(pos[i])], lam)
+        lam_trial = choose_level(values, trial, gamma, lam)
+        # kept only if it lowers the GCV score of the whole fit: a step that stands in
+        # for the smoothing bias of a smooth, strongly curved lobe raises it
+        gain = n * math.log(_gcv(values, taus, lam, gamma)
+                            / _gcv(values, trial, lam_trial, gamma))
+        # nor if the rest of the fit has to get much rougher for it (a step of the
+        # lift itself, which a step of h'' only imitates)
+        # nor if its best angle is not within the row the scan pointed at (the bound
+        # of the refinement: the residual has no sharp step there)
+        if (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) < 1.0
+                or abs(trial[-1] - pos[i]) > 0.9
+                or gain < GCV_GAIN or lam_trial < MIN_LEVEL_RATIO * lam):
+            vetoed.append(float(pos[i]))
+            if len(vetoed) >= MAX_REFUSED:
+                break
+            continue
+        taus = trial
+        scores.append(float(stat[i]))
+        lam = lam_trial
+    if not taus:
+        return None
+    return _fit_result(grid, taus, lam, partial_fit(values, taus, lam), scores)
+
+
+def _refine(values: NDArray[np.float64], taus: list[float], lam: float) -> list[float]:
+    """The last junction moved (within one node) to the minimum of the penalised
+    residual, the others held."""
+    n = values.size
+    fixed = _hinge_columns(n, taus[:-1])
+    ry = _deflate(values - _smooth(values, lam))
+    rf = _residual_operator(fixed, lam)
+
+    def objective(t: float) -> float:
+        new = _hinge_columns(n, [t])
+        g = np.column_stack([fixed, new])
+        rg = np.column_stack([rf, _residual_operator(new, lam)])
+        m = g.T @ rg
+        m = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
+        b = g.T @ ry
+        return float(values @ ry - b @ np.linalg.solve(m, b))
+
+    last = taus[-1]
+    lo, hi = max(last - 1.0, 1.0), min(last + 1.0, n - 2.0)
+    return taus[:-1] + [golden_minimum(objective, lo, hi, 10)]
+
+
+class JunctionSpline:
+    """The smooth part's interpolant plus the hinges: ``spline(x, nu)`` [m/rad^nu]."""
+
+    def __init__(self, smooth: object, junctions: JunctionFit) -> None:
+        self.smooth = smooth
+        self.junctions = junctions
+
+    def __call__(self, x: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
+        x = np.asarray(x, dtype=float)
+        return self.smooth(x, nu) + self.junctions.hinge_part(x, nu)
+
+
+def refit(grid: NDArray[np.float64], values: NDArray[np.float64],
+          missing: NDArray[np.bool_], found: JunctionFit, lam_d: float,
+          fills: int = 3) -> JunctionFit:
+    """The fit with ``found``'s junctions at level ``lam_d``; nodes marked ``missing``
+    (outliers, gaps, free end nodes) are refilled with the fit ``fills`` times, so that
+    they end up carrying no weight (EM for the missing values)."""
+    step = float(grid[1] - grid[0])
+    taus = [(t - float(grid[0])) / step for t in found.angles]
+    vals = values.copy()
+    for _ in range(fills + 1 if np.any(missing) else 1):
+        fit = partial_fit(vals, taus, lam_d)
+        vals = np.where(missing, vals - fit.resid, values)
+    return _fit_result(grid, taus, lam_d, fit, list(found.scores))
