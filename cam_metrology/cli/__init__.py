@@ -31,6 +31,7 @@ COMMAND_MODULES = (
     'cam_metrology.cli.spc',           # spc
     'cam_metrology.cli.reconstruct',   # reconstruct
     'cam_metrology.cli.dynamics',      # dynamics
+    'cam_metrology.cli.rig',           # rig analyze|calibrate|simulate
     'cam_metrology.cli.design',        # design law|profile|check|rocker
     'cam_metrology.cli.grind',         # grind table|master|errors|correct
     'cam_metrology.cli.scene_cmds',    # scene check, simulate

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-NODE_CHOICES = ('metrology', 'reconstruction', 'dynamics', 'bench-sim', 'recorder')
+NODE_CHOICES = ('metrology', 'reconstruction', 'dynamics', 'rig', 'bench-sim', 'recorder')
 
 
 def _positive_or_zero(text: str) -> float:
@@ -63,6 +63,11 @@ def register(subparsers: Any) -> None:
                         'bench published in) or events (rclpy.experimental.EventsExecutor: '
                         'cheaper, receive-time log stamps)')
     p.add_argument('--keep-logs', action='store_true', help='keep the node logs directory')
+    p.add_argument('--rig', action='store_true',
+                   help='the valve-train rig loop instead: simulate rig runs of '
+                        'config/rig_scene.yaml (or --scene) with its rig.true_valve_train, '
+                        'publish them live to the rig node and the recorder, calibrate '
+                        'on the recorded bag, print the jump speed nominal vs calibrated')
     p.set_defaults(func=_demo)
 
     p = subparsers.add_parser(
@@ -160,6 +165,9 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
+    if args.rig:
+        from cam_metrology.nodes.rig_demo import run_rig_demo
+        return run_rig_demo(args.scene, args.out, args.timeout or 120.0)
     from cam_metrology.nodes.bench_sim import sim_param_table
     from cam_metrology.nodes.demo import DemoOptions, run_demo
     from cam_metrology.inputs.params import parse_assignments

@@ -2,8 +2,8 @@
 
 Nodes (``cam-bench run NODE``):
 
-* ``metrology``, ``reconstruction``, ``dynamics``: ``adapter.CoreNode`` over the
-  registry's core (a missing core is reported as missing, never faked);
+* ``metrology``, ``reconstruction``, ``dynamics``, ``rig``: ``adapter.CoreNode`` over
+  the registry's core (a missing core is reported as missing, never faked);
 * ``bench-sim``: ``bench_sim.BenchSimNode`` (simulated bench from a scene file);
 * ``recorder``: ``recorder.RecorderNode`` (raw CDR to a rosbag2/MCAP bag).
 
@@ -16,11 +16,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Sequence
 
-CORE_NODES = ('metrology', 'reconstruction', 'dynamics')
+CORE_NODES = ('metrology', 'reconstruction', 'dynamics', 'rig')
 NODES = CORE_NODES + ('bench-sim', 'recorder')
 #: ROS node name of each runnable node (the key of its parameter YAML)
 NODE_NAMES = {'metrology': 'metrology', 'reconstruction': 'reconstruction',
-              'dynamics': 'dynamics', 'bench-sim': 'bench_sim', 'recorder': 'recorder'}
+              'dynamics': 'dynamics', 'bench-sim': 'bench_sim', 'recorder': 'recorder',
+              'rig': 'rig'}
 
 
 def default_params_file(name: str) -> Path | None:
@@ -50,8 +51,8 @@ def ros_arguments(params_file: str | Path | None, ros_args: Sequence[str] = ()) 
 def parameter_table(name: str) -> dict[str, Any] | None:
     """``{parameter: (default, description)}`` of node ``name`` (None for an unknown name)."""
     if name in CORE_NODES:
-        from cam_metrology.offline.registry import CORES
-        return dict(getattr(CORES[name], 'PARAMETERS', {}))
+        from cam_metrology.offline.registry import load_core_class
+        return dict(getattr(load_core_class(name), 'PARAMETERS', {}))
     if name == 'bench-sim':
         from cam_metrology.nodes import bench_sim
         return {**bench_sim.PARAMETERS, **bench_sim.sim_param_table()}

@@ -63,7 +63,8 @@ from cam_metrology.cores.outputs import Output, Status, StatusOutput
 from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages, view_topics
 from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
-                                       JOINT_TRAJECTORY, SCENE, STATUS, QosSpec, qos_of)
+                                       JOINT_TRAJECTORY, RIG_TOPICS, SCENE, STATUS, QosSpec,
+                                       qos_of)
 
 
 #: most raw samples handed to a core in one call (keeps the worker responsive)
@@ -83,10 +84,11 @@ RX_LINGER = 0.005
 
 def load_core(name: str) -> Any:
     """The core class registered for node ``name`` (ValueError for another name)."""
-    from cam_metrology.offline.registry import CORES
-    if name not in CORES:
-        raise ValueError(f'no core registered for node {name!r}; known: {sorted(CORES)}')
-    return CORES[name]
+    from cam_metrology.offline.registry import CORES, RIG_CORES, load_core_class
+    if name not in CORES and name not in RIG_CORES:
+        raise ValueError(f'no core registered for node {name!r}; known: '
+                         f'{sorted(CORES) + sorted(RIG_CORES)}')
+    return load_core_class(name)
 
 
 def descriptor(name: str, default: Any, description: str) -> ParameterDescriptor:
@@ -165,7 +167,7 @@ class CoreNode(Node):
         self._block_issues: Any = None   # bagio.JointSummary of damaged blocks
         self._adaptive = AdaptiveSubscriptions(self, self._subscribe)
         for topic, type_name in topics:
-            if topic in BENCH_TOPICS:
+            if topic in BENCH_TOPICS or topic in RIG_TOPICS:   # inputs: our QoS (keep all)
                 self._subscribe(topic, type_name, qos_of(topic))
             else:   # another node's output: QoS from its publishers (late joiners)
                 self._adaptive.add(topic, type_name, qos_of(topic).depth)

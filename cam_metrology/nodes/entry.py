@@ -42,3 +42,8 @@ def bench_sim() -> None:
 def recorder() -> None:
     """The recorder node."""
     _main('recorder')
+
+
+def rig() -> None:
+    """The valve-train rig node."""
+    _main('rig')

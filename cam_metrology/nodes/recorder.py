@@ -61,7 +61,8 @@ from cam_metrology.nodes.adapter import RX_LINGER
 from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
 from cam_metrology.wire.layouts import encode_statuses
 from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, JOINT_STATES,
-                                       JOINT_TRAJECTORY, STATUS, TOPICS, QosSpec, qos_of)
+                                       JOINT_TRAJECTORY, RIG_TOPICS, STATUS, TOPICS, QosSpec,
+                                       qos_of)
 from cam_metrology.cores.outputs import Status
 
 PARAMETERS: dict[str, tuple[Any, str]] = {
@@ -213,7 +214,7 @@ class RecorderNode(Node):
         self._subs: dict[str, Any] = {}
         self._adaptive = AdaptiveSubscriptions(self, self._subscribe_found)
         for topic, type_name in wanted.items():
-            if topic in BENCH_TOPICS:
+            if topic in BENCH_TOPICS or topic in RIG_TOPICS:
                 self._subscribe(topic, type_name or TOPICS[topic][0], qos_of(topic))
             else:   # outputs and extras: QoS (and type if not given) from the publishers
                 if type_name:   # in the bag from the start, even with no message

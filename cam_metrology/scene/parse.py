@@ -33,7 +33,8 @@ __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
             'dowel_pin', 'keyway', 'crank', 'compute', 'valve_train', 'idle_timeout',
-            'tolerances', 'part_id', 'operator', 'trial', 'camshaft', 'form', 'journals')
+            'tolerances', 'part_id', 'operator', 'trial', 'camshaft', 'form', 'journals',
+            'rig')
 #: top-level keys of a gauge R&R study (carried into the report and the batch table)
 STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
@@ -817,6 +818,18 @@ def _datum_tolerance(defaults: dict[str, Any], pin: DowelPin | Keyway | None
         raise InputError('tolerances.datum_deg', band, 'a dowel_pin or keyway with a '
                          'nominal_angle to check the datum against (or no datum tolerance)')
     return band
+
+
+def valve_train_from_mapping(value: Any, key: str = 'valve_train') -> ValveTrain:
+    """A ``valve_train`` block (a mapping, e.g. a rig scene's ``rig.true_valve_train``)
+    validated into a ValveTrain; refusals name the keys under ``key``."""
+    try:
+        return _valve_train(_Ctx(), value)
+    except InputError as exc:
+        if key == 'valve_train' or not exc.key.startswith('valve_train'):
+            raise
+        raise InputError(key + exc.key[len('valve_train'):], exc.value,
+                         exc.expected) from None
 
 
 def load_valve_train(path: Path) -> tuple[ValveTrain, Scene | None]:

@@ -44,7 +44,8 @@ from cam_metrology.wire.topics import (DIAGNOSTICS, DYNAMICS_MOTION, DYNAMICS_RE
                                        JOINT_STATE, METROLOGY_LIFT, METROLOGY_REPORT,
                                        METROLOGY_RESULT, METROLOGY_VALUES, PLOT_LIFT,
                                        PLOT_MOTION, PLOT_PROFILE, RECONSTRUCTION_PROFILE,
-                                       RECONSTRUCTION_RESULT, STATUS)
+                                       PLOT_RIG, RECONSTRUCTION_RESULT, RIG_MOTION,
+                                       RIG_RESULT, STATUS)
 
 __all__ = ['PlotMessage', 'plot_messages', 'view_topics', 'curve_columns', 'report_values',
            'MAX_POINTS', 'POINT_SPACING_NS', 'CURVE_TOPICS', 'VALUE_NAMES', 'PART_NAMES']
@@ -56,10 +57,10 @@ MAX_POINTS = 720
 POINT_SPACING_NS = 10_000
 #: table topic -> its curve topic
 CURVE_TOPICS = {METROLOGY_LIFT: PLOT_LIFT, RECONSTRUCTION_PROFILE: PLOT_PROFILE,
-                DYNAMICS_MOTION: PLOT_MOTION}
+                DYNAMICS_MOTION: PLOT_MOTION, RIG_MOTION: PLOT_RIG}
 #: result topic -> node name of its statuses on /diagnostics
 STATUS_NODES = {METROLOGY_RESULT: 'metrology', RECONSTRUCTION_RESULT: 'reconstruction',
-                DYNAMICS_RESULT: 'dynamics'}
+                DYNAMICS_RESULT: 'dynamics', RIG_RESULT: 'rig'}
 
 _DEG = math.pi / 180.0
 #: column suffix -> (plot suffix, factor): SI column -> unit people read

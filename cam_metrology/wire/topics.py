@@ -22,11 +22,15 @@ __all__ = [
     'LATCHED_TOPICS', 'qos_of', 'type_of', 'qos_yaml', 'default_qos_yaml',
     'CAMSHAFT_JOINT', 'PROBE_JOINT', 'JOINT_TRAJECTORY', 'JOINT_TRAJECTORY_TYPE', 'BLOCKS',
     'SAMPLE_TOPICS',
+    'CAMSHAFT_JOINT', 'PROBE_JOINT', 'RIG_JOINT_STATES', 'RIG_TOPICS', 'VALVE_JOINT',
+    'RIG_RESULT', 'RIG_MOTION', 'PLOT_RIG', 'RIG_GRAPH',
 ]
 
 #: joints of a bench sample (``/bench/joint_states``), looked up by name
 CAMSHAFT_JOINT = 'camshaft'
 PROBE_JOINT = 'probe'
+#: joint of a rig sample (``/rig/joint_states``): the valve lift [m] (velocity [m/s])
+VALVE_JOINT = 'valve'
 
 
 @dataclass(frozen=True)
@@ -80,6 +84,8 @@ JOINT_STATES = '/bench/joint_states'
 #: blocks of samples: one JointTrajectory point per sample (docs/contract.md §2)
 JOINT_TRAJECTORY = '/bench/joint_trajectory'
 FEATURE_DONE = '/bench/feature_done'
+#: valve-train rig input: joints 'camshaft' [rad] and 'valve' [m], frame_id = run
+RIG_JOINT_STATES = '/rig/joint_states'
 TRUTH = '/bench/truth'
 METROLOGY_RESULT = '/metrology/result'
 METROLOGY_LIFT = '/metrology/lift'
@@ -95,6 +101,10 @@ METROLOGY_VALUES = '/metrology/values'
 PLOT_LIFT = '/plot/lift'
 PLOT_PROFILE = '/plot/profile'
 PLOT_MOTION = '/plot/valve_motion'
+#: rig node: per run a status (speed, separation, residual) and the averaged lift table
+RIG_RESULT = '/rig/result'
+RIG_MOTION = '/rig/valve_motion'
+PLOT_RIG = '/plot/rig_motion'
 
 #: topic -> (ROS type name, QoS): the bench inputs first, then every output.
 TOPICS: dict[str, tuple[str, QosSpec]] = {
@@ -102,6 +112,7 @@ TOPICS: dict[str, tuple[str, QosSpec]] = {
     JOINT_STATES: (JOINT_STATE, SAMPLES),
     JOINT_TRAJECTORY: (JOINT_TRAJECTORY_TYPE, BLOCKS),
     FEATURE_DONE: (STRING, EVENTS),
+    RIG_JOINT_STATES: (JOINT_STATE, SAMPLES),
     TRUTH: (STRING, LATCHED),
     METROLOGY_RESULT: (STATUS, RESULTS),
     METROLOGY_LIFT: (TABLE, RESULTS),
@@ -115,15 +126,24 @@ TOPICS: dict[str, tuple[str, QosSpec]] = {
     PLOT_LIFT: (JOINT_STATE, PLOT_POINTS),
     PLOT_PROFILE: (JOINT_STATE, PLOT_POINTS),
     PLOT_MOTION: (JOINT_STATE, PLOT_POINTS),
+    RIG_RESULT: (STATUS, RESULTS),
+    RIG_MOTION: (TABLE, RESULTS),
+    PLOT_RIG: (JOINT_STATE, PLOT_POINTS),
 }
 
 BENCH_TOPICS = (SCENE, TRUTH, JOINT_STATES, JOINT_TRAJECTORY, FEATURE_DONE)
 #: the two forms of the sample stream: one sample per message, and blocks
 SAMPLE_TOPICS = (JOINT_STATES, JOINT_TRAJECTORY)
 PLOT_TOPICS = (METROLOGY_VALUES, PLOT_LIFT, PLOT_PROFILE, PLOT_MOTION)
+#: the valve-train rig's inputs (docs/contract.md "Valve-train rig")
+RIG_TOPICS = (RIG_JOINT_STATES,)
+#: every topic of the rig's own graph (its input, the rig node's outputs and plot view):
+#: not part of a bench bag, nor of what ``analyze`` and the bench ``demo`` produce
+RIG_GRAPH = (RIG_JOINT_STATES, RIG_RESULT, RIG_MOTION, PLOT_RIG)
 #: what the node cores publish (the plot views and /diagnostics are derived from it)
 OUTPUT_TOPICS = tuple(t for t in TOPICS
-                      if t not in BENCH_TOPICS and t not in PLOT_TOPICS and t != DIAGNOSTICS)
+                      if t not in BENCH_TOPICS and t not in PLOT_TOPICS and t != DIAGNOSTICS
+                      and t not in RIG_TOPICS and t != PLOT_RIG)
 #: topic -> ROS type name
 TOPIC_TYPES: dict[str, str] = {t: ty for t, (ty, _) in TOPICS.items()}
 LATCHED_TOPICS = frozenset(t for t, (_, q) in TOPICS.items() if q == LATCHED)

@@ -1,0 +1,210 @@
+"""Rig runs: the samples of one steady-speed run on the time clock, read from a CSV file
+or from ``/rig/joint_states`` in a bag (docs/contract.md "Valve-train rig").
+
+A run holds time [s], encoder angle [rad] (wrapped or unwrapped), valve lift [m] with an
+arbitrary laser zero, the valve velocity [m/s] when a vibrometer measures it, and every
+further channel by name (spring force, HLA pressure, ...: kept, not used by the fit).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cam_design.errors import InputError
+
+from cam_metrology.wire.topics import CAMSHAFT_JOINT as CAMSHAFT
+from cam_metrology.wire.topics import RIG_JOINT_STATES as RIG_TOPIC
+from cam_metrology.wire.topics import VALVE_JOINT as VALVE
+CSV_REQUIRED = ('time_s', 'cam_angle_rad', 'valve_lift_m')
+CSV_VELOCITY = 'valve_velocity_m_per_s'
+CSV_HEADER = 'time_s,cam_angle_rad,valve_lift_m[,valve_velocity_m_per_s,...]'
+#: fewest samples of a run (a few revolutions at a few hundred samples each)
+MIN_SAMPLES = 200
+
+
+@dataclass
+class RigRun:
+    """One run: ``time`` [s] strictly increasing, ``angle`` [rad] encoder, ``lift`` [m]
+    (arbitrary zero), ``velocity`` [m/s] or None, ``channels`` name -> array."""
+
+    name: str
+    time: NDArray[np.float64]
+    angle: NDArray[np.float64]
+    lift: NDArray[np.float64]
+    velocity: NDArray[np.float64] | None = None
+    channels: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        n = self.time.size
+        if n < MIN_SAMPLES:
+            raise InputError(f'run {self.name}', f'{n} samples',
+                             f'at least {MIN_SAMPLES} samples (a few revolutions)')
+        for what, arr in (('cam angle', self.angle), ('valve lift', self.lift)):
+            if arr.size != n:
+                raise InputError(f'run {self.name} {what}', f'{arr.size} values',
+                                 f'one per time stamp ({n})')
+        bad = np.nonzero(np.diff(self.time) <= 0)[0]
+        if bad.size:
+            i = int(bad[0]) + 1
+            raise InputError(f'run {self.name} sample {i} time', float(self.time[i]),
+                             f'a time after the previous sample ({self.time[i - 1]!r} s): '
+                             'samples in acquisition order')
+
+
+def _float_rows(lines: list[str], ncol: int, path: Path, header: list[str]) -> NDArray:
+    """The numeric rows of a CSV body; InputError naming the first bad row and column."""
+    try:
+        data = np.loadtxt(lines, delimiter=',', dtype=float, ndmin=2)
+        if data.shape[1] == ncol and np.all(np.isfinite(data)):
+            return data
+    except ValueError:
+        pass
+    for r, line in enumerate(lines):
+        cells = line.split(',')
+        if len(cells) != ncol:
+            raise InputError(f'{path} row {r + 2}', line.strip()[:80],
+                             f'{ncol} comma-separated values ({",".join(header)})')
+        for c, cell in enumerate(cells):
+            try:
+                v = float(cell)
+            except ValueError:
+                v = math.nan
+            if not math.isfinite(v):
+                raise InputError(f'{path} row {r + 2} column {header[c]}', cell.strip(),
+                                 'a finite number (SI units)')
+    raise InputError(str(path), 'unreadable rows', f'numbers under the header {CSV_HEADER}')
+
+
+def read_csv_run(path: str | Path) -> RigRun:
+    """A run from a CSV file with the header ``time_s,cam_angle_rad,valve_lift_m``
+    (optional ``valve_velocity_m_per_s``, further columns kept as channels)."""
+    from cam_metrology.inputs.files import read_text_file
+
+    p = Path(path)
+    text = read_text_file(p, 'rig run CSV file')
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith('#')]
+    if not lines:
+        raise InputError(str(p), 'an empty file', f'a CSV with the header {CSV_HEADER}')
+    header = [h.strip() for h in lines[0].split(',')]
+    missing = [c for c in CSV_REQUIRED if c not in header]
+    if missing:
+        what = {'cam_angle_rad': 'the encoder channel', 'valve_lift_m': 'the valve channel',
+                'time_s': 'the time stamps'}[missing[0]]
+        raise InputError(f'{p} header', ','.join(header)[:80],
+                         f'a column {missing[0]} ({what}): {CSV_HEADER}')
+    if len(set(header)) != len(header):
+        raise InputError(f'{p} header', ','.join(header)[:80], 'distinct column names')
+    data = _float_rows(lines[1:], len(header), p, header)
+    col = {h: data[:, j] for j, h in enumerate(header)}
+    extra = {h: col[h] for h in header if h not in CSV_REQUIRED and h != CSV_VELOCITY}
+    return RigRun(name=p.stem, time=col['time_s'], angle=col['cam_angle_rad'],
+                  lift=col['valve_lift_m'], velocity=col.get(CSV_VELOCITY), channels=extra)
+
+
+def runs_of_messages(messages: Iterable[Any], bag: str) -> list[RigRun]:
+    """Runs from JointState messages (grouped by contiguous ``header.frame_id``);
+    ``bag`` names their source in refusals."""
+    groups: list[tuple[str, list[Any]]] = []
+    for i, msg in enumerate(messages):
+        frame = str(msg.header.frame_id) or 'run'
+        names = list(msg.name)
+        pos = np.asarray(msg.position, dtype=float)
+        for joint, what in ((CAMSHAFT, 'the encoder'), (VALVE, 'the valve lift')):
+            if joint not in names:
+                raise InputError(f'{bag} {RIG_TOPIC}[{i}].name', names[:6],
+                                 f'a joint named {joint!r} ({what}); joints are looked up '
+                                 'by name')
+        if pos.size != len(names):
+            raise InputError(f'{bag} {RIG_TOPIC}[{i}].position', f'{pos.size} values',
+                             f'one position per joint name ({len(names)})')
+        vel = np.asarray(msg.velocity, dtype=float)
+        stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        row = (stamp, names, pos, vel if vel.size == len(names) else None)
+        if not groups or groups[-1][0] != frame:
+            groups.append((frame, []))
+        groups[-1][1].append(row)
+    runs = []
+    seen: dict[str, int] = {}
+    for frame, rows in groups:
+        seen[frame] = seen.get(frame, 0) + 1
+        name = frame if seen[frame] == 1 else f'{frame}#{seen[frame]}'
+        names0 = rows[0][1]
+        t = np.array([r[0] for r in rows])
+        get = {j: np.array([r[2][r[1].index(j)] if j in r[1] else math.nan for r in rows])
+               for j in names0}
+        valve_vel: NDArray[np.float64] | None = None
+        if all(r[3] is not None for r in rows):
+            valve_vel = np.array([r[3][r[1].index(VALVE)] for r in rows])
+            if not np.all(np.isfinite(valve_vel)):
+                valve_vel = None
+        channels = {j: a for j, a in get.items() if j not in (CAMSHAFT, VALVE)}
+        runs.append(RigRun(name=name, time=t - t[0], angle=get[CAMSHAFT], lift=get[VALVE],
+                           velocity=valve_vel, channels=channels))
+    return runs
+
+
+def read_bag_runs(path: str | Path) -> tuple[list[RigRun], str | None]:
+    """The runs of ``/rig/joint_states`` in a bag (one per contiguous ``frame_id``) and
+    the last ``/bench/scene`` text of the bag (None when it has none)."""
+    from cam_metrology.bagio import iter_messages
+    from cam_metrology.wire.topics import SCENE
+
+    scene_text = None
+    msgs = []
+    for m in iter_messages(path, [RIG_TOPIC, SCENE]):
+        if m.topic == SCENE:
+            scene_text = str(m.msg.data)
+        else:
+            msgs.append(m.msg)
+    if not msgs:
+        raise InputError(str(path), f'no {RIG_TOPIC} messages',
+                         f'a bag with rig samples on {RIG_TOPIC} (sensor_msgs/JointState, '
+                         "joints 'camshaft' and 'valve')")
+    return runs_of_messages(msgs, str(path)), scene_text
+
+
+def read_runs(paths: Iterable[str | Path]) -> tuple[list[RigRun], str | None]:
+    """Runs from CSV files and bags, in the order given (bag scenes: the last one)."""
+    from cam_metrology.bagio import looks_like_bag
+
+    runs: list[RigRun] = []
+    scene_text = None
+    for path in paths:
+        p = Path(path)
+        if not p.exists():
+            raise InputError('RUN', str(p), 'an existing CSV file or bag')
+        if looks_like_bag(p):
+            more, text = read_bag_runs(p)
+            runs += more
+            scene_text = text or scene_text
+        else:
+            runs.append(read_csv_run(p))
+    names = [r.name for r in runs]
+    for i, r in enumerate(runs):        # distinct names: the report is keyed by them
+        if names.count(r.name) > 1:
+            r.name = f'{r.name}#{i + 1}'
+    return runs, scene_text
+
+
+def write_csv_run(run: RigRun, path: str | Path) -> None:
+    """Write a run as the rig CSV (full float precision)."""
+    from cam_metrology.inputs.files import write_output
+
+    cols = [run.time, run.angle, run.lift]
+    header = list(CSV_REQUIRED)
+    if run.velocity is not None:
+        cols.append(run.velocity)
+        header.append(CSV_VELOCITY)
+    for name, arr in run.channels.items():
+        cols.append(arr)
+        header.append(name)
+    import io
+    buf = io.StringIO()
+    np.savetxt(buf, np.column_stack(cols), delimiter=',', fmt='%.17g',
+               header=','.join(header), comments='')
+    write_output(path, buf.getvalue(), str(path))

@@ -1,0 +1,114 @@
+"""Synthetic rig runs (the bench simulator's rig mode): a valve train turned at a steady
+speed with a speed ripple, seen through a quantised encoder and a noisy laser with an
+arbitrary zero, sampled on a time clock.
+
+The valve motion is the dynamics' periodic solution of the *true* valve train
+(``rig.true_valve_train`` of the scene, never read by the analysis) at the mean speed,
+read at the instantaneous cam angle: a ripple of a few percent changes the angle clock,
+and the valve's response to the ripple itself is neglected (quasi-steady). The tests
+use an independent time-domain solver instead (test/rig_reference.py).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from cam_design.errors import InputError, require_positive
+from cam_metrology.rig.model import predict
+from cam_metrology.rig.runs import RigRun
+
+
+@dataclass(frozen=True)
+class RigNoise:
+    """Imperfections of the simulated rig: ``laser_noise`` [m] rms per sample;
+    ``encoder_counts`` per revolution (0: exact angle); ``ripple``: speed ripple
+    amplitude as a fraction of the mean; ``ripple_order``: its cycles per revolution;
+    ``laser_zero`` [m]: the laser reading of the seated valve; ``sample_rate`` [Hz];
+    ``vibrometer``: also record the valve velocity [m/s] (noise 1000 * laser_noise
+    m/s: 1 mm/s for 1 um)."""
+
+    laser_noise: float = 1.0e-6
+    encoder_counts: int = 3600
+    ripple: float = 0.005
+    ripple_order: int = 2
+    laser_zero: float = 3.7e-3
+    sample_rate: float = 50_000.0
+    vibrometer: bool = False
+
+    def __post_init__(self) -> None:
+        require_positive('laser_noise', self.laser_noise, allow_zero=True)
+        require_positive('sample_rate', self.sample_rate)
+        if self.encoder_counts < 0 or int(self.encoder_counts) != self.encoder_counts:
+            raise InputError('encoder_counts', self.encoder_counts, 'an integer >= 0')
+        if not 0.0 <= self.ripple < 0.5:
+            raise InputError('ripple', self.ripple, 'a fraction in [0, 0.5)')
+
+
+def simulate_run(law: Any, vt: Any, rpm: float, *, nose: float, direction: int = 1,
+                 revolutions: float = 4.0, noise: RigNoise = RigNoise(), seed: int = 0,
+                 name: str | None = None, start_angle: float = 0.0) -> RigRun:
+    """One rig run of ``revolutions`` at mean camshaft speed ``rpm`` of valve train
+    ``vt`` driven by ``law`` whose nose is at encoder angle ``nose`` [rad]."""
+    rng = np.random.default_rng(seed)
+    pred = predict(law, vt, rpm)
+    omega = rpm * math.pi / 30.0
+    duration = revolutions * 2 * math.pi / omega
+    n = int(duration * noise.sample_rate)
+    if n < 10:
+        raise InputError('revolutions', revolutions, 'a run of at least 10 samples')
+    t = np.arange(n) / noise.sample_rate
+    k = max(1, int(noise.ripple_order))
+    phase = rng.uniform(0, 2 * math.pi)
+    theta = start_angle + omega * t + noise.ripple / k * (np.sin(k * omega * t + phase)
+                                                          - math.sin(phase))
+    w = omega * (1.0 + noise.ripple * np.cos(k * omega * t + phase))
+    alpha = direction * (theta - nose)
+    lift = pred.at(alpha) - float(np.min(pred.lift)) + noise.laser_zero
+    lift = lift + rng.normal(0.0, noise.laser_noise, n) if noise.laser_noise else lift
+    enc = np.mod(theta, 2 * math.pi)
+    if noise.encoder_counts:
+        q = 2 * math.pi / noise.encoder_counts
+        enc = np.floor(enc / q) * q
+    vel = None
+    if noise.vibrometer:
+        a0 = pred.alpha[0]
+        aw = a0 + np.mod(alpha - a0, 2 * math.pi)
+        slope = np.interp(aw, pred.alpha, pred.slope)
+        vel = slope * direction * w + rng.normal(0.0, 1e3 * noise.laser_noise, n)
+    return RigRun(name=name or f'run_{rpm:g}rpm', time=t, angle=enc, lift=lift,
+                  velocity=vel)
+
+
+def true_train(scene: Any, spec: Any) -> tuple[Any, str | None]:
+    """The simulator's valve train: ``rig.true_valve_train`` (validated), else the
+    nominal one (with a note saying so)."""
+    if spec.true_valve_train is None:
+        return scene.valve_train, ('the scene has no rig.true_valve_train: the runs are '
+                                   'simulated with the nominal valve_train')
+    from cam_metrology.scene.parse import valve_train_from_mapping
+
+    return valve_train_from_mapping(spec.true_valve_train, 'rig.true_valve_train'), None
+
+
+def simulate_scene_runs(scene: Any, rpms: Any, *, revolutions: float = 4.0,
+                        noise: RigNoise = RigNoise(), seed: int = 0
+                        ) -> tuple[list[RigRun], str | None]:
+    """Runs at every speed of ``rpms`` of a scene with a rig block (the nose at
+    ``rig.nose_angle_deg``, 0 when absent), and a note for the reader or None."""
+    from cam_design.valve_train.params import require_rpm
+    from cam_metrology.rig.session import RigSetup
+
+    setup = RigSetup.of_scene(scene)
+    train, note = true_train(scene, setup.spec)
+    nose = setup.spec.nose_angle if setup.spec.nose_angle is not None else 0.0
+    runs = []
+    for i, rpm in enumerate(rpms):
+        rpm = require_rpm(f'--rpm[{i}]', rpm)
+        runs.append(simulate_run(setup.law, train, rpm, nose=nose,
+                                 direction=setup.direction, revolutions=revolutions,
+                                 noise=noise, seed=seed + i, name=f'run_{rpm:g}rpm',
+                                 start_angle=0.37 * (i + 1)))
+    return runs, note
