@@ -72,7 +72,7 @@ class HarmonicOptions:
     expected_sign_changes: int | None = 2   # of h'' (None: no shape check)
 
 
-def _check(opt: HarmonicOptions) -> HarmonicOptions:
+def check_harmonic_options(opt: HarmonicOptions) -> HarmonicOptions:
     if opt.criterion is None:
         opt = replace(opt, criterion='bic' if opt.basis == 'section' else 'cp')
     if opt.basis not in BASES:
@@ -108,7 +108,7 @@ def reconstruct_harmonic(data: CleanSamples, options: HarmonicOptions | None = N
 
 def _reconstruct(data: CleanSamples, opt: HarmonicOptions,
                  fairing: Fairing | None) -> Reconstruction:
-    opt = _check(opt)
+    opt = check_harmonic_options(opt)
     fair = fairing or rebound_fairing(data.alpha, data.lift, sigma=opt.sigma)
     kept = ~fair.outlier
     x, y = data.alpha[kept], fair.lift[kept]

@@ -179,12 +179,12 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         # dual-peak EGR cam has more than the single lobe's two)
         from dataclasses import replace
 
-        from cam_metrology.reconstruction.spline import _sign_changes
+        from cam_metrology.reconstruction.result import sign_changes
         grid = np.linspace(data.alpha[0], data.alpha[-1], 4001)
         acc = np.asarray(design(grid, 2), dtype=float)
         lift = np.asarray(design(grid, 0), dtype=float)
         if np.all(np.isfinite(acc)) and np.any(acc):
-            sopt = replace(sopt, expected_sign_changes=max(_sign_changes(acc, lift=lift),
+            sopt = replace(sopt, expected_sign_changes=max(sign_changes(acc, lift=lift),
                                                            sopt.expected_sign_changes))
     if harmonic is not None or 'harmonic' in methods:
         from dataclasses import replace as _replace
@@ -269,7 +269,7 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
 def check_options(spline: SplineOptions, harmonic: HarmonicOptions | None) -> None:
     """Raise InputError for bad options before any data is touched."""
     from cam_design.errors import require_positive
-    from cam_metrology.reconstruction.harmonic import _check
+    from cam_metrology.reconstruction.harmonic import check_harmonic_options
     from cam_metrology.reconstruction.spline import CRITERIA
 
     if spline.criterion not in CRITERIA:
@@ -283,7 +283,7 @@ def check_options(spline: SplineOptions, harmonic: HarmonicOptions | None) -> No
     if spline.step is not None:
         require_positive('step', spline.step)
     if harmonic is not None:
-        _check(harmonic)
+        check_harmonic_options(harmonic)
 
 
 def summary(outcome: MethodOutcome, *, rpm: float | None = None,

@@ -141,3 +141,10 @@ def sign_pattern(acc: NDArray[np.float64], frac: float = 0.05,
     s = np.sign(a[np.abs(a) > frac * top])
     keep = np.concatenate([[True], s[1:] != s[:-1]])
     return ''.join('+' if v > 0 else '-' for v in s[keep])
+
+
+def sign_changes(acc: NDArray[np.float64], frac: float = 0.05,
+                 lift: NDArray[np.float64] | None = None) -> int:
+    """Sign changes of ``acc`` among samples with |acc| > frac * max|acc| (on the lobe
+    only when ``lift`` is given: see ``sign_pattern``)."""
+    return max(len(sign_pattern(acc, frac, lift)) - 1, 0)

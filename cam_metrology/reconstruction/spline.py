@@ -50,7 +50,7 @@ from cam_metrology.reconstruction.blas import single_thread_blas
 from cam_metrology.reconstruction.junctions import (JunctionSpline, find_junctions,
                                                     golden_minimum, refit)
 from cam_metrology.reconstruction.noise import rebound_sigma
-from cam_metrology.reconstruction.result import Reconstruction, output_grid, sign_pattern
+from cam_metrology.reconstruction.result import Reconstruction, output_grid, sign_changes
 from cam_metrology.reconstruction.samples import CleanSamples, clean_samples
 
 CRITERIA = ('risk', 'gcv')
@@ -717,13 +717,6 @@ def _pad_flank_ends(grid: NDArray[np.float64], values: NDArray[np.float64],
     return grid, values, missing, pad
 
 
-def _sign_changes(acc: NDArray[np.float64], frac: float = 0.05,
-                  lift: NDArray[np.float64] | None = None) -> int:
-    """Sign changes of ``acc`` among samples with |acc| > frac * max|acc| (on the lobe
-    only when ``lift`` is given: see ``result.sign_pattern``)."""
-    return max(len(sign_pattern(acc, frac, lift)) - 1, 0)
-
-
 @dataclass(frozen=True)
 class SplineOptions:
     """Options of ``reconstruct_spline`` (see the module docstring)."""
@@ -893,7 +886,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # more smoothing is only accepted while the fit still follows the data (RMS
         # residual within 25 % of the noise): a real feature (a second lobe) stays
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
-        while _sign_changes(acc, lift=spline(out)) > expected and raised < 5:
+        while sign_changes(acc, lift=spline(out)) > expected and raised < 5:
             trial = fit_spline(lam_d * 4.0)
             if float(np.sqrt(np.mean((ylift[kept] - trial(x[kept])) ** 2))) > rms_limit:
                 break
