@@ -207,3 +207,24 @@ def test_plugin_rejects_a_folder_without_bags(pytester: pytest.Pytester,
     result = pytester.runpytest_subprocess('--cam-bench-bags', str(empty))
     assert result.ret != 0
     result.stderr.fnmatch_lines(['*--cam-bench-bags*expected at least one bag*'])
+
+
+@pytest.mark.parametrize('which, shift_deg, ok', [
+    (0, 3.0, True),     # 0.8 um wave: 0.05 um / 0.8 um = 0.0625 rad = 3.58 deg tolerated
+    (0, 4.0, False),
+    (1, 90.0, True),    # a 0.005 um harmonic is noise: its phase is not a result
+])
+def test_angles_that_place_a_wave_are_tolerated_by_its_amplitude(which: int, shift_deg: float,
+                                                                 ok: bool) -> None:
+    gold = copy.deepcopy(GOLD)
+    gold['features']['lobe_1']['harmonics'] = [
+        {'upr': 37, 'amplitude_um': 0.8, 'phase_deg': 10.0},
+        {'upr': 12, 'amplitude_um': 0.005, 'phase_deg': 20.0}]
+    new = copy.deepcopy(gold)
+    new['features']['lobe_1']['harmonics'][which]['phase_deg'] += shift_deg
+    diffs = compare_reports(new, gold, angle_tol_arcsec=0.5, lift_tol_um=0.05)
+    assert (diffs == []) is ok, diffs
+    # the feature's own angles keep the angle tolerance
+    new['features']['lobe_1']['angle_deg'] += 1.0 / 3600
+    assert any('angle_deg' in d for d in compare_reports(new, gold, angle_tol_arcsec=0.5,
+                                                         lift_tol_um=0.05))

@@ -37,11 +37,11 @@ def run(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     if out.exists() and not args.force:
-        raise InputError('OUT', args.out, 'a file that does not exist yet (or --force)')
+        raise InputError('OUT', out, 'a file that does not exist yet (or --force)')
     if out.is_dir():
-        raise InputError('OUT', args.out, 'a file name, not a directory')
+        raise InputError('OUT', out, 'a file name, not a directory')
     if not out.parent.is_dir():
-        raise InputError('OUT', args.out, f'a file in an existing directory ({out.parent} '
+        raise InputError('OUT', out, f'a file in an existing directory ({out.parent} '
                          'does not exist)')
     report = golden_of(analyze_report(args.bag, args.params))
     from cam_metrology.report.json_out import write_json

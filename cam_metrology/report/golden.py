@@ -10,6 +10,12 @@ Rules, per value of a feature (the key's unit suffix decides):
 * ``*_deg`` angles: |difference| <= ``angle_tol_arcsec`` (wrapped to +-180 deg); the
   uncertainty keys (``*_std_deg``) within 10 % or the angle tolerance, whichever is
   larger;
+* angles that only place a wave (the ``phase_deg`` of a harmonic, the ``at_deg`` and
+  ``extent_deg`` of a waviness band: mappings with ``amplitude_um`` or
+  ``max_amplitude_um``): within ``angle_tol_arcsec`` or the angle by which a wave of that
+  amplitude moves by ``lift_tol_um`` (lift_tol / amplitude radians), whichever is larger.
+  The phase of a harmonic at noise level is noise itself: a nanometre of difference in
+  the lift error turns it by degrees, and no gauge reports it closer than that;
 * ``*_arcsec``: within ``angle_tol_arcsec``;
 * ``*_um`` (also inside a mapping such as ``lift_error_um``) and ``*_mm``: within
   ``lift_tol_um`` (mm converted);
@@ -51,6 +57,7 @@ def _compare_value(path: str, key: str, new: Any, old: Any, angle_tol_arcsec: fl
         if own in ('um', 'mm', 'deg', 'arcsec'):
             sub = '_' + own
         out: list[str] = []
+        angle_tol_arcsec = _wave_angle_tol(old, angle_tol_arcsec, lift_tol_um)
         for k, v in old.items():
             if k in SOLVER_KEYS:
                 continue
@@ -103,6 +110,21 @@ def _compare_value(path: str, key: str, new: Any, old: Any, angle_tol_arcsec: fl
         return []
     return [f'{path}: got {new_f!r}, golden {old_f!r} (off by {shown}; tolerance '
             f'{_tol_text(suffix, tol)})']
+
+
+#: keys of a mapping that describes a wave; its angles are tolerated by the wave's amplitude
+WAVE_AMPLITUDE_KEYS = ('amplitude_um', 'max_amplitude_um')
+
+
+def _wave_angle_tol(old: Mapping[str, Any], angle_tol_arcsec: float,
+                    lift_tol_um: float) -> float:
+    """The angle tolerance [arcsec] inside a mapping: for a wave (a harmonic, a waviness
+    band) the angle by which a wave of its amplitude moves by ``lift_tol_um``."""
+    for key in WAVE_AMPLITUDE_KEYS:
+        amp = old.get(key)
+        if isinstance(amp, (int, float)) and not isinstance(amp, bool) and amp > 0:
+            return max(angle_tol_arcsec, math.degrees(lift_tol_um / float(amp)) * 3600.0)
+    return angle_tol_arcsec
 
 
 def _tol_text(suffix: str, tol: float) -> str:
