@@ -228,3 +228,21 @@ def test_angles_that_place_a_wave_are_tolerated_by_its_amplitude(which: int, shi
     new['features']['lobe_1']['angle_deg'] += 1.0 / 3600
     assert any('angle_deg' in d for d in compare_reports(new, gold, angle_tol_arcsec=0.5,
                                                          lift_tol_um=0.05))
+
+
+def test_harmonics_are_matched_by_their_upr_not_their_rank() -> None:
+    gold = copy.deepcopy(GOLD)
+    gold['features']['lobe_1']['harmonics'] = [
+        {'upr': 37, 'amplitude_um': 0.8, 'phase_deg': 10.0},
+        {'upr': 4, 'amplitude_um': 0.0101, 'phase_deg': 20.0},
+        {'upr': 35, 'amplitude_um': 0.0100, 'phase_deg': 30.0}]
+    new = copy.deepcopy(gold)
+    h = new['features']['lobe_1']['harmonics']
+    h[1], h[2] = h[2], h[1]                  # two noise harmonics swap places
+    assert compare_reports(new, gold, angle_tol_arcsec=0.5, lift_tol_um=0.05) == []
+    h[0]['amplitude_um'] += 0.1              # a real change is still found, by its UPR
+    assert any('[upr 37].amplitude_um' in d
+               for d in compare_reports(new, gold, angle_tol_arcsec=0.5, lift_tol_um=0.05))
+    del h[1]                                 # and a lost harmonic is named
+    assert any('[upr 35]: missing' in d
+               for d in compare_reports(new, gold, angle_tol_arcsec=0.5, lift_tol_um=0.05))

@@ -91,6 +91,8 @@ def _fill(parser: argparse.ArgumentParser, words: list[str], target: Any, value:
     for action in options:
         if action is target:
             argv += [action.option_strings[0], value]
+        elif action.required and action.type in (int, float):   # a number: a harmless one
+            argv += [action.option_strings[0], '1000']
         elif action.required:
             argv += [action.option_strings[0], str(scratch / f'opt_{action.dest}')]
     if words == ['design', 'rocker']:

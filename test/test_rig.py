@@ -47,10 +47,13 @@ def law():
 
 
 @pytest.fixture(scope='module')
-def reference(law, request):
+def reference(law, request, tmp_path_factory):
     """Clean reference runs by (rpm, ripple), cached in pytest's cache folder (the
-    solver's source text is part of the key, so a changed solver recomputes)."""
-    folder = Path(request.config.cache.mkdir('rig_reference'))
+    solver's source text is part of the key, so a changed solver recomputes); in a
+    temporary folder when the cache plugin is off (``-p no:cacheprovider``)."""
+    cache = getattr(request.config, 'cache', None)
+    folder = Path(cache.mkdir('rig_reference') if cache is not None
+                  else tmp_path_factory.mktemp('rig_reference'))
     src = (ROOT / 'test' / 'rig_reference.py').read_bytes()
     runs = {}
 

@@ -15,7 +15,9 @@ Rules, per value of a feature (the key's unit suffix decides):
   ``max_amplitude_um``): within ``angle_tol_arcsec`` or the angle by which a wave of that
   amplitude moves by ``lift_tol_um`` (lift_tol / amplitude radians), whichever is larger.
   The phase of a harmonic at noise level is noise itself: a nanometre of difference in
-  the lift error turns it by degrees, and no gauge reports it closer than that;
+  the lift error turns it by degrees, and no gauge reports it closer than that; a list of
+  harmonics is compared harmonic by harmonic of the same ``upr`` (largest first, two of
+  nearly equal amplitude may swap places);
 * ``*_arcsec``: within ``angle_tol_arcsec``;
 * ``*_um`` (also inside a mapping such as ``lift_error_um``) and ``*_mm``: within
   ``lift_tol_um`` (mm converted);
@@ -67,6 +69,20 @@ def _compare_value(path: str, key: str, new: Any, old: Any, angle_tol_arcsec: fl
                 out += _compare_value(f'{path}.{k}', k, new[k], v, angle_tol_arcsec,
                                       lift_tol_um, sub)
         return out
+    if isinstance(old, list) and _keyed_by_upr(old) and isinstance(new, list) \
+            and _keyed_by_upr(new):
+        # a spectrum is listed largest first: harmonics of nearly equal amplitude may swap
+        # places, so each is compared with the golden one of the same UPR
+        by_upr = {int(h['upr']): h for h in new}
+        out = []
+        for o in old:
+            k = int(o['upr'])
+            if k not in by_upr:
+                out.append(f'{path}[upr {k}]: missing (golden {o!r})')
+            else:
+                out += _compare_value(f'{path}[upr {k}]', key, by_upr[k], o,
+                                      angle_tol_arcsec, lift_tol_um, unit)
+        return out
     if isinstance(old, list):
         if not isinstance(new, list) or len(new) != len(old):
             return [f'{path}: got {new!r}, golden {old!r}']
@@ -110,6 +126,14 @@ def _compare_value(path: str, key: str, new: Any, old: Any, angle_tol_arcsec: fl
         return []
     return [f'{path}: got {new_f!r}, golden {old_f!r} (off by {shown}; tolerance '
             f'{_tol_text(suffix, tol)})']
+
+
+def _keyed_by_upr(items: list[Any]) -> bool:
+    """True for a non-empty list of harmonics (mappings with distinct ``upr``)."""
+    if not items or not all(isinstance(h, Mapping) and isinstance(h.get('upr'), int)
+                            for h in items):
+        return False
+    return len({h['upr'] for h in items}) == len(items)
 
 
 #: keys of a mapping that describes a wave; its angles are tolerated by the wave's amplitude
