@@ -11,6 +11,8 @@ from __future__ import annotations
 import copy
 import json
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -161,8 +163,12 @@ def user_project(pytester: pytest.Pytester) -> Path:
     bags = pytester.path / 'bags'
     shutil.copytree(BAG, bags / 'part_001')
     (pytester.path / 'golden').mkdir()
-    assert main(['golden', str(bags / 'part_001'),
-                 str(pytester.path / 'golden' / 'part_001.json')]) == 0
+    # in a process of its own: pytester restores sys.modules after the test, and a C
+    # extension first imported here (numpy's) could not be imported again by later tests
+    # of the same worker ("cannot load module more than once per process")
+    subprocess.run([sys.executable, '-m', 'cam_metrology', 'golden', str(bags / 'part_001'),
+                    str(pytester.path / 'golden' / 'part_001.json')], check=True,
+                   capture_output=True, timeout=240)
     pytester.makepyfile(test_user=USER_TEST)
     return bags
 
