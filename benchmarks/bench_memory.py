@@ -139,11 +139,19 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
                         label=f'{label}, {shape}')
     ax.axhline(300, color='grey', lw=0.8, ls=':')
     ax.text(1.1e4, 310, '300 MB', color='grey')
+    finish_plot(fig, ax, path, 'JointState samples in the bag', 'peak RSS of analyze [MB]',
+                'cam-bench analyze --only-metrology: peak memory')
+
+
+def finish_plot(fig: Any, ax: Any, path: Path, xlabel: str, ylabel: str, title: str) -> None:
+    """The memory curves' common finish: log x, y from 0, labels, grid, legend, PNG."""
+    import matplotlib.pyplot as plt
+
     ax.set_xscale('log')
     ax.set_ylim(bottom=0)
-    ax.set_xlabel('JointState samples in the bag')
-    ax.set_ylabel('peak RSS of analyze [MB]')
-    ax.set_title('cam-bench analyze --only-metrology: peak memory')
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
     ax.grid(True, which='both', alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()

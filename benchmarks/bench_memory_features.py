@@ -26,7 +26,7 @@ from typing import Any
 
 import yaml
 
-from benchmarks.bench_memory import measure
+from benchmarks.bench_memory import finish_plot, measure
 from benchmarks.machine import describe, save_results
 
 RESULTS = Path(__file__).resolve().parent / 'results' / 'memory_features.md'
@@ -72,17 +72,9 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
                     textcoords='offset points', xytext=(4, 6), fontsize=8)
     ax.axhline(300, color='grey', lw=0.8, ls=':')
     ax.text(min(x), 310, '300 MB goal', color='grey')
-    ax.set_xscale('log')
-    ax.set_ylim(bottom=0)
-    ax.set_xlabel('samples of the largest feature (bag of %s samples)'
-                  % f"{rows[0]['samples']:,}")
-    ax.set_ylabel('peak RSS [MB]')
-    ax.set_title('cam-bench analyze --only-metrology: memory against feature size')
-    ax.grid(True, which='both', alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    finish_plot(fig, ax, path, 'samples of the largest feature (bag of %s samples)'
+                % f"{rows[0]['samples']:,}", 'peak RSS [MB]',
+                'cam-bench analyze --only-metrology: memory against feature size')
 
 
 def main(argv: list[str] | None = None) -> None:
