@@ -79,6 +79,10 @@ class CamshaftRun:
     change: float
     converged: bool
     extras: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: the shaft's periodic response (the start of the next speed of a sweep)
+    response: Response | None = None
+    #: whether the coupling fell back to the damped iteration (``run_camshaft``)
+    damped: bool = False
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready per-speed figures: drive torque (mean, peak, orders), friction
@@ -102,6 +106,7 @@ class CamshaftRun:
                 'drive_work_j_per_rev': self.drive_work,
                 'damping_work_j_per_rev': self.damping_work,
                 'iterations': self.iterations, 'converged': self.converged,
+                'coupling_damped': self.damped,
                 'twist_change_rad': self.change, 'lobes': lobes}
 
 
@@ -260,10 +265,11 @@ def _load_pass(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, N: int,
 def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
                  step_deg: float = 0.1, max_revolutions: int = 4, tol: float = 1e-9,
                  max_iter: int = 40, shaft: Shaft | None = None,
-                 depth: int = 6) -> CamshaftRun:
+                 depth: int = 12, start: Response | None = None) -> CamshaftRun:
     """The coupled periodic state of ``lobes`` on the shaft ``spec`` at ``rpm`` (module
     docstring); ``tol`` [rad] on the change of the twist at the lobes; ``depth``: the
-    Anderson acceleration's memory (0: plain iteration)."""
+    Anderson acceleration's memory (0: plain iteration); ``start``: the first guess of
+    the shaft's response (a neighbouring speed's, on the same grid; None: rigid)."""
     N = grid_size(step_deg)
     omega = omega_of_rpm(rpm)
     shaft = shaft or assemble(spec)
@@ -272,10 +278,13 @@ def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
     station = {lid: spec.stations.index(lid) for lid in ids}
     shares = _journal_shares(spec, ids)
     alpha: NDArray[np.float64] = np.arange(N, dtype=np.float64) * (2.0 * math.pi / N)
-    response: Response | None = None
+    response = start if start is not None and start.psi.shape[1] == N else None
     change, it, converged = math.inf, 0, False
     lobe_rows = [station[i] for i in ids]
     mixer = _Anderson(depth)
+    history: list[float] = []
+    best: tuple[float, Response | None, Response, NDArray[np.float64]] | None = None
+    damped = False
     opts = dict(step_deg=step_deg, max_revolutions=max_revolutions)
     while True:
         it += 1
@@ -287,6 +296,15 @@ def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
         converged = change < tol or used is None and change == 0.0
         if converged or it >= max_iter:
             break
+        history.append(change)
+        if best is None or change < best[0]:
+            best = (change, used, new, resid)
+        if not damped and _stalled(history):
+            # contact and seat events (separation, bounce) can make the accelerated map
+            # overshoot or cycle: restart from the best iterate, damped, with a new memory
+            damped = True
+            mixer = _Anderson(depth, mixing=DAMPED_MIXING)
+            _, used, new, resid = best
         response = mixer.next(used, new, resid)
     if len(ps.runs) < len(lobes):       # the report fields of the trains on this twist
         ps = _load_pass(lobes, spec, rpm, N, used, station, shares, full=True, **opts)
@@ -303,7 +321,8 @@ def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
         twist={i: response.psi[station[i]] for i in ids}, loads=ps.loads,
         drive=response.drive, friction=friction.sum(axis=0), friction_loss=float(fric_loss),
         contact_work=float(contact_work),
-        damping_work=damping_work(shaft, response, omega, every),
+        damping_work=damping_work(shaft, response, omega, every), response=response,
+        damped=damped,
         drive_work=_drive_work(shaft, response, ps), iterations=it, change=change,
         converged=converged, extras=ps.extras)
 
@@ -320,27 +339,48 @@ def _drive_work(shaft: Shaft, response: Response, ps: _Pass) -> float:
     return float(-2.0 * math.pi * shaft.drive_stiffness * psi0[s])
 
 
+#: mixing of the damped fallback of the coupling iteration
+DAMPED_MIXING = 0.5
+#: iterations over which the coupling must halve its change before the fallback
+STALL_WINDOW = 6
+
+
+def _stalled(history: list[float]) -> bool:
+    """Whether the coupling iteration diverges (the change grew tenfold over its best)
+    or stalls (not halved over the last STALL_WINDOW iterations)."""
+    best = min(history)
+    if history[-1] > 10.0 * best:
+        return True
+    return (len(history) > STALL_WINDOW
+            and min(history[-STALL_WINDOW:]) > 0.5 * min(history[:-STALL_WINDOW]))
+
+
 class _Anderson:
     """Anderson acceleration of the fixed point x = G(x) on the shaft's response
     (Walker & Ni 2011, type II): with the last ``depth`` residuals f = G(x) - x, the
     next iterate is G(x_k) - dG gamma, gamma the least-squares fit of f_k by the
     residual differences dF (measured on the twist at the lobes). The response is linear
-    in the loads, so a combination of responses is one."""
+    in the loads, so a combination of responses is one. ``mixing`` beta < 1 damps the
+    map, G_beta(x) = (1 - beta) x + beta G(x) (the fallback where contact and seat
+    events make the plain map overshoot)."""
 
-    def __init__(self, depth: int) -> None:
+    def __init__(self, depth: int, mixing: float = 1.0) -> None:
         self.depth = depth
+        self.mixing = mixing
         self.f: list[NDArray[np.float64]] = []
         self.g: list[NDArray[np.float64]] = []
 
     def next(self, x: Response | None, g: Response, f: NDArray[np.float64]) -> Response:
         gv = _pack(g)
+        if x is not None and self.mixing != 1.0:
+            gv = (1.0 - self.mixing) * _pack(x) + self.mixing * gv
         self.f.append(f.ravel())
         self.g.append(gv)
         if len(self.f) > self.depth + 1:
             self.f.pop(0)
             self.g.pop(0)
         if x is None or len(self.f) < 2 or self.depth == 0:
-            return g
+            return _unpack(gv, g)
         dF = np.stack([b - a for a, b in zip(self.f[:-1], self.f[1:])], axis=1)
         dG = np.stack([b - a for a, b in zip(self.g[:-1], self.g[1:])], axis=1)
         gamma = np.linalg.lstsq(dF, self.f[-1], rcond=None)[0]

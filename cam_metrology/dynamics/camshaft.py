@@ -55,11 +55,16 @@ def run_speeds(scene: Any, train: TrainSpec, speeds: Any, *, step_deg: float,
 
     lobes = lobes_on_shaft(scene, train, step_deg, cam_width, youngs, keys)
     shaft = assemble(scene.camshaft)
-    runs, failures = [], {}
+    runs: list[CamshaftRun] = []
+    failures = {}
     for rpm in speeds:
+        # each speed starts from the last converged one's response (a sweep's speeds are
+        # neighbours: far fewer coupling iterations than from the rigid shaft)
+        start = next((r.response for r in reversed(runs) if r.converged), None)
         try:
             runs.append(run_camshaft(lobes, scene.camshaft, float(rpm), step_deg=step_deg,
-                                     max_revolutions=max_revolutions, shaft=shaft))
+                                     max_revolutions=max_revolutions, shaft=shaft,
+                                     start=start))
         except (InputError, RuntimeError, ValueError) as exc:
             failures[f'{float(rpm):g}rpm'] = str(exc)
     return runs, failures
