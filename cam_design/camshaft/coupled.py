@@ -180,7 +180,8 @@ def _law_breaks(lb: LobeOnShaft, jets: PeriodicJets | None) -> NDArray[np.float6
     """The lobe's own breakpoints (its support's ends and junctions, where h'' or a
     higher derivative jumps) on the nominal lobe axis: a + delta(a) = j [rad]."""
     lo, hi = (float(v) for v in lb.law.support)
-    j = np.array([lo, hi, *(float(x) for x in lb.law.junctions)], dtype=float)
+    ends = [lo, hi] if hi - lo < 2.0 * math.pi - 1e-9 else []   # a whole-turn law: none
+    j = np.array([*ends, *(float(x) for x in lb.law.junctions)], dtype=float)
     a = j.copy()
     if jets is not None:
         for _ in range(6):
