@@ -21,7 +21,7 @@ from cam_metrology.wire.topics import JOINT_STATES as JOINT_TOPIC
 from cam_metrology.wire.topics import METROLOGY_LIFT as LIFT_TOPIC
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``analyze`` subcommand."""
     p = subparsers.add_parser(
         'analyze', help='replay a bag through the node cores and print the report',
@@ -44,7 +44,7 @@ def register(subparsers: Any) -> None:
                    "scene tolerances' limits) for SPC packages")
     p.add_argument('--heights-mm', metavar='LIST', default=None,
                    help='cam-card checking heights in mm (default 1,1.27,0.1)')
-    p.set_defaults(func=run)
+    return p
 
 
 def run(args: argparse.Namespace) -> int:

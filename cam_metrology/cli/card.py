@@ -16,7 +16,7 @@ from cam_design.cam_card import DEFAULT_HEIGHTS_M
 from cam_metrology.offline.acceptance import both_crank_timings, crank_timing, measured_cards
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``card`` subcommand."""
     p = subparsers.add_parser(
         'card', help='cam card: durations at checking heights, max lift, centreline, LSA',
@@ -38,7 +38,7 @@ def register(subparsers: Any) -> None:
                    'one) as a gauge nominal-profile file: a scene lobe as seen by the scene '
                    'probe every 0.5 deg, a table as read, a bag lobe as measured (referenced '
                    'to its base circle)')
-    p.set_defaults(func=run)
+    return p
 
 
 def heights_from(args: argparse.Namespace) -> tuple[float, ...]:
@@ -63,14 +63,17 @@ def _lsa(phases: dict[str, float | None], pair: str, cards: dict[str, Any],
     ids = [p.strip() for p in pair.split(',')]
     if len(ids) != 2:
         raise InputError('--pair', pair, 'two lobe ids INTAKE,EXHAUST')
+    known: dict[str, float] = {}
     for i in ids:
         if i not in phases:
             raise InputError('--pair', pair, f'lobe ids of the input (no {i!r}; have '
                              f'{", ".join(phases)})')
-        if phases[i] is None:
+        phase = phases[i]
+        if phase is None:
             raise InputError('--pair', pair, f'lobes with a phase ({i} has none: no '
                              'nominal_phase in the scene, or no dowel pin measured)')
-    lsa = abs(_wrap180(phases[ids[1]] - phases[ids[0]]))
+        known[i] = phase
+    lsa = abs(_wrap180(known[ids[1]] - known[ids[0]]))
     out: dict[str, Any] = {'intake': ids[0], 'exhaust': ids[1], 'lobe_separation_deg': lsa}
     if intake_cl is not None:
         ecl = 2.0 * lsa - intake_cl

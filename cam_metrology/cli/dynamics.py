@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``dynamics`` subcommand."""
     p = subparsers.add_parser(
         'dynamics', help='valve-train dynamics: valve motion, contact force, jump speed',
@@ -72,7 +72,7 @@ def register(subparsers: Any) -> None:
     p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
     p.add_argument('--plot', metavar='DIR',
                    help='write <feature>.png (valve lift and contact force) to DIR')
-    p.set_defaults(func=run)
+    return p
 
 
 def _core_params(args: argparse.Namespace, source: str) -> dict[str, Any]:
@@ -228,8 +228,7 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
         lobe = next((lb for lb in scene.lobes if lb.id == feature), scene.lobes[0])
         geom = ContactGeometry(base_radius=scene.base_circle_radius,
                                follower=lobe.follower.kind, radius=lobe.follower.radius,
-                               width=lobe.width if getattr(lobe, 'width', None) else
-                               args.cam_width)
+                               width=lobe.width or args.cam_width)
     core = SimpleNamespace(
         scene=SimpleNamespace(valve_train=vt, camshaft_id=getattr(scene, 'camshaft_id', None),
                               wants=lambda what: True),

@@ -14,7 +14,7 @@ from typing import Any
 from cam_metrology.offline.analyze import analyze_report  # noqa: F401 (re-exported)
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``golden`` subcommand."""
     p = subparsers.add_parser(
         'golden', help="write a bag's report as a golden file for regression tests",
@@ -27,7 +27,7 @@ def register(subparsers: Any) -> None:
     p.add_argument('--params', metavar='FILE', help='ROS parameter YAML for the cores, as '
                    'for analyze')
     p.add_argument('--force', action='store_true', help='overwrite an existing OUT')
-    p.set_defaults(func=run)
+    return p
 
 
 def run(args: argparse.Namespace) -> int:

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``reconstruct`` subcommand."""
     p = subparsers.add_parser(
         'reconstruct', help='reconstruct lift and derivatives from measured lift tables',
@@ -72,7 +72,7 @@ def register(subparsers: Any) -> None:
                    help='write the reconstructed lift of --lobe (or the only lobe) as a '
                         'gauge nominal-profile file, -180..180 deg every --step-deg, from '
                         'the first method that succeeded (--method to choose)')
-    p.set_defaults(func=run)
+    return p
 
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
@@ -111,9 +111,10 @@ def run(args: argparse.Namespace) -> int:
         raise FileNotFoundError(f'no such bag or table: {path}')
     core = ReconstructionCore(_params(args))
     from cam_metrology.bagio import looks_like_bag
+    skipped: list[dict[str, str]] = []
     if looks_like_bag(path):
         _reject_table_options(args)
-        kind, skipped = 'bag', []
+        kind = 'bag'
         follower, problems = _bag(path, core)
     else:
         kind, problems = 'table', []

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``spc`` subcommand."""
     p = subparsers.add_parser(
         'spc', help='control charts, capability (Cpk) and gauge R&R of a batch table',
@@ -47,7 +47,7 @@ def register(subparsers: Any) -> None:
                         '--tolerance or scene limits for the quantity); repeatable')
     p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
     p.add_argument('--report', metavar='FILE.html', help='self-contained HTML report')
-    p.set_defaults(func=run)
+    return p
 
 
 def load_rows(path: str) -> list[dict[str, Any]]:
@@ -135,7 +135,7 @@ def spc_results(rows: list[dict[str, Any]], quantities: list[str], features: lis
             continue
         frs = _ordered([r for r in ok if r['feature'] == fid])
         for q in quantities:
-            vals = [(r['bag'], r.get(q)) for r in frs if r.get(q) is not None]
+            vals = [(r['bag'], v) for r in frs if (v := r.get(q)) is not None]
             entry: dict[str, Any] = {'feature': fid, 'quantity': q, 'n': len(vals),
                                      'bags': [b for b, _ in vals],
                                      'values': [float(v) for _, v in vals]}
