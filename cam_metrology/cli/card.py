@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from cam_design.cam_card import DEFAULT_HEIGHTS_M
+from cam_metrology.cli.conventions import add_table_units, table_units
 from cam_metrology.offline.acceptance import both_crank_timings, crank_timing, measured_cards
 
 
@@ -24,6 +25,12 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                     'nominal-profile file) or a bag (measured vs nominal). Angles in cam '
                     'degrees from the lobe centreline (rise negative), crank = 2 x cam.')
     p.add_argument('input', help='scene .yaml, lift table (CSV or gauge file) or bag')
+    add_table_units(p, 'a gauge-file input')
+    p.add_argument('--json', metavar='FILE|-', help='write the cards as JSON')
+    p.add_argument('--nominal', metavar='FILE', help='write the lobe (--lobe, or the only '
+                   'one) as a gauge nominal-profile file: a scene lobe as seen by the scene '
+                   'probe every 0.5 deg, a table as read, a bag lobe as measured (referenced '
+                   'to its base circle)')
     p.add_argument('--heights-mm', metavar='LIST', default=None,
                    help='checking heights in mm, comma-separated (default 1,1.27,0.1)')
     p.add_argument('--lobe', metavar='ID', help='only this lobe (scene or bag)')
@@ -33,11 +40,6 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument('--intake-centreline-deg', type=float, metavar='DEG',
                    help='with --pair: intake centreline in crank deg ATDC; gives the valve '
                         'events of both lobes in crank degrees (BTDC/ABDC, BBDC/ATDC)')
-    p.add_argument('--json', metavar='FILE|-', help='write the cards as JSON')
-    p.add_argument('--nominal', metavar='FILE', help='write the lobe (--lobe, or the only '
-                   'one) as a gauge nominal-profile file: a scene lobe as seen by the scene '
-                   'probe every 0.5 deg, a table as read, a bag lobe as measured (referenced '
-                   'to its base circle)')
     return p
 
 
@@ -241,6 +243,12 @@ def run(args: argparse.Namespace) -> int:
     if not path.exists():
         raise InputError('input', args.input, 'an existing scene, lift table or bag')
     phases: dict[str, float | None] = {}
+    is_table = not (path.is_dir() or path.suffix in ('.mcap', '.yaml', '.yml'))
+    for unit in ('angle_unit', 'length_unit'):
+        if getattr(args, unit) is not None and not is_table:
+            raise InputError('--' + unit.replace('_', '-'), getattr(args, unit),
+                             'a lift TABLE input (gauge file; a scene or a bag has SI '
+                             'units)')
     if path.is_dir() or path.suffix == '.mcap':
         kind = 'bag'
         cards, phases = bag_cards(args.input, heights, args.lobe)
@@ -258,7 +266,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         from cam_metrology.reconstruction.samples import read_table_file
         kind = 'table'
-        table = read_table_file(path)
+        table = read_table_file(path, **table_units(args))
         cards = {table.feature: table_card(table.alpha, table.lift, heights, path.name)}
         _NOMINAL_DATA[table.feature] = (table.alpha, table.lift,
                                         table.follower[1] if table.follower else 0.0)

@@ -25,7 +25,7 @@ INPUT_OPTIONS = frozenset({
     '--angle-unit', '--length-unit'})
 OUTPUT_OPTIONS = frozenset({
     '--out', '--out-bag', '--json', '--csv', '--dfq', '--plot', '--report', '--nominal',
-    '--scene-out', '--profile-csv', '--compression'})
+    '--scene-out', '--profile-csv'})
 DEBUG_OPTIONS = frozenset({'--quiet', '--keep-logs', '--debug'})
 
 

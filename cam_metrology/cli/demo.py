@@ -40,12 +40,12 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                         'log times = publication times, so the bag keeps the order the '
                         'bench published in) or events (rclpy.experimental.EventsExecutor: '
                         'cheaper, receive-time log stamps)')
-    p.add_argument('--keep-logs', action='store_true', help='keep the node logs directory')
     p.add_argument('--rig', action='store_true',
                    help='the valve-train rig loop instead: simulate rig runs of '
                         'config/rig_scene.yaml (or --scene) with its rig.true_valve_train, '
                         'publish them live to the rig node and the recorder, calibrate '
                         'on the recorded bag, print the jump speed nominal vs calibrated')
+    p.add_argument('--keep-logs', action='store_true', help='keep the node logs directory')
     return p
 
 

@@ -32,6 +32,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from cam_metrology.cli.conventions import add_table_units, table_units
+
 
 def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``dynamics`` subcommand."""
@@ -47,10 +49,10 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument('--valve-train', metavar='YAML',
                    help='with a TABLE: the valve train, from a scene (its valve_train '
                         'block) or a YAML holding only that block')
-    p.add_argument('--angle-unit', choices=('deg', 'rad'),
-                   help='angle unit of a gauge TABLE (default deg)')
-    p.add_argument('--length-unit', choices=('mm', 'um', 'm'),
-                   help='length unit of a gauge TABLE (default mm)')
+    add_table_units(p)
+    p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
+    p.add_argument('--plot', metavar='DIR',
+                   help='write <feature>.png (valve lift and contact force) to DIR')
     p.add_argument('--lobe', metavar='ID', dest='feature',
                    help='only this lobe (default: all lobes)')
     p.add_argument('--feature', dest='feature', help=argparse.SUPPRESS)   # old spelling
@@ -69,9 +71,6 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument('--cam-width', type=float, default=0.012, metavar='M',
                    help='contact width [m] for the Hertz stress of lobes without a scene '
                         'lobes[].width (default 0.012)')
-    p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
-    p.add_argument('--plot', metavar='DIR',
-                   help='write <feature>.png (valve lift and contact force) to DIR')
     return p
 
 
@@ -219,9 +218,7 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
         raise InputError('--valve-train', None, 'a scene or valve-train YAML with a TABLE '
                          '(the table gives only the lift)')
     vt, scene = load_valve_train(Path(args.valve_train))
-    feature, law, source, note = table_input(path, feature=args.feature,
-                                             angle_unit=args.angle_unit or 'deg',
-                                             length_unit=args.length_unit or 'mm')
+    feature, law, source, note = table_input(path, feature=args.feature, **table_units(args))
     geom = None
     if scene is not None:
         from cam_design.valve_train.report import ContactGeometry

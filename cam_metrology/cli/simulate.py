@@ -29,7 +29,7 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument('--samples-per-rev', type=int, default=3600, metavar='N',
                    help='encoder samples per camshaft revolution (default 3600)')
     p.add_argument('--revolutions', type=float, default=1.0, metavar='N',
-                   help='revolutions measured per feature (default 1)')
+                   help='revolutions measured per feature [rev] (default 1)')
     p.add_argument('--rounds', type=int, default=1, metavar='N',
                    help='every feature measured N times in a row, each round later by '
                         'the run\'s duration (a long bag of repeated measurements; '
@@ -53,7 +53,7 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument('--runout-um', type=float, default=0.0, metavar='X',
                    help='base-circle run-out amplitude, micrometres (default 0)')
     p.add_argument('--rate', type=float, default=1000.0, metavar='HZ',
-                   help='sample rate for the stamps, samples/s (default 1000)')
+                   help='sample rate for the stamps [1/s] (default 1000)')
     p.add_argument('--samples-per-message', type=int, default=1, metavar='N',
                    help='N > 1: the samples in blocks of N per message on '
                         '/bench/joint_trajectory (trajectory_msgs/JointTrajectory) instead '

@@ -33,6 +33,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                     'Western Electric run rules, Cp/Cpk/Pp/Ppk against --tolerance, or a '
                     'gauge R&R study (--grr, ANOVA method).')
     p.add_argument('table', help='results table (.parquet or .csv) of cam-bench batch')
+    p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
+    p.add_argument('--report', metavar='FILE.html', help='self-contained HTML report')
     p.add_argument('--quantity', action='append', metavar='NAME', help='column to chart '
                    '(repeatable; default angle_deg and phase_error_deg)')
     p.add_argument('--feature', action='append', metavar='ID', help='only these features')
@@ -45,8 +47,6 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                    help='type-1 gauge study of QUANTITY against its reference value (the '
                         'rows: repeated measurements of one reference part; needs '
                         '--tolerance or scene limits for the quantity); repeatable')
-    p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
-    p.add_argument('--report', metavar='FILE.html', help='self-contained HTML report')
     return p
 
 

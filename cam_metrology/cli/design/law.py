@@ -24,15 +24,15 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                                    'of alpha [deg], h [mm], h\' [mm/rad], h\'\' [mm/rad^2], '
                                    'h\'\'\' [mm/rad^3].')
     p.add_argument('file', help='YAML file with the lift law (or a scene file)')
-    p.add_argument('--lobe', metavar='ID', help='with a scene file: the lobe id (default '
-                                                'the first lobe)')
-    p.add_argument('--step-deg', type=float, default=1.0, help='angle step [deg] (default 1)')
     p.add_argument('--csv', metavar='FILE|-', help='write the table as CSV')
     p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
     p.add_argument('--plot', metavar='PNG', help='plot h, h\', h\'\' and h\'\'\' to a PNG')
     p.add_argument('--nominal', metavar='FILE', help='write a gauge nominal-profile file '
                    '(-180..180 deg every --nominal-step-deg; with a scene: the lift as seen '
                    'by its probe, whose radius heads the file)')
+    p.add_argument('--lobe', metavar='ID', help='with a scene file: the lobe id (default '
+                                                'the first lobe)')
+    p.add_argument('--step-deg', type=float, default=1.0, help='angle step [deg] (default 1)')
     p.add_argument('--nominal-step-deg', type=float, default=0.5,
                    help='angle step of --nominal [deg] (default 0.5)')
     return p

@@ -39,36 +39,40 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                     'files; the summary adds _deg fields.')
     p.add_argument('file', help='YAML with a lift law (lift_law: {family: ...} or alpha/h '
                                 'table), or a scene with --lobe')
+    p.add_argument('--csv', metavar='FILE|-', help='write the per-sample table as CSV')
+    p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
+    p.add_argument('--plot', metavar='PNG', help='plot profile, curvature and pressure angle')
+    p.add_argument('--lobe', metavar='ID',
+                   help='FILE is a scene: use this lobe (its lift, design follower and the '
+                        'scene base_circle_radius; default: the first lobe)')
     p.add_argument('--follower', choices=FOLLOWERS, default='flat',
                    help='follower the profile is cut for (default flat)')
-    p.add_argument('--radius', type=float, default=0.0, help='roller radius [m] (0: knife)')
+    p.add_argument('--radius', type=float, default=0.0, metavar='M',
+                   help='roller radius [m] (default 0: knife)')
     p.add_argument('--base-radius', type=float,
                    help='base-circle radius of the profile [m] (else base_radius in the file)')
-    p.add_argument('--offset', type=float, default=0.0, help='offset e of the guide line [m]')
+    p.add_argument('--offset', type=float, default=0.0, metavar='M',
+                   help='offset e of the guide line [m] (default 0)')
     p.add_argument('--eta', type=int, default=1, choices=(1, -1),
-                   help='+1 clockwise cam, -1 counter-clockwise (offset-roller, rocker)')
+                   help='+1 clockwise cam, -1 counter-clockwise (offset-roller, rocker; '
+                        'default +1)')
     p.add_argument('--delta', type=int, default=1, choices=(1, -1, 0),
-                   help='offset side (offset-roller) or swing direction in the rise (rocker)')
+                   help='offset side (offset-roller) or swing direction in the rise (rocker; '
+                        'default +1)')
     p.add_argument('--centre-distance', type=float, help='rocker: cam centre to pivot a [m]')
     p.add_argument('--arm-length', type=float,
                    help='rocker: arm length l [m]; the swing is psi = h / l')
     p.add_argument('--polar', action='store_true',
                    help='rocker: add the CG paper polar form (rho, theta; counter-directional '
                         'for --delta -1, co-directional for --delta 1; needs --eta 1)')
-    p.add_argument('--lobe', metavar='ID',
-                   help='FILE is a scene: use this lobe (its lift, design follower and the '
-                        'scene base_circle_radius; default: the first lobe)')
     p.add_argument('--design-follower', choices=('flat', 'roller', 'knife'),
                    help='the follower the lift law was written for, if not --follower: the '
                         'lift is converted through the cam profile first (flat/roller/knife)')
     p.add_argument('--design-radius', type=float, default=0.0,
-                   help='roller radius of --design-follower [m]')
+                   help='roller radius of --design-follower [m] (default 0)')
     p.add_argument('--step-deg', type=float, default=0.5,
                    help=f'angle step [deg] over the full turn, {STEP_DEG[0]:g} to '
                         f'{STEP_DEG[1]:g} (default 0.5)')
-    p.add_argument('--csv', metavar='FILE|-', help='write the per-sample table as CSV')
-    p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
-    p.add_argument('--plot', metavar='PNG', help='plot profile, curvature and pressure angle')
     return p
 
 
