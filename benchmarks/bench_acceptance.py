@@ -41,7 +41,7 @@ def form_error_rows() -> list[str]:
                 design = core._design['lobe_1']
                 table = core.results['lobe_1'].table
                 from cam_design.cam_card import law_events, law_peak, table_events, table_peak
-                from cam_metrology.metrology.tolerances import base_referenced
+                from cam_metrology.metrology.lift_error import base_referenced
                 t0 = time.perf_counter()
                 report = core.report()
                 raw = table_peak(table[:, 0], table[:, 1], design)[1]
