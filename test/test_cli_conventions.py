@@ -1,7 +1,8 @@
 """One CLI convention, checked on every command's parser (no command is run).
 
 Walks ``cam-bench``'s parser tree and asserts, per command: the arguments in ``--help``
-in the order positional, inputs, outputs, options, debug; no notion with two visible
+in the order positional, inputs, outputs, options, debug; positional arguments
+named in capitals; no notion with two visible
 spellings (the old ones are hidden aliases that still parse); the lift-table unit
 options on every command whose handler reads a lift table; every default shown; units
 of numeric options in brackets (or in the option's name).
@@ -109,6 +110,16 @@ def test_defaults_shown_and_units_in_brackets(name: str) -> None:
             long = max(action.option_strings, key=len)
             assert long.endswith(UNIT_SUFFIXES) or re.search(r'\[[^\]]+\]', text), \
                 (action.option_strings, text)
+
+
+@pytest.mark.parametrize('name', sorted(COMMANDS))
+def test_positionals_are_named_in_capitals(name: str) -> None:
+    """``cam-bench card SCENE|TABLE|BAG``: what the user types is named in capitals (a
+    fixed set of words, e.g. ``run NODE``'s node names, is listed instead)."""
+    for action in _visible(COMMANDS[name]):
+        if not action.option_strings and not action.choices:
+            shown = action.metavar or action.dest
+            assert isinstance(shown, str) and shown == shown.upper(), (name, shown)
 
 
 def test_hidden_aliases_still_parse() -> None:

@@ -27,7 +27,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
         'analyze', help='replay a bag through the node cores and print the report',
         description='Replay a rosbag2 (MCAP) bag in-process through the same node cores as '
                     'the live nodes and print (or write) the metrology report.')
-    p.add_argument('bag', help='rosbag2 directory (metadata.yaml + MCAP)')
+    p.add_argument('bag', metavar='BAG', help='rosbag2 directory (metadata.yaml + MCAP)')
     p.add_argument('--params', metavar='FILE', help='ROS parameter YAML for the cores '
                    '(node_name: ros__parameters: ...)')
     p.add_argument('--json', metavar='FILE|-', help='write the JSON report to FILE '

@@ -24,7 +24,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
         description='The cam card of a scene (design), a lift table (CSV or gauge '
                     'nominal-profile file) or a bag (measured vs nominal). Angles in cam '
                     'degrees from the lobe centreline (rise negative), crank = 2 x cam.')
-    p.add_argument('input', help='scene .yaml, lift table (CSV or gauge file) or bag')
+    p.add_argument('input', metavar='SCENE|TABLE|BAG',
+                   help='scene .yaml, lift table (CSV or gauge file) or bag')
     add_table_units(p, 'a gauge-file input')
     p.add_argument('--json', metavar='FILE|-', help='write the cards as JSON')
     p.add_argument('--nominal', metavar='FILE', help='write the lobe (--lobe, or the only '

@@ -32,7 +32,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                     'moving-range charts per feature and quantity in measurement order, '
                     'Western Electric run rules, Cp/Cpk/Pp/Ppk against --tolerance, or a '
                     'gauge R&R study (--grr, ANOVA method).')
-    p.add_argument('table', help='results table (.parquet or .csv) of cam-bench batch')
+    p.add_argument('table', metavar='TABLE',
+                   help='results table (.parquet or .csv) of cam-bench batch')
     p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
     p.add_argument('--report', metavar='FILE.html', help='self-contained HTML report')
     p.add_argument('--quantity', action='append', metavar='NAME', help='column to chart '

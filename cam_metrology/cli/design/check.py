@@ -18,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                        description='Design checks (Shang §2.1): flow area, time-area, fullness, '
                                    'rho1, Hertz stress, equivalent mass, separation, oil film, '
                                    'valve-piston clearance. Input format: docs/lift_laws.md.')
-    p.add_argument('file', help='YAML check input, or a scene file')
+    p.add_argument('file', metavar='FILE', help='YAML check input, or a scene file')
     p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
     p.add_argument('--lobe', metavar='ID', help='with a scene file: the lobe id (default '
                                                 'the first lobe)')

@@ -24,7 +24,7 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                     'margin and jump-speed limits. SPEC is a YAML file with the keys family, '
                     'fixed, free, objective, constraints (docs/optimization.md). Exit 0 '
                     'with an optimum, 1 when the SPEC is infeasible, 2 for a bad SPEC.')
-    p.add_argument('spec', metavar='SPEC.yaml', help='optimisation spec (YAML)')
+    p.add_argument('spec', metavar='SPEC', help='optimisation spec (YAML)')
     p.add_argument('--json', metavar='FILE|-', help='write the full result as JSON '
                    '(- for stdout) instead of the summary')
     p.add_argument('--plot', metavar='DIR', help='PNG of the start and optimal h, h\'\' '

@@ -37,8 +37,9 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                     'in-line roller or knife (2.16), offset translating roller and oscillating '
                     'roller (thesis reverse-method forms). Lengths in m, angles in rad in the '
                     'files; the summary adds _deg fields.')
-    p.add_argument('file', help='YAML with a lift law (lift_law: {family: ...} or alpha/h '
-                                'table), or a scene with --lobe')
+    p.add_argument('file', metavar='FILE',
+                   help='YAML with a lift law (lift_law: {family: ...} or alpha/h table), or '
+                        'a scene with --lobe')
     p.add_argument('--csv', metavar='FILE|-', help='write the per-sample table as CSV')
     p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
     p.add_argument('--plot', metavar='PNG', help='plot profile, curvature and pressure angle')

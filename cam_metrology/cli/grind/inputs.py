@@ -15,7 +15,8 @@ from typing import Any
 
 def add_file(p: argparse.ArgumentParser) -> None:
     """The positional FILE and ``--machine``."""
-    p.add_argument('file', help='YAML: lift law + base_radius + grinding: section, or a scene')
+    p.add_argument('file', metavar='FILE',
+                   help='YAML: lift law + base_radius + grinding: section, or a scene')
     p.add_argument('--machine', metavar='YAML',
                    help='a file whose grinding: section replaces the one of FILE')
 
