@@ -43,7 +43,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument('--only-metrology', action='store_true',
                    help='run only the metrology core')
     p.add_argument('--heights-mm', metavar='LIST', default=None,
-                   help='cam-card checking heights in mm (default 1,1.27,0.1)')
+                   help='cam-card checking heights [mm], comma-separated (default 1,1.27,0.1)')
     return p
 
 

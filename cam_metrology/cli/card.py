@@ -33,7 +33,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                    'probe every 0.5 deg, a table as read, a bag lobe as measured (referenced '
                    'to its base circle)')
     p.add_argument('--heights-mm', metavar='LIST', default=None,
-                   help='checking heights in mm, comma-separated (default 1,1.27,0.1)')
+                   help='checking heights [mm], comma-separated (default 1,1.27,0.1)')
     p.add_argument('--lobe', metavar='ID', help='only this lobe (scene or bag)')
     p.add_argument('--pair', metavar='INTAKE,EXHAUST',
                    help='lobe ids of an intake/exhaust pair: lobe separation angle (from the '

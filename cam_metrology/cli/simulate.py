@@ -35,9 +35,9 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                         'the run\'s duration (a long bag of repeated measurements; '
                         'default 1)')
     p.add_argument('--noise-um', type=float, default=0.0, metavar='X',
-                   help='probe noise standard deviation in micrometres (default 0)')
+                   help='probe noise standard deviation [µm] (default 0)')
     p.add_argument('--encoder-noise-deg', type=float, default=0.0, metavar='X',
-                   help='encoder noise standard deviation in degrees (default 0)')
+                   help='encoder noise standard deviation [deg] (default 0)')
     p.add_argument('--seed', type=int, default=0, metavar='N',
                    help='random seed: true angles and noise (default 0)')
     p.add_argument('--direction', type=int, choices=(1, -1), default=None,
@@ -47,11 +47,11 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument('--reverse', action='store_true',
                    help='shaft turned backwards: encoder angle decreasing with time')
     p.add_argument('--start-deg', type=float, default=0.0, metavar='DEG',
-                   help='encoder angle at the first sample, degrees (default 0)')
+                   help='encoder angle at the first sample [deg] (default 0)')
     p.add_argument('--zero-mm', type=float, default=0.5, metavar='MM',
-                   help='probe reading on the base circle, mm (arbitrary zero; default 0.5)')
+                   help='probe reading on the base circle [mm] (arbitrary zero; default 0.5)')
     p.add_argument('--runout-um', type=float, default=0.0, metavar='X',
-                   help='base-circle run-out amplitude, micrometres (default 0)')
+                   help='base-circle run-out amplitude [µm] (default 0)')
     p.add_argument('--rate', type=float, default=1000.0, metavar='HZ',
                    help='sample rate for the stamps [1/s] (default 1000)')
     p.add_argument('--samples-per-message', type=int, default=1, metavar='N',
