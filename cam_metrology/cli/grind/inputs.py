@@ -98,6 +98,7 @@ def write_columns(args: argparse.Namespace, columns: dict[str, Any], summary: di
 
 
 def probe_follower(args: argparse.Namespace) -> Any:
+    """The ``--probe`` follower (kind, radius [m]), or None for the design follower."""
     from cam_design.errors import InputError, require_positive
     from cam_design.follower import Follower
 
@@ -120,6 +121,8 @@ def machine_of(path: Any, section: dict[str, Any]) -> tuple[Any, Any]:
 
 
 def angle_grid(step: float) -> Any:
+    """The angles [rad] of one turn from -pi in steps of about ``step`` [rad] (a whole
+    number of them)."""
     import numpy as np
 
     n = int(round(2 * math.pi / step))
@@ -138,6 +141,7 @@ def warn_bridged(rw: float, bridged: list[tuple[float, float]]) -> None:
 
 
 def one_wheel(args: argparse.Namespace, section: dict[str, Any]) -> float:
+    """The wheel radius [m]: ``--wheel-radius``, else the first grinding.wheel_radius."""
     from cam_design.errors import InputError
     from cam_design.grinding import spec as gs
 
@@ -150,6 +154,7 @@ def one_wheel(args: argparse.Namespace, section: dict[str, Any]) -> float:
 
 
 def step_of(args: argparse.Namespace, section: dict[str, Any]) -> float:
+    """The angle step [rad]: ``--step-deg``, else grinding.step_deg, else 0.5 deg."""
     from cam_design.grinding import spec as gs
 
     if args.step_deg is not None:

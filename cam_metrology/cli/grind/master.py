@@ -8,8 +8,8 @@ import math
 from typing import Any
 
 from cam_metrology.cli.grind.inputs import (add_file, add_lobe_base, add_outputs,
-                                            add_wheel_step, load, one_wheel, step_of,
-                                            write_columns)
+                                            add_wheel_step, angle_grid, load, one_wheel,
+                                            step_of, write_columns)
 
 
 def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -41,9 +41,8 @@ def run(args: argparse.Namespace) -> int:
     law, base, design, section = load(args)
     path = WheelPath(law, base, design, one_wheel(args, section), key=args.file)
     master = master_from_section(path, section)
-    step = step_of(args, section)
-    n = int(round(2 * math.pi / step))
-    theta = -math.pi + 2 * math.pi * np.arange(n) / n
+    theta = angle_grid(step_of(args, section))
+    n = theta.size
     cols = master.lift_table(theta)
     prof = master.profile(max(n, 360))
     psum: dict[str, Any] = prof.summary()

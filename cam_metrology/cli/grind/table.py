@@ -10,7 +10,7 @@ import argparse
 from typing import Any
 
 from cam_metrology.cli.grind.inputs import (add_file, add_lobe_base, add_outputs, load,
-                                            warn_bridged, write_columns)
+                                            step_of, warn_bridged, write_columns)
 
 
 def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -48,10 +48,7 @@ def run(args: argparse.Namespace) -> int:
         from cam_design.errors import InputError
         raise InputError('--wheel-radius', None, 'a wheel radius [m] (or grinding.wheel_'
                                                  'radius in the file)')
-    if args.step_deg is not None:
-        step = gs.step_rad(args.step_deg, '--step-deg')
-    else:
-        step = gs.step_rad(section.get('step_deg', 0.5))
+    step = step_of(args, section)
     paths: list[Any] = []
     cols = wheel_table(law, base, design, radii, step, key=args.file, paths=paths)
     summary: dict[str, Any] = {'design': design.kind, 'base_radius_m': base,
