@@ -122,6 +122,14 @@ def test_positionals_are_named_in_capitals(name: str) -> None:
             assert isinstance(shown, str) and shown == shown.upper(), (name, shown)
 
 
+@pytest.mark.parametrize('name', sorted(COMMANDS))
+def test_standard_output_said_one_way(name: str) -> None:
+    """An output that may be ``-`` (metavar ``FILE|-``) says so in the same words."""
+    for action in _visible(COMMANDS[name]):
+        if str(action.metavar).endswith('|-'):
+            assert '(- for standard output)' in (action.help or ''), action.option_strings
+
+
 def test_hidden_aliases_still_parse() -> None:
     """The old spellings keep working and land where the new ones do."""
     parser = build_parser()

@@ -30,13 +30,15 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument('bag', metavar='BAG', help='rosbag2 directory (metadata.yaml + MCAP)')
     p.add_argument('--params', metavar='FILE', help='ROS parameter YAML for the cores '
                    '(node_name: ros__parameters: ...)')
-    p.add_argument('--json', metavar='FILE|-', help='write the JSON report to FILE '
-                   '(- for stdout) instead of the human report')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the JSON report instead of the human report '
+                   '(- for standard output)')
     p.add_argument('--plot', metavar='DIR', help='write lift and lift-error PNGs per feature')
     p.add_argument('--out-bag', metavar='DIR', help='write the bag plus all outputs to DIR')
     p.add_argument('--report', metavar='FILE.html', help='write a self-contained HTML report '
                    '(verdict, cam card, results, plots, provenance)')
-    p.add_argument('--csv', metavar='FILE|-', help='write the per-feature results as CSV')
+    p.add_argument('--csv', metavar='FILE|-', help='write the per-feature results as CSV (- for '
+                   'standard output)')
     p.add_argument('--dfq', metavar='FILE.dfq', help='write the results as a Q-DAS AQDEF '
                    'transfer file (one characteristic per reported quantity, with the '
                    "scene tolerances' limits) for SPC packages")

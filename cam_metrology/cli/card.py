@@ -27,7 +27,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument('input', metavar='SCENE|TABLE|BAG',
                    help='scene .yaml, lift table (CSV or gauge file) or bag')
     add_table_units(p, 'a gauge-file input')
-    p.add_argument('--json', metavar='FILE|-', help='write the cards as JSON')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the cards as JSON (- for standard output)')
     p.add_argument('--nominal', metavar='FILE', help='write the lobe (--lobe, or the only '
                    'one) as a gauge nominal-profile file: a scene lobe as seen by the scene '
                    'probe every 0.5 deg, a table as read, a bag lobe as measured (referenced '

@@ -26,8 +26,8 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                    help='scene YAML (default: config/default_scene.yaml)')
     p.add_argument('--out', metavar='DIR',
                    help='bag directory to create (default: demo-out/demo_<UTC time>)')
-    p.add_argument('--json', metavar='FILE|-', help="also write the metrology report JSON ('-': "
-                                                    'stdout)')
+    p.add_argument('--json', metavar='FILE|-', help='also write the metrology report JSON (- for '
+                                                    'standard output)')
     p.add_argument('--rate', type=non_negative, metavar='HZ',
                    help='samples/s of the simulator [1/s] (default: config/bench_sim.yaml)')
     p.add_argument('--timeout', type=float, default=0.0, metavar='S',

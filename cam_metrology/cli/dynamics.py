@@ -50,7 +50,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                    help='with a TABLE: the valve train, from a scene (its valve_train '
                         'block) or a YAML holding only that block')
     add_table_units(p)
-    p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the JSON result (- for standard output)')
     p.add_argument('--plot', metavar='DIR',
                    help='write <feature>.png (valve lift and contact force) to DIR')
     p.add_argument('--lobe', metavar='ID', dest='feature',

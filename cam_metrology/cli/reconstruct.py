@@ -37,7 +37,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument('input', metavar='BAG|TABLE',
                    help='rosbag2 directory (or .mcap), CSV table or gauge profile file')
     add_table_units(p)
-    p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the JSON result (- for standard output)')
     p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
     p.add_argument('--nominal', metavar='FILE',
                    help='write the reconstructed lift of --lobe (or the only lobe) as a '

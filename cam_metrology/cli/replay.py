@@ -31,11 +31,9 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                         '(on the busiest topic, the samples) or NODE:/topic; "none" for no '
                         'node (default: metrology recorder)')
     p.add_argument('--wait-subscribers', type=count, default=1, metavar='N',
-                   help='also at least this many subscriptions on the busiest topic '
-                        '(default 1)')
+                   help='also at least this many subscriptions on the busiest topic (default 1)')
     p.add_argument('--match-timeout', type=non_negative, default=10.0, metavar='S',
-                   help='time to wait for them [s] (default 10; then exit 4, nothing '
-                        'replayed)')
+                   help='time to wait for them [s] (default 10; then exit 4, nothing replayed)')
     p.add_argument('--start-anyway', action='store_true',
                    help='at the deadline replay anyway (with a warning naming who is missing)')
     return p

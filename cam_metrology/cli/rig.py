@@ -48,7 +48,8 @@ def register(subparsers: Any) -> None:
         q.add_argument('--scene', metavar='SCENE',
                        help='scene YAML with lobes, valve_train and rig: {lobe, '
                             'nose_angle_deg} (default: the scene recorded in the bag)')
-        q.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
+        q.add_argument('--json', metavar='FILE|-',
+                       help='write the JSON result (- for standard output)')
         q.add_argument('--plot', metavar='DIR',
                        help='write <run>.png (overlay and residual) to DIR')
         add_report(q, 'write an HTML report with the plots', aliases=('--html',))

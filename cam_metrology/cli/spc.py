@@ -34,7 +34,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
                     'gauge R&R study (--grr, ANOVA method).')
     p.add_argument('table', metavar='TABLE',
                    help='results table (.parquet or .csv) of cam-bench batch')
-    p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the results as JSON (- for standard output)')
     p.add_argument('--report', metavar='FILE.html', help='self-contained HTML report')
     p.add_argument('--quantity', action='append', metavar='NAME', help='column to chart '
                    '(repeatable; default angle_deg and phase_error_deg)')

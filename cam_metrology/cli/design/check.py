@@ -19,7 +19,8 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                                    'rho1, Hertz stress, equivalent mass, separation, oil film, '
                                    'valve-piston clearance. Input format: docs/lift_laws.md.')
     p.add_argument('file', metavar='FILE', help='YAML check input, or a scene file')
-    p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the results as JSON (- for standard output)')
     p.add_argument('--lobe', metavar='ID', help='with a scene file: the lobe id (default '
                                                 'the first lobe)')
     p.add_argument('--rpm', type=float, help='camshaft speed [rpm] (overrides the file)')

@@ -24,8 +24,10 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                                    'of alpha [deg], h [mm], h\' [mm/rad], h\'\' [mm/rad^2], '
                                    'h\'\'\' [mm/rad^3].')
     p.add_argument('file', metavar='FILE', help='YAML file with the lift law (or a scene file)')
-    p.add_argument('--csv', metavar='FILE|-', help='write the table as CSV')
-    p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
+    p.add_argument('--csv', metavar='FILE|-',
+                   help='write the table as CSV (- for standard output)')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write summary and table as JSON (- for standard output)')
     p.add_argument('--plot', metavar='PNG', help='plot h, h\', h\'\' and h\'\'\' to a PNG')
     p.add_argument('--nominal', metavar='FILE', help='write a gauge nominal-profile file '
                    '(-180..180 deg every --nominal-step-deg; with a scene: the lift as seen '

@@ -26,7 +26,7 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                     'with an optimum, 1 when the SPEC is infeasible, 2 for a bad SPEC.')
     p.add_argument('spec', metavar='SPEC', help='optimisation spec (YAML)')
     p.add_argument('--json', metavar='FILE|-', help='write the full result as JSON '
-                   '(- for stdout) instead of the summary')
+                   '(- for standard output) instead of the summary')
     p.add_argument('--plot', metavar='DIR', help='PNG of the start and optimal h, h\'\' '
                    '(and the Pareto front with --pareto)')
     p.add_argument('--pareto', metavar='A,B', help='trace the trade-off between two '

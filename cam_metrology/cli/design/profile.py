@@ -40,8 +40,10 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p.add_argument('file', metavar='FILE',
                    help='YAML with a lift law (lift_law: {family: ...} or alpha/h table), or '
                         'a scene with --lobe')
-    p.add_argument('--csv', metavar='FILE|-', help='write the per-sample table as CSV')
-    p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
+    p.add_argument('--csv', metavar='FILE|-',
+                   help='write the per-sample table as CSV (- for standard output)')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write summary and table as JSON (- for standard output)')
     p.add_argument('--plot', metavar='PNG', help='plot profile, curvature and pressure angle')
     p.add_argument('--lobe', metavar='ID',
                    help='FILE is a scene: use this lobe (its lift, design follower and the '

@@ -14,7 +14,8 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p = sub.add_parser('rocker', help='CG rocker optimum dimension synthesis (Song et al.)',
                        description='Optimum frame length L of a rocker follower cam (S1, '
                                    'docs/lift_laws.md, erratum 1 applied). Lengths in m.')
-    p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the results as JSON (- for standard output)')
     p.add_argument('--arm-length', type=float, required=True, help='rocker length l [m]')
     p.add_argument('--base-radius', type=float, required=True, help='base radius R_b [m]')
     p.add_argument('--max-swing-deg', type=float, required=True, help='max swing [deg]')

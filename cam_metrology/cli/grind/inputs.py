@@ -23,8 +23,10 @@ def add_file(p: argparse.ArgumentParser) -> None:
 
 def add_outputs(p: argparse.ArgumentParser) -> None:
     """``--csv`` and ``--json`` of the table."""
-    p.add_argument('--csv', metavar='FILE|-', help='write the table as CSV')
-    p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
+    p.add_argument('--csv', metavar='FILE|-',
+                   help='write the table as CSV (- for standard output)')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write summary and table as JSON (- for standard output)')
 
 
 def add_lobe_base(p: argparse.ArgumentParser) -> None:

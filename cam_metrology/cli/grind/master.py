@@ -24,7 +24,8 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     add_file(p)
     add_outputs(p)
     p.add_argument('--profile-csv', metavar='FILE|-',
-                   help='write the master profile (x, y, pitch, rho, undercut) as CSV')
+                   help='write the master profile (x, y, pitch, rho, undercut) as CSV (- for '
+                        'standard output)')
     add_lobe_base(p)
     add_wheel_step(p)
     return p
