@@ -19,7 +19,6 @@ RUN: a CSV file (header ``time_s,cam_angle_rad,valve_lift_m[,valve_velocity_m_pe
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -109,7 +108,6 @@ def _emit(outcome: Any, args: argparse.Namespace, title: str) -> None:
     from cam_metrology.inputs.files import write_output
 
     result = outcome.result
-    text = json.dumps(result, indent=1, allow_nan=False)
     if args.plot:
         from cam_metrology.rig.report import write_plots
         write_plots(outcome.curves, args.plot)
@@ -117,7 +115,8 @@ def _emit(outcome: Any, args: argparse.Namespace, title: str) -> None:
         from cam_metrology.rig.report import html_report
         write_output(args.report, html_report(result, outcome.curves, title), '--report')
     if args.json:
-        write_output(args.json, text + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, result, '--json')
     for w in result.get('warnings', []):
         print(f'warning: {w}', file=sys.stderr)
     if args.json == '-':
