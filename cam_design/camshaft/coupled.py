@@ -286,11 +286,11 @@ def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
     history: list[float] = []
     best: tuple[float, Response | None, Response, NDArray[np.float64]] | None = None
     damped = False
-    opts = dict(step_deg=step_deg, max_revolutions=max_revolutions)
     while True:
         it += 1
         used = response
-        ps = _load_pass(lobes, spec, rpm, N, used, station, shares, full=False, **opts)
+        ps = _load_pass(lobes, spec, rpm, N, used, station, shares, step_deg=step_deg,
+                        max_revolutions=max_revolutions, full=False)
         new = respond(shaft, ps.loads, omega, ps.breaks, rec)
         resid = new.psi[lobe_rows] - (0.0 if used is None else used.psi[lobe_rows])
         change = float(np.max(np.abs(resid)))
@@ -308,7 +308,8 @@ def run_camshaft(lobes: list[LobeOnShaft], spec: CamshaftSpec, rpm: float, *,
             _, used, new, resid = best
         response = mixer.next(used, new, resid)
     if len(ps.runs) < len(lobes):       # the report fields of the trains on this twist
-        ps = _load_pass(lobes, spec, rpm, N, used, station, shares, full=True, **opts)
+        ps = _load_pass(lobes, spec, rpm, N, used, station, shares, step_deg=step_deg,
+                        max_revolutions=max_revolutions, full=True)
     response = new
     friction = ps.loads - ps.contact
     every = np.concatenate(ps.breaks)
