@@ -175,6 +175,12 @@ def table_quantum(lift: ArrayLike) -> float:
     return float(max(quantisation_step(v), INCH * quantisation_step(v / INCH)))
 
 
+def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """(first index, index after the last) of each run of True in ``mask``."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
 def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: float
            ) -> tuple[float, bool]:
     """(offset [rad], periodic) of the rows (sorted, in (-pi, pi]): offset 0 unless the
@@ -188,19 +194,16 @@ def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: f
     n = a.size
     if base.all():
         return 0.0, False
-    # the cyclic runs of base rows; the longest one's middle goes to the seam
+    # the cyclic runs of base rows (walked from a lobe row, so none wraps); the longest
+    # one's middle goes to the seam
     start = int(np.flatnonzero(~base)[0])
+    first, last = _runs(np.roll(base, -start))
     best, best_len = None, -1.0
-    run: list[int] = []
-    for k in [int((i + start) % n) for i in range(n + 1)]:
-        if base[k] and len(run) < n:
-            run.append(k)
-            continue
-        if run:
-            span = (a[run[-1]] - a[run[0]]) % TWO_PI
-            if span > best_len:
-                best, best_len = (run[0], run[-1]), span
-        run = []
+    if first.size:
+        first, last = (first + start) % n, (last - 1 + start) % n
+        spans = (a[last] - a[first]) % TWO_PI
+        k = int(np.argmax(spans))
+        best, best_len = (int(first[k]), int(last[k])), float(spans[k])
     if best is None or best_len < math.radians(BASE_MIN_DEG):
         return float(wrap_pi(a[int(np.argmin(h))] + math.pi)), True   # an eccentric
     if base[0] and base[-1]:
@@ -564,7 +567,8 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
     lift = law(grid, 0)
     top = float(np.max(lift))
     # between rows a lobe rises above its highest row by up to |h''| (step/2)^2 / 2
-    rise = 0.125 * float(np.max(np.abs(law(grid, 2)))) * info.step ** 2
+    acc = float(np.max(np.abs(law(grid, 2))))
+    rise = 0.125 * acc * info.step ** 2
     allowed = float(np.max(h)) + 2.0 * rise + max(3.0 * info.sigma, info.quantum, 1e-6)
     if top > allowed:
         raise InputError(info.key, f'max lift {top * 1e3:.4f} mm from rows up to '
@@ -576,7 +580,6 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
                    'circle: the rows are too coarse for their shape')
     on = np.flatnonzero(lift > 0.01 * top)
     half = 0.5 * float(grid[on[-1]] - grid[on[0]]) if on.size > 1 else math.pi
-    acc = float(np.max(np.abs(law(grid, 2))))
     plausible = ACC_PLAUSIBLE * 2.0 * top / max(half, 1e-6) ** 2
     if acc > plausible:
         raise InputError(info.key, f"peak acceleration {acc:.3g} m/rad^2",
