@@ -22,6 +22,18 @@ computed at every quarter step at once (a correlation of the residual with the h
 the largest T above 2 ln(4 N / alpha) is added, every junction's angle is refined to a
 fraction of a step by minimising the penalised residual, the level is chosen again,
 and the search repeats. Angles in rad, lifts in m.
+
+Cost. A large T often marks the smoothing bias of a strongly curved, smooth lobe
+rather than a junction, and the GCV test refuses it; the search is built so that
+refusals are cheap. One ``LevelSystem`` per level keeps the banded factor, R y and
+the hinge columns (g, R g) it has solved for: the hinges are a low-rank addition to
+the smoother's system, so a fit with other junctions at the same level costs only the
+new columns' solves and a dense system of size 2J. The scan is one real FFT of the
+residual against cached spectra of the hinges (a correlation for right-opening and a
+convolution for left-opening junctions) and is reused while candidates are refused.
+A candidate is first scored at the present level and unrefined angle (a pre-test);
+only one within ``PRETEST_SLACK`` of the bar gets its angle refined and the level
+chosen again, and the search stops after ``MAX_REFUSED`` refusals in a row.
 """
 from __future__ import annotations
 
@@ -58,11 +70,9 @@ MAX_REFUSED = 3
 PRETEST_SLACK = 42.0
 #: positions tried per grid step by the scan
 SCAN_OFFSETS = (0.0, 0.25, 0.5, 0.75)
-#: the level search: steps [decades] downhill from the start, at most this many, then
-#: golden-section iterations on the bracket
-LEVEL_STEP = 0.5
-LEVEL_REACH = 4
-LEVEL_ITERATIONS = 7
+#: the level search: steps [decades] downhill from the start, at most this many
+LEVEL_STEP = 0.25
+LEVEL_REACH = 8
 
 
 def third_difference_gram(m: int) -> NDArray[np.float64]:
@@ -188,10 +198,19 @@ def _residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float
     return _deflate(_smooth(lam_d * pg, lam_d))
 
 
+@lru_cache(maxsize=256)
+def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
+    """(n, 2): g2 and g3 of one junction at node position ``tau``, opening on its
+    longer side (node units; read-only, cached: the level search asks for the same
+    junctions at every level)."""
+    g = hinge_values(side_of(tau, n) * (np.arange(n, dtype=float) - tau), taper_nodes(n))
+    g.setflags(write=False)
+    return g
+
+
 def _hinge_columns(n: int, taus: list[float]) -> NDArray[np.float64]:
     """(n, 2J): g2 and g3 of each junction, opening on its longer side (node units)."""
-    nodes = np.arange(n, dtype=float)
-    cols = [hinge_values(side_of(t, n) * (nodes - t), taper_nodes(n)) for t in taus]
+    cols = [_hinge_pair(n, float(t)) for t in taus]
     return np.concatenate(cols, axis=1) if cols else np.zeros((n, 0))
 
 
@@ -290,28 +309,29 @@ def golden_minimum(fun, a: float, b: float, iterations: int) -> float:
 def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
                  lam0: float) -> float:
     """The GCV-minimising discrete level with these hinges, searched around ``lam0``:
-    downhill from log10(lam0) in half decades (at most two decades either way), then
-    golden section on the bracket (GCV is unimodal in log lam near its minimum)."""
+    downhill from log10(lam0) in steps of ``LEVEL_STEP`` decades (at most
+    ``LEVEL_REACH`` either way) to a bracketing triple, then the vertex of the parabola
+    through it (GCV is smooth and unimodal in log lam near its minimum)."""
     c0 = math.log10(max(lam0, 1e-6))
 
     def score(v: float) -> float:
         return LevelSystem(values, 10.0 ** v).gcv(taus, gamma)
 
-    seen = {c0: score(c0)}
-    for direction in (1.0, -1.0):
-        best = c0
-        for k in range(1, LEVEL_REACH + 1):
-            v = c0 + direction * LEVEL_STEP * k
-            seen[v] = score(v)
-            if seen[v] >= seen[best]:
-                break
-            best = v
-        if best != c0:
+    h = LEVEL_STEP
+    seen = {c0 - h: score(c0 - h), c0: score(c0), c0 + h: score(c0 + h)}
+    direction = -1.0 if seen[c0 - h] < seen[c0 + h] else 1.0
+    best = c0
+    for k in range(1, LEVEL_REACH + 1):
+        if seen[best + direction * h] >= seen[best]:
             break
-    grid = sorted(seen)
-    i = int(np.argmin([seen[v] for v in grid]))
-    a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
-    return 10.0 ** golden_minimum(score, a, b, LEVEL_ITERATIONS)
+        best += direction * h
+        if best + direction * h not in seen:
+            seen[best + direction * h] = score(best + direction * h)
+    a, b, c = seen[best - h], seen[best], seen[best + h]
+    curve = a - 2.0 * b + c
+    if not curve > 0.0:
+        return 10.0 ** best
+    return 10.0 ** (best + 0.5 * h * (a - c) / curve)
 
 
 @lru_cache(maxsize=64)
@@ -475,8 +495,6 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
             gain = n * math.log(base / trial_system.gcv(trial, gamma))
         else:
             trial, lam_trial, gain = taus + [at], lam, quick
-        if _TRACE is not None:
-            _TRACE.append((n, float(stat[i]), quick, gain, lam_trial / lam))
         # nor if the rest of the fit has to get much rougher for it (a step of the
         # lift itself, which a step of h'' only imitates)
         # nor if its best angle is not within the row the scan pointed at (the bound
@@ -496,9 +514,6 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
     if not taus:
         return None
     return _fit_result(grid, taus, lam, system.fit(taus), scores)
-
-
-_TRACE: list | None = None
 
 
 def _refine(system: LevelSystem, taus: list[float]) -> list[float]:

@@ -248,8 +248,6 @@ REBOUND_L1_FACTOR = _rebound_l1_factor()
 EXACT_NOISE_REL = 1e-6
 #: table step [rad] above which no row is taken for an outlier (only reported)
 VERY_COARSE_RAD = math.radians(4.5)
-#: table step [rad] above which no junction of h'' is sought
-JUNCTION_MAX_STEP = float(__import__('os').environ.get('S22A_JMAX', '4.5')) * math.pi / 180
 #: on such a table an outlier (a typing error) also misses by more than this multiple of
 #: the rebound floor (5 x 2e-5 = 1e-4 of the lift range: 0.8 um on an 8 mm lobe)
 EXACT_FLOOR = 5.0
@@ -749,7 +747,12 @@ def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None =
 
 def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                  opt: SplineOptions, fairing: Fairing | None) -> Reconstruction:
-    data = alpha if isinstance(alpha, CleanSamples) else clean_samples(alpha, lift)
+    if isinstance(alpha, CleanSamples):
+        data = alpha
+    elif lift is None:
+        raise InputError('lift', 'missing', 'lifts [m] beside the angles')
+    else:
+        data = clean_samples(alpha, lift)
     x, y0 = data.alpha, data.lift
     warnings: list[str] = []
     notes: list[str] = list(data.notes)
@@ -826,7 +829,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     # step of h'' from a steep smooth change (the cards and jump speeds of 5 deg, 0.01 mm
     # tables got worse with them)
     if (opt.junctions and uniform and not exact and opt.smoothing is None
-            and step <= JUNCTION_MAX_STEP):
+            and step <= VERY_COARSE_RAD):
         # the search compares GCV scores: it starts from the plain GCV level
         start = choice if opt.criterion == 'gcv' else choose_smoothing(
             values, step, criterion='gcv', gamma=gamma, sigma_floor=floor)
@@ -925,11 +928,16 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         notes.append("h'' jumps at " + ', '.join(
             f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2)'
             for t, j in zip(spline.junctions.angles, spline.junctions.jumps)))
+    final = spline
+
+    def evaluate(a: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
+        return np.asarray(final(np.asarray(a, dtype=float), nu), dtype=float)
+
     rec = Reconstruction(
         method='spline', alpha=out, lift=lift_out, velocity=spline(out, 1),
         acceleration=acc, jerk=spline(out, 3), data_alpha=x[kept],
         residual=y0[kept] - fit, parameter=parameter, why=why, sigma=fair.sigma,
-        evaluate=lambda a, nu=0: spline(np.asarray(a, dtype=float), nu),
+        evaluate=evaluate,
         outliers_alpha=x[outlier], warnings=warnings, notes=notes)
     rec.outlier_mask = outlier
     rec.check_residuals()
