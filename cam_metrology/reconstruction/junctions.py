@@ -313,25 +313,22 @@ def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
     ``LEVEL_REACH`` either way) to a bracketing triple, then the vertex of the parabola
     through it (GCV is smooth and unimodal in log lam near its minimum)."""
     c0 = math.log10(max(lam0, 1e-6))
-
-    def score(v: float) -> float:
-        return LevelSystem(values, 10.0 ** v).gcv(taus, gamma)
-
     h = LEVEL_STEP
-    seen = {c0 - h: score(c0 - h), c0: score(c0), c0 + h: score(c0 + h)}
-    direction = -1.0 if seen[c0 - h] < seen[c0 + h] else 1.0
-    best = c0
-    for k in range(1, LEVEL_REACH + 1):
-        if seen[best + direction * h] >= seen[best]:
-            break
-        best += direction * h
-        if best + direction * h not in seen:
-            seen[best + direction * h] = score(best + direction * h)
-    a, b, c = seen[best - h], seen[best], seen[best + h]
+    seen: dict[int, float] = {}
+
+    def score(k: int) -> float:         # GCV at c0 + k h, each level computed once
+        if k not in seen:
+            seen[k] = LevelSystem(values, 10.0 ** (c0 + k * h)).gcv(taus, gamma)
+        return seen[k]
+
+    d = -1 if score(-1) < score(1) else 1
+    best = 0
+    while abs(best) < LEVEL_REACH and score(best + d) < score(best):
+        best += d
+    a, b, c = score(best - 1), score(best), score(best + 1)
     curve = a - 2.0 * b + c
-    if not curve > 0.0:
-        return 10.0 ** best
-    return 10.0 ** (best + 0.5 * h * (a - c) / curve)
+    shift = 0.5 * (a - c) / curve if curve > 0.0 else 0.0
+    return 10.0 ** (c0 + (best + shift) * h)
 
 
 @lru_cache(maxsize=64)
