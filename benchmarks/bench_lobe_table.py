@@ -97,7 +97,10 @@ def main() -> None:
     for step, label in ((5.0, '5 deg'), (0.1, '0.1 deg')):
         deg = np.arange(-180.0, 180.0, step)
         exact = np.asarray(law(deg * DEG), dtype=float)
-        noisy = exact + np.random.default_rng(7).normal(0.0, NOISE, exact.size)
+        # clipped at 0 like a gauge zeroed on the seated base circle (a scene refuses
+        # lifts below the base circle)
+        noisy = np.maximum(exact + np.random.default_rng(7).normal(0.0, NOISE, exact.size),
+                           0.0)
         for name, lift in ((f'{label} exact', exact),
                            (f'{label} 0.01 mm', np.round(exact * 1e5) / 1e5),
                            (f'{label} 0.5 um noise', noisy)):
