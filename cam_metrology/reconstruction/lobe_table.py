@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -42,6 +43,9 @@ from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.cam_input import JetTableLift
 from cam_metrology.reconstruction.samples import clean_samples, other_lobes_warning, wrap_pi
+
+if TYPE_CHECKING:
+    from cam_metrology.reconstruction.spline import Fairing
 
 TWO_PI = 2.0 * math.pi
 #: largest step [deg] of the grid on which the lobe's jets are tabulated for the
@@ -223,20 +227,22 @@ def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool)
     return make_interp_spline(b, h, k=5)
 
 
-def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> float:
+def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[float, Fairing]:
     """The scatter [m] of the rows about a smooth curve: the engine's noise estimate
     less the part of it that is the lobe's shape. The shape's share is judged from the
     estimate of every second row: noise per row does not grow with the step, the misfit
     of a smooth shape grows as a power of it (at least ``SHAPE_GROWTH`` times when the
-    step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2."""
+    step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2.
+    Returns (scatter, the engine's fairing of all the rows, for the engine to reuse)."""
     from cam_metrology.reconstruction.spline import rebound_fairing
 
-    full = float(rebound_fairing(b, h).sigma)
+    fairing = rebound_fairing(b, h)
+    full = float(fairing.sigma)
     if b.size < 24 or full <= 0.0:
-        return max(full, 0.0)
+        return max(full, 0.0), fairing
     half = min(float(rebound_fairing(b[0::2], h[0::2]).sigma),
                float(rebound_fairing(b[1::2], h[1::2]).sigma))
-    return math.sqrt(max(full ** 2 - (half / SHAPE_GROWTH) ** 2, 0.0))
+    return math.sqrt(max(full ** 2 - (half / SHAPE_GROWTH) ** 2, 0.0)), fairing
 
 
 def _grid_step(step: float) -> float:
@@ -327,7 +333,12 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     q = table_quantum(h)
     sigma_q = q / math.sqrt(12.0)
     span = float(np.ptp(h))
-    scatter = noise = _scatter(a0, h) if noise is None else float(noise)
+    fairing: Fairing | None = None
+    if noise is None:
+        scatter, fairing = _scatter(a0, h)
+        noise = scatter
+    else:
+        scatter = noise = float(noise)
     offset, periodic = _frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
     b = wrap_pi(a0 - offset) if offset else a0
     if periodic:   # the turn [-pi, pi) from the lowest row (a closing row merged)
@@ -379,7 +390,10 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             # the engine works in (-pi, pi]: a part-turn table beyond it (118..242 deg)
             # is fitted about its own middle and moved back
             mid = 0.5 * (float(b[0]) + float(b[-1]))
-            rec = reconstruct_spline(b - mid, h, SplineOptions(criterion='risk', sigma=known))
+            # the rows' own fairing (estimated noise, rows in their order) is reused
+            reuse = fairing if known is None and not offset else None
+            rec = reconstruct_spline(b - mid, h, SplineOptions(criterion='risk', sigma=known),
+                                     fairing=reuse)
             curve = _Evaluated(rec.evaluate, mid)
         sigma = max(float(rec.sigma), sigma_q)
         why += f'; smoothed by the reconstruction spline ({rec.why})'
