@@ -390,10 +390,13 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             # the engine works in (-pi, pi]: a part-turn table beyond it (118..242 deg)
             # is fitted about its own middle and moved back
             mid = 0.5 * (float(b[0]) + float(b[-1]))
-            # the rows' own fairing (estimated noise, rows in their order) is reused
-            reuse = fairing if known is None and not offset else None
-            rec = reconstruct_spline(b - mid, h, SplineOptions(criterion='risk', sigma=known),
-                                     fairing=reuse)
+            rows = clean_samples(b - mid, h, key=key, min_points=6)
+            # the fairing the scatter estimate made is the engine's own when the engine
+            # gets the same rows (none merged or re-ordered) with the estimated noise
+            same = (fairing is not None and known is None and rows.alpha.size == b.size
+                    and bool(np.all(rows.lift == h)))
+            rec = reconstruct_spline(rows, options=SplineOptions(criterion='risk', sigma=known),
+                                     fairing=fairing if same else None)
             curve = _Evaluated(rec.evaluate, mid)
         sigma = max(float(rec.sigma), sigma_q)
         why += f'; smoothed by the reconstruction spline ({rec.why})'
