@@ -198,7 +198,7 @@ def _residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float
     return _deflate(_smooth(lam_d * pg, lam_d))
 
 
-@lru_cache(maxsize=256)
+@lru_cache(maxsize=128)
 def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
     """(n, 2): g2 and g3 of one junction at node position ``tau``, opening on its
     longer side (node units; read-only, cached: the level search asks for the same
@@ -479,9 +479,10 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         if i < 0 or stat[i] < threshold:
             break
         at = float(pos[i])
-        # pre-test at the present level: a level chosen again with the junction lowers
-        # the score by more, but (measured on the accuracy benchmark) never by
-        # PRETEST_SLACK more, so a junction far below the bar is refused without it
+        # pre-test at the present level and the scan's angle: refining the angle and
+        # choosing the level again lowers the score by more, but on the accuracy
+        # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
+        # far below the bar is refused without either
         quick = n * math.log(base / system.gcv(taus + [at], gamma))
         if quick >= GCV_GAIN - PRETEST_SLACK:
             trial = _refine(system, taus + [at])
