@@ -71,8 +71,10 @@ PRETEST_SLACK = 42.0
 #: positions tried per grid step by the scan
 SCAN_OFFSETS = (0.0, 0.25, 0.5, 0.75)
 #: the level search: steps [decades] downhill from the start, at most this many
-LEVEL_STEP = 0.25
-LEVEL_REACH = 8
+LEVEL_STEP = 0.5
+LEVEL_REACH = 4
+#: golden-section iterations refining a junction's angle over +-1 row (to 0.07 row)
+REFINE_ITERATIONS = 7
 
 
 def third_difference_gram(m: int) -> NDArray[np.float64]:
@@ -519,7 +521,8 @@ def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
     residual, the others held (the level's system keeps their columns)."""
     last = taus[-1]
     lo, hi = max(last - 1.0, 1.0), min(last + 1.0, system.n - 2.0)
-    best = golden_minimum(lambda t: system.fit(taus[:-1] + [t]).objective, lo, hi, 10)
+    best = golden_minimum(lambda t: system.fit(taus[:-1] + [t]).objective, lo, hi,
+                          REFINE_ITERATIONS)
     return taus[:-1] + [best]
 
 
