@@ -25,7 +25,7 @@ from cam_design import cam_card as cc
 from cam_design.errors import InputError
 from cam_design.lift_laws.registry import from_spec
 from cam_metrology.cli import main
-from cam_metrology.reconstruction.lobe_table import lobe_law
+from cam_design.lift_table.lobe_table import lobe_law
 from cam_metrology.reconstruction.synthetic import PolynomialLobe
 
 D = math.pi / 180.0

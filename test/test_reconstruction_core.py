@@ -210,7 +210,7 @@ def test_full_turn_spline_converts_like_the_harmonic(lobe_id, seed):
     converted now: both methods reach the design follower, to noise level."""
     from cam_design.lift_laws import TabulatedLift
     from cam_metrology.reconstruction.profile import Conversion, lobe_section, reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_design.lift_table.samples import LiftTable
 
     scene = parse_scene(SCENE_TEXT)
     lobe = scene.lobe(lobe_id)

@@ -19,9 +19,10 @@ from scipy.interpolate import make_smoothing_spline
 
 from cam_metrology.cli import main
 from cam_metrology.reconstruction.profile import reconstruct_table
-from cam_metrology.reconstruction.samples import LiftTable, find_steps, read_table_file
+from cam_design.lift_table.samples import LiftTable, find_steps
+from cam_metrology.inputs.lift_tables import read_table_file
 from cam_metrology.reconstruction.synthetic import PolynomialLobe, simulate
-from cam_metrology.reconstruction.truth_lobes import CircularArcCam
+from cam_design.lift_table.truth_lobes import CircularArcCam
 
 DEG = math.pi / 180.0
 ROOT = Path(__file__).resolve().parents[1]

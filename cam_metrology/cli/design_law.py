@@ -129,7 +129,7 @@ def cmd_law(args: argparse.Namespace) -> int:
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_metrology.reconstruction.lobe_routes import law_from_spec
+    from cam_design.lift_table.lobe_routes import law_from_spec
 
     spec, key = law_spec(load_yaml(args.file), args.file, args.lobe)
     law = law_from_spec(spec, key)
@@ -214,7 +214,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     """Run the §2.1 checks."""
     from cam_design.checks import run_checks
     from cam_design.errors import InputError
-    from cam_metrology.reconstruction.lobe_routes import law_from_spec
+    from cam_design.lift_table.lobe_routes import law_from_spec
 
     doc = load_yaml(args.file)
     if not isinstance(doc, dict):

@@ -76,7 +76,7 @@ def load_law(doc: Any, path: str) -> Any:
 
     from cam_design.errors import InputError
     from cam_metrology.cli.design_law import law_spec
-    from cam_metrology.reconstruction.lobe_routes import law_from_spec
+    from cam_design.lift_table.lobe_routes import law_from_spec
 
     if isinstance(doc, dict):
         table = doc.get('lift', doc)

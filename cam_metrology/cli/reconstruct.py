@@ -160,7 +160,7 @@ def lobe_entry(table: Any, key: str) -> dict[str, Any]:
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_design.lift_table.lobe_table import lobe_law
 
     try:
         law = lobe_law(table.alpha, table.lift, key=key, allow_steps=True)
@@ -234,7 +234,7 @@ def _reject_table_options(args: argparse.Namespace) -> None:
 
 
 def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, Any], list]:
-    from cam_metrology.reconstruction.samples import read_table_file
+    from cam_metrology.inputs.lift_tables import read_table_file
 
     table = read_table_file(path, angle_unit=args.angle_unit or 'deg',
                             length_unit=args.length_unit or 'mm')
@@ -242,7 +242,7 @@ def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, A
         from dataclasses import replace
         table = replace(table, feature=args.feature)
     if args.center_nose:
-        from cam_metrology.reconstruction.samples import centre_on_nose
+        from cam_design.lift_table.samples import centre_on_nose
         table, _ = centre_on_nose(table)
     kind, radius = table.follower or ('flat', 0.0)
     if args.radius is not None:   # 12.5 meant as mm is a 12.5 m roller: refuse it
@@ -257,7 +257,7 @@ def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, A
         kind, radius = 'roller', args.radius
     from cam_design.follower import Follower
     Follower(kind, radius)   # validates
-    from cam_metrology.reconstruction.samples import clean_samples
+    from cam_design.lift_table.samples import clean_samples
     clean_samples(table.alpha, table.lift, key=path.name)   # too few rows: InputError
     core.results.clear()
     core.process_table(table, 0, note='table input: lift as seen by the measuring '

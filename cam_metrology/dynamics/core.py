@@ -74,7 +74,7 @@ def law_from_profile(cols: tuple[str, ...], data: np.ndarray, key: str) -> JetTa
     if missing:
         raise InputError(f'{key}.columns', ','.join(cols), ','.join(PROFILE_COLUMNS))
     idx = [cols.index(c) for c in PROFILE_COLUMNS]
-    from cam_metrology.reconstruction.lobe_table import lobe_from_jets
+    from cam_design.lift_table.lobe_table import lobe_from_jets
 
     return lobe_from_jets(data[:, idx[0]], data[:, idx[1:]].T, key=key)
 

@@ -20,13 +20,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
+from cam_design.lift_table.result import Reconstruction, per_second
+from cam_design.lift_table.samples import (LiftTable, base_circle_warning, clean_samples,
+                                           find_steps, nose_warning, other_lobes_warning,
+                                           step_warnings)
+from cam_design.lift_table.spline import (SplineOptions, rebound_fairing,
+                                          reconstruct_spline)
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
-from cam_metrology.reconstruction.result import Reconstruction, per_second
-from cam_metrology.reconstruction.samples import (LiftTable, clean_samples, find_steps,
-                                                  base_circle_warning, nose_warning,
-                                                  other_lobes_warning, step_warnings)
-from cam_metrology.reconstruction.spline import (SplineOptions, rebound_fairing,
-                                                 reconstruct_spline)
 
 METHODS = ('spline', 'harmonic')
 Law = Callable[..., NDArray[np.float64]]
@@ -179,7 +179,7 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         # dual-peak EGR cam has more than the single lobe's two)
         from dataclasses import replace
 
-        from cam_metrology.reconstruction.result import sign_changes
+        from cam_design.lift_table.result import sign_changes
         grid = np.linspace(data.alpha[0], data.alpha[-1], 4001)
         acc = np.asarray(design(grid, 2), dtype=float)
         lift = np.asarray(design(grid, 0), dtype=float)
@@ -204,7 +204,7 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
                                    other_lobes_warning(data.alpha, data.lift)) if w]
     lobe = None
     if design is None:   # a table on its own: what its lobe law says of the same rows
-        from cam_metrology.reconstruction.lobe_routes import lobe_warnings
+        from cam_design.lift_table.lobe_routes import lobe_warnings
         lobe, said = lobe_warnings(table.alpha, table.lift, key=table.feature)
         table_warnings += [w for w in said if w not in table_warnings
                            and not w.startswith('the table holds')]
@@ -250,7 +250,7 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         rec.notes = list(table.notes) + rec.notes + table_notes
         rec.warnings = table_warnings + rec.warnings
         if lobe is not None:
-            from cam_metrology.reconstruction.lobe_routes import beyond_rows
+            from cam_design.lift_table.lobe_routes import beyond_rows
             gap = beyond_rows(lobe, rec.lift, data.lift)
             if gap:
                 rec.warnings.append(gap)
@@ -270,7 +270,7 @@ def check_options(spline: SplineOptions, harmonic: HarmonicOptions | None) -> No
     """Raise InputError for bad options before any data is touched."""
     from cam_design.errors import require_positive
     from cam_metrology.reconstruction.harmonic import check_harmonic_options
-    from cam_metrology.reconstruction.spline import CRITERIA
+    from cam_design.lift_table.spline import CRITERIA
 
     if spline.criterion not in CRITERIA:
         raise InputError('smoothing_criterion', spline.criterion, ' | '.join(CRITERIA))

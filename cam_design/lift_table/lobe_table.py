@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.cam_input import JetTableLift
-from cam_metrology.reconstruction.samples import clean_samples, other_lobes_warning, wrap_pi
+from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 
 TWO_PI = 2.0 * math.pi
 #: largest step [deg] of the grid on which the lobe's jets are tabulated for the
@@ -168,7 +168,7 @@ class TableLobe(LiftLaw):
 
 def table_quantum(lift: ArrayLike) -> float:
     """The rounding step q [m] of lifts [m] rounded in mm or in inches (0: not rounded)."""
-    from cam_metrology.reconstruction.spline import quantisation_step
+    from cam_design.lift_table.spline import quantisation_step
 
     v = np.asarray(lift, dtype=float)
     # both: an inch quantum in m is also a (much finer) whole multiple of 1e-8 m
@@ -226,7 +226,7 @@ def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> float:
     estimate of every second row: noise per row does not grow with the step, the misfit
     of a smooth shape grows as a power of it (at least ``SHAPE_GROWTH`` times when the
     step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2."""
-    from cam_metrology.reconstruction.spline import rebound_fairing
+    from cam_design.lift_table.spline import rebound_fairing
 
     full = float(rebound_fairing(b, h).sigma)
     if b.size < 24 or full <= 0.0:
@@ -293,8 +293,8 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     ``allow_steps`` (a cam card, whose events away from the step are still right; the
     note then names the step). ``noise`` [m]: the rows' noise when the caller knows it
     (a replica of a table with a drawn noise), instead of the estimate."""
-    from cam_metrology.reconstruction.samples import find_steps, step_warnings
-    from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
+    from cam_design.lift_table.samples import find_steps, step_warnings
+    from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 
     raw_a = np.asarray(alpha, dtype=float).reshape(-1)
     raw_h = np.asarray(lift, dtype=float).reshape(-1)
@@ -480,7 +480,7 @@ def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: floa
     repeated a quarter turn beyond each end (so the fit has no free end on the turn)
     and smoothed in the variable s = PERIODIC_SCALE x alpha; the curve undoes the
     change of variable (d^nu/dalpha^nu = PERIODIC_SCALE^nu d^nu/ds^nu)."""
-    from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
+    from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 
     pad = PERIODIC_PAD * TWO_PI
     x = np.concatenate([b[b >= b[-1] - pad] - TWO_PI, b, b[b <= b[0] + pad] + TWO_PI])
