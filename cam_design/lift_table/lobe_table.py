@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any, Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,6 +45,8 @@ from cam_design.valve_train.cam_input import JetTableLift
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 
 TWO_PI = 2.0 * math.pi
+#: a curve of the lobe frame: (alpha [rad], nu) -> nu-th derivative [m/rad^nu]
+Curve = Callable[[Any, int], Any]
 #: largest step [deg] of the grid on which the lobe's jets are tabulated for the
 #: degree-7 Hermite law (a divisor of the table step, so that every row is a node)
 GRID_DEG = 0.1
@@ -209,7 +212,7 @@ def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: f
     return float(wrap_pi(mid - math.pi)), False
 
 
-def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool):
+def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool) -> Any:
     """Quintic interpolating spline of the rows (periodic over the turn if asked)."""
     from scipy.interpolate import make_interp_spline
 
@@ -241,7 +244,7 @@ def _grid_step(step: float) -> float:
     return step / max(1, math.ceil(step / g - 1e-9))
 
 
-def _join(at: float, width: float, jets: NDArray[np.float64], side: int):
+def _join(at: float, width: float, jets: NDArray[np.float64], side: int) -> Any:
     """The degree-7 Hermite join from the base circle (all jets 0) to ``jets`` (4,) at
     ``at`` over ``width`` [rad]; side -1: before the lobe, +1: after it."""
     from scipy.interpolate import BPoly
@@ -252,7 +255,7 @@ def _join(at: float, width: float, jets: NDArray[np.float64], side: int):
     return BPoly.from_derivatives([at, at + width], [list(jets), zero])
 
 
-def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[np.float64],
+def _edge(curve: Curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[np.float64],
           top: int, tau: float, side: int, min_width: float) -> tuple[float, float, bool]:
     """(join point [rad], join width [rad], mid-lobe) on one side of the lobe: walk out
     from the top to the last grid point above ``tau``; the join ends on the first row
@@ -423,7 +426,7 @@ def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -
     return _build(_Evaluated(curve), a, h, info)
 
 
-def _build(curve, b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo
+def _build(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo
            ) -> TableLobe:
     """The TableLobe of ``curve`` (callable (x, nu)) fitted to rows ``b`` [rad], ``h``
     [m] in the lobe frame, by the lobe-end rule; checks filled into ``info``."""
@@ -475,7 +478,8 @@ PERIODIC_PAD = 0.25
 PERIODIC_SCALE = 0.6
 
 
-def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: float | None):
+def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: float | None
+                     ) -> tuple[Any, Curve]:
     """(Reconstruction, curve) of a whole-turn table without a base circle: the rows
     repeated a quarter turn beyond each end (so the fit has no free end on the turn)
     and smoothed in the variable s = PERIODIC_SCALE x alpha; the curve undoes the
@@ -491,7 +495,7 @@ def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: floa
                              SplineOptions(criterion='risk', sigma=sigma,
                                            expected_sign_changes=None))
 
-    def curve(a, nu: int = 0):
+    def curve(a: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
         s = k * (np.asarray(a, dtype=float) - centre)
         return np.asarray(rec.evaluate(s, nu), dtype=float) * k ** nu
 
@@ -502,15 +506,15 @@ class _Evaluated:
     """A Reconstruction's ``evaluate`` (fitted in angles less ``shift`` [rad]) as
     ``curve(x, nu)`` in the table's angles."""
 
-    def __init__(self, evaluate, shift: float = 0.0) -> None:
+    def __init__(self, evaluate: Curve, shift: float = 0.0) -> None:
         self._f = evaluate
         self._shift = shift
 
-    def __call__(self, x, nu: int = 0):
+    def __call__(self, x: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
         return np.asarray(self._f(np.asarray(x, dtype=float) - self._shift, nu), dtype=float)
 
 
-def _lobe_pieces(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float,
+def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float,
                  step: float, g: float, info: LobeInfo) -> list:
     """The pieces (lo, hi, f) of the lobe: the join before it, the curve, the join
     after it (the grid of step ``g`` [rad] serves to find the edges)."""
