@@ -197,6 +197,44 @@ def test_scene_table_design_check_and_card_read_one_lobe(tmp_path: Path, kind: s
     assert check['min_contact_force_n'] == pytest.approx(float(np.min(force)), abs=0.5)
 
 
+@pytest.mark.parametrize('kind', ['q01_5deg', 'exact_0p5deg'])
+def test_registry_table_family_is_the_card_and_dynamics_lobe(tmp_path: Path, kind: str
+                                                             ) -> None:
+    """``cam_design.lift_laws.from_spec({family: table, ...})`` (the Python API, a scene's
+    lift_law, the design commands) gives the lobe that ``card`` and ``dynamics TABLE``
+    read from the same rows in a CSV: max lift, h..h\'\'\' at angles across the lobe,
+    its joins and base circle, and the events at every checking height."""
+    from cam_metrology.dynamics.tables import table_input
+
+    a, h = _mm(kind)
+    api = from_spec({'family': 'table', 'alpha': a.tolist(), 'h': h.tolist()}, 'lift_law')
+    table = _csv(tmp_path / f'{kind}.csv', kind)
+    _name, dyn, source, _note = table_input(table)
+    assert source == f'table:{api.lobe.method}'
+    # the CSV carries exact lifts to 1e-9 mm (a row error e <= 5e-13 m, which the
+    # quintic interpolant carries into h^(nu) with a gain below (4/step)^nu), rounded
+    # lifts to their own 0.01 mm digits (no error but the decimal reading's)
+    e = 5e-13 if kind.startswith('exact') else 1e-17
+    step = float(np.median(np.diff(a)))
+    x = np.array([-170, -90, -75, -60, -40, -10, 0, 25, 55, 70, 80, 120]) * D
+    for nu in range(4):
+        tol = e * (4.0 / step) ** nu                                      # m/rad^nu
+        assert np.max(np.abs(api(x, nu) - dyn(x, nu))) <= tol, nu
+    # and not the plain quintic interpolant the family built before: same rows, the
+    # same lobe as the card (peak h'' within 0.002 % of the card's JSON)
+    out = tmp_path / 'card.json'
+    heights = ','.join(f'{v:g}' for v in HEIGHTS_MM)
+    assert main(['card', str(table), '--heights-mm', heights, '--json', str(out)]) == 0
+    (card,) = json.loads(out.read_text(encoding='utf-8'))['cards'].values()
+    mine = cc.card_from_law(api, tuple(v * 1e-3 for v in HEIGHTS_MM))
+    assert mine['max_lift_m'] == pytest.approx(card['max_lift_m'], abs=1e-9)
+    for k in ('acceleration_max_si', 'acceleration_min_si', 'velocity_max_si', 'jerk_max_si'):
+        assert mine[k] == pytest.approx(card[k], rel=2e-5), k
+    for got, ref in zip(mine['heights'], card['heights']):
+        for side in ('opening_deg', 'closing_deg'):
+            assert got[side] == pytest.approx(ref[side], abs=1e-6)   # deg
+
+
 # ---------------------------------------------------------------------- dynamics
 VT = ('valve_train: {{model: sdof, rocker_ratio: 1.0, lash: {lash}, mass: {m}, '
       'stiffness: {c}, damping: {b}, spring_rate: {k}, spring_preload: {f0}, '

@@ -153,14 +153,6 @@ def _float_array(values: ArrayLike, key: str, what: str) -> NDArray[np.float64]:
         raise InputError(key, values, f'a list of numbers ({what})') from None
 
 
-def design_table(alpha: NDArray[np.float64], h: NDArray[np.float64], key: str) -> TabulatedLift:
-    """A design lift table as a TabulatedLift (``check_design_table``'s rules). Used by
-    the ``table`` lift-law family; the scene parser and the command line read tables
-    through their one lobe law instead (cam_design.lift_table.lobe_table)."""
-    a, v = check_design_table(alpha, h, key)
-    return TabulatedLift(a, v, key=key)
-
-
 def check_design_table(alpha: ArrayLike, h: ArrayLike, key: str
                        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(alpha, h) of a design lift table that keeps the rules of a nominal lobe, else

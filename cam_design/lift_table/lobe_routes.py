@@ -1,6 +1,7 @@
 """The lobe law of a table for the routes that are not a table reader themselves:
-the ``table`` lift-law family of the design commands and scenes (``law_from_spec``),
-and what the reconstruction, which keeps its own fits, is told about the same rows
+the ``table`` family of the lift-law registry (``table_from_spec``, what
+``cam_design.lift_laws.from_spec`` builds for ``{family: table, alpha, h}``), and what
+the reconstruction, which keeps its own fits, is told about the same rows
 (``lobe_warnings``, ``beyond_rows``). The rules are ``lobe_table``'s.
 """
 from __future__ import annotations
@@ -19,22 +20,18 @@ from cam_design.lift_table.lobe_table import TableLobe, lobe_law
 BEYOND_ROWS = 0.01
 
 
-def law_from_spec(spec: Mapping[str, Any], key: str) -> Any:
-    """A lift law from a ``lift_law`` mapping: the ``table`` family (``alpha`` [rad],
-    ``h`` [m], a design table) through ``lobe_law``, so that a table given to the design
-    commands is the same lobe as on every other route; any other family from the
-    lift-law registry (``cam_design.lift_laws.from_spec``)."""
-    from cam_design.lift_laws import from_spec
+def table_from_spec(spec: Mapping[str, Any], key: str) -> TableLobe:
+    """``family: table`` of the lift-law registry: ``alpha`` [rad] and ``h`` [m] lists of
+    a design table (``check_design_table``'s rules) through ``lobe_law``, so that a table
+    given to the Python API, a scene or the design commands is the same lobe as on every
+    other route. What the lobe law did and saw is in ``law.lobe`` (``note()``,
+    ``warnings``)."""
     from cam_design.lift_laws import params as P
     from cam_design.lift_laws.base import check_design_table
 
-    if isinstance(spec, Mapping) and spec.get('family') == 'table':
-        P.reject_unknown({k: v for k, v in spec.items() if k != 'family'}, key,
-                         ('alpha', 'h'))
-        a, v = check_design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'),
-                                  key)
-        return lobe_law(a, v, key=key)
-    return from_spec(spec, key)
+    P.reject_unknown(spec, key, ('alpha', 'h'))
+    a, v = check_design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'), key)
+    return lobe_law(a, v, key=key)
 
 
 def lobe_warnings(alpha: ArrayLike, lift: ArrayLike, key: str = 'table'

@@ -129,10 +129,10 @@ def cmd_law(args: argparse.Namespace) -> int:
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_design.lift_table.lobe_routes import law_from_spec
+    from cam_design.lift_laws import from_spec
 
     spec, key = law_spec(load_yaml(args.file), args.file, args.lobe)
-    law = law_from_spec(spec, key)
+    law = from_spec(spec, key)
     step = args.step_deg
     if not (math.isfinite(step) and 1e-4 <= step <= 90):
         raise InputError('--step-deg', step, 'a step in [1e-4, 90] deg')
@@ -214,7 +214,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     """Run the §2.1 checks."""
     from cam_design.checks import run_checks
     from cam_design.errors import InputError
-    from cam_design.lift_table.lobe_routes import law_from_spec
+    from cam_design.lift_laws import from_spec
 
     doc = load_yaml(args.file)
     if not isinstance(doc, dict):
@@ -229,7 +229,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         cfg = {k: v for k, v in doc.items() if k != 'lift_law'}
     if args.rpm is not None:
         cfg['cam_speed_rpm'] = args.rpm
-    law = law_from_spec(spec, key)
+    law = from_spec(spec, key)
     try:
         res = run_checks(law, cfg)
     except InputError as exc:

@@ -471,11 +471,7 @@ def lift_law_from_spec(spec: Mapping[str, Any], key: str) -> LiftLaw:
                          'a lift-law family; lift_law: family not available in this '
                          'build (cam_design.lift_laws.registry missing); use a lift table')
     try:
-        if spec.get('family') == 'table':   # a table: its lobe law, as on every route
-            from cam_design.lift_table.lobe_routes import law_from_spec
-            law = law_from_spec(spec, key)
-        else:
-            law = registry.from_spec(spec, key)
+        law = registry.from_spec(spec, key)   # family table: the table's lobe law
     except InputError:
         raise
     except (TypeError, ValueError, KeyError, ArithmeticError) as exc:
