@@ -6,7 +6,6 @@ the reconstruction, which keeps its own fits, is told about the same rows
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -14,7 +13,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
-from cam_design.lift_table.lobe_table import TableLobe, lobe_law
+from cam_design.lift_table.lobe_table import TableLobe, lobe_law, part_turn_centre
+from cam_design.lift_table.samples import wrap_pi
 
 #: a fit rising this share of the lift above every row and the lobe law left the rows
 BEYOND_ROWS = 0.01
@@ -34,22 +34,37 @@ def table_from_spec(spec: Mapping[str, Any], key: str) -> TableLobe:
     return lobe_law(a, v, key=key)
 
 
-def lobe_warnings(alpha: ArrayLike, lift: ArrayLike, key: str = 'table'
-                  ) -> tuple[TableLobe | None, list[str]]:
+def lobe_warnings(alpha: ArrayLike, lift: ArrayLike, key: str = 'table', *,
+                  design_known: bool = False) -> tuple[TableLobe | None, list[str]]:
     """(lobe law or None, warnings) of a table for a route that keeps its own fit (the
     reconstruction's spline and harmonic series): what the lobe law of the same rows
-    says about them (mid-lobe ends, a crank-degree suspicion, several lobes, a lobe
-    across +-180 deg), or why no lobe law can be drawn through them."""
+    says about them (mid-lobe ends, a crank-degree suspicion, several lobes), or why no
+    lobe law can be drawn through them. The law's frame (``law.lobe.offset``) is the
+    one such a route fits in: a fit over (-180, 180] would cut a lobe across +-180 deg.
+    ``design_known``: the lobe's design is given, which settles its shape (several lobes,
+    a lobe wider than a cam lobe usually is, as a dual-peak EGR cam): those warnings go."""
     try:
         law = lobe_law(alpha, lift, key=key, allow_steps=True)
     except InputError as exc:
         return None, [f'no lobe law from these rows: {exc}']
     out = [w for w in law.lobe.warnings if not w.startswith('rows:')]
-    if law.lobe.offset:
-        out.append(f'the lobe crosses +-180 deg: a fit over (-180, 180] is cut inside the '
-                   f'lobe there; its lobe law (card, dynamics) turns the rows by '
-                   f'{math.degrees(law.lobe.offset):.1f} deg first')
+    if design_known:
+        out = [w for w in out if 'crank_deg' not in w and not w.startswith('the table holds')]
     return law, out
+
+
+def fit_turn(alpha: ArrayLike, law: TableLobe | None) -> float:
+    """The angle [rad] by which a route that fits the rows over (-pi, pi] turns them
+    first (fit angle = wrap(alpha - turn)), so that no fit is cut inside the lobe or
+    bridges a gap: a table over part of the turn, the middle of its rows
+    (``part_turn_centre``); a whole turn whose lobe crosses +-180 deg, its lobe law's
+    frame (the seam in the middle of the longest base-circle run); else 0."""
+    centre = part_turn_centre(alpha)
+    if centre:
+        return float(wrap_pi(centre))
+    if law is not None and not law.lobe.periodic:
+        return float(law.lobe.offset)
+    return 0.0
 
 
 def beyond_rows(law: TableLobe | None, lift: NDArray[np.float64], rows: ArrayLike) -> str:

@@ -178,6 +178,21 @@ def table_quantum(lift: ArrayLike) -> float:
     return float(max(quantisation_step(v), INCH * quantisation_step(v / INCH)))
 
 
+def part_turn_centre(alpha: ArrayLike) -> float:
+    """The middle [rad] of the rows' angles ``alpha`` [rad] when they cover part of the
+    turn (their span is shorter than the turn less 1.5 row steps), else 0. Such a table
+    keeps its angles contiguous around that middle (0..300 deg is not cut at 180 deg,
+    118..242 deg not wrapped into two pieces); a whole turn is wrapped to (-180, 180]."""
+    a = np.asarray(alpha, dtype=float).reshape(-1)
+    a = a[np.isfinite(a)]
+    if a.size < 2:
+        return 0.0
+    lo, hi = float(np.min(a)), float(np.max(a))
+    gaps = np.diff(np.unique(a))
+    row_step = float(np.median(gaps)) if gaps.size else 0.0
+    return 0.5 * (lo + hi) if hi - lo < TWO_PI - 1.5 * row_step else 0.0
+
+
 def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: float
            ) -> tuple[float, bool]:
     """(offset [rad], periodic) of the rows (sorted, in (-pi, pi]): offset 0 unless the
@@ -303,11 +318,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     raw_h = np.asarray(lift, dtype=float).reshape(-1)
     ok = np.isfinite(raw_a)
     lo_a, hi_a = (float(np.min(raw_a[ok])), float(np.max(raw_a[ok]))) if ok.any() else (0, 0)
-    # a table over part of the turn keeps its angles contiguous (0..300 deg is not cut
-    # at 180 deg); a whole turn is wrapped to (-180, 180] (a repeated 0/360 row merged)
-    gaps = np.diff(np.unique(raw_a[ok]))
-    row_step = float(np.median(gaps)) if gaps.size else 0.0
-    centre = 0.5 * (lo_a + hi_a) if hi_a - lo_a < TWO_PI - 1.5 * row_step else 0.0
+    centre = part_turn_centre(raw_a)
     clean = (raw_a.size >= 6 and bool(np.all(np.isfinite(raw_a)))
              and bool(np.all(np.isfinite(raw_h))) and bool(np.all(np.diff(raw_a) > 1e-9))
              and -math.pi - 1e-12 <= lo_a and hi_a <= math.pi + 1e-12)
