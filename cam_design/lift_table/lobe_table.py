@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.valve_train.cam_input import JetTableLift
+from cam_design.lift_laws.jet_table import JetTableLift
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 
 TWO_PI = 2.0 * math.pi

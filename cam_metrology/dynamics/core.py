@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from cam_design.errors import InputError, require_positive
-from cam_design.valve_train.cam_input import JetTableLift
+from cam_design.lift_laws.jet_table import JetTableLift
 from cam_design.train.run import TrainSpec, run_train, train_from_valve_train
 from cam_design.valve_train.params import require_rpm, require_step_deg
 from cam_design.valve_train.report import COLUMNS, ContactGeometry, Run

@@ -19,7 +19,7 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.valve_train.cam_input import JetTableLift
+from cam_design.lift_laws.jet_table import JetTableLift
 from cam_design.lift_table.lobe_table import lobe_from_jets, lobe_law
 
 #: replicas of a table for the jump-speed uncertainty, and the coverage factor on their
