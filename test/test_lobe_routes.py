@@ -522,3 +522,12 @@ def test_trace_of_the_open_valve_only_is_never_bridged(tmp_path: Path, capsys) -
         assert np.all(np.abs(a) >= 118.0 - 1e-6), name
         assert max(method['lift_m']) <= float(np.max(lift_mm)) * 1e-3 + 1e-5, name
     assert max(spline['lift_m']) == pytest.approx(lobe['max_lift_m'], abs=1e-5)
+    # nor does a gauge nominal file of the whole turn get a lift where no row was
+    capsys.readouterr()
+    assert main(['reconstruct', str(table), '--follower', 'roller', '--radius', '0.0125',
+                 '--nominal', str(tmp_path / 'nominal.txt'), '--json', str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and 'Traceback' not in err
+    assert "--nominal: got 'a reconstruction of open without rows from -118.0 to 118.0 " \
+           "deg'" in err and 'a table over the whole turn' in err
+    assert not (tmp_path / 'nominal.txt').exists()

@@ -207,6 +207,17 @@ def write_nominal(core: Any, args: argparse.Namespace, follower: dict[str, Any])
         raise InputError('--step-deg', args.step_deg, 'a step that divides 360 deg for '
                          '--nominal (e.g. 0.1, 0.25, 0.5)')
     rec = outcome.reconstruction
+    # a table over part of the turn: its fit has a gap wider than the rows' own steps
+    gaps = np.diff(np.concatenate([rec.alpha, rec.alpha[:1] + 2.0 * np.pi]))
+    widest = int(np.argmax(gaps))
+    row_step = float(np.median(np.diff(rec.data_alpha))) if rec.data_alpha.size > 1 else 0.0
+    if gaps[widest] > 2.0 * (row_step + np.radians(args.step_deg)) + 1e-9:
+        start, stop = (np.degrees(rec.alpha[widest]),
+                       np.degrees(rec.alpha[(widest + 1) % rec.alpha.size]))
+        raise InputError('--nominal', f'a reconstruction of {fid} without rows from '
+                         f'{start:.1f} to {stop:.1f} deg',
+                         'a table over the whole turn: a gauge nominal file covers '
+                         '-180..180 deg, and no lift is made up where no row was measured')
     grid = np.linspace(-180.0, 180.0, int(round(n)) + 1)
     lift = np.interp(grid, np.degrees(rec.alpha), rec.derivatives()[0], period=360.0)
     method = next(m for m, o in core.results[fid].items() if o is outcome)
