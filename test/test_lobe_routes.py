@@ -512,14 +512,16 @@ def test_trace_of_the_open_valve_only_is_never_bridged(tmp_path: Path, capsys) -
     doc = json.loads(out.read_text(encoding='utf-8'))
     lobe = doc['lobes']['open']
     assert lobe['max_lift_m'] == pytest.approx(float(np.max(lift_mm)) * 1e-3, abs=1e-5)
-    # the fits run on the rows turned by 180 deg (contiguous): no output angle in the
-    # 236 deg without rows, no lift above the rows by more than their rounding
+    # the fits run on the rows turned by 180 deg and come back in the table's own
+    # contiguous angles: no output angle in the 236 deg without rows, no lift above the
+    # rows by more than their rounding
     spline = doc['features']['open']['spline']
     assert any('turned by 180.0 deg' in n for n in spline['notes'])
     for name, method in doc['features']['open'].items():
         assert method['ok'], name
         a = np.degrees(np.array(method['alpha_rad']))
-        assert np.all(np.abs(a) >= 118.0 - 1e-6), name
+        assert a[0] >= 118.0 - 1e-6 and a[-1] <= 242.0 + 1e-6, name
+        assert np.allclose(np.diff(a), 0.1, atol=1e-9), name          # deg, no gap
         assert max(method['lift_m']) <= float(np.max(lift_mm)) * 1e-3 + 1e-5, name
     assert max(spline['lift_m']) == pytest.approx(lobe['max_lift_m'], abs=1e-5)
     # nor does a gauge nominal file of the whole turn get a lift where no row was
@@ -528,6 +530,6 @@ def test_trace_of_the_open_valve_only_is_never_bridged(tmp_path: Path, capsys) -
                  '--nominal', str(tmp_path / 'nominal.txt'), '--json', str(out)]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and 'Traceback' not in err
-    assert "--nominal: got 'a reconstruction of open without rows from -118.0 to 118.0 " \
+    assert "--nominal: got 'a reconstruction of open without rows from 242.0 to 118.0 " \
            "deg'" in err and 'a table over the whole turn' in err
     assert not (tmp_path / 'nominal.txt').exists()

@@ -14,7 +14,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
 from cam_design.lift_table.lobe_table import TableLobe, lobe_law, part_turn_centre
-from cam_design.lift_table.samples import wrap_pi
 
 #: a fit rising this share of the lift above every row and the lobe law left the rows
 BEYOND_ROWS = 0.01
@@ -56,12 +55,13 @@ def lobe_warnings(alpha: ArrayLike, lift: ArrayLike, key: str = 'table', *,
 def fit_turn(alpha: ArrayLike, law: TableLobe | None) -> float:
     """The angle [rad] by which a route that fits the rows over (-pi, pi] turns them
     first (fit angle = wrap(alpha - turn)), so that no fit is cut inside the lobe or
-    bridges a gap: a table over part of the turn, the middle of its rows
-    (``part_turn_centre``); a whole turn whose lobe crosses +-180 deg, its lobe law's
-    frame (the seam in the middle of the longest base-circle run); else 0."""
+    bridges a gap: a table over part of the turn, the middle of its rows in their own
+    contiguous angles (``part_turn_centre``); a whole turn whose lobe crosses +-180 deg,
+    its lobe law's frame (the seam in the middle of the longest base-circle run); else
+    0."""
     centre = part_turn_centre(alpha)
     if centre:
-        return float(wrap_pi(centre))
+        return centre
     if law is not None and not law.lobe.periodic:
         return float(law.lobe.offset)
     return 0.0

@@ -172,48 +172,58 @@ def turned_rows(data: CleanSamples, turn: float) -> tuple[CleanSamples, NDArray[
                                count=data.count[perm]), perm
 
 
-def table_frame_grid(rec: Reconstruction, turn: float) -> NDArray[np.float64]:
+def table_frame_grid(rec: Reconstruction, turn: float, span: tuple[float, float],
+                     wrap: bool) -> NDArray[np.float64]:
     """The output grid [rad] in the table's angles for a fit made in the frame turned by
-    ``turn``: the multiples of the fit's grid step in (-pi, pi] whose fit-frame angle
-    lies within the fit's own grid (no angle outside the rows' range is given a value:
-    a table covering part of the turn keeps its gap)."""
+    ``turn`` over the rows' ``span`` (fit frame, rad): the multiples of the fit's grid
+    step whose fit-frame angle lies in that span, in (-pi, pi] for a whole turn
+    (``wrap``), in the table's own contiguous angles for a table over part of the turn.
+    No angle outside the rows' range is given a value."""
     n = rec.alpha.size
     step = float(rec.alpha[-1] - rec.alpha[0]) / (n - 1) if n > 1 else 2.0 * math.pi
+    if not wrap:
+        return output_grid(span[0] + turn, span[1] + turn, step)
     grid = output_grid(-math.pi + 0.5 * step, math.pi, step)
     b = wrap_pi(grid - turn)
-    return grid[(b >= rec.alpha[0] - 1e-12) & (b <= rec.alpha[-1] + 1e-12)]
+    return grid[(b >= span[0] - 1e-12) & (b <= span[1] + 1e-12)]
 
 
 def in_table_frame(rec: Reconstruction, turn: float, grid: NDArray[np.float64],
-                   perm: NDArray[np.intp]) -> Reconstruction:
+                   perm: NDArray[np.intp], wrap: bool) -> Reconstruction:
     """``rec``, fitted to the rows turned by ``turn`` [rad] (``turned_rows``), back in the
-    table's angles on ``grid`` (``table_frame_grid``). Values are the fit's own, at
-    b = wrap(alpha - turn); the fit's seam lies where its rows end (the middle of the
-    base circle, or the gap of a partial table)."""
+    table's angles on ``grid`` (``table_frame_grid``; ``wrap`` as there). Values are the
+    fit's own, at b = wrap(alpha - turn); the fit's seam lies where its rows end (the
+    middle of the base circle, or the gap of a partial table)."""
+    def back(b: NDArray[np.float64]) -> NDArray[np.float64]:
+        a = np.asarray(b, dtype=float) + turn
+        return wrap_pi(a) if wrap else a
+
     def evaluate(a: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
         return np.asarray(rec.evaluate(wrap_pi(np.asarray(a, dtype=float) - turn), nu),
                           dtype=float)
 
     d = [evaluate(grid, nu) for nu in range(4)]
-    data_alpha = wrap_pi(rec.data_alpha + turn)
+    data_alpha = back(rec.data_alpha)
     order = np.argsort(data_alpha, kind='stable')
     parameter = dict(rec.parameter)
     if 'junctions_deg' in parameter:
-        parameter['junctions_deg'] = [math.degrees(float(wrap_pi(math.radians(v) + turn)))
+        parameter['junctions_deg'] = [math.degrees(float(back(np.radians(v))))
                                       for v in parameter['junctions_deg']]
     mask = None
     if rec.outlier_mask is not None:
         mask = np.zeros(perm.size, dtype=bool)
         mask[perm] = rec.outlier_mask
-    note = (f'fitted to the rows turned by {math.degrees(turn):.1f} deg (the lobe crosses '
-            '+-180 deg or the table covers part of the turn), so that no fit is cut inside '
-            'the lobe; results are in the table\'s angles, angles named in this fit\'s '
-            f'other notes and warnings in the turned frame (table angle = that + '
-            f'{math.degrees(turn):.1f} deg)')
+    deg = math.degrees(turn)
+    why = ('the lobe crosses +-180 deg' if wrap else
+           'the table covers part of the turn: its rows kept contiguous')
+    note = (f'fitted to the rows turned by {deg:.1f} deg ({why}), so that no fit is cut '
+            'inside the lobe or bridges a gap; results are in the table\'s angles, angles '
+            'named in this fit\'s other notes and warnings in the turned frame (table '
+            f'angle = that + {deg:.1f} deg)')
     return dataclasses.replace(
         rec, alpha=grid, lift=d[0], velocity=d[1], acceleration=d[2], jerk=d[3],
         data_alpha=data_alpha[order], residual=rec.residual[order],
-        outliers_alpha=np.sort(wrap_pi(rec.outliers_alpha + turn)), evaluate=evaluate,
+        outliers_alpha=np.sort(back(rec.outliers_alpha)), evaluate=evaluate,
         parameter=parameter, outlier_mask=mask, notes=[note] + list(rec.notes),
         warnings=list(rec.warnings))
 
@@ -252,11 +262,13 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     # what the lobe law of the same rows says of them (every route's warnings: mid-lobe
     # ends, crank degrees, steps, results no cam can have), with or without a design
     from cam_design.lift_table.lobe_routes import fit_turn, lobe_warnings
+    from cam_design.lift_table.lobe_table import part_turn_centre
     lobe, said = lobe_warnings(table.alpha, table.lift, key=table.feature,
                                design_known=design is not None)
     # the fits run in the lobe law's frame: rows turned so that their seam lies in the
     # base circle (a lobe across +-180 deg) or in the gap of a partial table
     turn = fit_turn(table.alpha, lobe)
+    wrap = not part_turn_centre(table.alpha)   # a whole turn: results in (-pi, pi]
     fit, perm = turned_rows(data, turn) if turn else (data, np.arange(data.alpha.size))
     fairing = rebound_fairing(fit.alpha, fit.lift, threshold=sopt.threshold,
                               gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)
@@ -313,10 +325,10 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
             continue
         engine = None   # the design follower's lift, converted in the fit's frame
         if turn:
-            grid = table_frame_grid(rec, turn)
+            grid = table_frame_grid(rec, turn, (fit.alpha[0], fit.alpha[-1]), wrap)
             if conversion is not None:
                 engine = _engine(rec, conversion, wrap_pi(grid - turn))
-            rec = in_table_frame(rec, turn, grid, perm)
+            rec = in_table_frame(rec, turn, grid, perm, wrap)
         rec.notes = list(table.notes) + rec.notes + table_notes
         rec.warnings = table_warnings + rec.warnings
         if lobe is not None:
