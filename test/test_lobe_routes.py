@@ -5,7 +5,9 @@ steps, ramps cut off, a nose at 170 deg so the lobe crosses +-180 deg, inches at
 0.0001 in, crank degrees, exact 0.5 deg rows) from an analytic ramp + polynomial lobe
 (methods §1.1/§1.4, exact derivatives). Each goes through ``cam-bench card``,
 ``cam-bench dynamics TABLE``, a scene lobe table (``design check``, the scene parser),
-a gauge nominal file in a scene and ``design law``; the max lift, h'/h''/h''', the
+a gauge nominal file in a scene, ``design law``, the lift-law registry's ``table``
+family (the Python API) and ``reconstruct`` (its lobe law, and its own fits in the
+lobe law's frame); the max lift, h'/h''/h''', the
 events at several heights and the jump speed must agree route by route (they read one
 lobe law) and with the analytic lobe within what the rows' rounding and step allow.
 Jump speeds of an eccentric against the closed form sqrt((F0 + 2 k e)/(m e)): with h =
