@@ -63,8 +63,8 @@ def family_rows() -> list[str]:
     """The lobe law alone of each accuracy family (truth_lobes) at 72 and 3600 rows
     with 0.5 um of noise (seed 7): the junction search's cost where the law has
     junctions of h'' (dwell, constant acceleration, circular arc)."""
-    from cam_metrology.reconstruction.lobe_table import lobe_law
-    from cam_metrology.reconstruction.truth_lobes import families, measured_table
+    from cam_design.lift_table.lobe_table import lobe_law
+    from cam_design.lift_table.truth_lobes import families, measured_table
 
     rows = []
     for fam in families():
@@ -84,9 +84,9 @@ def main() -> None:
     """Run and write benchmarks/results/lobe_table.md."""
     from cam_design.lift_laws.registry import from_spec
     from cam_metrology.cli.card import table_card
-    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_design.lift_table.lobe_table import lobe_law
     from cam_metrology.reconstruction.profile import reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_design.lift_table.samples import LiftTable
     from cam_metrology.scene.parse import load_scene
 
     law = from_spec({'family': 'preset', 'name': 'methods_example'})
