@@ -191,3 +191,14 @@ def test_scan_statistic_equals_direct_inner_products():
         k = int(np.argmin(np.abs(pos - tau)))
         assert pos[k] == pytest.approx(tau, abs=1e-9)
         assert stat[k] == pytest.approx(direct, rel=1e-6, abs=1e-9)
+
+
+@pytest.mark.parametrize('step_deg', [0.2, 1.0])
+def test_no_junction_on_a_smooth_lobe(step_deg):
+    """A C2 lobe (h'' continuous everywhere, only h''' jumps at its ends) with 0.5 um
+    of noise: the scan's large statistics there are smoothing bias, refused (most by
+    the pre-test), and the fit is the plain smoother's."""
+    fam = FAMILIES['C2']
+    a, h = measured_table(fam.law, step_deg * DEG, sigma=0.5e-6, seed=2)
+    rec = reconstruct_spline(a, h)
+    assert 'junctions_deg' not in rec.parameter
