@@ -322,6 +322,9 @@ class MetrologyCore:
                 result.values.update({'track_of': track[0], 'track_mm': track[1],
                                       'nose_lift_error_um': nose_lift_error_um(
                                           result.table, result.values)})
+            if lobe.axial_position is not None:
+                result.values['axial_position_mm'] = lobe.axial_position * 1e3 + (
+                    0.0 if track is None else track[1])
             return result
         except (FeatureFailed, InputError) as exc:
             return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
@@ -484,11 +487,9 @@ class MetrologyCore:
                 lobe: taper_and_twist({fid: f for fid, f in features.items()
                                        if f.get('track_of') == lobe}) or
                 {'why': 'fewer than 2 tracks measured'} for lobe in sorted(tracked)}
-        if scene.journals:
-            from cam_metrology.metrology.journals import shaft_straightness
-            extra['shaft'] = shaft_straightness(
-                features, {j.id: j.axial_position for j in scene.journals}) or {
-                    'straightness_um': None, 'why': 'fewer than 3 journals measured'}
+        if scene.journals or any(lobe.axial_position is not None for lobe in scene.lobes):
+            from cam_metrology.metrology.journals import feature_positions, shaft_straightness
+            extra['shaft'] = shaft_straightness(features, *feature_positions(scene, features))
         return json_safe({
             'camshaft_id': scene.camshaft_id,
             'verdict': verdict,

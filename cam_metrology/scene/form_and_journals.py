@@ -75,13 +75,19 @@ def parse_journals(value: Any, mapping: Callable[[str, Any, tuple[str, ...]], Ma
         if j.get('axial_position') is None:
             raise InputError(f'{key}.axial_position', None, 'the axial position along the '
                              'shaft in m (the same origin for every feature)')
-        z = require_finite(f'{key}.axial_position', j['axial_position'])
-        if abs(z) > GEOMETRY_MAX_M:
-            raise InputError(f'{key}.axial_position', z, f'a position in m within '
-                             f'+-{GEOMETRY_MAX_M:g} (millimetres given?)')
+        z = parse_axial_position(f'{key}.axial_position', j['axial_position'])
         tol, diameter = _tolerances(f'{key}.tolerances', j.get('tolerances'), mapping, band)
         out.append(Journal(jid, radius, z, tol, diameter))
     return tuple(out)
+
+
+def parse_axial_position(key: str, value: Any) -> float:
+    """An axial position along the shaft [m] (journals and lobes, one origin)."""
+    z = require_finite(key, value)
+    if abs(z) > GEOMETRY_MAX_M:
+        raise InputError(key, z, f'a position in m within +-{GEOMETRY_MAX_M:g} '
+                         '(millimetres given?)')
+    return z
 
 
 def _tolerances(key: str, value: Any, mapping: Callable[..., Mapping],

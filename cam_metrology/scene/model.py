@@ -93,6 +93,7 @@ class Lobe:
     role: str | None = None                   # 'intake' | 'exhaust' (crank events)
     cylinder: str = '1'                       # cylinder the lobe serves (crank datum)
     nominal_file: str | None = None           # gauge file the design came from (resolved)
+    axial_position: float | None = None       # m along the shaft (journals' origin)
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ from cam_design.errors import InputError, require_finite, require_length, requir
 from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import check_design_table
 from cam_metrology.inputs.files import read_text_file
+from cam_metrology.scene.form_and_journals import parse_axial_position
 from cam_metrology.scene.model import (COMPUTE_ITEMS, Band, Crank, DowelPin, Follower, Keyway,
                                        Lobe, Scene, Seat, ToleranceZone, Tolerances, ValveTrain)
 
@@ -40,7 +41,7 @@ STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law',
-             'width', 'tolerances', 'role', 'cylinder', 'nominal_file')
+             'width', 'tolerances', 'role', 'cylinder', 'nominal_file', 'axial_position')
 #: tolerance keys of a lobe (units in the names); the top-level block adds datum_deg
 TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
 #: tolerance keys that are a maximum only (>= 0)
@@ -340,6 +341,9 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         width = lobe.get('width')
         if width is not None:
             width = require_length(f'{key}.width', width, GEOMETRY_MAX_M)
+        z = lobe.get('axial_position')
+        if z is not None:
+            z = parse_axial_position(f'{key}.axial_position', z)
         tol = _lobe_tolerances(ctx, key, lobe.get('tolerances'), defaults or {}, law, phase)
         role = lobe.get('role')
         if role is not None and role not in ('intake', 'exhaust'):
@@ -347,7 +351,7 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         cylinder = _text(f'{key}.cylinder', lobe.get('cylinder', 1))
         lobes.append(Lobe(id=lobe_id, follower=follower, lift=law, nominal_phase=phase,
                           lift_spec=spec, width=width, tolerances=tol, role=role,
-                          cylinder=cylinder, nominal_file=nominal_path))
+                          cylinder=cylinder, nominal_file=nominal_path, axial_position=z))
     return lobes
 
 
