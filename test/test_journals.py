@@ -199,3 +199,17 @@ def test_lobe_without_base_circle_is_left_out() -> None:
     assert out['left_out'] == [{'feature': 'lobe_1', 'why': 'fewer than 10 base-circle '
                                 'samples: no base-circle centre'}]
     assert out['straightness_um'] == pytest.approx(2.0, abs=1e-9)
+
+
+@pytest.mark.parametrize('value, expected', [(100.0, 'millimetres given?'),
+                                             ('near', 'a finite real number')])
+def test_bad_lobe_axial_position_is_one_line(value, expected) -> None:
+    from scene_docs import default_doc
+
+    doc = default_doc(lobes=1)
+    doc['lobes'][0]['axial_position'] = value
+    with pytest.raises(InputError) as err:
+        parse_scene(yaml.safe_dump(doc))
+    assert str(err.value).startswith('lobes[0].axial_position') and \
+        '\n' not in str(err.value)
+    assert expected in str(err.value)
