@@ -482,11 +482,15 @@ class MetrologyCore:
         release(tables.values())   # the spilled tables read by the verdict
         tracked = {f.get('track_of') for f in features.values()} - {None}
         if tracked:
+            from cam_metrology.metrology.tolerances import judge_tracks
             from cam_metrology.metrology.tracks import taper_and_twist
             extra['lobe_tracks'] = {
                 lobe: taper_and_twist({fid: f for fid, f in features.items()
                                        if f.get('track_of') == lobe}) or
                 {'why': 'fewer than 2 tracks measured'} for lobe in sorted(tracked)}
+            for lobe, entry in extra['lobe_tracks'].items():   # its checks, for the views
+                tol = next((x.tolerances for x in scene.lobes if x.id == lobe), None)
+                entry['verdict'] = judge_tracks(tol, lobe, features)
         if scene.journals or any(lobe.axial_position is not None for lobe in scene.lobes):
             from cam_metrology.metrology.journals import feature_positions, shaft_straightness
             extra['shaft'] = shaft_straightness(features, *feature_positions(scene, features))

@@ -1,5 +1,6 @@
 """Journals (bearing seats) of a camshaft as measured features, and the straightness of
-the shaft from their and the lobes' base-circle run-out (pure numerics, no rclpy; docs/metrology.md "Journals").
+the shaft from their and the lobes' base-circle run-out (pure numerics, no rclpy;
+docs/metrology.md "Journals").
 
 A journal is measured like a lobe: the probe reading ``s`` [m] against the encoder angle
 ``theta`` [rad] over the revolution. Its reading is fitted as
