@@ -316,8 +316,9 @@ class MetrologyCore:
                 result.skipped.append(('form', form['form_error']))
             if scene.form.derivative_errors or (lobe.tolerances is not None and
                                                 lobe.tolerances.wants_derivatives()):
+                zones = lobe.tolerances.derivative_error_zones if lobe.tolerances else ()
                 result.values.update(derivative_errors(result.table, result.values,
-                                                       self._design[lobe.id]))
+                                                       self._design[lobe.id], zones))
             if track is not None:
                 result.values.update({'track_of': track[0], 'track_mm': track[1],
                                       'nose_lift_error_um': nose_lift_error_um(

@@ -181,15 +181,37 @@ def _form_checks(tol: Tolerances, feature: Mapping[str, Any], checks: list[dict[
 
 def _derivative_checks(tol: Tolerances, feature: Mapping[str, Any],
                        checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> None:
-    """Largest |velocity| and |acceleration| error on the lobe (maxima only)."""
+    """Largest |velocity| and |acceleration| error (maxima only): in each angle zone that
+    limits it against the zone's maximum, and on the rest of the lobe (the whole lobe
+    without such zones) against the lobe's own."""
+    from cam_metrology.metrology.derivative_error import ZONE_LIMITS
+
     why = feature.get('derivative_error') or 'no velocity/acceleration error computed'
+    zone_stats = feature.get('derivative_error_zones') or []
+    outside = feature.get('derivative_error_outside_zones') or {}
     for name, limit, unit in (('velocity_error_mm_per_rad', tol.velocity_error_max_mm_per_rad,
                                'mm/rad'),
                               ('acceleration_error_mm_per_rad2',
                                tol.acceleration_error_max_mm_per_rad2, 'mm/rad2')):
+        zoned = False
+        for z in tol.derivative_error_zones:
+            zmax = getattr(z, ZONE_LIMITS[name])
+            if zmax is None:
+                continue
+            zoned = True
+            label = f'{name}[{z.from_deg:g}..{z.to_deg:g} deg]'
+            stats = next((s.get(name) for s in zone_stats
+                          if (s['from_deg'], s['to_deg']) == (z.from_deg, z.to_deg)), None)
+            if stats is None:
+                missing.append(_not(label, why if 'derivative_error' in feature or
+                                    not zone_stats else 'no samples in this zone'))
+            else:
+                checks.append(check(label, stats['max_abs'], (None, zmax), unit))
         if limit is None:
             continue
-        value = (feature.get(name) or {}).get('max_abs')
+        value = ((outside.get(name) if zoned else feature.get(name)) or {}).get('max_abs')
+        if value is None and zoned and name in outside:
+            continue   # the zones cover the whole lobe: nothing left for the lobe's maximum
         if value is None:
             missing.append(_not(name, why))
         else:

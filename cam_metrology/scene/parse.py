@@ -26,7 +26,8 @@ from cam_design.errors import InputError, require_finite, require_length, requir
 from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import check_design_table
 from cam_metrology.inputs.files import read_text_file
-from cam_metrology.scene.form_and_journals import parse_axial_position
+from cam_metrology.scene.form_and_journals import (check_no_overlap, parse_axial_position,
+                                                   parse_derivative_zones)
 from cam_metrology.scene.model import (COMPUTE_ITEMS, Band, Crank, DowelPin, Follower, Keyway,
                                        Lobe, Scene, Seat, ToleranceZone, Tolerances, ValveTrain)
 
@@ -48,7 +49,8 @@ TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'dur
 TOL_MAXIMA = ('runout_max_um', 'roundness_max_um', 'waviness_max_um', 'taper_max_um_per_mm',
               'twist_max_deg', 'velocity_error_max_mm_per_rad',
               'acceleration_error_max_mm_per_rad2')
-TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm') + TOL_MAXIMA
+TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm', 'derivative_error_zones') + \
+    TOL_MAXIMA
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 KEYWAY_KEYS = ('width', 'shaft_radius', 'probe_radius', 'depth', 'nominal_angle')
 CRANK_KEYS = ('tdc_deg', 'cylinder_tdc_deg')
@@ -759,13 +761,8 @@ def _zones(ctx: _Ctx, key: str, value: Any) -> tuple[ToleranceZone, ...]:
             raise InputError(f'{zk}.to_deg', hi, f'an angle > from_deg ({lo:g}) within '
                              '[-180, 180] deg')
         zones.append(ToleranceZone(lo, hi, _band(f'{zk}.band_um', z['band_um'])))
-    ordered = sorted(zones, key=lambda zz: zz.from_deg)
-    for a, b in zip(ordered, ordered[1:]):
-        if b.from_deg < a.to_deg:
-            raise InputError(key, f'zones {a.from_deg:g}..{a.to_deg:g} and {b.from_deg:g}..'
-                             f'{b.to_deg:g} deg overlap', 'zones that do not overlap (two '
-                             'bands for one angle contradict each other)')
-    return tuple(ordered)
+    check_no_overlap(key, [(z.from_deg, z.to_deg) for z in zones])
+    return tuple(sorted(zones, key=lambda zz: zz.from_deg))
 
 
 def _tolerance_block(ctx: _Ctx, key: str, value: Any, known: tuple[str, ...]
@@ -781,6 +778,9 @@ def _tolerance_block(ctx: _Ctx, key: str, value: Any, known: tuple[str, ...]
     if 'lift_error_zones' in block:
         out['lift_error_zones'] = _zones(ctx, f'{key}.lift_error_zones',
                                          block['lift_error_zones'])
+    if 'derivative_error_zones' in block:
+        out['derivative_error_zones'] = parse_derivative_zones(
+            f'{key}.derivative_error_zones', block['derivative_error_zones'], ctx.mapping)
     for k in TOL_MAXIMA:
         if k in block:
             out[k] = require_positive(f'{key}.{k}', block[k], allow_zero=True)
