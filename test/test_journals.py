@@ -213,3 +213,16 @@ def test_bad_lobe_axial_position_is_one_line(value, expected) -> None:
     assert str(err.value).startswith('lobes[0].axial_position') and \
         '\n' not in str(err.value)
     assert expected in str(err.value)
+
+
+def test_human_report_names_the_lobes_left_out(lobed_report) -> None:
+    """The human report of ``analyze`` gives the straightness with the number of centres
+    and one line per feature left out, with the reason."""
+    from cam_metrology.cli.analyze import form_lines
+
+    doc, report = lobed_report
+    lines = form_lines(report)
+    assert any(line.startswith('shaft straightness 10.3') and 'from 5 centres' in line
+               for line in lines)
+    assert f"shaft straightness leaves out {doc['lobes'][2]['id']}: no axial_position in " \
+        'the scene' in lines
