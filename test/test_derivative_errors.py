@@ -254,3 +254,20 @@ def test_zones_through_a_simulated_bag(tmp_path) -> None:
                        'acceleration_error_mm_per_rad2[-10..10 deg]': 'fail'}
     values = dict(report_values(report))['lobe_1']
     assert values[VALUE_NAMES.index('acceleration_error_max_mm_per_rad2_verdict')] == 0.0
+
+
+def test_failed_lobe_names_its_derivative_limits_not_checked() -> None:
+    """A lobe that failed to measure: every derivative limit it has (a maximum of 0
+    included) is listed as not checked with the failure's reason."""
+    from cam_metrology.metrology.tolerances import judge_lobe
+
+    tol = _zones_tolerances()
+    v = judge_lobe(tol, {'status': 'failed', 'reason': 'too few samples'})
+    assert v['result'] == 'not checked'
+    assert [(m['quantity'], m['why']) for m in v['not_checked']] == [
+        (q, 'feature failed: too few samples') for q in (
+            'velocity_error_max_mm_per_rad', 'acceleration_error_max_mm_per_rad2',
+            'derivative_error_zones')]
+    from cam_metrology.scene.model import Tolerances
+    zero = judge_lobe(Tolerances(roundness_max_um=0.0), {'status': 'failed', 'reason': 'x'})
+    assert [m['quantity'] for m in zero['not_checked']] == ['roundness_max_um']

@@ -119,10 +119,12 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
         why = f"feature {feature.get('status', 'missing')}: {feature.get('reason', '')}"
         names = [n for n in ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um',
                              'runout_max_um', 'duration_deg', 'roundness_max_um',
-                             'waviness_max_um')
-                 if getattr(tol, n) is not None]
+                             'waviness_max_um', 'velocity_error_max_mm_per_rad',
+                             'acceleration_error_max_mm_per_rad2', 'lift_error_zones',
+                             'derivative_error_zones')
+                 if getattr(tol, n) not in (None, ())]
         return _verdict([], [_not(n, why.strip().rstrip(':')) for n in names] or
-                        [_not('lift_error_zones', why)])
+                        [_not('*', why.strip().rstrip(':'))])
     checks: list[dict[str, Any]] = []
     missing: list[dict[str, str]] = []
     good = None
