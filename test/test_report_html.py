@@ -317,6 +317,8 @@ def test_report_shows_form_journals_and_shaft(form_analysed) -> None:
     j1 = next(r for r in tables['harmonics'] if r[0] == 'journal_1')
     assert j1[1].startswith('3 UPR: 1.00')
     text = form_analysed['html'].read_text()
+    assert len(re.findall(r'<td class="fail" title="waviness_max_amplitude_um 0\.[0-9]+ fail">',
+                          text)) == 2   # the check behind each failed waviness cell
     straightness = float(re.search(r'Straightness ([0-9.]+) µm', text).group(1))
     assert straightness == pytest.approx(2 * BEND_UM * (4 - math.sqrt(2)) / 5, abs=0.05)
     assert text.index('<h2>Form, journals and tracks') < text.index('<h2>Plots')
@@ -336,4 +338,4 @@ def test_form_tables_render_in_a_headless_browser(form_analysed, tmp_path) -> No
     for anchor in ('form', 'size', 'velocity', 'harmonics'):
         assert f'<table id="{anchor}">' in run.stdout
     assert '<p id="shaft">Straightness' in run.stdout
-    assert re.search(r'<td class="fail">0\.[0-9]{3} \(fail\)</td>', run.stdout)
+    assert re.search(r'<td class="fail" title="[^"]*">0\.[0-9]{3} \(fail\)</td>', run.stdout)

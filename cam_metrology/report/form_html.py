@@ -7,7 +7,8 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from cam_metrology.report.html_cells import esc, number, result_class
-from cam_metrology.wire.form_values import FORM_VALUES, feature_form_values, quantity_verdict
+from cam_metrology.wire.form_values import (FORM_VALUES, FormValue, feature_form_values,
+                                            quantity_checks, quantity_verdict)
 
 __all__ = ['form_html', 'HARMONICS_SHOWN']
 
@@ -18,17 +19,21 @@ _AT = {'velocity_error_max_mm_per_rad': 'velocity_error_mm_per_rad',
        'acceleration_error_max_mm_per_rad2': 'acceleration_error_mm_per_rad2'}
 
 
-def _cell(name: str, value: Any, verdict: str | None, entry: Mapping[str, Any]) -> str:
-    """One number, with its verdict as the cell's colour and in words."""
+def _cell(field: FormValue, value: Any, verdict: str | None, entry: Mapping[str, Any]) -> str:
+    """One number, with its verdict as the cell's colour and in words; the checks
+    behind it (zones included) in its title."""
     if value is None:
         return '<td>-</td>'
     text = f'{value:d}' if isinstance(value, int) else f'{value:.3f}'
-    at = (entry.get(_AT[name]) or {}).get('at_deg') if name in _AT else None
+    at = (entry.get(_AT[field.name]) or {}).get('at_deg') if field.name in _AT else None
     if at is not None:
         text += f' at {at:.1f}°'
-    if verdict is None:
+    if verdict is None or field.quantity is None:
         return f'<td>{esc(text)}</td>'
-    return f'<td class="{result_class(verdict)}">{esc(text)} ({esc(verdict)})</td>'
+    title = '; '.join(f"{c['quantity']} {c['value']:.4g} {c['result']}"
+                      for c in quantity_checks(entry.get('verdict'), field.quantity))
+    return (f'<td class="{result_class(verdict)}" title="{esc(title)}">{esc(text)} '
+            f'({esc(verdict)})</td>')
 
 
 #: the per-feature tables: (heading, FormValue names), each showing the features and
@@ -66,7 +71,7 @@ def _features_table(features: Mapping[str, Any], heading: str, names: tuple[str,
         where = (f'<td class="l">{esc(_waviness_where(f))}</td>'
                  if 'waviness_upr_at_max' in names else '')
         rows.append(f'<tr><td class="l">{esc(fid)}</td><td class="l">{esc(f.get("kind", ""))}'
-                    '</td>' + ''.join(_cell(v.name, *values[v.name], f) for v in shown) +
+                    '</td>' + ''.join(_cell(v, *values[v.name], f) for v in shown) +
                     where + '</tr>')
     if not rows:
         return ''

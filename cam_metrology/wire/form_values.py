@@ -12,8 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
-__all__ = ['FormValue', 'FORM_VALUES', 'SHAFT_VALUES', 'form_value_names', 'quantity_verdict',
-           'feature_form_values']
+__all__ = ['FormValue', 'FORM_VALUES', 'SHAFT_VALUES', 'form_value_names', 'quantity_checks',
+           'quantity_verdict', 'feature_form_values']
 
 Entry = Mapping[str, Any]
 
@@ -82,13 +82,19 @@ def form_value_names() -> tuple[str, ...]:
         f'{v.name}_verdict' for v in FORM_VALUES if v.quantity is not None)
 
 
-def quantity_verdict(verdict: Any, quantity: str) -> str | None:
-    """'fail' | 'pass' of the checks of ``quantity`` (and its zones) in a verdict
-    ``{checks: [{quantity, result}]}``; None when it has none."""
+def quantity_checks(verdict: Any, quantity: str) -> list[Mapping[str, Any]]:
+    """The checks of ``quantity`` and of its zones (``<quantity>[a..b deg]``) in a
+    verdict ``{checks: [{quantity, result, ...}]}``."""
     checks = verdict.get('checks') if isinstance(verdict, Mapping) else None
-    results = [c.get('result') for c in checks or ()
-               if isinstance(c, Mapping) and isinstance(c.get('quantity'), str) and
-               (c['quantity'] == quantity or c['quantity'].startswith(quantity + '['))]
+    return [c for c in checks or ()
+            if isinstance(c, Mapping) and isinstance(c.get('quantity'), str) and
+            (c['quantity'] == quantity or c['quantity'].startswith(quantity + '['))]
+
+
+def quantity_verdict(verdict: Any, quantity: str) -> str | None:
+    """'fail' | 'pass' of the checks of ``quantity`` (and its zones) in a verdict;
+    None when it has none."""
+    results = [c.get('result') for c in quantity_checks(verdict, quantity)]
     if not results:
         return None
     return 'fail' if 'fail' in results else 'pass'
