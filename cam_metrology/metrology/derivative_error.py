@@ -102,11 +102,11 @@ def derivative_errors(table: Any, values: Mapping[str, Any],
         spline = make_smoothing_spline(a, e)
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         return {'derivative_error': f'smoothing of the lift error failed: {exc}'}
-    on = np.asarray(design(a, 0)) > 0
-    if np.count_nonzero(on) < 3:
+    lobe = np.asarray(design(a, 0)) > 0
+    if np.count_nonzero(lobe) < 3:
         return {'derivative_error': 'fewer than 3 bins on the lobe'}
     curves = {VELOCITY: spline(a, 1), ACCELERATION: spline(a, 2)}
-    out: dict[str, Any] = {q: _stats(a[on], c[on], MM) for q, c in curves.items()}
+    out: dict[str, Any] = {q: _stats(a[lobe], c[lobe], MM) for q, c in curves.items()}
     if zones:
-        out.update(_zone_stats(a, curves, on, zones))
+        out.update(_zone_stats(a, curves, lobe, zones))
     return out
