@@ -83,15 +83,12 @@ def _bumped(noise_um: float = 0.1, seed: int = 5):
     the bump E sin^4(pi u), u = (alpha - alpha_0) / W in [0, 1], on the rise flank only:
     C3 (its derivatives vanish at both ends), max |e'| = (3 sqrt3 / 4) E pi / W (where
     tan^2(pi u) = 3), max |e''| = 4 E (pi / W)^2 at its middle."""
-    from cam_metrology.metrology.synthetic import PolynomialRampCam
+    from cam_metrology.metrology.synthetic import PolynomialRampCam, bumped_lobe_table
 
     law = PolynomialRampCam()
-    alpha = np.linspace(-np.pi, np.pi, 7200, endpoint=False)
-    design = law(alpha)
-    u = (alpha - np.radians(BUMP_CENTRE_DEG - BUMP_WIDTH_DEG / 2)) / np.radians(BUMP_WIDTH_DEG)
-    bump = np.where((u >= 0) & (u <= 1), BUMP_UM * 1e-6 * np.sin(np.pi * u) ** 4, 0.0)
-    noise = np.random.default_rng(seed).normal(0.0, noise_um * 1e-6, alpha.size)
-    return np.column_stack([alpha, design + bump + noise, design]), law
+    return bumped_lobe_table(law, BUMP_UM * 1e-6, np.radians(BUMP_CENTRE_DEG),
+                             np.radians(BUMP_WIDTH_DEG), noise=noise_um * 1e-6,
+                             seed=seed), law
 
 
 def _zones_tolerances():
