@@ -314,6 +314,8 @@ def test_report_shows_form_journals_and_shaft(form_analysed) -> None:
     runout = mid[tables['size'][0].index('journal run-out µm')]
     assert float(runout.split()[0]) == pytest.approx(2 * BEND_UM, abs=0.05)
     assert runout.endswith('(fail)')
+    assert float(mid[tables['size'][0].index('run-out direction deg')]) == \
+        pytest.approx(30.0, abs=0.2)
     j1 = next(r for r in tables['harmonics'] if r[0] == 'journal_1')
     assert j1[1].startswith('3 UPR: 1.00')
     text = form_analysed['html'].read_text()

@@ -415,6 +415,7 @@ def test_values_carry_form_journal_track_and_shaft_numbers() -> None:
                              'acceleration_error_mm_per_rad2': {'max_abs': 2.5},
                              'verdict': {'result': 'fail', 'checks': checks}},
                   'journal_1': {'status': 'ok', 'kind': 'journal', 'runout_um': 20.0,
+                                'runout_direction_deg': 30.5,
                                 'diameter_deviation_um': -1.5, 'verdict': {'checks': [
                                     {'quantity': 'runout_um', 'result': 'fail'},
                                     {'quantity': 'diameter_deviation_um', 'result': 'pass'}]}},
@@ -439,9 +440,9 @@ def test_values_carry_form_journal_track_and_shaft_numbers() -> None:
     assert math.isnan(lobe['waviness_max_amplitude_um_verdict'])   # not judged
     assert math.isnan(lobe['runout_um']) and math.isnan(lobe['taper_um_per_mm'])
     journal = {k.split('/', 1)[1]: v for k, v in values['journal_1'].items()}
-    assert (journal['runout_um'], journal['runout_um_verdict'],
+    assert (journal['runout_um'], journal['runout_um_verdict'], journal['runout_direction_deg'],
             journal['diameter_deviation_um'], journal['diameter_deviation_um_verdict']) == \
-        (20.0, 0.0, -1.5, 1.0)
+        (20.0, 0.0, 30.5, -1.5, 1.0)
     assert values['lobe_2@-5']['lobe_2@-5/nose_lift_error_um'] == -12.5
     tracks = {k.split('/', 1)[1]: v for k, v in values['lobe_2'].items()}
     assert (tracks['taper_um_per_mm'], tracks['taper_um_per_mm_verdict'],

@@ -40,8 +40,8 @@ def _cell(field: FormValue, value: Any, verdict: str | None, entry: Mapping[str,
 #: columns that have a value
 _TABLES = (('Form', ('harmonic_max_upr', 'harmonic_max_amplitude_um', 'roundness_um',
                      'waviness_max_amplitude_um', 'waviness_upr_at_max')),
-           ('Size and run-out', ('base_circle_runout_um', 'runout_um', 'diameter_deviation_um',
-                                 'nose_lift_error_um')),
+           ('Size and run-out', ('base_circle_runout_um', 'runout_um', 'runout_direction_deg',
+                                 'diameter_deviation_um', 'nose_lift_error_um')),
            ('Velocity and acceleration error', ('velocity_error_max_mm_per_rad',
                                                 'acceleration_error_max_mm_per_rad2')))
 

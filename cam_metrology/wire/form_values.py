@@ -60,6 +60,8 @@ FORM_VALUES = (
     FormValue('diameter_deviation_um', _at('diameter_deviation_um'), 'diameter_deviation_um',
               'diameter deviation µm'),
     FormValue('runout_um', _at('runout_um'), 'runout_um', 'journal run-out µm'),
+    FormValue('runout_direction_deg', _at('runout_direction_deg'), None,
+              'run-out direction deg'),
     FormValue('velocity_error_max_mm_per_rad', _at('velocity_error_mm_per_rad', 'max_abs'),
               'velocity_error_mm_per_rad', 'velocity error mm/rad'),
     FormValue('acceleration_error_max_mm_per_rad2',
