@@ -155,10 +155,10 @@ def report_values(report: dict[str, Any]) -> list[tuple[str, list[float]]]:
     features = report.get('features') or {}
     tracks = report.get('lobe_tracks') if isinstance(report.get('lobe_tracks'), dict) else {}
     # a lobe measured on tracks only: its taper and twist on a record of its own
-    lobes = {fid: f for fid, f in features.items() if isinstance(f, dict)}
-    lobes.update({lobe: {} for lobe in tracks if lobe not in lobes})
-    for fid in sorted(lobes):
-        f = lobes[fid]
+    records = {fid: f for fid, f in features.items() if isinstance(f, dict)}
+    records.update({lobe: {} for lobe in tracks if lobe not in records})
+    for fid in sorted(records):
+        f = records[fid]
         err = f.get('lift_error_um') if isinstance(f.get('lift_error_um'), dict) else {}
         base = [
             _number(f.get('angle_deg')), _number(f.get('angle_std_deg'), 3600.0),
