@@ -174,7 +174,7 @@ def sweep_table() -> list[str]:
 
 def stress_table() -> list[str]:
     law = PolynomialLobe()
-    cases = {
+    cases: dict[str, dict[str, Any]] = {
         '30 spikes of +-10 um': dict(outliers=30),
         'gap of 6 deg on the rise flank': dict(gap_deg=6.0),
         'uneven sampling (jitter +-0.45 step)': dict(jitter=0.45),

@@ -178,7 +178,7 @@ def test_derivative_zones_in_the_scene() -> None:
     assert [(z.from_deg, z.to_deg, z.velocity_max_mm_per_rad, z.acceleration_max_mm_per_rad2)
             for z in tol.derivative_error_zones] == [(-60, -30, 0.02, 0.5), (-10, 10, None, 2)]
     assert tol.wants_derivatives()
-    from cam_metrology.cli.scene_cmds import tolerance_text
+    from cam_metrology.cli.scene.check import tolerance_text
     assert tolerance_text(tol) == ('velocity error <= 0.02 mm/rad and acceleration error <= '
                                    '0.5 mm/rad² over -60..-30 deg; acceleration error <= '
                                    '2 mm/rad² over -10..10 deg')

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from typing import Any, Callable, Mapping
 
+import numpy as np
+
 from cam_design.errors import InputError
 from cam_design.lift_laws import params as P
 from cam_design.lift_laws.base import LiftLaw, design_table
@@ -81,4 +83,5 @@ def polynomial_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
 def table_from_spec(spec: Mapping, key: str) -> LiftLaw:
     """``family: table``: ``alpha`` [rad] and ``h`` [m] lists (TabulatedLift)."""
     P.reject_unknown(spec, key, ('alpha', 'h'))
-    return design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'), key)
+    return design_table(np.asarray(P.numbers(spec, key, 'alpha'), dtype=float),
+                        np.asarray(P.numbers(spec, key, 'h'), dtype=float), key)

@@ -25,8 +25,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from cam_metrology.cli.conventions import add_table_units, table_units
 
-def register(subparsers: Any) -> None:
+
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``reconstruct`` subcommand."""
     p = subparsers.add_parser(
         'reconstruct', help='reconstruct lift and derivatives from measured lift tables',
@@ -34,10 +36,19 @@ def register(subparsers: Any) -> None:
                     'reconstruction of measured cam lifts from a bag or a lift table.')
     p.add_argument('input', metavar='BAG|TABLE',
                    help='rosbag2 directory (or .mcap), CSV table or gauge profile file')
+    add_table_units(p)
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the JSON result (- for standard output)')
+    p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
+    p.add_argument('--nominal', metavar='FILE',
+                   help='write the reconstructed lift of --lobe (or the only lobe) as a '
+                        'gauge nominal-profile file, -180..180 deg every --step-deg, from '
+                        'the first method that succeeded (--method to choose)')
     p.add_argument('--lobe', metavar='ID', dest='feature',
                    help='only this lobe (default: all lobes)')
     p.add_argument('--feature', dest='feature', help=argparse.SUPPRESS)   # old spelling
-    p.add_argument('--method', choices=('spline', 'harmonic', 'both'), default='both')
+    p.add_argument('--method', choices=('spline', 'harmonic', 'both'), default='both',
+                   help='reconstruction method (default both)')
     p.add_argument('--harmonics', type=int, metavar='N',
                    help='harmonic order, >= 2 (default: automatic)')
     p.add_argument('--basis', choices=('section', 'full'), default='section',
@@ -46,10 +57,10 @@ def register(subparsers: Any) -> None:
     p.add_argument('--smoothing', type=float, metavar='X',
                    help='spline smoothing lam [rad^5] (default: automatic, GCV)')
     p.add_argument('--criterion', choices=('gcv', 'risk'), default='gcv',
-                   help='automatic spline smoothing criterion')
+                   help='automatic spline smoothing criterion (default gcv)')
     p.add_argument('--rebound-threshold', type=float, metavar='T',
-                   help='rebound outlier tolerance in noise standard deviations x the '
-                        'rebound factor (default 4.5); raise it for tables coarser than '
+                   help='rebound outlier tolerance [noise standard deviations x the '
+                        'rebound factor] (default 4.5); raise it for tables coarser than '
                         '1 deg, where the rebound of the lift itself exceeds the noise')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
                    help='step of the output grid [deg] (default 0.1; 0.001 to 10)')
@@ -59,20 +70,10 @@ def register(subparsers: Any) -> None:
     p.add_argument('--radius', type=float, metavar='M', help='TABLE: roller radius [m]')
     p.add_argument('--rpm', type=float, metavar='R',
                    help='cam speed [rpm] for per-second velocity, acceleration, jerk')
-    p.add_argument('--angle-unit', choices=('deg', 'rad'),
-                   help='gauge file angle unit (default deg)')
-    p.add_argument('--length-unit', choices=('mm', 'um', 'm'),
-                   help='gauge file length unit (default mm)')
     p.add_argument('--center-nose', action='store_true',
                    help='TABLE: re-centre the angles on the lobe axis (gauge files whose '
                         'zero is not the nose)')
-    p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
-    p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
-    p.add_argument('--nominal', metavar='FILE',
-                   help='write the reconstructed lift of --lobe (or the only lobe) as a '
-                        'gauge nominal-profile file, -180..180 deg every --step-deg, from '
-                        'the first method that succeeded (--method to choose)')
-    p.set_defaults(func=run)
+    return p
 
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
@@ -111,9 +112,10 @@ def run(args: argparse.Namespace) -> int:
         raise FileNotFoundError(f'no such bag or table: {path}')
     core = ReconstructionCore(_params(args))
     from cam_metrology.bagio import looks_like_bag
+    skipped: list[dict[str, str]] = []
     if looks_like_bag(path):
         _reject_table_options(args)
-        kind, skipped = 'bag', []
+        kind = 'bag'
         follower, problems = _bag(path, core)
     else:
         kind, problems = 'table', []
@@ -236,8 +238,7 @@ def _reject_table_options(args: argparse.Namespace) -> None:
 def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, Any], list]:
     from cam_metrology.reconstruction.samples import read_table_file
 
-    table = read_table_file(path, angle_unit=args.angle_unit or 'deg',
-                            length_unit=args.length_unit or 'mm')
+    table = read_table_file(path, **table_units(args))
     if args.feature:
         from dataclasses import replace
         table = replace(table, feature=args.feature)

@@ -18,7 +18,8 @@ from cam_design.errors import InputError
 __all__ = ['gauge_text', 'law_gauge_text']
 
 
-def gauge_text(alpha_deg: Sequence[float], lift_m: Sequence[float], probe_radius_m: float,
+def gauge_text(alpha_deg: Sequence[float] | np.ndarray, lift_m: Sequence[float] | np.ndarray,
+               probe_radius_m: float,
                comments: Sequence[str] = ()) -> str:
     """The file text of a table (angles [deg] strictly increasing, lifts [m])."""
     a = np.asarray(alpha_deg, dtype=float)
