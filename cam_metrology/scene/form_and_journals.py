@@ -110,6 +110,20 @@ def _tolerances(key: str, value: Any, mapping: Callable[..., Mapping],
     return (tol if tol.any() else None), diameter
 
 
+def zone_span(key: str, zone: Mapping[str, Any], expected: str) -> tuple[float, float]:
+    """(from_deg, to_deg) of one angle zone ``key``: both present (else InputError with
+    ``expected``), finite, from < to within [-180, 180] cam deg."""
+    for part in ('from_deg', 'to_deg'):
+        if part not in zone:
+            raise InputError(f'{key}.{part}', None, expected)
+    lo = require_finite(f'{key}.from_deg', zone['from_deg'])
+    hi = require_finite(f'{key}.to_deg', zone['to_deg'])
+    if not -180.0 <= lo < hi <= 180.0:
+        raise InputError(f'{key}.to_deg', hi, f'an angle > from_deg ({lo:g}) within '
+                         '[-180, 180] deg')
+    return lo, hi
+
+
 def check_no_overlap(key: str, spans: list[tuple[float, float]]) -> None:
     """InputError naming ``key`` when two angle spans (from_deg, to_deg) overlap."""
     ordered = sorted(spans)
@@ -138,15 +152,8 @@ def parse_derivative_zones(key: str, value: Any,
     for j, item in enumerate(value):
         zk = f'{key}[{j}]'
         z = mapping(zk, item, DERIVATIVE_ZONE_KEYS)
-        for part in ('from_deg', 'to_deg'):
-            if part not in z:
-                raise InputError(f'{zk}.{part}', None, 'a cam angle in deg from the lobe '
-                                 'centreline (from_deg < to_deg)')
-        lo = require_finite(f'{zk}.from_deg', z['from_deg'])
-        hi = require_finite(f'{zk}.to_deg', z['to_deg'])
-        if not -180.0 <= lo < hi <= 180.0:
-            raise InputError(f'{zk}.to_deg', hi, f'an angle > from_deg ({lo:g}) within '
-                             '[-180, 180] deg')
+        lo, hi = zone_span(zk, z, 'a cam angle in deg from the lobe centreline (from_deg < '
+                           'to_deg)')
         limits = [require_positive(f'{zk}.{k}', z[k], allow_zero=True) if k in z else None
                   for k in DERIVATIVE_ZONE_KEYS[2:]]
         if all(v is None for v in limits):

@@ -27,7 +27,7 @@ from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import check_design_table
 from cam_metrology.inputs.files import read_text_file
 from cam_metrology.scene.form_and_journals import (check_no_overlap, parse_axial_position,
-                                                   parse_derivative_zones)
+                                                   parse_derivative_zones, zone_span)
 from cam_metrology.scene.model import (COMPUTE_ITEMS, Band, Crank, DowelPin, Follower, Keyway,
                                        Lobe, Scene, Seat, ToleranceZone, Tolerances, ValveTrain)
 
@@ -751,15 +751,11 @@ def _zones(ctx: _Ctx, key: str, value: Any) -> tuple[ToleranceZone, ...]:
     for j, item in enumerate(value):
         zk = f'{key}[{j}]'
         z = ctx.mapping(zk, item, ('from_deg', 'to_deg', 'band_um'))
-        for part in ('from_deg', 'to_deg', 'band_um'):
-            if part not in z:
-                raise InputError(f'{zk}.{part}', None, 'a value (from_deg < to_deg in cam '
-                                 'deg from the lobe centreline, band_um t or [lower, upper])')
-        lo = require_finite(f'{zk}.from_deg', z['from_deg'])
-        hi = require_finite(f'{zk}.to_deg', z['to_deg'])
-        if not -180.0 <= lo < hi <= 180.0:
-            raise InputError(f'{zk}.to_deg', hi, f'an angle > from_deg ({lo:g}) within '
-                             '[-180, 180] deg')
+        expected = ('a value (from_deg < to_deg in cam deg from the lobe centreline, band_um '
+                    't or [lower, upper])')
+        if 'band_um' not in z and 'from_deg' in z and 'to_deg' in z:
+            raise InputError(f'{zk}.band_um', None, expected)
+        lo, hi = zone_span(zk, z, expected)
         zones.append(ToleranceZone(lo, hi, _band(f'{zk}.band_um', z['band_um'])))
     check_no_overlap(key, [(z.from_deg, z.to_deg) for z in zones])
     return tuple(sorted(zones, key=lambda zz: zz.from_deg))
