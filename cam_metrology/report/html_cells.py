@@ -14,8 +14,14 @@ def esc(x: Any) -> str:
 
 
 def number(x: Any, spec: str) -> str:
-    """``x`` formatted by ``spec``; '-' for None."""
-    return '-' if x is None else format(x, spec)
+    """``x`` formatted by ``spec``; '-' for None; a value that rounds to zero is shown
+    without a sign ('0.000', not '-0.000')."""
+    if x is None:
+        return '-'
+    text = format(x, spec)
+    if text.startswith('-') and not any(c in '123456789' for c in text.split('e')[0]):
+        return text[1:]
+    return text
 
 
 def result_class(result: str | None) -> str:
