@@ -168,7 +168,7 @@ def test_card_cli_on_the_default_scene(capsys) -> None:
     (['config/default_scene.yaml', '--lobe', 'lobe_2'], 12.5e-3),
 ])
 def test_nominal_file_round_trip(tmp_path, args, radius) -> None:
-    from cam_metrology.reconstruction.samples import read_gauge_file
+    from cam_metrology.inputs.lift_tables import read_gauge_file
     from cam_metrology.scene.parse import load_scene
 
     if args[0].startswith('test/_'):
@@ -263,7 +263,7 @@ def test_scene_nominal_file_bad_input(tmp_path, edit, key) -> None:
 
 def test_reconstruct_writes_a_nominal_file(tmp_path, capsys) -> None:
     """reconstruct --nominal: the reconstructed lift read back to 0.1 um at every row."""
-    from cam_metrology.reconstruction.samples import read_gauge_file
+    from cam_metrology.inputs.lift_tables import read_gauge_file
 
     law = from_spec(SPEC)
     a = np.radians(np.arange(-180.0, 180.0, 0.2))

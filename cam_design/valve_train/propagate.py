@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
-from cam_design.valve_train.cam_input import DEGREE
+from cam_design.lift_laws.jet_table import DEGREE
 
 NB = DEGREE + 1
 FACT = np.array([math.factorial(j) for j in range(NB)], dtype=float)

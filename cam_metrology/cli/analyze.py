@@ -232,7 +232,12 @@ def form_lines(report: dict[str, Any]) -> list[str]:
     if shaft.get('straightness_um') is not None:
         lines.append(f"shaft straightness {shaft['straightness_um']:.2f} µm (bow "
                      f"{shaft['bow_um']:.2f} µm at {shaft['bow_at_mm']:g} mm towards "
-                     f"{shaft['bow_direction_deg']:.1f} deg)")
+                     f"{shaft['bow_direction_deg']:.1f} deg, from "
+                     f"{len(shaft.get('from') or [])} centres)")
+    elif shaft:
+        lines.append(f"shaft straightness not computed: {shaft.get('why', '')}")
+    for note in shaft.get('left_out') or []:
+        lines.append(f"shaft straightness leaves out {note['feature']}: {note['why']}")
     for lobe, tr in (report.get('lobe_tracks') or {}).items():
         if 'twist_deg_per_mm' in tr:
             taper = tr.get('taper_um_per_mm')

@@ -155,7 +155,7 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
     from cam_design.errors import InputError
     from cam_metrology.inputs.files import write_output
     from cam_metrology.report.nominal_file import gauge_text, law_gauge_text
-    from cam_metrology.reconstruction.samples import clean_samples
+    from cam_design.lift_table.samples import clean_samples
 
     ids = list(cards)
     lobe = args.lobe or (ids[0] if len(ids) == 1 else None)
@@ -182,12 +182,12 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
 def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
                ) -> dict[str, Any]:
     """The card of a lift table [rad, m]: that of its lobe law
-    (``reconstruction.lobe_table.lobe_law``, the same lobe every route reads from the
+    (``cam_design.lift_table.lobe_table.lobe_law``, the same lobe every route reads from the
     rows), with ``source`` and ``note`` saying how the rows became the lobe and
     ``warning`` what they could not tell."""
     from cam_design.cam_card import card_from_law
-    from cam_metrology.reconstruction.lobe_table import lobe_law
-    from cam_metrology.reconstruction.samples import base_circle_warning
+    from cam_design.lift_table.lobe_table import lobe_law
+    from cam_design.lift_table.samples import base_circle_warning
 
     law = lobe_law(alpha, lift, key=name, allow_steps=True)
     card = card_from_law(law, heights, key='--heights-mm', floor=law.lobe.level,
@@ -266,7 +266,7 @@ def run(args: argparse.Namespace) -> int:
         cards, phases = scene_cards(args.input, heights, args.lobe)
         flat = cards
     else:
-        from cam_metrology.reconstruction.samples import read_table_file
+        from cam_metrology.inputs.lift_tables import read_table_file
         kind = 'table'
         table = read_table_file(path, **table_units(args))
         cards = {table.feature: table_card(table.alpha, table.lift, heights, path.name)}

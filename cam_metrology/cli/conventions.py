@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 
 #: units a gauge table may be written in (the values: SI factors live in
-#: ``reconstruction.samples``; the choices here are the same names)
+#: ``cam_design.lift_table.samples``; the choices here are the same names)
 ANGLE_UNIT_CHOICES = ('deg', 'rad')
 LENGTH_UNIT_CHOICES = ('mm', 'um', 'm')
 

@@ -57,7 +57,7 @@ def load_law(doc: Any, path: str) -> Any:
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_metrology.reconstruction.lobe_routes import law_from_spec
+    from cam_design.lift_laws import from_spec
 
     if isinstance(doc, dict):
         table = doc.get('lift', doc)
@@ -70,11 +70,11 @@ def load_law(doc: Any, path: str) -> Any:
                 except (TypeError, ValueError):
                     raise InputError(f'{key}.{name}', table[name],
                                      'a list of numbers (rad for alpha, m for h)') from None
-            return law_from_spec(dict(values, family='table'), key)
+            return from_spec(dict(values, family='table'), key)
     if not isinstance(doc, dict):
         raise InputError(path, type(doc).__name__, 'a mapping with lift_law: or alpha/h')
     spec, key = law_spec(doc, path)
-    return law_from_spec(spec, key)
+    return from_spec(spec, key)
 
 
 def scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:

@@ -162,7 +162,7 @@ def lobe_entry(table: Any, key: str) -> dict[str, Any]:
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_design.lift_table.lobe_table import lobe_law
 
     try:
         law = lobe_law(table.alpha, table.lift, key=key, allow_steps=True)
@@ -209,6 +209,17 @@ def write_nominal(core: Any, args: argparse.Namespace, follower: dict[str, Any])
         raise InputError('--step-deg', args.step_deg, 'a step that divides 360 deg for '
                          '--nominal (e.g. 0.1, 0.25, 0.5)')
     rec = outcome.reconstruction
+    # a table over part of the turn: its fit has a gap wider than the rows' own steps
+    gaps = np.diff(np.concatenate([rec.alpha, rec.alpha[:1] + 2.0 * np.pi]))
+    widest = int(np.argmax(gaps))
+    row_step = float(np.median(np.diff(rec.data_alpha))) if rec.data_alpha.size > 1 else 0.0
+    if gaps[widest] > 2.0 * (row_step + np.radians(args.step_deg)) + 1e-9:
+        start, stop = (np.degrees(rec.alpha[widest]),
+                       np.degrees(rec.alpha[(widest + 1) % rec.alpha.size]))
+        raise InputError('--nominal', f'a reconstruction of {fid} without rows from '
+                         f'{start:.1f} to {stop:.1f} deg',
+                         'a table over the whole turn: a gauge nominal file covers '
+                         '-180..180 deg, and no lift is made up where no row was measured')
     grid = np.linspace(-180.0, 180.0, int(round(n)) + 1)
     lift = np.interp(grid, np.degrees(rec.alpha), rec.derivatives()[0], period=360.0)
     method = next(m for m, o in core.results[fid].items() if o is outcome)
@@ -236,14 +247,14 @@ def _reject_table_options(args: argparse.Namespace) -> None:
 
 
 def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, Any], list]:
-    from cam_metrology.reconstruction.samples import read_table_file
+    from cam_metrology.inputs.lift_tables import read_table_file
 
     table = read_table_file(path, **table_units(args))
     if args.feature:
         from dataclasses import replace
         table = replace(table, feature=args.feature)
     if args.center_nose:
-        from cam_metrology.reconstruction.samples import centre_on_nose
+        from cam_design.lift_table.samples import centre_on_nose
         table, _ = centre_on_nose(table)
     kind, radius = table.follower or ('flat', 0.0)
     if args.radius is not None:   # 12.5 meant as mm is a 12.5 m roller: refuse it
@@ -258,7 +269,7 @@ def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, A
         kind, radius = 'roller', args.radius
     from cam_design.follower import Follower
     Follower(kind, radius)   # validates
-    from cam_metrology.reconstruction.samples import clean_samples
+    from cam_design.lift_table.samples import clean_samples
     clean_samples(table.alpha, table.lift, key=path.name)   # too few rows: InputError
     core.results.clear()
     core.process_table(table, 0, note='table input: lift as seen by the measuring '

@@ -387,7 +387,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                   (_slope_zone(law, alpha_m, lo, 0.0),
                                    _slope_zone(law, alpha_n, 0.0, hi))))
     base &= good
-    base_runout = _runout_um(fs.theta[base], fs.s[base] - fit.c)
+    base_runout, base_centre = _runout_um(fs.theta[base], fs.s[base] - fit.c)
     del base
     # the lift table (alpha, measured, design) in alpha order, built column by column
     del harmonic   # recomputed for the table, a block at a time
@@ -412,6 +412,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     if fit_error is not None:   # what the fit leaves; a smooth form error partly hides here
         values['fit_residual_um'] = fit_error
     values['base_circle_runout_um'] = base_runout
+    values['base_circle_eccentricity_um'] = base_centre
     values['runout_fitted'] = runout
     if runout:
         values['fitted_runout_amplitude_um'] = float(np.hypot(*fit.runout)) * UM
@@ -493,12 +494,17 @@ def base_reference(theta: NDArray[np.float64], s: NDArray[np.float64],
     return np.full(theta.size, float(np.median(s[base])))
 
 
-def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]) -> float | None:
-    """Total indicated run-out [um] of the base circle: 2 x first-harmonic amplitude."""
+def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]
+               ) -> tuple[float | None, list[float] | None]:
+    """Total indicated run-out [um] of the base circle (2 x first-harmonic amplitude) and
+    its centre's eccentricity vector ``[a, b]`` [um] from the datum axis (the reading
+    ``c + a cos theta + b sin theta``, as a journal's); (None, None) with fewer than 10
+    base-circle samples."""
     if theta.size < 10:
-        return None
+        return None, None
     coef = block_lsq.harmonic_lstsq(theta, lift)
-    return float(2.0 * np.hypot(coef[1], coef[2]) * UM)
+    return (float(2.0 * np.hypot(coef[1], coef[2]) * UM),
+            [float(coef[1]) * UM, float(coef[2]) * UM])
 
 
 def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64],

@@ -316,12 +316,16 @@ class MetrologyCore:
                 result.skipped.append(('form', form['form_error']))
             if scene.form.derivative_errors or (lobe.tolerances is not None and
                                                 lobe.tolerances.wants_derivatives()):
+                zones = lobe.tolerances.derivative_error_zones if lobe.tolerances else ()
                 result.values.update(derivative_errors(result.table, result.values,
-                                                       self._design[lobe.id]))
+                                                       self._design[lobe.id], zones))
             if track is not None:
                 result.values.update({'track_of': track[0], 'track_mm': track[1],
                                       'nose_lift_error_um': nose_lift_error_um(
                                           result.table, result.values)})
+            if lobe.axial_position is not None:
+                result.values['axial_position_mm'] = lobe.axial_position * 1e3 + (
+                    0.0 if track is None else track[1])
             return result
         except (FeatureFailed, InputError) as exc:
             return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
@@ -479,16 +483,18 @@ class MetrologyCore:
         release(tables.values())   # the spilled tables read by the verdict
         tracked = {f.get('track_of') for f in features.values()} - {None}
         if tracked:
+            from cam_metrology.metrology.tolerances import judge_tracks
             from cam_metrology.metrology.tracks import taper_and_twist
             extra['lobe_tracks'] = {
                 lobe: taper_and_twist({fid: f for fid, f in features.items()
                                        if f.get('track_of') == lobe}) or
                 {'why': 'fewer than 2 tracks measured'} for lobe in sorted(tracked)}
-        if scene.journals:
-            from cam_metrology.metrology.journals import shaft_straightness
-            extra['shaft'] = shaft_straightness(
-                features, {j.id: j.axial_position for j in scene.journals}) or {
-                    'straightness_um': None, 'why': 'fewer than 3 journals measured'}
+            for lobe, entry in extra['lobe_tracks'].items():   # its checks, for the views
+                tol = next((x.tolerances for x in scene.lobes if x.id == lobe), None)
+                entry['verdict'] = judge_tracks(tol, lobe, features)
+        if scene.journals or any(lobe.axial_position is not None for lobe in scene.lobes):
+            from cam_metrology.metrology.journals import feature_positions, shaft_straightness
+            extra['shaft'] = shaft_straightness(features, *feature_positions(scene, features))
         return json_safe({
             'camshaft_id': scene.camshaft_id,
             'verdict': verdict,

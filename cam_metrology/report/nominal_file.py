@@ -1,4 +1,4 @@
-"""Writing gauge nominal-profile files (the layout ``reconstruction.samples`` reads).
+"""Writing gauge nominal-profile files (the layout ``inputs.lift_tables`` reads).
 
 Layout: line 1 the probe radius [mm], line 2 the number of angle steps N, then N + 1
 rows ``angle lift`` (deg from the lobe centreline, mm above the base circle) from -180

@@ -26,6 +26,8 @@ from cam_design.errors import InputError, require_finite, require_length, requir
 from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import check_design_table
 from cam_metrology.inputs.files import read_text_file
+from cam_metrology.scene.form_and_journals import (check_no_overlap, parse_axial_position,
+                                                   parse_derivative_zones, zone_span)
 from cam_metrology.scene.model import (COMPUTE_ITEMS, Band, Crank, DowelPin, Follower, Keyway,
                                        Lobe, Scene, Seat, ToleranceZone, Tolerances, ValveTrain)
 
@@ -40,14 +42,15 @@ STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law',
-             'width', 'tolerances', 'role', 'cylinder', 'nominal_file')
+             'width', 'tolerances', 'role', 'cylinder', 'nominal_file', 'axial_position')
 #: tolerance keys of a lobe (units in the names); the top-level block adds datum_deg
 TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
 #: tolerance keys that are a maximum only (>= 0)
 TOL_MAXIMA = ('runout_max_um', 'roundness_max_um', 'waviness_max_um', 'taper_max_um_per_mm',
               'twist_max_deg', 'velocity_error_max_mm_per_rad',
               'acceleration_error_max_mm_per_rad2')
-TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm') + TOL_MAXIMA
+TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm', 'derivative_error_zones') + \
+    TOL_MAXIMA
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 KEYWAY_KEYS = ('width', 'shaft_radius', 'probe_radius', 'depth', 'nominal_angle')
 CRANK_KEYS = ('tdc_deg', 'cylinder_tdc_deg')
@@ -340,6 +343,9 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         width = lobe.get('width')
         if width is not None:
             width = require_length(f'{key}.width', width, GEOMETRY_MAX_M)
+        z = lobe.get('axial_position')
+        if z is not None:
+            z = parse_axial_position(f'{key}.axial_position', z)
         tol = _lobe_tolerances(ctx, key, lobe.get('tolerances'), defaults or {}, law, phase)
         role = lobe.get('role')
         if role is not None and role not in ('intake', 'exhaust'):
@@ -347,7 +353,7 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         cylinder = _text(f'{key}.cylinder', lobe.get('cylinder', 1))
         lobes.append(Lobe(id=lobe_id, follower=follower, lift=law, nominal_phase=phase,
                           lift_spec=spec, width=width, tolerances=tol, role=role,
-                          cylinder=cylinder, nominal_file=nominal_path))
+                          cylinder=cylinder, nominal_file=nominal_path, axial_position=z))
     return lobes
 
 
@@ -357,9 +363,8 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
     steps, rows ``angle_deg lift_mm``) and the follower it is written for (a roller of
     the file's probe radius, a knife for 0); a lobe ``follower`` that differs is an
     error. Relative paths start from the scene file's folder."""
-    from cam_metrology.reconstruction.samples import (check_angle_magnitude,
-                                                      check_lift_magnitude,
-                                                      read_gauge_file)
+    from cam_design.lift_table.samples import check_angle_magnitude, check_lift_magnitude
+    from cam_metrology.inputs.lift_tables import read_gauge_file
 
     raw = _text(f'{key}.nominal_file', lobe['nominal_file'])
     path = Path(raw).expanduser()
@@ -439,10 +444,10 @@ def _lift_table(ctx: _Ctx, key: str, value: Any) -> LiftLaw:
 
 def _table_law(ctx: _Ctx, key: str, alpha: np.ndarray, h: np.ndarray, *,
                design: bool = True) -> LiftLaw:
-    """The lobe law of a design table (``reconstruction.lobe_table``: the same lobe as
+    """The lobe law of a design table (``cam_design.lift_table.lobe_table``: the same lobe as
     every other route reads from these rows; ``design``: first the rules of a scene
     table, ``check_design_table``); its warnings go to the scene's."""
-    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_design.lift_table.lobe_table import lobe_law
 
     a, v = (check_design_table(alpha, h, key) if design else (alpha, h))
     law = lobe_law(a, v, key=key)
@@ -472,11 +477,7 @@ def lift_law_from_spec(spec: Mapping[str, Any], key: str) -> LiftLaw:
                          'a lift-law family; lift_law: family not available in this '
                          'build (cam_design.lift_laws.registry missing); use a lift table')
     try:
-        if spec.get('family') == 'table':   # a table: its lobe law, as on every route
-            from cam_metrology.reconstruction.lobe_routes import law_from_spec
-            law = law_from_spec(spec, key)
-        else:
-            law = registry.from_spec(spec, key)
+        law = registry.from_spec(spec, key)   # family table: the table's lobe law
     except InputError:
         raise
     except (TypeError, ValueError, KeyError, ArithmeticError) as exc:
@@ -745,23 +746,14 @@ def _zones(ctx: _Ctx, key: str, value: Any) -> tuple[ToleranceZone, ...]:
     for j, item in enumerate(value):
         zk = f'{key}[{j}]'
         z = ctx.mapping(zk, item, ('from_deg', 'to_deg', 'band_um'))
-        for part in ('from_deg', 'to_deg', 'band_um'):
-            if part not in z:
-                raise InputError(f'{zk}.{part}', None, 'a value (from_deg < to_deg in cam '
-                                 'deg from the lobe centreline, band_um t or [lower, upper])')
-        lo = require_finite(f'{zk}.from_deg', z['from_deg'])
-        hi = require_finite(f'{zk}.to_deg', z['to_deg'])
-        if not -180.0 <= lo < hi <= 180.0:
-            raise InputError(f'{zk}.to_deg', hi, f'an angle > from_deg ({lo:g}) within '
-                             '[-180, 180] deg')
+        expected = ('a value (from_deg < to_deg in cam deg from the lobe centreline, band_um '
+                    't or [lower, upper])')
+        if 'band_um' not in z and 'from_deg' in z and 'to_deg' in z:
+            raise InputError(f'{zk}.band_um', None, expected)
+        lo, hi = zone_span(zk, z, expected)
         zones.append(ToleranceZone(lo, hi, _band(f'{zk}.band_um', z['band_um'])))
-    ordered = sorted(zones, key=lambda zz: zz.from_deg)
-    for a, b in zip(ordered, ordered[1:]):
-        if b.from_deg < a.to_deg:
-            raise InputError(key, f'zones {a.from_deg:g}..{a.to_deg:g} and {b.from_deg:g}..'
-                             f'{b.to_deg:g} deg overlap', 'zones that do not overlap (two '
-                             'bands for one angle contradict each other)')
-    return tuple(ordered)
+    check_no_overlap(key, [(z.from_deg, z.to_deg) for z in zones])
+    return tuple(sorted(zones, key=lambda zz: zz.from_deg))
 
 
 def _tolerance_block(ctx: _Ctx, key: str, value: Any, known: tuple[str, ...]
@@ -777,6 +769,9 @@ def _tolerance_block(ctx: _Ctx, key: str, value: Any, known: tuple[str, ...]
     if 'lift_error_zones' in block:
         out['lift_error_zones'] = _zones(ctx, f'{key}.lift_error_zones',
                                          block['lift_error_zones'])
+    if 'derivative_error_zones' in block:
+        out['derivative_error_zones'] = parse_derivative_zones(
+            f'{key}.derivative_error_zones', block['derivative_error_zones'], ctx.mapping)
     for k in TOL_MAXIMA:
         if k in block:
             out[k] = require_positive(f'{key}.{k}', block[k], allow_zero=True)

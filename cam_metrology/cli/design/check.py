@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
     JSON (0; 2 for bad input)."""
     from cam_design.checks import run_checks
     from cam_design.errors import InputError
-    from cam_metrology.reconstruction.lobe_routes import law_from_spec
+    from cam_design.lift_laws import from_spec
 
     doc = load_yaml(args.file)
     if not isinstance(doc, dict):
@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         cfg = {k: v for k, v in doc.items() if k != 'lift_law'}
     if args.rpm is not None:
         cfg['cam_speed_rpm'] = args.rpm
-    law = law_from_spec(spec, key)
+    law = from_spec(spec, key)
     try:
         res = run_checks(law, cfg)
     except InputError as exc:

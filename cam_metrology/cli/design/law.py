@@ -46,10 +46,10 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_metrology.reconstruction.lobe_routes import law_from_spec
+    from cam_design.lift_laws import from_spec
 
     spec, key = law_spec(load_yaml(args.file), args.file, args.lobe)
-    law = law_from_spec(spec, key)
+    law = from_spec(spec, key)
     step = args.step_deg
     if not (math.isfinite(step) and 1e-4 <= step <= 90):
         raise InputError('--step-deg', step, 'a step in [1e-4, 90] deg')
