@@ -32,6 +32,7 @@ from cam_metrology.metrology.lift_error import (error_stats, local_deviation,
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
 from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
+from cam_metrology.metrology.spill import release, walk
 
 DEG = np.pi / 180.0
 UM = 1e6
@@ -346,8 +347,10 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         raise FeatureFailed(f'{fs.theta.size} valid samples (need >= '
                             f'{4 * settings.min_flank_samples})')
     lo, hi = law.support if hasattr(law, 'support') else (-np.pi, np.pi)
+    # spilled samples (``features``): every pass gives back the pages it read
     xraw = direction * fs.theta
     x0 = coarse_align(xraw, fs.s, law)
+    _release(fs)
     xraw -= x0
     x = wrap_pi(xraw)
     del xraw
@@ -359,12 +362,14 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     runout = settings.fit_runout and covers_circle(fs.theta)
     fit, outliers, noise = robust_fit(x, fs.s, law, settings, c0=c_base,
                                       theta=fs.theta if runout else None)
+    _release(fs)
     good = ~outliers
     _check_fit(fit, settings, 'nose')
     harmonic = block_lsq.first_harmonic(fs.theta, 0.0, *fit.runout)
     ref = base_reference(fs.theta, fs.s, base & good, runout, (fit.c, harmonic))
     ref -= fs.s
     ref *= -1.0   # s - ref, in place
+    _release(fs)
     try:
         sp = sensitive_point_shift(
             x, ref, law, alpha_m, alpha_n, used=good,
@@ -389,6 +394,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     base &= good
     base_runout = _runout_um(fs.theta[base], fs.s[base] - fit.c)
     del base
+    _release(fs)
     # the lift table (alpha, measured, design) in alpha order, built column by column
     del harmonic   # recomputed for the table, a block at a time
     alpha = x
@@ -404,6 +410,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         wave = block_lsq.first_harmonic(th, 0.0, *fit.runout)
         table[k:k + step, 1] = fs.s[idx] - fit.c - wave
     del alpha, idx, th, wave   # idx is a view: it would keep the whole sort order alive
+    _release(fs)
     table[:, 2] = law(table[:, 0], 0)
     good = good[order]
     del order
@@ -439,6 +446,11 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                          float(np.radians(values['angle_deg'])), skipped=skipped)
 
 
+def _release(fs: FeatureSamples) -> None:
+    """Give back the pages of spilled sample columns read so far (``spill.release``)."""
+    release(fs.theta, fs.s, fs.stamp_ns)
+
+
 def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.float64],
                     law: Lift, fit: Any, good: NDArray[np.bool_], settings: Settings,
                     zones: tuple[tuple[float, float], ...]) -> dict[str, Any]:
@@ -448,7 +460,7 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.fl
     covered are left out."""
     if fs.revolutions < 1.9:
         return {}
-    rev = np.empty(fs.theta.size, np.int64)
+    rev = np.empty(fs.theta.size, np.int32)
     pos, first = 0, None
     for turns in unwrapped_blocks(fs.theta):   # np.unwrap, a block at a time
         first = turns[0] if first is None else first
@@ -473,8 +485,10 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.fl
 def covers_circle(theta: NDArray[np.float64], need: int = 30) -> bool:
     """True if the angles [rad] fall in at least ``need`` of 36 sectors of 10 deg
     (a first harmonic is then well determined)."""
-    sectors = np.unique((np.mod(theta, 2 * np.pi) // (np.pi / 18)).astype(np.int64))
-    return bool(sectors.size >= need)
+    seen = np.zeros(36 + 1, bool)   # a block at a time: no full-size temporaries
+    for a, b in walk(theta.size, theta):
+        seen[(np.mod(theta[a:b], 2 * np.pi) // (np.pi / 18)).astype(np.int64)] = True
+    return bool(np.count_nonzero(seen) >= need)
 
 
 def base_reference(theta: NDArray[np.float64], s: NDArray[np.float64],

@@ -107,6 +107,25 @@ def base_referenced(table: Any, harmonic: bool) -> tuple[Any, Any]:
     return out, kept
 
 
+def referenced_rows(table: Any, feature: Mapping[str, Any]) -> NDArray[np.float64]:
+    """The rows ``feature_referenced`` keeps, as a new (k, 3) table (alpha [rad],
+    base-referenced measured lift [m], design lift [m]): the values of
+    ``ref[good]``, built a block of rows at a time without the referenced copy of the
+    whole table (a spilled table gives back its pages block by block)."""
+    from cam_metrology.metrology.spill import walk
+
+    model, kept = base_model(table, bool(feature.get('runout_fitted')))
+    out = np.empty((int(np.count_nonzero(kept)), 3))
+    pos = 0
+    for a, b in walk(table.shape[0], table, step=block_lsq.BLOCK_ROWS):
+        rows = table[a:b][kept[a:b]]
+        if model is not None:
+            rows[:, 1] = rows[:, 1] - model(rows[:, 0])
+        out[pos:pos + rows.shape[0]] = rows
+        pos += rows.shape[0]
+    return out
+
+
 def referenced_error_stats(table: Any, harmonic: bool, good: NDArray[np.bool_],
                            ) -> dict[str, float] | None:
     """``lift_error_stats`` of ``base_referenced(table, harmonic)`` over the samples it
