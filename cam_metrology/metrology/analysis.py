@@ -32,7 +32,7 @@ from cam_metrology.metrology.lift_error import (error_stats, local_deviation,
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
 from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
-from cam_metrology.metrology.spill import release, walk
+from cam_metrology.metrology.spill import blank, release, seal, walk
 
 DEG = np.pi / 180.0
 UM = 1e6
@@ -401,7 +401,8 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     alpha -= fit.d   # x is not used after this: alpha = x - d in place
     del x
     order = np.argsort(alpha)
-    table = np.empty((alpha.size, 3))
+    # a long feature's table goes to a temporary file as it is built (``spill.blank``)
+    table = blank((alpha.size, 3))
     step = block_lsq.BLOCK_ROWS
     for k in range(0, alpha.size, step):   # the same values as whole-column expressions
         idx = order[k:k + step]
@@ -409,13 +410,16 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         table[k:k + step, 0] = alpha[idx]
         wave = block_lsq.first_harmonic(th, 0.0, *fit.runout)
         table[k:k + step, 1] = fs.s[idx] - fit.c - wave
+        table[k:k + step, 2] = law(table[k:k + step, 0], 0)   # elementwise: the same
+        release(table)
     del alpha, idx, th, wave   # idx is a view: it would keep the whole sort order alive
     _release(fs)
-    table[:, 2] = law(table[:, 0], 0)
+    table = seal(table)
     good = good[order]
     del order
     alpha, measured, design = table[:, 0], table[:, 1], table[:, 2]
     fit_error = error_stats(measured - design, design, good)
+    release(table)
     if fit_error is not None:   # what the fit leaves; a smooth form error partly hides here
         values['fit_residual_um'] = fit_error
     values['base_circle_runout_um'] = base_runout
@@ -429,6 +433,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     if asymmetry:
         if is_symmetric(law, lo, hi):
             values.update(_asymmetry(alpha, measured, good, lo, hi, direction, settings))
+            release(table)
             if 'asymmetry_deg' in values:
                 values['top_point_deg'] = float(np.mod(values['angle_deg']
                                                        + values['asymmetry_deg'], 360.0))
@@ -438,6 +443,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
             skipped.append(('asymmetry', 'design lift is asymmetric: no symmetry axis'))
     # the lift error a gauge reports: offset (and run-out) from the base circle alone
     stats = referenced_error_stats(table, runout, good)
+    release(table)
     del good
     if stats is not None:
         values['lift_error_um'] = stats
