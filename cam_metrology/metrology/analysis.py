@@ -289,6 +289,7 @@ def _residuals(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift, fit: A
             rb -= block_lsq.first_harmonic(tb, 0.0, *fit.runout)
         out[pos:pos + rb.size] = rb
         pos += rb.size
+        release(s, theta)   # spilled samples: one block resident
     return out
 
 
@@ -359,6 +360,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     _zone_check(x, _slope_zone(law, alpha_n, 0.0, hi), 'fall', settings)
     base = (x < lo - 2 * DEG) | (x > hi + 2 * DEG)
     c_base = float(np.median(fs.s[base])) if np.count_nonzero(base) >= 5 else None
+    _release(fs)
     runout = settings.fit_runout and covers_circle(fs.theta)
     fit, outliers, noise = robust_fit(x, fs.s, law, settings, c0=c_base,
                                       theta=fs.theta if runout else None)
@@ -366,6 +368,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     good = ~outliers
     _check_fit(fit, settings, 'nose')
     harmonic = block_lsq.first_harmonic(fs.theta, 0.0, *fit.runout)
+    _release(fs)
     ref = base_reference(fs.theta, fs.s, base & good, runout, (fit.c, harmonic))
     ref -= fs.s
     ref *= -1.0   # s - ref, in place

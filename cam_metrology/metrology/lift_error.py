@@ -37,6 +37,8 @@ def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64], *,
         dev -= median_filter(dev, size=9, mode='nearest')
         return dev
     order = np.argsort(x, kind='stable')
+    if order.size < 2**31:   # half the memory of the permutation while it is used
+        order = order.astype(np.int32)
     ordered = r[order]
     dev = r if overwrite and r.dtype == np.float64 else np.empty_like(r, dtype=float)
     # the running median goes into dev's memory first (r is read only through ordered)

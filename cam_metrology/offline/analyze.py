@@ -151,13 +151,13 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
                 continue
             kept = referenced_rows(table, feature)   # the rows the verdict used
             release(table)
-            if card:
-                cards[fid] = lobe_cards(scene, fid, np.ascontiguousarray(kept[:, 0]),
-                                        np.ascontiguousarray(kept[:, 1]), designs[fid],
-                                        heights)
+            alpha, lift = (np.ascontiguousarray(kept[:, k]) for k in (0, 1))
             if plot_tables:
                 tables[fid] = spill(kept)
-            del kept
+            del kept   # the cards read two columns: the table is not kept alongside
+            if card:
+                cards[fid] = lobe_cards(scene, fid, alpha, lift, designs[fid], heights)
+            del alpha, lift
         crank = both_crank_timings(scene, features, cards)
         if crank is not None:
             report['crank'] = crank
