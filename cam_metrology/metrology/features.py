@@ -71,7 +71,8 @@ class _OpenFeature:
         self.size += int(stamps.size)
         if self.spools is None and self.size * 8 >= self.spill_bytes:
             self.spools = (Spool(np.int64), Spool(np.float64), Spool(np.float64))
-            for spool, chunks in zip(self.spools, (self.stamps, self.theta, self.s)):
+            lists: tuple[list[NDArray[Any]], ...] = (self.stamps, self.theta, self.s)
+            for spool, chunks in zip(self.spools, lists):
                 for chunk in chunks:
                     spool.append(chunk)
                 chunks.clear()

@@ -250,9 +250,9 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     # subscribers; joint names (angle, lift) from the first core that has them
     feed_joints = joints in wanted and (joints in topics or JOINT_TRAJECTORY in topics)
     names = sample_joints_of(bag, cores)
-    blocks = bagio.iter_joint_states(
-        bag, block_bytes=block_bytes, **({'joints': names} if names else {})) \
-        if feed_joints else iter(())
+    blocks = iter(()) if not feed_joints else \
+        bagio.iter_joint_states(bag, block_bytes=block_bytes, joints=names) if names else \
+        bagio.iter_joint_states(bag, block_bytes=block_bytes)
     others = bagio.iter_messages(bag, sorted(wanted - {joints, JOINT_TRAJECTORY})) \
         if wanted - {joints, JOINT_TRAJECTORY} else iter(())
     total = sum(topics[t][1] for t in wanted if t in topics)

@@ -325,11 +325,12 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
                              else None, 'exactly one of lift (alpha/h table), lift_law or '
                              'nominal_file')
         nominal_path = None
+        law: LiftLaw
         if has_file:
             law, follower, nominal_path = _nominal_file(ctx, key, lobe, follower)
             spec = None
         elif has_table:
-            law: LiftLaw = _lift_table(ctx, f'{key}.lift', lobe['lift'])
+            law = _lift_table(ctx, f'{key}.lift', lobe['lift'])
             spec = None
         else:
             if not isinstance(lobe['lift_law'], Mapping):
