@@ -12,39 +12,17 @@ Truth: the simulated lobe's nose angle. Deadlines, no fixed sleeps (platform.md)
 """
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 import yaml
+from cli_processes import start_cli, stop_cli
 
 pytestmark = pytest.mark.ros
 
-CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
-NAMES = ['spindle', 'lvdt_1', 'tailstock', 'cam_encoder']
-
-
-def _start(args: list[str], log: Path) -> subprocess.Popen[bytes]:
-    handle = open(log, 'wb')  # noqa: SIM115 (closed with the child)
-    return subprocess.Popen([sys.executable, '-c', CLI, *args], env=dict(os.environ),
-                            stdout=handle, stderr=subprocess.STDOUT,
-                            stdin=subprocess.DEVNULL)
-
-
-def _stop(children: list[subprocess.Popen[bytes]], timeout: float = 60.0) -> None:
-    for child in children:
-        if child.poll() is None:
-            child.send_signal(2)
-    for child in children:
-        try:
-            child.wait(timeout)
-        except subprocess.TimeoutExpired:
-            child.kill()
-            child.wait(10)
+NAMES = ['spindle', 'lvdt_1', 'tailstock', 'cam_encoder']   # the bench's own, its order
 
 
 def _logs(tmp_path: Path) -> str:
@@ -89,15 +67,16 @@ def test_reconstruction_and_dynamics_follow_remapped_topics_of_a_bench(
         return on
 
     ros = ['--ros-args']
-    met = _start(['run', 'metrology', *ros, '-r', '/bench/joint_states:=/joint_states',
-                  '-r', '/metrology/lift:=/gauge/lift', '-r', '/metrology/result:=/gauge/result',
-                  '-p', 'feature_id:=lobe_1'], tmp_path / 'met.log')
-    rec = _start(['run', 'reconstruction', *ros, '-r', '/metrology/lift:=/gauge/lift',
-                  '-r', '/reconstruction/profile:=/gauge/profile',
-                  '-r', '/reconstruction/result:=/gauge/reconstruction'], tmp_path / 'rec.log')
-    dyn = _start(['run', 'dynamics', *ros, '-r', '/reconstruction/profile:=/gauge/profile',
-                  '-r', '/dynamics/result:=/gauge/dynamics', '-p', 'source:=profile'],
-                 tmp_path / 'dyn.log')
+    met = start_cli(['run', 'metrology', *ros, '-r', '/bench/joint_states:=/joint_states',
+                     '-r', '/metrology/lift:=/gauge/lift',
+                     '-r', '/metrology/result:=/gauge/result', '-p', 'feature_id:=lobe_1'],
+                    tmp_path / 'met.log')
+    rec = start_cli(['run', 'reconstruction', *ros, '-r', '/metrology/lift:=/gauge/lift',
+                     '-r', '/reconstruction/profile:=/gauge/profile',
+                     '-r', '/reconstruction/result:=/gauge/reconstruction'], tmp_path / 'rec.log')
+    dyn = start_cli(['run', 'dynamics', *ros, '-r', '/reconstruction/profile:=/gauge/profile',
+                     '-r', '/dynamics/result:=/gauge/dynamics', '-p', 'source:=profile'],
+                    tmp_path / 'dyn.log')
     proc = RosProcess(handle_signals=False)
     try:
         node = proc.add(Node('bench', context=proc.context))
@@ -122,7 +101,7 @@ def test_reconstruction_and_dynamics_follow_remapped_topics_of_a_bench(
                                any(n.startswith('lobe_1') for n in got['dyn']), 240.0), \
             (got, _logs(tmp_path)[-6000:])
     finally:
-        _stop([met, rec, dyn])
+        stop_cli([met, rec, dyn])
         proc.close()
     measured = got['met']['lobe_1']
     truth = run.truth['features']['lobe_1']['angle_deg']
