@@ -75,13 +75,13 @@ def test_each_lobe_is_referenced_once_for_cards_and_report_plots(
     from cam_metrology.metrology import lift_error
 
     calls: list[str] = []
-    real = lift_error.feature_referenced
+    real = lift_error.referenced_rows   # the kept rows of the referenced table
 
     def counting(table: object, feature: dict) -> object:
         calls.append(feature.get('kind', '?'))
         return real(table, feature)
 
-    monkeypatch.setattr(lift_error, 'feature_referenced', counting)
+    monkeypatch.setattr(lift_error, 'referenced_rows', counting)
     run = analyze_bag(str(CLEAN), plot_tables=True)
     lobes = [f for f in run.report['features'].values() if f.get('kind') == 'lobe']
     assert len(calls) == len(lobes) >= 2
