@@ -8,9 +8,13 @@ moved in units of their nominal value (``x = (p - p0) / scale``); ``scipy.optimi
 least_squares`` (trust region, forward-difference Jacobian, bounds keeping the physical
 ones positive) finds the minimum.
 
-Uncertainty: covariance s^2 (J^T J)^-1 at the minimum, J the Jacobian of the weighted
-residuals, s^2 = chi^2 / (m - p) (so unmodelled cycle-to-cycle variation widens the
-uncertainty instead of being ignored); the correlation matrix from it.
+Each run also gets a free constant offset (the error of its laser zero, common to all
+its bins), solved in closed form inside the residuals (``offset_free``).
+
+Uncertainty: covariance s^2 (J^T J)^-1 at the minimum, J the Jacobian of the weighted,
+offset-free residuals, s^2 = chi^2 / (m - p - runs) (so unmodelled cycle-to-cycle
+variation widens the uncertainty instead of being ignored); the correlation matrix from
+it.
 
 Identifiability: before any fit, the Jacobian at the nominal train is checked: a
 parameter the runs do not depend on, or a pair with |correlation| >
@@ -130,12 +134,13 @@ class Problem:
                                self.direction) for d in self.datas]
 
     def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Weighted residuals (measured - predicted) / standard error of every bin."""
+        """Weighted residuals (measured - predicted - offset) / standard error of every
+        bin, the offset of each run (the laser zero's error) fitted with them."""
         self.nfev += 1
         vt, nose = self.train(self.values(x))
         parts = []
         for d, p, k, w in zip(self.datas, self.run_bins(vt, nose), self.ok, self.weight):
-            parts.append((d.cycles.lift[k] - p[k]) * w)
+            parts.append(offset_free(d.cycles.lift[k] - p[k], w))
         r = np.concatenate(parts)
         return np.where(np.isfinite(r), r, 1e6)
 
@@ -149,6 +154,24 @@ class Problem:
             xp[j] += h
             jac[:, j] = (self.residuals(xp) - r0) / h
         return jac
+
+
+def offset_free(diff: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Weighted residuals ``(diff - c) * w`` of one run with the constant ``c`` [m] that
+    minimises them (the weighted mean of ``diff``).
+
+    Measured and predicted lift are both referenced to their base circle, but the
+    measured zero is a mean of noisy samples: its error is common to every bin of the
+    run. Left in, it is a correlated residual that the weighted least squares would
+    read as a deflection (stiffness, mass) without counting it in the uncertainty.
+    Fitting a free offset per run (variable projection: the linear parameter solved in
+    closed form inside the residual) gives the other parameters their honest
+    covariance; its degree of freedom is taken off in ``calibrate``.
+    """
+    w2 = w * w
+    ok = np.isfinite(diff)
+    c = float(np.sum(w2[ok] * diff[ok]) / np.sum(w2[ok])) if np.any(ok) else 0.0
+    return np.asarray((diff - c) * w, dtype=np.float64)
 
 
 def correlation(jac: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -208,7 +231,7 @@ def calibrate(problem: Problem, progress: Callable[[str], None] | None = None) -
     r = problem.residuals(x)
     m, p = r.size, len(names)
     chi2 = float(r @ r)
-    dof = max(1, m - p)
+    dof = max(1, m - p - len(problem.datas))     # one offset per run
     s2 = chi2 / dof
     cov, corr = correlation(jac)
     scale = np.array([problem.scale[n] for n in names])
