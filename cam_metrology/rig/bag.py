@@ -20,14 +20,11 @@ def rig_blocks(run: RigRun, start_ns: int, block: int) -> Iterator[tuple[int, by
     """(stamp of the block's last sample [ns], JointTrajectory CDR) of ``run`` in blocks
     of ``block`` samples (joints ``camshaft`` and ``valve``; ``frame_id`` = run name;
     ``header.stamp`` = first sample, each point's ``time_from_start`` from it)."""
-    from cam_metrology.wire.cdr import encode_joint_trajectory
+    from cam_metrology.wire.cdr import encode_sample_blocks
 
     stamps = start_ns + np.round(run.time * 1e9).astype(np.int64)
-    pos = np.column_stack([run.angle, run.lift])
-    for a in range(0, stamps.size, block):
-        b = min(stamps.size, a + block)
-        yield int(stamps[b - 1]), encode_joint_trajectory(
-            run.name, int(stamps[a]), (CAMSHAFT, VALVE), pos[a:b], stamps[a:b] - stamps[a])
+    yield from encode_sample_blocks(run.name, stamps, run.angle, run.lift, block,
+                                    (CAMSHAFT, VALVE))
 
 
 def write_rig_bag(path: str | Path, scene_text: str, runs: Sequence[RigRun],

@@ -112,3 +112,60 @@ def simulate_scene_runs(scene: Any, rpms: Any, *, revolutions: float = 4.0,
                                  noise=noise, seed=seed + i, name=f'run_{rpm:g}rpm',
                                  start_angle=0.37 * (i + 1)))
     return runs, note
+
+
+#: s between two runs on the time line of a simulated rig stream
+RUN_GAP_S = 0.1
+
+
+def stream_runs(runs: Any, start_ns: int = 1_000_000_000, gap_s: float = RUN_GAP_S
+                ) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
+    """Runs on one time line, as a rig streams them: (run name, encoder angle [rad],
+    valve lift [m], stamp [ns] int64) per run, each run ``gap_s`` after the previous."""
+    out = []
+    t0 = int(start_ns)
+    for r in runs:
+        stamps = t0 + np.round(np.asarray(r.time) * 1e9).astype(np.int64)
+        out.append((r.name, np.asarray(r.angle, dtype=float),
+                    np.asarray(r.lift, dtype=float), stamps))
+        t0 = int(stamps[-1]) + int(round(gap_s * 1e9))
+    return out
+
+
+#: the rig mode of the bench simulator (``cam-bench run bench-sim -p mode:=rig``):
+#: ROS parameter -> (default, description); the noise ones are RigNoise's fields
+RIG_SIM_PARAMETERS: dict[str, tuple[Any, str]] = {
+    'rig_rpm': ([905.0, 1310.0, 1705.0, 2110.0],
+                'rig mode: mean camshaft speed [rpm] of each run (one run per speed)'),
+    'rig_revolutions': (2.5, 'rig mode: camshaft revolutions per run'),
+    'rig_seed': (0, 'rig mode: random seed of the noise and the ripple phases'),
+    'rig_sample_rate': (20_000.0, 'rig mode: samples/s on the time clock (and live)'),
+    'rig_laser_noise': (1.0e-6, 'rig mode: laser noise [m] rms per sample'),
+    'rig_encoder_counts': (3600, 'rig mode: encoder counts per revolution (0: exact angle)'),
+    'rig_ripple': (0.005, 'rig mode: speed ripple amplitude, fraction of the mean speed'),
+    'rig_ripple_order': (2, 'rig mode: speed ripple cycles per revolution'),
+    'rig_laser_zero': (3.7e-3, 'rig mode: laser reading [m] of the seated valve'),
+}
+
+
+def rig_sim_runs(scene: Any, values: dict[str, Any]) -> tuple[list[RigRun], str | None, dict]:
+    """The runs of the bench simulator's rig mode from its parameter ``values``
+    (``RIG_SIM_PARAMETERS``): (runs, note or None, truth dict for /bench/truth)."""
+    noise = RigNoise(laser_noise=float(values['rig_laser_noise']),
+                     encoder_counts=int(values['rig_encoder_counts']),
+                     ripple=float(values['rig_ripple']),
+                     ripple_order=int(values['rig_ripple_order']),
+                     laser_zero=float(values['rig_laser_zero']),
+                     sample_rate=float(values['rig_sample_rate']))
+    rpms = [float(v) for v in values['rig_rpm']]
+    runs, note = simulate_scene_runs(scene, rpms, revolutions=float(values['rig_revolutions']),
+                                     noise=noise, seed=int(values['rig_seed']))
+    from dataclasses import asdict
+
+    from cam_metrology.rig.session import RigSetup
+
+    spec = RigSetup.of_scene(scene).spec
+    truth = {'rig': {'runs': [r.name for r in runs], 'rpm': rpms, 'noise': asdict(noise),
+                     'true_valve_train': dict(spec.true_valve_train or {}) or None,
+                     'note': note}}
+    return runs, note, truth
