@@ -85,23 +85,30 @@ def _blocks(run, start, block, drop_valve_at=()):
     return out
 
 
-def test_damaged_block_named_counted_not_used(sim, tmp_path):
-    """A block without the valve joint: its samples are dropped, the run says how many
-    and names the block; the rest is analysed."""
+def _block_bag(bag, scene, run, drop_valve_at):
+    """A bag with the scene and ``run`` in blocks of 400, some without the valve."""
     from cam_metrology.bagio import BagWriter
-    from cam_metrology.rig.runs import read_runs
-    from cam_metrology.rig.session import analyze
     from cam_metrology.wire.cdr import encode_string
     from cam_metrology.wire.topics import RIG_JOINT_TRAJECTORY, SCENE, TOPIC_TYPES
 
-    folder, runs, scene = sim
-    bag = tmp_path / 'damaged'
     with BagWriter(bag) as w:
         w.add_topic(SCENE, TOPIC_TYPES[SCENE])
         w.add_topic(RIG_JOINT_TRAJECTORY, TOPIC_TYPES[RIG_JOINT_TRAJECTORY])
         w.write(SCENE, 1, encode_string(scene.text))
-        for stamp, data in _blocks(runs[0], 10_000_000, 400, drop_valve_at=(3,)):
+        for stamp, data in _blocks(run, 10_000_000, 400, drop_valve_at=drop_valve_at):
             w.write(RIG_JOINT_TRAJECTORY, stamp, data)
+    return bag
+
+
+def test_damaged_block_named_counted_not_used(sim, tmp_path):
+    """A block without the valve joint: its samples are dropped, the run says how many
+    and names the block; the rest is analysed."""
+    from cam_metrology.rig.runs import read_runs
+    from cam_metrology.rig.session import analyze
+    from cam_metrology.wire.topics import RIG_JOINT_TRAJECTORY
+
+    folder, runs, scene = sim
+    bag = _block_bag(tmp_path / 'damaged', scene, runs[0], drop_valve_at=(3,))
     got, _ = read_runs([bag])
     assert got[0].time.size == runs[0].time.size - 400
     assert any('400 of' in n for n in got[0].notes)
@@ -114,19 +121,11 @@ def test_damaged_block_named_counted_not_used(sim, tmp_path):
 
 def test_bag_of_blocks_without_valve_refused(sim, tmp_path, capsys):
     """Every block without the valve joint: one line naming the field and the joint."""
-    from cam_metrology.bagio import BagWriter
-    from cam_metrology.wire.cdr import encode_string
-    from cam_metrology.wire.topics import RIG_JOINT_TRAJECTORY, SCENE, TOPIC_TYPES
+    from cam_metrology.wire.topics import RIG_JOINT_TRAJECTORY
 
     folder, runs, scene = sim
-    bag = tmp_path / 'novalve'
-    with BagWriter(bag) as w:
-        w.add_topic(SCENE, TOPIC_TYPES[SCENE])
-        w.add_topic(RIG_JOINT_TRAJECTORY, TOPIC_TYPES[RIG_JOINT_TRAJECTORY])
-        w.write(SCENE, 1, encode_string(scene.text))
-        n = -(-runs[0].time.size // 400)
-        for stamp, data in _blocks(runs[0], 10_000_000, 400, drop_valve_at=range(n)):
-            w.write(RIG_JOINT_TRAJECTORY, stamp, data)
+    n = -(-runs[0].time.size // 400)
+    bag = _block_bag(tmp_path / 'novalve', scene, runs[0], drop_valve_at=range(n))
     code = main(['rig', 'analyze', str(bag), '--json', str(tmp_path / 'o.json')])
     cap = capsys.readouterr()
     assert code == 2

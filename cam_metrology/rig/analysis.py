@@ -110,8 +110,7 @@ def compare_run(data: RunData, pred: Prediction, law: Any, vt: Any, nose: float,
     out.update(ev.as_dict())
     if ev.notes:
         out['notes'] = list(ev.notes)
-    if data.run.notes:
-        out['input_notes'] = list(data.run.notes)
+    out['input_notes'] = list(data.run.notes)
     out['predicted'] = {
         'separated': bool(pev.get('jump')),
         'separation_angle_deg': (pev['separations'][0][0] if pev.get('separations')

@@ -137,8 +137,8 @@ class RigCore:
 
             runs = runs_of_messages(rows, RIG_JOINT_STATES) if rows else []
             if blocks:
-                runs += runs_of_samples(np.full(sum(b[0].size for b in blocks), name),
-                                        *(np.concatenate(c) for c in zip(*blocks)),
+                stamps, theta, lift = (np.concatenate(c) for c in zip(*blocks))
+                runs += runs_of_samples(np.full(stamps.size, name), stamps, theta, lift,
                                         RIG_JOINT_TRAJECTORY)
             outcome = analyze(self.scene, runs, jump=self.jump)
         except InputError as exc:
