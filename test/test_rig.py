@@ -236,6 +236,7 @@ def test_encoder_quantum(angle, expected):
     assert got == pytest.approx(expected, rel=1e-9, abs=1e-15)
 
 
+@pytest.mark.slow
 def test_reported_uncertainty_matches_the_error_over_seeds(reference):
     """The reported standard uncertainties are honest: over 8 seeds of laser noise on
     runs of the independent solver (two speeds, 1 um), the errors divided by the
@@ -257,3 +258,29 @@ def test_reported_uncertainty_matches_the_error_over_seeds(reference):
     print('rms z', rms, 'z', z)
     for n in names:
         assert 0.6 <= rms[n] <= 1.5, (n, rms[n], z[n])
+
+
+@pytest.mark.slow
+def test_jump_speed_of_an_mdof_train():
+    """`model: mdof`: the calibration's jump speed comes from the MDOF model's sweep
+    (not the SDOF one): the exact MDOF solver keeps contact 3 rpm below it and separates
+    3 rpm above it, and it differs from the SDOF train's."""
+    from types import SimpleNamespace
+
+    from cam_design.train.run import run_train, train_from_valve_train
+    from cam_metrology.rig.session import RigSetup, jump_speed
+    from cam_metrology.scene.parse import parse_scene
+
+    doc = yaml.safe_load(SCENE.read_text())
+    doc['valve_train']['model'] = 'mdof'
+    scene = parse_scene(yaml.safe_dump(doc))
+    setup = RigSetup.of_scene(scene)
+    datas = [SimpleNamespace(speed=SimpleNamespace(rpm=r)) for r in (1010.0, 1790.0)]
+    js = jump_speed(setup, scene.valve_train, datas, points=8)
+    assert js is not None
+    train = train_from_valve_train(scene.valve_train)
+    assert not run_train(setup.law, train, js - 3.0, step_deg=0.25).events['jump']
+    assert run_train(setup.law, train, js + 3.0, step_deg=0.25).events['jump']
+    doc['valve_train']['model'] = 'sdof'
+    sdof = parse_scene(yaml.safe_dump(doc))
+    assert abs(jump_speed(RigSetup.of_scene(sdof), sdof.valve_train, datas, points=8) - js) > 100

@@ -88,18 +88,21 @@ def _nose_fields(nose: float, std: float | None, source: str) -> dict[str, Any]:
             'nose_angle_source': source}
 
 
-def jump_speed(setup: RigSetup, train: Any, datas: Sequence[RunData]) -> float | None:
-    """Jump speed [rpm] of ``train`` (SDOF sweep over 0.3 to 3 times the run speeds,
-    refined to 1 rpm); None above the range or for another model."""
-    from cam_design.valve_train.params import SdofParams
+def jump_speed(setup: RigSetup, train: Any, datas: Sequence[RunData], points: int = 28
+               ) -> float | None:
+    """Jump speed [rpm] of ``train``: the speed sweep of ``cam-bench dynamics --sweep``
+    (SDOF, or the exact MDOF model for ``model: mdof``) over ``points`` speeds from 0.3
+    to 3 times the run speeds, refined to 1 rpm; None above the range, or for a train
+    with a lash adjuster or cylinder gas (no sweep)."""
+    from cam_design.train.run import train_from_valve_train
     from cam_design.valve_train.sweep import sweep
 
-    if train.model != 'sdof' or train.hla is not None or train.gas is not None:
+    if train.model not in ('sdof', 'mdof') or train.hla is not None or train.gas is not None:
         return None
     rpms = [d.speed.rpm for d in datas]
-    grid = np.linspace(0.3 * min(rpms), 3.0 * max(rpms), 28)
-    res = sweep(setup.law, SdofParams.from_valve_train(train), grid.tolist(), step_deg=0.25,
-                tol_rpm=1.0, check=False, key=setup.lobe_key)
+    grid = np.linspace(0.3 * min(rpms), 3.0 * max(rpms), points)
+    res = sweep(setup.law, train_from_valve_train(train).sweep_params(), grid.tolist(),
+                step_deg=0.25, tol_rpm=1.0, check=False, key=setup.lobe_key)
     return res.jump_speed_rpm
 
 
