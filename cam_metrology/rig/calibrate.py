@@ -32,8 +32,8 @@ from numpy.typing import NDArray
 
 from cam_design.errors import CliError
 from cam_metrology.rig.analysis import RunData
-from cam_metrology.rig.model import (ZERO_SCALE, Prediction, predict, predicted_bins,
-                                     train_value, with_value)
+from cam_metrology.rig.model import ZERO_SCALE, Prediction, predict, train_value, with_value
+from cam_metrology.rig.ripple import has_ripple, ripple_law, run_bins
 
 WARN_CORRELATION = 0.95
 REFUSE_CORRELATION = 0.99
@@ -101,6 +101,7 @@ class Problem:
         self.scale = {n: (abs(v) if v != 0 else ZERO_SCALE.get(n, 1.0))
                       for n, v in self.nominal.items()}
         self.cache: dict[tuple, Prediction] = {}
+        self.laws: dict[tuple[int, float], Any] = {}
         self.nfev = 0
         self.ok = [np.isfinite(d.cycles.lift) & (d.cycles.count > 0) for d in self.datas]
         self.weight = [1.0 / d.cycles.stderr[k] for d, k in zip(self.datas, self.ok)]
@@ -118,20 +119,35 @@ class Problem:
                 vt = with_value(vt, n, v)
         return vt, values.get('nose_angle', self.nose0)
 
-    def prediction(self, vt: Any, rpm: float) -> Prediction:
-        """The (cached) prediction of ``vt`` at ``rpm``."""
+    def law_of(self, data: RunData, nose: float) -> tuple[Any, tuple[int, float] | None]:
+        """The law that drives the run's prediction: the lobe's, or its equivalent law
+        with the run's speed ripple (``ripple``), with its cache key."""
+        if not has_ripple(data.speed):
+            return self.law, None
+        key = (id(data), nose)
+        if key not in self.laws:
+            if len(self.laws) > 64:
+                self.laws.clear()
+            self.laws[key] = ripple_law(self.law, data.speed, nose, self.direction)
+        return self.laws[key], key
+
+    def prediction(self, vt: Any, data: RunData, nose: float) -> Prediction:
+        """The (cached) prediction of ``vt`` for a run: at its mean speed, with its
+        speed ripple."""
+        law, lkey = self.law_of(data, nose)
         key = (vt.mass, vt.stiffness, vt.damping, vt.spring_rate, vt.spring_preload,
-               vt.lash, vt.valve_damping, vt.seat.stiffness, vt.seat.damping, rpm)
+               vt.lash, vt.valve_damping, vt.seat.stiffness, vt.seat.damping,
+               data.speed.rpm, lkey)
         if key not in self.cache:
             if len(self.cache) > 256:
                 self.cache.clear()
-            self.cache[key] = predict(self.law, vt, rpm, self.key)
+            self.cache[key] = predict(law, vt, data.speed.rpm, self.key)
         return self.cache[key]
 
     def run_bins(self, vt: Any, nose: float) -> list[NDArray[np.float64]]:
         """Predicted bins of every run."""
-        return [predicted_bins(self.prediction(vt, d.speed.rpm), d.cycles, nose,
-                               self.direction) for d in self.datas]
+        return [run_bins(self.prediction(vt, d, nose), d, nose, self.direction)
+                for d in self.datas]
 
     def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Weighted residuals (measured - predicted - offset) / standard error of every

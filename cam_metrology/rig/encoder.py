@@ -12,7 +12,7 @@ its standard deviation and range describe the run.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
@@ -36,7 +36,10 @@ class Speed:
     """Encoder result: ``theta`` [rad] smoothed, unwrapped, increasing (sign folded in
     ``sign``: +1 when the encoder counts up); ``rpm`` mean, ``rpm_std`` and ``rpm_min``,
     ``rpm_max`` over the run; ``revolutions`` covered; ``quantum`` [rad] the smallest
-    encoder step seen (0 for a continuous encoder)."""
+    encoder step seen (0 for a continuous encoder). The ripple: the harmonic part of the
+    angle model, H(t) = sum_k ripple_cos[k] cos(k w (t - t0)) + ripple_sin[k]
+    sin(k w (t - t0)) [rad] over ``orders``, w = ``omega`` [rad/s]; ``psi0`` the uniform
+    encoder angle (without H) at ``t0`` [rad] (``rig.ripple``)."""
 
     theta: NDArray[np.float64]
     sign: int
@@ -47,6 +50,20 @@ class Speed:
     revolutions: float
     quantum: float
     offset: float = 0.0
+    orders: tuple[int, ...] = ()
+    ripple_cos: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    ripple_sin: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    omega: float = 0.0
+    t0: float = 0.0
+    psi0: float = 0.0
+
+    def ripple_at(self, time: NDArray[np.float64]) -> NDArray[np.float64]:
+        """H(t) [rad] at ``time`` [s] (zeros without ripple orders)."""
+        out = np.zeros(np.shape(time))
+        for k, a, b in zip(self.orders, self.ripple_cos, self.ripple_sin):
+            ph = k * self.omega * (np.asarray(time) - self.t0)
+            out += a * np.cos(ph) + b * np.sin(ph)
+        return out
 
     @property
     def encoder(self) -> NDArray[np.float64]:
@@ -151,11 +168,24 @@ def _design(time: NDArray[np.float64], omega: float, orders: Sequence[int]
     return np.column_stack(cols), np.column_stack(dcols)
 
 
-def angle_model(time: NDArray[np.float64], theta: NDArray[np.float64]
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+@dataclass(frozen=True)
+class AngleModel:
+    """The fitted angle model: ``fit`` [rad] and ``rate`` [rad/s] at the samples'
+    times, ``omega`` the mean speed [rad/s]; the kept ripple ``orders`` with their
+    cos/sin coefficients [rad] in the phase k ``omega_h`` (t - t0), t0 the first time."""
+
+    fit: NDArray[np.float64]
+    rate: NDArray[np.float64]
+    omega: float
+    orders: tuple[int, ...]
+    cos: NDArray[np.float64]
+    sin: NDArray[np.float64]
+    omega_h: float
+
+
+def angle_model(time: NDArray[np.float64], theta: NDArray[np.float64]) -> AngleModel:
     """Fit the smooth angle model to unwrapped, increasing readings ``theta`` [rad] at
-    ``time`` [s]: (fitted angle [rad], its derivative [rad/s] at ``time``, mean speed
-    [rad/s]).
+    ``time`` [s].
 
     The harmonic frequency is the mean speed, refined twice. Then only the orders whose
     amplitude stands out of the readings' scatter (``SIGNIFICANT`` standard errors)
@@ -166,6 +196,7 @@ def angle_model(time: NDArray[np.float64], theta: NDArray[np.float64]
     omega = float(y[-1]) / (t1 - t0)
     orders: list[int] = list(range(1, HARMONICS + 1))
     for step in range(4):
+        omega_h = omega
         a, da = _design(time, omega, orders)
         coef, *_ = np.linalg.lstsq(a, y, rcond=None)
         p = coef[:DRIFT_DEGREE + 1]
@@ -176,7 +207,10 @@ def angle_model(time: NDArray[np.float64], theta: NDArray[np.float64]
             se = float(np.std(resid)) * math.sqrt(2.0 / y.size)
             amp = np.hypot(coef[DRIFT_DEGREE + 1::2], coef[DRIFT_DEGREE + 2::2])
             orders = [k for k, v in zip(orders, amp) if v > SIGNIFICANT * se]
-    return a @ coef + theta[0], da @ coef, omega
+    harm = coef[DRIFT_DEGREE + 1:]
+    return AngleModel(fit=a @ coef + theta[0], rate=da @ coef, omega=omega,
+                      orders=tuple(orders), cos=np.asarray(harm[0::2], dtype=float),
+                      sin=np.asarray(harm[1::2], dtype=float), omega_h=omega_h)
 
 
 def encoder_speed(time: NDArray[np.float64], angle: NDArray[np.float64], name: str,
@@ -192,14 +226,20 @@ def encoder_speed(time: NDArray[np.float64], angle: NDArray[np.float64], name: s
         raise InputError(f'run {name}', f'{revs:.2f} camshaft revolutions',
                          f'at least {MIN_REVOLUTIONS:g} revolutions at a steady speed '
                          '(record longer)')
-    fit, w, omega = angle_model(time, th)
+    model = angle_model(time, th)
+    fit, w = model.fit, model.rate
     to_rpm = 30.0 / math.pi
     quantum = encoder_quantum(angle)
     offset = quantisation_offset(sign * th, sign * fit, quantum) if quantum else 0.0
-    out = Speed(theta=fit, sign=sign, rpm=float(omega * to_rpm),
+    t0 = float(time[0])
+    h0 = float(np.sum(model.cos))            # H(t0): every phase is 0 there
+    out = Speed(theta=fit, sign=sign, rpm=float(model.omega * to_rpm),
                 rpm_std=float(np.std(w) * to_rpm),
                 rpm_min=float(np.min(w) * to_rpm), rpm_max=float(np.max(w) * to_rpm),
-                revolutions=float(revs), quantum=quantum, offset=offset)
+                revolutions=float(revs), quantum=quantum, offset=offset,
+                orders=model.orders, ripple_cos=model.cos, ripple_sin=model.sin,
+                omega=model.omega_h, t0=t0,
+                psi0=float(sign * (fit[0] - h0) + offset))
     if out.rpm <= 0:
         raise InputError(f'run {name} cam_angle_rad', 'a standing shaft',
                          'a turning camshaft')

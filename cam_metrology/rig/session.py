@@ -21,7 +21,7 @@ from cam_design.errors import InputError
 from cam_metrology.rig.analysis import RunData, compare_run, curves, initial_nose, prepare_run
 from cam_metrology.rig.calibrate import (Fit, Problem, calibrate, check_identifiable,
                                          corr_dict)
-from cam_metrology.rig.model import predicted_bins
+from cam_metrology.rig.ripple import run_bins
 from cam_metrology.rig.runs import RigRun
 from cam_metrology.rig.spec import RigSpec, rig_of_scene
 
@@ -120,15 +120,14 @@ def _jumps(setup: RigSetup, datas: Sequence[RunData], jump: bool, calibrated: An
 
 def _run_entry(data: RunData, problem: Problem, setup: RigSetup, train: Any, nose: float
                ) -> dict[str, Any]:
-    pred = problem.prediction(train, data.speed.rpm)
+    pred = problem.prediction(train, data, nose)
     return compare_run(data, pred, setup.law, train, nose, setup.direction, setup.spec)
 
 
 def _curve(data: RunData, problem: Problem, setup: RigSetup, train: Any, nose: float
            ) -> dict[str, Any]:
-    pred = problem.prediction(train, data.speed.rpm)
-    return curves(data, predicted_bins(pred, data.cycles, nose, setup.direction), nose,
-                  setup.direction)
+    pred = problem.prediction(train, data, nose)
+    return curves(data, run_bins(pred, data, nose, setup.direction), nose, setup.direction)
 
 
 def _split(entry: dict[str, Any], before: dict[str, Any] | None) -> dict[str, Any]:

@@ -4,9 +4,9 @@ arbitrary zero, sampled on a time clock.
 
 The valve motion is the dynamics' periodic solution of the *true* valve train
 (``rig.true_valve_train`` of the scene, never read by the analysis) at the mean speed,
-read at the instantaneous cam angle: a ripple of a few percent changes the angle clock,
-and the valve's response to the ripple itself is neglected (quasi-steady). The tests
-use an independent time-domain solver instead (test/rig_reference.py).
+driven by the equivalent law of the speed ripple (``ripple.RippleLaw``: the valve's
+response to the ripple included) and read at each sample's uniform phase. The tests use
+an independent time-domain solver instead (test/rig_reference.py).
 """
 from __future__ import annotations
 
@@ -52,8 +52,9 @@ def simulate_run(law: Any, vt: Any, rpm: float, *, nose: float, direction: int =
                  name: str | None = None, start_angle: float = 0.0) -> RigRun:
     """One rig run of ``revolutions`` at mean camshaft speed ``rpm`` of valve train
     ``vt`` driven by ``law`` whose nose is at encoder angle ``nose`` [rad]."""
+    from cam_metrology.rig.ripple import RippleLaw
+
     rng = np.random.default_rng(seed)
-    pred = predict(law, vt, rpm)
     omega = rpm * math.pi / 30.0
     duration = revolutions * 2 * math.pi / omega
     n = int(duration * noise.sample_rate)
@@ -62,10 +63,16 @@ def simulate_run(law: Any, vt: Any, rpm: float, *, nose: float, direction: int =
     t = np.arange(n) / noise.sample_rate
     k = max(1, int(noise.ripple_order))
     phase = rng.uniform(0, 2 * math.pi)
-    theta = start_angle + omega * t + noise.ripple / k * (np.sin(k * omega * t + phase)
-                                                          - math.sin(phase))
-    w = omega * (1.0 + noise.ripple * np.cos(k * omega * t + phase))
-    alpha = direction * (theta - nose)
+    amp = noise.ripple / k
+    theta = start_angle + omega * t + amp * (np.sin(k * omega * t + phase) - math.sin(phase))
+    # uniform angle psi = psi0 + omega t; the ripple amp sin(k omega t + phase) as a
+    # function of the uniform lobe phase alpha_u = direction (psi - nose)
+    psi0 = start_angle - amp * math.sin(phase)
+    alpha = direction * (psi0 + omega * t - nose)
+    drive = law if amp == 0 else RippleLaw(law, direction, np.array([k]), np.zeros(1),
+                                           np.array([amp]),
+                                           np.array([k * (nose - psi0) + phase]))
+    pred = predict(drive, vt, rpm)
     lift = pred.at(alpha) - float(np.min(pred.lift)) + noise.laser_zero
     lift = lift + rng.normal(0.0, noise.laser_noise, n) if noise.laser_noise else lift
     enc = np.mod(theta, 2 * math.pi)
@@ -77,7 +84,7 @@ def simulate_run(law: Any, vt: Any, rpm: float, *, nose: float, direction: int =
         a0 = pred.alpha[0]
         aw = a0 + np.mod(alpha - a0, 2 * math.pi)
         slope = np.interp(aw, pred.alpha, pred.slope)
-        vel = slope * direction * w + rng.normal(0.0, 1e3 * noise.laser_noise, n)
+        vel = slope * direction * omega + rng.normal(0.0, 1e3 * noise.laser_noise, n)
     return RigRun(name=name or f'run_{rpm:g}rpm', time=t, angle=enc, lift=lift,
                   velocity=vel)
 
