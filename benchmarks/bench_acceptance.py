@@ -40,8 +40,9 @@ def form_error_rows() -> list[str]:
                 run_offline(bag, [core])
                 design = core._design['lobe_1']
                 table = core.results['lobe_1'].table
+                assert table is not None     # the lobe of the fixture bag is measured
                 from cam_design.cam_card import law_events, law_peak, table_events, table_peak
-                from cam_metrology.metrology.tolerances import base_referenced
+                from cam_metrology.metrology.lift_error import base_referenced
                 t0 = time.perf_counter()
                 report = core.report()
                 raw = table_peak(table[:, 0], table[:, 1], design)[1]

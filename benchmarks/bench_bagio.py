@@ -46,7 +46,7 @@ def _anyreader(bag: Path) -> tuple[np.ndarray, np.ndarray]:
     with AnyReader([bag], default_typestore=bagio.typestore()) as reader:
         conns = [c for c in reader.connections if c.topic == bagio.JOINT_STATES]
         for conn, _, raw in reader.messages(connections=conns):
-            msg = reader.deserialize(raw, conn.msgtype)
+            msg: Any = reader.deserialize(raw, conn.msgtype)
             names = list(msg.name)
             theta.append(msg.position[names.index('camshaft')])
             s.append(msg.position[names.index('probe')])

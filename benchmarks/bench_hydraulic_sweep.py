@@ -47,7 +47,7 @@ def run() -> list[str]:
     for reaches in (4, 8, 16, 32, 64):
         prm = _params(reaches)
         t0 = time.process_time()
-        res = hydraulic_sweep(LAW, prm, SPEEDS, gas=GAS)
+        res = hydraulic_sweep(LAW, prm, SPEEDS.tolist(), gas=GAS)
         cpu = time.process_time() - t0
         spill = run_hydraulic(LAW, prm, 431.0, gas=GAS).events['relief_spill_before_peak']
         lo, hi = res.no_open.bracket
@@ -60,7 +60,7 @@ def run() -> list[str]:
     fast = np.arange(500.0, 3001.0, 250.0)
     for reaches in (4, 16, 64):
         t0 = time.process_time()
-        res = hydraulic_sweep(LAW, _params(reaches, 1.2e7), fast, gas=GAS)
+        res = hydraulic_sweep(LAW, _params(reaches, 1.2e7), fast.tolist(), gas=GAS)
         cpu = time.process_time() - t0
         ratio = [res.lift_ratio[int(np.argmin(abs(fast - r)))] for r in (1000, 2000, 3000)]
         rows.append(f'| {reaches} | {res.no_open.bracket} | {cpu:.2f} | '

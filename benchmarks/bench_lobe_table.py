@@ -60,9 +60,9 @@ def main() -> None:
     """Run and write benchmarks/results/lobe_table.md."""
     from cam_design.lift_laws.registry import from_spec
     from cam_metrology.cli.card import table_card
-    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_design.lift_table.lobe_table import lobe_law
     from cam_metrology.reconstruction.profile import reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_design.lift_table.samples import LiftTable
     from cam_metrology.scene.parse import load_scene
 
     law = from_spec({'family': 'preset', 'name': 'methods_example'})

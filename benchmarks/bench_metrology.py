@@ -57,7 +57,7 @@ def accuracy() -> tuple[list[str], dict[str, float]]:
     multi_pair = Settings(sp_pairs=2, sp_pair_spacing_deg=2.0)   # seed 004 §5(2)
     exact, law, _ = _lobe()
     rows = []
-    pooled = {'lsq': [], 'lsq_ro': [], 'sp': [], 'std': [], 'mp': []}
+    pooled: dict[str, list[float]] = {'lsq': [], 'lsq_ro': [], 'sp': [], 'std': [], 'mp': []}
     for noise, spr, revs, direction in CONFIGS:
         e_lsq, e_sp, e_mp, stds, crbs, crbs_ro, times = [], [], [], [], [], [], []
         for seed in range(SEEDS):
@@ -149,6 +149,7 @@ def speed() -> list[str]:
             run_offline(bag, cores)
             analyze_all.append(time.perf_counter() - t0)
         report = res.report()
+        assert report is not None
         errs = [abs((report['features'][f]['angle_deg'] - t['angle_deg'] + 180) % 360 - 180)
                 * 3600 for f, t in run.truth['features'].items()]
         td, ta, tall = min(decode), min(analyze), min(analyze_all)

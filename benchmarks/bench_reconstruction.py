@@ -9,7 +9,7 @@ benchmarks/results/reconstruction.md). Laws: the methods.md §1.4 test cam
 0.1-2 um (Gaussian), 360-7200 points per revolution, 5 spikes of +-10 um; stress rows
 add gaps and uneven sampling. Errors are RMS over the uniform output grid (0.1 deg);
 times are wall-clock per reconstruction (single BLAS thread, see
-``cam_metrology.reconstruction.blas``). The reference is scipy's
+``cam_design.lift_table.blas``). The reference is scipy's
 ``make_smoothing_spline`` (cubic, GCV) on the same samples.
 """
 from __future__ import annotations
@@ -21,11 +21,11 @@ from typing import Any, Callable
 import numpy as np
 
 from benchmarks.machine import describe, save_results
-from cam_metrology.reconstruction.blas import single_thread_blas
+from cam_design.lift_table.blas import single_thread_blas
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
-from cam_metrology.reconstruction.result import output_grid
-from cam_metrology.reconstruction.samples import clean_samples
-from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
+from cam_design.lift_table.result import output_grid
+from cam_design.lift_table.samples import clean_samples
+from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_metrology.reconstruction.synthetic import DEG, PolynomialLobe, simulate
 
 RESULT = Path(__file__).resolve().parent / 'results' / 'reconstruction.md'
@@ -174,7 +174,7 @@ def sweep_table() -> list[str]:
 
 def stress_table() -> list[str]:
     law = PolynomialLobe()
-    cases = {
+    cases: dict[str, dict[str, Any]] = {
         '30 spikes of +-10 um': dict(outliers=30),
         'gap of 6 deg on the rise flank': dict(gap_deg=6.0),
         'uneven sampling (jitter +-0.45 step)': dict(jitter=0.45),

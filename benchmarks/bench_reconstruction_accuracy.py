@@ -3,7 +3,7 @@ whose acceleration jumps, and the junctions it finds.
 
 Run: ``.venv/bin/python -m benchmarks reconstruction_accuracy`` (writes
 benchmarks/results/reconstruction_accuracy.md; ``CAM_BENCH_SEEDS=5`` for more seeds).
-Truth: the closed-form lobes of ``cam_metrology.reconstruction.truth_lobes`` (ramped C1
+Truth: the closed-form lobes of ``cam_design.lift_table.truth_lobes`` (ramped C1
 with the CA+CV ramp, a C2 lobe, a dwell cam, a constant-acceleration cam, a circular-arc
 cam), tabulated over a full revolution at 0.1-5 deg with Gaussian noise 0.1-2 um, or
 0.1 um noise then 0.01 mm rounding, without and with 5 spikes of +-10 um on the lobe.
@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 
 from benchmarks.machine import describe, save_results
-from cam_metrology.reconstruction.blas import single_thread_blas
-from cam_metrology.reconstruction.spline import reconstruct_spline
-from cam_metrology.reconstruction.truth_lobes import DEG, Family, families, measured_table
+from cam_design.lift_table.blas import single_thread_blas
+from cam_design.lift_table.spline import reconstruct_spline
+from cam_design.lift_table.truth_lobes import DEG, Family, families, measured_table
 
 RESULT = Path(__file__).resolve().parent / 'results' / 'reconstruction_accuracy.md'
 STEPS_DEG = (0.1, 0.5, 1.0, 2.5, 5.0)

@@ -177,14 +177,14 @@ def metrology_ceiling(work: Path, env: dict[str, str], scene: Path,
     from sensor_msgs.msg import JointState
     from std_msgs.msg import String
 
-    from cam_metrology.nodes.adapter import CoreMissing, load_core
+    from cam_metrology.nodes.adapter import load_core
     from cam_metrology.nodes.runtime import RosProcess
     from cam_metrology.nodes.topics import profile
     from cam_metrology.wire.topics import qos_of
 
     try:
         load_core('metrology')
-    except CoreMissing:
+    except ValueError:   # no core registered under that name
         return None
     first: list[float] = []
     result: list[tuple[float, Any]] = []

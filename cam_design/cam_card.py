@@ -25,12 +25,15 @@ fitted to the samples around the crossing. Exact on noise-free data of a shifted
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
+
+if TYPE_CHECKING:   # the lift-law package is not loaded for a card (cam-bench --help)
+    from cam_design.lift_laws.base import LiftLaw
 
 __all__ = ['DEFAULT_HEIGHTS_M', 'law_events', 'law_peak', 'table_events', 'table_peak',
            'table_events_std', 'table_peak_std',
@@ -297,7 +300,7 @@ def _common(max_lift: float, peak_alpha: float, entries: list[dict[str, Any]],
     return card
 
 
-def card_from_law(law: Callable[..., Any], heights: Sequence[float] = DEFAULT_HEIGHTS_M,
+def card_from_law(law: LiftLaw, heights: Sequence[float] = DEFAULT_HEIGHTS_M,
                   *, rocker_ratio: float | None = None, key: str = 'heights',
                   derivatives: Callable[..., Any] | None = None,
                   derivative_points: int = _GRID, floor: float = 0.0,
@@ -371,7 +374,7 @@ def card_from_table(alpha: Any, lift: Any, heights: Sequence[float] = DEFAULT_HE
     events = [(y, *table_events(a, h, y, reference, key=f'{key}[{j}]'))
               for j, y in enumerate(heights)]
     if reference is not None:
-        support = tuple(float(x) for x in reference.support)
+        support = (float(reference.support[0]), float(reference.support[1]))
     else:
         idx = np.nonzero(h > 0.002 * max_lift)[0]
         support = (float(a[idx[0]]), float(a[idx[-1]])) if idx.size else (0.0, 0.0)

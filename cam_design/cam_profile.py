@@ -156,7 +156,7 @@ def _pitch_profile(kind: str, a: NDArray[np.float64], pitch: NDArray[np.float64]
     pressure = np.arccos(np.clip(cos_p, 0.0, 1.0))
     prof = env['profile']
     return Profile(kind, a, prof[0], prof[1], pitch[0], pitch[1], env['rho'],
-                   env['rho_pitch'], pressure, env['undercut'], np.zeros_like(a))
+                   env['rho_pitch'], pressure, env['undercut'].astype(bool), np.zeros_like(a))
 
 
 def roller_profile(law: LiftLaw, base_radius: float, radius: float,

@@ -99,14 +99,14 @@ class KeywayGeometry:
             ok = inside & (np.abs(u) <= self.tangent_angle) & np.isfinite(val)
             out[k] = np.where(ok, val, -np.inf)
         if self.depth is not None and self.ball_enters:
-            k = big - self.depth + r
+            height = big - self.depth + r     # m: ball centre above the slot bottom
             cos_a = np.cos(np.where(inside, a, 0.0))
             sec, tan = 1.0 / cos_a, np.tan(np.where(inside, a, 0.0))
-            lval = k * sec
+            lval = height * sec
             ok = inside & (np.abs(lval * np.sin(np.where(inside, a, 0.0)))
                            <= 0.5 * self.width - r)
-            deriv = (lval, k * sec * tan, k * sec * (tan**2 + sec**2),
-                     k * sec * tan * (tan**2 + 5 * sec**2))[nu]
+            deriv = (lval, height * sec * tan, height * sec * (tan**2 + sec**2),
+                     height * sec * tan * (tan**2 + 5 * sec**2))[nu]
             out[BOTTOM] = np.where(ok, deriv, -np.inf)
         return out
 

@@ -453,7 +453,7 @@ def dynamic_jump_rpm(law: Any, params: Any, guess_rpm: float, tol_rpm: float = 1
 
     top = min(1.6 * guess_rpm, RPM_MAX)
     speeds = np.linspace(min(0.2 * guess_rpm, 0.5 * top), top, 16)
-    res = sweep(law, params, speeds, step_deg=1.0, tol_rpm=tol_rpm, check=False)
+    res = sweep(law, params, speeds.tolist(), step_deg=1.0, tol_rpm=tol_rpm, check=False)
     if res.jump.speed is not None:
         return float(res.jump.speed)
     return float(speeds[0] if res.jump.bracket[0] is None else top)
@@ -485,9 +485,11 @@ def metrics_of(spec: Spec, law: Any) -> dict[str, float]:
             from cam_design.checks import oil_film   # vanishes where gamma crosses 1/2
 
             i = int(np.argmax(h))
+            lubrication = spec.lubrication
+            assert lubrication is not None    # parse_spec requires it for this constraint
             out['nose_oil_film'] = float(oil_film(a[i:i + 1], h[i:i + 1], rho[i:i + 1],
                                                   spec.base_radius,
-                                                  float(spec.lubrication['k_film'])).h_min[0])
+                                                  float(lubrication['k_film'])).h_min[0])
     if 'min_valve_piston_clearance' in need:
         out['valve_piston_clearance'] = _clearance(spec, law, a, h)
     if spec.valve_train is not None:
@@ -663,15 +665,15 @@ def _violation(spec: Spec, ev: Evaluation) -> float:
 
 def _pick(spec: Spec, evs: list[Evaluation], ref: Mapping[str, float]) -> Evaluation:
     """The best feasible candidate (1e-9 relative slack), else the least violating."""
-    valid = [e for e in evs if e.metrics is not None]
+    valid = [(e, e.metrics) for e in evs if e.metrics is not None]
     if not valid:
         raise InputError('free', [p.path for p in spec.free],
                          'bounds that contain at least one valid design (every candidate '
                          f'was rejected; e.g. {evs[0].error if evs else "none tried"})')
-    feasible = [e for e in valid if _violation(spec, e) <= 1e-9]
+    feasible = [(e, m) for e, m in valid if _violation(spec, e) <= 1e-9]
     if feasible:
-        return max(feasible, key=lambda e: _objective_value(spec, e.metrics, ref or e.metrics))
-    return min(valid, key=lambda e: _violation(spec, e))
+        return max(feasible, key=lambda em: _objective_value(spec, em[1], ref or em[1]))[0]
+    return min(valid, key=lambda em: _violation(spec, em[0]))[0]
 
 
 def _public(doc: Mapping[str, Any]) -> dict[str, Any]:
@@ -683,15 +685,17 @@ def _result(spec: Spec, best: Evaluation, start: Evaluation, ref: Mapping[str, f
     from cam_design.lift_laws import from_spec
 
     viol = _violation(spec, best)
+    metrics = best.metrics
+    assert metrics is not None            # _pick returns a candidate with metrics
     cons = {}
-    for name, slack in _slacks(spec, best.metrics).items():
+    for name, slack in _slacks(spec, metrics).items():
         metric, kind, unit = CONSTRAINTS[name]
-        cons[name] = {'limit': spec.constraints[name], 'value': best.metrics[metric],
+        cons[name] = {'limit': spec.constraints[name], 'value': metrics[metric],
                       'unit': unit, 'slack': slack * abs(spec.constraints[name]),
                       'active': abs(slack) <= ACTIVE_TOL, 'satisfied': slack >= -1e-9}
-    obj_best = _objective_value(spec, best.metrics, ref or best.metrics)
+    obj_best = _objective_value(spec, metrics, ref or metrics)
     objective = {'terms': spec.objective, 'value': obj_best,
-                 'metrics': {n: best.metrics[n] for n in spec.objective}}
+                 'metrics': {n: metrics[n] for n in spec.objective}}
     start_info: dict[str, Any] = {'parameters': {p.path: float(v) for p, v in
                                                  zip(spec.free, start.x)}}
     if start.metrics is not None:
@@ -707,7 +711,7 @@ def _result(spec: Spec, best: Evaluation, start: Evaluation, ref: Mapping[str, f
     table = {'alpha_rad': alpha.tolist(), 'lift_m': law(alpha, 0).tolist()}
     status, message = 'optimal', ''
     if viol > 1e-9:
-        worst = min(_slacks(spec, best.metrics).items(), key=lambda kv: kv[1])
+        worst = min(_slacks(spec, metrics).items(), key=lambda kv: kv[1])
         status = 'infeasible'
         message = (f'no design within the bounds meets every constraint; the most violated '
                    f'is {worst[0]} (value {cons[worst[0]]["value"]:.6g}, limit '
@@ -717,7 +721,7 @@ def _result(spec: Spec, best: Evaluation, start: Evaluation, ref: Mapping[str, f
                               for p, v in zip(spec.free, best.x)},
                   objective=objective, constraints=cons, start=start_info,
                   evaluations=evaluations, seconds=seconds, method=method, table=table,
-                  message=message, metrics=dict(best.metrics))
+                  message=message, metrics=dict(metrics))
 
 
 def pareto(spec: Spec, first: str, second: str, points: int = 7) -> list[dict[str, Any]]:

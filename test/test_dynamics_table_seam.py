@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from cam_metrology.cli import main
-from cam_metrology.reconstruction.lobe_table import lobe_law
+from cam_design.lift_table.lobe_table import lobe_law
 
 M, K, F0, E = 0.1, 2.0e4, 200.0, 4.0e-3
 TRUTH_RPM = math.sqrt((F0 + 2 * K * E) / (M * E)) * 30.0 / math.pi

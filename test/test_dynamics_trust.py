@@ -309,7 +309,7 @@ def test_table_jump_speed_uncertainty_covers_the_cam(name: str, offset: float) -
     spline) must contain the analytic cam's jump speed, and stay a few percent."""
     from cam_design.valve_train.examples import CycloidalLobe, HarmonicLobe
     from cam_metrology.dynamics.tables import jump_uncertainty
-    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_design.lift_table.lobe_table import lobe_law
 
     law = {'polynomial 70/70': PiecewisePolynomialLaw([-70 * D, 0.0, 70 * D], [
         smoothstep(-70 * D, 0.0, 0.0, 9e-3), smoothstep(70 * D, 0.0, 0.0, 9e-3)]),

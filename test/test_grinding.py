@@ -693,7 +693,7 @@ def test_cli_correct_master_radius_is_reported(cam_file: Path, tmp_path: Path,
     a = np.linspace(-math.pi, math.pi, 360, endpoint=False)
     from cam_design.grinding.machining_error import sensitivities
     from cam_design.grinding.master_cam import master_from_section
-    from cam_metrology.cli.design_law import load_yaml
+    from cam_metrology.cli.law_input import load_yaml
 
     master = master_from_section(path, load_yaml(str(cam_file))['grinding'])
     sens = sensitivities(path, a, master=master)

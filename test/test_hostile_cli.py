@@ -234,12 +234,12 @@ def test_unexpected_error_is_one_line_and_debug_shows_the_traceback(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     """The last resort: a bug (simulated) is one line naming the command and the input,
     exit 1; --debug or CAM_BENCH_DEBUG=1 adds the traceback."""
-    import cam_metrology.cli.scene_cmds as scene_cmds
+    import cam_metrology.cli.scene.check as scene_check
 
     def broken(_path: str) -> Any:
         raise ZeroDivisionError('division by zero (a simulated bug)')
 
-    monkeypatch.setattr(scene_cmds, '_load', broken)
+    monkeypatch.setattr(scene_check, 'load_scene_arg', broken)
     assert main(['scene', 'check', 'some.yaml']) == 1
     err = capsys.readouterr().err
     assert err.count('\n') == 1 and 'Traceback' not in err

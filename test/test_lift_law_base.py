@@ -89,9 +89,9 @@ def test_coarse_table_that_rings_below_the_base_circle_is_rejected() -> None:
 ])
 def test_design_table_rules(h: list, match: str) -> None:
     """A design table covers the whole lobe: >= 0, zero at both ends, in metres."""
-    from cam_design.lift_laws.base import design_table
+    from cam_design.lift_laws.base import check_design_table
     with pytest.raises(InputError, match=match):
-        design_table(np.linspace(-1.0, 1.0, 6), np.array(h, dtype=float), 'lift')
+        check_design_table(np.linspace(-1.0, 1.0, 6), np.array(h, dtype=float), 'lift')
 
 
 def test_table_family_and_scene_share_the_design_rules() -> None:

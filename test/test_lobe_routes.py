@@ -5,7 +5,9 @@ steps, ramps cut off, a nose at 170 deg so the lobe crosses +-180 deg, inches at
 0.0001 in, crank degrees, exact 0.5 deg rows) from an analytic ramp + polynomial lobe
 (methods §1.1/§1.4, exact derivatives). Each goes through ``cam-bench card``,
 ``cam-bench dynamics TABLE``, a scene lobe table (``design check``, the scene parser),
-a gauge nominal file in a scene and ``design law``; the max lift, h'/h''/h''', the
+a gauge nominal file in a scene, ``design law``, the lift-law registry's ``table``
+family (the Python API) and ``reconstruct`` (its lobe law, and its own fits in the
+lobe law's frame); the max lift, h'/h''/h''', the
 events at several heights and the jump speed must agree route by route (they read one
 lobe law) and with the analytic lobe within what the rows' rounding and step allow.
 Jump speeds of an eccentric against the closed form sqrt((F0 + 2 k e)/(m e)): with h =
@@ -25,7 +27,7 @@ from cam_design import cam_card as cc
 from cam_design.errors import InputError
 from cam_design.lift_laws.registry import from_spec
 from cam_metrology.cli import main
-from cam_metrology.reconstruction.lobe_table import lobe_law
+from cam_design.lift_table.lobe_table import lobe_law
 from cam_metrology.reconstruction.synthetic import PolynomialLobe
 
 D = math.pi / 180.0
@@ -197,6 +199,44 @@ def test_scene_table_design_check_and_card_read_one_lobe(tmp_path: Path, kind: s
     assert check['min_contact_force_n'] == pytest.approx(float(np.min(force)), abs=0.5)
 
 
+@pytest.mark.parametrize('kind', ['q01_5deg', 'exact_0p5deg'])
+def test_registry_table_family_is_the_card_and_dynamics_lobe(tmp_path: Path, kind: str
+                                                             ) -> None:
+    """``cam_design.lift_laws.from_spec({family: table, ...})`` (the Python API, a scene's
+    lift_law, the design commands) gives the lobe that ``card`` and ``dynamics TABLE``
+    read from the same rows in a CSV: max lift, h..h\'\'\' at angles across the lobe,
+    its joins and base circle, and the events at every checking height."""
+    from cam_metrology.dynamics.tables import table_input
+
+    a, h = _mm(kind)
+    api = from_spec({'family': 'table', 'alpha': a.tolist(), 'h': h.tolist()}, 'lift_law')
+    table = _csv(tmp_path / f'{kind}.csv', kind)
+    _name, dyn, source, _note = table_input(table)
+    assert source == f'table:{api.lobe.method}'
+    # the CSV carries exact lifts to 1e-9 mm (a row error e <= 5e-13 m, which the
+    # quintic interpolant carries into h^(nu) with a gain below (4/step)^nu), rounded
+    # lifts to their own 0.01 mm digits (no error but the decimal reading's)
+    e = 5e-13 if kind.startswith('exact') else 1e-17
+    step = float(np.median(np.diff(a)))
+    x = np.array([-170, -90, -75, -60, -40, -10, 0, 25, 55, 70, 80, 120]) * D
+    for nu in range(4):
+        tol = e * (4.0 / step) ** nu                                      # m/rad^nu
+        assert np.max(np.abs(api(x, nu) - dyn(x, nu))) <= tol, nu
+    # and not the plain quintic interpolant the family built before: same rows, the
+    # same lobe as the card (peak h'' within 0.002 % of the card's JSON)
+    out = tmp_path / 'card.json'
+    heights = ','.join(f'{v:g}' for v in HEIGHTS_MM)
+    assert main(['card', str(table), '--heights-mm', heights, '--json', str(out)]) == 0
+    (card,) = json.loads(out.read_text(encoding='utf-8'))['cards'].values()
+    mine = cc.card_from_law(api, tuple(v * 1e-3 for v in HEIGHTS_MM))
+    assert mine['max_lift_m'] == pytest.approx(card['max_lift_m'], abs=1e-9)
+    for k in ('acceleration_max_si', 'acceleration_min_si', 'velocity_max_si', 'jerk_max_si'):
+        assert mine[k] == pytest.approx(card[k], rel=2e-5), k
+    for got, ref in zip(mine['heights'], card['heights']):
+        for side in ('opening_deg', 'closing_deg'):
+            assert got[side] == pytest.approx(ref[side], abs=1e-6)   # deg
+
+
 # ---------------------------------------------------------------------- dynamics
 VT = ('valve_train: {{model: sdof, rocker_ratio: 1.0, lash: {lash}, mass: {m}, '
       'stiffness: {c}, damping: {b}, spring_rate: {k}, spring_preload: {f0}, '
@@ -313,6 +353,89 @@ def test_jump_speed_same_through_table_scene_and_reconstruct(tmp_path: Path, kin
         assert speeds['scene'] == pytest.approx(speeds['table'], rel=0.005)
 
 
+def _events_deg(alpha: np.ndarray, lift: np.ndarray, height: float) -> tuple[float, float]:
+    """(opening, closing) [deg] of a lift curve at ``height`` [m]: the crossings nearest
+    the top, linearly interpolated on the curve's own fine grid, in the frame where the
+    top is contiguous (angles relative to the top, then back)."""
+    top = float(alpha[int(np.argmax(lift))])
+    rel = (alpha - top + math.pi) % (2 * math.pi) - math.pi
+    order = np.argsort(rel)
+    x, y = rel[order], lift[order]
+    i0 = int(np.argmax(y))
+    j = int(np.flatnonzero(y[:i0] < height)[-1])
+    k = i0 + int(np.flatnonzero(y[i0:] < height)[0])
+    a_open = x[j] + (height - y[j]) * (x[j + 1] - x[j]) / (y[j + 1] - y[j])
+    a_close = x[k - 1] + (height - y[k - 1]) * (x[k] - x[k - 1]) / (y[k] - y[k - 1])
+    return math.degrees(a_open + top), math.degrees(a_close + top)
+
+
+def test_reconstruct_fits_a_lobe_across_the_seam_in_the_lobe_frame(tmp_path: Path) -> None:
+    """The same 2.5 deg rows with the nose at 0 and at 170 deg (the lobe across +-180):
+    `reconstruct`'s spline and harmonic fits of the turned rows are the fits of the
+    centred rows, turned (they used to be cut at +-180 deg: 4.6 x the acceleration of
+    the card); and they give the card's lobe within what their own smoothing allows."""
+    deg = np.arange(-180.0, 180.0, 2.5)
+    docs = {}
+    for nose in (0.0, 170.0):
+        rel = (deg - nose + 180.0) % 360.0 - 180.0
+        lift = np.round(LOBE(rel * D) * 1e5) / 1e2
+        table = tmp_path / f'nose{nose:g}.csv'
+        table.write_text('alpha_deg,lift_mm\n' + ''.join(f'{a:g},{v:.2f}\n'
+                                                         for a, v in zip(deg, lift)))
+        out = tmp_path / f'nose{nose:g}.json'
+        assert main(['reconstruct', str(table), '--json', str(out)]) == 0
+        doc = json.loads(out.read_text(encoding='utf-8'))
+        cout = tmp_path / f'card{nose:g}.json'
+        assert main(['card', str(table), '--heights-mm', '0.5,1,5', '--json', str(cout)]) == 0
+        (card,) = json.loads(cout.read_text(encoding='utf-8'))['cards'].values()
+        docs[nose] = (doc['features'][table.stem], doc['lobes'][table.stem], card)
+    centred, turned = docs[0.0], docs[170.0]
+    assert any('turned by 170.0 deg' in n for n in turned[0]['spline']['notes'])
+    assert not any('turned by' in n for n in centred[0]['spline']['notes'])
+    for method in ('spline', 'harmonic'):
+        c, t = centred[0][method], turned[0][method]
+        assert c['ok'] and t['ok'], method
+        ca, ta = np.array(c['alpha_rad']), np.array(t['alpha_rad'])
+        assert np.all(np.diff(ta) > 0) and -math.pi < ta[0] and ta[-1] <= math.pi
+        for col in ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
+                    'jerk_m_per_rad3'):
+            cv, tv = np.array(c[col]), np.array(t[col])
+            # the same fit: turned back onto the centred grid (both on multiples of the
+            # grid step; 170 deg is one), within 1e-9 of the column's peak
+            at = np.interp(ca, (ta - 170.0 * D + math.pi) % (2 * math.pi) - math.pi, tv,
+                           period=2 * math.pi)
+            on_lobe = np.abs(ca) <= 100.0 * D
+            # the harmonic series' h'' jumps at its section edges +-Phi: which side a
+            # grid point on an edge takes is float rounding, in either frame
+            edge = c['parameters'].get('half_angle_rad')
+            if edge is not None:
+                on_lobe &= np.abs(np.abs(ca) - edge) > 1e-9
+            assert np.max(np.abs(at[on_lobe] - cv[on_lobe])) <= 1e-9 * np.max(np.abs(cv)), \
+                (method, col)
+        for height in (0.5e-3, 1e-3, 5e-3):
+            co = _events_deg(ca, np.array(c['lift_m']), height)
+            to = _events_deg(ta, np.array(t['lift_m']), height)
+            for x, y in zip(co, to):
+                assert (y - x - 170.0 + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-6)
+    # the card and the lobe law in reconstruct's JSON: one lobe, in either frame
+    for lobe, _lobe, card in (centred, turned):
+        assert _lobe['max_lift_m'] == pytest.approx(card['max_lift_m'], abs=1e-9)
+        spline = lobe['spline']
+        # the spline (its own criterion) against the card's lobe: max lift within the
+        # 0.01 mm rounding, peak h'' within 5 % (the two smoothing levels), events
+        # within what the rounding and the step allow the card (twice: two smoothings)
+        assert max(spline['lift_m']) == pytest.approx(card['max_lift_m'], abs=1e-5)
+        acc = np.array(spline['acceleration_m_per_rad2'])
+        assert float(np.max(acc)) == pytest.approx(card['acceleration_max_si'], rel=0.05)
+        assert float(np.min(acc)) == pytest.approx(card['acceleration_min_si'], rel=0.05)
+        a = np.array(spline['alpha_rad'])
+        for row in card['heights']:
+            got = _events_deg(a, np.array(spline['lift_m']), row['height_m'])
+            allow = 2.0 * _allow_deg(1e-5, 2.5, row['height_m'])
+            for x, side in zip(got, ('opening_deg', 'closing_deg')):
+                assert (x - row[side] + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=allow)
+
+
 # ---------------------------------------------------------------------- refusals
 def test_card_heights_outside_the_lobe(tmp_path: Path, capsys) -> None:
     """A height at or above the max lift: a one-line refusal naming it; below the rows'
@@ -375,7 +498,7 @@ def test_trace_of_the_open_valve_only_is_never_bridged(tmp_path: Path, capsys) -
     118..242 deg, 236 deg of the turn absent): the lobe law keeps the rows contiguous
     and never rises above them (joined to the base circle, warned as mid-lobe on both
     sides); the reconstruction, which fits over (-180, 180], says when its fit bridges
-    the gap above the rows."""
+    the gap above the rows; its fits turn the rows first and never leave their range."""
     deg = np.arange(118.0, 242.1, 1.0)
     lift_mm = np.round(LOBE((deg - 180.0) * D) * 1e5) / 1e2
     law = lobe_law(deg * D, lift_mm * 1e-3, key='open.csv')
@@ -391,6 +514,24 @@ def test_trace_of_the_open_valve_only_is_never_bridged(tmp_path: Path, capsys) -
     doc = json.loads(out.read_text(encoding='utf-8'))
     lobe = doc['lobes']['open']
     assert lobe['max_lift_m'] == pytest.approx(float(np.max(lift_mm)) * 1e-3, abs=1e-5)
-    for method in doc['features']['open'].values():
-        if method.get('ok') and max(method['lift_m']) > 1.01 * float(np.max(lift_mm)) * 1e-3:
-            assert any('bridges a gap' in w for w in method['warnings'])
+    # the fits run on the rows turned by 180 deg and come back in the table's own
+    # contiguous angles: no output angle in the 236 deg without rows, no lift above the
+    # rows by more than their rounding
+    spline = doc['features']['open']['spline']
+    assert any('turned by 180.0 deg' in n for n in spline['notes'])
+    for name, method in doc['features']['open'].items():
+        assert method['ok'], name
+        a = np.degrees(np.array(method['alpha_rad']))
+        assert a[0] >= 118.0 - 1e-6 and a[-1] <= 242.0 + 1e-6, name
+        assert np.allclose(np.diff(a), 0.1, atol=1e-9), name          # deg, no gap
+        assert max(method['lift_m']) <= float(np.max(lift_mm)) * 1e-3 + 1e-5, name
+    assert max(spline['lift_m']) == pytest.approx(lobe['max_lift_m'], abs=1e-5)
+    # nor does a gauge nominal file of the whole turn get a lift where no row was
+    capsys.readouterr()
+    assert main(['reconstruct', str(table), '--follower', 'roller', '--radius', '0.0125',
+                 '--nominal', str(tmp_path / 'nominal.txt'), '--json', str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and 'Traceback' not in err
+    assert "--nominal: got 'a reconstruction of open without rows from 242.0 to 118.0 " \
+           "deg'" in err and 'a table over the whole turn' in err
+    assert not (tmp_path / 'nominal.txt').exists()

@@ -13,12 +13,12 @@ import pytest
 from scipy.interpolate import CubicSpline, make_smoothing_spline
 
 from cam_design.errors import InputError
-from cam_metrology.reconstruction.blas import single_thread_blas
+from cam_design.lift_table.blas import single_thread_blas
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
-from cam_metrology.reconstruction.samples import clean_samples
-from cam_metrology.reconstruction.spline import (REBOUND_NOISE_FACTOR, ReboundOperator,
-                                                 SplineOptions, rebound_fairing,
-                                                 reconstruct_spline)
+from cam_design.lift_table.samples import clean_samples
+from cam_design.lift_table.spline import (REBOUND_NOISE_FACTOR, ReboundOperator,
+                                          SplineOptions, rebound_fairing,
+                                          reconstruct_spline)
 from cam_metrology.reconstruction.synthetic import (DEG, EccentricLobe, PolynomialLobe,
                                                     simulate)
 
@@ -294,7 +294,7 @@ def test_exact_nominal_table_is_left_alone():
 
 
 def test_smooth_grid_is_the_exact_weighted_penalised_fit():
-    from cam_metrology.reconstruction.spline import _neumann_cube_banded, smooth_grid
+    from cam_design.lift_table.spline import _neumann_cube_banded, smooth_grid
 
     n = 60
     main = np.full(n, 2.0)
@@ -386,7 +386,7 @@ def test_dual_peak_cam_keeps_its_second_lobe():
     extra smoothing stops as soon as the fit leaves the data (and a warning says so)."""
     from_spec = pytest.importorskip('cam_design.lift_laws').from_spec
     from cam_metrology.reconstruction.profile import reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_design.lift_table.samples import LiftTable
 
     law = from_spec(DUAL_PEAK, 'law')
     centre = 0.5 * sum(law.support)

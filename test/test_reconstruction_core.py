@@ -111,6 +111,40 @@ def test_lobe_profiles_converted_to_the_design_follower(measured):
     assert len(amps) == int(h.values['order']) + 1 and max(amps) > 1e-3
 
 
+def test_lobe_law_warnings_are_published(measured):
+    """The node's statuses carry what the lobe law of the rows says (as card, dynamics
+    and reconstruct do): a table that starts on the rise flank (mid-lobe, at 20 % of
+    the lift) gets level WARN with the warning in its message and in ``warnings``, with
+    and without a scene; the whole table gets none of them. The fits of the cut table
+    run on its rows only: no angle before the first row, the spline's lift not above
+    the rows by more than the noise."""
+    scene, lobe, seen, data = measured
+    a = data[:, 0]
+    top = float(np.max(seen(a)))
+    rise = np.flatnonzero((a < 0) & (seen(a) >= 0.2 * top))[0]   # the first row at 20 %
+    cut = data[rise:]
+    m = msg('lobe_1', ('alpha_rad', 'lift_m', 'design_lift_m'), cut)
+    with_scene = ReconstructionCore({'methods': 'spline,harmonic'})
+    with_scene.handle('/bench/scene', scene_msg(), 1)
+    without = ReconstructionCore({'methods': 'spline'})
+    without.handle('/metrology/lift', m, 1)
+    for out in (with_scene.handle('/metrology/lift', m, 2), without.finish()):
+        st, t = statuses(out), tables(out)
+        for label, s in st.items():
+            assert s.level == WARN, (label, s.message)
+            assert 'starts mid-lobe' in s.values['warnings'] and 'starts mid-lobe' in s.message
+            assert 'ends mid-lobe' not in s.values['warnings']
+            probe = t.get(f'{label}/probe', t[label]).data
+            assert probe[0, 0] >= cut[0, 0] - 1e-9                  # rad
+            if label.endswith('/spline'):   # (the series has its own ripple: ~10 um)
+                assert float(np.max(probe[:, 1])) <= float(np.max(cut[:, 1])) + 3e-6   # m
+    whole = ReconstructionCore({'methods': 'spline'})
+    whole.handle('/bench/scene', scene_msg(), 1)
+    s = statuses(whole.handle('/metrology/lift', msg(
+        'lobe_1', ('alpha_rad', 'lift_m', 'design_lift_m'), data), 2))['lobe_1/spline']
+    assert 'mid-lobe' not in s.values.get('warnings', '') and s.level == OK, s.message
+
+
 def test_table_before_scene_is_processed_when_the_scene_arrives(measured):
     _, _, _, data = measured
     core = ReconstructionCore({'methods': 'spline'})
@@ -210,7 +244,7 @@ def test_full_turn_spline_converts_like_the_harmonic(lobe_id, seed):
     converted now: both methods reach the design follower, to noise level."""
     from cam_design.lift_laws import TabulatedLift
     from cam_metrology.reconstruction.profile import Conversion, lobe_section, reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_design.lift_table.samples import LiftTable
 
     scene = parse_scene(SCENE_TEXT)
     lobe = scene.lobe(lobe_id)

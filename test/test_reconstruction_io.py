@@ -11,7 +11,7 @@ import pytest
 
 from cam_design.errors import InputError
 from cam_metrology.cli import main
-from cam_metrology.reconstruction.samples import read_csv_table, read_gauge_file, read_table_file
+from cam_metrology.inputs.lift_tables import read_csv_table, read_gauge_file, read_table_file
 from cam_metrology.reconstruction.synthetic import DEG, PolynomialLobe, simulate
 from cam_metrology.wire.layouts import table_from_msg
 
@@ -205,7 +205,7 @@ def test_cli_bag_goes_through_metrology_and_reconstruction(tmp_path, capsys):
 
 
 def test_centre_on_nose_and_cli_option(tmp_path, capsys):
-    from cam_metrology.reconstruction.samples import LiftTable, centre_on_nose
+    from cam_design.lift_table.samples import LiftTable, centre_on_nose
 
     ad = np.arange(0.0, 360.0, 1.0)
     for offset in (0.0, 37.37, 180.0, -120.5):
@@ -311,7 +311,7 @@ def test_cli_harmonics_below_two_is_rejected(tmp_path, capsys, n):
 def test_harmonic_order_below_two_and_underfit(tmp_path, capsys):
     from cam_metrology.reconstruction.core import ReconstructionCore
     from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
-    from cam_metrology.reconstruction.samples import clean_samples
+    from cam_design.lift_table.samples import clean_samples
 
     a, h = simulate(LOBE, 720, 0.5e-6, seed=3)
     data = clean_samples(a, h)
@@ -373,7 +373,7 @@ def test_noise_free_table_gives_no_rounding_residual_warning():
     noise sigma (6.82e-18 m)'. Rounding-level residuals stay quiet; a real 50 um bump on
     the same table is still reported with its angle."""
     from cam_metrology.reconstruction.profile import reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_design.lift_table.samples import LiftTable
 
     a = np.radians(np.arange(-180.0, 180.0, 0.5))
     outcomes = reconstruct_table(LiftTable('t', a, LOBE(a)), methods=('spline',))

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from scipy.interpolate import make_smoothing_spline
 
-from cam_metrology.reconstruction import junctions
-from cam_metrology.reconstruction.noise import flat_rows
-from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
-from cam_metrology.reconstruction.truth_lobes import DEG, families, measured_table
+from cam_design.lift_table import junctions
+from cam_design.lift_table.noise import flat_rows
+from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
+from cam_design.lift_table.truth_lobes import DEG, families, measured_table
 
 FAMILIES = {f.name: f for f in families()}
 EVAL = 0.05 * DEG

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from cam_design.lift_laws.registry import from_spec
-from cam_metrology.reconstruction.lobe_table import lobe_law
+from cam_design.lift_table.lobe_table import lobe_law
 
 DEG = math.pi / 180.0
 

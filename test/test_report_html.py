@@ -119,7 +119,7 @@ def test_human_report_has_verdict_and_card(analysed, capsys) -> None:
 
 
 def test_card_of_a_bag_and_its_measured_profile_file(analysed, tmp_path, capsys) -> None:
-    from cam_metrology.reconstruction.samples import read_gauge_file
+    from cam_metrology.inputs.lift_tables import read_gauge_file
 
     out = tmp_path / 'lobe_1.txt'
     assert main(['card', str(analysed['bag']), '--lobe', 'lobe_1', '--nominal', str(out),

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from cam_design.errors import InputError
-from cam_metrology.reconstruction.samples import read_csv_table, read_table_file
+from cam_metrology.inputs.lift_tables import read_csv_table, read_table_file
 
 L_MM, BETA_DEG = 8.0, 60.0
 ANGLES = np.arange(-180.0, 180.0, 1.0)
@@ -111,7 +111,7 @@ def test_gauge_file_with_decimal_commas_and_bom(tmp_path, radius, sep, decimal, 
 def test_gauge_decimal_comma_rule(line, fields) -> None:
     """A comma is a decimal comma only in a line without a decimal point whose fields
     are already separated by blanks, semicolons or tabs, and never at a field's edge."""
-    from cam_metrology.reconstruction.samples import _gauge_fields
+    from cam_metrology.inputs.lift_tables import _gauge_fields
 
     assert _gauge_fields(line) == fields
 
@@ -134,7 +134,7 @@ def test_probe_zero_offset_is_flagged_with_the_lift_above_the_base_circle() -> N
     base circle with 15 um run-out about 0, or 0.01 mm rounding, is not flagged."""
     from cam_metrology.cli.card import table_card
     from cam_metrology.reconstruction.profile import reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable, base_circle_warning
+    from cam_design.lift_table.samples import LiftTable, base_circle_warning
 
     a = np.radians(ANGLES)
     h = lobe_mm(ANGLES) * 1e-3
@@ -189,7 +189,7 @@ def test_harmonic_order_on_angles_in_radians_rounded_to_6_decimals() -> None:
     and its QR fallback used to give wrong projections, so BIC chose N = 2 (rms residual
     54 um). The order and the fit must match those of the exact angles."""
     from cam_metrology.reconstruction.profile import reconstruct_table
-    from cam_metrology.reconstruction.samples import LiftTable
+    from cam_design.lift_table.samples import LiftTable
 
     h = np.round(lobe_mm(ANGLES), 6) * 1e-3
     recs = [reconstruct_table(LiftTable('t', a, h), methods=('harmonic',))['harmonic']
@@ -249,7 +249,7 @@ def test_a_table_with_two_lobes_says_which_one_the_numbers_are_of() -> None:
     single lobe, a dual-peak lobe (valley above the base circle) or a one-row spike on
     the base circle is not flagged."""
     from cam_metrology.cli.card import table_card
-    from cam_metrology.reconstruction.samples import other_lobes_warning
+    from cam_design.lift_table.samples import other_lobes_warning
 
     a = np.radians(ANGLES)
     second = np.mod(ANGLES - 120.0 + 180.0, 360.0) - 180.0

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from cam_design.errors import InputError
-from cam_metrology.reconstruction.samples import clean_samples
-from cam_metrology.reconstruction.lobe_table import lobe_law
+from cam_design.lift_table.samples import clean_samples
+from cam_design.lift_table.lobe_table import lobe_law
 
 D = math.pi / 180.0
 

@@ -287,7 +287,7 @@ def test_case18_with_lift_law_preset() -> None:
 def test_jet_table_edges() -> None:
     """Tables of h..h''': exact at nodes, reversed / NaN / flat tables rejected, a
     noisy table still gives a finite motion."""
-    from cam_design.valve_train.cam_input import JetTableLift
+    from cam_design.lift_laws.jet_table import JetTableLift
 
     law = ramp_law()
     a = np.linspace(-math.pi, math.pi, 3601)

@@ -264,7 +264,8 @@ def sensitivities(path: WheelPath, alpha: ArrayLike, *, cradle: Cradle | None = 
             dn = nx
         elif name == 'run_out_y':
             dn = ny
-        else:
+        else:   # master_follower_radius: checked above to come with a roller master
+            assert master is not None and state is not None
             dn = _master_radius_dn(master, s, state, nx, ny)
         out[name] = dn * scale
     return out

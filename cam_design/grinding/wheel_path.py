@@ -84,7 +84,7 @@ def equivalent_inline(law: LiftLaw, base_radius: float, design: Design, *,
     if design.kind == 'offset-roller':
         r, e, eta, delta, s0 = offset_params(r0, r, design.offset, eta, design.delta)
 
-        def curve(s: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        def curve(s: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
             h = law_jet(law, s)
             c, sn = jet_cos_sin(eta * param_jet(s))
             vx = h.copy()
@@ -95,7 +95,7 @@ def equivalent_inline(law: LiftLaw, base_radius: float, design: Design, *,
         r, dist, arm, psi0 = rocker_check(r0, r, design.centre_distance, design.arm_length)
         delta = sign_param('design.delta', design.delta, (1, -1))
 
-        def curve(s: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        def curve(s: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
             turn = eta * param_jet(s)
             big = turn - delta * law_jet(law, s) / arm
             big[0] -= delta * psi0

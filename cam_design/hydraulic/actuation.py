@@ -433,7 +433,8 @@ def simulate_hydraulic(law: Any, prm: HydraulicParams, rpm: float, *,
     vol['residual'] = (vol['plunger_in'] + vol['check_in'] - vol['relief_out']
                        - vol['leak_out'] - vol['actuator_swept'] - vol['stored_change'])
     idx = np.arange(n_rec) * record_every
-    return HydraulicResult(t=idx * dt, alpha=alphas[idx], valve_lift=rec[:, 0],
+    return HydraulicResult(t=np.asarray(idx * dt, dtype=np.float64),
+                           alpha=np.asarray(alphas[idx], dtype=np.float64), valve_lift=rec[:, 0],
                            valve_velocity=rec[:, 1], pump_pressure=rec[:, 2],
                            actuator_pressure=rec[:, 3], cavitation=cav,
                            seating_velocity=v_seat, volumes=vol)

@@ -60,9 +60,10 @@ def hydraulic_params(block: Mapping[str, Any] | None, *, mass: float, spring_rat
             if values[k] != int(values[k]):
                 raise InputError(f'{where}.{k}', v, 'a whole number of pipe reaches >= 1')
             values[k] = int(values[k])
-    valve = {'mass': mass, 'spring_rate': spring_rate, 'spring_preload': spring_preload,
-             'valve_damping': valve_damping, 'restitution': 0.0 if restitution is None
-             else restitution}
+    valve: dict[str, Any] = {
+        'mass': mass, 'spring_rate': spring_rate, 'spring_preload': spring_preload,
+        'valve_damping': valve_damping,
+        'restitution': 0.0 if restitution is None else restitution}
     try:
         prm = HydraulicParams(**values, **valve)
     except InputError as exc:

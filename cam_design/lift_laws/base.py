@@ -102,7 +102,7 @@ class TabulatedLift(LiftLaw):
 
     Interpolated by a quintic spline (C4) so that h''' is continuous; outside the
     table h = 0. Use this for nominal tables from a drawing or gauge; measured, noisy
-    tables belong to the reconstruction module, which smooths them first.
+    tables belong to the lobe law of `cam_design.lift_table`, which smooths them first.
     """
 
     continuity_order = 3
@@ -151,14 +151,6 @@ def _float_array(values: ArrayLike, key: str, what: str) -> NDArray[np.float64]:
         return np.asarray(values, dtype=float)
     except (TypeError, ValueError):
         raise InputError(key, values, f'a list of numbers ({what})') from None
-
-
-def design_table(alpha: NDArray[np.float64], h: NDArray[np.float64], key: str) -> TabulatedLift:
-    """A design lift table as a TabulatedLift (``check_design_table``'s rules). Used by
-    the ``table`` lift-law family; the scene parser and the command line read tables
-    through their one lobe law instead (cam_metrology.reconstruction.lobe_table)."""
-    a, v = check_design_table(alpha, h, key)
-    return TabulatedLift(a, v, key=key)
 
 
 def check_design_table(alpha: ArrayLike, h: ArrayLike, key: str

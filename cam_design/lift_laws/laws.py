@@ -5,7 +5,6 @@ from typing import Any, Callable, Mapping
 
 from cam_design.errors import InputError
 from cam_design.lift_laws import params as P
-from cam_design.lift_laws.base import LiftLaw, design_table
 from cam_design.lift_laws.polynomial import polynomial_flank
 from cam_design.lift_laws.ramps import Ramp, ramp_from_spec
 from cam_design.lift_laws.segments import Flank, PiecewiseLaw, assemble_lobe
@@ -76,9 +75,3 @@ def polynomial_from_spec(spec: Mapping, key: str) -> PiecewiseLaw:
     """``family: polynomial`` (§1.4): ramp + polynomial base section."""
     return flanked_lobe(spec, key, ('half_angle', 'exponents'), _polynomial_flank,
                         'polynomial')
-
-
-def table_from_spec(spec: Mapping, key: str) -> LiftLaw:
-    """``family: table``: ``alpha`` [rad] and ``h`` [m] lists (TabulatedLift)."""
-    P.reject_unknown(spec, key, ('alpha', 'h'))
-    return design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'), key)

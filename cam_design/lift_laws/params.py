@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping, Sequence, TypeVar
 
 from cam_design.errors import InputError, require_finite, require_length, require_positive
 
 MISSING = object()
+T = TypeVar('T')
 
 
 def mapping(spec: Any, key: str) -> Mapping:
@@ -98,8 +99,8 @@ def numbers(spec: Mapping, key: str, name: str, default: Any = MISSING) -> list[
     return [require_finite(f'{key}.{name}[{i}]', v) for i, v in enumerate(raw)]
 
 
-def choice(spec: Mapping, key: str, name: str, options: Sequence[str],
-           default: Any = MISSING) -> str:
+def choice(spec: Mapping, key: str, name: str, options: Sequence[T],
+           default: Any = MISSING) -> T:
     """One of ``options``."""
     raw = get(spec, key, name, default)
     if not any(raw == o and type(raw) is type(o) for o in options):

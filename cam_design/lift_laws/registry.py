@@ -23,7 +23,7 @@ FAMILIES: dict[str, str] = {
     'polydyne': 'cam_design.lift_laws.polydyne:polydyne_from_spec',
     'harmonic': 'cam_design.lift_laws.harmonic:harmonic_from_spec',
     'dual_peak': 'cam_design.lift_laws.dual_peak:dual_peak_from_spec',
-    'table': 'cam_design.lift_laws.laws:table_from_spec',
+    'table': 'cam_design.lift_table.lobe_routes:table_from_spec',
     'preset': 'cam_design.lift_laws.registry:preset_from_spec',
 }
 

@@ -244,7 +244,11 @@ class PiecewiseLaw(LiftLaw):
         pieces: list[Segment | None] = [None, *self.segments, None]
         for k, req in enumerate(required):
             left, right = pieces[k], pieces[k + 1]
-            at = float(right.lo if right is not None else left.hi) + 0.0   # no -0.0
+            if right is not None:
+                at = float(right.lo) + 0.0   # no -0.0
+            else:                            # the end: the last segment is left of it
+                assert left is not None
+                at = float(left.hi) + 0.0
             jumps = []
             for nu in range(MAX_ORDER + 1):
                 lv = float(left(at, nu)) if left is not None else 0.0

@@ -125,8 +125,10 @@ def mdof_from_mapping(spec: Mapping[str, Any] | None, base: SdofParams,
     share = sum(s.preload_share for s in springs)
     if share <= 0:
         raise InputError(f'{key}.springs', 'preload shares', 'shares with a positive sum')
-    return MdofParams(base=base, masses=tuple(float(m) for m in masses),
-                      stiffness=tuple(float(x) for x in stiff), springs=tuple(springs),
+    m4 = [float(m) for m in masses]            # four of each: checked above
+    k4 = [float(x) for x in stiff]
+    return MdofParams(base=base, masses=(m4[0], m4[1], m4[2], m4[3]),
+                      stiffness=(k4[0], k4[1], k4[2], k4[3]), springs=tuple(springs),
                       coil_beta=require_positive(f'{key}.coil_beta',
                                                  spec.get('coil_beta', 2e-6), allow_zero=True),
                       follower_rate=require_positive(f'{key}.follower_rate',
@@ -181,8 +183,9 @@ class MdofAssembly:
         self.surge_hz: list[list[float]] = []
         for s in mp.springs:
             ke = (s.coils + 1) * s.rate
-            chain = [V] + list(range(idx, idx + s.coils)) + [None]
-            for a_, b_ in zip(chain[:-1], chain[1:]):
+            heads = [V] + list(range(idx, idx + s.coils))     # valve, then the coils
+            tails: list[int | None] = [*heads[1:], None]      # ... the last to ground
+            for a_, b_ in zip(heads, tails):
                 link(a_, b_, ke, mp.coil_beta * ke)
             m[idx:idx + s.coils] = s.mass / s.coils
             sub_k = k_lin[idx:idx + s.coils, idx:idx + s.coils]
@@ -351,7 +354,7 @@ def _simulate_ivp(law: LiftLaw, mp: MdofParams, rpm: float, *, step_deg: float,
     if span > 2 * math.pi + 1e-12:
         raise InputError('span_deg', span_deg, 'at most 360')
     count = int(math.ceil(span / step - 1e-9))
-    alpha = a0 + step * np.arange(count + 1)
+    alpha = a0 + step * np.arange(count + 1, dtype=np.float64)
     alpha[-1] = min(alpha[-1], a0 + span)
     t_out = (alpha - a0) / omega
     minv = 1.0 / asm.m
@@ -449,7 +452,7 @@ def _static(asm: MdofAssembly, mp: MdofParams, uc: float) -> NDArray[np.float64]
                 kk[i, j] += sgn * asm.k_rv
             f[R] -= asm.k_rv * b.lash
             f[V] += asm.k_rv * b.lash
-        x = np.linalg.solve(kk, f)
+        x = np.asarray(np.linalg.solve(kk, f), dtype=np.float64)
         if rv_closed or x[R] - x[V] - b.lash <= 0:
             return x
     return np.zeros(n)

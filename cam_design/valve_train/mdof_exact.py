@@ -32,7 +32,8 @@ from cam_design.valve_train.cam_input import CamInput
 from cam_design.valve_train.mdof_model import (CAM, RV, SEAT, SUB, MdofModel, R, T, V,
                                                switch_flags)
 from cam_design.valve_train.propagate import (BOUNCE_TOL, FACT, GRID9, NB, VG9, SolverError,
-                                              eval_min, newton_bracket, shift)
+                                              eval_min, free_flight_height, newton_bracket,
+                                              reopen, shift)
 
 _TAYLOR = 22
 _MAX_EVENTS = 20000
@@ -378,20 +379,11 @@ class _Run:
         return z, r | SEAT
 
     def _reopen(self, alpha: float, v_up: float, force: bool = False) -> None:
-        """Lift-off: the opening, or a bounce after the first seating when its
-        free-flight height bound m_V v^2 / (2 F0) reaches BOUNCE_TOL."""
-        self.peak = 0.0
-        self.lift_off = alpha
-        if self.start_open and self.seated_once:
-            self.next_cycle = []    # an open phase of the next cycle may start here
-        if not self.opened:
-            self.opened = True
-            self.ev.opening = alpha
-        elif self.seated_once:
-            height = (self.bounce_mass * v_up * v_up / (2 * self.preload)
-                      if self.preload > 0 else math.inf)
-            if height >= BOUNCE_TOL or (force and self.model.hard):
-                self.ev.bounce_count += 1
+        """Lift-off (``propagate.reopen``): the bounce height bound with the valve-side
+        bounce mass and preload; ``force``: a held valve released from a hard seat
+        counts as a bounce."""
+        reopen(self, alpha, free_flight_height(self.bounce_mass, v_up, self.preload),
+               forced=force and self.model.hard)
 
     def _close_next(self, which: int, alpha: float) -> None:
         for item in reversed(self.next_cycle or []):
@@ -559,7 +551,7 @@ def run_exact(asm: Any, cam: CamInput, omega: float, *, max_revolutions: int = 1
     mp = asm.mp
     residual = math.inf
     revs = 0
-    run = None
+    run: _Run | None = None
     zs = rs = None
     eye = np.eye(2 * n)
 
@@ -599,6 +591,8 @@ def run_exact(asm: Any, cam: CamInput, omega: float, *, max_revolutions: int = 1
                 z0 = z_new
                 continue
         z0, r0 = z, r
+    if run is None or zs is None or rs is None:
+        raise ValueError(f'max_revolutions = {max_revolutions}: at least 1 is needed')
     u = np.concatenate([cam.coeffs[:, 0], [np.sum(cam.coeffs[-1])]])
     du = np.concatenate([cam.coeffs[:, 1] / cam.lengths,
                          [np.sum(cam.coeffs[-1, 1:] * np.arange(1, NB)) / cam.lengths[-1]]])

@@ -159,7 +159,7 @@ def reference_mdof(law: LiftLaw, mp: MdofParams, rpm: float, alpha: NDArray[np.f
     out[0] = z
     t = 0.0
     res = MdofReference(alpha=np.asarray(alpha, dtype=float), z=out)
-    e = mp.base.restitution if eq.hard else 0.0
+    e = float(mp.base.restitution or 0.0) if eq.hard else 0.0   # hard seat: set
     bi = 0
     for _ in range(_MAX_RESTARTS):
         while bi < len(breaks) and breaks[bi] <= t + 1e-15:
@@ -171,8 +171,8 @@ def reference_mdof(law: LiftLaw, mp: MdofParams, rpm: float, alpha: NDArray[np.f
         for g in range(3):
             def ev(tt: float, zz: NDArray, g: int = g, r: int = r) -> float:
                 return eq.inside(tt, zz, r)[g]
-            ev.terminal = True
-            ev.direction = -1
+            setattr(ev, 'terminal', True)     # solve_ivp's event attributes
+            setattr(ev, 'direction', -1)
             events.append(ev)
         sel = (t_out > t) & (t_out <= t1)
         extra = {}

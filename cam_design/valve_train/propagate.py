@@ -1,7 +1,8 @@
 """Propagation helpers shared by the exact piecewise-linear solvers (``sdof`` and
 ``mdof_exact``, docs/dynamics.md): the matrix exponential of the augmented system, the
 polynomial cam input at sub-nodes, the cubic-Hermite dip screen of the switching
-functions and the bracketing of a switch on its Taylor polynomials.
+functions and the bracketing of a switch on its Taylor polynomials, and the bookkeeping of a
+lift-off from the seat (opening or bounce).
 
 Polynomials on a step are held as monomial coefficients in sigma = t / step in [0, 1]
 (``NB`` = degree + 1 of the cam input); ``FACT`` turns them into the basis sigma^j / j!
@@ -10,13 +11,13 @@ used by the propagators.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
-from cam_design.valve_train.cam_input import DEGREE
+from cam_design.lift_laws.jet_table import DEGREE
 
 NB = DEGREE + 1
 FACT = np.array([math.factorial(j) for j in range(NB)], dtype=float)
@@ -280,3 +281,49 @@ def bracket(fun: Any, a: float, b: float, fa: float, fb: float) -> tuple[float, 
     if fun(lo) < 0:
         lo = a
     return lo, hi
+
+
+class LiftOffEvents(Protocol):
+    """The events a lift-off updates (``sdof_run.Events``, ``mdof_exact.MdofEvents``)."""
+
+    opening: float | None
+    bounce_count: int
+
+
+class LiftOffRun(Protocol):
+    """The run state a lift-off updates (``sdof_run.SdofRun``, ``mdof_exact._Run``)."""
+
+    peak: float
+    lift_off: float | None
+    start_open: bool
+    seated_once: bool
+    opened: bool
+    next_cycle: list[list[float]] | None
+
+    @property
+    def ev(self) -> LiftOffEvents: ...
+
+
+def free_flight_height(mass: float, v_up: float, preload: float) -> float:
+    """Upper bound [m] of the height a valve of ``mass`` [kg] leaving the seat at
+    ``v_up`` [m/s] reaches against the spring ``preload`` [N]: m v^2 / (2 F0) (inf
+    without preload)."""
+    return mass * v_up * v_up / (2.0 * preload) if preload > 0 else math.inf
+
+
+def reopen(run: LiftOffRun, alpha: float, height: float, forced: bool = False) -> None:
+    """Lift-off from the seat at the cam angle ``alpha`` [rad]: the opening (the first
+    lift-off), or after the first seating a bounce when its free-flight height bound
+    ``height`` [m] (:func:`free_flight_height`) reaches ``BOUNCE_TOL`` (reopenings of
+    1e-10 m on a penalty seat at crawl speed are not bounces) or the lift-off is
+    ``forced`` (a held valve released from a hard seat). A revolution that started
+    open begins collecting the next cycle's open phase here."""
+    run.peak = 0.0
+    run.lift_off = alpha
+    if run.start_open and run.seated_once:
+        run.next_cycle = []    # an open phase of the next cycle may start here
+    if not run.opened:
+        run.opened = True
+        run.ev.opening = alpha
+    elif run.seated_once and (height >= BOUNCE_TOL or forced):
+        run.ev.bounce_count += 1

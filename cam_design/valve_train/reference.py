@@ -157,7 +157,7 @@ def reference_solve(law: LiftLaw, params: SdofParams, rpm: float,
         if sol.status == 1:
             which = CONTACT if sol.t_events[0].size else SEAT
             if which == SEAT and p.hard_seat:
-                v_new = -p.restitution * z[1]
+                v_new = -float(p.restitution or 0.0) * z[1]   # hard seat: set
                 z = np.array([0.0, v_new])
                 if v_new <= 1e-9 and rhs.inside(t, np.zeros(2), SEAT)[1] >= 0:
                     r = SEAT

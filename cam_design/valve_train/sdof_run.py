@@ -11,9 +11,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.valve_train.cam_input import CamInput
-from cam_design.valve_train.propagate import (ARANGE, BOUNCE_TOL, FACT, SolverError,
-                                              bracket, horner2, newton_bracket,
-                                              screen_grid, shift, vander)
+from cam_design.valve_train.propagate import (ARANGE, FACT, SolverError,
+                                              bracket, free_flight_height, horner2,
+                                              newton_bracket, reopen, screen_grid, shift,
+                                              vander)
 from cam_design.valve_train.sdof_model import (CONTACT, SEAT, SUB, SdofModel,
                                                inside, screen_weights, switch_flags, taylor)
 
@@ -149,6 +150,7 @@ class SdofRun:
                 raise SolverError('non-finite state in bulk propagation')
             ys = np.asarray(yl[pos:hi])
             vs = np.asarray(vl[pos:hi])
+            parts: list[tuple[Any, NDArray | None]]
             if one_group:
                 parts = [(invl[k0 + pos], None)]
             else:
@@ -199,10 +201,10 @@ class SdofRun:
                 return z, r
             if p.hard_seat and r & SEAT:
                 w = 1.0 - s0
-                hit = self._held_exit(shift(cam.coeffs[k], s0, w), la_step * w)
-                if hit is None:
+                exit_at = self._held_exit(shift(cam.coeffs[k], s0, w), la_step * w)
+                if exit_at is None:
                     return (0.0, 0.0), r
-                s0 += w * hit
+                s0 += w * exit_at
                 r = self._after_held(s0, k)
                 z, node = (0.0, 0.0), None
                 continue
@@ -297,23 +299,10 @@ class SdofRun:
         return CONTACT
 
     def _reopen(self, alpha: float, v_up: float = math.inf) -> None:
-        """Lift-off at ``alpha`` with velocity ``v_up`` [m/s]: the opening, or a bounce
-        if after the first seating and its free-flight height bound M v^2 / (2 F0)
-        reaches ``BOUNCE_TOL`` (reopenings of 1e-10 m on the penalty seat at crawl
-        speed are not reported as bounces)."""
-        self.peak = 0.0
-        self.lift_off = alpha
-        if self.start_open and self.seated_once:
-            self.next_cycle = []    # an open phase of the next cycle may start here
-        if not self.opened:
-            self.opened = True
-            self.ev.opening = alpha
-        elif self.seated_once:
-            p = self.model.p
-            height = (p.mass * v_up * v_up / (2 * p.spring_preload)
-                      if p.spring_preload > 0 else math.inf)
-            if height >= BOUNCE_TOL:
-                self.ev.bounce_count += 1
+        """Lift-off at ``alpha`` with velocity ``v_up`` [m/s] (``propagate.reopen``; the
+        bounce height bound with the model's mass and spring preload)."""
+        p = self.model.p
+        reopen(self, alpha, free_flight_height(p.mass, v_up, p.spring_preload))
 
     def _first_switch(self, r: int, cy: NDArray, u_loc: NDArray, ds: float,
                       dense: int = 1) -> tuple[float, float, int] | None:
@@ -408,7 +397,7 @@ class SdofRun:
             # impact (r has no SEAT here: held exits are handled separately)
             self._seat(alpha, -v)
             ev.impacts.append((alpha, -v))
-            v_new = -p.restitution * v
+            v_new = -float(p.restitution or 0.0) * v   # hard seat: restitution is set
             if v_new <= 1e-9:
                 held_inside = inside(self.model, SEAT, 0.0, 0.0, u, ud)[1]
                 if held_inside >= 0:

@@ -129,7 +129,7 @@ def parse_range(text: str, key: str = '--sweep') -> NDArray[np.float64]:
     n = int(math.floor((hi - lo) / st + 1e-9)) + 1
     if n > 100000:
         raise InputError(key, text, 'at most 100000 speeds')
-    return lo + st * np.arange(n)
+    return lo + st * np.arange(n, dtype=np.float64)
 
 
 def require_speeds(rpms: Sequence[float]) -> NDArray[np.float64]:
@@ -353,7 +353,7 @@ def _seating_inset(ax: Any, runs: Sequence[Any]) -> None:
     ins.grid(True, alpha=0.3)
 
 
-def runs_figure(runs: Sequence[object], title: str = '') -> Any:
+def runs_figure(runs: Sequence[Any], title: str = '') -> Any:
     """Valve lift and contact force over cam angle for several runs (report.Run): a
     matplotlib figure (the caller saves and closes it)."""
     import matplotlib

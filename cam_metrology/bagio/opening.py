@@ -55,6 +55,7 @@ def open_reader(path: str | Path, *, check: bool = True) -> Any:
         require_intact(bag)
     if bag.is_file() and bag.suffix == '.mcap':
         return _BareMcapReader(bag)
+    reader: Any
     try:
         if bag.is_dir():
             from rosbags.rosbag2 import Reader

@@ -324,10 +324,12 @@ def iter_mcap_raw(bag: Path, topics: Iterable[str],
         return None
     try:
         with open(plan[0] / plan[1][0], 'rb') as f:
-            channels = make_reader(f).get_summary().channels
+            summary = make_reader(f).get_summary()
     except Exception:   # noqa: BLE001 - any mcap error: let the rosbags reader decide
         return None
-    topic_of = {cid: ch.topic for cid, ch in channels.items()}
+    if summary is None:          # no summary section: let the rosbags reader decide
+        return None
+    topic_of = {cid: ch.topic for cid, ch in summary.channels.items()}
 
     def messages() -> Iterator[tuple[str, int, bytes]]:
         for data, starts, lengths, logs in _iter_chunk_blocks(plan, STREAM_BLOCK_BYTES):

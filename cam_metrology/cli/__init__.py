@@ -1,10 +1,12 @@
 """`cam-bench` entry point.
 
-One argparse parser; each subcommand group lives in its own module of this package
-and exposes ``register(subparsers)``, which adds its parsers and sets
-``func=<callable(args) -> int>``. Modules import their heavy dependencies (numpy
-solvers, rclpy) inside the handlers, so ``--help`` stays fast and numeric commands
-never load ROS.
+One argparse parser built here from :data:`COMMANDS`, the one command tree. Each command
+has a module of its own in this package (a sub-command group is a package with one
+module per sub-command): ``register(sub) -> ArgumentParser`` adds the command's parser
+and arguments, ``run(args) -> int`` is its handler (bound to the parser here, nowhere
+else). Option spellings shared by commands live in ``conventions``. Modules import
+their heavy dependencies (numpy solvers, rclpy) inside the handlers, so ``--help`` stays
+fast and numeric commands never load ROS.
 """
 from __future__ import annotations
 
@@ -19,23 +21,24 @@ import argparse  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
 from contextlib import contextmanager  # noqa: E402
-from typing import Iterator, Sequence  # noqa: E402
+from typing import Any, Iterator, Sequence  # noqa: E402
 from cam_design.errors import CliError  # noqa: E402,F401 (the CLI's sentence error)
 
-# Order here is the order in `cam-bench --help`.
-COMMAND_MODULES = (
-    'cam_metrology.cli.ros_cmds',      # demo, record, replay, run
-    'cam_metrology.cli.analyze',       # analyze
-    'cam_metrology.cli.golden',        # golden
-    'cam_metrology.cli.batch',         # batch
-    'cam_metrology.cli.spc',           # spc
-    'cam_metrology.cli.reconstruct',   # reconstruct
-    'cam_metrology.cli.dynamics',      # dynamics
-    'cam_metrology.cli.rig',           # rig analyze|calibrate|simulate
-    'cam_metrology.cli.design',        # design law|profile|check|rocker
-    'cam_metrology.cli.grind',         # grind table|master|errors|correct
-    'cam_metrology.cli.scene_cmds',    # scene check, simulate
-    'cam_metrology.cli.card',          # card
+#: The command tree in the order of ``cam-bench --help``: a module name (relative to this
+#: package) is one command; a pair (group, its sub-command modules) a group whose
+#: package ``register`` adds the group parser; (name, None) a module that still
+#: registers its sub-commands and handlers itself (``rig``: see docs/limits.md).
+COMMANDS: tuple[str | tuple[str, tuple[str, ...] | None], ...] = (
+    'demo', 'record', 'replay', 'run_node',
+    'analyze', 'golden', 'batch', 'spc', 'reconstruct', 'dynamics',
+    ('rig', None),
+    ('design', ('design.law', 'design.check', 'design.rocker', 'design.profile',
+                'design.optimize')),
+    ('grind', ('grind.table', 'grind.master', 'grind.errors', 'grind.correct')),
+    ('scene', ('scene.check',)),
+    'simulate',
+    ('bag', ('bag.info', 'bag.check', 'bag.recover')),
+    'card',
 )
 
 EPILOG = """\
@@ -69,14 +72,31 @@ def build_parser() -> argparse.ArgumentParser:
                         help='on an unexpected error, print the Python traceback as well '
                              f'(or set {DEBUG_ENV}=1)')
     sub = parser.add_subparsers(dest='command', metavar='COMMAND')
-    register_modules(sub, COMMAND_MODULES)
+    register_commands(sub, COMMANDS)
     return parser
 
 
-def register_modules(sub: argparse._SubParsersAction, module_names: Sequence[str]) -> None:
-    """Call ``register(sub)`` of each command module."""
-    for name in module_names:
-        importlib.import_module(name).register(sub)
+def register_commands(sub: argparse._SubParsersAction,
+                      commands: Sequence[str | tuple[str, tuple[str, ...] | None]]) -> None:
+    """Add the parsers of ``commands`` (entries of :data:`COMMANDS`) to ``sub``: each
+    command module's parser with ``func=<module>.run``; a group's parser with its
+    sub-commands under ``<group>_command``."""
+    for entry in commands:
+        if isinstance(entry, str):
+            module = _command_module(entry)
+            module.register(sub).set_defaults(func=module.run)
+            continue
+        group, children = entry
+        parser = _command_module(group).register(sub)
+        if children is None:     # the module registered its sub-commands itself
+            continue
+        group_sub = parser.add_subparsers(dest=f'{group}_command', metavar='WHAT')
+        register_commands(group_sub, children)
+
+
+def _command_module(name: str) -> Any:
+    """The module ``cam_metrology.cli.<name>``."""
+    return importlib.import_module(f'{__name__}.{name}')
 
 
 def main(argv: Sequence[str] | None = None) -> int:

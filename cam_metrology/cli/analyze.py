@@ -21,30 +21,32 @@ from cam_metrology.wire.topics import JOINT_STATES as JOINT_TOPIC
 from cam_metrology.wire.topics import METROLOGY_LIFT as LIFT_TOPIC
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``analyze`` subcommand."""
     p = subparsers.add_parser(
         'analyze', help='replay a bag through the node cores and print the report',
         description='Replay a rosbag2 (MCAP) bag in-process through the same node cores as '
                     'the live nodes and print (or write) the metrology report.')
-    p.add_argument('bag', help='rosbag2 directory (metadata.yaml + MCAP)')
-    p.add_argument('--json', metavar='FILE|-', help='write the JSON report to FILE '
-                   '(- for stdout) instead of the human report')
-    p.add_argument('--plot', metavar='DIR', help='write lift and lift-error PNGs per feature')
-    p.add_argument('--out-bag', metavar='DIR', help='write the bag plus all outputs to DIR')
+    p.add_argument('bag', metavar='BAG', help='rosbag2 directory (metadata.yaml + MCAP)')
     p.add_argument('--params', metavar='FILE', help='ROS parameter YAML for the cores '
                    '(node_name: ros__parameters: ...)')
-    p.add_argument('--only-metrology', action='store_true',
-                   help='run only the metrology core')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the JSON report instead of the human report '
+                   '(- for standard output)')
+    p.add_argument('--plot', metavar='DIR', help='write lift and lift-error PNGs per feature')
+    p.add_argument('--out-bag', metavar='DIR', help='write the bag plus all outputs to DIR')
     p.add_argument('--report', metavar='FILE.html', help='write a self-contained HTML report '
                    '(verdict, cam card, results, plots, provenance)')
-    p.add_argument('--csv', metavar='FILE|-', help='write the per-feature results as CSV')
+    p.add_argument('--csv', metavar='FILE|-', help='write the per-feature results as CSV (- for '
+                   'standard output)')
     p.add_argument('--dfq', metavar='FILE.dfq', help='write the results as a Q-DAS AQDEF '
                    'transfer file (one characteristic per reported quantity, with the '
                    "scene tolerances' limits) for SPC packages")
+    p.add_argument('--only-metrology', action='store_true',
+                   help='run only the metrology core')
     p.add_argument('--heights-mm', metavar='LIST', default=None,
-                   help='cam-card checking heights in mm (default 1,1.27,0.1)')
-    p.set_defaults(func=run)
+                   help='cam-card checking heights [mm], comma-separated (default 1,1.27,0.1)')
+    return p
 
 
 def run(args: argparse.Namespace) -> int:

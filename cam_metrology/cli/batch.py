@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``batch`` subcommand."""
     p = subparsers.add_parser(
         'batch', help='analyse many bags in parallel (Dask) into a Parquet/CSV table',
@@ -33,7 +33,7 @@ def register(subparsers: Any) -> None:
                    'report either way)')
     p.add_argument('--redo', action='store_true', help='analyse bags again even if they '
                    'are in --out')
-    p.set_defaults(func=run)
+    return p
 
 
 def run(args: argparse.Namespace) -> int:

@@ -13,19 +13,28 @@ from pathlib import Path
 from typing import Any
 
 from cam_design.cam_card import DEFAULT_HEIGHTS_M
+from cam_metrology.cli.conventions import add_table_units, table_units
 from cam_metrology.offline.acceptance import both_crank_timings, crank_timing, measured_cards
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``card`` subcommand."""
     p = subparsers.add_parser(
         'card', help='cam card: durations at checking heights, max lift, centreline, LSA',
         description='The cam card of a scene (design), a lift table (CSV or gauge '
                     'nominal-profile file) or a bag (measured vs nominal). Angles in cam '
                     'degrees from the lobe centreline (rise negative), crank = 2 x cam.')
-    p.add_argument('input', help='scene .yaml, lift table (CSV or gauge file) or bag')
+    p.add_argument('input', metavar='SCENE|TABLE|BAG',
+                   help='scene .yaml, lift table (CSV or gauge file) or bag')
+    add_table_units(p, 'a gauge-file input')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the cards as JSON (- for standard output)')
+    p.add_argument('--nominal', metavar='FILE', help='write the lobe (--lobe, or the only '
+                   'one) as a gauge nominal-profile file: a scene lobe as seen by the scene '
+                   'probe every 0.5 deg, a table as read, a bag lobe as measured (referenced '
+                   'to its base circle)')
     p.add_argument('--heights-mm', metavar='LIST', default=None,
-                   help='checking heights in mm, comma-separated (default 1,1.27,0.1)')
+                   help='checking heights [mm], comma-separated (default 1,1.27,0.1)')
     p.add_argument('--lobe', metavar='ID', help='only this lobe (scene or bag)')
     p.add_argument('--pair', metavar='INTAKE,EXHAUST',
                    help='lobe ids of an intake/exhaust pair: lobe separation angle (from the '
@@ -33,12 +42,7 @@ def register(subparsers: Any) -> None:
     p.add_argument('--intake-centreline-deg', type=float, metavar='DEG',
                    help='with --pair: intake centreline in crank deg ATDC; gives the valve '
                         'events of both lobes in crank degrees (BTDC/ABDC, BBDC/ATDC)')
-    p.add_argument('--json', metavar='FILE|-', help='write the cards as JSON')
-    p.add_argument('--nominal', metavar='FILE', help='write the lobe (--lobe, or the only '
-                   'one) as a gauge nominal-profile file: a scene lobe as seen by the scene '
-                   'probe every 0.5 deg, a table as read, a bag lobe as measured (referenced '
-                   'to its base circle)')
-    p.set_defaults(func=run)
+    return p
 
 
 def heights_from(args: argparse.Namespace) -> tuple[float, ...]:
@@ -63,14 +67,17 @@ def _lsa(phases: dict[str, float | None], pair: str, cards: dict[str, Any],
     ids = [p.strip() for p in pair.split(',')]
     if len(ids) != 2:
         raise InputError('--pair', pair, 'two lobe ids INTAKE,EXHAUST')
+    known: dict[str, float] = {}
     for i in ids:
         if i not in phases:
             raise InputError('--pair', pair, f'lobe ids of the input (no {i!r}; have '
                              f'{", ".join(phases)})')
-        if phases[i] is None:
+        phase = phases[i]
+        if phase is None:
             raise InputError('--pair', pair, f'lobes with a phase ({i} has none: no '
                              'nominal_phase in the scene, or no dowel pin measured)')
-    lsa = abs(_wrap180(phases[ids[1]] - phases[ids[0]]))
+        known[i] = phase
+    lsa = abs(_wrap180(known[ids[1]] - known[ids[0]]))
     out: dict[str, Any] = {'intake': ids[0], 'exhaust': ids[1], 'lobe_separation_deg': lsa}
     if intake_cl is not None:
         ecl = 2.0 * lsa - intake_cl
@@ -148,7 +155,7 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
     from cam_design.errors import InputError
     from cam_metrology.inputs.files import write_output
     from cam_metrology.report.nominal_file import gauge_text, law_gauge_text
-    from cam_metrology.reconstruction.samples import clean_samples
+    from cam_design.lift_table.samples import clean_samples
 
     ids = list(cards)
     lobe = args.lobe or (ids[0] if len(ids) == 1 else None)
@@ -175,12 +182,12 @@ def write_nominal(args: argparse.Namespace, kind: str, cards: dict[str, Any]) ->
 def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
                ) -> dict[str, Any]:
     """The card of a lift table [rad, m]: that of its lobe law
-    (``reconstruction.lobe_table.lobe_law``, the same lobe every route reads from the
+    (``cam_design.lift_table.lobe_table.lobe_law``, the same lobe every route reads from the
     rows), with ``source`` and ``note`` saying how the rows became the lobe and
     ``warning`` what they could not tell."""
     from cam_design.cam_card import card_from_law
-    from cam_metrology.reconstruction.lobe_table import lobe_law
-    from cam_metrology.reconstruction.samples import base_circle_warning
+    from cam_design.lift_table.lobe_table import lobe_law
+    from cam_design.lift_table.samples import base_circle_warning
 
     law = lobe_law(alpha, lift, key=name, allow_steps=True)
     card = card_from_law(law, heights, key='--heights-mm', floor=law.lobe.level,
@@ -238,6 +245,12 @@ def run(args: argparse.Namespace) -> int:
     if not path.exists():
         raise InputError('input', args.input, 'an existing scene, lift table or bag')
     phases: dict[str, float | None] = {}
+    is_table = not (path.is_dir() or path.suffix in ('.mcap', '.yaml', '.yml'))
+    for unit in ('angle_unit', 'length_unit'):
+        if getattr(args, unit) is not None and not is_table:
+            raise InputError('--' + unit.replace('_', '-'), getattr(args, unit),
+                             'a lift TABLE input (gauge file; a scene or a bag has SI '
+                             'units)')
     if path.is_dir() or path.suffix == '.mcap':
         kind = 'bag'
         cards, phases = bag_cards(args.input, heights, args.lobe)
@@ -253,9 +266,9 @@ def run(args: argparse.Namespace) -> int:
         cards, phases = scene_cards(args.input, heights, args.lobe)
         flat = cards
     else:
-        from cam_metrology.reconstruction.samples import read_table_file
+        from cam_metrology.inputs.lift_tables import read_table_file
         kind = 'table'
-        table = read_table_file(path)
+        table = read_table_file(path, **table_units(args))
         cards = {table.feature: table_card(table.alpha, table.lift, heights, path.name)}
         _NOMINAL_DATA[table.feature] = (table.alpha, table.lift,
                                         table.follower[1] if table.follower else 0.0)

@@ -32,8 +32,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from cam_metrology.cli.conventions import add_table_units, table_units
 
-def register(subparsers: Any) -> None:
+
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``dynamics`` subcommand."""
     p = subparsers.add_parser(
         'dynamics', help='valve-train dynamics: valve motion, contact force, jump speed',
@@ -47,10 +49,11 @@ def register(subparsers: Any) -> None:
     p.add_argument('--valve-train', metavar='YAML',
                    help='with a TABLE: the valve train, from a scene (its valve_train '
                         'block) or a YAML holding only that block')
-    p.add_argument('--angle-unit', choices=('deg', 'rad'),
-                   help='angle unit of a gauge TABLE (default deg)')
-    p.add_argument('--length-unit', choices=('mm', 'um', 'm'),
-                   help='length unit of a gauge TABLE (default mm)')
+    add_table_units(p)
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the JSON result (- for standard output)')
+    p.add_argument('--plot', metavar='DIR',
+                   help='write <feature>.png (valve lift and contact force) to DIR')
     p.add_argument('--lobe', metavar='ID', dest='feature',
                    help='only this lobe (default: all lobes)')
     p.add_argument('--feature', dest='feature', help=argparse.SUPPRESS)   # old spelling
@@ -69,10 +72,7 @@ def register(subparsers: Any) -> None:
     p.add_argument('--cam-width', type=float, default=0.012, metavar='M',
                    help='contact width [m] for the Hertz stress of lobes without a scene '
                         'lobes[].width (default 0.012)')
-    p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
-    p.add_argument('--plot', metavar='DIR',
-                   help='write <feature>.png (valve lift and contact force) to DIR')
-    p.set_defaults(func=run)
+    return p
 
 
 def _core_params(args: argparse.Namespace, source: str) -> dict[str, Any]:
@@ -219,17 +219,14 @@ def _table_core(path: Path, args: argparse.Namespace) -> Any:
         raise InputError('--valve-train', None, 'a scene or valve-train YAML with a TABLE '
                          '(the table gives only the lift)')
     vt, scene = load_valve_train(Path(args.valve_train))
-    feature, law, source, note = table_input(path, feature=args.feature,
-                                             angle_unit=args.angle_unit or 'deg',
-                                             length_unit=args.length_unit or 'mm')
+    feature, law, source, note = table_input(path, feature=args.feature, **table_units(args))
     geom = None
     if scene is not None:
         from cam_design.valve_train.report import ContactGeometry
         lobe = next((lb for lb in scene.lobes if lb.id == feature), scene.lobes[0])
         geom = ContactGeometry(base_radius=scene.base_circle_radius,
                                follower=lobe.follower.kind, radius=lobe.follower.radius,
-                               width=lobe.width if getattr(lobe, 'width', None) else
-                               args.cam_width)
+                               width=lobe.width or args.cam_width)
     core = SimpleNamespace(
         scene=SimpleNamespace(valve_train=vt, camshaft_id=getattr(scene, 'camshaft_id', None),
                               wants=lambda what: True),

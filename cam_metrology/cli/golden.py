@@ -14,20 +14,20 @@ from typing import Any
 from cam_metrology.offline.analyze import analyze_report  # noqa: F401 (re-exported)
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``golden`` subcommand."""
     p = subparsers.add_parser(
         'golden', help="write a bag's report as a golden file for regression tests",
         description="Analyse BAG exactly as `cam-bench analyze` does and write its JSON "
                     "report, without the run's provenance, to OUT. Later runs are compared "
                     "with it within tolerances by the pytest plugin (assert_report_matches).")
-    p.add_argument('bag', help='rosbag2 directory (metadata.yaml + MCAP)')
-    p.add_argument('out', help='golden JSON file to write (refused if it exists, unless '
-                   '--force)')
+    p.add_argument('bag', metavar='BAG', help='rosbag2 directory (metadata.yaml + MCAP)')
+    p.add_argument('out', metavar='OUT',
+                   help='golden JSON file to write (refused if it exists, unless --force)')
     p.add_argument('--params', metavar='FILE', help='ROS parameter YAML for the cores, as '
                    'for analyze')
     p.add_argument('--force', action='store_true', help='overwrite an existing OUT')
-    p.set_defaults(func=run)
+    return p
 
 
 def run(args: argparse.Namespace) -> int:

@@ -25,8 +25,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from cam_metrology.cli.conventions import add_table_units, table_units
 
-def register(subparsers: Any) -> None:
+
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``reconstruct`` subcommand."""
     p = subparsers.add_parser(
         'reconstruct', help='reconstruct lift and derivatives from measured lift tables',
@@ -34,10 +36,19 @@ def register(subparsers: Any) -> None:
                     'reconstruction of measured cam lifts from a bag or a lift table.')
     p.add_argument('input', metavar='BAG|TABLE',
                    help='rosbag2 directory (or .mcap), CSV table or gauge profile file')
+    add_table_units(p)
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the JSON result (- for standard output)')
+    p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
+    p.add_argument('--nominal', metavar='FILE',
+                   help='write the reconstructed lift of --lobe (or the only lobe) as a '
+                        'gauge nominal-profile file, -180..180 deg every --step-deg, from '
+                        'the first method that succeeded (--method to choose)')
     p.add_argument('--lobe', metavar='ID', dest='feature',
                    help='only this lobe (default: all lobes)')
     p.add_argument('--feature', dest='feature', help=argparse.SUPPRESS)   # old spelling
-    p.add_argument('--method', choices=('spline', 'harmonic', 'both'), default='both')
+    p.add_argument('--method', choices=('spline', 'harmonic', 'both'), default='both',
+                   help='reconstruction method (default both)')
     p.add_argument('--harmonics', type=int, metavar='N',
                    help='harmonic order, >= 2 (default: automatic)')
     p.add_argument('--basis', choices=('section', 'full'), default='section',
@@ -46,10 +57,10 @@ def register(subparsers: Any) -> None:
     p.add_argument('--smoothing', type=float, metavar='X',
                    help='spline smoothing lam [rad^5] (default: automatic, GCV)')
     p.add_argument('--criterion', choices=('gcv', 'risk'), default='gcv',
-                   help='automatic spline smoothing criterion')
+                   help='automatic spline smoothing criterion (default gcv)')
     p.add_argument('--rebound-threshold', type=float, metavar='T',
-                   help='rebound outlier tolerance in noise standard deviations x the '
-                        'rebound factor (default 4.5); raise it for tables coarser than '
+                   help='rebound outlier tolerance [noise standard deviations x the '
+                        'rebound factor] (default 4.5); raise it for tables coarser than '
                         '1 deg, where the rebound of the lift itself exceeds the noise')
     p.add_argument('--step-deg', type=float, default=0.1, metavar='D',
                    help='step of the output grid [deg] (default 0.1; 0.001 to 10)')
@@ -59,20 +70,10 @@ def register(subparsers: Any) -> None:
     p.add_argument('--radius', type=float, metavar='M', help='TABLE: roller radius [m]')
     p.add_argument('--rpm', type=float, metavar='R',
                    help='cam speed [rpm] for per-second velocity, acceleration, jerk')
-    p.add_argument('--angle-unit', choices=('deg', 'rad'),
-                   help='gauge file angle unit (default deg)')
-    p.add_argument('--length-unit', choices=('mm', 'um', 'm'),
-                   help='gauge file length unit (default mm)')
     p.add_argument('--center-nose', action='store_true',
                    help='TABLE: re-centre the angles on the lobe axis (gauge files whose '
                         'zero is not the nose)')
-    p.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
-    p.add_argument('--plot', metavar='DIR', help='write one PNG per feature to DIR')
-    p.add_argument('--nominal', metavar='FILE',
-                   help='write the reconstructed lift of --lobe (or the only lobe) as a '
-                        'gauge nominal-profile file, -180..180 deg every --step-deg, from '
-                        'the first method that succeeded (--method to choose)')
-    p.set_defaults(func=run)
+    return p
 
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
@@ -111,9 +112,10 @@ def run(args: argparse.Namespace) -> int:
         raise FileNotFoundError(f'no such bag or table: {path}')
     core = ReconstructionCore(_params(args))
     from cam_metrology.bagio import looks_like_bag
+    skipped: list[dict[str, str]] = []
     if looks_like_bag(path):
         _reject_table_options(args)
-        kind, skipped = 'bag', []
+        kind = 'bag'
         follower, problems = _bag(path, core)
     else:
         kind, problems = 'table', []
@@ -160,7 +162,7 @@ def lobe_entry(table: Any, key: str) -> dict[str, Any]:
     import numpy as np
 
     from cam_design.errors import InputError
-    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_design.lift_table.lobe_table import lobe_law
 
     try:
         law = lobe_law(table.alpha, table.lift, key=key, allow_steps=True)
@@ -207,6 +209,17 @@ def write_nominal(core: Any, args: argparse.Namespace, follower: dict[str, Any])
         raise InputError('--step-deg', args.step_deg, 'a step that divides 360 deg for '
                          '--nominal (e.g. 0.1, 0.25, 0.5)')
     rec = outcome.reconstruction
+    # a table over part of the turn: its fit has a gap wider than the rows' own steps
+    gaps = np.diff(np.concatenate([rec.alpha, rec.alpha[:1] + 2.0 * np.pi]))
+    widest = int(np.argmax(gaps))
+    row_step = float(np.median(np.diff(rec.data_alpha))) if rec.data_alpha.size > 1 else 0.0
+    if gaps[widest] > 2.0 * (row_step + np.radians(args.step_deg)) + 1e-9:
+        start, stop = (np.degrees(rec.alpha[widest]),
+                       np.degrees(rec.alpha[(widest + 1) % rec.alpha.size]))
+        raise InputError('--nominal', f'a reconstruction of {fid} without rows from '
+                         f'{start:.1f} to {stop:.1f} deg',
+                         'a table over the whole turn: a gauge nominal file covers '
+                         '-180..180 deg, and no lift is made up where no row was measured')
     grid = np.linspace(-180.0, 180.0, int(round(n)) + 1)
     lift = np.interp(grid, np.degrees(rec.alpha), rec.derivatives()[0], period=360.0)
     method = next(m for m, o in core.results[fid].items() if o is outcome)
@@ -234,15 +247,14 @@ def _reject_table_options(args: argparse.Namespace) -> None:
 
 
 def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, Any], list]:
-    from cam_metrology.reconstruction.samples import read_table_file
+    from cam_metrology.inputs.lift_tables import read_table_file
 
-    table = read_table_file(path, angle_unit=args.angle_unit or 'deg',
-                            length_unit=args.length_unit or 'mm')
+    table = read_table_file(path, **table_units(args))
     if args.feature:
         from dataclasses import replace
         table = replace(table, feature=args.feature)
     if args.center_nose:
-        from cam_metrology.reconstruction.samples import centre_on_nose
+        from cam_design.lift_table.samples import centre_on_nose
         table, _ = centre_on_nose(table)
     kind, radius = table.follower or ('flat', 0.0)
     if args.radius is not None:   # 12.5 meant as mm is a 12.5 m roller: refuse it
@@ -257,7 +269,7 @@ def _table(path: Path, core: Any, args: argparse.Namespace) -> tuple[dict[str, A
         kind, radius = 'roller', args.radius
     from cam_design.follower import Follower
     Follower(kind, radius)   # validates
-    from cam_metrology.reconstruction.samples import clean_samples
+    from cam_design.lift_table.samples import clean_samples
     clean_samples(table.alpha, table.lift, key=path.name)   # too few rows: InputError
     core.results.clear()
     core.process_table(table, 0, note='table input: lift as seen by the measuring '

@@ -1,7 +1,7 @@
 """`cam-bench rig analyze|calibrate|simulate`: the valve-train test rig
 (docs/contract.md "Valve-train rig", docs/methods.md "Valve-train rig").
 
-* ``rig analyze RUN... --scene SCENE [--json OUT] [--plot DIR] [--html FILE]``: per run
+* ``rig analyze RUN... --scene SCENE [--json OUT] [--plot DIR] [--report FILE]``: per run
   the measured speed and revolutions, the cycle-averaged lift with its scatter, the
   measured events (opening/closing at the checking height, maximum lift, seating
   velocity, bounces, separation from the cam), the prediction of the scene's valve train
@@ -19,10 +19,11 @@ RUN: a CSV file (header ``time_s,cam_angle_rad,valve_lift_m[,valve_velocity_m_pe
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
+
+from cam_metrology.cli.conventions import add_report
 
 FIT_HELP = ('comma-separated parameters to fit: stiffness, damping, mass, spring_rate, '
             'spring_preload, lash, valve_damping, seat_stiffness, seat_damping, nose_angle')
@@ -46,16 +47,17 @@ def register(subparsers: Any) -> None:
         q.add_argument('--scene', metavar='SCENE',
                        help='scene YAML with lobes, valve_train and rig: {lobe, '
                             'nose_angle_deg} (default: the scene recorded in the bag)')
-        q.add_argument('--json', metavar='FILE|-', help='write the JSON result (- for stdout)')
+        q.add_argument('--json', metavar='FILE|-',
+                       help='write the JSON result (- for standard output)')
         q.add_argument('--plot', metavar='DIR',
                        help='write <run>.png (overlay and residual) to DIR')
-        q.add_argument('--html', metavar='FILE', help='write an HTML report with the plots')
-        q.add_argument('--no-jump', action='store_true',
-                       help='skip the jump-speed sweeps (faster)')
+        add_report(q, 'write an HTML report with the plots', aliases=('--html',))
         if name == 'calibrate':
-            q.add_argument('--fit', required=True, metavar='NAME[,NAME...]', help=FIT_HELP)
             q.add_argument('--scene-out', metavar='FILE',
                            help='write the scene with the calibrated values')
+            q.add_argument('--fit', required=True, metavar='NAME[,NAME...]', help=FIT_HELP)
+        q.add_argument('--no-jump', action='store_true',
+                       help='skip the jump-speed sweeps (faster)')
         q.set_defaults(func=run_analyze if name == 'analyze' else run_calibrate)
     s = sub.add_parser('simulate', help="synthetic rig runs of the scene's "
                                         'rig.true_valve_train',
@@ -68,14 +70,16 @@ def register(subparsers: Any) -> None:
     s.add_argument('out', metavar='OUT', help='folder for <run>.csv (or the bag with --bag)')
     s.add_argument('--rpm', type=float, action='append', required=True, metavar='R',
                    help='mean camshaft speed [rpm]; repeat for several runs')
-    s.add_argument('--revolutions', type=float, default=4.0, help='per run (default 4)')
-    s.add_argument('--sample-rate', type=float, default=50_000.0, help='Hz (default 50000)')
+    s.add_argument('--revolutions', type=float, default=4.0,
+                   help='revolutions per run [rev] (default 4)')
+    s.add_argument('--sample-rate', type=float, default=50_000.0,
+                   help='laser and encoder sample rate [Hz] (default 50000)')
     s.add_argument('--noise-um', type=float, default=1.0,
                    help='laser noise rms [um] (default 1)')
     s.add_argument('--encoder-counts', type=int, default=3600,
                    help='encoder counts per revolution, 0 for exact angles (default 3600)')
     s.add_argument('--ripple', type=float, default=0.005,
-                   help='speed ripple amplitude, fraction of the mean (default 0.005)')
+                   help='speed ripple amplitude [fraction of the mean] (default 0.005)')
     s.add_argument('--vibrometer', action='store_true', help='also record valve velocity')
     s.add_argument('--seed', type=int, default=0, help='random seed (default 0)')
     s.add_argument('--bag', action='store_true',
@@ -104,15 +108,15 @@ def _emit(outcome: Any, args: argparse.Namespace, title: str) -> None:
     from cam_metrology.inputs.files import write_output
 
     result = outcome.result
-    text = json.dumps(result, indent=1, allow_nan=False)
     if args.plot:
         from cam_metrology.rig.report import write_plots
         write_plots(outcome.curves, args.plot)
-    if args.html:
+    if args.report:
         from cam_metrology.rig.report import html_report
-        write_output(args.html, html_report(result, outcome.curves, title), '--html')
+        write_output(args.report, html_report(result, outcome.curves, title), '--report')
     if args.json:
-        write_output(args.json, text + '\n', '--json')
+        from cam_metrology.report.json_out import write_json
+        write_json(args.json, result, '--json')
     for w in result.get('warnings', []):
         print(f'warning: {w}', file=sys.stderr)
     if args.json == '-':

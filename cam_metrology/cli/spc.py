@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 
-def register(subparsers: Any) -> None:
+def register(subparsers: Any) -> argparse.ArgumentParser:
     """Add the ``spc`` subcommand."""
     p = subparsers.add_parser(
         'spc', help='control charts, capability (Cpk) and gauge R&R of a batch table',
@@ -32,7 +32,11 @@ def register(subparsers: Any) -> None:
                     'moving-range charts per feature and quantity in measurement order, '
                     'Western Electric run rules, Cp/Cpk/Pp/Ppk against --tolerance, or a '
                     'gauge R&R study (--grr, ANOVA method).')
-    p.add_argument('table', help='results table (.parquet or .csv) of cam-bench batch')
+    p.add_argument('table', metavar='TABLE',
+                   help='results table (.parquet or .csv) of cam-bench batch')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write the results as JSON (- for standard output)')
+    p.add_argument('--report', metavar='FILE.html', help='self-contained HTML report')
     p.add_argument('--quantity', action='append', metavar='NAME', help='column to chart '
                    '(repeatable; default angle_deg and phase_error_deg)')
     p.add_argument('--feature', action='append', metavar='ID', help='only these features')
@@ -45,9 +49,7 @@ def register(subparsers: Any) -> None:
                    help='type-1 gauge study of QUANTITY against its reference value (the '
                         'rows: repeated measurements of one reference part; needs '
                         '--tolerance or scene limits for the quantity); repeatable')
-    p.add_argument('--json', metavar='FILE|-', help='write the results as JSON')
-    p.add_argument('--report', metavar='FILE.html', help='self-contained HTML report')
-    p.set_defaults(func=run)
+    return p
 
 
 def load_rows(path: str) -> list[dict[str, Any]]:
@@ -135,7 +137,7 @@ def spc_results(rows: list[dict[str, Any]], quantities: list[str], features: lis
             continue
         frs = _ordered([r for r in ok if r['feature'] == fid])
         for q in quantities:
-            vals = [(r['bag'], r.get(q)) for r in frs if r.get(q) is not None]
+            vals = [(r['bag'], v) for r in frs if (v := r.get(q)) is not None]
             entry: dict[str, Any] = {'feature': fid, 'quantity': q, 'n': len(vals),
                                      'bags': [b for b, _ in vals],
                                      'values': [float(v) for _, v in vals]}

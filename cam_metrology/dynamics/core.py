@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from cam_design.errors import InputError, require_positive
-from cam_design.valve_train.cam_input import JetTableLift
+from cam_design.lift_laws.jet_table import JetTableLift
 from cam_design.train.run import TrainSpec, run_train, train_from_valve_train
 from cam_design.valve_train.params import require_rpm, require_step_deg
 from cam_design.valve_train.report import COLUMNS, ContactGeometry, Run
@@ -74,7 +74,7 @@ def law_from_profile(cols: tuple[str, ...], data: np.ndarray, key: str) -> JetTa
     if missing:
         raise InputError(f'{key}.columns', ','.join(cols), ','.join(PROFILE_COLUMNS))
     idx = [cols.index(c) for c in PROFILE_COLUMNS]
-    from cam_metrology.reconstruction.lobe_table import lobe_from_jets
+    from cam_design.lift_table.lobe_table import lobe_from_jets
 
     return lobe_from_jets(data[:, idx[0]], data[:, idx[1:]].T, key=key)
 

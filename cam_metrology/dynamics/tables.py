@@ -1,10 +1,10 @@
 """Lift tables into the dynamics: measured or nominal tables and reconstruct JSON
 (docs/dynamics.md "Tables").
 
-* tables go through ``reconstruction.lobe_table.lobe_law`` (the one lobe law of a
+* tables go through ``cam_design.lift_table.lobe_table.lobe_law`` (the one lobe law of a
   table, with a sentence saying what was done and the table's warnings).
 * ``table_input(path, ...)``: (feature, law, source, note) from a CSV / gauge file
-  (``cam_metrology.reconstruction.samples.read_table_file``) or the JSON that
+  (``cam_metrology.inputs.lift_tables.read_table_file``) or the JSON that
   ``cam-bench reconstruct`` writes.
 * the valve train comes from ``scene.parse.load_valve_train``.
 * ``jump_uncertainty``: the jump speed's uncertainty that a table's noise or
@@ -19,8 +19,8 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.valve_train.cam_input import JetTableLift
-from cam_metrology.reconstruction.lobe_table import lobe_from_jets, lobe_law
+from cam_design.lift_laws.jet_table import JetTableLift
+from cam_design.lift_table.lobe_table import lobe_from_jets, lobe_law
 
 #: replicas of a table for the jump-speed uncertainty, and the coverage factor on their
 #: standard deviation (the spread of one noise realisation: 3 sigma covered every
@@ -34,7 +34,8 @@ def table_input(path: Path, *, feature: str | None = None, angle_unit: str = 'de
     """(feature, law, source, note) of a TABLE given to ``cam-bench dynamics``."""
     if path.suffix.lower() == '.json':
         return _reconstruct_json(path, feature)
-    from cam_metrology.reconstruction.samples import base_circle_warning, read_table_file
+    from cam_design.lift_table.samples import base_circle_warning
+    from cam_metrology.inputs.lift_tables import read_table_file
 
     table = read_table_file(path, angle_unit=angle_unit, length_unit=length_unit)
     name = feature or table.feature or path.stem

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from cam_design.errors import InputError
 
@@ -77,7 +77,7 @@ def _os_reason(exc: OSError) -> str:
                errno.ENOTDIR: 'a folder in the path is a file',
                errno.ENOENT: 'its folder does not exist', errno.EDQUOT: 'the disk quota is full',
                errno.EFBIG: 'the file is too large for the file system'}
-    return reasons.get(exc.errno, exc.strerror or type(exc).__name__)
+    return reasons.get(exc.errno or 0, exc.strerror or type(exc).__name__)
 
 
 def write_error(key: str, target: str | Path, exc: OSError, what: str = 'file') -> InputError:
@@ -148,7 +148,7 @@ class atomic_file:
         fsync_path(self.tmp)
         os.replace(self.tmp, self.target)
 
-    def __exit__(self, kind: object, exc: BaseException | None, tb: object) -> bool:
+    def __exit__(self, kind: object, exc: BaseException | None, tb: object) -> Literal[False]:
         if exc is None:
             try:
                 self._commit()
@@ -226,7 +226,7 @@ def output_dir(folder: str | Path, key: str) -> Path:
     return path
 
 
-def save_figure(fig: object, target: str | Path, key: str, **kwargs: object) -> Path:
+def save_figure(fig: Any, target: str | Path, key: str, **kwargs: Any) -> Path:
     """``fig.savefig`` to ``target`` with the same all-or-nothing rule as
     ``write_output`` (PNG, SVG or PDF by the suffix)."""
     import io

@@ -38,7 +38,7 @@ def triangle(blocks: Iterable[tuple[NDArray[np.float64], NDArray[np.float64]]],
         stacked = np.column_stack([a, y])
         if tri is not None:
             stacked = np.vstack([tri, stacked])
-        tri = np.linalg.qr(stacked, mode='r')
+        tri = np.asarray(np.linalg.qr(stacked, mode='r'), dtype=np.float64)
         rows += a.shape[0]
         width = stacked.shape[1]
     if tri is None:
@@ -54,7 +54,8 @@ def solve(tri: NDArray[np.float64], rows: int) -> NDArray[np.float64]:
     ``eps * max(rows, p)`` times the largest treated as zero, as it does)."""
     p = tri.shape[1] - 1
     rcond = np.finfo(float).eps * max(rows, p)
-    return np.linalg.lstsq(tri[:p, :p], tri[:p, p], rcond=rcond)[0]
+    return np.asarray(np.linalg.lstsq(tri[:p, :p], tri[:p, p], rcond=rcond)[0],
+                      dtype=np.float64)
 
 
 def inverse_normal(tri: NDArray[np.float64]) -> tuple[NDArray[np.float64],

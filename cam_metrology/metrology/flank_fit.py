@@ -76,7 +76,9 @@ class _UsedRows:
             arrays = [None if a is None else a[used] for a in arrays]
             self.mask = None
         self.arrays = arrays
-        self.size = arrays[0].size
+        first = arrays[0]          # x (masked or not): never None
+        assert first is not None
+        self.size = first.size
         self.wmean = 1.0
         if weights is not None:
             self.wmean = float(sum(np.sum(w) for _, _, _, w, _ in self._raw())) / self.count

@@ -1,4 +1,4 @@
-"""rclpy adapters: the only package (with ``cli/ros_cmds.py``) that imports rclpy.
+"""rclpy adapters: the only package (with the ROS commands of ``cli/``) that imports rclpy.
 
 Nodes (``cam-bench run NODE``):
 

@@ -154,7 +154,7 @@ def truth_json(run: Any) -> str:
             return obj.tolist()
         if isinstance(obj, np.generic):
             return obj.item()
-        if dataclasses.is_dataclass(obj):
+        if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
             return dataclasses.asdict(obj)
         return str(obj)
     return json.dumps(_field(run, 'truth'), default=default, sort_keys=True)

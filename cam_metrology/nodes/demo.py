@@ -54,7 +54,7 @@ class DemoOptions:
     rate: float | None = None
     timeout: float = 0.0            # s, 0: default (600 s)
     json_out: str | None = None
-    events_executor: bool = False   # recorder executor (see cli/ros_cmds.py --help)
+    events_executor: bool = False   # recorder executor (see `cam-bench demo --help`)
     keep_logs: bool = False
     sim_params: list[str] = field(default_factory=list)   # 'name:=value' for bench-sim
     startup_timeout: float = 60.0   # s until every node is connected (bench-sim waits)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from cam_metrology.wire.topics import METROLOGY_REPORT as REPORT_TOPIC
@@ -228,7 +229,7 @@ def analyze_bag(bag: str, params: str | None = None, *, only_metrology: bool = F
     return Analysis(report, outputs, result, metrology, tables, warnings)
 
 
-def analyze_report(bag: str, params: str | None = None, *,
+def analyze_report(bag: str | Path, params: str | None = None, *,
                    only_metrology: bool = False) -> dict[str, Any]:
     """The JSON report of ``cam-bench analyze BAG`` as a dict (the same code path, as
     written by ``--json``). Raises ``CliError`` with analyze's one-line message when the

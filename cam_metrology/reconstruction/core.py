@@ -27,14 +27,15 @@ from typing import Any
 import numpy as np
 
 from cam_design.errors import InputError, require_positive
+from cam_design.lift_table.samples import LiftTable
+from cam_design.lift_table.spline import SplineOptions
 from cam_metrology.cores.contract import merged_parameters
 from cam_metrology.cores.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
-from cam_metrology.wire import topics as wire_topics
 from cam_metrology.reconstruction.harmonic import MIN_ORDER, ORDER_EXPECTED, HarmonicOptions
 from cam_metrology.reconstruction.profile import (Conversion, MethodOutcome, check_options,
                                                   reconstruct_table)
-from cam_metrology.reconstruction.samples import LiftTable, lift_table_from_message
-from cam_metrology.reconstruction.spline import SplineOptions
+from cam_metrology.wire import topics as wire_topics
+from cam_metrology.wire.layouts import table_from_msg
 
 SCENE, LIFT = wire_topics.SCENE, wire_topics.METROLOGY_LIFT
 PROFILE, RESULT = wire_topics.RECONSTRUCTION_PROFILE, wire_topics.RECONSTRUCTION_RESULT
@@ -308,3 +309,15 @@ class ReconstructionCore:
             values['warnings'] = ' | '.join(warnings)
         values['notes'] = ' | '.join(rec.notes)
         return Status(label, level, message, values)
+
+
+def lift_table_from_message(msg: Any) -> LiftTable:
+    """A /metrology/lift table as a LiftTable (feature = the label)."""
+    label, columns, data = table_from_msg(msg)
+    index = {c: i for i, c in enumerate(columns)}
+    for need in ('alpha_rad', 'lift_m'):
+        if need not in index:
+            raise InputError(f'{label}.columns', ','.join(columns), 'alpha_rad,lift_m[,...]')
+    design = data[:, index['design_lift_m']].copy() if 'design_lift_m' in index else None
+    return LiftTable(label, data[:, index['alpha_rad']].copy(),
+                     data[:, index['lift_m']].copy(), design, None, LIFT)

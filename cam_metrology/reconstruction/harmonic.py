@@ -33,10 +33,10 @@ from scipy.interpolate import CubicSpline
 from scipy.linalg import LinAlgError, cho_factor, solve_triangular
 
 from cam_design.errors import InputError, require_positive
-from cam_metrology.reconstruction.blas import single_thread_blas
-from cam_metrology.reconstruction.result import Reconstruction, output_grid
-from cam_metrology.reconstruction.samples import CleanSamples
-from cam_metrology.reconstruction.spline import Fairing, rebound_fairing
+from cam_design.lift_table.blas import single_thread_blas
+from cam_design.lift_table.result import Reconstruction, output_grid
+from cam_design.lift_table.samples import CleanSamples
+from cam_design.lift_table.spline import Fairing, rebound_fairing
 
 BASES = ('section', 'full')
 CRITERIA = ('noise', 'cp', 'bic', 'risk', 'residual')

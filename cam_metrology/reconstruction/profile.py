@@ -20,13 +20,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
+from cam_design.lift_table.result import Reconstruction, output_grid, per_second
+from cam_design.lift_table.samples import (CleanSamples, LiftTable, base_circle_warning,
+                                           clean_samples, find_steps, nose_warning,
+                                           other_lobes_warning, step_warnings, wrap_pi)
+from cam_design.lift_table.spline import (SplineOptions, rebound_fairing,
+                                          reconstruct_spline)
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
-from cam_metrology.reconstruction.result import Reconstruction, per_second
-from cam_metrology.reconstruction.samples import (LiftTable, clean_samples, find_steps,
-                                                  base_circle_warning, nose_warning,
-                                                  other_lobes_warning, step_warnings)
-from cam_metrology.reconstruction.spline import (SplineOptions, rebound_fairing,
-                                                 reconstruct_spline)
 
 METHODS = ('spline', 'harmonic')
 Law = Callable[..., NDArray[np.float64]]
@@ -137,7 +137,10 @@ def lobe_section(alpha: NDArray[np.float64], lift: NDArray[np.float64],
     return alpha, lift
 
 
-def _engine(rec: Reconstruction, conv: Conversion) -> tuple[NDArray[np.float64] | None, str]:
+def _engine(rec: Reconstruction, conv: Conversion, at: NDArray[np.float64] | None = None
+            ) -> tuple[NDArray[np.float64] | None, str]:
+    """(4, n) lift and derivatives for the design follower at ``at`` [rad] (default: the
+    fit's grid), converted from the probe's ``rec``, or None and why not."""
     from cam_design.lift_laws import TabulatedLift
 
     try:
@@ -150,7 +153,7 @@ def _engine(rec: Reconstruction, conv: Conversion) -> tuple[NDArray[np.float64] 
         tab = TabulatedLift(alpha, lift, key=f'{rec.method}.lift')
         law = convert_lift(tab, conv.base_radius, conv.probe, conv.design,
                            key=f'{rec.method}.lift')
-        derivs = law.derivatives(rec.alpha)
+        derivs = law.derivatives(rec.alpha if at is None else at)
     except InputError as exc:
         return None, f'conversion to the design follower failed: {exc}'
     if not np.all(np.isfinite(derivs)):
@@ -158,6 +161,71 @@ def _engine(rec: Reconstruction, conv: Conversion) -> tuple[NDArray[np.float64] 
     probe = f'{conv.probe.kind} r = {conv.probe.radius:.6g} m'
     return derivs, f'converted from the probe ({probe}) to the design follower ' \
                    f'({conv.design.kind})'
+
+
+def turned_rows(data: CleanSamples, turn: float) -> tuple[CleanSamples, NDArray[np.intp]]:
+    """The rows in the fit frame b = wrap(alpha - ``turn``) [rad], sorted, and the order
+    ``perm`` of the table's rows in it (fit row j is table row perm[j])."""
+    b = wrap_pi(data.alpha - turn)
+    perm = np.argsort(b, kind='stable')
+    return dataclasses.replace(data, alpha=b[perm], lift=data.lift[perm],
+                               count=data.count[perm]), perm
+
+
+def table_frame_grid(rec: Reconstruction, turn: float, span: tuple[float, float],
+                     wrap: bool) -> NDArray[np.float64]:
+    """The output grid [rad] in the table's angles for a fit made in the frame turned by
+    ``turn`` over the rows' ``span`` (fit frame, rad): the multiples of the fit's grid
+    step whose fit-frame angle lies in that span, in (-pi, pi] for a whole turn
+    (``wrap``), in the table's own contiguous angles for a table over part of the turn.
+    No angle outside the rows' range is given a value."""
+    n = rec.alpha.size
+    step = float(rec.alpha[-1] - rec.alpha[0]) / (n - 1) if n > 1 else 2.0 * math.pi
+    if not wrap:
+        return output_grid(span[0] + turn, span[1] + turn, step)
+    grid = output_grid(-math.pi + 0.5 * step, math.pi, step)
+    b = wrap_pi(grid - turn)
+    return grid[(b >= span[0] - 1e-12) & (b <= span[1] + 1e-12)]
+
+
+def in_table_frame(rec: Reconstruction, turn: float, grid: NDArray[np.float64],
+                   perm: NDArray[np.intp], wrap: bool) -> Reconstruction:
+    """``rec``, fitted to the rows turned by ``turn`` [rad] (``turned_rows``), back in the
+    table's angles on ``grid`` (``table_frame_grid``; ``wrap`` as there). Values are the
+    fit's own, at b = wrap(alpha - turn); the fit's seam lies where its rows end (the
+    middle of the base circle, or the gap of a partial table)."""
+    def back(b: NDArray[np.float64]) -> NDArray[np.float64]:
+        a = np.asarray(b, dtype=float) + turn
+        return wrap_pi(a) if wrap else a
+
+    def evaluate(a: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
+        return np.asarray(rec.evaluate(wrap_pi(np.asarray(a, dtype=float) - turn), nu),
+                          dtype=float)
+
+    d = [evaluate(grid, nu) for nu in range(4)]
+    data_alpha = back(rec.data_alpha)
+    order = np.argsort(data_alpha, kind='stable')
+    parameter = dict(rec.parameter)
+    if 'junctions_deg' in parameter:
+        parameter['junctions_deg'] = [math.degrees(float(back(np.radians(v))))
+                                      for v in parameter['junctions_deg']]
+    mask = None
+    if rec.outlier_mask is not None:
+        mask = np.zeros(perm.size, dtype=bool)
+        mask[perm] = rec.outlier_mask
+    deg = math.degrees(turn)
+    why = ('the lobe crosses +-180 deg' if wrap else
+           'the table covers part of the turn: its rows kept contiguous')
+    note = (f'fitted to the rows turned by {deg:.1f} deg ({why}), so that no fit is cut '
+            'inside the lobe or bridges a gap; results are in the table\'s angles, angles '
+            'named in this fit\'s other notes and warnings in the turned frame (table '
+            f'angle = that + {deg:.1f} deg)')
+    return dataclasses.replace(
+        rec, alpha=grid, lift=d[0], velocity=d[1], acceleration=d[2], jerk=d[3],
+        data_alpha=data_alpha[order], residual=rec.residual[order],
+        outliers_alpha=np.sort(back(rec.outliers_alpha)), evaluate=evaluate,
+        parameter=parameter, outlier_mask=mask, notes=[note] + list(rec.notes),
+        warnings=list(rec.warnings))
 
 
 def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
@@ -179,7 +247,7 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         # dual-peak EGR cam has more than the single lobe's two)
         from dataclasses import replace
 
-        from cam_metrology.reconstruction.result import sign_changes
+        from cam_design.lift_table.result import sign_changes
         grid = np.linspace(data.alpha[0], data.alpha[-1], 4001)
         acc = np.asarray(design(grid, 2), dtype=float)
         lift = np.asarray(design(grid, 0), dtype=float)
@@ -191,9 +259,21 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         harmonic = _replace(harmonic or HarmonicOptions(),
                             expected_sign_changes=sopt.expected_sign_changes)
     outcomes: dict[str, MethodOutcome] = {}
-    fairing = rebound_fairing(data.alpha, data.lift, threshold=sopt.threshold,
+    # what the lobe law of the same rows says of them (every route's warnings: mid-lobe
+    # ends, crank degrees, steps, results no cam can have), with or without a design
+    from cam_design.lift_table.lobe_routes import fit_turn, lobe_warnings
+    from cam_design.lift_table.lobe_table import part_turn_centre
+    lobe, said = lobe_warnings(table.alpha, table.lift, key=table.feature,
+                               design_known=design is not None)
+    # the fits run in the lobe law's frame: rows turned so that their seam lies in the
+    # base circle (a lobe across +-180 deg) or in the gap of a partial table
+    turn = fit_turn(table.alpha, lobe)
+    wrap = not part_turn_centre(table.alpha)   # a whole turn: results in (-pi, pi]
+    fit, perm = turned_rows(data, turn) if turn else (data, np.arange(data.alpha.size))
+    fairing = rebound_fairing(fit.alpha, fit.lift, threshold=sopt.threshold,
                               gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)
     steps = find_steps(data.alpha, data.lift, fairing.sigma)
+    fit_steps = find_steps(fit.alpha, fit.lift, fairing.sigma) if turn else steps
     table_warnings = step_warnings(steps)
     # (with a design the table is aligned on it; a dual-peak lobe may have a valley at 0)
     off_centre = nose_warning(data) if design is None else None
@@ -202,22 +282,18 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     table_warnings += [w for w in (base_circle_warning(data.alpha, data.lift),
                                    None if design is not None else   # the design says
                                    other_lobes_warning(data.alpha, data.lift)) if w]
-    lobe = None
-    if design is None:   # a table on its own: what its lobe law says of the same rows
-        from cam_metrology.reconstruction.lobe_routes import lobe_warnings
-        lobe, said = lobe_warnings(table.alpha, table.lift, key=table.feature)
-        table_warnings += [w for w in said if w not in table_warnings
-                           and not w.startswith('the table holds')]
+    table_warnings += [w for w in said if w not in table_warnings
+                       and not w.startswith('the table holds')]
     table_notes = []
-    if steps and np.any(fairing.outlier):
+    if fit_steps and np.any(fairing.outlier):
         # the rebound of a step rings over its neighbours: they are not outliers
-        near = np.zeros(data.alpha.size, dtype=bool)
-        for k, *_ in steps:
+        near = np.zeros(fit.alpha.size, dtype=bool)
+        for k, *_ in fit_steps:
             near[max(k - 3, 0):k + 5] = True
         restore = fairing.outlier & near
         if np.any(restore):
             fairing = dataclasses.replace(
-                fairing, lift=np.where(restore, data.lift, fairing.lift),
+                fairing, lift=np.where(restore, fit.lift, fairing.lift),
                 outlier=fairing.outlier & ~restore)
             table_notes.append(f'{int(np.count_nonzero(restore))} point(s) next to a step '
                                'kept (not outliers)')
@@ -229,15 +305,15 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         outcome = MethodOutcome(m)
         try:
             if m == 'spline':
-                rec = reconstruct_spline(data, None, sopt, fairing)
+                rec = reconstruct_spline(fit, None, sopt, fairing)
                 mask = rec.outlier_mask
                 if mask is not None and not np.array_equal(mask, fairing.outlier):
                     # the spline's second look corrected the outliers: the series too
                     fairing = dataclasses.replace(
                         fairing, outlier=mask,
-                        lift=np.where(mask | fairing.outlier, fairing.lift, data.lift))
+                        lift=np.where(mask | fairing.outlier, fairing.lift, fit.lift))
             else:
-                rec = reconstruct_harmonic(data, harmonic, fairing)
+                rec = reconstruct_harmonic(fit, harmonic, fairing)
         except InputError as exc:
             outcome.error = str(exc)
             outcomes[m] = outcome
@@ -247,10 +323,16 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
             outcome.error = f'{m}: numerical failure ({type(exc).__name__}: {exc})'
             outcomes[m] = outcome
             continue
+        engine = None   # the design follower's lift, converted in the fit's frame
+        if turn:
+            grid = table_frame_grid(rec, turn, (fit.alpha[0], fit.alpha[-1]), wrap)
+            if conversion is not None:
+                engine = _engine(rec, conversion, wrap_pi(grid - turn))
+            rec = in_table_frame(rec, turn, grid, perm, wrap)
         rec.notes = list(table.notes) + rec.notes + table_notes
         rec.warnings = table_warnings + rec.warnings
         if lobe is not None:
-            from cam_metrology.reconstruction.lobe_routes import beyond_rows
+            from cam_design.lift_table.lobe_routes import beyond_rows
             gap = beyond_rows(lobe, rec.lift, data.lift)
             if gap:
                 rec.warnings.append(gap)
@@ -258,7 +340,7 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
         if design is not None:
             outcome.design_errors = design_errors(rec, design)
         if conversion is not None:
-            outcome.engine, outcome.engine_note = _engine(rec, conversion)
+            outcome.engine, outcome.engine_note = engine or _engine(rec, conversion)
             if outcome.engine is not None and conversion.design_law is not None:
                 outcome.engine_errors = design_errors(rec, conversion.design_law,
                                                       outcome.engine)
@@ -270,7 +352,7 @@ def check_options(spline: SplineOptions, harmonic: HarmonicOptions | None) -> No
     """Raise InputError for bad options before any data is touched."""
     from cam_design.errors import require_positive
     from cam_metrology.reconstruction.harmonic import check_harmonic_options
-    from cam_metrology.reconstruction.spline import CRITERIA
+    from cam_design.lift_table.spline import CRITERIA
 
     if spline.criterion not in CRITERIA:
         raise InputError('smoothing_criterion', spline.criterion, ' | '.join(CRITERIA))

@@ -111,14 +111,14 @@ def simulate(law, n_per_rev: int, sigma: float, *, seed: int = 0,
     step = 2 * np.pi / n_per_rev
     k0 = int(np.ceil(span[0] / step))
     k1 = int(np.floor(span[1] / step))
-    a = np.arange(k0, k1 + 1) * step
+    a = np.arange(k0, k1 + 1, dtype=np.float64) * step
     a = a[(a > -np.pi) & (a <= np.pi)]
     if jitter:
         a = np.sort(a + rng.uniform(-jitter, jitter, a.size) * step)
     if gap_deg:
         centre = -45 * DEG
         a = a[np.abs(a - centre) > 0.5 * gap_deg * DEG]
-    h = law(a) + rng.normal(0.0, sigma, a.size)
+    h = np.asarray(law(a) + rng.normal(0.0, sigma, a.size), dtype=np.float64)
     if outliers:
         idx = rng.choice(np.arange(5, a.size - 5), outliers, replace=False)
         h[idx] += outlier_size * rng.choice([-1.0, 1.0], outliers)

@@ -1,4 +1,4 @@
-"""Writing gauge nominal-profile files (the layout ``reconstruction.samples`` reads).
+"""Writing gauge nominal-profile files (the layout ``inputs.lift_tables`` reads).
 
 Layout: line 1 the probe radius [mm], line 2 the number of angle steps N, then N + 1
 rows ``angle lift`` (deg from the lobe centreline, mm above the base circle) from -180
@@ -18,7 +18,8 @@ from cam_design.errors import InputError
 __all__ = ['gauge_text', 'law_gauge_text']
 
 
-def gauge_text(alpha_deg: Sequence[float], lift_m: Sequence[float], probe_radius_m: float,
+def gauge_text(alpha_deg: Sequence[float] | np.ndarray, lift_m: Sequence[float] | np.ndarray,
+               probe_radius_m: float,
                comments: Sequence[str] = ()) -> str:
     """The file text of a table (angles [deg] strictly increasing, lifts [m])."""
     a = np.asarray(alpha_deg, dtype=float)

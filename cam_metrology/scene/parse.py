@@ -357,9 +357,8 @@ def _nominal_file(ctx: _Ctx, key: str, lobe: Mapping[str, Any], follower: Follow
     steps, rows ``angle_deg lift_mm``) and the follower it is written for (a roller of
     the file's probe radius, a knife for 0); a lobe ``follower`` that differs is an
     error. Relative paths start from the scene file's folder."""
-    from cam_metrology.reconstruction.samples import (check_angle_magnitude,
-                                                      check_lift_magnitude,
-                                                      read_gauge_file)
+    from cam_design.lift_table.samples import check_angle_magnitude, check_lift_magnitude
+    from cam_metrology.inputs.lift_tables import read_gauge_file
 
     raw = _text(f'{key}.nominal_file', lobe['nominal_file'])
     path = Path(raw).expanduser()
@@ -439,10 +438,10 @@ def _lift_table(ctx: _Ctx, key: str, value: Any) -> LiftLaw:
 
 def _table_law(ctx: _Ctx, key: str, alpha: np.ndarray, h: np.ndarray, *,
                design: bool = True) -> LiftLaw:
-    """The lobe law of a design table (``reconstruction.lobe_table``: the same lobe as
+    """The lobe law of a design table (``cam_design.lift_table.lobe_table``: the same lobe as
     every other route reads from these rows; ``design``: first the rules of a scene
     table, ``check_design_table``); its warnings go to the scene's."""
-    from cam_metrology.reconstruction.lobe_table import lobe_law
+    from cam_design.lift_table.lobe_table import lobe_law
 
     a, v = (check_design_table(alpha, h, key) if design else (alpha, h))
     law = lobe_law(a, v, key=key)
@@ -472,11 +471,7 @@ def lift_law_from_spec(spec: Mapping[str, Any], key: str) -> LiftLaw:
                          'a lift-law family; lift_law: family not available in this '
                          'build (cam_design.lift_laws.registry missing); use a lift table')
     try:
-        if spec.get('family') == 'table':   # a table: its lobe law, as on every route
-            from cam_metrology.reconstruction.lobe_routes import law_from_spec
-            law = law_from_spec(spec, key)
-        else:
-            law = registry.from_spec(spec, key)
+        law = registry.from_spec(spec, key)   # family table: the table's lobe law
     except InputError:
         raise
     except (TypeError, ValueError, KeyError, ArithmeticError) as exc:

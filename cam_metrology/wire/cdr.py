@@ -95,7 +95,7 @@ def encode_string(text: str) -> bytes:
 
 
 def encode_joint_state_positions(frame_id: str, stamp_ns: int, names: Sequence[str],
-                                 positions: Sequence[float],
+                                 positions: Sequence[float] | np.ndarray,
                                  velocities: Sequence[float] = ()) -> bytes:
     """CDR of a ``sensor_msgs/JointState`` with ``names``, ``positions`` (any lengths:
     also used to build irregular test bags), optional ``velocities``, no effort."""

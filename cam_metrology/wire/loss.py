@@ -164,9 +164,11 @@ class FeatureLoss:
         for i, n in holes:
             after = str(frame_ids[i])
             before = str(frame_ids[i - 1]) if i > 0 else self._last_feature
-            for fid in {after, before} - {None}:
-                self.lost[fid] = self.lost.get(fid, 0) + n   # type: ignore[index]
-                charged.add(fid)   # type: ignore[arg-type]
+            for fid in {after, before}:
+                if fid is None:
+                    continue
+                self.lost[fid] = self.lost.get(fid, 0) + n
+                charged.add(fid)
         if len(frame_ids):
             first, last = str(frame_ids[0]), str(frame_ids[-1])
             fids = {first} if first == last else {str(f) for f in np.unique(

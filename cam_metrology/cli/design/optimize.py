@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Add ``design optimize``."""
     p = sub.add_parser(
         'optimize', help='optimise a lift law under design constraints (fullness, ...)',
@@ -24,16 +24,16 @@ def register(sub: argparse._SubParsersAction) -> None:
                     'margin and jump-speed limits. SPEC is a YAML file with the keys family, '
                     'fixed, free, objective, constraints (docs/optimization.md). Exit 0 '
                     'with an optimum, 1 when the SPEC is infeasible, 2 for a bad SPEC.')
-    p.add_argument('spec', metavar='SPEC.yaml', help='optimisation spec (YAML)')
+    p.add_argument('spec', metavar='SPEC', help='optimisation spec (YAML)')
     p.add_argument('--json', metavar='FILE|-', help='write the full result as JSON '
-                   '(- for stdout) instead of the summary')
+                   '(- for standard output) instead of the summary')
     p.add_argument('--plot', metavar='DIR', help='PNG of the start and optimal h, h\'\' '
                    '(and the Pareto front with --pareto)')
     p.add_argument('--pareto', metavar='A,B', help='trace the trade-off between two '
                    'objective metrics (e.g. fullness,peak_jerk)')
     p.add_argument('--points', type=int, default=7, help='points on the Pareto front '
                    '(default 7)')
-    p.set_defaults(func=run)
+    return p
 
 
 def _summary(res: Any) -> str:
@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``design optimize``."""
     from cam_design.errors import InputError
     from cam_design.optimize import candidate_spec, optimize, pareto, parse_spec
-    from cam_metrology.cli.design_law import load_yaml
+    from cam_metrology.cli.law_input import load_yaml
 
     spec = parse_spec(load_yaml(args.spec), 'spec')
     names = None
@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
     res = optimize(spec, progress=lambda m: print(f'  {m}', file=sys.stderr))
     front = pareto(spec, names[0], names[1], args.points) if names else None
     out = res.as_dict()
-    if front is not None:
+    if front is not None and names is not None:
         out['pareto'] = {'metrics': list(names), 'points': front}
     if args.json:
         from cam_metrology.report.json_out import write_json
@@ -135,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
             print(f'cam-bench design optimize: wrote {args.json} ({res.status})')
     else:
         print(_summary(res))
-        if front is not None:
+        if front is not None and names is not None:
             print(f'Pareto front ({names[0]} vs {names[1]}):')
             for point in front:
                 print(f'  {names[1]} {point[names[1]]:.6g}  ->  {names[0]} '

@@ -16,6 +16,9 @@ import contextlib
 import math
 from typing import Any, Iterator
 
+from cam_metrology.cli.law_input import base_radius_of, load_law, load_yaml, scene_lobe
+from cam_metrology.cli.table_out import write_table
+
 FOLLOWERS = ('flat', 'roller', 'knife', 'offset-roller', 'rocker')
 #: the lift used for the profile (converted with --design-follower) and its derivatives
 LIFT_COLUMNS = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk_m_per_rad3')
@@ -26,7 +29,7 @@ LIFT_COLUMNS = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk
 STEP_DEG = (1e-3, 10.0)
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Add ``profile`` to the ``design`` group."""
     p = sub.add_parser(
         'profile', help='cam profile coordinates, curvature, pressure angle, undercut',
@@ -34,95 +37,46 @@ def register(sub: argparse._SubParsersAction) -> None:
                     'in-line roller or knife (2.16), offset translating roller and oscillating '
                     'roller (thesis reverse-method forms). Lengths in m, angles in rad in the '
                     'files; the summary adds _deg fields.')
-    p.add_argument('file', help='YAML with a lift law (lift_law: {family: ...} or alpha/h '
-                                'table), or a scene with --lobe')
+    p.add_argument('file', metavar='FILE',
+                   help='YAML with a lift law (lift_law: {family: ...} or alpha/h table), or '
+                        'a scene with --lobe')
+    p.add_argument('--csv', metavar='FILE|-',
+                   help='write the per-sample table as CSV (- for standard output)')
+    p.add_argument('--json', metavar='FILE|-',
+                   help='write summary and table as JSON (- for standard output)')
+    p.add_argument('--plot', metavar='PNG', help='plot profile, curvature and pressure angle')
+    p.add_argument('--lobe', metavar='ID',
+                   help='FILE is a scene: use this lobe (its lift, design follower and the '
+                        'scene base_circle_radius; default: the first lobe)')
     p.add_argument('--follower', choices=FOLLOWERS, default='flat',
                    help='follower the profile is cut for (default flat)')
-    p.add_argument('--radius', type=float, default=0.0, help='roller radius [m] (0: knife)')
+    p.add_argument('--radius', type=float, default=0.0, metavar='M',
+                   help='roller radius [m] (default 0: knife)')
     p.add_argument('--base-radius', type=float,
                    help='base-circle radius of the profile [m] (else base_radius in the file)')
-    p.add_argument('--offset', type=float, default=0.0, help='offset e of the guide line [m]')
+    p.add_argument('--offset', type=float, default=0.0, metavar='M',
+                   help='offset e of the guide line [m] (default 0)')
     p.add_argument('--eta', type=int, default=1, choices=(1, -1),
-                   help='+1 clockwise cam, -1 counter-clockwise (offset-roller, rocker)')
+                   help='+1 clockwise cam, -1 counter-clockwise (offset-roller, rocker; '
+                        'default +1)')
     p.add_argument('--delta', type=int, default=1, choices=(1, -1, 0),
-                   help='offset side (offset-roller) or swing direction in the rise (rocker)')
+                   help='offset side (offset-roller) or swing direction in the rise (rocker; '
+                        'default +1)')
     p.add_argument('--centre-distance', type=float, help='rocker: cam centre to pivot a [m]')
     p.add_argument('--arm-length', type=float,
                    help='rocker: arm length l [m]; the swing is psi = h / l')
     p.add_argument('--polar', action='store_true',
                    help='rocker: add the CG paper polar form (rho, theta; counter-directional '
                         'for --delta -1, co-directional for --delta 1; needs --eta 1)')
-    p.add_argument('--lobe', metavar='ID',
-                   help='FILE is a scene: use this lobe (its lift, design follower and the '
-                        'scene base_circle_radius; default: the first lobe)')
     p.add_argument('--design-follower', choices=('flat', 'roller', 'knife'),
                    help='the follower the lift law was written for, if not --follower: the '
                         'lift is converted through the cam profile first (flat/roller/knife)')
     p.add_argument('--design-radius', type=float, default=0.0,
-                   help='roller radius of --design-follower [m]')
+                   help='roller radius of --design-follower [m] (default 0)')
     p.add_argument('--step-deg', type=float, default=0.5,
                    help=f'angle step [deg] over the full turn, {STEP_DEG[0]:g} to '
                         f'{STEP_DEG[1]:g} (default 0.5)')
-    p.add_argument('--csv', metavar='FILE|-', help='write the per-sample table as CSV')
-    p.add_argument('--json', metavar='FILE|-', help='write summary and table as JSON')
-    p.add_argument('--plot', metavar='PNG', help='plot profile, curvature and pressure angle')
-    p.set_defaults(func=cmd_profile)
-
-
-def load_law(doc: Any, path: str) -> Any:
-    """The lift law of the file: a table (``alpha``/``h``, at the top or under ``lift``:
-    its lobe law, as on every route) or a lift_law spec."""
-    import numpy as np
-
-    from cam_design.errors import InputError
-    from cam_metrology.cli.design_law import law_spec
-    from cam_metrology.reconstruction.lobe_routes import law_from_spec
-
-    if isinstance(doc, dict):
-        table = doc.get('lift', doc)
-        if isinstance(table, dict) and 'alpha' in table and 'h' in table:
-            key = 'lift' if table is not doc else path
-            values = {}
-            for name in ('alpha', 'h'):
-                try:
-                    values[name] = np.asarray(table[name], dtype=float).tolist()
-                except (TypeError, ValueError):
-                    raise InputError(f'{key}.{name}', table[name],
-                                     'a list of numbers (rad for alpha, m for h)') from None
-            return law_from_spec(dict(values, family='table'), key)
-    if not isinstance(doc, dict):
-        raise InputError(path, type(doc).__name__, 'a mapping with lift_law: or alpha/h')
-    spec, key = law_spec(doc, path)
-    return law_from_spec(spec, key)
-
-
-def scene_lobe(args: argparse.Namespace) -> tuple[Any, Any, float]:
-    """(lift law, design follower, base radius) of a lobe of the scene file ``args.file``:
-    ``args.lobe``, else the first lobe (``args.lobe`` is then set to its id)."""
-    from cam_design.errors import InputError
-    from cam_metrology.scene.parse import load_scene
-
-    scene = load_scene(args.file)
-    ids = [lobe.id for lobe in scene.lobes]
-    lobe_id = args.lobe if args.lobe is not None else ids[0]
-    if lobe_id not in ids:
-        raise InputError('--lobe', args.lobe, 'one of ' + ', '.join(ids))
-    args.lobe = lobe_id
-    lobe = scene.lobe(lobe_id)
-    return lobe.lift, lobe.follower, scene.base_circle_radius
-
-
-def base_radius_of(args: argparse.Namespace, doc: Any) -> float:
-    """Base-circle radius [m]: ``--base-radius``, else ``base_radius`` of the file."""
-    from cam_design.errors import InputError, require_length
-    from cam_design.lift_laws.params import MAX_RADIUS_M
-
-    if args.base_radius is not None:
-        return require_length('--base-radius', args.base_radius, MAX_RADIUS_M, what='a radius')
-    if isinstance(doc, dict) and 'base_radius' in doc:
-        return require_length('base_radius', doc['base_radius'], MAX_RADIUS_M, what='a radius')
-    raise InputError('--base-radius', None, 'a base-circle radius [m] (or base_radius: in '
-                     'the file)')
+    return p
 
 
 def _follower_radius(args: argparse.Namespace) -> float:
@@ -166,7 +120,6 @@ def compute(args: argparse.Namespace) -> tuple[Any, Any, float]:
 
     from cam_design import cam_profile as fl
     from cam_design.errors import InputError
-    from cam_metrology.cli.design_law import load_yaml
 
     doc = load_yaml(args.file)
     radius = _follower_radius(args) if args.follower != 'flat' else 0.0
@@ -227,11 +180,10 @@ def _option_keys() -> Iterator[None]:
         raise InputError(flag, exc.value, exc.expected) from None
 
 
-def cmd_profile(args: argparse.Namespace) -> int:
-    """Compute the profile and write the requested outputs (text summary by default)."""
+def run(args: argparse.Namespace) -> int:
+    """Handler of ``cam-bench design profile``: compute the profile and write the
+    requested outputs (text summary by default; 0, or 2 for bad input)."""
     import numpy as np
-
-    from cam_metrology.cli.design_law import write_text
 
     prof, law, base = compute(args)
     summary = prof.summary()
@@ -246,18 +198,8 @@ def cmd_profile(args: argparse.Namespace) -> int:
         cols.update(_polar_columns(args, prof, law, base))
     names = list(cols)
     table = np.column_stack([cols[k] for k in names])
-    wrote = False
-    if args.csv:
-        lines = [','.join(names)] + [','.join(f'{v:.12g}' for v in row) for row in table]
-        write_text(args.csv, '\n'.join(lines) + '\n')
-        wrote = True
-    if args.json:
-        rows = np.where(np.isfinite(table), table, np.nan).tolist()
-        rows = [[None if v != v else v for v in row] for row in rows]   # NaN/inf -> null
-        doc = dict(summary, columns=names, rows=rows)
-        from cam_metrology.report.json_out import write_json
-        write_json(args.json, doc, '--json')
-        wrote = True
+    # CSV: an infinite radius of a straight piece is inf; JSON: null
+    wrote = write_table(args.csv, args.json, names, table, summary)
     if args.plot:
         _plot(args.plot, prof)
     if not wrote:

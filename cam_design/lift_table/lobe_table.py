@@ -34,16 +34,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any, Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.valve_train.cam_input import JetTableLift
-from cam_metrology.reconstruction.samples import clean_samples, other_lobes_warning, wrap_pi
+from cam_design.lift_laws.jet_table import JetTableLift
+from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 
 TWO_PI = 2.0 * math.pi
+#: a curve of the lobe frame: (alpha [rad], nu) -> nu-th derivative [m/rad^nu]
+Curve = Callable[[Any, int], Any]
 #: largest step [deg] of the grid on which the lobe's jets are tabulated for the
 #: degree-7 Hermite law (a divisor of the table step, so that every row is a node)
 GRID_DEG = 0.1
@@ -168,11 +171,26 @@ class TableLobe(LiftLaw):
 
 def table_quantum(lift: ArrayLike) -> float:
     """The rounding step q [m] of lifts [m] rounded in mm or in inches (0: not rounded)."""
-    from cam_metrology.reconstruction.spline import quantisation_step
+    from cam_design.lift_table.spline import quantisation_step
 
     v = np.asarray(lift, dtype=float)
     # both: an inch quantum in m is also a (much finer) whole multiple of 1e-8 m
     return float(max(quantisation_step(v), INCH * quantisation_step(v / INCH)))
+
+
+def part_turn_centre(alpha: ArrayLike) -> float:
+    """The middle [rad] of the rows' angles ``alpha`` [rad] when they cover part of the
+    turn (their span is shorter than the turn less 1.5 row steps), else 0. Such a table
+    keeps its angles contiguous around that middle (0..300 deg is not cut at 180 deg,
+    118..242 deg not wrapped into two pieces); a whole turn is wrapped to (-180, 180]."""
+    a = np.asarray(alpha, dtype=float).reshape(-1)
+    a = a[np.isfinite(a)]
+    if a.size < 2:
+        return 0.0
+    lo, hi = float(np.min(a)), float(np.max(a))
+    gaps = np.diff(np.unique(a))
+    row_step = float(np.median(gaps)) if gaps.size else 0.0
+    return 0.5 * (lo + hi) if hi - lo < TWO_PI - 1.5 * row_step else 0.0
 
 
 def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: float
@@ -209,7 +227,7 @@ def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: f
     return float(wrap_pi(mid - math.pi)), False
 
 
-def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool):
+def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool) -> Any:
     """Quintic interpolating spline of the rows (periodic over the turn if asked)."""
     from scipy.interpolate import make_interp_spline
 
@@ -226,7 +244,7 @@ def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> float:
     estimate of every second row: noise per row does not grow with the step, the misfit
     of a smooth shape grows as a power of it (at least ``SHAPE_GROWTH`` times when the
     step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2."""
-    from cam_metrology.reconstruction.spline import rebound_fairing
+    from cam_design.lift_table.spline import rebound_fairing
 
     full = float(rebound_fairing(b, h).sigma)
     if b.size < 24 or full <= 0.0:
@@ -241,7 +259,7 @@ def _grid_step(step: float) -> float:
     return step / max(1, math.ceil(step / g - 1e-9))
 
 
-def _join(at: float, width: float, jets: NDArray[np.float64], side: int):
+def _join(at: float, width: float, jets: NDArray[np.float64], side: int) -> Any:
     """The degree-7 Hermite join from the base circle (all jets 0) to ``jets`` (4,) at
     ``at`` over ``width`` [rad]; side -1: before the lobe, +1: after it."""
     from scipy.interpolate import BPoly
@@ -252,7 +270,7 @@ def _join(at: float, width: float, jets: NDArray[np.float64], side: int):
     return BPoly.from_derivatives([at, at + width], [list(jets), zero])
 
 
-def _edge(curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[np.float64],
+def _edge(curve: Curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: NDArray[np.float64],
           top: int, tau: float, side: int, min_width: float) -> tuple[float, float, bool]:
     """(join point [rad], join width [rad], mid-lobe) on one side of the lobe: walk out
     from the top to the last grid point above ``tau``; the join ends on the first row
@@ -293,18 +311,14 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     ``allow_steps`` (a cam card, whose events away from the step are still right; the
     note then names the step). ``noise`` [m]: the rows' noise when the caller knows it
     (a replica of a table with a drawn noise), instead of the estimate."""
-    from cam_metrology.reconstruction.samples import find_steps, step_warnings
-    from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
+    from cam_design.lift_table.samples import find_steps, step_warnings
+    from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 
     raw_a = np.asarray(alpha, dtype=float).reshape(-1)
     raw_h = np.asarray(lift, dtype=float).reshape(-1)
     ok = np.isfinite(raw_a)
     lo_a, hi_a = (float(np.min(raw_a[ok])), float(np.max(raw_a[ok]))) if ok.any() else (0, 0)
-    # a table over part of the turn keeps its angles contiguous (0..300 deg is not cut
-    # at 180 deg); a whole turn is wrapped to (-180, 180] (a repeated 0/360 row merged)
-    gaps = np.diff(np.unique(raw_a[ok]))
-    row_step = float(np.median(gaps)) if gaps.size else 0.0
-    centre = 0.5 * (lo_a + hi_a) if hi_a - lo_a < TWO_PI - 1.5 * row_step else 0.0
+    centre = part_turn_centre(raw_a)
     clean = (raw_a.size >= 6 and bool(np.all(np.isfinite(raw_a)))
              and bool(np.all(np.isfinite(raw_h))) and bool(np.all(np.diff(raw_a) > 1e-9))
              and -math.pi - 1e-12 <= lo_a and hi_a <= math.pi + 1e-12)
@@ -423,7 +437,7 @@ def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -
     return _build(_Evaluated(curve), a, h, info)
 
 
-def _build(curve, b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo
+def _build(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo
            ) -> TableLobe:
     """The TableLobe of ``curve`` (callable (x, nu)) fitted to rows ``b`` [rad], ``h``
     [m] in the lobe frame, by the lobe-end rule; checks filled into ``info``."""
@@ -475,12 +489,13 @@ PERIODIC_PAD = 0.25
 PERIODIC_SCALE = 0.6
 
 
-def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: float | None):
+def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: float | None
+                     ) -> tuple[Any, Curve]:
     """(Reconstruction, curve) of a whole-turn table without a base circle: the rows
     repeated a quarter turn beyond each end (so the fit has no free end on the turn)
     and smoothed in the variable s = PERIODIC_SCALE x alpha; the curve undoes the
     change of variable (d^nu/dalpha^nu = PERIODIC_SCALE^nu d^nu/ds^nu)."""
-    from cam_metrology.reconstruction.spline import SplineOptions, reconstruct_spline
+    from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 
     pad = PERIODIC_PAD * TWO_PI
     x = np.concatenate([b[b >= b[-1] - pad] - TWO_PI, b, b[b <= b[0] + pad] + TWO_PI])
@@ -491,7 +506,7 @@ def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: floa
                              SplineOptions(criterion='risk', sigma=sigma,
                                            expected_sign_changes=None))
 
-    def curve(a, nu: int = 0):
+    def curve(a: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
         s = k * (np.asarray(a, dtype=float) - centre)
         return np.asarray(rec.evaluate(s, nu), dtype=float) * k ** nu
 
@@ -502,15 +517,15 @@ class _Evaluated:
     """A Reconstruction's ``evaluate`` (fitted in angles less ``shift`` [rad]) as
     ``curve(x, nu)`` in the table's angles."""
 
-    def __init__(self, evaluate, shift: float = 0.0) -> None:
+    def __init__(self, evaluate: Curve, shift: float = 0.0) -> None:
         self._f = evaluate
         self._shift = shift
 
-    def __call__(self, x, nu: int = 0):
+    def __call__(self, x: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
         return np.asarray(self._f(np.asarray(x, dtype=float) - self._shift, nu), dtype=float)
 
 
-def _lobe_pieces(curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float,
+def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], tau: float,
                  step: float, g: float, info: LobeInfo) -> list:
     """The pieces (lo, hi, f) of the lobe: the join before it, the curve, the join
     after it (the grid of step ``g`` [rad] serves to find the edges)."""

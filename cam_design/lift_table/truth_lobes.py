@@ -119,7 +119,7 @@ def _registry_family(name: str, spec: dict) -> Family:
     law = from_spec(spec, 'truth')
     assert isinstance(law, PiecewiseLaw)
     scale = float(np.max(np.abs(law(np.linspace(-math.pi, math.pi, 7201), 2))))
-    report = law.junction_report  # type: ignore[attr-defined]  # segment laws have it
+    report = law.junction_report
     jumps = tuple(float(j.alpha) for j in report
                   if j.jumps[2] > 1e-6 * scale)
     return Family(name, law, jumps)

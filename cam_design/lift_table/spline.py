@@ -46,12 +46,12 @@ from scipy.interpolate import make_interp_spline
 from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
-from cam_metrology.reconstruction.blas import single_thread_blas
-from cam_metrology.reconstruction.junctions import (JunctionSpline, find_junctions,
-                                                    golden_minimum, refit)
-from cam_metrology.reconstruction.noise import rebound_sigma
-from cam_metrology.reconstruction.result import Reconstruction, output_grid, sign_changes
-from cam_metrology.reconstruction.samples import CleanSamples, clean_samples
+from cam_design.lift_table.blas import single_thread_blas
+from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
+                                             golden_minimum, refit)
+from cam_design.lift_table.noise import rebound_sigma
+from cam_design.lift_table.result import Reconstruction, output_grid, sign_changes
+from cam_design.lift_table.samples import CleanSamples, clean_samples
 
 CRITERIA = ('risk', 'gcv')
 #: a point the rebound kept is an outlier after all when it is this many noise sigmas

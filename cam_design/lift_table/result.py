@@ -114,7 +114,7 @@ def output_grid(alpha_min: float, alpha_max: float, step: float) -> NDArray[np.f
         raise InputError('step', step, 'a step giving at most 1e7 grid points')
     if k1 < k0:
         return np.array([0.5 * (alpha_min + alpha_max)])
-    return np.arange(k0, k1 + 1) * step
+    return np.arange(k0, k1 + 1, dtype=np.float64) * step
 
 
 def per_second(derivs: ArrayLike, rpm: float) -> dict[str, NDArray[np.float64]]:

@@ -217,7 +217,7 @@ def _gcv(values: NDArray[np.float64], taus: list[float], lam_d: float, gamma: fl
     return n * f.rss / max(n - gamma * f.edf, 1e-9) ** 2
 
 
-def golden_minimum(fun, a: float, b: float, iterations: int) -> float:
+def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations: int) -> float:
     """Minimiser of a unimodal ``fun`` on [a, b] (golden section)."""
     g = (math.sqrt(5.0) - 1.0) / 2.0
     c, d = b - g * (b - a), a + g * (b - a)
