@@ -294,3 +294,30 @@ def test_lobe_section_of_an_exact_lift_is_the_lift():
     assert ca.size == cut.size
     assert ch[0] == pytest.approx(0.0, abs=1e-18) and ch[-1] == pytest.approx(0.0, abs=1e-18)
     np.testing.assert_allclose(ch, seen(cut), rtol=0, atol=1e-18)
+
+
+def test_replay_of_a_recorded_lift_table_publishes_the_lobe_law_warnings(measured, tmp_path):
+    """The node's path offline: a bag holding the scene and a recorded /metrology/lift
+    table that starts on the rise flank, replayed through the reconstruction core alone
+    (``run_offline``, as ``analyze`` runs it): the /reconstruction/result statuses are
+    WARN with the lobe law's mid-lobe warning, and the profiles cover the rows only."""
+    from cam_metrology import bagio
+    from cam_metrology.offline.replay import run_offline
+
+    _, _, seen, data = measured
+    a = data[:, 0]
+    rise = np.flatnonzero((a < 0) & (seen(a) >= 0.2 * float(np.max(seen(a)))))[0]
+    cut = data[rise:]
+    bag = tmp_path / 'cut_bag'
+    t = 1_000_000_000
+    with bagio.BagWriter(bag) as w:
+        w.write('/bench/scene', t, bagio.encode_string(SCENE_TEXT))
+        w.write_output(TableOutput('/metrology/lift', 'lobe_1',
+                                   ('alpha_rad', 'lift_m', 'design_lift_m'), cut), t + 1000)
+    res = run_offline(bag, [ReconstructionCore({'methods': 'spline'})])
+    st = {s.name: s for o in res.by_topic('/reconstruction/result') for s in o.statuses}
+    s = st['lobe_1/spline']
+    assert s.level == WARN and 'starts mid-lobe' in s.values['warnings'], s.message
+    profiles = {o.label: o.data for o in res.by_topic('/reconstruction/profile')}
+    for label, table in profiles.items():
+        assert table[0, 0] >= cut[0, 0] - 1e-9 and table[-1, 0] <= cut[-1, 0] + 1e-9, label

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,6 +43,9 @@ from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.lift_laws.jet_table import JetTableLift
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
+
+if TYPE_CHECKING:
+    from cam_design.lift_table.spline import Fairing
 
 TWO_PI = 2.0 * math.pi
 #: a curve of the lobe frame: (alpha [rad], nu) -> nu-th derivative [m/rad^nu]
@@ -178,6 +181,12 @@ def table_quantum(lift: ArrayLike) -> float:
     return float(max(quantisation_step(v), INCH * quantisation_step(v / INCH)))
 
 
+def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """(first index, index after the last) of each run of True in ``mask``."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
 def part_turn_centre(alpha: ArrayLike) -> float:
     """The middle [rad] of the rows' angles ``alpha`` [rad] when they cover part of the
     turn (their span is shorter than the turn less 1.5 row steps), else 0. Such a table
@@ -206,19 +215,16 @@ def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: f
     n = a.size
     if base.all():
         return 0.0, False
-    # the cyclic runs of base rows; the longest one's middle goes to the seam
+    # the cyclic runs of base rows (walked from a lobe row, so none wraps); the longest
+    # one's middle goes to the seam
     start = int(np.flatnonzero(~base)[0])
+    first, last = _runs(np.roll(base, -start))
     best, best_len = None, -1.0
-    run: list[int] = []
-    for k in [int((i + start) % n) for i in range(n + 1)]:
-        if base[k] and len(run) < n:
-            run.append(k)
-            continue
-        if run:
-            span = (a[run[-1]] - a[run[0]]) % TWO_PI
-            if span > best_len:
-                best, best_len = (run[0], run[-1]), span
-        run = []
+    if first.size:
+        first, last = (first + start) % n, (last - 1 + start) % n
+        spans = (a[last] - a[first]) % TWO_PI
+        k = int(np.argmax(spans))
+        best, best_len = (int(first[k]), int(last[k])), float(spans[k])
     if best is None or best_len < math.radians(BASE_MIN_DEG):
         return float(wrap_pi(a[int(np.argmin(h))] + math.pi)), True   # an eccentric
     if base[0] and base[-1]:
@@ -238,20 +244,22 @@ def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool)
     return make_interp_spline(b, h, k=5)
 
 
-def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> float:
+def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[float, Fairing]:
     """The scatter [m] of the rows about a smooth curve: the engine's noise estimate
     less the part of it that is the lobe's shape. The shape's share is judged from the
     estimate of every second row: noise per row does not grow with the step, the misfit
     of a smooth shape grows as a power of it (at least ``SHAPE_GROWTH`` times when the
-    step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2."""
+    step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2.
+    Returns (scatter, the engine's fairing of all the rows, for the engine to reuse)."""
     from cam_design.lift_table.spline import rebound_fairing
 
-    full = float(rebound_fairing(b, h).sigma)
+    fairing = rebound_fairing(b, h)
+    full = float(fairing.sigma)
     if b.size < 24 or full <= 0.0:
-        return max(full, 0.0)
+        return max(full, 0.0), fairing
     half = min(float(rebound_fairing(b[0::2], h[0::2]).sigma),
                float(rebound_fairing(b[1::2], h[1::2]).sigma))
-    return math.sqrt(max(full ** 2 - (half / SHAPE_GROWTH) ** 2, 0.0))
+    return math.sqrt(max(full ** 2 - (half / SHAPE_GROWTH) ** 2, 0.0)), fairing
 
 
 def _grid_step(step: float) -> float:
@@ -338,7 +346,12 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     q = table_quantum(h)
     sigma_q = q / math.sqrt(12.0)
     span = float(np.ptp(h))
-    scatter = noise = _scatter(a0, h) if noise is None else float(noise)
+    fairing: Fairing | None = None
+    if noise is None:
+        scatter, fairing = _scatter(a0, h)
+        noise = scatter
+    else:
+        scatter = noise = float(noise)
     offset, periodic = _frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
     b = wrap_pi(a0 - offset) if offset else a0
     if periodic:   # the turn [-pi, pi) from the lowest row (a closing row merged)
@@ -390,7 +403,13 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             # the engine works in (-pi, pi]: a part-turn table beyond it (118..242 deg)
             # is fitted about its own middle and moved back
             mid = 0.5 * (float(b[0]) + float(b[-1]))
-            rec = reconstruct_spline(b - mid, h, SplineOptions(criterion='risk', sigma=known))
+            rows = clean_samples(b - mid, h, key=key, min_points=6)
+            # the fairing the scatter estimate made is the engine's own when the engine
+            # gets the same rows (none merged or re-ordered) with the estimated noise
+            same = (fairing is not None and known is None and rows.alpha.size == b.size
+                    and bool(np.all(rows.lift == h)))
+            rec = reconstruct_spline(rows, options=SplineOptions(criterion='risk', sigma=known),
+                                     fairing=fairing if same else None)
             curve = _Evaluated(rec.evaluate, mid)
         sigma = max(float(rec.sigma), sigma_q)
         why += f'; smoothed by the reconstruction spline ({rec.why})'
@@ -579,7 +598,8 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
     lift = law(grid, 0)
     top = float(np.max(lift))
     # between rows a lobe rises above its highest row by up to |h''| (step/2)^2 / 2
-    rise = 0.125 * float(np.max(np.abs(law(grid, 2)))) * info.step ** 2
+    acc = float(np.max(np.abs(law(grid, 2))))
+    rise = 0.125 * acc * info.step ** 2
     allowed = float(np.max(h)) + 2.0 * rise + max(3.0 * info.sigma, info.quantum, 1e-6)
     if top > allowed:
         raise InputError(info.key, f'max lift {top * 1e3:.4f} mm from rows up to '
@@ -591,7 +611,6 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
                    'circle: the rows are too coarse for their shape')
     on = np.flatnonzero(lift > 0.01 * top)
     half = 0.5 * float(grid[on[-1]] - grid[on[0]]) if on.size > 1 else math.pi
-    acc = float(np.max(np.abs(law(grid, 2))))
     plausible = ACC_PLAUSIBLE * 2.0 * top / max(half, 1e-6) ** 2
     if acc > plausible:
         raise InputError(info.key, f"peak acceleration {acc:.3g} m/rad^2",

@@ -355,20 +355,12 @@ def other_lobes_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
     start = int(np.flatnonzero(base)[0])    # walk the turn from a base-circle row
     a, h, base = np.roll(a, -start), np.roll(h, -start), np.roll(base, -start)
     lobes: list[int] = []
-    first, best = -1, -1      # the run off the base circle: its first row, its top row
-
-    def close(end: int) -> None:   # a lobe: 3 rows or more (not a spike), above 10 %
-        if first >= 0 and end - first >= 3 and h[best] > 0.1 * top:
+    # the runs off the base circle; a lobe: 3 rows or more (not a spike), above 10 %
+    edges = np.diff(np.concatenate([[0], (~base).astype(np.int8), [0]]))
+    for first, end in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        best = int(first) + int(np.argmax(h[first:end]))
+        if end - first >= 3 and h[best] > 0.1 * top:
             lobes.append(best)
-    for k in range(a.size):
-        if base[k]:
-            close(k)
-            first = best = -1
-        elif first < 0:
-            first = best = k
-        elif h[k] > h[best]:
-            best = k
-    close(a.size)
     if len(lobes) < 2:
         return None
     main = max(lobes, key=lambda k: h[k])

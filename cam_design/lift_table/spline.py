@@ -747,7 +747,12 @@ def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None =
 
 def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                  opt: SplineOptions, fairing: Fairing | None) -> Reconstruction:
-    data = alpha if isinstance(alpha, CleanSamples) else clean_samples(alpha, lift)
+    if isinstance(alpha, CleanSamples):
+        data = alpha
+    elif lift is None:
+        raise InputError('lift', 'missing', 'lifts [m] beside the angles')
+    else:
+        data = clean_samples(alpha, lift)
     x, y0 = data.alpha, data.lift
     warnings: list[str] = []
     notes: list[str] = list(data.notes)
@@ -825,7 +830,10 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     # tables got worse with them)
     if (opt.junctions and uniform and not exact and opt.smoothing is None
             and step <= VERY_COARSE_RAD):
-        found = find_junctions(grid, values, lam_d, gamma=gamma, sigma_floor=floor)
+        # the search compares GCV scores: it starts from the plain GCV level
+        start = choice if opt.criterion == 'gcv' else choose_smoothing(
+            values, step, criterion='gcv', gamma=gamma, sigma_floor=floor)
+        found = find_junctions(grid, values, start.lam_d, gamma=gamma, sigma_floor=floor)
         if found is not None:
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
@@ -846,7 +854,8 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     # adjacent rows hide each other's rebound) stands out of the fit, a point flagged
     # next to it fits; refit once with the corrected set
     outlier = fair.outlier.copy()
-    resid = y0 - spline(x)
+    at_rows = spline(x)
+    resid = y0 - at_rows
     absr = np.abs(resid)
     absk = np.where(outlier, 0.0, absr)
     # isolated: 3 x the misses of the kept rows within +-3 (bias near a sharp feature
@@ -874,11 +883,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             values[pad:pad + x.size] = np.where(back, y0, values[pad:pad + x.size])
             missing[pad:pad + x.size] = outlier
         spline = fit_spline(lam_d)
+        at_rows = spline(x)
         notes.append(f'second look at the fit: {int(np.count_nonzero(new))} more '
                      f'outlier(s), {int(np.count_nonzero(back))} restored')
     out_step = opt.step or step
     out = output_grid(x[0], x[-1], out_step)
     acc = spline(out, 2)
+    lift_out = spline(out)
     expected = opt.expected_sign_changes
     # a junction fit explains the steps of h'' itself: its level is not raised for them
     if expected is not None and opt.smoothing is None and found is None:
@@ -886,7 +897,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # more smoothing is only accepted while the fit still follows the data (RMS
         # residual within 25 % of the noise): a real feature (a second lobe) stays
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
-        while sign_changes(acc, lift=spline(out)) > expected and raised < 5:
+        while sign_changes(acc, lift=lift_out) > expected and raised < 5:
             trial = fit_spline(lam_d * 4.0)
             if float(np.sqrt(np.mean((ylift[kept] - trial(x[kept])) ** 2))) > rms_limit:
                 break
@@ -894,10 +905,12 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             raised += 1
             spline = trial
             acc = spline(out, 2)
+            lift_out = spline(out)
+            at_rows = spline(x)
         if raised:
             why += (f'; raised x{4 ** raised} to lam_d = {lam_d:.4g} for the sign '
                     f"pattern of h'' ({expected} sign changes expected)")
-    fit = spline(x[kept])
+    fit = at_rows[kept]
     mu = _spectrum(grid.size)
     edf = float(np.sum(1.0 / (1.0 + lam_d * mu ** 3)))
     parameter: dict[str, Any] = {
@@ -915,11 +928,16 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         notes.append("h'' jumps at " + ', '.join(
             f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2)'
             for t, j in zip(spline.junctions.angles, spline.junctions.jumps)))
+    final = spline
+
+    def evaluate(a: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
+        return np.asarray(final(np.asarray(a, dtype=float), nu), dtype=float)
+
     rec = Reconstruction(
-        method='spline', alpha=out, lift=spline(out), velocity=spline(out, 1),
+        method='spline', alpha=out, lift=lift_out, velocity=spline(out, 1),
         acceleration=acc, jerk=spline(out, 3), data_alpha=x[kept],
         residual=y0[kept] - fit, parameter=parameter, why=why, sigma=fair.sigma,
-        evaluate=lambda a, nu=0: spline(np.asarray(a, dtype=float), nu),
+        evaluate=evaluate,
         outliers_alpha=x[outlier], warnings=warnings, notes=notes)
     rec.outlier_mask = outlier
     rec.check_residuals()

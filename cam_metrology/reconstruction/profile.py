@@ -79,7 +79,7 @@ def design_errors(rec: Reconstruction, design: Law,
     names = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk_m_per_rad3')
     values_all = rec.derivatives() if derivs is None else derivs
     for nu, (name, values) in enumerate(zip(names, values_all)):
-        diff = values - np.asarray(design(rec.alpha, nu), dtype=float)
+        diff = values - np.asarray(design(wrap_pi(rec.alpha), nu), dtype=float)
         out[f'rms_error_{name}'] = float(np.sqrt(np.mean(diff ** 2)))
         out[f'max_error_{name}'] = float(np.max(np.abs(diff)))
     return out
