@@ -8,7 +8,8 @@
    scene and the samples in blocks on ``/rig/joint_trajectory`` once the recorder and
    the rig node have subscribed;
 2. wait (deadline) until the rig node has published a status per run named in
-   ``/bench/truth``, stop the rig node and the recorder (SIGINT);
+   ``/bench/truth`` and the recorder subscribes to it, stop the rig node and the
+   recorder (SIGINT);
 3. calibrate stiffness and damping on the recorded bag (the code of ``rig calibrate``)
    and print the live statuses, the calibrated values against the simulator's truth
    and the jump speed predicted with the nominal and the calibrated train.
@@ -24,6 +25,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from cam_metrology.nodes.demo import Child, start_child, stop_child
+from cam_metrology.wire.topics import RIG_RESULT, TRUTH
 
 #: samples per JointTrajectory block that bench-sim publishes in the demo
 BLOCK = 500
@@ -31,9 +33,12 @@ BLOCK = 500
 
 def sim_arguments(scene: Path, timeout: float) -> list[str]:
     """ROS arguments of bench-sim in the demo's rig mode (the rest from
-    config/bench_sim.yaml): the recorder and the rig node must subscribe first."""
+    config/bench_sim.yaml): the recorder and the rig node subscribe to the samples
+    first, and the demo and the recorder to /bench/truth and /rig/result (bench-sim
+    exits when done: its latched truth must have reached the demo)."""
     return ['--ros-args', '-p', 'mode:=rig', '-p', f'scene_file:={scene.resolve()}',
             '-p', f'samples_per_message:={BLOCK}', '-p', 'wait_subscribers:=2',
+            '-p', f'wait_graph:={TRUTH}=2,{RIG_RESULT}=2',
             '-p', f'match_timeout:={float(timeout)}']
 
 
@@ -51,7 +56,7 @@ def run_rig_demo(scene_path: str | None, out: str | None, timeout: float,
     from cam_metrology.nodes.runtime import RosProcess
     from cam_metrology.nodes.topics import profile
     from cam_metrology.scene.parse import load_scene
-    from cam_metrology.wire.topics import RIG_RESULT, TOPICS, TRUTH
+    from cam_metrology.wire.topics import TOPICS
 
     t_start = time.monotonic()
     say = (lambda text: print(text, file=stream, flush=True))
@@ -96,6 +101,13 @@ def run_rig_demo(scene_path: str | None, out: str | None, timeout: float,
                 f'{timeout:g} s (node logs in {logs})')
             for c in children.values():
                 say(f'  {c.name}: exit {c.proc.poll()}\n{c.tail(5)}')
+            return 1
+        # the recorder subscribes to the rig node's outputs once it sees them in the
+        # graph; the rig node, stopped, waits for every matched subscriber to have them
+        # all: so stop it only when the recorder has matched (deadline)
+        if not proc.spin_until(lambda: node.count_subscribers(RIG_RESULT) >= 2, timeout):
+            say(f'rig demo: the recorder never subscribed to {RIG_RESULT} within '
+                f'{timeout:g} s (node logs in {logs})')
             return 1
         for name in names:
             s = got[name]
