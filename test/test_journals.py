@@ -119,3 +119,110 @@ def test_journal_without_radius_from_the_command_line(tmp_path, capsys) -> None:
     assert main(['scene', 'check', str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count('\n') == 0 and 'journals[0].radius' in err
+
+
+B_UM, DIRECTION_DEG = 10.0, 30.0
+
+
+@pytest.fixture(scope='module')
+def lobed_report(tmp_path_factory):
+    """The default scene's two lobes at z = 0.1 and 0.3 m between the three journals at
+    0, 0.2 and 0.4 m (a third lobe without an axial_position), on a shaft bent by 10 um
+    towards 30 deg; 0.1 um probe noise."""
+    from cam_metrology.offline.analyze import analyze_report
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
+    from scene_docs import default_doc
+
+    doc = default_doc(lobes=3)
+    for lobe, z in zip(doc['lobes'], (0.1, 0.3)):
+        lobe['axial_position'] = z
+    doc['journals'] = SCENE['journals']
+    doc['probe']['zero_radius'] = doc['base_circle_radius'] - 0.5e-3
+    bag = tmp_path_factory.mktemp('journals') / 'bent_lobes'
+    write_sim_bag(bag, parse_scene(yaml.safe_dump(doc)),
+                  SimParams(bend=B_UM * 1e-6, bend_direction_deg=DIRECTION_DEG,
+                            probe_noise=NOISE, seed=3))
+    return doc, analyze_report(str(bag), only_metrology=True)
+
+
+def test_bent_shaft_with_lobes(lobed_report) -> None:
+    """Centres B sin(pi z / 0.4 m) at z = 0, 0.1, 0.2, 0.3, 0.4 m: (0, B/sqrt2, B, B/sqrt2,
+    0), symmetric about 0.2 m, so the least-squares line is level at their mean
+    B (1 + sqrt2) / 5 and the largest residual is at mid-span, B (4 - sqrt2) / 5 =
+    5.172 um (the ends leave B (1 + sqrt2) / 5 = 4.828 um): straightness 2 B (4 - sqrt2)
+    / 5 = 10.343 um towards 30 deg. Each lobe's base-circle centre is B / sqrt2 =
+    7.071 um towards 30 deg. Tolerance 0.05 um: the base-circle arc of ~220 deg of 3600
+    samples fixes a centre to ~0.01 um at 0.1 um noise; the third lobe is left out with
+    the note that it has no axial_position."""
+    doc, report = lobed_report
+    for lobe in doc['lobes'][:2]:
+        a, b = report['features'][lobe['id']]['base_circle_eccentricity_um']
+        assert math.hypot(a, b) == pytest.approx(B_UM / math.sqrt(2), abs=0.05)
+        assert math.degrees(math.atan2(b, a)) == pytest.approx(DIRECTION_DEG, abs=0.5)
+        assert report['features'][lobe['id']]['axial_position_mm'] == \
+            pytest.approx(lobe['axial_position'] * 1e3)
+    shaft = report['shaft']
+    assert shaft['from'] == ['journal_1', doc['lobes'][0]['id'], 'journal_2',
+                             doc['lobes'][1]['id'], 'journal_3']
+    assert shaft['straightness_um'] == pytest.approx(2 * B_UM * (4 - math.sqrt(2)) / 5,
+                                                     abs=0.05)
+    assert shaft['bow_um'] == pytest.approx(B_UM * (4 - math.sqrt(2)) / 5, abs=0.025)
+    assert shaft['bow_at_mm'] == pytest.approx(200.0)
+    assert shaft['bow_direction_deg'] == pytest.approx(DIRECTION_DEG, abs=0.5)
+    assert shaft['left_out'] == [{'feature': doc['lobes'][2]['id'],
+                                  'why': 'no axial_position in the scene'}]
+
+
+def test_lobe_without_base_circle_is_left_out() -> None:
+    """A lobe scanned only over its lift (no base-circle samples) has no centre: it is
+    left out of the straightness with the reason. The three journals, equally spaced with
+    the first centre moved by 3 um, leave residuals 3 (delta_j0 - h_j0) with the leverages
+    h_j0 = 1/3 + (z_j - zbar)(z_0 - zbar) / 2 (in steps) = 5/6, 1/3, -1/6: 0.5, -1, 0.5 um,
+    so the straightness is 2 um."""
+    from cam_metrology.metrology.analysis import Settings, analyze_lobe
+    from cam_metrology.metrology.features import clean_feature
+    from cam_metrology.metrology.journals import shaft_straightness
+    from cam_metrology.metrology.synthetic import PolynomialRampCam, sample_lobe
+
+    cam, nose = PolynomialRampCam(), math.radians(222.0)
+    smp = sample_lobe(cam, nose, 1, n_per_rev=3600, zero=0.0042)
+    keep = np.abs(np.angle(np.exp(1j * (smp.theta - nose)))) < math.radians(75.0)
+    fs = clean_feature('lobe_1', smp.stamp_ns[keep], smp.theta[keep], smp.s[keep])
+    lobe = {**analyze_lobe(fs, cam, 1, Settings()).values, 'status': 'ok'}
+    assert lobe['base_circle_eccentricity_um'] is None
+    features = {'lobe_1': lobe,
+                **{f'journal_{k}': {'kind': 'journal', 'status': 'ok', 'eccentricity_um': e}
+                   for k, e in enumerate(([0.0, 3.0], [0.0, 0.0], [0.0, 0.0]), start=1)}}
+    out = shaft_straightness(features, {'journal_1': 0.0, 'lobe_1': 0.05, 'journal_2': 0.1,
+                                        'journal_3': 0.2})
+    assert out['from'] == ['journal_1', 'journal_2', 'journal_3']
+    assert out['left_out'] == [{'feature': 'lobe_1', 'why': 'fewer than 10 base-circle '
+                                'samples: no base-circle centre'}]
+    assert out['straightness_um'] == pytest.approx(2.0, abs=1e-9)
+
+
+@pytest.mark.parametrize('value, expected', [(100.0, 'millimetres given?'),
+                                             ('near', 'a finite real number')])
+def test_bad_lobe_axial_position_is_one_line(value, expected) -> None:
+    from scene_docs import default_doc
+
+    doc = default_doc(lobes=1)
+    doc['lobes'][0]['axial_position'] = value
+    with pytest.raises(InputError) as err:
+        parse_scene(yaml.safe_dump(doc))
+    assert str(err.value).startswith('lobes[0].axial_position') and \
+        '\n' not in str(err.value)
+    assert expected in str(err.value)
+
+
+def test_human_report_names_the_lobes_left_out(lobed_report) -> None:
+    """The human report of ``analyze`` gives the straightness with the number of centres
+    and one line per feature left out, with the reason."""
+    from cam_metrology.cli.analyze import form_lines
+
+    doc, report = lobed_report
+    lines = form_lines(report)
+    assert any(line.startswith('shaft straightness 10.3') and 'from 5 centres' in line
+               for line in lines)
+    assert f"shaft straightness leaves out {doc['lobes'][2]['id']}: no axial_position in " \
+        'the scene' in lines

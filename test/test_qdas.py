@@ -106,3 +106,25 @@ def test_dfq_of_many_parts_has_one_value_per_part(tmp_path: Path) -> None:
     assert [d.second for d in chars[1][5]] == [0, 1, 2] and chars[1][5][0].day == 21
     text = path.read_text()
     assert text.count('K0008/1 anna') == 3 and 'K0014/1 P0' in text
+
+
+def test_zoned_quantities_carry_no_single_limit(tmp_path: Path) -> None:
+    """A quantity judged by angle zones: the file's whole-lobe value (0.06 mm/rad, within
+    its flank zone's 0.1 but above the lobe's own 0.03, which applies outside the zones
+    only) gets no limits, so SPC does not call a passed part out of tolerance; a quantity
+    without zones keeps its limits."""
+    from cam_metrology.quality.qdas import characteristics
+
+    checks = [{'quantity': 'velocity_error_mm_per_rad[-50..-10 deg]', 'lower': None,
+               'upper': 0.1},
+              {'quantity': 'velocity_error_mm_per_rad', 'lower': None, 'upper': 0.03},
+              {'quantity': 'lift_error_um[-20..20 deg].max_plus', 'lower': -12, 'upper': 12},
+              {'quantity': 'lift_error_max_plus_um', 'lower': -10, 'upper': 10},
+              {'quantity': 'acceleration_error_mm_per_rad2', 'lower': None, 'upper': 0.5}]
+    row = {'feature': 'lobe_1', 'status': 'ok', 'verdict.checks': json.dumps(checks),
+           'velocity_error_mm_per_rad.max_abs': 0.06, 'lift_error_um.max_plus': 11.0,
+           'acceleration_error_mm_per_rad2.max_abs': 0.2}
+    limits = {c['field']: (c['lower'], c['upper']) for c in characteristics([row])}
+    assert limits == {'lift_error_um.max_plus': (None, None),
+                      'velocity_error_mm_per_rad.max_abs': (None, None),
+                      'acceleration_error_mm_per_rad2.max_abs': (None, 0.5)}

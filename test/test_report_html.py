@@ -191,3 +191,153 @@ def test_seating_window_finds_the_bounces() -> None:
     seat, end = np.degrees(seating_window(a, lift))
     assert 55.0 < seat < 60.0 and 74.0 < end < 75.0
     assert seating_window(a, 8e-3 + 0 * a) is None
+
+
+class _Tables(__import__('html.parser').parser.HTMLParser):
+    """The text of every cell of every table with an id: {id: [[cell, ...], ...]}."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.tables: dict[str, list[list[str]]] = {}
+        self._id: str | None = None
+        self._cell: list[str] | None = None
+
+    def handle_starttag(self, tag, attrs) -> None:
+        if tag == 'table':
+            self._id = dict(attrs).get('id')
+            if self._id:
+                self.tables[self._id] = []
+        elif tag == 'tr' and self._id:
+            self.tables[self._id].append([])
+        elif tag in ('td', 'th') and self._id:
+            self._cell = []
+
+    def handle_endtag(self, tag) -> None:
+        if tag in ('td', 'th') and self._cell is not None:
+            self.tables[self._id][-1].append(''.join(self._cell).strip())
+            self._cell = None
+        elif tag == 'table':
+            self._id = None
+
+    def handle_data(self, data) -> None:
+        if self._cell is not None:
+            self._cell.append(data)
+
+
+CHATTER_UM, BEND_UM = 0.8, 10.0
+
+
+@pytest.fixture(scope='module')
+def form_analysed(tmp_path_factory):
+    """Two lobes at z = 0.1 and 0.3 m with a 37-UPR chatter of 0.8 um, three 3-lobed
+    journals at 0, 0.2, 0.4 m on a shaft bent 10 um towards 30 deg, tolerances on every
+    form, journal and derivative quantity (the waviness and the mid journal's run-out
+    fail)."""
+    from cam_metrology.scene.parse import parse_scene
+    from cam_metrology.simulation.bench import SimParams, write_sim_bag
+
+    with open('config/default_scene.yaml', encoding='utf-8') as f:
+        doc = yaml.safe_load(f)
+    doc.pop('valve_train')
+    doc['lobes'] = doc['lobes'][:2]
+    for lobe, z in zip(doc['lobes'], (0.1, 0.3)):
+        lobe['axial_position'] = z
+    doc['journals'] = [{'id': f'journal_{i + 1}', 'radius': 0.0125, 'axial_position': z,
+                        'tolerances': {'runout_max_um': 15, 'roundness_max_um': 3,
+                                       'diameter_um': 2}}
+                       for i, z in enumerate((0.0, 0.2, 0.4))]
+    doc['probe']['zero_radius'] = doc['base_circle_radius'] - 0.5e-3
+    doc['tolerances'] = {'roundness_max_um': 2, 'waviness_max_um': 0.5,
+                         'velocity_error_max_mm_per_rad': 0.05,
+                         'acceleration_error_max_mm_per_rad2': 0.5}
+    root = tmp_path_factory.mktemp('form_report')
+    write_sim_bag(root / 'bag', parse_scene(yaml.safe_dump(doc)),
+                  SimParams(bend=BEND_UM * 1e-6, bend_direction_deg=30.0, probe_noise=0.1e-6,
+                            chatter_upr=37, chatter_amplitude=CHATTER_UM * 1e-6,
+                            journal_lobes=3, journal_lobing=1e-6, seed=3))
+    code = main(['analyze', str(root / 'bag'), '--only-metrology', '--report',
+                 str(root / 'r.html'), '--json', str(root / 'r.json')])
+    return {'code': code, 'html': root / 'r.html',
+            'report': json.loads((root / 'r.json').read_text())}
+
+
+def _check(feature: dict, quantity: str) -> str | None:
+    return next((c['result'] for c in feature['verdict']['checks']
+                 if c['quantity'] == quantity), None)
+
+
+def test_report_shows_form_journals_and_shaft(form_analysed) -> None:
+    """Every number of the form tables is the report's (to its 3 printed decimals) with the
+    verdict of its check; against the truth: the lobes' waviness is the 0.8 um chatter at
+    37 UPR (fails 0.5 um), the mid journal's run-out 2 x 10 um (fails 15 um), the journals'
+    largest harmonic the 1 um lobing at 3 UPR, the straightness 2 B (4 - sqrt2) / 5 =
+    10.343 um (test_journals), all within 0.05 um."""
+    report = form_analysed['report']
+    assert form_analysed['code'] == 3
+    parser = _Tables()
+    parser.feed(form_analysed['html'].read_text())
+    tables = parser.tables
+    columns = {'roundness µm': ('roundness_um', 'roundness_um'),
+               'waviness µm': ('waviness', 'waviness_max_amplitude_um'),
+               'journal run-out µm': ('runout_um', 'runout_um'),
+               'diameter deviation µm': ('diameter_deviation_um', 'diameter_deviation_um'),
+               'velocity error mm/rad': ('velocity_error_mm_per_rad',
+                                         'velocity_error_mm_per_rad'),
+               'acceleration error mm/rad²': ('acceleration_error_mm_per_rad2',
+                                              'acceleration_error_mm_per_rad2')}
+    seen = set()
+    for table in ('form', 'size', 'velocity'):
+        head, *rows = tables[table]
+        for row in rows:
+            feature = report['features'][row[0]]
+            for name, cell in zip(head, row):
+                if name not in columns or cell == '-':
+                    continue
+                field, quantity = columns[name]
+                value = feature[field]
+                value = value.get('max_amplitude_um', value.get('max_abs')) \
+                    if isinstance(value, dict) else value
+                number, *rest = cell.split()
+                assert float(number) == pytest.approx(value, abs=5e-4), (row[0], name)
+                result = _check(feature, quantity)
+                assert (cell.endswith(f'({result})') if result else ')' not in cell), \
+                    (row[0], name, cell)
+                seen.add((row[0], name))
+    for lobe in ('lobe_1', 'lobe_2'):
+        assert {(lobe, 'waviness µm'), (lobe, 'velocity error mm/rad')} <= seen
+        row = next(r for r in tables['form'] if r[0] == lobe)
+        assert row[tables['form'][0].index('waviness UPR')] == '37'
+        assert float(row[tables['form'][0].index('waviness µm')].split()[0]) == \
+            pytest.approx(CHATTER_UM, abs=0.05)
+        assert row[tables['form'][0].index('waviness µm')].endswith('(fail)')
+    mid = next(r for r in tables['size'] if r[0] == 'journal_2')
+    runout = mid[tables['size'][0].index('journal run-out µm')]
+    assert float(runout.split()[0]) == pytest.approx(2 * BEND_UM, abs=0.05)
+    assert runout.endswith('(fail)')
+    assert float(mid[tables['size'][0].index('run-out direction deg')]) == \
+        pytest.approx(30.0, abs=0.2)
+    j1 = next(r for r in tables['harmonics'] if r[0] == 'journal_1')
+    assert j1[1].startswith('3 UPR: 1.00')
+    text = form_analysed['html'].read_text()
+    assert len(re.findall(r'<td class="fail" title="waviness_max_amplitude_um 0\.[0-9]+ fail">',
+                          text)) == 2   # the check behind each failed waviness cell
+    straightness = float(re.search(r'Straightness ([0-9.]+) µm', text).group(1))
+    assert straightness == pytest.approx(2 * BEND_UM * (4 - math.sqrt(2)) / 5, abs=0.05)
+    assert text.index('<h2>Form, journals and tracks') < text.index('<h2>Plots')
+
+
+@pytest.mark.skipif(_chromium() is None, reason='chromium not installed: ./run-tests installs '
+                    'it as root (tools/bootstrap.sh said why it could not)')
+def test_form_tables_render_in_a_headless_browser(form_analysed, tmp_path) -> None:
+    """The browser's DOM after layout holds the form, size, velocity, harmonics tables and
+    the shaft paragraph, with the failed waviness marked."""
+    run = subprocess.run([_chromium(), *CHROMIUM_FLAGS,
+                          f'--user-data-dir={tmp_path / "profile"}',
+                          '--virtual-time-budget=5000', '--dump-dom',
+                          form_analysed['html'].as_uri()],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    for anchor in ('form', 'size', 'velocity', 'harmonics'):
+        assert f'<table id="{anchor}">' in run.stdout
+    assert '<p id="shaft">Straightness' in run.stdout
+    assert re.search(r'<td class="fail" title="[^"]*">0\.[0-9]{3} \(fail\)</td>', run.stdout)

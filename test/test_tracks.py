@@ -98,3 +98,18 @@ def test_taper_and_twist_tolerances_in_the_verdict() -> None:
     assert res == {'taper_um_per_mm': 'fail', 'nose_angle_difference_deg': 'pass'}
     v = judge_tracks(Tolerances(taper_max_um_per_mm=1.0), 'l', {'l@-2': feats['l@-2']})
     assert v['result'] == 'not checked'
+
+
+def test_tracks_in_the_html_report(report) -> None:
+    """The HTML form section's tracks table gives each tracked lobe's taper (2 um/mm
+    within 0.02, printed to 3 decimals), nose-angle difference and twist in arcsec/mm."""
+    from cam_metrology.report.form_html import form_html
+
+    tr = report['lobe_tracks']['lobe_1']
+    text = form_html(report)
+    row = text[text.index('<table id="tracks">'):].split('<tr>')[2]
+    assert '<td class="l">lobe_1@-5, lobe_1@0, lobe_1@5</td>' in row
+    assert f"<td>{tr['taper_um_per_mm']:.3f}</td>" in row
+    assert f"<td>{tr['nose_angle_difference_deg']:.4f}</td>" in row
+    assert f"<td>{tr['twist_deg_per_mm'] * 3600:.2f}</td>" in row
+    assert abs(tr['twist_deg_per_mm'] * 3600 - 36.0) < 0.72

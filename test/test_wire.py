@@ -224,10 +224,11 @@ def test_curves_are_plot_ready_and_equal_the_tables(demo_bag: Path) -> None:
         k = np.searchsorted(np.sort(table_alpha), alpha)
         assert np.allclose(np.sort(table_alpha)[np.clip(k, 0, len(table_alpha) - 1)], alpha,
                            rtol=0, atol=1e-9)
-    # a JointState's arrays stay far below PlotJuggler's default array clamp (500)
-    for topic in (topics.PLOT_LIFT, topics.PLOT_PROFILE, topics.PLOT_MOTION,
-                  topics.METROLOGY_VALUES):
-        assert all(len(m.position) <= 16 for m in _bag_messages(demo_bag, topic)), topic
+    # a JointState's arrays stay far below PlotJuggler's default array clamp (500): a
+    # curve's handful of columns, the values' fixed layout
+    for topic, most in ((topics.PLOT_LIFT, 16), (topics.PLOT_PROFILE, 16),
+                        (topics.PLOT_MOTION, 16), (topics.METROLOGY_VALUES, 64)):
+        assert all(len(m.position) <= most for m in _bag_messages(demo_bag, topic)), topic
 
 
 def test_values_and_diagnostics_repeat_the_report(demo_bag: Path) -> None:
@@ -278,7 +279,10 @@ def test_plot_views_of_other_outputs_are_empty_or_exact() -> None:
     assert values['lobe_1']['lobe_1/verdict'] == 0.0
     assert values['lobe_1']['lobe_1/angle_deg'] == 10.5
     assert math.isnan(values['lobe_1']['lobe_1/phase_deg'])
-    assert values['part'] == {'part/verdict': 0.0, 'part/complete': 0.0}
+    assert {k: v for k, v in values['part'].items() if not math.isnan(v)} == {
+        'part/verdict': 0.0, 'part/complete': 0.0}
+    assert list(values['part']) == ['part/verdict', 'part/complete', 'part/straightness_um',
+                                    'part/bow_um']
     # units: derivative per rad -> per deg; stress Pa -> MPa
     names, vals = plots.curve_columns(
         ('alpha_rad', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'contact_stress_pa'),
@@ -381,3 +385,69 @@ def test_plotjuggler_layout_names_only_what_the_demo_bag_has(demo_bag: Path) -> 
     text = ET.tostring(root, encoding='unicode')
     for what in ('angle_deg', 'lift_error_um', 'acceleration_mm_per_deg2', 'valve_lift_mm'):
         assert what in text
+
+
+def test_values_carry_form_journal_track_and_shaft_numbers() -> None:
+    """/metrology/values through the pure function: each form number of a feature under
+    its name, its verdict 1 pass / 0 fail (a failed zone fails the quantity) / NaN not
+    judged; a lobe measured on tracks only gets a record with its taper and twist; the
+    part record the shaft's straightness and bow; the earlier indices unchanged."""
+    assert plots.VALUE_NAMES[:11] == (
+        'angle_deg', 'angle_std_arcsec', 'phase_deg', 'phase_error_deg', 'asymmetry_deg',
+        'lift_error_max_plus_um', 'lift_error_max_minus_um', 'lift_error_rms_um', 'ok',
+        'verdict', 'partial')
+    checks = [{'quantity': 'roundness_um', 'result': 'pass'},
+              {'quantity': 'velocity_error_mm_per_rad', 'result': 'pass'},
+              {'quantity': 'velocity_error_mm_per_rad[-60..-30 deg]', 'result': 'fail'},
+              {'quantity': 'acceleration_error_mm_per_rad2[-60..-30 deg]', 'result': 'pass'}]
+    report = {'final': True, 'complete': True, 'verdict': {'result': 'fail'},
+              'shaft': {'straightness_um': 10.5, 'bow_um': 5.25},
+              'lobe_tracks': {'lobe_2': {'taper_um_per_mm': 2.5,
+                                         'nose_angle_difference_deg': 0.1,
+                                         'verdict': {'checks': [
+                                             {'quantity': 'taper_um_per_mm',
+                                              'result': 'fail'}]}}},
+              'features': {
+                  'lobe_1': {'status': 'ok', 'roundness_um': 1.25,
+                             'harmonics': [{'upr': 37, 'amplitude_um': 0.75, 'phase_deg': 3}],
+                             'waviness': {'max_amplitude_um': 0.75, 'upr_at_max': 37},
+                             'velocity_error_mm_per_rad': {'max_abs': 0.125, 'at_deg': -40},
+                             'acceleration_error_mm_per_rad2': {'max_abs': 2.5},
+                             'verdict': {'result': 'fail', 'checks': checks}},
+                  'journal_1': {'status': 'ok', 'kind': 'journal', 'runout_um': 20.0,
+                                'runout_direction_deg': 30.5,
+                                'diameter_deviation_um': -1.5, 'verdict': {'checks': [
+                                    {'quantity': 'runout_um', 'result': 'fail'},
+                                    {'quantity': 'diameter_deviation_um', 'result': 'pass'}]}},
+                  'lobe_2@-5': {'status': 'ok', 'nose_lift_error_um': -12.5}}}
+    views = plots.plot_messages(TextOutput(topics.METROLOGY_REPORT, json.dumps(report)), 5)
+    values = dict(layouts.values_from_msg(cdr.decode(v.cdr, topics.JOINT_STATE))
+                  for v in views)
+    assert set(values) == {'lobe_1', 'journal_1', 'lobe_2@-5', 'lobe_2', 'part'}
+    lobe = {k.split('/', 1)[1]: v for k, v in values['lobe_1'].items()}
+    assert list(lobe) == list(plots.VALUE_NAMES)
+    assert {k: lobe[k] for k in ('harmonic_max_upr', 'harmonic_max_amplitude_um',
+                                 'roundness_um', 'waviness_max_amplitude_um',
+                                 'waviness_upr_at_max', 'velocity_error_max_mm_per_rad',
+                                 'acceleration_error_max_mm_per_rad2',
+                                 'roundness_um_verdict', 'velocity_error_max_mm_per_rad_verdict',
+                                 'acceleration_error_max_mm_per_rad2_verdict')} == {
+        'harmonic_max_upr': 37.0, 'harmonic_max_amplitude_um': 0.75, 'roundness_um': 1.25,
+        'waviness_max_amplitude_um': 0.75, 'waviness_upr_at_max': 37.0,
+        'velocity_error_max_mm_per_rad': 0.125, 'acceleration_error_max_mm_per_rad2': 2.5,
+        'roundness_um_verdict': 1.0, 'velocity_error_max_mm_per_rad_verdict': 0.0,
+        'acceleration_error_max_mm_per_rad2_verdict': 1.0}
+    assert math.isnan(lobe['waviness_max_amplitude_um_verdict'])   # not judged
+    assert math.isnan(lobe['runout_um']) and math.isnan(lobe['taper_um_per_mm'])
+    journal = {k.split('/', 1)[1]: v for k, v in values['journal_1'].items()}
+    assert (journal['runout_um'], journal['runout_um_verdict'], journal['runout_direction_deg'],
+            journal['diameter_deviation_um'], journal['diameter_deviation_um_verdict']) == \
+        (20.0, 0.0, 30.5, -1.5, 1.0)
+    assert values['lobe_2@-5']['lobe_2@-5/nose_lift_error_um'] == -12.5
+    tracks = {k.split('/', 1)[1]: v for k, v in values['lobe_2'].items()}
+    assert (tracks['taper_um_per_mm'], tracks['taper_um_per_mm_verdict'],
+            tracks['nose_angle_difference_deg']) == (2.5, 0.0, 0.1)
+    assert math.isnan(tracks['nose_angle_difference_deg_verdict'])
+    assert math.isnan(tracks['ok'])   # no entry of its own: not measured as a whole
+    assert values['part'] == {'part/verdict': 0.0, 'part/complete': 1.0,
+                              'part/straightness_um': 10.5, 'part/bow_um': 5.25}

@@ -27,6 +27,7 @@ from cam_design.errors import InputError, require_positive
 from cam_metrology.cores.contract import merged_parameters
 from cam_metrology.host.heap import trim
 from cam_metrology.report.json_out import json_safe
+from cam_metrology.scene.channels import joints_in_force
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_keyway, analyze_lobe, analyze_pin,
                                               seen_lift)
@@ -115,9 +116,11 @@ class MetrologyCore:
         'idle_timeout': (0.0, 'seconds without samples that end a feature (0: the '
                               "scene's idle_timeout)"),
         'angle_joint': (wt.CAMSHAFT_JOINT, 'name of the joint whose position is the '
-                                           'camshaft encoder angle [rad]'),
+                                           'camshaft encoder angle [rad] (the default: '
+                                           "the scene's channels.angle_joint if given)"),
         'lift_joint': (wt.PROBE_JOINT, 'name of the joint whose position is the probe '
-                                       'lift [m]'),
+                                       "lift [m] (the default: the scene's "
+                                       'channels.lift_joint if given)'),
         'feature_id': ('', "the feature of every sample ('': the message's "
                            'header.frame_id); for a bench whose frame_id is not the '
                            'feature, e.g. a ros2_control joint_state_broadcaster'),
@@ -130,7 +133,10 @@ class MetrologyCore:
         self.idle_timeout_param = require_positive('metrology.idle_timeout',
                                                    params.get('idle_timeout', 0.0),
                                                    allow_zero=True)
-        self.joints = sample_joints(params)
+        #: the joint names of the parameters; ``joints``: those in force (the scene's
+        #: ``channels`` when the parameters keep the defaults)
+        self.joints_param = sample_joints(params)
+        self.joints = self.joints_param
         self.feature_id = str(params.get('feature_id', '') or '')
         self.scene: Any = None
         self.assembler = FeatureAssembler()
@@ -162,6 +168,7 @@ class MetrologyCore:
             if scene.camshaft_id != self.scene.camshaft_id and self.results:
                 out += self._end_part()
         self.scene = scene
+        self.joints = joints_in_force(self.joints_param, scene)
         self.scenes.append((int(stamp_ns), scene))
         self.report_sent, self._design = False, {}
         waiting, self.pending = self.pending, []
@@ -316,12 +323,16 @@ class MetrologyCore:
                 result.skipped.append(('form', form['form_error']))
             if scene.form.derivative_errors or (lobe.tolerances is not None and
                                                 lobe.tolerances.wants_derivatives()):
+                zones = lobe.tolerances.derivative_error_zones if lobe.tolerances else ()
                 result.values.update(derivative_errors(result.table, result.values,
-                                                       self._design[lobe.id]))
+                                                       self._design[lobe.id], zones))
             if track is not None:
                 result.values.update({'track_of': track[0], 'track_mm': track[1],
                                       'nose_lift_error_um': nose_lift_error_um(
                                           result.table, result.values)})
+            if lobe.axial_position is not None:
+                result.values['axial_position_mm'] = lobe.axial_position * 1e3 + (
+                    0.0 if track is None else track[1])
             return result
         except (FeatureFailed, InputError) as exc:
             return FeatureResult(fs.feature_id, kind, {'kind': kind, **counts},
@@ -479,16 +490,18 @@ class MetrologyCore:
         release(tables.values())   # the spilled tables read by the verdict
         tracked = {f.get('track_of') for f in features.values()} - {None}
         if tracked:
+            from cam_metrology.metrology.tolerances import judge_tracks
             from cam_metrology.metrology.tracks import taper_and_twist
             extra['lobe_tracks'] = {
                 lobe: taper_and_twist({fid: f for fid, f in features.items()
                                        if f.get('track_of') == lobe}) or
                 {'why': 'fewer than 2 tracks measured'} for lobe in sorted(tracked)}
-        if scene.journals:
-            from cam_metrology.metrology.journals import shaft_straightness
-            extra['shaft'] = shaft_straightness(
-                features, {j.id: j.axial_position for j in scene.journals}) or {
-                    'straightness_um': None, 'why': 'fewer than 3 journals measured'}
+            for lobe, entry in extra['lobe_tracks'].items():   # its checks, for the views
+                tol = next((x.tolerances for x in scene.lobes if x.id == lobe), None)
+                entry['verdict'] = judge_tracks(tol, lobe, features)
+        if scene.journals or any(lobe.axial_position is not None for lobe in scene.lobes):
+            from cam_metrology.metrology.journals import feature_positions, shaft_straightness
+            extra['shaft'] = shaft_straightness(features, *feature_positions(scene, features))
         return json_safe({
             'camshaft_id': scene.camshaft_id,
             'verdict': verdict,

@@ -12,15 +12,20 @@ errors, reported where the design lift is above 0 (the lobe, ramps included: an 
 the start of a stroke shows where it is, ``at_deg``). Smoothing the error, not the lift,
 keeps the design's own acceleration steps (ramp ends) out of it: a spline cannot follow a
 step of h'' and would report half of it as an error.
+
+Angle zones (``tolerances.derivative_error_zones``, cam deg from the lobe centreline):
+the same curves' statistics over the bins inside each zone (the base-circle margin
+included), and, per quantity, over the lobe outside the zones that set a limit for it
+(where the lobe's own maximum applies, as the lift-error zones do).
 """
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from cam_metrology.metrology.lift_error import feature_referenced
+from cam_metrology.metrology.lift_error import referenced_rows
 
 #: bin width [deg] of the table before the spline (7200 bins a revolution at most)
 BIN_DEG = 0.05
@@ -39,24 +44,54 @@ def _binned(alpha: Any, lift: Any) -> tuple[Any, Any]:
     return a, h
 
 
-def _stats(grid: Any, err: Any, scale: float) -> dict[str, float]:
-    """Largest |err| (times ``scale``), its cam angle [deg], and the RMS."""
+def _stats(grid: Any, err: Any, scale: float) -> dict[str, float] | None:
+    """Largest |err| (times ``scale``), its cam angle [deg], and the RMS; None for no
+    points."""
+    if grid.size == 0:
+        return None
     k = int(np.argmax(np.abs(err)))
     return {'max_abs': float(abs(err[k]) * scale), 'at_deg': float(np.degrees(grid[k])),
             'rms': float(np.sqrt(np.mean(err ** 2)) * scale)}
 
 
+VELOCITY, ACCELERATION = 'velocity_error_mm_per_rad', 'acceleration_error_mm_per_rad2'
+#: report field -> the limit's attribute on a zone (scene.model.DerivativeZone)
+ZONE_LIMITS = {VELOCITY: 'velocity_max_mm_per_rad', ACCELERATION: 'acceleration_max_mm_per_rad2'}
+
+
+def _zone_stats(a: Any, curves: Mapping[str, Any], on: Any, zones: Sequence[Any]
+                ) -> dict[str, Any]:
+    """``derivative_error_zones`` (each zone's statistics of both curves over the bins
+    ``a`` [rad] inside it; None where it has none) and ``derivative_error_outside_zones``
+    (per quantity over the lobe bins ``on`` outside the zones that limit it)."""
+    deg = np.degrees(a)
+    rows, outside = [], {}
+    for z in zones:
+        sel = (deg >= z.from_deg) & (deg <= z.to_deg)
+        rows.append({'from_deg': z.from_deg, 'to_deg': z.to_deg,
+                     **{q: _stats(a[sel], c[sel], MM) for q, c in curves.items()}})
+    for q, c in curves.items():
+        limited = [z for z in zones if getattr(z, ZONE_LIMITS[q]) is not None]
+        if limited:
+            sel = on.copy()
+            for z in limited:
+                sel &= (deg < z.from_deg) | (deg > z.to_deg)
+            outside[q] = _stats(a[sel], c[sel], MM)
+    return {'derivative_error_zones': rows, 'derivative_error_outside_zones': outside}
+
+
 def derivative_errors(table: Any, values: Mapping[str, Any],
-                      design: Callable[..., Any]) -> dict[str, Any]:
+                      design: Callable[..., Any], zones: Sequence[Any] = ()) -> dict[str, Any]:
     """``velocity_error_mm_per_rad`` and ``acceleration_error_mm_per_rad2``
     ({max_abs, at_deg, rms}) of a lobe's (alpha, measured, design) table against the
-    ``design`` law (as seen by the probe); ``derivative_error`` (the reason) when the
+    ``design`` law (as seen by the probe), and with ``zones`` (DerivativeZone) their
+    statistics by zone (module doc); ``derivative_error`` (the reason) when the
     reconstruction fails."""
     from scipy.interpolate import make_smoothing_spline
 
-    ref, good = feature_referenced(table, values)
-    alpha, nominal = ref[good, 0], ref[good, 2]
-    error = ref[good, 1] - nominal
+    rows = referenced_rows(table, values)
+    alpha, nominal = rows[:, 0], rows[:, 2]
+    error = rows[:, 1] - nominal
     on = np.flatnonzero(nominal > 0)
     if on.size < 10:
         return {'derivative_error': 'fewer than 10 samples on the lobe'}
@@ -67,9 +102,11 @@ def derivative_errors(table: Any, values: Mapping[str, Any],
         spline = make_smoothing_spline(a, e)
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         return {'derivative_error': f'smoothing of the lift error failed: {exc}'}
-    grid = a[np.asarray(design(a, 0)) > 0]
-    if grid.size < 3:
+    lobe = np.asarray(design(a, 0)) > 0
+    if np.count_nonzero(lobe) < 3:
         return {'derivative_error': 'fewer than 3 bins on the lobe'}
-    vel, acc = spline(grid, 1), spline(grid, 2)
-    return {'velocity_error_mm_per_rad': _stats(grid, vel, MM),
-            'acceleration_error_mm_per_rad2': _stats(grid, acc, MM)}
+    curves = {VELOCITY: spline(a, 1), ACCELERATION: spline(a, 2)}
+    out: dict[str, Any] = {q: _stats(a[lobe], c[lobe], MM) for q, c in curves.items()}
+    if zones:
+        out.update(_zone_stats(a, curves, lobe, zones))
+    return out

@@ -1,5 +1,6 @@
 """Journals (bearing seats) of a camshaft as measured features, and the straightness of
-the shaft from their run-out (pure numerics, no rclpy; docs/metrology.md "Journals").
+the shaft from their and the lobes' base-circle run-out (pure numerics, no rclpy;
+docs/metrology.md "Journals").
 
 A journal is measured like a lobe: the probe reading ``s`` [m] against the encoder angle
 ``theta`` [rad] over the revolution. Its reading is fitted as
@@ -9,11 +10,14 @@ axis of rotation (the datum axis of the bench's centres): run-out TIR = 2 sqrt(a
 and ``form`` what ``form.analyze_form`` reports (harmonics, roundness about the
 least-squares circle, waviness).
 
-Straightness ("cam bent"): the journals' centres (a_i, b_i) at their axial positions z_i,
-fitted by a straight line in space (a and b each linear in z, least squares); the
-straightness is twice the largest distance of a centre from that line (the diameter of
-the smallest coaxial cylinder about the line that holds every centre), and the bow its
-largest deviation with its direction (encoder angle).
+Straightness ("cam bent"): the centres (a_i, b_i) of the journals and of the lobes' base
+circles (a lobe's from its base-circle samples alone, fitted the same way; lobes with a
+scene ``axial_position``) at their axial positions z_i, fitted by a straight line in space
+(a and b each linear in z, least squares); the straightness is twice the largest
+distance of a centre from that line (the diameter of the smallest coaxial cylinder about
+the line that holds every centre), and the bow its largest deviation with its direction
+(encoder angle). A base circle ground off-centre on its lobe shows as a bend there: the
+gauge sees the base circle's centre, not the shaft's.
 """
 from __future__ import annotations
 
@@ -76,14 +80,64 @@ def straightness(positions: Sequence[float], eccentricities: Sequence[Sequence[f
             'features': int(z.size)}
 
 
+#: the eccentricity field of each kind of feature [um]: a journal's whole circle, a
+#: lobe's (or track's) base circle
+ECCENTRICITY = {'journal': 'eccentricity_um', 'lobe': 'base_circle_eccentricity_um'}
+
+
+def feature_positions(scene: Any, features: Mapping[str, Mapping[str, Any]]
+                      ) -> tuple[dict[str, float], list[dict[str, str]]]:
+    """({feature id: axial position [m]}, notes of the lobes left out) for the
+    straightness: every journal; every lobe with an ``axial_position`` and each of its
+    tracks (``<lobe>@<z mm>`` at the lobe's position + z); a lobe without one is left out
+    with a note."""
+    positions = {j.id: j.axial_position for j in scene.journals}
+    notes: list[dict[str, str]] = []
+    for lobe in scene.lobes:
+        if lobe.axial_position is None:
+            notes.append({'feature': lobe.id, 'why': 'no axial_position in the scene'})
+            continue
+        tracks = {fid: lobe.axial_position + float(f['track_mm']) * 1e-3
+                  for fid, f in features.items()
+                  if f.get('track_of') == lobe.id and f.get('track_mm') is not None}
+        if lobe.id in features or not tracks:
+            positions[lobe.id] = lobe.axial_position
+        positions.update(tracks)
+    return positions, notes
+
+
+def _eccentricity(feature: Mapping[str, Any] | None) -> tuple[Any, str | None]:
+    """(eccentricity vector [um] or None, why it is missing)."""
+    if feature is None:
+        return None, 'not measured'
+    if feature.get('status') != 'ok':
+        return None, f"feature {feature.get('status')}: {feature.get('reason', '')}".strip()
+    value = feature.get(ECCENTRICITY.get(feature.get('kind', ''), ''))
+    if value is None:
+        return None, ('fewer than 10 base-circle samples: no base-circle centre'
+                      if feature.get('kind') == 'lobe' else 'no eccentricity')
+    return value, None
+
+
 def shaft_straightness(features: Mapping[str, Mapping[str, Any]],
-                       positions: Mapping[str, float]) -> dict[str, Any] | None:
-    """``straightness`` of the measured journals (status ok, with an eccentricity) at
-    their scene ``positions`` [m], with the journal ids used."""
-    ids = [f for f in positions if (features.get(f) or {}).get('status') == 'ok'
-           and features[f].get('eccentricity_um') is not None]
-    out = straightness([positions[f] for f in ids],
-                       [features[f]['eccentricity_um'] for f in ids])
-    if out is not None:
-        out['from'] = ids
+                       positions: Mapping[str, float],
+                       notes: Sequence[Mapping[str, str]] = ()) -> dict[str, Any]:
+    """``straightness`` of the measured journals and lobes (their eccentricity vectors,
+    ``ECCENTRICITY``) at their axial ``positions`` [m], with the ids used (``from``) and
+    the features left out with the reason (``left_out``, after ``notes``);
+    ``straightness_um`` None (and ``why``) with fewer than 3."""
+    left_out = [dict(n) for n in notes]
+    ids, centres = [], []
+    for fid in sorted(positions, key=lambda f: positions[f]):
+        value, why = _eccentricity(features.get(fid))
+        if why is not None:
+            left_out.append({'feature': fid, 'why': why})
+        else:
+            ids.append(fid)
+            centres.append(value)
+    out = straightness([positions[f] for f in ids], centres) or {
+        'straightness_um': None,
+        'why': f'fewer than 3 journals or lobes with a centre ({len(ids)})'}
+    out['from'] = ids
+    out['left_out'] = left_out
     return out

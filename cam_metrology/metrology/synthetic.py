@@ -150,3 +150,19 @@ def sample_keyway(keyway: KeywayGeometry, centre: float, direction: int = 1, *,
         noise * rng.standard_normal(theta.size)
     stamps = (np.arange(theta.size) * (1e9 / rate_hz)).astype(np.int64)
     return Samples(theta, s, stamps)
+
+
+def bumped_lobe_table(law: LiftLaw, bump: float, centre: float, width: float, *,
+                      n_per_rev: int = 7200, noise: float = 0.0, seed: int = 0
+                      ) -> NDArray[np.float64]:
+    """A lobe's lift table (alpha, measured, design) [rad, m, m] over one revolution whose
+    measured lift carries the local form error ``bump sin^4(pi u)``, u = (alpha -
+    centre) / width + 1/2 in [0, 1] (C3: its derivatives vanish at both ends; largest
+    |e'| (3 sqrt3 / 4) bump pi / width, largest |e''| 4 bump (pi / width)^2 at
+    ``centre``), plus seeded Gaussian noise [m]."""
+    alpha = np.linspace(-np.pi, np.pi, n_per_rev, endpoint=False)
+    design = law(alpha)
+    u = (alpha - centre) / width + 0.5
+    error = np.where((u >= 0) & (u <= 1), bump * np.sin(np.pi * u) ** 4, 0.0)
+    error += np.random.default_rng(seed).normal(0.0, noise, alpha.size)
+    return np.column_stack([alpha, design + error, design])

@@ -25,7 +25,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from cam_metrology.metrology.lift_error import feature_referenced
+from cam_metrology.metrology.lift_error import referenced_rows
 from cam_metrology.scene.model import Band, Scene, Tolerances
 
 __all__ = ['check', 'judge_lobe', 'judge_datum', 'judge_part', 'PASS', 'FAIL', 'NOT_CHECKED']
@@ -119,15 +119,17 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
         why = f"feature {feature.get('status', 'missing')}: {feature.get('reason', '')}"
         names = [n for n in ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um',
                              'runout_max_um', 'duration_deg', 'roundness_max_um',
-                             'waviness_max_um')
-                 if getattr(tol, n) is not None]
+                             'waviness_max_um', 'velocity_error_max_mm_per_rad',
+                             'acceleration_error_max_mm_per_rad2', 'lift_error_zones',
+                             'derivative_error_zones')
+                 if getattr(tol, n) not in (None, ())]
         return _verdict([], [_not(n, why.strip().rstrip(':')) for n in names] or
-                        [_not('lift_error_zones', why)])
+                        [_not('*', why.strip().rstrip(':'))])
     checks: list[dict[str, Any]] = []
     missing: list[dict[str, str]] = []
     good = None
     if table is not None:
-        table, good = feature_referenced(table, feature)
+        table = referenced_rows(table, feature)   # the rows kept: good = all
     _lift_error_checks(tol, table, good, checks, missing)
     if tol.phase_deg is not None:
         value = feature.get('phase_error_deg')
@@ -154,8 +156,8 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
                     missing.append(_not(n, 'no lift table or design for this feature'))
         else:
             # the two columns the checks read (not a copy of the whole table: memory)
-            alpha, lift = table[good, 0], table[good, 1]
-            del table, good
+            alpha, lift = table[:, 0].copy(), table[:, 1].copy()
+            del table
             _table_checks(tol, alpha, lift, design, checks, missing)
     return _verdict(checks, missing)
 
@@ -181,15 +183,37 @@ def _form_checks(tol: Tolerances, feature: Mapping[str, Any], checks: list[dict[
 
 def _derivative_checks(tol: Tolerances, feature: Mapping[str, Any],
                        checks: list[dict[str, Any]], missing: list[dict[str, str]]) -> None:
-    """Largest |velocity| and |acceleration| error on the lobe (maxima only)."""
+    """Largest |velocity| and |acceleration| error (maxima only): in each angle zone that
+    limits it against the zone's maximum, and on the rest of the lobe (the whole lobe
+    without such zones) against the lobe's own."""
+    from cam_metrology.metrology.derivative_error import ZONE_LIMITS
+
     why = feature.get('derivative_error') or 'no velocity/acceleration error computed'
+    zone_stats = feature.get('derivative_error_zones') or []
+    outside = feature.get('derivative_error_outside_zones') or {}
     for name, limit, unit in (('velocity_error_mm_per_rad', tol.velocity_error_max_mm_per_rad,
                                'mm/rad'),
                               ('acceleration_error_mm_per_rad2',
                                tol.acceleration_error_max_mm_per_rad2, 'mm/rad2')):
+        zoned = False
+        for z in tol.derivative_error_zones:
+            zmax = getattr(z, ZONE_LIMITS[name])
+            if zmax is None:
+                continue
+            zoned = True
+            label = f'{name}[{z.from_deg:g}..{z.to_deg:g} deg]'
+            stats = next((s.get(name) for s in zone_stats
+                          if (s['from_deg'], s['to_deg']) == (z.from_deg, z.to_deg)), None)
+            if stats is None:
+                missing.append(_not(label, why if 'derivative_error' in feature or
+                                    not zone_stats else 'no samples in this zone'))
+            else:
+                checks.append(check(label, stats['max_abs'], (None, zmax), unit))
         if limit is None:
             continue
-        value = (feature.get(name) or {}).get('max_abs')
+        value = ((outside.get(name) if zoned else feature.get(name)) or {}).get('max_abs')
+        if value is None and zoned and name in outside:
+            continue   # the zones cover the whole lobe: nothing left for the lobe's maximum
         if value is None:
             missing.append(_not(name, why))
         else:

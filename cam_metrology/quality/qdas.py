@@ -44,6 +44,10 @@ CHARACTERISTICS: dict[str, tuple[str, str | None]] = {
     'velocity_error_mm_per_rad.max_abs': ('mm/rad', 'velocity_error_mm_per_rad'),
     'acceleration_error_mm_per_rad2.max_abs': ('mm/rad2', 'acceleration_error_mm_per_rad2'),
 }
+#: check quantity -> how its angle zones' checks begin (tolerances.md)
+ZONED = {'lift_error_max_plus_um': 'lift_error_um[', 'lift_error_max_minus_um': 'lift_error_um[',
+         'velocity_error_mm_per_rad': 'velocity_error_mm_per_rad[',
+         'acceleration_error_mm_per_rad2': 'acceleration_error_mm_per_rad2['}
 
 
 def _number(value: Any) -> float | None:
@@ -59,13 +63,19 @@ def _number(value: Any) -> float | None:
 
 def _limits(row: dict[str, Any], quantity: str | None) -> tuple[float | None, float | None]:
     """(lower, upper) the row's verdict checked ``quantity`` against ((None, None) when
-    it was not checked)."""
+    it was not checked, or when the quantity also has angle zones: the whole-lobe value
+    the file carries then has no one limit, the check covering only the lobe outside
+    the zones)."""
     if quantity is None:
         return None, None
     raw = row.get('verdict.checks')
     try:
         checks = json.loads(raw) if isinstance(raw, str) else (raw or [])
     except ValueError:
+        return None, None
+    zoned = ZONED.get(quantity)
+    if zoned and any(isinstance(c, dict) and str(c.get('quantity', '')).startswith(zoned)
+                     for c in checks):
         return None, None
     for c in checks:
         if isinstance(c, dict) and c.get('quantity') == quantity:

@@ -10,10 +10,13 @@ No script, no style sheet or image from the network: the file opens offline.
 from __future__ import annotations
 
 import base64
-import html
 import io
 from typing import Any, Mapping
 
+from cam_metrology.report.form_html import form_html
+from cam_metrology.report.html_cells import esc as _e
+from cam_metrology.report.html_cells import number as _n
+from cam_metrology.report.html_cells import result_class as _cls
 
 __all__ = ['html_report', 'csv_text', 'card_lines', 'CSV_COLUMNS']
 
@@ -34,20 +37,8 @@ img{max-width:100%;border:1px solid #ddd}
 """
 
 
-def _e(x: Any) -> str:
-    return html.escape(str(x))
-
-
-def _n(x: Any, spec: str) -> str:
-    return '-' if x is None else format(x, spec)
-
-
 def _unit(unit: str) -> str:
     return 'µm' if unit == 'um' else unit
-
-
-def _cls(result: str | None) -> str:
-    return {'pass': 'pass', 'fail': 'fail'}.get(result or '', 'nc')
 
 
 def _png(fig: Any) -> str:
@@ -200,7 +191,8 @@ def html_report(report: Mapping[str, Any], tables: Mapping[str, Any],
              f'<title>{_e(title)}</title><style>{_STYLE}</style></head><body>',
              f'<h1>{_e(title)}</h1>', '<h2>Verdict</h2>', _verdict_html(report),
              '<h2>Cam card</h2>', _card_html(report), _crank_html(report),
-             '<h2>Results</h2>', _results_html(report), '<h2>Plots</h2>']
+             '<h2>Results</h2>', _results_html(report), form_html(report),
+             '<h2>Plots</h2>']
     features = report.get('features') or {}
     for fid, table in tables.items():
         fig = feature_figure(fid, table, features.get(fid) or {})

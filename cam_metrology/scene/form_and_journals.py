@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any, Callable, Mapping
 
 from cam_design.errors import InputError, require_finite, require_length, require_positive
-from cam_metrology.scene.model import FormSettings, Journal, Tolerances
+from cam_metrology.scene.model import DerivativeZone, FormSettings, Journal, Tolerances
 
 #: highest cut-off or band edge a scene may ask for [UPR] (a 0.01 deg encoder resolves 18 000)
 MAX_UPR = 18_000
@@ -75,13 +75,19 @@ def parse_journals(value: Any, mapping: Callable[[str, Any, tuple[str, ...]], Ma
         if j.get('axial_position') is None:
             raise InputError(f'{key}.axial_position', None, 'the axial position along the '
                              'shaft in m (the same origin for every feature)')
-        z = require_finite(f'{key}.axial_position', j['axial_position'])
-        if abs(z) > GEOMETRY_MAX_M:
-            raise InputError(f'{key}.axial_position', z, f'a position in m within '
-                             f'+-{GEOMETRY_MAX_M:g} (millimetres given?)')
+        z = parse_axial_position(f'{key}.axial_position', j['axial_position'])
         tol, diameter = _tolerances(f'{key}.tolerances', j.get('tolerances'), mapping, band)
         out.append(Journal(jid, radius, z, tol, diameter))
     return tuple(out)
+
+
+def parse_axial_position(key: str, value: Any) -> float:
+    """An axial position along the shaft [m] (journals and lobes, one origin)."""
+    z = require_finite(key, value)
+    if abs(z) > GEOMETRY_MAX_M:
+        raise InputError(key, z, f'a position in m within +-{GEOMETRY_MAX_M:g} '
+                         '(millimetres given?)')
+    return z
 
 
 def _tolerances(key: str, value: Any, mapping: Callable[..., Mapping],
@@ -102,6 +108,60 @@ def _tolerances(key: str, value: Any, mapping: Callable[..., Mapping],
     diameter = band(f'{key}.diameter_um', block['diameter_um']) \
         if 'diameter_um' in block else None
     return (tol if tol.any() else None), diameter
+
+
+def zone_span(key: str, zone: Mapping[str, Any], expected: str) -> tuple[float, float]:
+    """(from_deg, to_deg) of one angle zone ``key``: both present (else InputError with
+    ``expected``), finite, from < to within [-180, 180] cam deg."""
+    for part in ('from_deg', 'to_deg'):
+        if part not in zone:
+            raise InputError(f'{key}.{part}', None, expected)
+    lo = require_finite(f'{key}.from_deg', zone['from_deg'])
+    hi = require_finite(f'{key}.to_deg', zone['to_deg'])
+    if not -180.0 <= lo < hi <= 180.0:
+        raise InputError(f'{key}.to_deg', hi, f'an angle > from_deg ({lo:g}) within '
+                         '[-180, 180] deg')
+    return lo, hi
+
+
+def check_no_overlap(key: str, spans: list[tuple[float, float]]) -> None:
+    """InputError naming ``key`` when two angle spans (from_deg, to_deg) overlap."""
+    ordered = sorted(spans)
+    for (a0, a1), (b0, b1) in zip(ordered, ordered[1:]):
+        if b0 < a1:
+            raise InputError(key, f'zones {a0:g}..{a1:g} and {b0:g}..{b1:g} deg overlap',
+                             'zones that do not overlap (two limits for one angle '
+                             'contradict each other)')
+
+
+DERIVATIVE_ZONE_KEYS = ('from_deg', 'to_deg', 'velocity_max_mm_per_rad',
+                        'acceleration_max_mm_per_rad2')
+
+
+def parse_derivative_zones(key: str, value: Any,
+                           mapping: Callable[[str, Any, tuple[str, ...]], Mapping]
+                           ) -> tuple[DerivativeZone, ...]:
+    """``tolerances.derivative_error_zones``: a list of {from_deg, to_deg,
+    velocity_max_mm_per_rad, acceleration_max_mm_per_rad2} (at least one of the two
+    maxima, >= 0), in cam deg from the lobe centreline within [-180, 180], not
+    overlapping."""
+    if not isinstance(value, list) or not value:
+        raise InputError(key, value, 'a list of {from_deg, to_deg, velocity_max_mm_per_rad, '
+                         'acceleration_max_mm_per_rad2}')
+    zones = []
+    for j, item in enumerate(value):
+        zk = f'{key}[{j}]'
+        z = mapping(zk, item, DERIVATIVE_ZONE_KEYS)
+        lo, hi = zone_span(zk, z, 'a cam angle in deg from the lobe centreline (from_deg < '
+                           'to_deg)')
+        limits = [require_positive(f'{zk}.{k}', z[k], allow_zero=True) if k in z else None
+                  for k in DERIVATIVE_ZONE_KEYS[2:]]
+        if all(v is None for v in limits):
+            raise InputError(f'{zk}.velocity_max_mm_per_rad', None, 'a velocity_max_mm_per_rad '
+                             'or acceleration_max_mm_per_rad2 for this zone')
+        zones.append(DerivativeZone(lo, hi, *limits))
+    check_no_overlap(key, [(z.from_deg, z.to_deg) for z in zones])
+    return tuple(sorted(zones, key=lambda zz: zz.from_deg))
 
 
 def parse_zero_radius(value: Any) -> float | None:

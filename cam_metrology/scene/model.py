@@ -12,9 +12,11 @@ from typing import Any
 
 from cam_design.follower import Follower
 from cam_design.lift_laws import LiftLaw
+from cam_metrology.scene.channels import Channels
 
 __all__ = ['Follower', 'FormSettings', 'Journal', 'Lobe', 'DowelPin', 'Keyway', 'Crank',
-           'Seat', 'ValveTrain', 'Scene', 'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances']
+           'Seat', 'ValveTrain', 'Scene', 'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances',
+           'DerivativeZone']
 COMPUTE_ITEMS = ('nose', 'pin', 'asymmetry', 'reconstruction', 'dynamics')
 
 
@@ -30,6 +32,18 @@ class ToleranceZone:
     from_deg: float
     to_deg: float
     band_um: Band
+
+
+@dataclass(frozen=True)
+class DerivativeZone:
+    """Velocity and acceleration error maxima (None: the lobe's own maximum applies)
+    over the cam angles ``from_deg``..``to_deg`` (from the lobe centreline, rise flank
+    negative)."""
+
+    from_deg: float
+    to_deg: float
+    velocity_max_mm_per_rad: float | None = None
+    acceleration_max_mm_per_rad2: float | None = None
 
 
 @dataclass(frozen=True)
@@ -53,6 +67,7 @@ class Tolerances:
     twist_max_deg: float | None = None         # |nose-angle difference, outer tracks|
     velocity_error_max_mm_per_rad: float | None = None        # |h' measured - design|
     acceleration_error_max_mm_per_rad2: float | None = None   # |h'' measured - design|
+    derivative_error_zones: tuple[DerivativeZone, ...] = ()   # their limits by angle zone
 
     def any(self) -> bool:
         """True if at least one limit is set."""
@@ -61,12 +76,14 @@ class Tolerances:
                   self.roundness_max_um, self.waviness_max_um, self.taper_max_um_per_mm,
                   self.twist_max_deg, self.velocity_error_max_mm_per_rad,
                   self.acceleration_error_max_mm_per_rad2)
-        return any(v is not None for v in limits) or bool(self.lift_error_zones)
+        return any(v is not None for v in limits) or bool(self.lift_error_zones) or \
+            bool(self.derivative_error_zones)
 
     def wants_derivatives(self) -> bool:
         """True if a velocity or acceleration error limit is set."""
         return self.velocity_error_max_mm_per_rad is not None or \
-            self.acceleration_error_max_mm_per_rad2 is not None
+            self.acceleration_error_max_mm_per_rad2 is not None or \
+            bool(self.derivative_error_zones)
 
 
 @dataclass(frozen=True)
@@ -93,6 +110,7 @@ class Lobe:
     role: str | None = None                   # 'intake' | 'exhaust' (crank events)
     cylinder: str = '1'                       # cylinder the lobe serves (crank datum)
     nominal_file: str | None = None           # gauge file the design came from (resolved)
+    axial_position: float | None = None       # m along the shaft (journals' origin)
 
 
 @dataclass(frozen=True)
@@ -196,6 +214,7 @@ class Scene:
     form: FormSettings = field(default_factory=FormSettings)
     journals: tuple[Journal, ...] = ()
     probe_zero_radius: float | None = None    # m, radius at which the probe reads 0
+    channels: Channels | None = None          # the bench's joint names (scene.channels)
 
     def journal(self, journal_id: str) -> Journal | None:
         """The journal with this id, or None."""

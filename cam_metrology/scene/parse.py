@@ -26,6 +26,8 @@ from cam_design.errors import InputError, require_finite, require_length, requir
 from cam_design.lift_laws import LiftLaw
 from cam_design.lift_laws.base import check_design_table
 from cam_metrology.inputs.files import read_text_file
+from cam_metrology.scene.form_and_journals import (check_no_overlap, parse_axial_position,
+                                                   parse_derivative_zones, zone_span)
 from cam_metrology.scene.model import (COMPUTE_ITEMS, Band, Crank, DowelPin, Follower, Keyway,
                                        Lobe, Scene, Seat, ToleranceZone, Tolerances, ValveTrain)
 
@@ -34,20 +36,21 @@ __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
             'dowel_pin', 'keyway', 'crank', 'compute', 'valve_train', 'idle_timeout',
             'tolerances', 'part_id', 'operator', 'trial', 'camshaft', 'form', 'journals',
-            'rig')
+            'rig', 'channels')
 #: top-level keys of a gauge R&R study (carried into the report and the batch table)
 STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
 FOLLOWER_KINDS = ('flat', 'roller', 'knife')
 LOBE_KEYS = ('id', 'nominal_phase', 'follower', 'follower_radius', 'lift', 'lift_law',
-             'width', 'tolerances', 'role', 'cylinder', 'nominal_file')
+             'width', 'tolerances', 'role', 'cylinder', 'nominal_file', 'axial_position')
 #: tolerance keys of a lobe (units in the names); the top-level block adds datum_deg
 TOL_BANDS = ('lift_error_um', 'centreline_deg', 'phase_deg', 'max_lift_um', 'duration_deg')
 #: tolerance keys that are a maximum only (>= 0)
 TOL_MAXIMA = ('runout_max_um', 'roundness_max_um', 'waviness_max_um', 'taper_max_um_per_mm',
               'twist_max_deg', 'velocity_error_max_mm_per_rad',
               'acceleration_error_max_mm_per_rad2')
-TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm') + TOL_MAXIMA
+TOL_KEYS = TOL_BANDS + ('lift_error_zones', 'checking_height_mm', 'derivative_error_zones') + \
+    TOL_MAXIMA
 PIN_KEYS = ('pin_radius', 'circle_radius', 'probe_radius', 'nominal_angle')
 KEYWAY_KEYS = ('width', 'shaft_radius', 'probe_radius', 'depth', 'nominal_angle')
 CRANK_KEYS = ('tdc_deg', 'cylinder_tdc_deg')
@@ -210,12 +213,14 @@ def _parse_document(text: str, source: str, base_dir: str | Path | None) -> Scen
     journals = parse_journals(top.get('journals'), ctx.mapping,
                               {lobe.id for lobe in lobes} | set(DATUM_IDS), _band)
     zero_radius = parse_zero_radius(top['probe'].get('zero_radius'))
+    from cam_metrology.scene.channels import parse_channels
+    channels = parse_channels(top.get('channels'), ctx.mapping)
     return Scene(camshaft_id=camshaft_id, direction=direction, probe=probe,
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
                  crank=crank, study=study, camshaft=shaft, form=form, journals=journals,
-                 probe_zero_radius=zero_radius)
+                 probe_zero_radius=zero_radius, channels=channels)
 
 
 def _camshaft(block: Any, lobes: list[Lobe]) -> Any:
@@ -323,11 +328,12 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
                              else None, 'exactly one of lift (alpha/h table), lift_law or '
                              'nominal_file')
         nominal_path = None
+        law: LiftLaw
         if has_file:
             law, follower, nominal_path = _nominal_file(ctx, key, lobe, follower)
             spec = None
         elif has_table:
-            law: LiftLaw = _lift_table(ctx, f'{key}.lift', lobe['lift'])
+            law = _lift_table(ctx, f'{key}.lift', lobe['lift'])
             spec = None
         else:
             if not isinstance(lobe['lift_law'], Mapping):
@@ -340,6 +346,9 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         width = lobe.get('width')
         if width is not None:
             width = require_length(f'{key}.width', width, GEOMETRY_MAX_M)
+        z = lobe.get('axial_position')
+        if z is not None:
+            z = parse_axial_position(f'{key}.axial_position', z)
         tol = _lobe_tolerances(ctx, key, lobe.get('tolerances'), defaults or {}, law, phase)
         role = lobe.get('role')
         if role is not None and role not in ('intake', 'exhaust'):
@@ -347,7 +356,7 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
         cylinder = _text(f'{key}.cylinder', lobe.get('cylinder', 1))
         lobes.append(Lobe(id=lobe_id, follower=follower, lift=law, nominal_phase=phase,
                           lift_spec=spec, width=width, tolerances=tol, role=role,
-                          cylinder=cylinder, nominal_file=nominal_path))
+                          cylinder=cylinder, nominal_file=nominal_path, axial_position=z))
     return lobes
 
 
@@ -740,23 +749,14 @@ def _zones(ctx: _Ctx, key: str, value: Any) -> tuple[ToleranceZone, ...]:
     for j, item in enumerate(value):
         zk = f'{key}[{j}]'
         z = ctx.mapping(zk, item, ('from_deg', 'to_deg', 'band_um'))
-        for part in ('from_deg', 'to_deg', 'band_um'):
-            if part not in z:
-                raise InputError(f'{zk}.{part}', None, 'a value (from_deg < to_deg in cam '
-                                 'deg from the lobe centreline, band_um t or [lower, upper])')
-        lo = require_finite(f'{zk}.from_deg', z['from_deg'])
-        hi = require_finite(f'{zk}.to_deg', z['to_deg'])
-        if not -180.0 <= lo < hi <= 180.0:
-            raise InputError(f'{zk}.to_deg', hi, f'an angle > from_deg ({lo:g}) within '
-                             '[-180, 180] deg')
+        expected = ('a value (from_deg < to_deg in cam deg from the lobe centreline, band_um '
+                    't or [lower, upper])')
+        if 'band_um' not in z and 'from_deg' in z and 'to_deg' in z:
+            raise InputError(f'{zk}.band_um', None, expected)
+        lo, hi = zone_span(zk, z, expected)
         zones.append(ToleranceZone(lo, hi, _band(f'{zk}.band_um', z['band_um'])))
-    ordered = sorted(zones, key=lambda zz: zz.from_deg)
-    for a, b in zip(ordered, ordered[1:]):
-        if b.from_deg < a.to_deg:
-            raise InputError(key, f'zones {a.from_deg:g}..{a.to_deg:g} and {b.from_deg:g}..'
-                             f'{b.to_deg:g} deg overlap', 'zones that do not overlap (two '
-                             'bands for one angle contradict each other)')
-    return tuple(ordered)
+    check_no_overlap(key, [(z.from_deg, z.to_deg) for z in zones])
+    return tuple(sorted(zones, key=lambda zz: zz.from_deg))
 
 
 def _tolerance_block(ctx: _Ctx, key: str, value: Any, known: tuple[str, ...]
@@ -772,6 +772,9 @@ def _tolerance_block(ctx: _Ctx, key: str, value: Any, known: tuple[str, ...]
     if 'lift_error_zones' in block:
         out['lift_error_zones'] = _zones(ctx, f'{key}.lift_error_zones',
                                          block['lift_error_zones'])
+    if 'derivative_error_zones' in block:
+        out['derivative_error_zones'] = parse_derivative_zones(
+            f'{key}.derivative_error_zones', block['derivative_error_zones'], ctx.mapping)
     for k in TOL_MAXIMA:
         if k in block:
             out[k] = require_positive(f'{key}.{k}', block[k], allow_zero=True)

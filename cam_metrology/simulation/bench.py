@@ -97,7 +97,8 @@ class SimParams:
     journal_lobes: int = _doc(0, 'journals: lobing of this many UPR (3: a 3-lobed journal; '
                               '0: round)')
     journal_lobing: float = _doc(0.0, 'm, amplitude of the journals\' lobing')
-    bend: float = _doc(0.0, 'm, bow of a bent shaft: eccentricity of the journals '
+    bend: float = _doc(0.0, 'm, bow of a bent shaft: eccentricity of the journals (and of '
+                       'the lobes with an axial_position) '
                        'bend * sin(pi (z - z_first) / (z_last - z_first)) along the axis')
     bend_direction_deg: float = _doc(0.0, 'encoder angle [deg] of the bow\'s direction')
     lobe_tracks_mm: tuple[float, ...] | None = _doc(
@@ -314,6 +315,7 @@ def simulate(scene: Scene, params: SimParams | None = None) -> BenchRun:
             s = zero + (law(alpha) if scale == 1.0 else scale * law(alpha))
             if params.chatter_upr and params.chatter_amplitude:
                 s = s + chatter(theta_true, alpha, params)
+            s = s + bow_reading(scene, base_id, theta_true, params)
         elif kind == 'journal':
             s = zero + journal_reading(scene, fid, theta_true, params)
         elif kind == KEYWAY:
@@ -358,14 +360,26 @@ def tapered(law: Callable[..., Any], z_mm: float, params: SimParams) -> Callable
     return lambda a: factor * law(wrap_pi(np.asarray(a) - shift))
 
 
-def bow(scene: Scene, journal_id: str, params: SimParams) -> float:
-    """Eccentricity [m] of a journal's centre on a bent shaft (``SimParams.bend``)."""
+def bow(scene: Scene, feature_id: str, params: SimParams) -> float:
+    """Eccentricity [m] of a feature's centre on a bent shaft (``SimParams.bend``): a
+    journal, or a lobe with an ``axial_position`` (0 without one), the half sine spanning
+    the journals."""
     z = [j.axial_position for j in scene.journals]
-    j = scene.journal(journal_id)
-    span = max(z) - min(z)
-    if not params.bend or span <= 0:
+    journal = scene.journal(feature_id)
+    at = journal.axial_position if journal is not None else \
+        scene.lobe(feature_id).axial_position
+    span = max(z) - min(z) if z else 0.0
+    if not params.bend or span <= 0 or at is None:
         return 0.0
-    return params.bend * math.sin(math.pi * (j.axial_position - min(z)) / span)
+    return params.bend * math.sin(math.pi * (at - min(z)) / span)
+
+
+def bow_reading(scene: Scene, feature_id: str, theta_true: NDArray[np.float64],
+                params: SimParams) -> NDArray[np.float64] | float:
+    """The bow's once-per-revolution reading [m] on a feature (towards
+    ``bend_direction_deg``; 0.0 on a straight shaft)."""
+    e = bow(scene, feature_id, params)
+    return e * np.cos(theta_true - math.radians(params.bend_direction_deg)) if e else 0.0
 
 
 def journal_reading(scene: Scene, journal_id: str, theta_true: NDArray[np.float64],
@@ -375,9 +389,7 @@ def journal_reading(scene: Scene, journal_id: str, theta_true: NDArray[np.float6
     ``bend_direction_deg``) and the lobing ``journal_lobing cos(journal_lobes theta)``."""
     j = scene.journal(journal_id)
     out = np.full(theta_true.size, j.radius - scene.base_circle_radius)
-    e = bow(scene, journal_id, params)
-    if e:
-        out += e * np.cos(theta_true - math.radians(params.bend_direction_deg))
+    out += bow_reading(scene, journal_id, theta_true, params)
     if params.journal_lobes and params.journal_lobing:
         out += params.journal_lobing * np.cos(int(params.journal_lobes) * theta_true)
     return out
@@ -430,6 +442,9 @@ def _truth(scene: Scene, params: SimParams, angles: dict[str, float],
     if not scene.journals:           # no journals: truth as before the options existed
         for k in ('journal_lobes', 'journal_lobing', 'bend', 'bend_direction_deg'):
             del p[k]
+    for lobe in scene.lobes:
+        if params.bend and lobe.axial_position is not None:
+            feats[lobe.id]['bow_m'] = bow(scene, lobe.id, params)
     for j in scene.journals:
         feats[j.id] = {'kind': 'journal', 'bow_m': bow(scene, j.id, params),
                        'probe_zero_radius_m': scene.base_circle_radius -

@@ -39,6 +39,7 @@ import numpy as np
 
 from cam_metrology.cores.outputs import Output, Status, StatusOutput, TableOutput, TextOutput
 from cam_metrology.wire.cdr import encode_named_values
+from cam_metrology.wire.form_values import SHAFT_VALUES, feature_form_values, form_value_names
 from cam_metrology.wire.layouts import encode_statuses
 from cam_metrology.wire.topics import (DIAGNOSTICS, DYNAMICS_MOTION, DYNAMICS_RESULT,
                                        JOINT_STATE, METROLOGY_LIFT, METROLOGY_REPORT,
@@ -123,13 +124,15 @@ def _curve(topic: str, out: TableOutput, stamp_ns: int) -> list[PlotMessage]:
 #: quantities of a feature on /metrology/values, in this order (NaN where they do not
 #: apply: a pin has no phase); ``ok`` 1 for a measured feature, 0 for a failed one;
 #: ``verdict`` 1 pass, 0 fail, NaN not checked; ``partial`` 1 when the feature was
-#: computed on partial data (lost samples, live), 0 otherwise
+#: computed on partial data (lost samples, live), 0 otherwise; then the form, journal and
+#: track numbers and their verdicts (``form_values``: appended, so earlier indices stay)
 VALUE_NAMES = ('angle_deg', 'angle_std_arcsec', 'phase_deg', 'phase_error_deg',
                'asymmetry_deg', 'lift_error_max_plus_um', 'lift_error_max_minus_um',
-               'lift_error_rms_um', 'ok', 'verdict', 'partial')
-#: frame of the part's own values (``part/verdict``, ``part/complete``)
+               'lift_error_rms_um', 'ok', 'verdict', 'partial') + form_value_names()
+#: frame of the part's own values (``part/verdict``, ``part/complete``, the shaft's
+#: straightness and bow [um])
 PART = 'part'
-PART_NAMES = ('verdict', 'complete')
+PART_NAMES = ('verdict', 'complete') + SHAFT_VALUES
 
 
 def _number(value: Any, factor: float = 1.0) -> float:
@@ -150,20 +153,29 @@ def report_values(report: dict[str, Any]) -> list[tuple[str, list[float]]]:
     report: the numbers a user plots across parts, one record per feature."""
     out = []
     features = report.get('features') or {}
-    for fid in sorted(features):
-        f = features[fid]
-        if not isinstance(f, dict):
-            continue
+    tracks = report.get('lobe_tracks') if isinstance(report.get('lobe_tracks'), dict) else {}
+    # a lobe measured on tracks only: its taper and twist on a record of its own
+    records = {fid: f for fid, f in features.items() if isinstance(f, dict)}
+    records.update({lobe: {} for lobe in tracks if lobe not in records})
+    for fid in sorted(records):
+        f = records[fid]
         err = f.get('lift_error_um') if isinstance(f.get('lift_error_um'), dict) else {}
-        out.append((str(fid), [
+        base = [
             _number(f.get('angle_deg')), _number(f.get('angle_std_deg'), 3600.0),
             _number(f.get('phase_deg')), _number(f.get('phase_error_deg')),
             _number(f.get('asymmetry_deg')), _number(err.get('max_plus')),
             _number(err.get('max_minus')), _number(err.get('rms')),
-            1.0 if f.get('status') == 'ok' else 0.0, _verdict_value(f.get('verdict')),
-            1.0 if f.get('partial') else 0.0]))
+            1.0 if f.get('status') == 'ok' else (math.nan if not f else 0.0),
+            _verdict_value(f.get('verdict')), 1.0 if f.get('partial') else 0.0]
+        form = feature_form_values(f, tracks.get(fid))
+        base += [_number(value) for _, value, _ in form]
+        base += [_verdict_value({'result': verdict}) for v, _, verdict in form
+                 if v.quantity is not None]
+        out.append((str(fid), base))
+    shaft = report.get('shaft') if isinstance(report.get('shaft'), dict) else {}
     out.append((PART, [_verdict_value(report.get('verdict')),
-                       1.0 if report.get('complete') else 0.0]))
+                       1.0 if report.get('complete') else 0.0] +
+                [_number(shaft.get(k)) for k in SHAFT_VALUES]))
     return out
 
 

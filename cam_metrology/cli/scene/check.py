@@ -125,4 +125,14 @@ def tolerance_text(tol: Any) -> str:
         parts.append(f'phase {_band(tol.phase_deg, "deg")}')
     if tol.runout_max_um is not None:
         parts.append(f'base-circle run-out <= {tol.runout_max_um:g} µm')
+    for name, limit, unit in (('velocity', tol.velocity_error_max_mm_per_rad, 'mm/rad'),
+                              ('acceleration', tol.acceleration_error_max_mm_per_rad2,
+                               'mm/rad²')):
+        if limit is not None:
+            parts.append(f'{name} error <= {limit:g} {unit}')
+    for z in tol.derivative_error_zones:
+        limits = [f'{name} error <= {v:g} {unit}' for name, v, unit in (
+            ('velocity', z.velocity_max_mm_per_rad, 'mm/rad'),
+            ('acceleration', z.acceleration_max_mm_per_rad2, 'mm/rad²')) if v is not None]
+        parts.append(f'{" and ".join(limits)} over {z.from_deg:g}..{z.to_deg:g} deg')
     return '; '.join(parts)
