@@ -135,15 +135,15 @@ def test_bag_of_blocks_without_valve_refused(sim, tmp_path, capsys):
     assert not (tmp_path / 'o.json').exists()
 
 
-def test_rig_core_takes_blocks_like_messages(sim):
-    """The rig node's core fed decoded blocks (``handle_samples``, the live path of the
-    adapter) publishes what it publishes for the same samples one per message."""
+def _core_statuses(folder, runs, extras):
+    """The rig node core's run statuses for the per-sample bag's messages (handle) and
+    for the runs' 700-sample blocks decoded in batches of 5 and handed to
+    ``handle_samples`` (the adapter's live path; ``extras``: with the valve velocity
+    and further joints): (per message, per block) by run name."""
     from cam_metrology.bagio import decode_joint_blocks, iter_messages
     from cam_metrology.cores.outputs import StatusOutput
     from cam_metrology.rig.core import RigCore
     from cam_metrology.wire.topics import RIG_JOINT_STATES, RIG_JOINT_TRAJECTORY, SCENE
-
-    folder, runs, scene = sim
 
     def statuses(outs):
         return {s.name: s for o in outs if isinstance(o, StatusOutput) for s in o.statuses}
@@ -162,11 +162,19 @@ def test_rig_core_takes_blocks_like_messages(sim):
         chunks = [d for _, d in _blocks(run, start, 700)]
         for i in range(0, len(chunks), 5):       # batches of 5 blocks, as the adapter
             js = decode_joint_blocks(chunks[i:i + 5], topic=RIG_JOINT_TRAJECTORY,
-                                     joints=core.joints)
+                                     joints=core.joints, extras=extras)
+            more = {'velocity': js.lift_velocity, 'others': js.others} if extras else {}
             outs += core.handle_samples(js.frame_id, js.stamp_ns, js.theta, js.s,
-                                        rx_ns=start)
+                                        rx_ns=start, **more)
         start += 10**9
-    got = statuses(outs + core.finish())
+    return want, statuses(outs + core.finish())
+
+
+def test_rig_core_takes_blocks_like_messages(sim):
+    """The rig node's core fed decoded blocks (``handle_samples``, the live path of the
+    adapter) publishes what it publishes for the same samples one per message."""
+    folder, runs, _ = sim
+    want, got = _core_statuses(folder, runs, extras=False)
     assert sorted(got) == sorted(want) == ['run_1010rpm', 'run_1790rpm']
     for name in want:
         assert float(got[name].values['rpm']) == pytest.approx(
@@ -234,38 +242,11 @@ def test_rig_core_blocks_carry_velocity_like_messages(sim_channels):
     """Live path: blocks decoded with extras and handed to ``handle_samples`` give the
     rig node's results of the same samples one per message (the vibrometer's seating
     velocity included)."""
-    from cam_metrology.bagio import decode_joint_blocks, iter_messages
-    from cam_metrology.cores.outputs import StatusOutput
-    from cam_metrology.rig.bag import rig_blocks
     from cam_metrology.rig.core import RigCore
-    from cam_metrology.wire.topics import RIG_JOINT_STATES, RIG_JOINT_TRAJECTORY, SCENE
 
-    folder, runs, scene = sim_channels
-
-    def statuses(outs):
-        return {s.name: s for o in outs if isinstance(o, StatusOutput) for s in o.statuses}
-
-    ref = RigCore()
-    outs = []
-    for m in iter_messages(folder / 'samples', [SCENE, RIG_JOINT_STATES]):
-        outs += ref.handle(m.topic, m.msg, m.stamp_ns)
-    want = statuses(outs + ref.finish())
-    core = RigCore()
-    assert core.block_extras
-    outs = []
-    for m in iter_messages(folder / 'blocks', [SCENE]):
-        outs += core.handle(m.topic, m.msg, m.stamp_ns)
-    start = 10_000_000
-    for run in runs:
-        chunks = [d for _, d in rig_blocks(run, start, 700)]
-        for i in range(0, len(chunks), 5):
-            js = decode_joint_blocks(chunks[i:i + 5], topic=RIG_JOINT_TRAJECTORY,
-                                     joints=core.joints, extras=True)
-            outs += core.handle_samples(js.frame_id, js.stamp_ns, js.theta, js.s,
-                                        rx_ns=start, velocity=js.lift_velocity,
-                                        others=js.others)
-        start += 10**9
-    got = statuses(outs + core.finish())
+    assert RigCore.block_extras
+    folder, runs, _ = sim_channels
+    want, got = _core_statuses(folder, runs, extras=True)
     assert sorted(got) == sorted(want) == ['run_1010rpm', 'run_1790rpm']
     for name in want:
         for key in ('rpm', 'seating_velocity_m_s', 'residual_rms_m'):
