@@ -202,3 +202,26 @@ def test_no_junction_on_a_smooth_lobe(step_deg):
     a, h = measured_table(fam.law, step_deg * DEG, sigma=0.5e-6, seed=2)
     rec = reconstruct_spline(a, h)
     assert 'junctions_deg' not in rec.parameter
+
+
+@pytest.mark.parametrize('name', ['dwell', 'constant acceleration', 'circular arc'])
+def test_reused_level_systems_give_the_plain_search_result(name, monkeypatch):
+    """The search reuses a level's system (factor, R y, hinge columns, recent fits)
+    when it comes back to that level. The benchmark's 3600-row tables (0.5 um, seed 7)
+    give the same junctions and the same lobe law (lift [m], h'' [m/rad^2] within 1e-9)
+    as the plain search, which builds every system afresh and fits every time."""
+    from cam_design.lift_table.lobe_table import lobe_law
+
+    a, h = measured_table(FAMILIES[name].law, 2 * math.pi / 3600, sigma=0.5e-6, seed=7)
+    x = np.linspace(-math.pi, math.pi, 7201)
+    fast = lobe_law(a, h, key='t')
+    with monkeypatch.context() as m:
+        m.setattr(junctions.Levels, 'at',
+                  lambda self, lam: junctions.LevelSystem(self.values, lam))
+        m.setattr(junctions.LevelSystem, 'fit', junctions.LevelSystem._fit)
+        plain = lobe_law(a, h, key='t')
+    found = fast.lobe.rec.parameter['junctions_deg']
+    assert len(found) == 4
+    assert found == pytest.approx(plain.lobe.rec.parameter['junctions_deg'], abs=1e-9)
+    assert np.max(np.abs(fast(x, 0) - plain(x, 0))) <= 1e-9
+    assert np.max(np.abs(fast(x, 2) - plain(x, 2))) <= 1e-9
