@@ -13,8 +13,10 @@ same for the valve lift). Sweep: config/camshaft_i4_scene.yaml (8 lobes, chain d
 friction) at 100 speeds from 500 to 3000 rpm on a 1 deg grid. Time per revolution =
 CPU time of the coupled solve / (iterations x 4 revolutions run per train).
 
+Each speed of the sweep starts from the previous speed's converged response.
+
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python -m benchmarks camshaft`` (writes
-benchmarks/results/camshaft.md; the sweep takes tens of minutes:
+benchmarks/results/camshaft.md; the sweep takes about 5 min of CPU:
 ``CAMSHAFT_SWEEP_SPEEDS=10`` runs a shorter one, ``CAMSHAFT_REFERENCE_MAX=8`` skips the
 LSODA reference above 8 trains: it costs minutes; ``CAMSHAFT_TRAINS=16`` picks the cases).
 """
@@ -146,8 +148,10 @@ def _sweep(count: int) -> list[str]:
                                 max_revolutions=4, keys={})
     cpu = time.process_time() - t0
     conv = sum(r.converged for r in runs)
-    return [f'| {count} | {cpu:.0f} | {cpu / count:.1f} | {conv} of {len(runs)} | '
-            f'{len(failures)} |']
+    its = np.array([r.iterations for r in runs])
+    damped = sum(r.damped for r in runs)
+    return [f'| {count} | {cpu:.0f} | {cpu / count:.2f} | {conv} of {len(runs)} | '
+            f'{len(failures)} | {np.median(its):.0f} / {its.max()} | {damped} |']
 
 
 def run() -> list[str]:
@@ -160,7 +164,8 @@ def run() -> list[str]:
         print(rows[-1], flush=True)
     count = int(os.environ.get('CAMSHAFT_SWEEP_SPEEDS', '100'))
     rows += ['', '| sweep speeds (example scene) | CPU [s] | CPU per speed [s] | '
-             'converged | failed |', '|---|---|---|---|---|']
+             'converged | failed | coupling iterations median / max | damped fallback |',
+             '|---|---|---|---|---|---|---|']
     rows += _sweep(count)
     print(rows[-1], flush=True)
     return rows

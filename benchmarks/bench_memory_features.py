@@ -71,7 +71,8 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
         ax.annotate(f"{r['features']} x {r['largest'] / 1e6:.2g} M", (r['largest'], r['rss']),
                     textcoords='offset points', xytext=(4, 6), fontsize=8)
     ax.axhline(300, color='grey', lw=0.8, ls=':')
-    ax.text(min(x), 310, '300 MB goal', color='grey')
+    ax.text(max(x), 290, '300 MB goal', color='grey', ha='right', va='top')
+    ax.set_ylim(0, 1.15 * max(300.0, max(r['rss'] for r in rows)))   # room for the labels
     finish_plot(fig, ax, path, 'samples of the largest feature (bag of %s samples)'
                 % f"{rows[0]['samples']:,}", 'peak RSS [MB]',
                 'cam-bench analyze --only-metrology: memory against feature size')

@@ -75,16 +75,49 @@ def test_each_lobe_is_referenced_once_for_cards_and_report_plots(
     from cam_metrology.metrology import lift_error
 
     calls: list[str] = []
-    real = lift_error.feature_referenced
+    real = lift_error.referenced_rows   # the kept rows of the referenced table
 
     def counting(table: object, feature: dict) -> object:
         calls.append(feature.get('kind', '?'))
         return real(table, feature)
 
-    monkeypatch.setattr(lift_error, 'feature_referenced', counting)
+    monkeypatch.setattr(lift_error, 'referenced_rows', counting)
     run = analyze_bag(str(CLEAN), plot_tables=True)
     lobes = [f for f in run.report['features'].values() if f.get('kind') == 'lobe']
     assert len(calls) == len(lobes) >= 2
     assert all('cam_card' in f for f in lobes if f.get('status') == 'ok')
     assert all(fid in run.tables for fid, f in run.report['features'].items()
                if f.get('kind') == 'lobe')
+
+
+def test_plot_pngs_use_the_tables_referenced_once(monkeypatch: pytest.MonkeyPatch,
+                                                  tmp_path: Path) -> None:
+    """`analyze --plot` draws each lobe from the table the verdict referenced: one
+    reference per lobe, none made again for the PNGs."""
+    from cam_metrology.cli import main
+    from cam_metrology.metrology import lift_error
+
+    calls: list[str] = []
+    rows, whole = lift_error.referenced_rows, lift_error.feature_referenced
+
+    def counting_rows(table: object, feature: dict) -> object:
+        calls.append('rows')
+        return rows(table, feature)
+
+    def counting_whole(table: object, feature: dict) -> object:
+        calls.append('whole')
+        return whole(table, feature)
+
+    monkeypatch.setattr(lift_error, 'referenced_rows', counting_rows)
+    monkeypatch.setattr(lift_error, 'feature_referenced', counting_whole)
+    out = tmp_path / 'plots'
+    assert main(['analyze', str(CLEAN), '--plot', str(out),
+                 '--json', str(tmp_path / 'r.json')]) == 0
+    import json
+    report = json.loads((tmp_path / 'r.json').read_text())
+    lobes = [f for f in report['features'].values() if f.get('kind') == 'lobe']
+    assert calls.count('whole') == 0
+    assert calls.count('rows') == len(lobes) >= 2
+    pngs = sorted(p.name for p in out.glob('*.png'))
+    assert len(pngs) >= len(lobes)
+    assert all((out / p).stat().st_size > 10_000 for p in pngs)

@@ -416,3 +416,76 @@ def test_json_without_sweep_has_the_sweep_keys_as_null(tmp_path: Path, capsys) -
     for key in ('jump_speed_rpm', 'bounce_onset_rpm', 'sweep'):
         assert key in feat and feat[key] is None, key
     assert 'jump speed' not in capsys.readouterr().out
+
+
+SHAFT = {'stations': ['sprocket', 'journal_1', 'lobe_1', 'lobe_2', 'journal_2', 'lobe_3',
+                      'lobe_4', 'journal_3'],
+         'sections': [{'length': 0.03, 'diameter': 0.03}] * 7,
+         'lobe_inertia': 1.4e-5, 'damping_ratio': 0.05}
+
+
+def _shaft_scene() -> str:
+    doc = yaml.safe_load(SCENE)
+    doc['valve_train']['cam_speed_rpm'] = [1500.0]
+    doc['camshaft'] = SHAFT
+    return yaml.safe_dump(doc, sort_keys=False)
+
+
+def _feed(core: DynamicsCore, ref: DynamicsCore, ids: list[str]) -> list:
+    a = np.linspace(-math.pi, math.pi, 3601)
+    outs: list = []
+    for lid in ids:
+        law = ref.scene.lobe(lid).lift
+        outs.append(core.handle(PROFILE, profile_msg(f'{lid}/spline', a, law.derivatives(a)),
+                                1))
+    return outs
+
+
+def test_measured_profiles_run_on_the_flexible_shaft() -> None:
+    """With a camshaft block, measured profiles wait until every lobe has one, then run
+    together on the flexible shaft: the profiles being the design laws sampled with their
+    jets, twist and timing shift equal the design run's to 2e-2 of the peak twist (a
+    table law: its support ends where the lift falls below 0.1 % of the peak and its
+    junctions are not known, so their kinks stay in the load's plain transform; measured
+    5e-3);
+    source=auto fills the lobes without a profile with their design law at finish;
+    source=profile with lobes missing runs the measured ones on a rigid shaft, saying so."""
+    text = _shaft_scene()
+    ref = DynamicsCore({'source': 'design', 'step_deg': 1.0})
+    ref.handle('/bench/scene', NS(data=text), 0)
+    ids = [lb.id for lb in ref.scene.lobes]
+    assert len(ids) == 4 and len(ref.camshaft_runs) == 1
+    want = ref.camshaft_runs[0]
+    peak = max(float(np.max(np.abs(t))) for t in want.twist.values())
+    assert peak > 1e-5
+
+    core = DynamicsCore({'step_deg': 1.0, 'profile_method': 'spline'})
+    assert core.handle('/bench/scene', NS(data=text), 0) == []
+    outs = _feed(core, ref, ids)
+    assert all(o == [] for o in outs[:-1])
+    labels = sorted(o.label for o in outs[-1] if isinstance(o, TableOutput))
+    assert labels == [f'{i}/1500rpm' for i in sorted(ids)]
+    got = core.camshaft_runs[0]
+    for lid in ids:
+        assert np.max(np.abs(got.twist[lid] - want.twist[lid])) < 2e-2 * peak
+        assert got.extras[lid]['timing_shift_deg'] == pytest.approx(
+            want.extras[lid]['timing_shift_deg'], abs=2e-2 * math.degrees(peak))
+        assert core.laws[lid][1] == 'profile:spline'
+    assert core.finish() == []
+
+    auto = DynamicsCore({'step_deg': 1.0, 'profile_method': 'spline'})
+    auto.handle('/bench/scene', NS(data=text), 0)
+    assert _feed(auto, ref, ids[:2]) == [[], []]
+    rest = auto.finish()
+    assert len([o for o in rest if isinstance(o, TableOutput)]) == 4
+    assert [auto.laws[i][1] for i in ids] == ['profile:spline'] * 2 + ['design'] * 2
+    assert len(auto.camshaft_runs) == 1 and auto.camshaft_runs[0].converged
+
+    only = DynamicsCore({'source': 'profile', 'step_deg': 1.0, 'profile_method': 'spline'})
+    only.handle('/bench/scene', NS(data=text), 0)
+    _feed(only, ref, ids[:1])
+    rest = only.finish()
+    assert [o.label for o in rest if isinstance(o, TableOutput)] == ['lobe_1/1500rpm']
+    assert not only.camshaft_runs
+    status = [o for o in rest if isinstance(o, StatusOutput)][0].statuses[0]
+    assert 'rigid shaft' in status.values['source_note']

@@ -233,3 +233,72 @@ def test_analysis_without_plot_tables_gives_the_same_report() -> None:
     a, b = (json.dumps({k: v for k, v in r.report.items() if k != 'provenance'},
                        sort_keys=True) for r in (with_tables, without))
     assert a == b
+
+
+def _assembled(spill_bytes: int, samples, chunk: int = 997):
+    """The samples through a FeatureAssembler: in chunks (bulk), a few per message,
+    two NaN samples; closed by feature_done."""
+    from cam_metrology.metrology.features import FeatureAssembler
+
+    asm = FeatureAssembler(spill_bytes=spill_bytes)
+    theta, s = samples.theta.copy(), samples.s.copy()
+    theta[5], s[77] = np.nan, np.inf   # dropped and counted
+    n = theta.size
+    for k in range(0, n - 10, chunk):
+        b = min(k + chunk, n - 10)
+        assert asm.add_bulk(['lobe'] * (b - k), samples.stamp_ns[k:b], theta[k:b],
+                            s[k:b], 0) == []
+    for k in range(n - 10, n):   # the per-message path after the bulk one
+        assert asm.add('lobe', int(samples.stamp_ns[k]), float(theta[k]), float(s[k]), 0) == []
+    (fs,) = asm.close('lobe')
+    return fs
+
+
+def test_a_spilled_feature_is_assembled_and_measured_as_one_in_memory():
+    """A feature whose columns go to temporary files as they arrive (``spill_bytes``
+    small) holds the same samples as one assembled in memory, and its analysis gives
+    the same report values (angles to 1e-9 deg, lift errors to 1e-9 um)."""
+    from cam_metrology.metrology.analysis import Settings, analyze_lobe
+    from cam_metrology.metrology.synthetic import sample_lobe
+
+    nose = np.radians(123.4)
+    samples = sample_lobe(CAM, nose, n_per_rev=3600, revolutions=3.3, noise=1e-6, seed=4)
+    mem = _assembled(1 << 40, samples)
+    disk = _assembled(1024, samples)
+    assert isinstance(disk.theta, np.memmap) and isinstance(disk.s, np.memmap)
+    assert isinstance(disk.stamp_ns, np.memmap) and not isinstance(mem.theta, np.memmap)
+    assert (disk.received, disk.nan_dropped, disk.duplicates_dropped) == \
+        (mem.received, mem.nan_dropped, mem.duplicates_dropped) == (samples.theta.size, 2, 0)
+    assert disk.revolutions == pytest.approx(mem.revolutions, abs=1e-12)
+    for a, b in ((disk.theta, mem.theta), (disk.s, mem.s)):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(disk.stamp_ns, mem.stamp_ns)   # integers [ns]
+    got = analyze_lobe(disk, CAM, 1, Settings())
+    want = analyze_lobe(mem, CAM, 1, Settings())
+    assert got.values['angle_deg'] == pytest.approx(want.values['angle_deg'], abs=1e-9)
+    assert got.values['angle_deg'] == pytest.approx(np.degrees(nose), abs=5e-3)   # truth
+    for key in ('max_plus', 'max_minus', 'rms'):
+        assert got.values['lift_error_um'][key] == pytest.approx(
+            want.values['lift_error_um'][key], abs=1e-9)
+    np.testing.assert_allclose(got.table, want.table, rtol=0, atol=1e-15)
+
+
+def test_referenced_rows_are_the_kept_rows_of_the_referenced_table():
+    """``referenced_rows`` (a block at a time, no referenced copy of the table) equals
+    ``feature_referenced``'s table at its kept rows, with and without the harmonic."""
+    from cam_metrology.metrology.lift_error import feature_referenced, referenced_rows
+
+    rng = np.random.default_rng(8)
+    alpha = np.sort(rng.uniform(-np.pi, np.pi, 300_000))
+    design = CAM(alpha, 0)
+    measured = design + 2e-6 * np.cos(alpha) + 5e-6 + rng.normal(0, 1e-7, alpha.size)
+    measured[1000] += 1e-3   # a spike: not kept
+    table = spill(np.column_stack([alpha, measured, design]), min_bytes=1)
+    for runout in (False, True):
+        ref, good = feature_referenced(table, {'runout_fitted': runout})
+        rows = referenced_rows(table, {'runout_fitted': runout})
+        assert not good[1000] and rows.shape == (int(np.count_nonzero(good)), 3)
+        np.testing.assert_allclose(rows, ref[good], rtol=0, atol=1e-18)   # m, rad
+        # the base circle referenced: the offset (and the run-out) are gone
+        base = rows[:, 2] == 0
+        assert abs(float(np.median(rows[base, 1]))) < 1e-7 + 3e-6 * (not runout)

@@ -16,38 +16,15 @@ loaded machine; keep-all back-pressure slows the stream instead of losing sample
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 import yaml
+from cli_processes import start_cli, stop_cli
 
 pytestmark = pytest.mark.ros
-
-CLI = 'import sys; from cam_metrology.cli import main; sys.exit(main(sys.argv[1:]))'
-
-
-def _start(args: list[str], log: Path) -> subprocess.Popen[bytes]:
-    handle = open(log, 'wb')  # noqa: SIM115 (closed with the child)
-    return subprocess.Popen([sys.executable, '-c', CLI, *args], env=dict(os.environ),
-                            stdout=handle, stderr=subprocess.STDOUT,
-                            stdin=subprocess.DEVNULL)
-
-
-def _stop(children: list[subprocess.Popen[bytes]], timeout: float = 60.0) -> None:
-    for child in children:
-        if child.poll() is None:
-            child.send_signal(2)
-    for child in children:
-        try:
-            child.wait(timeout)
-        except subprocess.TimeoutExpired:
-            child.kill()
-            child.wait(10)
 
 
 def _short_scene(config_dir: Path, path: Path) -> Path:
@@ -79,9 +56,9 @@ def test_blocks_far_above_the_per_message_ceiling_lose_nothing(
     bag = tmp_path / 'bag'
     reports: list[dict[str, Any]] = []
     proc = RosProcess(handle_signals=False)
-    met = _start(['run', 'metrology'], tmp_path / 'met.log')
-    rec = _start(['run', 'recorder', '--ros-args', '-p', f'output:={bag}'],
-                 tmp_path / 'rec.log')
+    met = start_cli(['run', 'metrology'], tmp_path / 'met.log')
+    rec = start_cli(['run', 'recorder', '--ros-args', '-p', f'output:={bag}'],
+                    tmp_path / 'rec.log')
     sim = None
     try:
         from rclpy.node import Node
@@ -89,7 +66,7 @@ def test_blocks_far_above_the_per_message_ceiling_lose_nothing(
         node.create_subscription(String, METROLOGY_REPORT,
                                  lambda m: reports.append(json.loads(m.data)),
                                  profile(qos_of(METROLOGY_REPORT)))
-        sim = _start(['run', 'bench-sim', '--params', str(sim_yaml)], tmp_path / 'sim.log')
+        sim = start_cli(['run', 'bench-sim', '--params', str(sim_yaml)], tmp_path / 'sim.log')
         assert proc.spin_until(lambda: sim.poll() is not None, 300.0), 'bench-sim hung'
         assert sim.returncode == 0, (tmp_path / 'sim.log').read_text()
         # the report of every feature (the node sends it once all are measured)
@@ -97,7 +74,7 @@ def test_blocks_far_above_the_per_message_ceiling_lose_nothing(
                                            for r in reports), 120.0), \
             (tmp_path / 'met.log').read_text()[-3000:]
     finally:
-        _stop([met, rec])
+        stop_cli([met, rec])
         if sim is not None and sim.poll() is None:
             sim.kill()
         proc.close()
@@ -170,12 +147,12 @@ def test_a_ros2_control_stream_is_connected_by_a_parameter_file(
             if st.name == 'lobe_1':
                 results['lobe_1'] = {kv.key: kv.value for kv in st.values}
 
-    met = _start(['run', 'metrology', '--params', str(config_dir / 'ros2_control_bench.yaml'),
-                  '--ros-args', '-r', '/bench/joint_states:=/joint_states'],
-                 tmp_path / 'met.log')
+    met = start_cli(['run', 'metrology', '--params', str(config_dir / 'ros2_control_bench.yaml'),
+                     '--ros-args', '-r', '/bench/joint_states:=/joint_states'],
+                    tmp_path / 'met.log')
     bag = tmp_path / 'bag'
-    rec = _start(['run', 'recorder', '--ros-args', '-r', '/bench/joint_states:=/joint_states',
-                  '-p', f'output:={bag}'], tmp_path / 'rec.log')
+    rec = start_cli(['run', 'recorder', '--ros-args', '-r', '/bench/joint_states:=/joint_states',
+                     '-p', f'output:={bag}'], tmp_path / 'rec.log')
     proc = RosProcess(handle_signals=False)
     try:
         node = proc.add(Node('broadcaster', context=proc.context))
@@ -198,7 +175,7 @@ def test_a_ros2_control_stream_is_connected_by_a_parameter_file(
         assert proc.spin_until(lambda: 'lobe_1' in results, 120.0), \
             (tmp_path / 'met.log').read_text()[-3000:]
     finally:
-        _stop([met, rec])
+        stop_cli([met, rec])
         proc.close()
     # the recorder, remapped the same way, stored the stream under the contract's name
     from cam_metrology import bagio

@@ -17,12 +17,14 @@ exact for the sampled loads (discrete Fourier series on the N-point grid).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import eigh
 
+from cam_design.camshaft.piecewise_fourier import coefficients, integral, kernel_coefficients
 from cam_design.camshaft.spec import SPROCKET, CamshaftSpec
 
 
@@ -115,9 +117,11 @@ class Response:
     """Periodic torsional response on the N-point grid alpha_k = 2 pi k / N.
 
     ``spectrum`` (stations, N/2 + 1): Fourier coefficients Psi_n of psi [rad] (rfft
-    scaling: psi = irfft(spectrum * N)); ``psi``, ``dpsi``, ``d2psi``, ``d3psi``:
-    (stations, N) psi and its alpha derivatives [rad, -, 1/rad, 1/rad^2]; ``drive``
-    (N,): the torque the drive applies to the sprocket [N m]."""
+    scaling: psi = irfft(spectrum * N)) up to the grid's Nyquist order; ``psi``,
+    ``dpsi``, ``d2psi``, ``d3psi``: (stations, N) psi and its alpha derivatives
+    [rad, -, 1/rad, 1/rad^2] on the grid, with the harmonics above N/2 of loads with
+    breakpoints (``respond``) folded in; ``drive`` (N,): the torque the drive applies
+    to the sprocket [N m]."""
 
     spectrum: NDArray[np.complex128]
     psi: NDArray[np.float64]
@@ -127,20 +131,72 @@ class Response:
     drive: NDArray[np.float64]
 
 
-def respond(shaft: Shaft, loads: NDArray[np.float64], omega: float) -> Response:
-    """Periodic response of the shaft at ``omega`` [rad/s] to the station load torques
-    ``loads`` (stations, N) [N m] sampled on the grid (module docstring)."""
-    n_st, N = loads.shape
+#: bands of N harmonics above the Nyquist order kept for loads with breakpoints
+TAIL_BANDS = 2
+
+
+@dataclass(frozen=True)
+class Receptance:
+    """The shaft's dynamic compliance at one speed on one grid: (K - (n omega)^2 M +
+    i n omega C)^-1 over the free stations for the harmonics n = 0..N/2 (``low``) and
+    N/2..N/2 + TAIL_BANDS N - 1 (``high``; harmonics of the loads' breakpoints)."""
+
+    omega: float
+    N: int
+    low: NDArray[np.complex128]            # (N/2 + 1, free, free)
+    high: NDArray[np.complex128]           # (TAIL_BANDS N, free, free)
+    high_n: NDArray[np.int64]
+
+
+def receptance(shaft: Shaft, omega: float, N: int, tail: bool = True) -> Receptance:
+    """The compliances of ``shaft`` at ``omega`` [rad/s] for an N-point grid, computed
+    once per speed and grid (``tail``: also the harmonics above N/2)."""
     free = shaft.free
-    Lh = np.fft.rfft(loads[free], axis=1) / N                  # (free, H)
-    H = Lh.shape[1]
     Kf = shaft.K[np.ix_(free, free)]
     Mf = shaft.M[np.ix_(free, free)]
     Cf = shaft.C[np.ix_(free, free)]
+
+    def invert(n: NDArray[np.int64]) -> NDArray[np.complex128]:
+        w = n.astype(float) * omega
+        dyn: NDArray[np.complex128] = (Kf[None, :, :] - (w * w)[:, None, None] * Mf[None, :, :]
+                                       + 1j * w[:, None, None] * Cf[None, :, :])
+        return np.asarray(np.linalg.inv(dyn), dtype=np.complex128)
+
+    low_n = np.arange(N // 2 + 1)
+    first = N // 2 + N % 2                    # the first harmonic above the grid's
+    high_n = (np.arange(first, first + TAIL_BANDS * N) if tail
+              else np.zeros(0, dtype=np.int64))
+    return Receptance(omega=float(omega), N=N, low=invert(low_n), high=invert(high_n),
+                      high_n=high_n)
+
+
+def respond(shaft: Shaft, loads: NDArray[np.float64], omega: float,
+            breaks: Sequence[ArrayLike] | None = None,
+            rec: Receptance | None = None) -> Response:
+    """Periodic response of the shaft at ``omega`` [rad/s] to the station load torques
+    ``loads`` (stations, N) [N m] sampled on the grid (module docstring). ``breaks``:
+    per station the angles [rad] where its load or a derivative jumps (contact onset
+    and loss, the lobe's junctions); their jumps are taken out of the samples and
+    transformed exactly (``piecewise_fourier``), harmonics above N/2 included, so the
+    response does not depend on where the kinks fall between the samples. None: the
+    plain discrete Fourier series of the samples. ``rec``: the receptance of this
+    speed and grid (computed when None)."""
+    n_st, N = loads.shape
+    free = shaft.free
+    rec = rec if rec is not None and rec.N == N and rec.omega == omega else \
+        receptance(shaft, omega, N, tail=breaks is not None)
+    H = N // 2 + 1
+    Lh = np.zeros((free.size, H), dtype=complex)
+    tail = np.zeros((free.size, rec.high_n.size), dtype=complex)
+    for r, st in enumerate(free.tolist()):
+        if breaks is None or len(np.atleast_1d(breaks[st])) == 0:
+            Lh[r] = np.fft.rfft(loads[st]) / N
+            continue
+        Lh[r], br = coefficients(loads[st], breaks[st])
+        if rec.high_n.size:
+            tail[r] = kernel_coefficients(br, rec.high_n)
     spec = np.zeros((n_st, H), dtype=complex)
-    for n in range(H):
-        w = n * omega
-        spec[free, n] = np.linalg.solve(Kf - w * w * Mf + 1j * w * Cf, -Lh[:, n])
+    spec[free] = -np.einsum('nij,jn->in', rec.low, Lh)
     harm = np.arange(H)
     nyq = N % 2 == 0
 
@@ -151,6 +207,12 @@ def respond(shaft: Shaft, loads: NDArray[np.float64], omega: float) -> Response:
         return np.fft.irfft(spec * factor * N, n=N, axis=1)
 
     psi, dpsi, d2psi, d3psi = (synth(p) for p in range(4))
+    if np.any(tail):
+        high = -np.einsum('nij,jn->in', rec.high, tail)       # (free, T)
+        for p, arr in enumerate((psi, dpsi, d2psi, d3psi)):
+            folded = (2.0 * high * (1j * rec.high_n) ** p).reshape(free.size, -1, N).sum(axis=1)
+            folded = np.roll(folded, int(rec.high_n[0]) % N, axis=1)  # column j: n0 + j
+            arr[free] += (np.fft.ifft(folded, axis=1) * N).real
     dpsi_dt = dpsi * omega
     s = shaft.sprocket
     if shaft.held:
@@ -161,13 +223,14 @@ def respond(shaft: Shaft, loads: NDArray[np.float64], omega: float) -> Response:
                     drive=drive)
 
 
-def damping_work(shaft: Shaft, response: Response, omega: float) -> float:
+def damping_work(shaft: Shaft, response: Response, omega: float,
+                 breaks: ArrayLike = ()) -> float:
     """Energy [J] the shaft's and the drive's dampers dissipate over one revolution:
-    the integral of psi_dot^T C psi_dot dt (trapezoid on the periodic grid)."""
-    N = response.psi.shape[1]
+    the integral of psi_dot^T C psi_dot dt on the periodic grid, with ``breaks`` [rad]
+    the loads' breakpoints (where psi'' and so the power's slope jump)."""
     v = response.dpsi * omega                          # rad/s
     power = np.einsum('ik,ij,jk->k', v, shaft.C, v)
-    return float(np.sum(power) * (2.0 * math.pi / N) / omega)
+    return integral(power, breaks) / omega
 
 
 def harmonic_orders(signal: NDArray[np.float64], orders: int) -> list[float]:

@@ -149,6 +149,30 @@ def run_train(law: LiftLaw, train: TrainSpec, rpm: float, *, step_deg: float = 0
     return run
 
 
+def train_force(law: LiftLaw, train: TrainSpec, rpm: float, *, step_deg: float = 0.1,
+                max_revolutions: int = 4, key: str = 'lift',
+                geometry: ContactGeometry | None = None
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                           NDArray[np.float64] | None, Run | None]:
+    """The contact force alone: (alpha [rad], cam-follower force [N] on the uniform
+    grid, the angles [rad] where it or a derivative jumps or None when the model does
+    not say, the full Run when one was made). The plain SDOF train skips the report
+    fields (the inner loop of the coupled camshaft); the other trains run in full."""
+    sdof = train.sdof
+    if (train.model == 'sdof' and train.hla is None and sdof is not None
+            and not (train.gas is not None and sdof.hard_seat)):
+        from cam_design.valve_train.sdof import simulate
+
+        res = simulate(law, sdof, rpm, step_deg=step_deg, max_revolutions=max_revolutions,
+                       key=key, gas=train.gas_on(law))
+        sel = res.uniform
+        return (res.alpha[sel], res.cam_force[sel],
+                np.asarray(res.events.switch_angles, dtype=float), None)
+    run = run_train(law, train, rpm, step_deg=step_deg, max_revolutions=max_revolutions,
+                    key=key, geometry=geometry)
+    return run.alpha, run.force, run.breaks, run
+
+
 def _dispatch(law: LiftLaw, train: TrainSpec, rpm: float, step_deg: float,
               geom: ContactGeometry | None, max_revolutions: int, key: str) -> Run:
     gas = train.gas_on(law)

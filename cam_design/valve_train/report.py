@@ -93,6 +93,10 @@ class Run:
     drive_torque: NDArray[np.float64] | None = None
     #: friction torque [N m] of the cam-follower contact against alpha (0 without friction)
     friction_torque: NDArray[np.float64] | None = None
+    #: angles [rad] where the contact force or a derivative of it jumps (the train's
+    #: regime switches: contact onset and loss, seat impact and lift-off); None: not
+    #: known for this model
+    breaks: NDArray[np.float64] | None = None
 
     def table(self) -> NDArray[np.float64]:
         """(rows, 5) in COLUMNS order."""
@@ -164,8 +168,10 @@ def run_sdof(law: LiftLaw, params: SdofParams, rpm: float, *, step_deg: float = 
                        'gas_force_max_deg': math.degrees(float(alpha[i])),
                        'gas_force_at_opening_n': None if res.events.opening is None
                        else float(gas(res.events.opening))})
-    return finish_run(law, params, rpm, 'sdof', alpha, res.y[sel], res.v[sel], force,
-                      events, geometry, train_checks)
+    run = finish_run(law, params, rpm, 'sdof', alpha, res.y[sel], res.v[sel], force,
+                     events, geometry, train_checks)
+    run.breaks = np.asarray(res.events.switch_angles, dtype=float)
+    return run
 
 
 def events_note(events: dict[str, Any], rpm: float | None = None) -> str | None:

@@ -35,6 +35,7 @@ class Events:
     bounce_count: int = 0
     bounce_height: float = 0.0               # m, largest lift after the first seating
     count: int = 0                           # number of regime switches
+    switch_angles: list[float] = field(default_factory=list)  # rad, every regime switch
 
 
 class SdofRun:
@@ -267,6 +268,7 @@ class SdofRun:
             node = None
             alpha = float(cam.nodes[k] + la_step * s0)
             z, r = self.switch(r, which, alpha, (ye, ve), uu, ud)
+            self.ev.switch_angles.append(alpha)
             self.ev.count += 1
             if self.ev.count > MAX_EVENTS:
                 raise SolverError(f'more than {MAX_EVENTS} regime switches (chatter)')
@@ -295,6 +297,7 @@ class SdofRun:
     def _after_held(self, s: float, k: int) -> int:
         """Regime right after a held valve lifts off (records the opening)."""
         alpha = float(self.cam.nodes[k] + self.cam.lengths[k] * s)
+        self.ev.switch_angles.append(alpha)
         self._reopen(alpha)
         return CONTACT
 

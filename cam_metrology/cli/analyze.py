@@ -65,10 +65,11 @@ def run(args: argparse.Namespace) -> int:
         with atomic_dir(args.out_bag, '--out-bag') as tmp:
             run_ = analyze_bag(args.bag, args.params, only_metrology=args.only_metrology,
                                heights=heights_from(args), out_bag=str(tmp),
-                               plot_tables=bool(args.report))
+                               plot_tables=bool(args.report or args.plot))
     else:
         run_ = analyze_bag(args.bag, args.params, only_metrology=args.only_metrology,
-                           heights=heights_from(args), plot_tables=bool(args.report))
+                           heights=heights_from(args),
+                           plot_tables=bool(args.report or args.plot))
     report, outputs, metrology, tables = (run_.report, run_.outputs, run_.metrology,
                                           run_.tables)
     for line in run_.warnings:
@@ -81,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
         for line in core_summaries(outputs):
             print(line)
     if args.plot:
-        write_plots(outputs, Path(args.plot), report)
+        write_plots(outputs, Path(args.plot), report, tables)
     if args.report:
         from cam_metrology.inputs.files import write_output
         from cam_metrology.report.html_report import html_report
@@ -248,27 +249,24 @@ def form_lines(report: dict[str, Any]) -> list[str]:
     return lines
 
 
-def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, Any]) -> None:
-    """One PNG per lift table: measured and design lift, and the lift error [um]."""
+def write_plots(outputs: list[tuple[int, Any]], folder: Path, report: dict[str, Any],
+                tables: dict[str, Any]) -> None:
+    """One PNG per lift table: measured and design lift, and the lift error [um]. A lobe's
+    table is the one the analysis referenced to the base circle for its verdict, cards and
+    HTML report (``tables``, feature id -> table), not referenced again here."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
     from cam_metrology.cores.outputs import TableOutput
-
     from cam_metrology.inputs.files import output_dir, safe_name, save_figure
-
-    from cam_metrology.metrology.lift_error import feature_referenced
 
     folder = output_dir(folder, '--plot')
     for _, o in outputs:
         if not (isinstance(o, TableOutput) and o.topic == LIFT_TOPIC):
             continue
         feature = report.get('features', {}).get(o.label) or {}
-        table = o.data
-        if feature.get('kind') == 'lobe':   # the lift error the report gives: base-referenced
-            table = feature_referenced(table, feature)[0]
-        fig = lift_figure(o.label, table, feature)
+        fig = lift_figure(o.label, tables.get(o.label, o.data), feature)
         try:
             save_figure(fig, folder / f'{safe_name(o.label)}.png', '--plot', dpi=110,
                         bbox_inches='tight')

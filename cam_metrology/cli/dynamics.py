@@ -199,7 +199,8 @@ def _camshaft_block(core: Any, args: argparse.Namespace, result: dict[str, Any],
         runs, failures = run_speeds(scene, train, sweep_speeds, step_deg=core.step_deg,
                                     cam_width=core.cam_width, youngs=core.youngs,
                                     max_revolutions=core.max_revolutions,
-                                    keys={lb.id: lobe_key(scene, lb.id) for lb in scene.lobes})
+                                    keys={lb.id: lobe_key(scene, lb.id) for lb in scene.lobes},
+                                    laws={lid: law for lid, (law, _) in core.laws.items()})
         block['sweep'] = camshaft_summary(spec, runs, failures)
     result['camshaft'] = block
     return runs

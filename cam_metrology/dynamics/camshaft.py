@@ -26,19 +26,23 @@ def nose_angle(law: Any) -> float:
 
 
 def lobes_on_shaft(scene: Any, train: TrainSpec, step_deg: float, cam_width: float,
-                   youngs: float, keys: dict[str, str]) -> list[LobeOnShaft]:
+                   youngs: float, keys: dict[str, str],
+                   laws: dict[str, Any] | None = None) -> list[LobeOnShaft]:
     """Every lobe of ``scene`` with its train: lobe angle a = alpha + shift, the nose at
-    shaft angle direction x nominal_phase, shift rounded to the ``step_deg`` grid."""
+    shaft angle direction x nominal_phase, shift rounded to the ``step_deg`` grid;
+    ``laws``: a lobe's lift law by id in place of its design law (a measured profile,
+    on its own angle axis: its nose is placed where the design nose is)."""
     step = math.radians(step_deg)
     out = []
     for lobe in scene.lobes:
-        shift = nose_angle(lobe.lift) - scene.direction * float(lobe.nominal_phase)
+        law = (laws or {}).get(lobe.id, lobe.lift)
+        shift = nose_angle(law) - scene.direction * float(lobe.nominal_phase)
         shift = round(shift / step) * step
         width = float(lobe.width) if getattr(lobe, 'width', None) else cam_width
         geom = ContactGeometry(base_radius=scene.base_circle_radius,
                                follower=lobe.follower.kind, radius=lobe.follower.radius,
                                width=width, youngs_modulus=youngs)
-        out.append(LobeOnShaft(id=lobe.id, law=lobe.lift, shift=shift, train=train,
+        out.append(LobeOnShaft(id=lobe.id, law=law, shift=shift, train=train,
                                base_radius=scene.base_circle_radius,
                                follower=lobe.follower.kind,
                                roller_radius=lobe.follower.radius, geometry=geom,
@@ -48,18 +52,25 @@ def lobes_on_shaft(scene: Any, train: TrainSpec, step_deg: float, cam_width: flo
 
 def run_speeds(scene: Any, train: TrainSpec, speeds: Any, *, step_deg: float,
                cam_width: float, youngs: float, max_revolutions: int,
-               keys: dict[str, str]) -> tuple[list[CamshaftRun], dict[str, str]]:
+               keys: dict[str, str], laws: dict[str, Any] | None = None
+               ) -> tuple[list[CamshaftRun], dict[str, str]]:
     """The coupled camshaft at each speed [rpm]; failures by '<rpm>rpm' with the reason
-    (a speed that fails is left out of the runs)."""
+    (a speed that fails is left out of the runs); ``laws``: measured lift laws by lobe
+    id in place of the design laws."""
     from cam_design.errors import InputError
 
-    lobes = lobes_on_shaft(scene, train, step_deg, cam_width, youngs, keys)
+    lobes = lobes_on_shaft(scene, train, step_deg, cam_width, youngs, keys, laws)
     shaft = assemble(scene.camshaft)
-    runs, failures = [], {}
+    runs: list[CamshaftRun] = []
+    failures = {}
     for rpm in speeds:
+        # each speed starts from the last converged one's response (a sweep's speeds are
+        # neighbours: far fewer coupling iterations than from the rigid shaft)
+        start = next((r.response for r in reversed(runs) if r.converged), None)
         try:
             runs.append(run_camshaft(lobes, scene.camshaft, float(rpm), step_deg=step_deg,
-                                     max_revolutions=max_revolutions, shaft=shaft))
+                                     max_revolutions=max_revolutions, shaft=shaft,
+                                     start=start))
         except (InputError, RuntimeError, ValueError) as exc:
             failures[f'{float(rpm):g}rpm'] = str(exc)
     return runs, failures

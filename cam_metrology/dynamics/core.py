@@ -21,7 +21,10 @@ With a scene ``camshaft:`` block and ``source=design`` every lobe runs on the sc
 flexible camshaft (``cam_design.camshaft``, docs/camshaft.md): the coupled runs are
 published as above, their events carry ``timing_shift_deg``, and ``camshaft_runs`` keeps
 the shaft's figures (all speeds are computed when the scene arrives: seconds per speed
-and lobe count). Measured profiles run on a rigid shaft.
+and lobe count). With measured profiles (``source`` auto or profile) the shaft waits for
+every lobe's profile and then runs them together on the flexible shaft; at ``finish``
+the lobes still without one take their design law (auto) or, with ``source=profile``,
+the profiles received run on a rigid shaft (a shaft with lobes missing has no meaning).
 
 Lift source (parameter ``source``): ``auto`` uses the reconstructed profile of a lobe
 when one arrives and the design law for lobes without one at ``finish``; ``profile``
@@ -51,6 +54,8 @@ SOURCES = ('auto', 'profile', 'design')
 #: why a lobe's run uses the design law with source=auto (no measured profile arrived)
 FALLBACK_NOTE = ('no measured profile for this lobe (no /reconstruction/profile): '
                  'design law used')
+RIGID_NOTE = ('not every lobe of the camshaft was measured: this lobe runs on a rigid '
+              'shaft')
 
 
 def rpm_label(rpm: float) -> str:
@@ -127,6 +132,8 @@ class DynamicsCore:
         self.notes: dict[str, str] = {}
         self.camshaft_runs: list[Any] = []        # cam_design.camshaft CamshaftRun
         self.camshaft_failures: dict[str, str] = {}
+        #: measured lobes waiting for the others to run on the flexible shaft
+        self.waiting: dict[str, tuple[Any, str, str]] = {}
 
     # -- protocol ------------------------------------------------------------------
     def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:
@@ -143,6 +150,8 @@ class DynamicsCore:
 
     def finish(self) -> list[Output]:
         """source=auto: lobes without a profile use their design law."""
+        if self.active and self.scene.camshaft is not None and self.waiting:
+            return self._finish_shaft()
         if not self.active or self.source != 'auto':
             return []
         out: list[Output] = []
@@ -161,6 +170,7 @@ class DynamicsCore:
         self.failures.clear()
         self.notes.clear()
         self.camshaft_runs, self.camshaft_failures = [], {}
+        self.waiting = {}
         self.active = False
         try:
             scene = parse_scene(text, SCENE)
@@ -207,7 +217,31 @@ class DynamicsCore:
             self.done.add(feature)
             return [self._status(Status(f'{feature}', ERROR, f'profile {label}: {exc}'),
                                  stamp_ns)]
+        if self.scene.camshaft is not None:
+            self.done.add(feature)
+            self.waiting[feature] = (law, f'profile:{method}',
+                                     f'{PROFILE} {feature}/{method}')
+            if all(lb.id in self.waiting for lb in self.scene.lobes):
+                return self._compute_camshaft(stamp_ns)
+            return []
         return self._compute(feature, law, f'profile:{method}', stamp_ns)
+
+    def _finish_shaft(self) -> list[Output]:
+        """The measured lobes on the flexible shaft with the design law of the others
+        (source auto), or on a rigid shaft when lobes are missing (source profile)."""
+        if self.source == 'auto':
+            for lobe in self.scene.lobes:
+                if lobe.id not in self.waiting:
+                    self.done.add(lobe.id)
+                    self.notes[lobe.id] = FALLBACK_NOTE
+                    self.waiting[lobe.id] = (lobe.lift, 'design',
+                                             lobe_key(self.scene, lobe.id))
+            return self._compute_camshaft(0)
+        out: list[Output] = []
+        waiting, self.waiting = self.waiting, {}
+        for feature, (law, source, _) in waiting.items():
+            out += self._compute(feature, law, source, 0, note=RIGID_NOTE)
+        return out
 
     def _compute(self, feature: str, law: Any, source: str, stamp_ns: int,
                  note: str | None = None) -> list[Output]:
@@ -277,38 +311,46 @@ class DynamicsCore:
         return out
 
     def _compute_camshaft(self, stamp_ns: int) -> list[Output]:
-        """Every lobe's design law on the scene's flexible camshaft (docs/camshaft.md):
-        the coupled runs per speed, published like single runs (their events carry the
-        lobe's ``timing_shift_deg``); ``self.camshaft_runs`` keeps the shaft's results."""
+        """Every lobe on the scene's flexible camshaft (docs/camshaft.md): its measured
+        profile when one is waiting, else its design law; the coupled runs per speed,
+        published like single runs (their events carry the lobe's
+        ``timing_shift_deg``); ``self.camshaft_runs`` keeps the shaft's results."""
         from cam_metrology.dynamics.camshaft import run_speeds
 
         scene = self.scene
         speeds = self.speeds or tuple(scene.valve_train.cam_speed_rpm)
-        keys = {lb.id: lobe_key(scene, lb.id) for lb in scene.lobes}
+        chosen = {lb.id: self.waiting.get(lb.id, (lb.lift, 'design',
+                                                  lobe_key(scene, lb.id)))
+                  for lb in scene.lobes}
+        self.waiting = {}
+        keys = {lid: c[2] for lid, c in chosen.items()}
+        laws = {lid: c[0] for lid, c in chosen.items()}
         for lb in scene.lobes:
             self.done.add(lb.id)
-            self.laws[lb.id] = (lb.lift, 'design')
+            self.laws[lb.id] = (chosen[lb.id][0], chosen[lb.id][1])
         statuses: list[Status] = []
         out: list[Output] = []
         try:
             train = train_from_valve_train(scene.valve_train, self.model or None)
             runs, failures = run_speeds(scene, train, speeds, step_deg=self.step_deg,
                                         cam_width=self.cam_width, youngs=self.youngs,
-                                        max_revolutions=self.max_revolutions, keys=keys)
+                                        max_revolutions=self.max_revolutions, keys=keys,
+                                        laws=laws)
         except (InputError, RuntimeError, ValueError) as exc:
             runs, failures = [], {f'{rpm_label(r)}rpm': str(exc) for r in speeds}
         self.camshaft_runs = runs
         self.camshaft_failures = failures
         for label, why in failures.items():
             for lb in scene.lobes:
-                self._failed(f'{lb.id}/{label}', why, 'design', None, statuses)
+                self._failed(f'{lb.id}/{label}', why, chosen[lb.id][1],
+                             self.notes.get(lb.id), statuses)
         for cr in runs:
             for lb in scene.lobes:
                 run = cr.runs[lb.id]
                 run.events['timing_shift_deg'] = cr.extras[lb.id]['timing_shift_deg']
                 run.events['cam_width_source'] = cam_width_of(lb, self.cam_width)[1]
                 out += self._publish(lb.id, f'{lb.id}/{rpm_label(cr.rpm)}rpm', run,
-                                     'design', None, statuses)
+                                     chosen[lb.id][1], self.notes.get(lb.id), statuses)
         out.append(StatusOutput(RESULT, tuple(statuses), stamp_ns))
         return out
 

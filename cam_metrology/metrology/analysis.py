@@ -32,6 +32,7 @@ from cam_metrology.metrology.lift_error import (error_stats, local_deviation,
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
 from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
+from cam_metrology.metrology.spill import blank, release, seal, walk
 
 DEG = np.pi / 180.0
 UM = 1e6
@@ -288,6 +289,7 @@ def _residuals(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift, fit: A
             rb -= block_lsq.first_harmonic(tb, 0.0, *fit.runout)
         out[pos:pos + rb.size] = rb
         pos += rb.size
+        release(s, theta)   # spilled samples: one block resident
     return out
 
 
@@ -346,8 +348,10 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         raise FeatureFailed(f'{fs.theta.size} valid samples (need >= '
                             f'{4 * settings.min_flank_samples})')
     lo, hi = law.support if hasattr(law, 'support') else (-np.pi, np.pi)
+    # spilled samples (``features``): every pass gives back the pages it read
     xraw = direction * fs.theta
     x0 = coarse_align(xraw, fs.s, law)
+    _release(fs)
     xraw -= x0
     x = wrap_pi(xraw)
     del xraw
@@ -356,15 +360,19 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     _zone_check(x, _slope_zone(law, alpha_n, 0.0, hi), 'fall', settings)
     base = (x < lo - 2 * DEG) | (x > hi + 2 * DEG)
     c_base = float(np.median(fs.s[base])) if np.count_nonzero(base) >= 5 else None
+    _release(fs)
     runout = settings.fit_runout and covers_circle(fs.theta)
     fit, outliers, noise = robust_fit(x, fs.s, law, settings, c0=c_base,
                                       theta=fs.theta if runout else None)
+    _release(fs)
     good = ~outliers
     _check_fit(fit, settings, 'nose')
     harmonic = block_lsq.first_harmonic(fs.theta, 0.0, *fit.runout)
+    _release(fs)
     ref = base_reference(fs.theta, fs.s, base & good, runout, (fit.c, harmonic))
     ref -= fs.s
     ref *= -1.0   # s - ref, in place
+    _release(fs)
     try:
         sp = sensitive_point_shift(
             x, ref, law, alpha_m, alpha_n, used=good,
@@ -389,13 +397,15 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     base &= good
     base_runout, base_centre = _runout_um(fs.theta[base], fs.s[base] - fit.c)
     del base
+    _release(fs)
     # the lift table (alpha, measured, design) in alpha order, built column by column
     del harmonic   # recomputed for the table, a block at a time
     alpha = x
     alpha -= fit.d   # x is not used after this: alpha = x - d in place
     del x
     order = np.argsort(alpha)
-    table = np.empty((alpha.size, 3))
+    # a long feature's table goes to a temporary file as it is built (``spill.blank``)
+    table = blank((alpha.size, 3))
     step = block_lsq.BLOCK_ROWS
     for k in range(0, alpha.size, step):   # the same values as whole-column expressions
         idx = order[k:k + step]
@@ -403,12 +413,16 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         table[k:k + step, 0] = alpha[idx]
         wave = block_lsq.first_harmonic(th, 0.0, *fit.runout)
         table[k:k + step, 1] = fs.s[idx] - fit.c - wave
+        table[k:k + step, 2] = law(table[k:k + step, 0], 0)   # elementwise: the same
+        release(table)
     del alpha, idx, th, wave   # idx is a view: it would keep the whole sort order alive
-    table[:, 2] = law(table[:, 0], 0)
+    _release(fs)
+    table = seal(table)
     good = good[order]
     del order
     alpha, measured, design = table[:, 0], table[:, 1], table[:, 2]
     fit_error = error_stats(measured - design, design, good)
+    release(table)
     if fit_error is not None:   # what the fit leaves; a smooth form error partly hides here
         values['fit_residual_um'] = fit_error
     values['base_circle_runout_um'] = base_runout
@@ -423,6 +437,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     if asymmetry:
         if is_symmetric(law, lo, hi):
             values.update(_asymmetry(alpha, measured, good, lo, hi, direction, settings))
+            release(table)
             if 'asymmetry_deg' in values:
                 values['top_point_deg'] = float(np.mod(values['angle_deg']
                                                        + values['asymmetry_deg'], 360.0))
@@ -432,12 +447,18 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
             skipped.append(('asymmetry', 'design lift is asymmetric: no symmetry axis'))
     # the lift error a gauge reports: offset (and run-out) from the base circle alone
     stats = referenced_error_stats(table, runout, good)
+    release(table)
     del good
     if stats is not None:
         values['lift_error_um'] = stats
         values['lift_error_reference'] = 'base circle'
     return FeatureResult(fs.feature_id, 'lobe', {**values, **_common(fs)}, table,
                          float(np.radians(values['angle_deg'])), skipped=skipped)
+
+
+def _release(fs: FeatureSamples) -> None:
+    """Give back the pages of spilled sample columns read so far (``spill.release``)."""
+    release(fs.theta, fs.s, fs.stamp_ns)
 
 
 def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.float64],
@@ -449,7 +470,7 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.fl
     covered are left out."""
     if fs.revolutions < 1.9:
         return {}
-    rev = np.empty(fs.theta.size, np.int64)
+    rev = np.empty(fs.theta.size, np.int32)
     pos, first = 0, None
     for turns in unwrapped_blocks(fs.theta):   # np.unwrap, a block at a time
         first = turns[0] if first is None else first
@@ -474,8 +495,10 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.fl
 def covers_circle(theta: NDArray[np.float64], need: int = 30) -> bool:
     """True if the angles [rad] fall in at least ``need`` of 36 sectors of 10 deg
     (a first harmonic is then well determined)."""
-    sectors = np.unique((np.mod(theta, 2 * np.pi) // (np.pi / 18)).astype(np.int64))
-    return bool(sectors.size >= need)
+    seen = np.zeros(36 + 1, bool)   # a block at a time: no full-size temporaries
+    for a, b in walk(theta.size, theta):
+        seen[(np.mod(theta[a:b], 2 * np.pi) // (np.pi / 18)).astype(np.int64)] = True
+    return bool(np.count_nonzero(seen) >= need)
 
 
 def base_reference(theta: NDArray[np.float64], s: NDArray[np.float64],

@@ -18,6 +18,8 @@ from typing import Iterable
 import numpy as np
 from numpy.typing import NDArray
 
+from cam_metrology.metrology.spill import release
+
 #: rows of a block (65 536 rows of 5 columns: 2.6 MB)
 BLOCK_ROWS = 1 << 16
 
@@ -91,6 +93,7 @@ def harmonic_lstsq(theta: NDArray[np.float64], y: NDArray[np.float64],
                 m = mask[k:k + block_rows]
                 t, v = t[m], v[m]
             yield np.column_stack([np.ones_like(t), np.cos(t), np.sin(t)]), v
+            release(theta, y)   # spilled columns (``spill``): one block resident
 
     return solve(*triangle(blocks()))
 

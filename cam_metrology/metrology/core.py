@@ -27,6 +27,7 @@ from cam_design.errors import InputError, require_positive
 from cam_metrology.cores.contract import merged_parameters
 from cam_metrology.host.heap import trim
 from cam_metrology.report.json_out import json_safe
+from cam_metrology.scene.channels import joints_in_force
 from cam_metrology.metrology.analysis import (FeatureFailed, FeatureResult, Settings,
                                               analyze_keyway, analyze_lobe, analyze_pin,
                                               seen_lift)
@@ -115,9 +116,11 @@ class MetrologyCore:
         'idle_timeout': (0.0, 'seconds without samples that end a feature (0: the '
                               "scene's idle_timeout)"),
         'angle_joint': (wt.CAMSHAFT_JOINT, 'name of the joint whose position is the '
-                                           'camshaft encoder angle [rad]'),
+                                           'camshaft encoder angle [rad] (the default: '
+                                           "the scene's channels.angle_joint if given)"),
         'lift_joint': (wt.PROBE_JOINT, 'name of the joint whose position is the probe '
-                                       'lift [m]'),
+                                       "lift [m] (the default: the scene's "
+                                       'channels.lift_joint if given)'),
         'feature_id': ('', "the feature of every sample ('': the message's "
                            'header.frame_id); for a bench whose frame_id is not the '
                            'feature, e.g. a ros2_control joint_state_broadcaster'),
@@ -130,7 +133,10 @@ class MetrologyCore:
         self.idle_timeout_param = require_positive('metrology.idle_timeout',
                                                    params.get('idle_timeout', 0.0),
                                                    allow_zero=True)
-        self.joints = sample_joints(params)
+        #: the joint names of the parameters; ``joints``: those in force (the scene's
+        #: ``channels`` when the parameters keep the defaults)
+        self.joints_param = sample_joints(params)
+        self.joints = self.joints_param
         self.feature_id = str(params.get('feature_id', '') or '')
         self.scene: Any = None
         self.assembler = FeatureAssembler()
@@ -162,6 +168,7 @@ class MetrologyCore:
             if scene.camshaft_id != self.scene.camshaft_id and self.results:
                 out += self._end_part()
         self.scene = scene
+        self.joints = joints_in_force(self.joints_param, scene)
         self.scenes.append((int(stamp_ns), scene))
         self.report_sent, self._design = False, {}
         waiting, self.pending = self.pending, []

@@ -25,7 +25,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from cam_metrology.metrology.lift_error import feature_referenced
+from cam_metrology.metrology.lift_error import referenced_rows
 
 #: bin width [deg] of the table before the spline (7200 bins a revolution at most)
 BIN_DEG = 0.05
@@ -89,9 +89,9 @@ def derivative_errors(table: Any, values: Mapping[str, Any],
     reconstruction fails."""
     from scipy.interpolate import make_smoothing_spline
 
-    ref, good = feature_referenced(table, values)
-    alpha, nominal = ref[good, 0], ref[good, 2]
-    error = ref[good, 1] - nominal
+    rows = referenced_rows(table, values)
+    alpha, nominal = rows[:, 0], rows[:, 2]
+    error = rows[:, 1] - nominal
     on = np.flatnonzero(nominal > 0)
     if on.size < 10:
         return {'derivative_error': 'fewer than 10 samples on the lobe'}

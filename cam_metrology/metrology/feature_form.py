@@ -9,7 +9,7 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_metrology.metrology.form import analyze_form
-from cam_metrology.metrology.lift_error import BASE_MARGIN, feature_referenced
+from cam_metrology.metrology.lift_error import BASE_MARGIN, referenced_rows
 from cam_metrology.scene.model import FormSettings
 
 
@@ -21,15 +21,18 @@ def lobe_form(table: Any, values: Mapping[str, Any], direction: int,
     ``direction * alpha + nose angle``; roundness over the base circle (``BASE_MARGIN``
     outside the lobe). A band the sampling does not resolve gives ``form_error`` (the
     one-line reason) instead: the lobe's other results stand."""
-    ref, good = feature_referenced(table, values)
-    alpha, measured, design = ref[good, 0], ref[good, 1], ref[good, 2]
+    rows = referenced_rows(table, values)
+    alpha, measured, design = rows[:, 0], rows[:, 1], rows[:, 2]
     theta = np.mod(direction * alpha + np.radians(values['angle_deg']), 2 * np.pi)
     lobe = np.flatnonzero(design > 0)
     circle = np.ones(alpha.size, bool)
     if lobe.size:
         circle = (alpha < alpha[lobe[0]] - BASE_MARGIN) | (alpha > alpha[lobe[-1]] + BASE_MARGIN)
+    del lobe
+    dev = measured - design
+    del rows, alpha, measured, design   # the form needs the angle and the deviation only
     try:
-        res = analyze_form(theta, measured - design, cutoff_upr=settings.cutoff_upr,
+        res = analyze_form(theta, dev, cutoff_upr=settings.cutoff_upr,
                            band=settings.waviness_band_upr, circle=circle, key='form')
     except InputError as exc:
         return {'form_error': str(exc)}

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError, unit_slip
+from cam_metrology.metrology.spill import SPILL_BYTES, Spool, release, walk
 
 CAMSHAFT, PROBE = 'camshaft', 'probe'
 
@@ -42,24 +43,55 @@ class FeatureSamples:
 
 @dataclass
 class _OpenFeature:
-    """Chunks of one feature still being received."""
+    """Chunks of one feature still being received: in lists while the feature is
+    small, then appended to temporary files (``spill.Spool``) once a column reaches
+    ``spill_bytes``, so that a long feature is never held whole in memory."""
 
     feature_id: str
+    spill_bytes: int = SPILL_BYTES
     stamps: list[NDArray[np.int64]] = field(default_factory=list)
     theta: list[NDArray[np.float64]] = field(default_factory=list)
     s: list[NDArray[np.float64]] = field(default_factory=list)
     last_rx_ns: int = 0
     # per-message samples are buffered in lists and turned into arrays in bulk
     pending: list[tuple[int, float, float]] = field(default_factory=list)
+    size: int = 0
+    spools: tuple[Spool, Spool, Spool] | None = None
 
     def flush(self) -> None:
         """Move per-message samples into the array chunks."""
         if self.pending:
             arr = np.asarray(self.pending, dtype=float)
-            self.stamps.append(arr[:, 0].astype(np.int64))
-            self.theta.append(arr[:, 1])
-            self.s.append(arr[:, 2])
             self.pending = []
+            self.append(arr[:, 0].astype(np.int64), arr[:, 1], arr[:, 2])
+
+    def append(self, stamps: NDArray[np.int64], theta: NDArray[np.float64],
+               s: NDArray[np.float64]) -> None:
+        """Add a chunk of samples (copied: a view would keep a whole block alive)."""
+        self.size += int(stamps.size)
+        if self.spools is None and self.size * 8 >= self.spill_bytes:
+            self.spools = (Spool(np.int64), Spool(np.float64), Spool(np.float64))
+            lists: tuple[list[NDArray[Any]], ...] = (self.stamps, self.theta, self.s)
+            for spool, chunks in zip(self.spools, lists):
+                for chunk in chunks:
+                    spool.append(chunk)
+                chunks.clear()
+        if self.spools is None:
+            self.stamps.append(stamps.copy())
+            self.theta.append(np.array(theta, dtype=float))
+            self.s.append(np.array(s, dtype=float))
+        else:
+            for spool, chunk in zip(self.spools, (stamps, theta, s)):
+                spool.append(chunk)
+
+    def columns(self) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """(stamps, theta, s) of every sample received, in arrival order."""
+        self.flush()
+        if self.spools is not None:
+            st, th, pr = (spool.column() for spool in self.spools)
+            self.spools = None
+            return st, th, pr
+        return _cat(self.stamps, np.int64), _cat(self.theta, float), _cat(self.s, float)
 
 
 def sample_joints(params: dict[str, Any]) -> tuple[str, str]:
@@ -104,10 +136,13 @@ def stamp_of(msg: Any, fallback_ns: int) -> int:
 
 
 class FeatureAssembler:
-    """Splits a sample stream into features; returns finished ones as they end."""
+    """Splits a sample stream into features; returns finished ones as they end. The
+    columns of a feature of more than ``spill_bytes`` a column go to temporary files
+    as they arrive and come back memory-mapped (``spill``)."""
 
-    def __init__(self) -> None:
+    def __init__(self, spill_bytes: int = SPILL_BYTES) -> None:
         self._open: _OpenFeature | None = None
+        self.spill_bytes = spill_bytes
 
     @property
     def current(self) -> str | None:
@@ -125,7 +160,7 @@ class FeatureAssembler:
         done = []
         if self._open is None or self._open.feature_id != feature_id:
             done = self.close()
-            self._open = _OpenFeature(feature_id)
+            self._open = _OpenFeature(feature_id, self.spill_bytes)
         self._open.pending.append((stamp_ns, theta, s))
         self._open.last_rx_ns = rx_ns
         return done
@@ -150,12 +185,9 @@ class FeatureAssembler:
             fid = str(ids[a])
             if self._open is None or self._open.feature_id != fid:
                 done += self.close()
-                self._open = _OpenFeature(fid)
+                self._open = _OpenFeature(fid, self.spill_bytes)
             self._open.flush()
-            # copies: a view would keep the whole block (ids, log times) alive
-            self._open.stamps.append(st[a:b].copy())
-            self._open.theta.append(th[a:b].copy())
-            self._open.s.append(pr[a:b].copy())
+            self._open.append(st[a:b], th[a:b], pr[a:b])
             self._open.last_rx_ns = rx_ns
         return done
 
@@ -167,9 +199,7 @@ class FeatureAssembler:
             return []
         feat = self._open
         self._open = None
-        feat.flush()
-        return [clean_feature(feat.feature_id, _cat(feat.stamps, np.int64),
-                              _cat(feat.theta, float), _cat(feat.s, float))]
+        return [clean_feature(feat.feature_id, *feat.columns())]
 
 
 def _cat(chunks: list[NDArray[Any]], dtype: Any) -> NDArray[Any]:
@@ -200,6 +230,7 @@ def unwrapped_blocks(theta: NDArray[np.float64], block: int = 1 << 16,
             out = p[1:] + sums[1:]
         carry = float(sums[-1])
         yield out
+        release(theta)   # a spilled column: one block resident at a time
 
 
 def unwrapped_span(theta: NDArray[np.float64]) -> float:
@@ -213,16 +244,20 @@ def unwrapped_span(theta: NDArray[np.float64]) -> float:
 
 def clean_feature(feature_id: str, stamp_ns: NDArray[np.int64], theta: NDArray[np.float64],
                   s: NDArray[np.float64]) -> FeatureSamples:
-    """Drop NaN/inf samples and exact duplicates, sort by stamp; count what was dropped."""
+    """Drop NaN/inf samples and exact duplicates, sort by stamp; count what was dropped.
+    Spilled columns (``spill.Spool``) are read a block at a time and stay spilled
+    (unless the stamps are out of order: then they are sorted in memory)."""
     received = int(theta.size)
-    ok = np.isfinite(theta)
-    ok &= np.isfinite(s)
+    ok = np.empty(received, bool)
+    for a, b in walk(received, theta, s):
+        np.isfinite(theta[a:b], out=ok[a:b])
+        ok[a:b] &= np.isfinite(s[a:b])
     nan_dropped = int(received - np.count_nonzero(ok))
     st, th, pr = (stamp_ns, theta, s) if nan_dropped == 0 else \
-        (stamp_ns[ok], theta[ok], s[ok])
+        tuple(_kept(col, ok) for col in (stamp_ns, theta, s))
     del ok
     dup = 0
-    if st.size > 1 and not bool(np.all(st[1:] > st[:-1])):
+    if not _increasing(st):
         # not in strictly increasing stamp order (the usual case needs no copy)
         order = np.lexsort((pr, th, st))
         st, th, pr = st[order], th[order], pr[order]
@@ -233,7 +268,26 @@ def clean_feature(feature_id: str, stamp_ns: NDArray[np.int64], theta: NDArray[n
         if dup:
             st, th, pr = st[keep], th[keep], pr[keep]
     revs = float(unwrapped_span(th) / (2 * np.pi)) if th.size > 1 else 0.0
+    release(st, th, pr)
     return FeatureSamples(feature_id, th, pr, st, received, nan_dropped, dup, revs)
+
+
+def _kept(column: NDArray[Any], ok: NDArray[np.bool_]) -> NDArray[Any]:
+    """``column[ok]``; a spilled column stays spilled (written a block at a time)."""
+    if not isinstance(column, np.memmap):
+        return column[ok]
+    spool = Spool(column.dtype)
+    for a, b in walk(column.size, column):
+        spool.append(column[a:b][ok[a:b]])
+    return spool.column()
+
+
+def _increasing(stamps: NDArray[np.int64]) -> bool:
+    """True if the stamps increase strictly (checked a block at a time)."""
+    for a, b in walk(stamps.size - 1, stamps):
+        if not bool(np.all(stamps[a + 1:b + 1] > stamps[a:b])):
+            return False
+    return True
 
 
 #: largest plausible probe span over one feature [m] (a cam lift of 250 mm)

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError
 from cam_metrology.metrology import block_lsq
+from cam_metrology.metrology.spill import release
 
 TWO_PI = 2.0 * np.pi
 Lift = Callable[[NDArray[np.float64], int], NDArray[np.float64]]
@@ -93,6 +94,7 @@ class _UsedRows:
                 part = [None if a is None else a[m] for a in part]
             n = part[0].size
             yield (*part, slice(pos, pos + n))
+            release(self.arrays)   # spilled samples (``spill``): one block resident
             pos += n
 
     def blocks(self):   # type: ignore[no-untyped-def]
@@ -215,10 +217,13 @@ def coarse_align(x: NDArray[np.float64], s: NDArray[np.float64], template: Lift,
     the probe zero does not matter); empty bins are filled by circular
     interpolation; the peak is refined by a parabola. Resolution ~ 360/bins deg.
     """
-    xm = np.mod(x, TWO_PI)
-    idx = np.minimum((xm / TWO_PI * bins).astype(np.int64), bins - 1)
+    idx = np.empty(x.size, np.int64)   # a block at a time: no full-size float temporaries
+    for k in range(0, x.size, block_lsq.BLOCK_ROWS):
+        xm = np.mod(x[k:k + block_lsq.BLOCK_ROWS], TWO_PI)
+        idx[k:k + xm.size] = np.minimum((xm / TWO_PI * bins).astype(np.int64), bins - 1)
     cnt = np.bincount(idx, minlength=bins)
     tot = np.bincount(idx, weights=s, minlength=bins)
+    release(s)
     filled = cnt > 0
     if np.count_nonzero(filled) < 8:
         raise InputError('samples', int(np.count_nonzero(filled)),

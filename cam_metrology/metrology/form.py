@@ -86,11 +86,12 @@ class Spectrum:
 def nyquist_upr(theta: NDArray[np.float64]) -> int:
     """Highest UPR the samples resolve: ``pi`` over the largest angular gap between
     neighbouring samples on the circle (every revolution folded onto one)."""
-    t = np.sort(np.mod(np.asarray(theta, dtype=float), TWO_PI))
+    t = np.mod(np.asarray(theta, dtype=float), TWO_PI)
     if t.size < 3:
         return 0
-    gaps = np.diff(np.concatenate([t, [t[0] + TWO_PI]]))
-    return int(np.floor(np.pi / float(np.max(gaps)) * (1.0 + 1e-6)))
+    t.sort()   # in place: one column of the angles alive, not three
+    gap = max(float(np.max(np.diff(t))), float(t[0] + TWO_PI - t[-1]))
+    return int(np.floor(np.pi / gap * (1.0 + 1e-6)))
 
 
 def _uniform_revolution(theta: NDArray[np.float64]) -> bool:
@@ -98,13 +99,28 @@ def _uniform_revolution(theta: NDArray[np.float64]) -> bool:
     n = theta.size
     if n < 8:
         return False
-    t = np.sort(np.mod(theta, TWO_PI))
-    step = np.diff(np.concatenate([t, [t[0] + TWO_PI]]))
+    t = np.mod(theta, TWO_PI)
+    t.sort()
+    step = np.diff(t)
+    step -= TWO_PI / n
     mean = TWO_PI / n
-    return bool(np.max(np.abs(step - mean)) < 1e-9 * mean)
+    worst = max(float(np.max(np.abs(step, out=step))), abs(t[0] + TWO_PI - t[-1] - mean))
+    return bool(worst < 1e-9 * mean)
 
 
-def harmonics(theta: Any, dev: Any, max_upr: int, *, key: str = 'form.max_upr') -> Spectrum:
+def finite_pairs(th: NDArray[np.float64], y: NDArray[np.float64],
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The samples where both angle and value are finite (the arrays themselves, not
+    copies, when all are)."""
+    keep = np.isfinite(th)
+    keep &= np.isfinite(y)
+    if keep.all():
+        return th, y
+    return th[keep], y[keep]
+
+
+def harmonics(theta: Any, dev: Any, max_upr: int, *, key: str = 'form.max_upr',
+              nyquist: int | None = None) -> Spectrum:
     """Harmonics 1..``max_upr`` of ``dev`` [m] sampled at ``theta`` [rad] (module doc).
 
     One uniform revolution: its DFT. More samples than ``2 * BIN_FACTOR * max_upr``
@@ -114,12 +130,12 @@ def harmonics(theta: Any, dev: Any, max_upr: int, *, key: str = 'form.max_upr') 
     harmonic k by about sinc(k / bins), which is divided out (1 - sinc is at most 0.26 %
     at ``max_upr``). Fewer samples: least squares over every
     sample. InputError naming ``key`` when ``max_upr`` exceeds the Nyquist UPR of the
-    samples (or there are too few samples for the fit)."""
+    samples (or there are too few samples for the fit). ``nyquist``: the Nyquist UPR of
+    the finite samples when the caller has it (``nyquist_upr``, a sort of the angles)."""
     th = np.asarray(theta, dtype=float)
     y = np.asarray(dev, dtype=float)
-    keep = np.isfinite(th) & np.isfinite(y)
-    th, y = th[keep], y[keep]
-    nyq = nyquist_upr(th)
+    th, y = finite_pairs(th, y)
+    nyq = nyquist_upr(th) if nyquist is None else nyquist
     if isinstance(max_upr, bool) or int(max_upr) != max_upr or max_upr < 1:
         raise InputError(key, max_upr, 'a whole number of UPR >= 1')
     if max_upr > nyq:
@@ -138,13 +154,21 @@ def harmonics(theta: Any, dev: Any, max_upr: int, *, key: str = 'form.max_upr') 
     return _lsq_spectrum(th, y, k, nyq)
 
 
+def _bin_index(angle: NDArray[np.float64], width: float, bins: int) -> NDArray[np.int64]:
+    """``min(angle // width, bins - 1)`` as int64 [bin number] of angles [rad] in
+    [0, 2 pi), with one temporary instead of three (memory)."""
+    idx = np.floor_divide(angle, width, out=np.empty_like(angle)).astype(np.int64)
+    np.minimum(idx, bins - 1, out=idx)
+    return idx
+
+
 def _binned_spectrum(th: NDArray[np.float64], y: NDArray[np.float64], k: int, nyq: int,
                      bins: int) -> Spectrum:
     """Harmonics of the bin means (angle and deviation) over ``bins`` equal bins of the
     circle, the bins' averaging (sinc) divided out."""
     width = TWO_PI / bins
     angle = np.mod(th, TWO_PI)
-    idx = np.minimum((angle // width).astype(np.int64), bins - 1)
+    idx = _bin_index(angle, width, bins)
     count = np.bincount(idx, minlength=bins)
     filled = count > 0
     n = count[filled].astype(float)
@@ -278,7 +302,7 @@ def roundness(theta: NDArray[np.float64], spec: Spectrum, cutoff_upr: int,
     if theta.size <= grid:
         t = theta[mask]
     else:
-        idx = np.minimum((np.mod(theta, TWO_PI) // (TWO_PI / grid)).astype(np.int64), grid - 1)
+        idx = _bin_index(np.mod(theta, TWO_PI), TWO_PI / grid, grid)
         total = np.bincount(idx, minlength=grid)
         inside = np.bincount(idx[mask], minlength=grid)
         t = ((np.arange(grid) + 0.5) * (TWO_PI / grid))[(total > 0) & (inside == total)]
@@ -312,9 +336,10 @@ def analyze_form(theta: Any, dev: Any, *, cutoff_upr: int = DEFAULT_CUTOFF_UPR,
     not resolve."""
     th = np.asarray(theta, dtype=float)
     y = np.asarray(dev, dtype=float)
-    ok = np.isfinite(th) & np.isfinite(y)
+    ok = np.isfinite(th)
+    ok &= np.isfinite(y)
     mask = ok if circle is None else ok & np.asarray(circle, bool)
-    th_ok, y_ok = th[ok], y[ok]
+    th_ok, y_ok = (th, y) if ok.all() else (th[ok], y[ok])
     band = band or (min(15, cutoff_upr), cutoff_upr)
     nyq = nyquist_upr(th_ok)
     check_band(band, nyq, f'{key}.waviness_band_upr')
@@ -322,7 +347,7 @@ def analyze_form(theta: Any, dev: Any, *, cutoff_upr: int = DEFAULT_CUTOFF_UPR,
         raise InputError(f'{key}.cutoff_upr', cutoff_upr, f'at most {nyq} UPR (the '
                          'Nyquist UPR of the sampling)')
     upto = max(band[1], min(FILTER_SPAN * cutoff_upr, nyq))
-    spec = harmonics(th_ok, y_ok, upto, key=f'{key}.cutoff_upr')
+    spec = harmonics(th_ok, y_ok, upto, key=f'{key}.cutoff_upr', nyquist=nyq)
     circ = mask[ok]
     rnd = roundness(th_ok, spec, cutoff_upr, circ)
     return FormResult(harmonic_list(spec, cutoff_upr), None if rnd is None else rnd * UM,

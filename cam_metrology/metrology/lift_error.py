@@ -37,6 +37,8 @@ def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64], *,
         dev -= median_filter(dev, size=9, mode='nearest')
         return dev
     order = np.argsort(x, kind='stable')
+    if order.size < 2**31:   # half the memory of the permutation while it is used
+        order = order.astype(np.int32)
     ordered = r[order]
     dev = r if overwrite and r.dtype == np.float64 else np.empty_like(r, dtype=float)
     # the running median goes into dev's memory first (r is read only through ordered)
@@ -51,29 +53,46 @@ def base_model(table: Any, harmonic: bool,
     """The base-circle reference of ``base_referenced``: the function of alpha [rad]
     giving the level [m] to subtract from the measured lift (None when fewer than 10
     base-circle samples: nothing is subtracted), and the mask of samples kept."""
-    a, m, d = (np.asarray(table[:, k], dtype=float) for k in range(3))
-    dev = local_deviation(a, m - d, overwrite=True)
+    a, err, first, last = _columns(table)
+    dev = local_deviation(a, err.copy(), overwrite=True)
     np.abs(dev, out=dev)
     bad = dev > 5.0 * max(1.4826 * float(np.median(dev)), 1e-7)
     del dev
     if np.mean(bad) > 0.05:
         bad[:] = False
-    lobe = np.flatnonzero(d > 0)
-    if lobe.size:
-        lo, hi = a[lobe[0]], a[lobe[-1]]
+    if first >= 0:
+        lo, hi = a[first], a[last]
         gap = BASE_MARGIN - EDGE_EPS
         base = ((a < lo - gap) | (a > hi + gap)) & ~bad
     else:
         base = ~bad
-    del lobe
     if np.count_nonzero(base) < 10:
         return None, ~bad
-    err = m - d
     if harmonic:   # c + a cos(alpha) + b sin(alpha), fitted a block at a time
         c, ca, cb = (float(v) for v in block_lsq.harmonic_lstsq(a, err, base))
         return (lambda alpha: block_lsq.first_harmonic(alpha, c, ca, cb)), ~bad
     level = float(np.median(err[base]))
     return (lambda alpha: level), ~bad
+
+
+def _columns(table: Any) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int]:
+    """(alpha, measured - design) of a lift table as two new columns, and the first
+    and last row of design lift > 0 (-1, -1 when none), read a block of rows at a time
+    (a spilled table gives back its pages as it is read)."""
+    from cam_metrology.metrology.spill import walk
+
+    n = table.shape[0]
+    a, err = np.empty(n), np.empty(n)
+    first = last = -1
+    for k, e in walk(n, table, step=block_lsq.BLOCK_ROWS):
+        rows = table[k:e]
+        a[k:e] = rows[:, 0]
+        np.subtract(rows[:, 1], rows[:, 2], out=err[k:e])
+        on = np.flatnonzero(rows[:, 2] > 0)
+        if on.size:
+            first = k + int(on[0]) if first < 0 else first
+            last = k + int(on[-1])
+    return a, err, first, last
 
 
 def _referenced_lift(table: Any, model: Callable[[Any], Any]) -> NDArray[np.float64]:
@@ -105,6 +124,25 @@ def base_referenced(table: Any, harmonic: bool) -> tuple[Any, Any]:
     out[:, 0], out[:, 2] = table[:, 0], table[:, 2]
     out[:, 1] = _referenced_lift(table, model)
     return out, kept
+
+
+def referenced_rows(table: Any, feature: Mapping[str, Any]) -> NDArray[np.float64]:
+    """The rows ``feature_referenced`` keeps, as a new (k, 3) table (alpha [rad],
+    base-referenced measured lift [m], design lift [m]): the values of
+    ``ref[good]``, built a block of rows at a time without the referenced copy of the
+    whole table (a spilled table gives back its pages block by block)."""
+    from cam_metrology.metrology.spill import walk
+
+    model, kept = base_model(table, bool(feature.get('runout_fitted')))
+    out = np.empty((int(np.count_nonzero(kept)), 3))
+    pos = 0
+    for a, b in walk(table.shape[0], table, step=block_lsq.BLOCK_ROWS):
+        rows = table[a:b][kept[a:b]]
+        if model is not None:
+            rows[:, 1] = rows[:, 1] - model(rows[:, 0])
+        out[pos:pos + rows.shape[0]] = rows
+        pos += rows.shape[0]
+    return out
 
 
 def referenced_error_stats(table: Any, harmonic: bool, good: NDArray[np.bool_],

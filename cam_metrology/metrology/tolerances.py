@@ -25,7 +25,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from cam_metrology.metrology.lift_error import feature_referenced
+from cam_metrology.metrology.lift_error import referenced_rows
 from cam_metrology.scene.model import Band, Scene, Tolerances
 
 __all__ = ['check', 'judge_lobe', 'judge_datum', 'judge_part', 'PASS', 'FAIL', 'NOT_CHECKED']
@@ -129,7 +129,7 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
     missing: list[dict[str, str]] = []
     good = None
     if table is not None:
-        table, good = feature_referenced(table, feature)
+        table = referenced_rows(table, feature)   # the rows kept: good = all
     _lift_error_checks(tol, table, good, checks, missing)
     if tol.phase_deg is not None:
         value = feature.get('phase_error_deg')
@@ -156,8 +156,8 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
                     missing.append(_not(n, 'no lift table or design for this feature'))
         else:
             # the two columns the checks read (not a copy of the whole table: memory)
-            alpha, lift = table[good, 0], table[good, 1]
-            del table, good
+            alpha, lift = table[:, 0].copy(), table[:, 1].copy()
+            del table
             _table_checks(tol, alpha, lift, design, checks, missing)
     return _verdict(checks, missing)
 

@@ -66,6 +66,10 @@ from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, 
                                        JOINT_TRAJECTORY, RIG_TOPICS, SCENE, STATUS, QosSpec,
                                        qos_of)
 
+#: raw sample messages kept, before the first scene, for the joint names it may give
+#: (scene ``channels``); beyond, they are decoded with the names in force
+BEFORE_SCENE_LIMIT = 200_000
+
 
 #: most raw samples handed to a core in one call (keeps the worker responsive)
 MAX_BATCH = 4000
@@ -145,6 +149,8 @@ class CoreNode(Node):
                 self._publisher(view, view_type)
         self._subs: dict[str, Any] = {}
         self._held: list[tuple[int, int, str, Any]] = []   # (source ns, seq, topic, msg)
+        #: raw sample batches (and their topic) received before the first scene
+        self._before_scene: list[tuple[list[tuple[bytes, int, int]], str]] = []
         self._seq = 0
         self._order_hold = order_hold
         self._last_sample = 0.0        # monotonic s of the last sample handled
@@ -467,7 +473,7 @@ class CoreNode(Node):
         self._worker = None
 
     def _deliver_batch(self, batch: list[tuple[bytes, int, int]],
-                       topic: str = JOINT_STATES) -> None:
+                       topic: str = JOINT_STATES, scene_or_not: bool = False) -> None:
         """Hand raw messages of ``topic`` (JointStates, or JointTrajectory blocks) to
         the core in blocks, releasing each held message just before the first message
         published after it (the same order as one by one). Losses (sequence holes)
@@ -476,6 +482,12 @@ class CoreNode(Node):
         import numpy as np
 
         from cam_metrology.bagio import JointSummary, decode_joint_blocks, decode_joint_states
+        while self._held and self._held[0][0] <= batch[0][1]:
+            self._release_one()   # a scene before the batch may name the joints
+        if not scene_or_not and self._names_await_scene() and \
+                sum(len(b) for b, _ in self._before_scene) < BEFORE_SCENE_LIMIT:
+            self._before_scene.append((batch, topic))   # decoded once the scene names them
+            return
         joints = getattr(self.core, 'joints', None) or (None, None)
         named = {'joints': joints} if joints[0] else {}
         raws = [b[0] for b in batch]
@@ -516,6 +528,15 @@ class CoreNode(Node):
             i = j
         self._last_sample = time.monotonic()
 
+    def _names_await_scene(self) -> bool:
+        """True while the core has no scene and its joint names may come from the
+        scene's ``channels`` (its parameters keep the default names)."""
+        from cam_metrology.scene.channels import DEFAULT_JOINTS
+
+        given = getattr(self.core, 'joints_param', None)
+        return given is not None and tuple(given) == DEFAULT_JOINTS and \
+            getattr(self.core, 'scene', None) is None
+
     def _handle_block(self, js: Any, i: int, j: int) -> list[Output]:
         return self.core.handle_samples(js.frame_id[i:j], js.stamp_ns[i:j], js.theta[i:j],
                                         js.s[i:j], rx_ns=self.now_ns())
@@ -523,6 +544,10 @@ class CoreNode(Node):
     def _release_one(self) -> None:
         _, _, topic, msg = heapq.heappop(self._held)
         self._guarded(f'handle({topic})', self.core.handle, topic, msg, self.now_ns())
+        if topic == SCENE and self._before_scene and not self._names_await_scene():
+            early, self._before_scene = self._before_scene, []
+            for batch, samples_topic in early:   # in the order they came
+                self._deliver_batch(batch, samples_topic)
 
     def _take_waiting_samples(self) -> None:
         """Handle the samples already in the reader (in order) while messages are held:
@@ -582,6 +607,9 @@ class CoreNode(Node):
         final input status, and wait (deadline) until they are acknowledged."""
         self.release_held()
         with self.lock:
+            early, self._before_scene = self._before_scene, []
+            for batch, samples_topic in early:   # no scene came: the names in force
+                self._deliver_batch(batch, samples_topic, scene_or_not=True)
             self._guarded('finish', self.core.finish)
             self.publish_diagnostics(force=True)
         pubs = list(self._pubs.values())   # /diagnostics included (_publisher)

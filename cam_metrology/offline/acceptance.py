@@ -61,11 +61,11 @@ def measured_cards(scene: Any, features: dict[str, Any], tables: dict[str, Any],
         design = designs.get(fid)
         if table is None or design is None or (features.get(fid) or {}).get('status') != 'ok':
             continue
-        from cam_metrology.metrology.lift_error import feature_referenced
-        table, good = feature_referenced(table, features[fid])
-        # the two columns the card reads, contiguous (not a copy of the whole table)
-        alpha, lift = table[good, 0], table[good, 1]
-        del table, good
+        from cam_metrology.metrology.lift_error import referenced_rows
+        rows = referenced_rows(table, features[fid])
+        # the two columns the card reads, contiguous
+        alpha, lift = rows[:, 0].copy(), rows[:, 1].copy()
+        del rows
         if referenced is not None:
             referenced[fid] = (alpha, lift,
                                scene.probe.radius if scene.probe.kind == 'roller' else 0.0)

@@ -134,7 +134,7 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     import numpy as np
 
     from cam_metrology.offline.acceptance import both_crank_timings, lobe_cards
-    from cam_metrology.metrology.lift_error import feature_referenced
+    from cam_metrology.metrology.lift_error import referenced_rows
     from cam_metrology.metrology.spill import release, spill
     from cam_metrology.report.provenance import provenance
 
@@ -150,17 +150,15 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
             card = designs.get(fid) is not None and feature.get('status') == 'ok'
             if results[fid].kind != 'lobe' or not (card or plot_tables):
                 continue
-            ref, good = feature_referenced(table, feature)
+            kept = referenced_rows(table, feature)   # the rows the verdict used
             release(table)
-            kept = ref[good]   # the rows the verdict used: for the cards and the plots
-            del ref, good
-            if card:
-                cards[fid] = lobe_cards(scene, fid, np.ascontiguousarray(kept[:, 0]),
-                                        np.ascontiguousarray(kept[:, 1]), designs[fid],
-                                        heights)
+            alpha, lift = (np.ascontiguousarray(kept[:, k]) for k in (0, 1))
             if plot_tables:
                 tables[fid] = spill(kept)
-            del kept
+            del kept   # the cards read two columns: the table is not kept alongside
+            if card:
+                cards[fid] = lobe_cards(scene, fid, alpha, lift, designs[fid], heights)
+            del alpha, lift
         crank = both_crank_timings(scene, features, cards)
         if crank is not None:
             report['crank'] = crank

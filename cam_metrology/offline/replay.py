@@ -199,6 +199,24 @@ def _bulk_method(core: Any) -> tuple[Callable[..., Any] | None, bool]:
     return method, accepts_rx
 
 
+def sample_joints_of(bag: Path, cores: Sequence[Any]) -> tuple[str, str] | None:
+    """(angle, lift) joint names of the samples, from the first core that has them:
+    its parameters, or the channels of the bag's first scene when the parameters keep
+    the default names (``scene.channels.joints_in_force``, as the core does live)."""
+    core = next((c for c in cores if getattr(c, 'joints', None)), None)
+    if core is None:
+        return None
+    given = getattr(core, 'joints_param', None)
+    if given is None:
+        return tuple(core.joints)
+    from cam_metrology.scene.channels import DEFAULT_JOINTS, joints_in_force
+    if tuple(given) != DEFAULT_JOINTS:
+        return tuple(given)
+    from cam_metrology.scene.recorded import bag_scenes
+    first = next((sc.scene for sc in bag_scenes(bag) if sc.scene is not None), None)
+    return joints_in_force(given, first)
+
+
 def run_offline(bag_path: str | Path, cores: Sequence[Any],
                 progress: Callable[[int, int], None] | None = None, *,
                 tick_period_ns: int = TICK_PERIOD_NS, bulk: bool = True,
@@ -231,10 +249,10 @@ def run_offline(bag_path: str | Path, cores: Sequence[Any],
     # both forms of the sample stream (one per JointState, blocks) feed the sample
     # subscribers; joint names (angle, lift) from the first core that has them
     feed_joints = joints in wanted and (joints in topics or JOINT_TRAJECTORY in topics)
-    names = next((c.joints for c in cores if getattr(c, 'joints', None)), None)
-    blocks = bagio.iter_joint_states(
-        bag, block_bytes=block_bytes, **({'joints': names} if names else {})) \
-        if feed_joints else iter(())
+    names = sample_joints_of(bag, cores)
+    blocks = iter(()) if not feed_joints else \
+        bagio.iter_joint_states(bag, block_bytes=block_bytes, joints=names) if names else \
+        bagio.iter_joint_states(bag, block_bytes=block_bytes)
     others = bagio.iter_messages(bag, sorted(wanted - {joints, JOINT_TRAJECTORY})) \
         if wanted - {joints, JOINT_TRAJECTORY} else iter(())
     total = sum(topics[t][1] for t in wanted if t in topics)

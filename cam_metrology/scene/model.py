@@ -12,6 +12,7 @@ from typing import Any
 
 from cam_design.follower import Follower
 from cam_design.lift_laws import LiftLaw
+from cam_metrology.scene.channels import Channels
 
 __all__ = ['Follower', 'FormSettings', 'Journal', 'Lobe', 'DowelPin', 'Keyway', 'Crank',
            'Seat', 'ValveTrain', 'Scene', 'COMPUTE_ITEMS', 'Band', 'ToleranceZone', 'Tolerances',
@@ -213,6 +214,7 @@ class Scene:
     form: FormSettings = field(default_factory=FormSettings)
     journals: tuple[Journal, ...] = ()
     probe_zero_radius: float | None = None    # m, radius at which the probe reads 0
+    channels: Channels | None = None          # the bench's joint names (scene.channels)
 
     def journal(self, journal_id: str) -> Journal | None:
         """The journal with this id, or None."""

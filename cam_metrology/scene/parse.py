@@ -36,7 +36,7 @@ __all__ = ['parse_scene', 'load_scene', 'lift_law_from_spec']
 TOP_KEYS = ('camshaft_id', 'direction', 'probe', 'base_circle_radius', 'lobes',
             'dowel_pin', 'keyway', 'crank', 'compute', 'valve_train', 'idle_timeout',
             'tolerances', 'part_id', 'operator', 'trial', 'camshaft', 'form', 'journals',
-            'rig')
+            'rig', 'channels')
 #: top-level keys of a gauge R&R study (carried into the report and the batch table)
 STUDY_KEYS = ('part_id', 'operator', 'trial')
 PROBE_KINDS = ('flat', 'roller', 'knife', 'ball')
@@ -213,12 +213,14 @@ def _parse_document(text: str, source: str, base_dir: str | Path | None) -> Scen
     journals = parse_journals(top.get('journals'), ctx.mapping,
                               {lobe.id for lobe in lobes} | set(DATUM_IDS), _band)
     zero_radius = parse_zero_radius(top['probe'].get('zero_radius'))
+    from cam_metrology.scene.channels import parse_channels
+    channels = parse_channels(top.get('channels'), ctx.mapping)
     return Scene(camshaft_id=camshaft_id, direction=direction, probe=probe,
                  base_circle_radius=base, lobes=tuple(lobes), dowel_pin=pin,
                  compute=compute, valve_train=valve, idle_timeout=idle, text=text,
                  datum_tolerance_deg=datum, warnings=tuple(ctx.warnings), keyway=keyway,
                  crank=crank, study=study, camshaft=shaft, form=form, journals=journals,
-                 probe_zero_radius=zero_radius)
+                 probe_zero_radius=zero_radius, channels=channels)
 
 
 def _camshaft(block: Any, lobes: list[Lobe]) -> Any:
@@ -326,11 +328,12 @@ def _lobes(ctx: _Ctx, value: Any, base: float, defaults: dict[str, Any] | None =
                              else None, 'exactly one of lift (alpha/h table), lift_law or '
                              'nominal_file')
         nominal_path = None
+        law: LiftLaw
         if has_file:
             law, follower, nominal_path = _nominal_file(ctx, key, lobe, follower)
             spec = None
         elif has_table:
-            law: LiftLaw = _lift_table(ctx, f'{key}.lift', lobe['lift'])
+            law = _lift_table(ctx, f'{key}.lift', lobe['lift'])
             spec = None
         else:
             if not isinstance(lobe['lift_law'], Mapping):
