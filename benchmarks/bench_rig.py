@@ -5,10 +5,12 @@ calibration of the reported uncertainty (error / reported std over seeds).
 Case: config/rig_scene.yaml (preset flat_tappet_intake lobe, nominal train 1.2e7 N/m,
 60 N s/m, 0.12 kg); the rig's true train 1.0e7 N/m, 90 N s/m, 0.125 kg. Runs from the
 product's rig simulator (``rig.simulate``: the dynamics' periodic state on a time clock)
-at 50 kHz, 3600-count encoder, no ripple, speeds 910/1310/1710/2090 rpm, laser noise
-1 um unless stated. The fit goes through the dynamics solver at every evaluation. CPU
-time is user+sys of this process (``time.process_time``), reported with wall time and
-the load average, because other jobs may share the machine. The independent-solver
+at 50 kHz, 3600-count encoder, no speed ripple unless stated (1 %: order 2, the valve's
+response to it simulated and predicted through the ripple's equivalent law), speeds
+910/1310/1710/2090 rpm, laser noise 1 um unless stated. The fit goes through the
+dynamics solver at every evaluation. CPU time is user+sys of this process
+(``time.process_time``), reported with wall time and the load average, because other
+jobs may share the machine. The independent-solver
 check of the recovery is in test/test_rig.py.
 
 Run: ``OPENBLAS_NUM_THREADS=1 .venv/bin/python -m benchmarks rig`` (a few minutes of
@@ -42,10 +44,10 @@ def _setup():
     return scene, setup, true
 
 
-def _runs(setup, true, speeds, revs, noise, seed):
+def _runs(setup, true, speeds, revs, noise, seed, ripple=0.0):
     from cam_metrology.rig.simulate import RigNoise, simulate_run
 
-    n = RigNoise(laser_noise=noise, ripple=0.0, encoder_counts=3600, sample_rate=50_000.0)
+    n = RigNoise(laser_noise=noise, ripple=ripple, encoder_counts=3600, sample_rate=50_000.0)
     return [simulate_run(setup.law, true, rpm, nose=setup.spec.nose_angle, revolutions=revs,
                          noise=n, seed=seed * 100 + i, name=f'r{rpm:g}')
             for i, rpm in enumerate(speeds)]
@@ -64,19 +66,25 @@ def main() -> None:
     """Run the three tables and write benchmarks/results/rig.md."""
     scene, setup, true = _setup()
     rows = ['## Calibration time', '',
-            '| runs | revolutions | samples | fitted | model evaluations | CPU [s] | wall [s] '
-            '| load | stiffness error [%] |', '|---|---|---|---|---|---|---|---|---|']
-    cases = [(4, 4.0, ('stiffness', 'damping')), (4, 4.0, ('stiffness', 'damping', 'mass')),
-             (4, 4.0, ('stiffness', 'damping', 'mass', 'nose_angle')),
-             (1, 4.0, ('stiffness', 'damping')), (2, 4.0, ('stiffness', 'damping')),
-             (4, 2.0, ('stiffness', 'damping')), (4, 8.0, ('stiffness', 'damping'))]
-    for nruns, revs, names in cases:
-        runs = _runs(setup, true, SPEEDS[:nruns], revs, 1e-6, 1)
+            '| runs | revolutions | ripple [%] | samples | fitted | model evaluations | '
+            'CPU [s] | wall [s] | load | stiffness error [%] | mass err/std |',
+            '|---|---|---|---|---|---|---|---|---|---|---|']
+    full = ('stiffness', 'damping', 'mass')
+    cases = [(4, 4.0, ('stiffness', 'damping'), 0.0), (4, 4.0, full, 0.0),
+             (4, 4.0, full + ('nose_angle',), 0.0),
+             (1, 4.0, ('stiffness', 'damping'), 0.0), (2, 4.0, ('stiffness', 'damping'), 0.0),
+             (4, 2.0, ('stiffness', 'damping'), 0.0), (4, 8.0, ('stiffness', 'damping'), 0.0),
+             (4, 4.0, full, 0.01)]
+    for nruns, revs, names, ripple in cases:
+        runs = _runs(setup, true, SPEEDS[:nruns], revs, 1e-6, 1, ripple)
         res, fit, cpu, wall, load = _fit(scene, runs, names)
         err = 100 * (fit.value['stiffness'] / TRUE['stiffness'] - 1)
-        rows.append(f"| {nruns} | {revs:g} | {sum(r.time.size for r in runs)} | "
+        zm = (f"{(fit.value['mass'] - TRUE['mass']) / fit.std['mass']:+.2f}"
+              if 'mass' in names else '')
+        rows.append(f"| {nruns} | {revs:g} | {100 * ripple:g} | "
+                    f"{sum(r.time.size for r in runs)} | "
                     f"{','.join(names)} | {res['model_evaluations']} | {cpu:.1f} | "
-                    f"{wall:.1f} | {load:.1f} | {err:+.3f} |")
+                    f"{wall:.1f} | {load:.1f} | {err:+.3f} | {zm} |")
     rows += ['', '## Parameter error against laser noise (4 runs x 4 revolutions, seed 1)', '',
              '| noise [um] | stiffness err/std | damping err/std | mass err/std | '
              'stiffness std [%] | damping std [%] | mass std [%] |',

@@ -26,12 +26,11 @@ from cam_design.errors import CliError  # noqa: E402,F401 (the CLI's sentence er
 
 #: The command tree in the order of ``cam-bench --help``: a module name (relative to this
 #: package) is one command; a pair (group, its sub-command modules) a group whose
-#: package ``register`` adds the group parser; (name, None) a module that still
-#: registers its sub-commands and handlers itself (``rig``: see docs/limits.md).
-COMMANDS: tuple[str | tuple[str, tuple[str, ...] | None], ...] = (
+#: package ``register`` adds the group parser.
+COMMANDS: tuple[str | tuple[str, tuple[str, ...]], ...] = (
     'demo', 'record', 'replay', 'run_node',
     'analyze', 'golden', 'batch', 'spc', 'reconstruct', 'dynamics',
-    ('rig', None),
+    ('rig', ('rig.analyze', 'rig.calibrate', 'rig.simulate')),
     ('design', ('design.law', 'design.check', 'design.rocker', 'design.profile',
                 'design.optimize')),
     ('grind', ('grind.table', 'grind.master', 'grind.errors', 'grind.correct')),
@@ -77,7 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def register_commands(sub: argparse._SubParsersAction,
-                      commands: Sequence[str | tuple[str, tuple[str, ...] | None]]) -> None:
+                      commands: Sequence[str | tuple[str, tuple[str, ...]]]) -> None:
     """Add the parsers of ``commands`` (entries of :data:`COMMANDS`) to ``sub``: each
     command module's parser with ``func=<module>.run``; a group's parser with its
     sub-commands under ``<group>_command``."""
@@ -88,8 +87,6 @@ def register_commands(sub: argparse._SubParsersAction,
             continue
         group, children = entry
         parser = _command_module(group).register(sub)
-        if children is None:     # the module registered its sub-commands itself
-            continue
         group_sub = parser.add_subparsers(dest=f'{group}_command', metavar='WHAT')
         register_commands(group_sub, children)
 

@@ -41,10 +41,11 @@ def register(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
                         'bench published in) or events (rclpy.experimental.EventsExecutor: '
                         'cheaper, receive-time log stamps)')
     p.add_argument('--rig', action='store_true',
-                   help='the valve-train rig loop instead: simulate rig runs of '
-                        'config/rig_scene.yaml (or --scene) with its rig.true_valve_train, '
-                        'publish them live to the rig node and the recorder, calibrate '
-                        'on the recorded bag, print the jump speed nominal vs calibrated')
+                   help='the valve-train rig loop instead: bench-sim in rig mode '
+                        '(its own process) publishes rig runs of config/rig_scene.yaml (or '
+                        '--scene) with its rig.true_valve_train in blocks to the rig node '
+                        'and the recorder; calibrate on the recorded bag, print the jump '
+                        'speed nominal vs calibrated')
     p.add_argument('--keep-logs', action='store_true', help='keep the node logs directory')
     return p
 

@@ -55,7 +55,8 @@ def parameter_table(name: str) -> dict[str, Any] | None:
         return dict(getattr(load_core_class(name), 'PARAMETERS', {}))
     if name == 'bench-sim':
         from cam_metrology.nodes import bench_sim
-        return {**bench_sim.PARAMETERS, **bench_sim.sim_param_table()}
+        from cam_metrology.rig.simulate import RIG_SIM_PARAMETERS
+        return {**bench_sim.PARAMETERS, **bench_sim.sim_param_table(), **RIG_SIM_PARAMETERS}
     from cam_metrology.nodes import recorder
     return dict(recorder.PARAMETERS)
 

@@ -30,8 +30,9 @@
   EventsExecutor (``with_info=False``) this is off: rclpy 7.1.6's EventsExecutor
   raises SystemError for any callback taking MessageInfo, and it runs callbacks in
   event-arrival order anyway;
-* blocks of samples (``/bench/joint_trajectory``, JointTrajectory, when the core
-  subscribes it): always subscribed raw, one callback per block (a block of 1000
+* blocks of samples (``wire.topics.BLOCK_TOPICS``: ``/bench/joint_trajectory``,
+  ``/rig/joint_trajectory``; JointTrajectory, when the core subscribes one): always
+  subscribed raw, one callback per block (a block of 1000
   samples costs what one JointState costs), decoded by ``bagio.decode_joint_blocks``
   (joints by the core's names) and handed to the core's ``handle_samples`` in order
   with the held messages like the JointState batches; lost blocks are counted per
@@ -62,9 +63,9 @@ from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, pro
 from cam_metrology.cores.outputs import Output, Status, StatusOutput
 from cam_metrology.wire.layouts import encode_output, msgtype_of
 from cam_metrology.wire.plots import plot_messages, view_topics
-from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, FEATURE_DONE, JOINT_STATES,
-                                       JOINT_TRAJECTORY, RIG_TOPICS, SCENE, STATUS, QosSpec,
-                                       qos_of)
+from cam_metrology.wire.topics import (BENCH_TOPICS, BLOCK_TOPICS, DIAGNOSTICS, FEATURE_DONE,
+                                       JOINT_STATES, RIG_TOPICS, SCENE,
+                                       STATUS, QosSpec, qos_of)
 
 #: raw sample messages kept, before the first scene, for the joint names it may give
 #: (scene ``channels``); beyond, they are decoded with the names in force
@@ -194,10 +195,11 @@ class CoreNode(Node):
 
     def _subscribe(self, topic: str, type_name: str, qos: QosSpec) -> None:
         raw = False
-        if topic in (JOINT_STATES, JOINT_TRAJECTORY) and self._samples_qos is not None:
+        if (topic == JOINT_STATES or topic in BLOCK_TOPICS) and self._samples_qos is not None:
             qos = self._samples_qos
-        if topic == JOINT_TRAJECTORY:   # blocks: raw, decoded with numpy
-            callback = self._on_blocks_raw if self._with_info else self._on_blocks_plain
+        if topic in BLOCK_TOPICS:   # blocks: raw, decoded with numpy
+            callback = functools.partial(
+                self._on_blocks_raw if self._with_info else self._on_blocks_plain, topic)
             raw = True
         elif topic == JOINT_STATES and self._bulk:
             callback: Any = self._on_sample_raw
@@ -212,7 +214,7 @@ class CoreNode(Node):
             callback = functools.partial(self._on_message, topic)
         if self._with_info and qos.depth > 1 and topic not in self.losses:
             # latched depth-1 topics: not counted
-            self.losses[topic] = SequenceLoss(topic, blocks=topic == JOINT_TRAJECTORY)
+            self.losses[topic] = SequenceLoss(topic, blocks=topic in BLOCK_TOPICS)
         self._subs[topic] = self.create_subscription(
             message_class(type_name), topic, callback, profile(qos), raw=raw)
 
@@ -364,19 +366,19 @@ class CoreNode(Node):
         with self.lock:
             self._deliver_batch(batch)
 
-    def _on_blocks_raw(self, data: bytes, info: Any) -> None:
-        """One block (JointTrajectory CDR): to the worker, or handled now."""
+    def _on_blocks_raw(self, topic: str, data: bytes, info: Any) -> None:
+        """One block (JointTrajectory CDR) of ``topic``: to the worker, or handled now."""
         self.callbacks_run += 1
         item = [(data, _source_ns(info), _seq(info))]
         if self._queue is not None:
-            self._queue.put(('blocks', item))
+            self._queue.put((topic, item))
             return
         with self.lock:
-            self._deliver_batch(item, JOINT_TRAJECTORY)
+            self._deliver_batch(item, topic)
 
-    def _on_blocks_plain(self, data: bytes) -> None:
+    def _on_blocks_plain(self, topic: str, data: bytes) -> None:
         """A block under the EventsExecutor (no MessageInfo: no loss count)."""
-        self._on_blocks_raw(data, None)
+        self._on_blocks_raw(topic, data, None)
 
     def _drain_samples(self, limit: int) -> list[tuple[Any, int, int]]:
         """Take up to ``limit`` samples already waiting in the reader, in order:
@@ -421,7 +423,7 @@ class CoreNode(Node):
                         self._release_quiet()
                     continue
             extra = 0
-            while kind in ('samples', 'blocks') and len(item) < TAKE_BATCH:
+            while (kind == 'samples' or kind in BLOCK_TOPICS) and len(item) < TAKE_BATCH:
                 # merge the sample batches (or blocks) queued behind this one: one
                 # decode and one core call per merge instead of per receive callback
                 try:
@@ -438,8 +440,8 @@ class CoreNode(Node):
                 with self.lock:
                     if kind == 'samples':
                         self._deliver_batch(item)
-                    elif kind == 'blocks':
-                        self._deliver_batch(item, JOINT_TRAJECTORY)
+                    elif kind in BLOCK_TOPICS:   # blocks of that topic
+                        self._deliver_batch(item, kind)
                     elif kind == 'held':
                         self._hold(item[1], item[2], item[0])
                     elif kind == 'tick':
@@ -491,7 +493,7 @@ class CoreNode(Node):
         joints = getattr(self.core, 'joints', None) or (None, None)
         named = {'joints': joints} if joints[0] else {}
         raws = [b[0] for b in batch]
-        if topic == JOINT_TRAJECTORY:
+        if topic in BLOCK_TOPICS:
             js = decode_joint_blocks(raws, topic=topic, **named)
             sizes = js.block_sizes if js.block_sizes is not None else np.zeros(0, np.int64)
             bounds = np.concatenate(([0], np.cumsum(sizes))).tolist()

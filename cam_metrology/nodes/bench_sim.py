@@ -25,7 +25,18 @@ joint_names = (angle_joint, lift_joint), one point per sample with time_from_sta
 its offset), each block when its last sample is due. The joint names are the
 parameters ``angle_joint`` and ``lift_joint``.
 
-ROS parameters: every field of ``simulate.SimParams`` plus those of ``PARAMETERS``.
+Rig mode (``mode: rig``): valve-train rig runs instead of a camshaft measurement. The
+scene (default ``config/rig_scene.yaml``) needs a ``rig`` block; its
+``rig.true_valve_train`` moves the valve (``rig.simulate``: the dynamics' periodic motion
+at each run's mean speed, a speed ripple, a quantised encoder, laser noise with an
+arbitrary zero; parameters ``rig_*``). One run per speed of ``rig_rpm``, ``frame_id`` =
+run name, joints ``camshaft`` and ``valve``: on ``/rig/joint_states`` one sample per
+message, or in blocks of ``samples_per_message`` on ``/rig/joint_trajectory``; paced on
+their stamps like the bench's samples; no /bench/feature_done (a rig run ends at the
+next frame_id or when the stream goes quiet); /bench/truth holds the rig's truth.
+
+ROS parameters: every field of ``simulate.SimParams``, the rig mode's
+``rig.simulate.RIG_SIM_PARAMETERS``, plus those of ``PARAMETERS``.
 """
 from __future__ import annotations
 
@@ -46,12 +57,18 @@ from cam_metrology.nodes.adapter import declare_parameters
 from cam_metrology.nodes.runtime import publish_retrying, wait_all_acked
 from cam_metrology.nodes.topics import keep_all_profile, profile
 from cam_metrology.wire.topics import (CAMSHAFT_JOINT, FEATURE_DONE, JOINT_STATES,
-                                       JOINT_TRAJECTORY, PROBE_JOINT, SCENE, TOPICS, TRUTH)
+                                       JOINT_TRAJECTORY, PROBE_JOINT, RIG_JOINT_STATES,
+                                       RIG_JOINT_TRAJECTORY, SCENE, TOPICS, TRUTH,
+                                       VALVE_JOINT)
 
 SAMPLES_WRITER = keep_all_profile()
 
 PARAMETERS: dict[str, tuple[Any, str]] = {
-    'scene_file': ('', 'scene YAML to simulate; empty: the embedded default scene'),
+    'mode': ('bench', 'bench: a camshaft measurement on /bench/*; rig: valve-train rig runs '
+                      'of the scene\'s rig block on /rig/joint_states (/rig/joint_trajectory '
+                      'in blocks)'),
+    'scene_file': ('', 'scene YAML to simulate; empty: the embedded default scene (rig mode: '
+                       'config/rig_scene.yaml)'),
     'wait_subscribers': (1, 'subscriptions that must match /bench/joint_states, '
                             '/bench/scene and /bench/feature_done before the first sample'),
     'wait_graph': ('', 'also wait until the graph shows this many subscriptions on other '
@@ -149,20 +166,35 @@ class BenchSimNode(Node):
     def __init__(self, *, context: Any = None, node_name: str = 'bench_sim',
                  overrides: dict[str, Any] | None = None) -> None:
         super().__init__(node_name, context=context)
+        from cam_metrology.rig.simulate import RIG_SIM_PARAMETERS
+
         table = dict(PARAMETERS)
         table.update(sim_param_table())
+        table.update(RIG_SIM_PARAMETERS)
         for name, value in (overrides or {}).items():
             table[name] = (value, table.get(name, (None, ''))[1])
         self.params = declare_parameters(self, table)
-        from cam_metrology.host.paths import default_scene_path
+        self.rig = _mode(self.params['mode']) == 'rig'
+        from cam_metrology.host.paths import config_dir, default_scene_path
         from cam_metrology.scene.parse import load_scene
-        from cam_metrology.simulation.bench import simulate
 
-        scene_path = Path(self.params['scene_file'] or default_scene_path())
+        scene_path = Path(self.params['scene_file'] or (
+            config_dir() / 'rig_scene.yaml' if self.rig else default_scene_path()))
         self.scene = load_scene(scene_path)
         self.scene_text = self.scene.text or scene_path.read_text(encoding='utf-8')
-        self.run_data = simulate(self.scene, make_sim_params(self.params))
-        self.features = list(iter_samples(self.run_data))
+        if self.rig:
+            from cam_metrology.rig.simulate import rig_sim_runs, stream_runs
+
+            runs, _, truth = rig_sim_runs(self.scene, self.params)
+            self.run_data: Any = {'truth': truth, 'features': []}
+            self.features = stream_runs(runs)
+            self.rate = float(self.params['rig_sample_rate'])
+        else:
+            from cam_metrology.simulation.bench import simulate
+
+            self.run_data = simulate(self.scene, make_sim_params(self.params))
+            self.features = list(iter_samples(self.run_data))
+            self.rate = float(self.params.get('rate', 1000.0))
         # samples: reliable KEEP_ALL (lossless back-pressure: a subscriber that cannot
         # keep up slows the stream down instead of losing samples; the achieved rate is
         # logged). A deep keep-last writer history was measured to cost 100-300 us per
@@ -173,14 +205,20 @@ class BenchSimNode(Node):
             from cam_design.errors import InputError
             raise InputError('bench_sim.samples_per_message', self.per_message,
                              'an integer >= 1')
-        self.samples_topic = JOINT_STATES if self.per_message == 1 else JOINT_TRAJECTORY
-        self.joint_names = (str(self.params['angle_joint']), str(self.params['lift_joint']))
+        single, blocks = ((RIG_JOINT_STATES, RIG_JOINT_TRAJECTORY) if self.rig
+                          else (JOINT_STATES, JOINT_TRAJECTORY))
+        self.samples_topic = single if self.per_message == 1 else blocks
+        self.joint_names = ((CAMSHAFT_JOINT, VALVE_JOINT) if self.rig else
+                            (str(self.params['angle_joint']), str(self.params['lift_joint'])))
         sample_cls = JointState if self.per_message == 1 else JointTrajectory
+        #: the topics whose subscriptions are awaited before the first sample
+        self.awaited = (self.samples_topic, SCENE) + (() if self.rig else (FEATURE_DONE,))
         self.pub = {topic: self.create_publisher(
             cls, topic,
             (SAMPLES_WRITER if topic == self.samples_topic else profile(TOPICS[topic][1])))
             for topic, cls in ((SCENE, String), (TRUTH, String),
-                               (self.samples_topic, sample_cls), (FEATURE_DONE, String))}
+                               (self.samples_topic, sample_cls), (FEATURE_DONE, String))
+            if topic != FEATURE_DONE or not self.rig}
         self.sent = 0
         self.publish_errors = 0
         self.stamp_offset_ns = 0
@@ -195,11 +233,11 @@ class BenchSimNode(Node):
         self.pub[SCENE].publish(String(data=self.scene_text))
         self.pub[TRUTH].publish(String(data=truth_json(self.run_data)))
 
-    def matched(self) -> tuple[int, int, int]:
+    def matched(self) -> tuple[int, ...]:
         """Matched subscriptions on the samples topic (/bench/joint_states or
-        /bench/joint_trajectory), /bench/scene, /bench/feature_done."""
-        return tuple(self.pub[t].get_subscription_count()  # type: ignore[return-value]
-                     for t in (self.samples_topic, SCENE, FEATURE_DONE))
+        /bench/joint_trajectory; the rig's in rig mode), /bench/scene and (not in rig
+        mode) /bench/feature_done."""
+        return tuple(self.pub[t].get_subscription_count() for t in self.awaited)
 
     def messages(self, fid: str, theta: Any, s: Any, stamp: Any,
                  ) -> tuple[list[bytes], Any, Any]:
@@ -262,7 +300,7 @@ class BenchSimNode(Node):
         stamp0 = int(self.features[0][3][0]) if self.features[0][3].size else 0
         self.stamp_offset_ns = time.time_ns() - stamp0
         t0 = time.monotonic()
-        rate = float(self.params.get('rate', 1000.0))
+        rate = self.rate
         # lateness caught up: at least max_lag s, so that a process descheduled for a
         # few ms on a loaded machine does not lose its schedule (it did: with the window
         # at max_burst samples, 10 ms at 20 000/s, a load of 12 held 20 000/s asked to
@@ -301,14 +339,24 @@ class BenchSimNode(Node):
                 if should_stop is not None and should_stop():
                     self.sent = k
                     return k
-            self._publish(FEATURE_DONE, String(data=fid))
-            self.get_logger().info(f'feature {fid} done ({theta.size} samples)')
+            if not self.rig:
+                self._publish(FEATURE_DONE, String(data=fid))
+            self.get_logger().info(f'{"run" if self.rig else "feature"} {fid} done '
+                                   f'({theta.size} samples)')
         self.sent = k
         return k
 
     def wait_acked(self, timeout: float) -> bool:
         """Wait (deadline) until all subscribers acknowledged everything published."""
         return wait_all_acked(self.pub.values(), timeout)
+
+
+def _mode(value: Any) -> str:
+    """The ``mode`` parameter checked: bench or rig (InputError otherwise)."""
+    if value not in ('bench', 'rig'):
+        from cam_design.errors import InputError
+        raise InputError('bench_sim.mode', value, 'bench or rig')
+    return str(value)
 
 
 def run_bench_sim(args: Sequence[str] | None = None,
@@ -320,7 +368,7 @@ def run_bench_sim(args: Sequence[str] | None = None,
     try:
         node = proc.add(BenchSimNode(context=proc.context, overrides=overrides))
         p = node.params
-        rate = float(p.get('rate', 0.0))
+        rate = node.rate
         log = node.get_logger()
         log.info(f'{len(node.features)} features, {node.total_samples} samples at '
                  f'{rate:g}/s; waiting for {p["wait_subscribers"]} subscriber(s)')
@@ -330,7 +378,7 @@ def run_bench_sim(args: Sequence[str] | None = None,
                      for t in parse_graph_counts(str(p['wait_graph']))}
             log.error(f'graph subscriptions {graph} (wanted {p["wait_graph"]}); '
                       f'only {node.matched()} of {p["wait_subscribers"]} subscriptions matched '
-                      f'(/bench/joint_states, /bench/scene, /bench/feature_done) within '
+                      f'({", ".join(node.awaited)}) within '
                       f'{p["match_timeout"]} s')
             return 4
         t0 = time.monotonic()

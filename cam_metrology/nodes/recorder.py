@@ -60,8 +60,8 @@ from cam_metrology.wire.loss import OK, WARN, SequenceLoss, loss_status, loss_va
 from cam_metrology.nodes.adapter import RX_LINGER
 from cam_metrology.nodes.topics import AdaptiveSubscriptions, message_class, profile
 from cam_metrology.wire.layouts import encode_statuses
-from cam_metrology.wire.topics import (BENCH_TOPICS, DIAGNOSTICS, JOINT_STATES,
-                                       JOINT_TRAJECTORY, RIG_TOPICS, STATUS, TOPICS, QosSpec,
+from cam_metrology.wire.topics import (BENCH_TOPICS, BLOCK_TOPICS, DIAGNOSTICS,
+                                       JOINT_STATES, RIG_TOPICS, STATUS, TOPICS, QosSpec,
                                        qos_of)
 from cam_metrology.cores.outputs import Status
 
@@ -239,7 +239,7 @@ class RecorderNode(Node):
         reader = reader or self._reader_qos.get(topic)
         self.counts.setdefault(topic, 0)
         if self._with_info and (reader or qos).depth > 1 and topic != DIAGNOSTICS:
-            self.losses.setdefault(topic, SequenceLoss(topic, blocks=topic == JOINT_TRAJECTORY))
+            self.losses.setdefault(topic, SequenceLoss(topic, blocks=topic in BLOCK_TOPICS))
         callback = self._on_message if self._with_info else self._on_message_no_info
         self._subs[topic] = self.create_subscription(
             message_class(type_name), topic, functools.partial(callback, topic),

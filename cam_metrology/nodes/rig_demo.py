@@ -1,18 +1,22 @@
 """`cam-bench demo --rig`: the rig loop end to end, live over ROS 2.
 
-1. simulate rig runs of the scene's ``rig.true_valve_train`` (``rig.simulate``: speed
-   ripple, quantised encoder, laser noise with an arbitrary zero) at speeds around the
-   nominal train's jump speed;
-2. in an isolated ROS domain start the recorder and the rig node (`cam-bench run`
-   subprocesses), publish the scene and the samples on ``/rig/joint_states`` (the rig
-   simulator's publisher, keep all), wait (deadline) until the rig node has published
-   a status per run, stop both (SIGINT);
+1. in an isolated ROS domain start the recorder, the rig node and the bench simulator
+   in its rig mode (`cam-bench run bench-sim -p mode:=rig`, three subprocesses, like
+   the metrology demo): bench-sim simulates rig runs of the scene's
+   ``rig.true_valve_train`` (speed ripple, quantised encoder, laser noise with an
+   arbitrary zero; its ``rig_*`` parameters, config/bench_sim.yaml) and publishes the
+   scene and the samples in blocks on ``/rig/joint_trajectory`` once the recorder and
+   the rig node have subscribed;
+2. wait (deadline) until the rig node has published a status per run named in
+   ``/bench/truth`` and the recorder subscribes to it, stop the rig node and the
+   recorder (SIGINT);
 3. calibrate stiffness and damping on the recorded bag (the code of ``rig calibrate``)
    and print the live statuses, the calibrated values against the simulator's truth
    and the jump speed predicted with the nominal and the calibrated train.
 """
 from __future__ import annotations
 
+import json
 import shutil
 import sys
 import tempfile
@@ -20,114 +24,106 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from cam_metrology.nodes.demo import start_child, stop_child
+from cam_metrology.nodes.demo import Child, start_child, stop_child
+from cam_metrology.wire.topics import RIG_RESULT, TRUTH
 
-#: speeds of the demo's runs [rpm] and their length
-SPEEDS = (905.0, 1310.0, 1705.0, 2110.0)
-REVOLUTIONS = 2.5
-RATE = 20_000.0
-
-
-def publish_runs(node: Any, scene_text: str) -> tuple[Any, Any]:
-    """Publishers of the scene and the rig samples; publishes everything (keep all:
-    held back while a subscriber is behind). Returns the publishers."""
-    from sensor_msgs.msg import JointState
-    from std_msgs.msg import String
-
-    from cam_metrology.nodes.topics import profile
-    from cam_metrology.wire.topics import RIG_JOINT_STATES, SCENE, TOPICS
-
-    scene = node.create_publisher(String, SCENE, profile(TOPICS[SCENE][1]))
-    samples = node.create_publisher(JointState, RIG_JOINT_STATES,
-                                    profile(TOPICS[RIG_JOINT_STATES][1]))
-    scene.publish(String(data=scene_text))
-    return scene, samples
+#: samples per JointTrajectory block that bench-sim publishes in the demo
+BLOCK = 500
 
 
-def send(samples: Any, runs: Any) -> int:
-    """Publish every sample of ``runs`` (frame_id = run name); the count."""
-    from sensor_msgs.msg import JointState
-
-    from cam_metrology.wire.topics import CAMSHAFT_JOINT, VALVE_JOINT
-
-    n = 0
-    t0 = 10**9
-    for r in runs:
-        for k in range(r.time.size):
-            msg = JointState(name=[CAMSHAFT_JOINT, VALVE_JOINT],
-                             position=[float(r.angle[k]), float(r.lift[k])])
-            msg.header.frame_id = r.name
-            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(
-                t0 + int(round(r.time[k] * 1e9)), 10**9)
-            samples.publish(msg)
-            n += 1
-        t0 += int(round(r.time[-1] * 1e9)) + 10**8
-    return n
+def sim_arguments(scene: Path, timeout: float) -> list[str]:
+    """ROS arguments of bench-sim in the demo's rig mode (the rest from
+    config/bench_sim.yaml): the recorder and the rig node subscribe to the samples
+    first, and the demo and the recorder to /bench/truth and /rig/result (bench-sim
+    exits when done: its latched truth must have reached the demo)."""
+    return ['--ros-args', '-p', 'mode:=rig', '-p', f'scene_file:={scene.resolve()}',
+            '-p', f'samples_per_message:={BLOCK}', '-p', 'wait_subscribers:=2',
+            '-p', f'wait_graph:={TRUTH}=2,{RIG_RESULT}=2',
+            '-p', f'match_timeout:={float(timeout)}']
 
 
 def run_rig_demo(scene_path: str | None, out: str | None, timeout: float,
                  stream: TextIO = sys.stdout) -> int:
     """The loop of the module docstring; exit code 0, or 1 with the reason."""
+    import os
+
     from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.node import Node
+    from std_msgs.msg import String
 
     from cam_metrology.host.isolation import claim_domain, isolated_env
+    from cam_metrology.host.paths import config_dir
     from cam_metrology.nodes.runtime import RosProcess
     from cam_metrology.nodes.topics import profile
-    from cam_metrology.host.paths import config_dir
-    from cam_metrology.rig.simulate import RigNoise, simulate_scene_runs
     from cam_metrology.scene.parse import load_scene
-    from cam_metrology.wire.topics import RIG_RESULT, TOPICS
+    from cam_metrology.wire.topics import TOPICS
 
     t_start = time.monotonic()
     say = (lambda text: print(text, file=stream, flush=True))
-    scene = load_scene(scene_path or config_dir() / 'rig_scene.yaml')
-    runs, note = simulate_scene_runs(scene, SPEEDS, revolutions=REVOLUTIONS,
-                                     noise=RigNoise(sample_rate=RATE))
-    if note:
-        say(f'note: {note}')
+    scene_file = Path(scene_path or config_dir() / 'rig_scene.yaml')
+    scene = load_scene(scene_file)        # a bad scene: one line before ROS starts
     bag = Path(out or Path('demo-out') / f"rig_{time.strftime('%Y%m%dT%H%M%S', time.gmtime())}")
     bag.parent.mkdir(parents=True, exist_ok=True)
     domain = claim_domain()
     logs = Path(tempfile.mkdtemp(prefix='cam_bench_rig_demo_'))
     env = isolated_env(domain, str(logs))
-    import os
     os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE',
                                            'ROS_LOG_DIR')})
-    say(f'rig demo: ROS domain {domain}; {len(runs)} simulated runs at '
-        + ', '.join(f'{r:g}' for r in SPEEDS) + ' rpm; recording to ' + str(bag))
-    children = {'recorder': start_child('recorder', ['--ros-args', '-p', f'output:={bag}'],
-                                        env, logs),
-                'rig': start_child('rig', [], env, logs)}
+    say(f'rig demo: ROS domain {domain}; bench-sim (rig mode) publishes the runs of '
+        f'{scene_file} in blocks of {BLOCK}; recording to {bag}')
+    children: dict[str, Child] = {
+        'recorder': start_child('recorder', ['--ros-args', '-p', f'output:={bag}'], env, logs),
+        'rig': start_child('rig', [], env, logs)}
+    children['bench-sim'] = start_child('bench-sim', sim_arguments(scene_file, timeout),
+                                        env, logs)
     proc = RosProcess(domain_id=domain, handle_signals=False)
     got: dict[str, Any] = {}
+    truth: dict[str, Any] = {}
     try:
-        from rclpy.node import Node
-        node = proc.add(Node('rig_demo_sim', context=proc.context))
+        node = proc.add(Node('rig_demo', context=proc.context))
         node.create_subscription(DiagnosticArray, RIG_RESULT,
                                  lambda m: got.update({s.name: s for s in m.status}),
                                  profile(TOPICS[RIG_RESULT][1]))
-        _, samples = publish_runs(node, scene.text)
-        if not proc.spin_until(lambda: samples.get_subscription_count() >= 2
-                               or any(c.proc.poll() is not None for c in children.values()),
-                               timeout):
-            say('rig demo: the recorder and the rig node never subscribed (see ' + str(logs)
-                + ')')
+        node.create_subscription(String, TRUTH,
+                                 lambda m: truth.update(json.loads(m.data).get('rig') or {}),
+                                 profile(TOPICS[TRUTH][1]))
+        names: list[str] = []
+
+        def done() -> bool:
+            names[:] = list(truth.get('runs', ()))
+            return bool(names) and all(n in got for n in names)
+
+        def failed() -> bool:
+            return any(c.proc.poll() not in (None, 0) for c in children.values()) or \
+                children['rig'].proc.poll() is not None
+        if not proc.spin_until(lambda: done() or failed(), timeout) or not done():
+            say(f'rig demo: {len(got)} of {len(names) or "?"} run statuses within '
+                f'{timeout:g} s (node logs in {logs})')
+            for c in children.values():
+                say(f'  {c.name}: exit {c.proc.poll()}\n{c.tail(5)}')
             return 1
-        n = send(samples, runs)
-        say(f'published {n} samples on /rig/joint_states')
-        if not proc.spin_until(lambda: len(got) >= len(runs), timeout):
-            say(f'rig demo: only {len(got)} of {len(runs)} run statuses within {timeout:g} s')
+        # the recorder subscribes to the rig node's outputs once it sees them in the
+        # graph; the rig node, stopped, waits for every matched subscriber to have them
+        # all: so stop it only when the recorder has matched (deadline)
+        if not proc.spin_until(lambda: node.count_subscribers(RIG_RESULT) >= 2, timeout):
+            say(f'rig demo: the recorder never subscribed to {RIG_RESULT} within '
+                f'{timeout:g} s (node logs in {logs})')
             return 1
-        for name in [r.name for r in runs]:
+        for name in names:
             s = got[name]
             v = {x.key: x.value for x in s.values}
             say(f"live {name}: {float(v['rpm']):.1f} rpm, {s.message}, residual rms "
                 f"{float(v['residual_rms_m']) * 1e6:.2f} um against the nominal train")
     finally:
         waiter = (lambda cond, s: proc.spin_until(cond, s))
-        for name in ('rig', 'recorder'):
+        for name in ('bench-sim', 'rig', 'recorder'):
             stop_child(children[name], waiter=waiter)
         proc.close()
+    return _calibrate(scene, bag, say, t_start, logs)
+
+
+def _calibrate(scene: Any, bag: Path, say: Any, t_start: float, logs: Path) -> int:
+    """Calibrate on the recorded bag and print the result against the simulator's truth."""
     from cam_metrology.rig.report import summary_lines
     from cam_metrology.rig.runs import read_bag_runs
     from cam_metrology.rig.session import calibrate_runs

@@ -17,7 +17,8 @@ from numpy.typing import NDArray
 from cam_metrology.rig.cycles import TWO_PI, Cycles, average_cycles, bin_means
 from cam_metrology.rig.encoder import Speed, encoder_speed
 from cam_metrology.rig.events import measured_events
-from cam_metrology.rig.model import Prediction, lobe_alpha, predicted_bins
+from cam_metrology.rig.model import Prediction, lobe_alpha
+from cam_metrology.rig.ripple import run_bins
 from cam_metrology.rig.runs import RigRun
 from cam_metrology.rig.spec import RigSpec
 
@@ -91,7 +92,7 @@ def compare_run(data: RunData, pred: Prediction, law: Any, vt: Any, nose: float,
                          data.omega,
                          spec.checking_height, spec.separation_sigmas, spec.separation_min,
                          cyc.velocity)
-    pbins = predicted_bins(pred, cyc, nose, direction)
+    pbins = run_bins(pred, data, nose, direction)
     pev = pred.run.events
     sp = data.speed
     out: dict[str, Any] = {
@@ -110,6 +111,7 @@ def compare_run(data: RunData, pred: Prediction, law: Any, vt: Any, nose: float,
     out.update(ev.as_dict())
     if ev.notes:
         out['notes'] = list(ev.notes)
+    out['input_notes'] = list(data.run.notes)
     out['predicted'] = {
         'separated': bool(pev.get('jump')),
         'separation_angle_deg': (pev['separations'][0][0] if pev.get('separations')

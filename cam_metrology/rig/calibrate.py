@@ -8,9 +8,13 @@ moved in units of their nominal value (``x = (p - p0) / scale``); ``scipy.optimi
 least_squares`` (trust region, forward-difference Jacobian, bounds keeping the physical
 ones positive) finds the minimum.
 
-Uncertainty: covariance s^2 (J^T J)^-1 at the minimum, J the Jacobian of the weighted
-residuals, s^2 = chi^2 / (m - p) (so unmodelled cycle-to-cycle variation widens the
-uncertainty instead of being ignored); the correlation matrix from it.
+Each run also gets a free constant offset (the error of its laser zero, common to all
+its bins), solved in closed form inside the residuals (``offset_free``).
+
+Uncertainty: covariance s^2 (J^T J)^-1 at the minimum, J the Jacobian of the weighted,
+offset-free residuals, s^2 = chi^2 / (m - p - runs) (so unmodelled cycle-to-cycle
+variation widens the uncertainty instead of being ignored); the correlation matrix from
+it.
 
 Identifiability: before any fit, the Jacobian at the nominal train is checked: a
 parameter the runs do not depend on, or a pair with |correlation| >
@@ -28,8 +32,8 @@ from numpy.typing import NDArray
 
 from cam_design.errors import CliError
 from cam_metrology.rig.analysis import RunData
-from cam_metrology.rig.model import (ZERO_SCALE, Prediction, predict, predicted_bins,
-                                     train_value, with_value)
+from cam_metrology.rig.model import ZERO_SCALE, Prediction, predict, train_value, with_value
+from cam_metrology.rig.ripple import has_ripple, ripple_law, run_bins
 
 WARN_CORRELATION = 0.95
 REFUSE_CORRELATION = 0.99
@@ -97,6 +101,7 @@ class Problem:
         self.scale = {n: (abs(v) if v != 0 else ZERO_SCALE.get(n, 1.0))
                       for n, v in self.nominal.items()}
         self.cache: dict[tuple, Prediction] = {}
+        self.laws: dict[tuple[int, float], Any] = {}
         self.nfev = 0
         self.ok = [np.isfinite(d.cycles.lift) & (d.cycles.count > 0) for d in self.datas]
         self.weight = [1.0 / d.cycles.stderr[k] for d, k in zip(self.datas, self.ok)]
@@ -114,28 +119,44 @@ class Problem:
                 vt = with_value(vt, n, v)
         return vt, values.get('nose_angle', self.nose0)
 
-    def prediction(self, vt: Any, rpm: float) -> Prediction:
-        """The (cached) prediction of ``vt`` at ``rpm``."""
+    def law_of(self, data: RunData, nose: float) -> tuple[Any, tuple[int, float] | None]:
+        """The law that drives the run's prediction: the lobe's, or its equivalent law
+        with the run's speed ripple (``ripple``), with its cache key."""
+        if not has_ripple(data.speed):
+            return self.law, None
+        key = (id(data), nose)
+        if key not in self.laws:
+            if len(self.laws) > 64:
+                self.laws.clear()
+            self.laws[key] = ripple_law(self.law, data.speed, nose, self.direction)
+        return self.laws[key], key
+
+    def prediction(self, vt: Any, data: RunData, nose: float) -> Prediction:
+        """The (cached) prediction of ``vt`` for a run: at its mean speed, with its
+        speed ripple."""
+        law, lkey = self.law_of(data, nose)
         key = (vt.mass, vt.stiffness, vt.damping, vt.spring_rate, vt.spring_preload,
-               vt.lash, vt.valve_damping, vt.seat.stiffness, vt.seat.damping, rpm)
+               vt.lash, vt.valve_damping, vt.seat.stiffness, vt.seat.damping,
+               data.speed.rpm, lkey)
         if key not in self.cache:
             if len(self.cache) > 256:
                 self.cache.clear()
-            self.cache[key] = predict(self.law, vt, rpm, self.key)
+            self.cache[key] = predict(law, vt, data.speed.rpm, self.key)
         return self.cache[key]
 
     def run_bins(self, vt: Any, nose: float) -> list[NDArray[np.float64]]:
         """Predicted bins of every run."""
-        return [predicted_bins(self.prediction(vt, d.speed.rpm), d.cycles, nose,
-                               self.direction) for d in self.datas]
+        return [run_bins(self.prediction(vt, d, nose), d, nose, self.direction)
+                for d in self.datas]
 
     def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Weighted residuals (measured - predicted) / standard error of every bin."""
+        """Weighted residuals (measured - predicted - offset) / standard error of every
+        bin, the offset of each run (the laser zero's error) fitted with them."""
         self.nfev += 1
         vt, nose = self.train(self.values(x))
         parts = []
         for d, p, k, w in zip(self.datas, self.run_bins(vt, nose), self.ok, self.weight):
-            parts.append((d.cycles.lift[k] - p[k]) * w)
+            parts.append(offset_free(d.cycles.lift[k] - p[k], w))
         r = np.concatenate(parts)
         return np.where(np.isfinite(r), r, 1e6)
 
@@ -149,6 +170,24 @@ class Problem:
             xp[j] += h
             jac[:, j] = (self.residuals(xp) - r0) / h
         return jac
+
+
+def offset_free(diff: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Weighted residuals ``(diff - c) * w`` of one run with the constant ``c`` [m] that
+    minimises them (the weighted mean of ``diff``).
+
+    Measured and predicted lift are both referenced to their base circle, but the
+    measured zero is a mean of noisy samples: its error is common to every bin of the
+    run. Left in, it is a correlated residual that the weighted least squares would
+    read as a deflection (stiffness, mass) without counting it in the uncertainty.
+    Fitting a free offset per run (variable projection: the linear parameter solved in
+    closed form inside the residual) gives the other parameters their honest
+    covariance; its degree of freedom is taken off in ``calibrate``.
+    """
+    w2 = w * w
+    ok = np.isfinite(diff)
+    c = float(np.sum(w2[ok] * diff[ok]) / np.sum(w2[ok])) if np.any(ok) else 0.0
+    return np.asarray((diff - c) * w, dtype=np.float64)
 
 
 def correlation(jac: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -208,7 +247,7 @@ def calibrate(problem: Problem, progress: Callable[[str], None] | None = None) -
     r = problem.residuals(x)
     m, p = r.size, len(names)
     chi2 = float(r @ r)
-    dof = max(1, m - p)
+    dof = max(1, m - p - len(problem.datas))     # one offset per run
     s2 = chi2 / dof
     cov, corr = correlation(jac)
     scale = np.array([problem.scale[n] for n in names])

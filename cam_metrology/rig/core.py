@@ -1,7 +1,11 @@
 """The rig node's core (pure Python, no rclpy): rig runs live, in ``rig analyze``'s code.
 
-Subscribes ``/bench/scene`` (the scene with its ``rig`` block) and ``/rig/joint_states``
-(joints ``camshaft``, ``valve``, further channels; ``frame_id`` = run). A run ends when
+Subscribes ``/bench/scene`` (the scene with its ``rig`` block), ``/rig/joint_states``
+(joints ``camshaft``, ``valve``, further channels; ``frame_id`` = run) and the same
+samples in blocks on ``/rig/joint_trajectory`` (JointTrajectory, decoded by the node
+adapter with ``bagio.decode_joint_blocks`` and handed to ``handle_samples``; lost blocks
+are counted per block and sample by the adapter, and a run that lost any is marked
+partial). A run ends when
 the next ``frame_id`` starts, when the stream is quiet for the scene's ``idle_timeout``,
 or at the end; it is then analysed exactly as ``cam-bench rig analyze`` does
 (``session.analyze``) and published (if samples of a run ended by the idle timeout
@@ -25,7 +29,8 @@ import numpy as np
 from cam_design.errors import InputError
 from cam_metrology.cores.contract import merged_parameters
 from cam_metrology.cores.outputs import ERROR, OK, WARN, Output, Status, StatusOutput, TableOutput
-from cam_metrology.wire.topics import RIG_JOINT_STATES, RIG_MOTION, RIG_RESULT, SCENE
+from cam_metrology.wire.topics import (CAMSHAFT_JOINT, RIG_JOINT_STATES, RIG_JOINT_TRAJECTORY,
+                                       RIG_MOTION, RIG_RESULT, SCENE, VALVE_JOINT)
 
 MOTION_COLUMNS = ('alpha_rad', 'measured_lift_m', 'scatter_m', 'predicted_lift_m')
 
@@ -35,7 +40,10 @@ class RigCore:
 
     name = 'rig'
     subscriptions = {SCENE: 'std_msgs/msg/String',
-                     RIG_JOINT_STATES: 'sensor_msgs/msg/JointState'}
+                     RIG_JOINT_STATES: 'sensor_msgs/msg/JointState',
+                     RIG_JOINT_TRAJECTORY: 'trajectory_msgs/msg/JointTrajectory'}
+    #: (angle, lift) joints the adapter decodes from the blocks
+    joints = (CAMSHAFT_JOINT, VALVE_JOINT)
     publications = {RIG_RESULT: 'diagnostic_msgs/msg/DiagnosticArray',
                     RIG_MOTION: 'std_msgs/msg/Float64MultiArray'}
     PARAMETERS: dict[str, tuple[Any, str]] = {
@@ -47,10 +55,11 @@ class RigCore:
         self.jump = bool(p['jump_speed'])
         self.scene: Any = None
         self.frame: str | None = None
-        self.rows: list[Any] = []
+        self.rows: list[Any] = []        # JointState messages of the current run
+        self.blocks: list[Any] = []      # (stamps [ns], theta, lift) arrays of its blocks
         self.last_ns = 0
         self.results: dict[str, dict[str, Any]] = {}
-        self.flushed: list[Any] = []     # the samples of the last run ended
+        self.flushed: tuple[list[Any], list[Any]] = ([], [])   # the last run ended
 
     def handle(self, topic: str, msg: Any, stamp_ns: int) -> list[Output]:
         """Scene: keep it; sample: buffer it (a new frame_id ends the previous run)."""
@@ -66,21 +75,46 @@ class RigCore:
             return out
         if topic != RIG_JOINT_STATES:
             return []
-        frame = str(msg.header.frame_id) or 'run'
-        out = self._flush(stamp_ns) if frame != self.frame and self.rows else []
-        if frame == self.frame and not self.rows and self.flushed:
-            # the stream resumed the run that an idle timeout had ended (a stall of the
-            # sender or of this node): continue it; its status is published again
-            self.rows = self.flushed
-        self.frame = frame
+        out = self._start(str(msg.header.frame_id) or 'run', stamp_ns)
         self.rows.append(msg)
         self.last_ns = stamp_ns
         return out
 
+    def handle_samples(self, frame_id: Any, stamp_ns: Any, theta: Any, s: Any,
+                       rx_ns: int = 0) -> list[Output]:
+        """Samples decoded from blocks (``frame_id`` = run, stamps [ns], camshaft
+        angle [rad], valve lift [m]): buffered like single samples."""
+        frames = np.asarray(frame_id)
+        out: list[Output] = []
+        n = int(frames.size)
+        if n == 0:
+            return out
+        cut = np.flatnonzero(frames[1:] != frames[:-1]) + 1
+        for a, b in zip(np.concatenate(([0], cut)).tolist(),
+                        np.concatenate((cut, [n])).tolist()):
+            out += self._start(str(frames[a]) or 'run', rx_ns)
+            self.blocks.append((np.asarray(stamp_ns[a:b]), np.asarray(theta[a:b]),
+                                np.asarray(s[a:b])))
+        self.last_ns = rx_ns
+        return out
+
+    def _start(self, frame: str, stamp_ns: int) -> list[Output]:
+        """Samples of run ``frame`` arrive: a new frame ends the buffered run."""
+        out = self._flush(stamp_ns) if frame != self.frame and self._buffered() else []
+        if frame == self.frame and not self._buffered() and any(self.flushed):
+            # the stream resumed the run that an idle timeout had ended (a stall of the
+            # sender or of this node): continue it; its status is published again
+            self.rows, self.blocks = self.flushed
+        self.frame = frame
+        return out
+
+    def _buffered(self) -> bool:
+        return bool(self.rows or self.blocks)
+
     def tick(self, now_ns: int) -> list[Output]:
         """A run ends when the stream is quiet for the scene's idle_timeout."""
         idle = getattr(self.scene, 'idle_timeout', 1.0)
-        if self.rows and now_ns - self.last_ns > idle * 1e9:
+        if self._buffered() and now_ns - self.last_ns > idle * 1e9:
             return self._flush(now_ns)
         return []
 
@@ -89,19 +123,23 @@ class RigCore:
         return self._flush(self.last_ns)
 
     def _flush(self, stamp_ns: int) -> list[Output]:
-        if not self.rows:
+        if not self._buffered():
             return []
-        rows, self.rows = self.rows, []
-        self.flushed = rows
+        rows, blocks, self.rows, self.blocks = self.rows, self.blocks, [], []
+        self.flushed = (rows, blocks)
         name = self.frame or 'run'
         if self.scene is None:
             return [self._status(Status(name, ERROR, 'no scene on /bench/scene before the '
                                                      'run: cannot analyse it'), stamp_ns)]
         try:
-            from cam_metrology.rig.runs import runs_of_messages
+            from cam_metrology.rig.runs import runs_of_messages, runs_of_samples
             from cam_metrology.rig.session import analyze
 
-            runs = runs_of_messages(rows, RIG_JOINT_STATES)
+            runs = runs_of_messages(rows, RIG_JOINT_STATES) if rows else []
+            if blocks:
+                stamps, theta, lift = (np.concatenate(c) for c in zip(*blocks))
+                runs += runs_of_samples(np.full(stamps.size, name), stamps, theta, lift,
+                                        RIG_JOINT_TRAJECTORY)
             outcome = analyze(self.scene, runs, jump=self.jump)
         except InputError as exc:
             return [self._status(Status(name, ERROR, str(exc)), stamp_ns)]

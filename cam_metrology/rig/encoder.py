@@ -1,22 +1,32 @@
 """Camshaft speed and a smooth encoder angle on the time clock (docs/methods.md "Rig").
 
-The encoder angle is unwrapped, and a least-squares cubic spline theta(t) with knots
-every 1/8 revolution is fitted through it: quantisation steps and counting jitter
-average out, a speed ripple of a few harmonics per revolution is kept. The speed is
-its derivative; its mean, standard deviation and range describe the run.
+The encoder angle is unwrapped and a smooth model theta(t) is fitted through it by
+linear least squares: a cubic polynomial in time (the mean speed and a slow drift) plus
+the first ``HARMONICS`` harmonics of the mean revolution frequency (a speed ripple of a
+few orders per revolution). Twenty coefficients for the whole run: quantisation steps
+and counting jitter average out over every sample, not over a short stretch, so a
+sampling rate locked to the counts leaves no local bias. The speed is its derivative;
+the mean speed is the mean slope of the polynomial (whole ripple periods do not count),
+its standard deviation and range describe the run.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from cam_design.errors import InputError
 
-#: spline knots per revolution of the camshaft
-KNOTS_PER_REV = 16
+#: harmonics of the revolution frequency in the angle model (orders 1..HARMONICS)
+HARMONICS = 8
+#: degree of the polynomial part of the angle model (mean speed and drift)
+DRIFT_DEGREE = 3
+#: an order of the angle model is kept when its amplitude exceeds this many standard
+#: errors of a harmonic coefficient
+SIGNIFICANT = 10.0
 #: fewest full revolutions a run must cover
 MIN_REVOLUTIONS = 1.5
 
@@ -26,7 +36,10 @@ class Speed:
     """Encoder result: ``theta`` [rad] smoothed, unwrapped, increasing (sign folded in
     ``sign``: +1 when the encoder counts up); ``rpm`` mean, ``rpm_std`` and ``rpm_min``,
     ``rpm_max`` over the run; ``revolutions`` covered; ``quantum`` [rad] the smallest
-    encoder step seen (0 for a continuous encoder)."""
+    encoder step seen (0 for a continuous encoder). The ripple: the harmonic part of the
+    angle model, H(t) = sum_k ripple_cos[k] cos(k w (t - t0)) + ripple_sin[k]
+    sin(k w (t - t0)) [rad] over ``orders``, w = ``omega`` [rad/s]; ``psi0`` the uniform
+    encoder angle (without H) at ``t0`` [rad] (``rig.ripple``)."""
 
     theta: NDArray[np.float64]
     sign: int
@@ -37,6 +50,20 @@ class Speed:
     revolutions: float
     quantum: float
     offset: float = 0.0
+    orders: tuple[int, ...] = ()
+    ripple_cos: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    ripple_sin: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    omega: float = 0.0
+    t0: float = 0.0
+    psi0: float = 0.0
+
+    def ripple_at(self, time: NDArray[np.float64]) -> NDArray[np.float64]:
+        """H(t) [rad] at ``time`` [s] (zeros without ripple orders)."""
+        out = np.zeros(np.shape(time))
+        for k, a, b in zip(self.orders, self.ripple_cos, self.ripple_sin):
+            ph = k * self.omega * (np.asarray(time) - self.t0)
+            out += a * np.cos(ph) + b * np.sin(ph)
+        return out
 
     @property
     def encoder(self) -> NDArray[np.float64]:
@@ -121,12 +148,75 @@ def quantisation_offset(read: NDArray[np.float64], fit: NDArray[np.float64],
     return float(0.5 * (hi + lo + quantum))
 
 
+def _design(time: NDArray[np.float64], omega: float, orders: Sequence[int]
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Columns of the angle model at ``time`` and of its time derivative: Legendre
+    polynomials up to ``DRIFT_DEGREE`` on the run, cos/sin of ``orders`` x ``omega``."""
+    from numpy.polynomial import legendre
+
+    t0, t1 = float(time[0]), float(time[-1])
+    half = 0.5 * (t1 - t0)
+    tau = (time - t0) / half - 1.0
+    eye = np.eye(DRIFT_DEGREE + 1)
+    cols = [legendre.legval(tau, eye[j]) for j in range(DRIFT_DEGREE + 1)]
+    dcols = [legendre.legval(tau, legendre.legder(eye[j])) / half
+             for j in range(DRIFT_DEGREE + 1)]
+    for k in orders:
+        ph = k * omega * (time - t0)
+        cols += [np.cos(ph), np.sin(ph)]
+        dcols += [-k * omega * np.sin(ph), k * omega * np.cos(ph)]
+    return np.column_stack(cols), np.column_stack(dcols)
+
+
+@dataclass(frozen=True)
+class AngleModel:
+    """The fitted angle model: ``fit`` [rad] and ``rate`` [rad/s] at the samples'
+    times, ``omega`` the mean speed [rad/s]; the kept ripple ``orders`` with their
+    cos/sin coefficients [rad] in the phase k ``omega_h`` (t - t0), t0 the first time."""
+
+    fit: NDArray[np.float64]
+    rate: NDArray[np.float64]
+    omega: float
+    orders: tuple[int, ...]
+    cos: NDArray[np.float64]
+    sin: NDArray[np.float64]
+    omega_h: float
+
+
+def angle_model(time: NDArray[np.float64], theta: NDArray[np.float64]) -> AngleModel:
+    """Fit the smooth angle model to unwrapped, increasing readings ``theta`` [rad] at
+    ``time`` [s].
+
+    The harmonic frequency is the mean speed, refined twice. Then only the orders whose
+    amplitude stands out of the readings' scatter (``SIGNIFICANT`` standard errors)
+    are kept and the model is fitted again: an order that is only counting noise would
+    put the same angle error into every cycle, where averaging cannot remove it."""
+    t0, t1 = float(time[0]), float(time[-1])
+    y = theta - theta[0]
+    omega = float(y[-1]) / (t1 - t0)
+    orders: list[int] = list(range(1, HARMONICS + 1))
+    for step in range(4):
+        omega_h = omega
+        a, da = _design(time, omega, orders)
+        coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+        p = coef[:DRIFT_DEGREE + 1]
+        # mean slope of the polynomial part: (P(1) - P(-1)) / duration
+        omega = float(np.sum(p[1::2])) * 2.0 / (t1 - t0)
+        if step == 2:
+            resid = y - a @ coef
+            se = float(np.std(resid)) * math.sqrt(2.0 / y.size)
+            amp = np.hypot(coef[DRIFT_DEGREE + 1::2], coef[DRIFT_DEGREE + 2::2])
+            orders = [k for k, v in zip(orders, amp) if v > SIGNIFICANT * se]
+    harm = coef[DRIFT_DEGREE + 1:]
+    return AngleModel(fit=a @ coef + theta[0], rate=da @ coef, omega=omega,
+                      orders=tuple(orders), cos=np.asarray(harm[0::2], dtype=float),
+                      sin=np.asarray(harm[1::2], dtype=float), omega_h=omega_h)
+
+
 def encoder_speed(time: NDArray[np.float64], angle: NDArray[np.float64], name: str,
                   max_variation: float) -> Speed:
     """Fit the smooth angle and the speed of a run; InputError when the run covers too
     few revolutions or its speed varies by more than ``max_variation``."""
-    from scipy.interpolate import make_lsq_spline
-
     th = unwrap_angle(angle, name)
     span = th[-1] - th[0]
     sign = 1 if span >= 0 else -1
@@ -136,21 +226,20 @@ def encoder_speed(time: NDArray[np.float64], angle: NDArray[np.float64], name: s
         raise InputError(f'run {name}', f'{revs:.2f} camshaft revolutions',
                          f'at least {MIN_REVOLUTIONS:g} revolutions at a steady speed '
                          '(record longer)')
-    t0, t1 = float(time[0]), float(time[-1])
-    nk = max(2, int(math.ceil(revs * KNOTS_PER_REV)))
-    inner = np.linspace(t0, t1, nk + 1)[1:-1]
-    knots = np.concatenate([[t0] * 4, inner, [t1] * 4])
-    spl = make_lsq_spline(time, th, knots, k=3)
-    fit = spl(time)
-    grid = np.linspace(t0, t1, max(200, 16 * nk))
-    w = spl.derivative()(grid[2:-2])   # ends of a spline fit are loose: not judged
+    model = angle_model(time, th)
+    fit, w = model.fit, model.rate
     to_rpm = 30.0 / math.pi
-    rpm = span * sign / (t1 - t0) * to_rpm
     quantum = encoder_quantum(angle)
     offset = quantisation_offset(sign * th, sign * fit, quantum) if quantum else 0.0
-    out = Speed(theta=fit, sign=sign, rpm=float(rpm), rpm_std=float(np.std(w) * to_rpm),
+    t0 = float(time[0])
+    h0 = float(np.sum(model.cos))            # H(t0): every phase is 0 there
+    out = Speed(theta=fit, sign=sign, rpm=float(model.omega * to_rpm),
+                rpm_std=float(np.std(w) * to_rpm),
                 rpm_min=float(np.min(w) * to_rpm), rpm_max=float(np.max(w) * to_rpm),
-                revolutions=float(revs), quantum=quantum, offset=offset)
+                revolutions=float(revs), quantum=quantum, offset=offset,
+                orders=model.orders, ripple_cos=model.cos, ripple_sin=model.sin,
+                omega=model.omega_h, t0=t0,
+                psi0=float(sign * (fit[0] - h0) + offset))
     if out.rpm <= 0:
         raise InputError(f'run {name} cam_angle_rad', 'a standing shaft',
                          'a turning camshaft')

@@ -109,10 +109,11 @@ def lobe_alpha(enc: NDArray[np.float64], nose: float, direction: int) -> NDArray
     return np.pi - np.mod(np.pi - a, TWO_PI)
 
 
-def predicted_bins(pred: Prediction, cyc: Cycles, nose: float, direction: int
-                   ) -> NDArray[np.float64]:
+def predicted_bins(pred: Prediction, cyc: Cycles, nose: float, direction: int,
+                   phase: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """The prediction averaged into the run's bins like the measurement [m], referenced
-    to its seated level over the run's base-circle bins."""
-    y = pred.at(lobe_alpha(cyc.enc, nose, direction))
+    to its seated level over the run's base-circle bins. ``phase``: the samples' angle
+    on the prediction's clock (``ripple.sample_phase``; default their lobe angle)."""
+    y = pred.at(lobe_alpha(cyc.enc, nose, direction) if phase is None else phase)
     mean, _ = bin_means(cyc.index, y, cyc.phi.size)
     return mean - float(np.nanmean(mean[cyc.base]))

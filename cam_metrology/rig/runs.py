@@ -38,6 +38,8 @@ class RigRun:
     lift: NDArray[np.float64]
     velocity: NDArray[np.float64] | None = None
     channels: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    #: what the input lost or refused on the way (one line each; reported with the run)
+    notes: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         n = self.time.size
@@ -148,19 +150,89 @@ def runs_of_messages(messages: Iterable[Any], bag: str) -> list[RigRun]:
     return runs
 
 
+def runs_of_samples(frame_id: Any, stamp_ns: NDArray[np.int64], theta: NDArray[np.float64],
+                    lift: NDArray[np.float64], source: str) -> list[RigRun]:
+    """Runs from decoded samples (``bagio.decode_joint_blocks`` of the rig's blocks:
+    ``camshaft`` as ``theta``, ``valve`` as ``lift``; stamps [ns]), one per contiguous
+    ``frame_id``. Samples without a value (a damaged block: NaN) are dropped and
+    counted in the run's ``notes``; ``source`` names the input in them."""
+    frames = np.asarray(frame_id)
+    n = int(frames.size)
+    runs: list[RigRun] = []
+    if n == 0:
+        return runs
+    cut = np.flatnonzero(frames[1:] != frames[:-1]) + 1
+    seen: dict[str, int] = {}
+    for a, b in zip(np.concatenate(([0], cut)).tolist(), np.concatenate((cut, [n])).tolist()):
+        frame = str(frames[a]) or 'run'
+        seen[frame] = seen.get(frame, 0) + 1
+        name = frame if seen[frame] == 1 else f'{frame}#{seen[frame]}'
+        t = np.asarray(stamp_ns[a:b], dtype=np.int64)
+        th, y = np.asarray(theta[a:b], dtype=float), np.asarray(lift[a:b], dtype=float)
+        ok = np.isfinite(th) & np.isfinite(y)
+        notes = []
+        if not np.all(ok):
+            notes.append(f'{source}: {int(np.sum(~ok))} of {b - a} samples of run {name} '
+                         'without a camshaft or valve value (damaged blocks): not used')
+        t, th, y = t[ok], th[ok], y[ok]
+        if t.size == 0:
+            raise InputError(f'{source} run {name}', f'{b - a} samples without values',
+                             "blocks with joints 'camshaft' and 'valve' (joints are looked "
+                             'up by name)')
+        runs.append(RigRun(name=name, time=(t - t[0]) * 1e-9, angle=th, lift=y,
+                           notes=notes))
+    return runs
+
+
+def read_bag_block_runs(path: str | Path) -> list[RigRun]:
+    """The runs of the rig's blocks (``/rig/joint_trajectory``) in a bag, merged in log
+    time with any ``/rig/joint_states`` samples (positions only); damaged blocks are
+    named and counted in the runs' notes."""
+    from cam_metrology.bagio import JointSummary, iter_joint_states
+    from cam_metrology.wire.topics import RIG_JOINT_TRAJECTORY
+
+    parts = list(iter_joint_states(path, RIG_TOPIC, joints=(CAMSHAFT, VALVE),
+                                   blocks_topic=RIG_JOINT_TRAJECTORY))
+    summary = JointSummary()
+    for js in parts:
+        summary.add(js)
+    if summary.issues and not summary.usable:
+        raise summary.issues[0].error(summary.count)
+    if not summary.count:
+        raise InputError(str(path), f'no samples on {RIG_JOINT_TRAJECTORY}',
+                         "blocks with joints 'camshaft' and 'valve' (trajectory_msgs/"
+                         'JointTrajectory, one point per sample)')
+    runs = runs_of_samples(np.concatenate([js.frame_id for js in parts]),
+                           np.concatenate([js.stamp_ns for js in parts]),
+                           np.concatenate([js.theta for js in parts]),
+                           np.concatenate([js.s for js in parts]), str(path))
+    issues = [f'{path}: {i.text(summary.count)}' for i in summary.issues]
+    for r in runs:
+        r.notes += issues
+    return runs
+
+
 def read_bag_runs(path: str | Path) -> tuple[list[RigRun], str | None]:
-    """The runs of ``/rig/joint_states`` in a bag (one per contiguous ``frame_id``) and
-    the last ``/bench/scene`` text of the bag (None when it has none)."""
+    """The runs of ``/rig/joint_states`` in a bag (one per contiguous ``frame_id``), or
+    of ``/rig/joint_trajectory`` when the bag has the rig's blocks
+    (``read_bag_block_runs``), and the last ``/bench/scene`` text of the bag (None when
+    it has none)."""
     from cam_metrology.bagio import iter_messages
     from cam_metrology.wire.topics import SCENE
 
+    from cam_metrology.bagio import bag_topics
+    from cam_metrology.wire.topics import RIG_JOINT_TRAJECTORY
+
+    blocks = RIG_JOINT_TRAJECTORY in bag_topics(path)
     scene_text = None
     msgs = []
-    for m in iter_messages(path, [RIG_TOPIC, SCENE]):
+    for m in iter_messages(path, [SCENE] if blocks else [RIG_TOPIC, SCENE]):
         if m.topic == SCENE:
             scene_text = str(m.msg.data)
         else:
             msgs.append(m.msg)
+    if blocks:
+        return read_bag_block_runs(path), scene_text
     if not msgs:
         raise InputError(str(path), f'no {RIG_TOPIC} messages',
                          f'a bag with rig samples on {RIG_TOPIC} (sensor_msgs/JointState, '

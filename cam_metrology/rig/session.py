@@ -21,7 +21,7 @@ from cam_design.errors import InputError
 from cam_metrology.rig.analysis import RunData, compare_run, curves, initial_nose, prepare_run
 from cam_metrology.rig.calibrate import (Fit, Problem, calibrate, check_identifiable,
                                          corr_dict)
-from cam_metrology.rig.model import predicted_bins
+from cam_metrology.rig.ripple import run_bins
 from cam_metrology.rig.runs import RigRun
 from cam_metrology.rig.spec import RigSpec, rig_of_scene
 
@@ -88,18 +88,21 @@ def _nose_fields(nose: float, std: float | None, source: str) -> dict[str, Any]:
             'nose_angle_source': source}
 
 
-def jump_speed(setup: RigSetup, train: Any, datas: Sequence[RunData]) -> float | None:
-    """Jump speed [rpm] of ``train`` (SDOF sweep over 0.3 to 3 times the run speeds,
-    refined to 1 rpm); None above the range or for another model."""
-    from cam_design.valve_train.params import SdofParams
+def jump_speed(setup: RigSetup, train: Any, datas: Sequence[RunData], points: int = 28
+               ) -> float | None:
+    """Jump speed [rpm] of ``train``: the speed sweep of ``cam-bench dynamics --sweep``
+    (SDOF, or the exact MDOF model for ``model: mdof``) over ``points`` speeds from 0.3
+    to 3 times the run speeds, refined to 1 rpm; None above the range, or for a train
+    with a lash adjuster or cylinder gas (no sweep)."""
+    from cam_design.train.run import train_from_valve_train
     from cam_design.valve_train.sweep import sweep
 
-    if train.model != 'sdof' or train.hla is not None or train.gas is not None:
+    if train.model not in ('sdof', 'mdof') or train.hla is not None or train.gas is not None:
         return None
     rpms = [d.speed.rpm for d in datas]
-    grid = np.linspace(0.3 * min(rpms), 3.0 * max(rpms), 28)
-    res = sweep(setup.law, SdofParams.from_valve_train(train), grid.tolist(), step_deg=0.25,
-                tol_rpm=1.0, check=False, key=setup.lobe_key)
+    grid = np.linspace(0.3 * min(rpms), 3.0 * max(rpms), points)
+    res = sweep(setup.law, train_from_valve_train(train).sweep_params(), grid.tolist(),
+                step_deg=0.25, tol_rpm=1.0, check=False, key=setup.lobe_key)
     return res.jump_speed_rpm
 
 
@@ -117,15 +120,14 @@ def _jumps(setup: RigSetup, datas: Sequence[RunData], jump: bool, calibrated: An
 
 def _run_entry(data: RunData, problem: Problem, setup: RigSetup, train: Any, nose: float
                ) -> dict[str, Any]:
-    pred = problem.prediction(train, data.speed.rpm)
+    pred = problem.prediction(train, data, nose)
     return compare_run(data, pred, setup.law, train, nose, setup.direction, setup.spec)
 
 
 def _curve(data: RunData, problem: Problem, setup: RigSetup, train: Any, nose: float
            ) -> dict[str, Any]:
-    pred = problem.prediction(train, data.speed.rpm)
-    return curves(data, predicted_bins(pred, data.cycles, nose, setup.direction), nose,
-                  setup.direction)
+    pred = problem.prediction(train, data, nose)
+    return curves(data, run_bins(pred, data, nose, setup.direction), nose, setup.direction)
 
 
 def _split(entry: dict[str, Any], before: dict[str, Any] | None) -> dict[str, Any]:

@@ -23,7 +23,8 @@ __all__ = [
     'CAMSHAFT_JOINT', 'PROBE_JOINT', 'JOINT_TRAJECTORY', 'JOINT_TRAJECTORY_TYPE', 'BLOCKS',
     'SAMPLE_TOPICS',
     'CAMSHAFT_JOINT', 'PROBE_JOINT', 'RIG_JOINT_STATES', 'RIG_TOPICS', 'VALVE_JOINT',
-    'RIG_RESULT', 'RIG_MOTION', 'PLOT_RIG', 'RIG_GRAPH',
+    'RIG_RESULT', 'RIG_MOTION', 'PLOT_RIG', 'RIG_GRAPH', 'RIG_JOINT_TRAJECTORY',
+    'BLOCK_TOPICS',
 ]
 
 #: joints of a bench sample (``/bench/joint_states``), looked up by name
@@ -86,6 +87,9 @@ JOINT_TRAJECTORY = '/bench/joint_trajectory'
 FEATURE_DONE = '/bench/feature_done'
 #: valve-train rig input: joints 'camshaft' [rad] and 'valve' [m], frame_id = run
 RIG_JOINT_STATES = '/rig/joint_states'
+#: the rig's samples in blocks: JointTrajectory as /bench/joint_trajectory, joints
+#: 'camshaft' [rad] and 'valve' [m], frame_id = run
+RIG_JOINT_TRAJECTORY = '/rig/joint_trajectory'
 TRUTH = '/bench/truth'
 METROLOGY_RESULT = '/metrology/result'
 METROLOGY_LIFT = '/metrology/lift'
@@ -113,6 +117,7 @@ TOPICS: dict[str, tuple[str, QosSpec]] = {
     JOINT_TRAJECTORY: (JOINT_TRAJECTORY_TYPE, BLOCKS),
     FEATURE_DONE: (STRING, EVENTS),
     RIG_JOINT_STATES: (JOINT_STATE, SAMPLES),
+    RIG_JOINT_TRAJECTORY: (JOINT_TRAJECTORY_TYPE, BLOCKS),
     TRUTH: (STRING, LATCHED),
     METROLOGY_RESULT: (STATUS, RESULTS),
     METROLOGY_LIFT: (TABLE, RESULTS),
@@ -136,10 +141,12 @@ BENCH_TOPICS = (SCENE, TRUTH, JOINT_STATES, JOINT_TRAJECTORY, FEATURE_DONE)
 SAMPLE_TOPICS = (JOINT_STATES, JOINT_TRAJECTORY)
 PLOT_TOPICS = (METROLOGY_VALUES, PLOT_LIFT, PLOT_PROFILE, PLOT_MOTION)
 #: the valve-train rig's inputs (docs/contract.md "Valve-train rig")
-RIG_TOPICS = (RIG_JOINT_STATES,)
+RIG_TOPICS = (RIG_JOINT_STATES, RIG_JOINT_TRAJECTORY)
+#: the topics that carry samples in blocks (JointTrajectory, ``bagio.decode_joint_blocks``)
+BLOCK_TOPICS = (JOINT_TRAJECTORY, RIG_JOINT_TRAJECTORY)
 #: every topic of the rig's own graph (its input, the rig node's outputs and plot view):
 #: not part of a bench bag, nor of what ``analyze`` and the bench ``demo`` produce
-RIG_GRAPH = (RIG_JOINT_STATES, RIG_RESULT, RIG_MOTION, PLOT_RIG)
+RIG_GRAPH = (RIG_JOINT_STATES, RIG_JOINT_TRAJECTORY, RIG_RESULT, RIG_MOTION, PLOT_RIG)
 #: what the node cores publish (the plot views and /diagnostics are derived from it)
 OUTPUT_TOPICS = tuple(t for t in TOPICS
                       if t not in BENCH_TOPICS and t not in PLOT_TOPICS and t != DIAGNOSTICS
