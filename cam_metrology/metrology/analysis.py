@@ -349,7 +349,9 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                             f'{4 * settings.min_flank_samples})')
     lo, hi = law.support if hasattr(law, 'support') else (-np.pi, np.pi)
     # spilled samples (``features``): every pass gives back the pages it read
-    xraw = direction * fs.theta
+    xraw = np.empty(fs.theta.size)
+    for a, b in walk(xraw.size, fs.theta):   # one block of spilled angles resident
+        np.multiply(direction, fs.theta[a:b], out=xraw[a:b])
     x0 = coarse_align(xraw, fs.s, law)
     _release(fs)
     xraw -= x0
