@@ -304,22 +304,20 @@ def test_referenced_rows_are_the_kept_rows_of_the_referenced_table():
         assert abs(float(np.median(rows[base, 1]))) < 1e-7 + 3e-6 * (not runout)
 
 
-def test_readings_minus_runout_built_in_blocks_into_a_spilled_column() -> None:
+def test_readings_minus_harmonic_built_in_blocks_into_a_spilled_column() -> None:
     """The run-out-free readings of the per-revolution fits, written a block at a time
     into a temporary file (1.2 M samples: above the spill size), equal the closed form
     s - (a cos theta + b sin theta) to 1e-15 m; below the spill size they stay in memory
     with the same values."""
-    from cam_metrology.metrology.analysis import minus_runout
-
     rng = np.random.default_rng(11)
     theta = rng.uniform(0.0, 8 * np.pi, 1_200_000)
     s = 1e-3 * rng.normal(size=theta.size)
     a, b = 12e-6, -7e-6
     want = s - (a * np.cos(theta) + b * np.sin(theta))
-    got = minus_runout(theta, s, (a, b))
+    got = block_lsq.minus_harmonic(theta, s, a, b)
     assert isinstance(got, np.memmap) and not got.flags.writeable
     assert float(np.max(np.abs(got - want))) < 1e-15
-    small = minus_runout(theta[:1000], s[:1000], (a, b))
+    small = block_lsq.minus_harmonic(theta[:1000], s[:1000], a, b)
     assert not isinstance(small, np.memmap)
     assert float(np.max(np.abs(small - want[:1000]))) < 1e-15
 

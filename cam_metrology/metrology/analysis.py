@@ -460,17 +460,6 @@ def _release(fs: FeatureSamples) -> None:
     release(fs.theta, fs.s, fs.stamp_ns)
 
 
-def minus_runout(theta: NDArray[np.float64], s: NDArray[np.float64],
-                 runout: tuple[float, float]) -> NDArray[np.float64]:
-    """``s - (a cos theta + b sin theta)`` [m] for the fitted run-out ``(a, b)`` [m],
-    built a block at a time into a new column (a temporary file when long: ``blank``),
-    the same values as the whole-column expression."""
-    out = blank((s.size,))
-    for a, b in walk(s.size, theta, s, out):
-        out[a:b] = s[a:b] - block_lsq.first_harmonic(theta[a:b], 0.0, *runout)
-    return seal(out)
-
-
 def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: Any,
                     good: NDArray[np.bool_], settings: Settings,
                     zones: tuple[tuple[float, float], ...]) -> dict[str, Any]:
@@ -480,7 +469,7 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: 
     not covered are left out."""
     if fs.revolutions < 1.9:
         return {}
-    s = minus_runout(fs.theta, fs.s, fit.runout)
+    s = block_lsq.minus_harmonic(fs.theta, fs.s, *fit.runout)
     _release(fs)
     rev = np.empty(fs.theta.size, np.int32)
     pos, first = 0, None
