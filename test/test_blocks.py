@@ -83,6 +83,52 @@ def test_decoder_reads_what_rosbags_wrote_uniform_irregular_and_big_endian():
     assert set(js.frame_id.tolist()) == {'lobe_1'}
 
 
+@pytest.mark.parametrize('names,n', [
+    (['camshaft', 'valve'], 5), (['camshaft', 'valve', 'f'], 4),
+    (['valve', 'camshaft', 'spring', 'hla'], 1)])
+def test_encoder_with_velocities_writes_the_rosbags_bytes(names, n):
+    """Points with one velocity per joint (a vibrometer's), against rosbags."""
+    rng = np.random.default_rng(8)
+    rows, vel = rng.normal(size=(n, len(names))), rng.normal(size=(n, len(names)))
+    offsets = np.sort(rng.integers(0, 3 * 10**9, n))
+    for frame in ('run', 'run_1010rpm'):   # the points start 4- and 8-aligned
+        got = encode_joint_trajectory(frame, 10**9 + 7, names, rows, offsets, vel)
+        want = _rosbags_block(frame, 10**9 + 7, names, rows.tolist(), offsets.tolist(),
+                              velocities={i: v for i, v in enumerate(vel.tolist())})
+        assert got == want
+
+
+def test_decoder_extras_velocity_and_further_joints():
+    """``extras``: the lift joint's velocity (NaN at points without one per joint) and
+    the further joints' positions, uniform, walked and big-endian blocks alike."""
+    stamp = 1_700_000_000 * 10**9
+    rows = [[0.1 * k, 1e-3 * k, 7.0 + k] for k in range(5)]
+    vels = [[1.0 + k, 2.0 * k, 3.0] for k in range(5)]
+    offs = [k * 250_000 for k in range(5)]
+    names = ['lvdt', 'spring', 'enc']
+    every = dict(enumerate(vels))
+    blocks = [
+        _rosbags_block('r', stamp, names, rows, offs, velocities=every),
+        _rosbags_block('r', stamp + 2_000_000, names, rows, offs,
+                       velocities={1: vels[1], 3: [0.5]}),            # walked
+        _rosbags_block('r', stamp + 4_000_000, names, rows, offs, velocities=every,
+                       little_endian=False),
+        _rosbags_block('r', stamp + 6_000_000, ['enc', 'lvdt'], [r[:2] for r in rows], offs),
+    ]
+    js = decode_joint_blocks(blocks, joints=('enc', 'lvdt'), extras=True)
+    assert js.issues == ()
+    lift_vel = [v[0] for v in vels]
+    nan = math.nan
+    want = lift_vel + [nan, vels[1][0], nan, nan, nan] + lift_vel + [nan] * 5
+    np.testing.assert_allclose(js.lift_velocity, want, rtol=0, atol=0)
+    assert list(js.others) == ['spring']
+    spring = [r[1] for r in rows]
+    np.testing.assert_allclose(js.others['spring'], spring * 3 + [nan] * 5, rtol=0, atol=0)
+    plain = decode_joint_blocks(blocks, joints=('enc', 'lvdt'))
+    assert plain.lift_velocity is None and plain.others == {}
+    np.testing.assert_allclose(plain.s, js.s, rtol=0, atol=0)
+
+
 @pytest.fixture(scope='module')
 def pair(tmp_path_factory):
     """The same simulated measurement as single samples and as blocks of 700."""

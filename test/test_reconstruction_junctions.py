@@ -202,3 +202,59 @@ def test_no_junction_on_a_smooth_lobe(step_deg):
     a, h = measured_table(fam.law, step_deg * DEG, sigma=0.5e-6, seed=2)
     rec = reconstruct_spline(a, h)
     assert 'junctions_deg' not in rec.parameter
+
+
+@pytest.mark.parametrize('name', ['dwell', 'constant acceleration', 'circular arc'])
+def test_reused_level_systems_give_the_plain_search_result(name, monkeypatch):
+    """The search reuses a level's system (factor, R y, hinge columns, recent fits)
+    when it comes back to that level. The benchmark's 3600-row tables (0.5 um, seed 7)
+    give the same junctions and the same lobe law (lift [m], h'' [m/rad^2] within 1e-9)
+    as the plain search, which builds every system afresh and fits every time."""
+    from cam_design.lift_table.lobe_table import lobe_law
+
+    a, h = measured_table(FAMILIES[name].law, 2 * math.pi / 3600, sigma=0.5e-6, seed=7)
+    x = np.linspace(-math.pi, math.pi, 7201)
+    fast = lobe_law(a, h, key='t')
+    with monkeypatch.context() as m:
+        m.setattr(junctions.Levels, 'at',
+                  lambda self, lam: junctions.LevelSystem(self.values, lam))
+        m.setattr(junctions.LevelSystem, 'fit', junctions.LevelSystem._fit)
+        plain = lobe_law(a, h, key='t')
+    found = fast.lobe.rec.parameter['junctions_deg']
+    assert len(found) == 4
+    assert found == pytest.approx(plain.lobe.rec.parameter['junctions_deg'], abs=1e-9)
+    assert np.max(np.abs(fast(x, 0) - plain(x, 0))) <= 1e-9
+    assert np.max(np.abs(fast(x, 2) - plain(x, 2))) <= 1e-9
+
+
+def test_search_is_not_moved_by_rounding_of_the_start_level():
+    """The junctions found do not depend on the last digits of the start level: the
+    constant-acceleration table (3600 rows, 0.5 um, seed 7) with the GCV level moved by
+    +-1e-14 .. +-1e-12 (relative) gives the same 4 junctions at the same angles (within
+    0.01 step). (With the hinge coefficients' right-hand side formed as G'(R y) it gave 5
+    at +1e-14 and +1e-12.)"""
+    from cam_design.lift_table import spline
+
+    a, h = measured_table(FAMILIES['constant acceleration'].law, 2 * math.pi / 3600,
+                          sigma=0.5e-6, seed=7)
+    calls = []
+    search = junctions.find_junctions
+
+    def spy(grid, values, lam0, **kw):
+        calls.append((grid, values, lam0, kw))
+        return search(grid, values, lam0, **kw)
+
+    original = spline.find_junctions
+    spline.find_junctions = spy
+    try:
+        reconstruct_spline(a, h, SplineOptions())
+    finally:
+        spline.find_junctions = original
+    grid, values, lam0, kw = calls[0]
+    step = float(grid[1] - grid[0])
+    ref = search(grid, values, lam0, **kw)
+    assert ref is not None and len(ref.angles) == 4
+    for eps in (1e-14, -1e-14, 1e-13, -1e-13, 1e-12, -1e-12):
+        moved = search(grid, values, lam0 * (1.0 + eps), **kw)
+        assert moved is not None and len(moved.angles) == 4
+        assert np.max(np.abs(np.subtract(moved.angles, ref.angles))) <= 0.01 * step

@@ -135,15 +135,15 @@ def test_bag_of_blocks_without_valve_refused(sim, tmp_path, capsys):
     assert not (tmp_path / 'o.json').exists()
 
 
-def test_rig_core_takes_blocks_like_messages(sim):
-    """The rig node's core fed decoded blocks (``handle_samples``, the live path of the
-    adapter) publishes what it publishes for the same samples one per message."""
+def _core_statuses(folder, runs, extras):
+    """The rig node core's run statuses for the per-sample bag's messages (handle) and
+    for the runs' 700-sample blocks decoded in batches of 5 and handed to
+    ``handle_samples`` (the adapter's live path; ``extras``: with the valve velocity
+    and further joints): (per message, per block) by run name."""
     from cam_metrology.bagio import decode_joint_blocks, iter_messages
     from cam_metrology.cores.outputs import StatusOutput
     from cam_metrology.rig.core import RigCore
     from cam_metrology.wire.topics import RIG_JOINT_STATES, RIG_JOINT_TRAJECTORY, SCENE
-
-    folder, runs, scene = sim
 
     def statuses(outs):
         return {s.name: s for o in outs if isinstance(o, StatusOutput) for s in o.statuses}
@@ -162,14 +162,93 @@ def test_rig_core_takes_blocks_like_messages(sim):
         chunks = [d for _, d in _blocks(run, start, 700)]
         for i in range(0, len(chunks), 5):       # batches of 5 blocks, as the adapter
             js = decode_joint_blocks(chunks[i:i + 5], topic=RIG_JOINT_TRAJECTORY,
-                                     joints=core.joints)
+                                     joints=core.joints, extras=extras)
+            more = {'velocity': js.lift_velocity, 'others': js.others} if extras else {}
             outs += core.handle_samples(js.frame_id, js.stamp_ns, js.theta, js.s,
-                                        rx_ns=start)
+                                        rx_ns=start, **more)
         start += 10**9
-    got = statuses(outs + core.finish())
+    return want, statuses(outs + core.finish())
+
+
+def test_rig_core_takes_blocks_like_messages(sim):
+    """The rig node's core fed decoded blocks (``handle_samples``, the live path of the
+    adapter) publishes what it publishes for the same samples one per message."""
+    folder, runs, _ = sim
+    want, got = _core_statuses(folder, runs, extras=False)
     assert sorted(got) == sorted(want) == ['run_1010rpm', 'run_1790rpm']
     for name in want:
         assert float(got[name].values['rpm']) == pytest.approx(
             float(want[name].values['rpm']), abs=1e-6)
         assert float(got[name].values['residual_rms_m']) == pytest.approx(
             float(want[name].values['residual_rms_m']), abs=1e-12)
+
+
+@pytest.fixture(scope='module')
+def sim_channels(tmp_path_factory):
+    """Two runs with a vibrometer and two further channels (spring force [N], HLA
+    pressure [Pa]) as a per-sample bag and as a bag of 300-sample blocks."""
+    from dataclasses import replace
+
+    from cam_metrology.rig.bag import write_rig_bag
+    from cam_metrology.rig.simulate import RigNoise, simulate_scene_runs
+    from cam_metrology.scene.parse import load_scene
+
+    folder = tmp_path_factory.mktemp('rig_block_channels')
+    scene = load_scene(SCENE)
+    runs, _ = simulate_scene_runs(scene, [1010, 1790], revolutions=3,
+                                  noise=RigNoise(sample_rate=20_000.0, vibrometer=True))
+    runs = [replace(r, channels={'spring_force': 250.0 + 3.0e4 * r.lift,
+                                 'hla_pressure': 2.0e5 + 1.0e3 * np.sin(r.angle)})
+            for r in runs]
+    write_rig_bag(folder / 'samples', scene.text, runs)
+    write_rig_bag(folder / 'blocks', scene.text, runs, block=300)
+    return folder, runs, scene
+
+
+def test_block_bag_carries_velocity_and_channels(sim_channels, tmp_path, capsys):
+    """Blocks with the valve velocity and further joints: the runs and `rig analyze`
+    equal those of the per-sample bag of the same runs (velocity and channels too)."""
+    from cam_metrology.rig.runs import read_runs
+
+    folder, runs, _ = sim_channels
+    by_msg, _ = read_runs([folder / 'samples'])
+    by_block, _ = read_runs([folder / 'blocks'])
+    for a, b, truth in zip(by_msg, by_block, runs):
+        assert a.name == b.name == truth.name
+        assert b.velocity is not None and a.velocity is not None
+        np.testing.assert_allclose(b.velocity, truth.velocity, rtol=0, atol=1e-15)  # m/s
+        np.testing.assert_allclose(b.velocity, a.velocity, rtol=0, atol=1e-15)
+        assert sorted(b.channels) == sorted(a.channels) == ['hla_pressure', 'spring_force']
+        np.testing.assert_allclose(b.channels['spring_force'], a.channels['spring_force'],
+                                   rtol=0, atol=1e-9)                              # N
+        np.testing.assert_allclose(b.channels['hla_pressure'],
+                                   truth.channels['hla_pressure'], rtol=0, atol=1e-6)  # Pa
+    res = []
+    for name in ('samples', 'blocks'):
+        out = tmp_path / f'{name}.json'
+        assert main(['rig', 'analyze', str(folder / name), '--json', str(out),
+                     '--no-jump']) == 0, capsys.readouterr()
+        res.append(json.loads(out.read_text()))
+    for a, b in zip(res[0]['runs'], res[1]['runs']):
+        assert b['vibrometer'] is True and a['vibrometer'] is True
+        assert b['channels'] == a['channels'] == ['hla_pressure', 'spring_force']
+        assert b['seating_velocity_m_s'] == pytest.approx(a['seating_velocity_m_s'],
+                                                          abs=1e-9)   # m/s
+        assert b['residual_rms_m']['nominal'] == pytest.approx(
+            a['residual_rms_m']['nominal'], abs=1e-12)
+
+
+def test_rig_core_blocks_carry_velocity_like_messages(sim_channels):
+    """Live path: blocks decoded with extras and handed to ``handle_samples`` give the
+    rig node's results of the same samples one per message (the vibrometer's seating
+    velocity included)."""
+    from cam_metrology.rig.core import RigCore
+
+    assert RigCore.block_extras
+    folder, runs, _ = sim_channels
+    want, got = _core_statuses(folder, runs, extras=True)
+    assert sorted(got) == sorted(want) == ['run_1010rpm', 'run_1790rpm']
+    for name in want:
+        for key in ('rpm', 'seating_velocity_m_s', 'residual_rms_m'):
+            assert float(got[name].values[key]) == pytest.approx(
+                float(want[name].values[key]), abs=1e-9), key

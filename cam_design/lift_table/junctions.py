@@ -75,6 +75,8 @@ LEVEL_STEP = 0.5
 LEVEL_REACH = 4
 #: golden-section iterations refining a junction's angle over +-1 row (to 0.07 row)
 REFINE_ITERATIONS = 7
+#: fits a level's system remembers (by junction set)
+FITS_KEPT = 4
 
 
 def third_difference_gram(m: int) -> NDArray[np.float64]:
@@ -244,6 +246,7 @@ class LevelSystem:
         self.ry = _deflate(values - _smooth(values, self.lam_d))
         self.trace = _trace_smoother(self.n, self.lam_d)
         self._cols: dict[float, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+        self._fits: dict[tuple[float, ...], PartialFit] = {}
 
     def columns(self, taus: list[float]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(G, R G), (n, 2J), of junctions at node positions ``taus``."""
@@ -259,13 +262,28 @@ class LevelSystem:
                 np.concatenate([self._cols[t][1] for t in taus], axis=1))
 
     def fit(self, taus: list[float]) -> PartialFit:
-        """The partial spline with hinges at node positions ``taus``."""
+        """The partial spline with hinges at node positions ``taus`` (the last few
+        kept: the search asks for the same fit again, e.g. its score after its scan)."""
+        key = tuple(taus)
+        done = self._fits.get(key)
+        if done is None:
+            done = self._fit(taus)
+            if len(self._fits) >= FITS_KEPT:
+                self._fits.pop(next(iter(self._fits)))
+            self._fits[key] = done
+        return done
+
+    def _fit(self, taus: list[float]) -> PartialFit:
         values, ry = self.values, self.ry
         if taus:
             g, rg = self.columns(taus)
             m = g.T @ rg
             m = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
-            coef = np.linalg.solve(m, g.T @ ry)
+            # G'R y formed as (R G)'y: g'(R y) multiplies the rounding of R y by the
+            # hinge's long quadratic tail (a 1e-15 change of the level moved the step
+            # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
+            # third differences and y is data, so the product keeps its digits
+            coef = np.linalg.solve(m, rg.T @ values)
             extra = float(np.trace(np.linalg.solve(m, rg.T @ rg)))
             resid = ry - rg @ coef
             z = values - g @ coef
@@ -308,19 +326,39 @@ def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations
     return 0.5 * (a + b)
 
 
+class Levels:
+    """The level systems of one table, by level: a search that comes back to a level
+    (a refused candidate's level search retraces the last one's) reuses its factor,
+    R y and the hinge columns already solved there. Arithmetic as with a fresh system."""
+
+    def __init__(self, values: NDArray[np.float64]) -> None:
+        self.values = values
+        self._systems: dict[float, LevelSystem] = {}
+
+    def at(self, lam_d: float) -> LevelSystem:
+        """The system at discrete level ``lam_d``."""
+        lam_d = float(lam_d)
+        system = self._systems.get(lam_d)
+        if system is None:
+            system = self._systems[lam_d] = LevelSystem(self.values, lam_d)
+        return system
+
+
 def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
-                 lam0: float) -> float:
+                 lam0: float, levels: Levels | None = None) -> float:
     """The GCV-minimising discrete level with these hinges, searched around ``lam0``:
     downhill from log10(lam0) in steps of ``LEVEL_STEP`` decades (at most
     ``LEVEL_REACH`` either way) to a bracketing triple, then the vertex of the parabola
-    through it (GCV is smooth and unimodal in log lam near its minimum)."""
+    through it (GCV is smooth and unimodal in log lam near its minimum). ``levels``:
+    the systems already built for ``values``, if any."""
+    levels = levels if levels is not None else Levels(values)
     c0 = math.log10(max(lam0, 1e-6))
     h = LEVEL_STEP
     seen: dict[int, float] = {}
 
     def score(k: int) -> float:         # GCV at c0 + k h, each level computed once
         if k not in seen:
-            seen[k] = LevelSystem(values, 10.0 ** (c0 + k * h)).gcv(taus, gamma)
+            seen[k] = levels.at(10.0 ** (c0 + k * h)).gcv(taus, gamma)
         return seen[k]
 
     d = -1 if score(-1) < score(1) else 1
@@ -456,7 +494,8 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
     # the plain smoother's level (reflective ends) stands for the free-ended one: they
     # differ by a few per cent, which GCV's flat minimum does not notice
     lam = float(lam0)
-    system = LevelSystem(values, lam)
+    levels = Levels(values)
+    system = levels.at(lam)
     in_a_row = 0
     taus: list[float] = []
     scores: list[float] = []
@@ -488,8 +527,8 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         quick = n * math.log(base / system.gcv(taus + [at], gamma))
         if quick >= GCV_GAIN - PRETEST_SLACK:
             trial = _refine(system, taus + [at])
-            lam_trial = choose_level(values, trial, gamma, lam)
-            trial_system = LevelSystem(values, lam_trial)
+            lam_trial = choose_level(values, trial, gamma, lam, levels)
+            trial_system = levels.at(lam_trial)
             # kept only if it lowers the GCV score of the whole fit: a step that stands
             # in for the smoothing bias of a smooth, strongly curved lobe raises it
             gain = n * math.log(base / trial_system.gcv(trial, gamma))

@@ -23,6 +23,11 @@ of a bag: about 4 MB of chunks at a time).
 Speed: a block whose points share one layout (every block cam-bench and a usual
 bench write) is read with strided numpy views (no per-point Python); other blocks are
 walked point by point. Units: stamps ns, angles rad, lifts m.
+
+With ``extras=True`` a block also gives the lift joint's velocity (its ``velocities``
+when a point has one per joint name, as a vibrometer measures it; NaN otherwise) and
+the positions of its further joints by name (channels such as a spring force): the
+same values a JointState sample gives in ``velocity`` and ``position``.
 """
 from __future__ import annotations
 
@@ -53,14 +58,15 @@ class _Bad(Exception):
 def decode_joint_blocks(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | None = None,
                         first: int = 0, *, topic: str = JOINT_TRAJECTORY,
                         joints: tuple[str, str] = (CAMSHAFT_JOINT, PROBE_JOINT),
-                        ) -> JointSamples:
+                        extras: bool = False) -> JointSamples:
     """The samples of JointTrajectory CDR messages ``chunks`` (one per block).
 
     ``log_ns``: each message's bag log (or receive) time [ns] (zeros if None); every
     sample of a block gets its block's. ``first``: index on the topic of the first
     message (named in issues). ``joints``: (angle joint, lift joint) names.
     ``JointSamples.block_sizes`` gives the samples of each message (0 for a block that
-    gave none), in order.
+    gave none), in order. ``extras``: also the lift velocity and further joints
+    (``JointSamples.lift_velocity``, ``others``).
     """
     n = len(chunks)
     logs = np.zeros(n, dtype=np.int64) if log_ns is None else np.asarray(log_ns, np.int64)
@@ -69,46 +75,52 @@ def decode_joint_blocks(chunks: Sequence[bytes], log_ns: NDArray[np.int64] | Non
     if n:
         np.cumsum(lengths[:-1], out=starts[1:])
     return decode_block_buffer(b''.join(chunks), starts, lengths, logs, first,
-                               topic=topic, joints=joints)
+                               topic=topic, joints=joints, extras=extras)
 
 
 def decode_block_buffer(data: bytes | bytearray, starts: NDArray[np.int64],
                         lengths: NDArray[np.int64], log_ns: NDArray[np.int64],
                         first: int = 0, *, topic: str = JOINT_TRAJECTORY,
                         joints: tuple[str, str] = (CAMSHAFT_JOINT, PROBE_JOINT),
-                        ) -> JointSamples:
+                        extras: bool = False) -> JointSamples:
     """``decode_joint_blocks`` of the messages at ``data[starts:starts+lengths]``."""
     view = memoryview(data)
     blocks: list[_Block] = []
     problems: dict[int, list[Any]] = {}
     for k, (a, size) in enumerate(zip(starts.tolist(), lengths.tolist())):
         try:
-            blocks.append(_decode_one(data, view, a, size, joints))
+            blocks.append(_decode_one(data, view, a, size, joints, extras))
         except _Bad as bad:
             kind, fld, value, expected, block = bad.args
             blocks.append(block)
             entry = problems.setdefault(kind, [k, fld, value, expected, 0])
             entry[4] += 1
     _cross_checks(blocks, problems)
-    return _assemble(blocks, np.asarray(log_ns, dtype=np.int64), problems, first, topic)
+    out = _assemble(blocks, np.asarray(log_ns, dtype=np.int64), problems, first, topic)
+    if extras:
+        out.lift_velocity, out.others = _assemble_extras(blocks)
+    return out
 
 
 class _Block:
     """One decoded message: frame id, header stamp [ns], joint names, per-point
-    stamps [ns], theta [rad], s [m] (NaN when the block is unusable)."""
+    stamps [ns], theta [rad], s [m] (NaN when the block is unusable); ``more``: with
+    extras, the lift velocity (key None) and further joints' positions by name."""
 
-    __slots__ = ('frame', 'stamp', 'names', 'stamps', 'theta', 's', 'usable')
+    __slots__ = ('frame', 'stamp', 'names', 'stamps', 'theta', 's', 'usable', 'more')
 
     def __init__(self, frame: str, stamp: int, names: tuple[str, ...],
                  stamps: NDArray[np.int64], theta: NDArray[np.float64],
                  s: NDArray[np.float64], usable: bool = True) -> None:
         self.frame, self.stamp, self.names = frame, stamp, names
         self.stamps, self.theta, self.s, self.usable = stamps, theta, s, usable
+        self.more: dict[str | None, NDArray[np.float64]] = {}
 
     def spoil(self) -> None:
         """Keep the samples' count and times, drop their values (NaN)."""
         self.theta = np.full(self.theta.size, np.nan)
         self.s = np.full(self.s.size, np.nan)
+        self.more = {}
         self.usable = False
 
 
@@ -121,7 +133,7 @@ def _nothing(frame: str = '', stamp: int = 0, names: tuple[str, ...] = ()) -> _B
 
 
 def _decode_one(data: Any, view: memoryview, a: int, size: int,
-                joints: tuple[str, str]) -> _Block:
+                joints: tuple[str, str], extras: bool = False) -> _Block:
     """One JointTrajectory message at ``data[a:a+size]`` (raises _Bad with a block)."""
     end = a + size
     if size < 16 or data[a] != 0 or data[a + 1] > 1:
@@ -205,7 +217,19 @@ def _decode_one(data: Any, view: memoryview, a: int, size: int,
                    'acquisition order)', block)
     block.theta = points.f64(names_t.index(joints[0]))
     block.s = points.f64(names_t.index(joints[1]))
+    if extras:
+        block.more = _extras(points, names_t, joints)
     return block
+
+
+def _extras(points: Any, names: tuple[str, ...], joints: tuple[str, str],
+            ) -> dict[str | None, NDArray[np.float64]]:
+    """The lift joint's velocity [m/s] (key None; NaN at points without one velocity
+    per joint name) and the further joints' positions by name."""
+    more: dict[str | None, NDArray[np.float64]] = {
+        name: points.f64(k) for k, name in enumerate(names) if name not in joints}
+    more[None] = points.velocity(names.index(joints[1]), len(names))
+    return more
 
 
 def _al(off: int, base: int, k: int) -> int:
@@ -214,12 +238,13 @@ def _al(off: int, base: int, k: int) -> int:
 
 
 def _point_layout(data: Any, off: int, base: int, e: str, end: int,
-                  ) -> tuple[int, tuple[int, int, int, int], int, int] | None:
+                  ) -> tuple[int, tuple[int, int, int, int], int, int, int] | None:
     """(positions offset, (positions, velocities, accelerations, effort counts),
-    duration offset, end) of the point at ``off``; None past ``end``."""
+    duration offset, end, velocities offset) of the point at ``off``; None past
+    ``end``."""
     u32 = struct.Struct(e + 'I').unpack_from
     counts = []
-    pos = 0
+    pos = vel = 0
     for k in range(4):
         off = _al(off, base, 4)
         if off + 4 > end:
@@ -230,12 +255,14 @@ def _point_layout(data: Any, off: int, base: int, e: str, end: int,
             off = _al(off, base, 8)
         if k == 0:
             pos = off
+        elif k == 1:
+            vel = off
         off += 8 * c
         counts.append(c)
     off = _al(off, base, 4)
     if off + 8 > end:
         return None
-    return pos, (counts[0], counts[1], counts[2], counts[3]), off, off + 8
+    return pos, (counts[0], counts[1], counts[2], counts[3]), off, off + 8, vel
 
 
 class _Strided:
@@ -243,10 +270,12 @@ class _Strided:
     1..n-1 every ``stride`` bytes from ``s1`` (positions at ``s1 + pos``, duration at
     ``s1 + dur``); read with strided numpy views (no per-point Python)."""
 
-    def __init__(self, data: Any, e: str, first: tuple[int, int], s1: int, rel: tuple[int, int],
-                 stride: int, n: int, count: int) -> None:
+    def __init__(self, data: Any, e: str, first: tuple[int, int, int], s1: int,
+                 rel: tuple[int, int, int], stride: int, n: int, count: int,
+                 vel_count: int = 0) -> None:
         self.data, self.e, self.first, self.s1 = data, e, first, s1
         self.rel, self.stride, self.n, self.counts = rel, stride, n, count
+        self.vel_count = vel_count
 
     def _column(self, dtype: str, first_off: int, rel: int) -> NDArray[Any]:
         out = np.empty(self.n, dtype=np.dtype(dtype).newbyteorder('='))
@@ -266,13 +295,22 @@ class _Strided:
         """Position ``k`` of every point."""
         return self._column('f8', self.first[0] + 8 * k, self.rel[0] + 8 * k)
 
+    def velocity(self, k: int, joints: int) -> NDArray[np.float64]:
+        """Velocity ``k`` of every point (NaN unless there is one per joint)."""
+        if self.vel_count != joints:
+            return np.full(self.n, np.nan)
+        return self._column('f8', self.first[2] + 8 * k, self.rel[2] + 8 * k)
+
 
 class _Walked:
     """Points walked one by one: per-point offsets of positions and duration."""
 
     def __init__(self, data: Any, e: str, pos: NDArray[np.int64], dur: NDArray[np.int64],
-                 counts: NDArray[np.int64]) -> None:
+                 counts: NDArray[np.int64], vel: NDArray[np.int64] | None = None,
+                 vel_counts: NDArray[np.int64] | None = None) -> None:
         self.data, self.e, self.pos, self.dur, self.counts = data, e, pos, dur, counts
+        self.vel = np.zeros_like(pos) if vel is None else vel
+        self.vel_counts = np.zeros_like(pos) if vel_counts is None else vel_counts
 
     def _at(self, fmt: str, offsets: NDArray[np.int64]) -> list[Any]:
         unpack = struct.Struct(self.e + fmt).unpack_from
@@ -291,6 +329,14 @@ class _Walked:
             out[ok] = self._at('d', self.pos[ok] + 8 * k)
         return out
 
+    def velocity(self, k: int, joints: int) -> NDArray[np.float64]:
+        """Velocity ``k`` of every point (NaN where a point has not one per joint)."""
+        ok = self.vel_counts == joints
+        out = np.full(self.pos.size, np.nan)
+        if np.any(ok):
+            out[ok] = self._at('d', self.vel[ok] + 8 * k)
+        return out
+
 
 def _points_uniform(data: Any, off: int, end: int, base: int, e: str, npts: int,
                     ) -> _Strided | None:
@@ -307,11 +353,11 @@ def _points_uniform(data: Any, off: int, end: int, base: int, e: str, npts: int,
     counts = firsts[0][1][1]
     if any(lay[1] != counts for _, lay in firsts):
         return None
-    first = (firsts[0][1][0], firsts[0][1][2])
+    first = (firsts[0][1][0], firsts[0][1][2], firsts[0][1][4])
     if npts == 1:
-        return _Strided(data, e, first, 0, (0, 0), 1, 1, counts[0])
+        return _Strided(data, e, first, 0, (0, 0, 0), 1, 1, counts[0], counts[1])
     s1 = firsts[1][0]
-    rel = (firsts[1][1][0] - s1, firsts[1][1][2] - s1)
+    rel = (firsts[1][1][0] - s1, firsts[1][1][2] - s1, firsts[1][1][4] - s1)
     stride = firsts[1][1][3] - s1
     if npts > 2 and firsts[2][1][3] - firsts[2][0] != stride:
         return None   # the layout changes from point to point (alignment): walk it
@@ -323,7 +369,7 @@ def _points_uniform(data: Any, off: int, end: int, base: int, e: str, npts: int,
         got = np.ndarray((m,), dtype=e + 'u4', buffer=data, offset=at, strides=(stride,))
         if got.min() != c or got.max() != c:
             return None
-    return _Strided(data, e, first, s1, rel, stride, npts, counts[0])
+    return _Strided(data, e, first, s1, rel, stride, npts, counts[0], counts[1])
 
 
 def _count_offset(lay: Any, start: int, base: int, k: int) -> int:
@@ -347,13 +393,16 @@ def _points_walk(data: Any, off: int, end: int, base: int, e: str, npts: int,
     pos = np.zeros(npts, dtype=np.int64)
     counts = np.zeros(npts, dtype=np.int64)
     dur = np.zeros(npts, dtype=np.int64)
+    vel = np.zeros(npts, dtype=np.int64)
+    vel_counts = np.zeros(npts, dtype=np.int64)
     for j in range(npts):
         lay = _point_layout(data, off, base, e, end)
         if lay is None:
             need(end + 1)
             raise AssertionError('unreachable')
         pos[j], counts[j], dur[j], off = lay[0], lay[1][0], lay[2], lay[3]
-    return _Walked(data, e, pos, dur, counts)
+        vel[j], vel_counts[j] = lay[4], lay[1][1]
+    return _Walked(data, e, pos, dur, counts, vel, vel_counts)
 
 
 def _cross_checks(blocks: list[_Block], problems: dict[int, list[Any]]) -> None:
@@ -418,6 +467,24 @@ def _assemble(blocks: list[_Block], log_ns: NDArray[np.int64],
         theta=np.concatenate([b.theta for b in used]),
         s=np.concatenate([b.s for b in used]),
         names=names, features=features, issues=issues, block_sizes=sizes)
+
+
+def _assemble_extras(blocks: list[_Block],
+                     ) -> tuple[NDArray[np.float64] | None, dict[str, NDArray[np.float64]]]:
+    """The lift velocity (None when no block carries one) and the further joints'
+    positions of the blocks' samples, in ``_assemble``'s order (NaN where a block
+    lacks them)."""
+    used = [b for b in blocks if b.stamps.size]
+    keys = list(dict.fromkeys(k for b in used for k in b.more))
+
+    def column(key: str | None) -> NDArray[np.float64]:
+        return np.concatenate([b.more.get(key, np.full(b.stamps.size, np.nan))
+                               for b in used]) if used else _EMPTY_F.copy()
+
+    vel = column(None) if None in keys else None
+    if vel is not None and not np.any(np.isfinite(vel)):
+        vel = None
+    return vel, {str(k): column(k) for k in keys if k is not None}
 
 
 def block_sample_count(cdr: bytes) -> int:

@@ -47,6 +47,12 @@ class JointSamples:
     #: samples of each message, for blocks (``blocks.decode_joint_blocks``); None for
     #: one sample per message
     block_sizes: NDArray[np.int64] | None = None
+    #: blocks decoded with ``extras``: the lift joint's velocity [m/s] (NaN where a block
+    #: carries no velocities; None when none does)
+    lift_velocity: NDArray[np.float64] | None = None
+    #: blocks decoded with ``extras``: the position of every further joint by name (NaN
+    #: where a block lacks the joint), in order of first appearance
+    others: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return int(self.theta.size)

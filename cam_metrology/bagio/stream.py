@@ -34,7 +34,7 @@ STREAM_BLOCK_BYTES = 4 << 20
 def iter_joint_states(path: str | Path, topic: str = JOINT_STATES, *, direct: bool = True,
                       block_bytes: int = STREAM_BLOCK_BYTES,
                       joints: tuple[str, str] = DEFAULT_JOINTS,
-                      blocks_topic: str | None = JOINT_TRAJECTORY,
+                      blocks_topic: str | None = JOINT_TRAJECTORY, extras: bool = False,
                       ) -> Iterator[JointSamples]:
     """The samples of ``topic`` (JointState) and of ``blocks_topic`` (JointTrajectory
     blocks; None: not read) as consecutive blocks, in memory bounded by
@@ -48,14 +48,16 @@ def iter_joint_states(path: str | Path, topic: str = JOINT_STATES, *, direct: bo
     issue or an error names a message by its index on the topic in the whole bag;
     ``JointSummary`` merges them into those of the whole topic. MCAP chunks whose
     log-time ranges overlap are decoded together (their messages are sorted across
-    them), so a bag whose chunks all overlap is read as one block.
+    them), so a bag whose chunks all overlap is read as one block. ``extras``: the
+    blocks also give the lift velocity and further joints (``decode_joint_blocks``;
+    kept when the bag holds blocks only).
     """
     if block_bytes < 1:
         raise InputError('block_bytes', block_bytes, 'a block size >= 1 byte')
     streams = [s for s in (
         _iter_topic(path, topic, JOINT_STATE, direct, block_bytes, joints),
-        _iter_topic(path, blocks_topic, JOINT_TRAJECTORY_TYPE, direct, block_bytes, joints)
-        if blocks_topic else None) if s is not None]
+        _iter_topic(path, blocks_topic, JOINT_TRAJECTORY_TYPE, direct, block_bytes, joints,
+                    extras) if blocks_topic else None) if s is not None]
     if len(streams) == 1:
         yield from streams[0]
     elif streams:
@@ -65,20 +67,21 @@ def iter_joint_states(path: str | Path, topic: str = JOINT_STATES, *, direct: bo
 #: the decoder of each sample message type: (CDR chunks, buffer) decoders
 _DECODERS: dict[str, Any] = {
     JOINT_STATE: (
-        lambda chunks, logs, first, topic, joints: decode_joint_states(
+        lambda chunks, logs, first, topic, joints, extras: decode_joint_states(
             chunks, logs, first, joints=joints),
-        lambda data, st, ln, logs, first, topic, joints: decode_joint_buffer(
+        lambda data, st, ln, logs, first, topic, joints, extras: decode_joint_buffer(
             data, st, ln, logs, first, joints=joints)),
     JOINT_TRAJECTORY_TYPE: (
-        lambda chunks, logs, first, topic, joints: decode_joint_blocks(
-            chunks, logs, first, topic=topic, joints=joints),
-        lambda data, st, ln, logs, first, topic, joints: decode_block_buffer(
-            data, st, ln, logs, first, topic=topic, joints=joints)),
+        lambda chunks, logs, first, topic, joints, extras: decode_joint_blocks(
+            chunks, logs, first, topic=topic, joints=joints, extras=extras),
+        lambda data, st, ln, logs, first, topic, joints, extras: decode_block_buffer(
+            data, st, ln, logs, first, topic=topic, joints=joints, extras=extras)),
 }
 
 
 def _iter_topic(path: str | Path, topic: str, msgtype: str, direct: bool, block_bytes: int,
-                joints: tuple[str, str]) -> Iterator[JointSamples] | None:
+                joints: tuple[str, str], extras: bool = False,
+                ) -> Iterator[JointSamples] | None:
     """The blocks of one sample topic of type ``msgtype``; None if the bag has none
     (InputError for a topic of another type)."""
     reader = open_reader(path)
@@ -93,11 +96,12 @@ def _iter_topic(path: str | Path, topic: str, msgtype: str, direct: bool, block_
         plan = _mcap_stream_plan(Path(path), [topic]) if direct else None
         if plan is None:   # rosbags' reader, in blocks of messages
             close = False
-            return _iter_reader_blocks(reader, conns, block_bytes, topic, msgtype, joints)
+            return _iter_reader_blocks(reader, conns, block_bytes, topic, msgtype, joints,
+                                       extras)
     finally:
         if close:
             reader.close()
-    return _iter_mcap_blocks(plan, block_bytes, topic, msgtype, joints)
+    return _iter_mcap_blocks(plan, block_bytes, topic, msgtype, joints, extras)
 
 
 def _merged(streams: list[Iterator[JointSamples]]) -> Iterator[JointSamples]:
@@ -164,7 +168,7 @@ def _combine(parts: list[JointSamples], meta: list[JointSamples]) -> JointSample
 
 def _iter_reader_blocks(reader: Any, conns: Sequence[Any], block_bytes: int,
                         topic: str = JOINT_STATES, msgtype: str = JOINT_STATE,
-                        joints: tuple[str, str] = DEFAULT_JOINTS,
+                        joints: tuple[str, str] = DEFAULT_JOINTS, extras: bool = False,
                         ) -> Iterator[JointSamples]:
     """Blocks of about ``block_bytes`` of messages from a rosbags reader (closed at the
     end)."""
@@ -178,11 +182,13 @@ def _iter_reader_blocks(reader: Any, conns: Sequence[Any], block_bytes: int,
             logs.append(stamp)
             size += len(data)
             if size >= block_bytes:
-                yield decode(chunks, np.asarray(logs, dtype=np.int64), first, topic, joints)
+                yield decode(chunks, np.asarray(logs, dtype=np.int64), first, topic, joints,
+                             extras)
                 first += len(chunks)
                 chunks, logs, size = [], [], 0
         if chunks:
-            yield decode(chunks, np.asarray(logs, dtype=np.int64), first, topic, joints)
+            yield decode(chunks, np.asarray(logs, dtype=np.int64), first, topic, joints,
+                         extras)
     finally:
         reader.close()
 
@@ -238,12 +244,12 @@ def _mcap_stream_plan(bag: Path, topics: Iterable[str],
 def _iter_mcap_blocks(plan: tuple[Path, list[str], list[_PlannedChunk]],
                       block_bytes: int, topic: str = JOINT_STATES,
                       msgtype: str = JOINT_STATE, joints: tuple[str, str] = DEFAULT_JOINTS,
-                      ) -> Iterator[JointSamples]:
+                      extras: bool = False) -> Iterator[JointSamples]:
     """Decode the planned chunks' messages in blocks (``_iter_chunk_blocks``)."""
     decode = _DECODERS[msgtype][1]
     first = 0
     for data, starts, lengths, logs in _iter_chunk_blocks(plan, block_bytes):
-        samples = decode(data, starts, lengths, logs, first, topic, joints)
+        samples = decode(data, starts, lengths, logs, first, topic, joints, extras)
         first += int(starts.size)   # messages (a block message holds many samples)
         yield samples
 

@@ -105,17 +105,28 @@ def load_yaml(text: str, key: str, loader: Any = None, *, max_chars: int = MAX_C
     are raised as ``yaml.YAMLError`` for the caller to word."""
     import yaml
 
-    loader = loader or yaml.SafeLoader
+    loader = loader or getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
     if len(text) > max_chars:
         raise InputError(key, f'{len(text)} characters',
                          f'a YAML document of at most {max_chars} characters')
-    node = yaml.compose(text, Loader=loader)   # noqa: S506 -- composes, builds no object
-    if node is None:
-        return None
+    # parsed once (libyaml where installed): the composed node is checked, then built
+    reader = loader(text)
+    try:
+        node = reader.get_single_node()
+        if node is None:
+            return None
+        check_node(node, key, max_nodes)
+        return reader.construct_document(node)
+    finally:
+        reader.dispose()
+
+
+def check_node(node: Any, key: str, max_nodes: int = MAX_NODES) -> None:
+    """InputError(``key``) when the composed document ``node`` expands to more than
+    ``max_nodes`` nodes or gives a key twice in one mapping."""
     n = expanded_nodes(node, max_nodes)
     if n > max_nodes:
         raise InputError(key, f'more than {max_nodes} nodes once its aliases are expanded',
                          'a YAML document without alias bombs (anchors * and & that '
                          'repeat a block are fine, but not millions of times)')
     reject_duplicate_keys(node, key)
-    return yaml.load(text, Loader=loader)   # noqa: S506 -- SafeLoader or a subclass

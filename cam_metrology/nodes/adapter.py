@@ -35,7 +35,8 @@
   subscribed raw, one callback per block (a block of 1000
   samples costs what one JointState costs), decoded by ``bagio.decode_joint_blocks``
   (joints by the core's names) and handed to the core's ``handle_samples`` in order
-  with the held messages like the JointState batches; lost blocks are counted per
+  with the held messages like the JointState batches (with the lift velocity and
+  further joints when the core sets ``block_extras``); lost blocks are counted per
   block and per sample (``loss.SequenceLoss(blocks=True)``); damaged blocks are
   reported in the input status (WARN, the first one named) and not used;
 * a timer calls ``core.tick(now_ns)`` (idle timeouts);
@@ -171,6 +172,8 @@ class CoreNode(Node):
         self._with_info = with_info
         self._ordered = with_info and JOINT_STATES in self.core.subscriptions
         self._bulk = self._ordered and callable(getattr(self.core, 'handle_samples', None))
+        # the core takes the blocks' lift velocity and further joints (the rig's)
+        self._extras = bool(getattr(self.core, 'block_extras', False))
         self._block_issues: Any = None   # bagio.JointSummary of damaged blocks
         self._adaptive = AdaptiveSubscriptions(self, self._subscribe)
         for topic, type_name in topics:
@@ -494,7 +497,7 @@ class CoreNode(Node):
         named = {'joints': joints} if joints[0] else {}
         raws = [b[0] for b in batch]
         if topic in BLOCK_TOPICS:
-            js = decode_joint_blocks(raws, topic=topic, **named)
+            js = decode_joint_blocks(raws, topic=topic, extras=self._extras, **named)
             sizes = js.block_sizes if js.block_sizes is not None else np.zeros(0, np.int64)
             bounds = np.concatenate(([0], np.cumsum(sizes))).tolist()
             frames = _message_frames(js.frame_id, sizes)
@@ -540,8 +543,12 @@ class CoreNode(Node):
             getattr(self.core, 'scene', None) is None
 
     def _handle_block(self, js: Any, i: int, j: int) -> list[Output]:
+        more: dict[str, Any] = {}
+        if self._extras and (js.lift_velocity is not None or js.others):
+            more = {'velocity': None if js.lift_velocity is None else js.lift_velocity[i:j],
+                    'others': {k: v[i:j] for k, v in js.others.items()}}
         return self.core.handle_samples(js.frame_id[i:j], js.stamp_ns[i:j], js.theta[i:j],
-                                        js.s[i:j], rx_ns=self.now_ns())
+                                        js.s[i:j], rx_ns=self.now_ns(), **more)
 
     def _release_one(self) -> None:
         _, _, topic, msg = heapq.heappop(self._held)

@@ -2,7 +2,8 @@
 ``/rig/joint_states`` (joints ``camshaft``, ``valve`` and the run's further channels;
 ``frame_id`` = the run's name; the valve velocity when the run has one), or, with
 ``block`` > 1, the samples in blocks of that many on ``/rig/joint_trajectory``
-(JointTrajectory: joints ``camshaft`` and ``valve`` only; ``rig_blocks``)."""
+(JointTrajectory: joints ``camshaft``, ``valve`` and the further channels, the valve
+velocity in the points' ``velocities`` when the run has one; ``rig_blocks``)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -18,13 +19,17 @@ GAP_S = 0.1
 
 def rig_blocks(run: RigRun, start_ns: int, block: int) -> Iterator[tuple[int, bytes]]:
     """(stamp of the block's last sample [ns], JointTrajectory CDR) of ``run`` in blocks
-    of ``block`` samples (joints ``camshaft`` and ``valve``; ``frame_id`` = run name;
-    ``header.stamp`` = first sample, each point's ``time_from_start`` from it)."""
+    of ``block`` samples (joints ``camshaft``, ``valve`` and the run's channels, the
+    valve velocity when the run has one, as one JointState sample carries them;
+    ``frame_id`` = run name; ``header.stamp`` = first sample, each point's
+    ``time_from_start`` from it)."""
     from cam_metrology.wire.cdr import encode_sample_blocks
 
     stamps = start_ns + np.round(run.time * 1e9).astype(np.int64)
     yield from encode_sample_blocks(run.name, stamps, run.angle, run.lift, block,
-                                    (CAMSHAFT, VALVE))
+                                    (CAMSHAFT, VALVE, *run.channels),
+                                    more=tuple(run.channels.values()),
+                                    velocity=run.velocity)
 
 
 def write_rig_bag(path: str | Path, scene_text: str, runs: Sequence[RigRun],

@@ -13,8 +13,11 @@ its bins), solved in closed form inside the residuals (``offset_free``).
 
 Uncertainty: covariance s^2 (J^T J)^-1 at the minimum, J the Jacobian of the weighted,
 offset-free residuals, s^2 = chi^2 / (m - p - runs) (so unmodelled cycle-to-cycle
-variation widens the uncertainty instead of being ignored); the correlation matrix from
-it.
+variation widens the uncertainty instead of being ignored), plus what the errors of the
+encoder's smoothed angle puts into the parameters (``angle_covariance``: the angle
+and its ripple come from the encoder, not from this fit, so their error is propagated:
+G C G^T, G the parameters' sensitivity to the angle model's coefficients, C their
+covariance); the correlation matrix from the sum.
 
 Identifiability: before any fit, the Jacobian at the nominal train is checked: a
 parameter the runs do not depend on, or a pair with |correlation| >
@@ -24,7 +27,7 @@ naming the parameters and the run that would separate them. After the fit, a pai
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -249,9 +252,12 @@ def calibrate(problem: Problem, progress: Callable[[str], None] | None = None) -
     chi2 = float(r @ r)
     dof = max(1, m - p - len(problem.datas))     # one offset per run
     s2 = chi2 / dof
-    cov, corr = correlation(jac)
+    cov, _ = correlation(jac)
+    total = cov * s2 + angle_covariance(problem, x, jac)
+    d = np.sqrt(np.maximum(np.diag(total), 1e-300))
+    corr = np.asarray(total / np.outer(d, d), dtype=np.float64)
     scale = np.array([problem.scale[n] for n in names])
-    std = np.sqrt(np.maximum(np.diag(cov), 0.0) * s2) * scale
+    std = np.sqrt(np.maximum(np.diag(total), 0.0)) * scale
     values = problem.values(x)
     vt, nose = problem.train(values)
     fit = Fit(names=names, nominal=dict(problem.nominal), value=values,
@@ -269,6 +275,59 @@ def calibrate(problem: Problem, progress: Callable[[str], None] | None = None) -
         if n != 'nose_angle' and n not in MAY_BE_ZERO and values[n] <= 0:
             fit.warnings.append(f'{n} went to its bound (0): the runs do not support a value')
     return fit
+
+
+def angle_covariance(problem: Problem, x: NDArray[np.float64], jac: NDArray[np.float64],
+                     ) -> NDArray[np.float64]:
+    """Covariance of the scaled parameters from the error of each run's smoothed encoder
+    angle (``encoder.angle_columns``: the angle model's coefficients with their
+    covariance C): for each principal direction u_j of C (variance l_j), the run's angle
+    is moved by columns @ u_j sqrt(l_j) (and its ripple with it), its cycles re-binned
+    and its weighted residuals recomputed; the change dr gives g = (J^T J)^-1 J^T dr,
+    and the covariance is the sum of g g^T. The angle comes from the encoder, not from
+    this fit, so its error is propagated rather than fitted."""
+    from cam_metrology.rig.cycles import average_cycles
+    from cam_metrology.rig.encoder import DRIFT_DEGREE, angle_columns
+
+    p = jac.shape[1]
+    out = np.zeros((p, p))
+    solve = np.linalg.pinv(jac.T @ jac, rcond=1e-15) @ jac.T
+    vt, nose = problem.train(problem.values(x))
+    start = 0
+    for d, k, w in zip(problem.datas, problem.ok, problem.weight):
+        rows = slice(start, start + int(np.sum(k)))
+        start = rows.stop
+        sp = d.speed
+        if not sp.angle_sigma > 0:
+            continue
+        cols, cov = angle_columns(d.run.time, sp)
+        lam, vec = np.linalg.eigh(cov)
+        base = _run_residuals(problem, vt, nose, d, k, w)
+        for lj, uj in zip(lam, vec.T):
+            if not lj > 0:
+                continue
+            step = uj * np.sqrt(lj)
+            harm = step[DRIFT_DEGREE + 1:]
+            moved_sp = replace(sp, theta=sp.theta + cols @ step,
+                               ripple_cos=sp.ripple_cos + harm[0::2],
+                               ripple_sin=sp.ripple_sin + harm[1::2])
+            cyc = average_cycles(moved_sp.encoder, d.run.lift, d.run.velocity,
+                                 d.cycles.step, d.run.name)
+            moved = replace(d, speed=moved_sp, cycles=cyc)
+            dr = np.nan_to_num(_run_residuals(problem, vt, nose, moved, k, w) - base)
+            g = solve[:, rows] @ dr
+            out += np.outer(g, g)
+    return out
+
+
+def _run_residuals(problem: Problem, vt: Any, nose: float, data: RunData,
+                   k: NDArray[np.bool_], w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Weighted, offset-free residuals of one run (its own ripple law, not cached)."""
+    law = ripple_law(problem.law, data.speed, nose, problem.direction) \
+        if has_ripple(data.speed) else problem.law
+    pred = predict(law, vt, data.speed.rpm, problem.key)
+    p = run_bins(pred, data, nose, problem.direction)
+    return offset_free(data.cycles.lift[k] - p[k], w)
 
 
 def _jac(problem: Problem) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:

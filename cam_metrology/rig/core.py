@@ -44,6 +44,8 @@ class RigCore:
                      RIG_JOINT_TRAJECTORY: 'trajectory_msgs/msg/JointTrajectory'}
     #: (angle, lift) joints the adapter decodes from the blocks
     joints = (CAMSHAFT_JOINT, VALVE_JOINT)
+    #: the adapter also decodes the blocks' valve velocity and further joints
+    block_extras = True
     publications = {RIG_RESULT: 'diagnostic_msgs/msg/DiagnosticArray',
                     RIG_MOTION: 'std_msgs/msg/Float64MultiArray'}
     PARAMETERS: dict[str, tuple[Any, str]] = {
@@ -56,7 +58,7 @@ class RigCore:
         self.scene: Any = None
         self.frame: str | None = None
         self.rows: list[Any] = []        # JointState messages of the current run
-        self.blocks: list[Any] = []      # (stamps [ns], theta, lift) arrays of its blocks
+        self.blocks: list[Any] = []      # JointSamples of its blocks
         self.last_ns = 0
         self.results: dict[str, dict[str, Any]] = {}
         self.flushed: tuple[list[Any], list[Any]] = ([], [])   # the last run ended
@@ -81,9 +83,13 @@ class RigCore:
         return out
 
     def handle_samples(self, frame_id: Any, stamp_ns: Any, theta: Any, s: Any,
-                       rx_ns: int = 0) -> list[Output]:
+                       rx_ns: int = 0, velocity: Any = None,
+                       others: dict[str, Any] | None = None) -> list[Output]:
         """Samples decoded from blocks (``frame_id`` = run, stamps [ns], camshaft
-        angle [rad], valve lift [m]): buffered like single samples."""
+        angle [rad], valve lift [m], valve ``velocity`` [m/s] or None, ``others``: the
+        further joints by name): buffered like single samples."""
+        from cam_metrology.bagio.joints import JointSamples
+
         frames = np.asarray(frame_id)
         out: list[Output] = []
         n = int(frames.size)
@@ -93,8 +99,11 @@ class RigCore:
         for a, b in zip(np.concatenate(([0], cut)).tolist(),
                         np.concatenate((cut, [n])).tolist()):
             out += self._start(str(frames[a]) or 'run', rx_ns)
-            self.blocks.append((np.asarray(stamp_ns[a:b]), np.asarray(theta[a:b]),
-                                np.asarray(s[a:b])))
+            self.blocks.append(JointSamples(
+                np.asarray(frames[a:b]), np.asarray(stamp_ns[a:b]), np.asarray(stamp_ns[a:b]),
+                np.asarray(theta[a:b]), np.asarray(s[a:b]),
+                lift_velocity=None if velocity is None else np.asarray(velocity[a:b]),
+                others={k: np.asarray(v[a:b]) for k, v in (others or {}).items()}))
         self.last_ns = rx_ns
         return out
 
@@ -132,14 +141,17 @@ class RigCore:
             return [self._status(Status(name, ERROR, 'no scene on /bench/scene before the '
                                                      'run: cannot analyse it'), stamp_ns)]
         try:
-            from cam_metrology.rig.runs import runs_of_messages, runs_of_samples
+            from cam_metrology.rig.runs import joined_extras, runs_of_messages, runs_of_samples
             from cam_metrology.rig.session import analyze
 
             runs = runs_of_messages(rows, RIG_JOINT_STATES) if rows else []
             if blocks:
-                stamps, theta, lift = (np.concatenate(c) for c in zip(*blocks))
-                runs += runs_of_samples(np.full(stamps.size, name), stamps, theta, lift,
-                                        RIG_JOINT_TRAJECTORY)
+                vel, others = joined_extras(blocks)
+                stamps = np.concatenate([js.stamp_ns for js in blocks])
+                runs += runs_of_samples(np.full(stamps.size, name), stamps,
+                                        np.concatenate([js.theta for js in blocks]),
+                                        np.concatenate([js.s for js in blocks]),
+                                        RIG_JOINT_TRAJECTORY, vel, others)
             outcome = analyze(self.scene, runs, jump=self.jump)
         except InputError as exc:
             return [self._status(Status(name, ERROR, str(exc)), stamp_ns)]

@@ -39,7 +39,9 @@ class Speed:
     encoder step seen (0 for a continuous encoder). The ripple: the harmonic part of the
     angle model, H(t) = sum_k ripple_cos[k] cos(k w (t - t0)) + ripple_sin[k]
     sin(k w (t - t0)) [rad] over ``orders``, w = ``omega`` [rad/s]; ``psi0`` the uniform
-    encoder angle (without H) at ``t0`` [rad] (``rig.ripple``)."""
+    encoder angle (without H) at ``t0`` [rad] (``rig.ripple``); ``ripple_se`` [rad] the
+    standard error of each ripple coefficient and ``angle_sigma`` [rad] the readings'
+    scatter about the angle model that gives it (``angle_model``, ``angle_columns``)."""
 
     theta: NDArray[np.float64]
     sign: int
@@ -56,6 +58,8 @@ class Speed:
     omega: float = 0.0
     t0: float = 0.0
     psi0: float = 0.0
+    ripple_se: float = 0.0
+    angle_sigma: float = 0.0
 
     def ripple_at(self, time: NDArray[np.float64]) -> NDArray[np.float64]:
         """H(t) [rad] at ``time`` [s] (zeros without ripple orders)."""
@@ -172,7 +176,8 @@ def _design(time: NDArray[np.float64], omega: float, orders: Sequence[int]
 class AngleModel:
     """The fitted angle model: ``fit`` [rad] and ``rate`` [rad/s] at the samples'
     times, ``omega`` the mean speed [rad/s]; the kept ripple ``orders`` with their
-    cos/sin coefficients [rad] in the phase k ``omega_h`` (t - t0), t0 the first time."""
+    cos/sin coefficients [rad] in the phase k ``omega_h`` (t - t0), t0 the first time;
+    ``se`` [rad] the standard error of one coefficient (``coefficient_error``)."""
 
     fit: NDArray[np.float64]
     rate: NDArray[np.float64]
@@ -181,6 +186,7 @@ class AngleModel:
     cos: NDArray[np.float64]
     sin: NDArray[np.float64]
     omega_h: float
+    se: float = 0.0
 
 
 def angle_model(time: NDArray[np.float64], theta: NDArray[np.float64]) -> AngleModel:
@@ -210,7 +216,40 @@ def angle_model(time: NDArray[np.float64], theta: NDArray[np.float64]) -> AngleM
     harm = coef[DRIFT_DEGREE + 1:]
     return AngleModel(fit=a @ coef + theta[0], rate=da @ coef, omega=omega,
                       orders=tuple(orders), cos=np.asarray(harm[0::2], dtype=float),
-                      sin=np.asarray(harm[1::2], dtype=float), omega_h=omega_h)
+                      sin=np.asarray(harm[1::2], dtype=float), omega_h=omega_h,
+                      se=coefficient_error(time, y - a @ coef, omega_h, orders))
+
+
+def angle_columns(time: NDArray[np.float64], speed: Speed
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(columns, covariance) of a run's angle model: the model's columns at ``time``
+    (n x m: the cubic's, then cos and sin of each kept order; ``speed.theta`` moves by
+    columns @ d for coefficient errors d [rad]) and the coefficients' covariance
+    ``speed.angle_sigma``^2 (A^T A)^-1 [rad^2]."""
+    a, _ = _design(time, speed.omega, speed.orders)
+    cov = np.linalg.pinv(a.T @ a) * speed.angle_sigma ** 2
+    return a, np.asarray(cov, dtype=np.float64)
+
+
+def coefficient_error(time: NDArray[np.float64], resid: NDArray[np.float64], omega: float,
+                      orders: Sequence[int]) -> float:
+    """Standard error [rad] of one harmonic coefficient of the angle model, from its
+    residuals ``resid`` [rad]: the larger of the white-noise value std * sqrt(2 / n) and
+    the residuals' own amplitude between the kept orders (their projections on the
+    half orders k +- 1/2 next to them, mean square per coefficient). Quantisation and
+    counting errors are not white: aliased by the sampling they can sit at low
+    frequencies, where the harmonic coefficients feel them; the neighbouring half
+    orders measure that local level."""
+    n = resid.size
+    white = float(np.std(resid)) * math.sqrt(2.0 / n)
+    halves = sorted({h for k in orders for h in (k - 0.5, k + 0.5)})
+    if not halves:
+        return white
+    ph = np.outer(time - time[0], np.asarray(halves) * omega)
+    pc = 2.0 / n * (resid @ np.cos(ph))
+    ps = 2.0 / n * (resid @ np.sin(ph))
+    local = float(np.sqrt(np.mean(0.5 * (pc ** 2 + ps ** 2))))
+    return max(white, local)
 
 
 def encoder_speed(time: NDArray[np.float64], angle: NDArray[np.float64], name: str,
@@ -239,7 +278,8 @@ def encoder_speed(time: NDArray[np.float64], angle: NDArray[np.float64], name: s
                 revolutions=float(revs), quantum=quantum, offset=offset,
                 orders=model.orders, ripple_cos=model.cos, ripple_sin=model.sin,
                 omega=model.omega_h, t0=t0,
-                psi0=float(sign * (fit[0] - h0) + offset))
+                psi0=float(sign * (fit[0] - h0) + offset), ripple_se=model.se,
+                angle_sigma=model.se / math.sqrt(2.0 / max(1, time.size)))
     if out.rpm <= 0:
         raise InputError(f'run {name} cam_angle_rad', 'a standing shaft',
                          'a turning camshaft')

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -151,11 +151,15 @@ def runs_of_messages(messages: Iterable[Any], bag: str) -> list[RigRun]:
 
 
 def runs_of_samples(frame_id: Any, stamp_ns: NDArray[np.int64], theta: NDArray[np.float64],
-                    lift: NDArray[np.float64], source: str) -> list[RigRun]:
+                    lift: NDArray[np.float64], source: str,
+                    velocity: NDArray[np.float64] | None = None,
+                    others: dict[str, NDArray[np.float64]] | None = None) -> list[RigRun]:
     """Runs from decoded samples (``bagio.decode_joint_blocks`` of the rig's blocks:
     ``camshaft`` as ``theta``, ``valve`` as ``lift``; stamps [ns]), one per contiguous
-    ``frame_id``. Samples without a value (a damaged block: NaN) are dropped and
-    counted in the run's ``notes``; ``source`` names the input in them."""
+    ``frame_id``; ``velocity`` the valve's [m/s] (a run's is kept when every sample of
+    it has one, as for JointState samples), ``others`` the further joints (channels).
+    Samples without a value (a damaged block: NaN) are dropped and counted in the
+    run's ``notes``; ``source`` names the input in them."""
     frames = np.asarray(frame_id)
     n = int(frames.size)
     runs: list[RigRun] = []
@@ -179,20 +183,26 @@ def runs_of_samples(frame_id: Any, stamp_ns: NDArray[np.int64], theta: NDArray[n
             raise InputError(f'{source} run {name}', f'{b - a} samples without values',
                              "blocks with joints 'camshaft' and 'valve' (joints are looked "
                              'up by name)')
+        vel = None if velocity is None else np.asarray(velocity[a:b], dtype=float)[ok]
+        if vel is not None and not np.all(np.isfinite(vel)):
+            vel = None
+        channels = {j: np.asarray(c[a:b], dtype=float)[ok] for j, c in (others or {}).items()
+                    if np.any(np.isfinite(c[a:b]))}
         runs.append(RigRun(name=name, time=(t - t[0]) * 1e-9, angle=th, lift=y,
-                           notes=notes))
+                           velocity=vel, channels=channels, notes=notes))
     return runs
 
 
 def read_bag_block_runs(path: str | Path) -> list[RigRun]:
-    """The runs of the rig's blocks (``/rig/joint_trajectory``) in a bag, merged in log
-    time with any ``/rig/joint_states`` samples (positions only); damaged blocks are
-    named and counted in the runs' notes."""
+    """The runs of the rig's blocks (``/rig/joint_trajectory``: the valve velocity and
+    further joints as a JointState sample gives them), merged in log time with any
+    ``/rig/joint_states`` samples (then positions of camshaft and valve only); damaged
+    blocks are named and counted in the runs' notes."""
     from cam_metrology.bagio import JointSummary, iter_joint_states
     from cam_metrology.wire.topics import RIG_JOINT_TRAJECTORY
 
     parts = list(iter_joint_states(path, RIG_TOPIC, joints=(CAMSHAFT, VALVE),
-                                   blocks_topic=RIG_JOINT_TRAJECTORY))
+                                   blocks_topic=RIG_JOINT_TRAJECTORY, extras=True))
     summary = JointSummary()
     for js in parts:
         summary.add(js)
@@ -202,14 +212,29 @@ def read_bag_block_runs(path: str | Path) -> list[RigRun]:
         raise InputError(str(path), f'no samples on {RIG_JOINT_TRAJECTORY}',
                          "blocks with joints 'camshaft' and 'valve' (trajectory_msgs/"
                          'JointTrajectory, one point per sample)')
+    vel, others = joined_extras(parts)
     runs = runs_of_samples(np.concatenate([js.frame_id for js in parts]),
                            np.concatenate([js.stamp_ns for js in parts]),
                            np.concatenate([js.theta for js in parts]),
-                           np.concatenate([js.s for js in parts]), str(path))
+                           np.concatenate([js.s for js in parts]), str(path), vel, others)
     issues = [f'{path}: {i.text(summary.count)}' for i in summary.issues]
     for r in runs:
         r.notes += issues
     return runs
+
+
+def joined_extras(parts: Sequence[Any],
+                  ) -> tuple[NDArray[np.float64] | None, dict[str, NDArray[np.float64]]]:
+    """The valve velocity (None when no part has one) and the further joints of
+    consecutive ``JointSamples`` parts, NaN where a part lacks them."""
+    def column(get: Any) -> NDArray[np.float64]:
+        return np.concatenate([np.full(len(js), np.nan) if get(js) is None else get(js)
+                               for js in parts])
+
+    vel = column(lambda js: js.lift_velocity) \
+        if any(js.lift_velocity is not None for js in parts) else None
+    names = dict.fromkeys(k for js in parts for k in js.others)
+    return vel, {k: column(lambda js, k=k: js.others.get(k)) for k in names}
 
 
 def read_bag_runs(path: str | Path) -> tuple[list[RigRun], str | None]:

@@ -175,13 +175,14 @@ def encode_float64_array(dims: Sequence[tuple[str, int, int]], data: Any,
 
 
 def encode_joint_trajectory(frame_id: str, stamp_ns: int, names: Sequence[str],
-                            positions: Any, offsets_ns: Any) -> bytes:
+                            positions: Any, offsets_ns: Any, velocities: Any = None) -> bytes:
     """CDR of a ``trajectory_msgs/JointTrajectory`` block of samples (vectorised).
 
     ``positions`` (n x len(names)) in joint order [rad, m], ``offsets_ns`` (n,) each
     point's ``time_from_start`` [ns] (>= 0) from ``stamp_ns`` (``header.stamp``, the
-    first sample's time); velocities, accelerations and effort empty. Byte-identical to
-    the rosbags typestore's ``serialize_cdr`` (test/test_blocks.py).
+    first sample's time); ``velocities`` (n x len(names)) or None (empty);
+    accelerations and effort empty. Byte-identical to the rosbags typestore's
+    ``serialize_cdr`` (test/test_blocks.py).
     """
     pos = np.ascontiguousarray(positions, dtype='<f8')
     if pos.ndim == 1 and len(names) == 1:
@@ -193,6 +194,10 @@ def encode_joint_trajectory(frame_id: str, stamp_ns: int, names: Sequence[str],
     if off.size and int(off.min()) < 0:
         raise InputError('encode_joint_trajectory.time_from_start', int(off.min()),
                          'offsets >= 0 ns')
+    vel = None if velocities is None else np.ascontiguousarray(velocities, dtype='<f8')
+    if vel is not None and vel.shape != pos.shape:
+        raise InputError('encode_joint_trajectory.velocities', vel.shape,
+                         f'velocities of shape {pos.shape} (one per position)')
     out = _header_and_names(stamp_ns, frame_id, names)
     _align(out, 4)
     n, k = pos.shape
@@ -200,6 +205,8 @@ def encode_joint_trajectory(frame_id: str, stamp_ns: int, names: Sequence[str],
     if n == 0:
         return bytes(out)
     sec, nsec = np.divmod(off, 1_000_000_000)
+    if vel is not None:
+        return _points_with_velocities(out, pos, vel, sec, nsec)
     # the first point alone (its doubles may need a 4-byte pad); from the second on
     # every point starts at 4 mod 8, so the rest is one packed record array
     _float64s(out, pos[0])
@@ -216,16 +223,49 @@ def encode_joint_trajectory(frame_id: str, stamp_ns: int, names: Sequence[str],
     return bytes(out)
 
 
+def _points_with_velocities(out: bytearray, pos: Any, vel: Any, sec: Any, nsec: Any,
+                            ) -> bytes:
+    """``out`` (up to the points' count) + the points with positions and velocities
+    (accelerations and effort empty): the first point alone, the rest one packed
+    record array (every point after the first starts 8-aligned)."""
+    n, k = pos.shape
+    _float64s(out, pos[0])
+    _float64s(out, vel[0])
+    out += b'\0' * 8   # empty accelerations, effort
+    out += struct.pack('<iI', int(sec[0]), int(nsec[0]))
+    if n > 1:
+        assert (len(out) - 4) % 8 == 0
+        rec = np.zeros(n - 1, dtype=[('count', '<u4'), ('pad', '<u4'), ('pos', '<f8', (k,)),
+                                     ('vcount', '<u4'), ('vpad', '<u4'), ('vel', '<f8', (k,)),
+                                     ('empty', '<u4', (2,)), ('sec', '<i4'), ('nsec', '<u4')])
+        rec['count'] = k
+        rec['vcount'] = k
+        rec['pos'] = pos[1:]
+        rec['vel'] = vel[1:]
+        rec['sec'] = sec[1:]
+        rec['nsec'] = nsec[1:]
+        out += rec.tobytes()
+    return bytes(out)
+
+
 def encode_sample_blocks(frame_id: str, stamp_ns: Any, theta: Any, s: Any,
                          per_message: int,
                          names: Sequence[str] = (CAMSHAFT_JOINT, PROBE_JOINT),
+                         more: Sequence[Any] = (), velocity: Any = None,
                          ) -> list[tuple[int, bytes]]:
     """One feature's samples as JointTrajectory blocks of at most ``per_message``
     samples: (stamp of the block's last sample [ns], CDR) per block. Stamps [ns] int64
-    (non-decreasing), theta [rad], s [m] of one length; joints ``names`` (angle, lift)."""
+    (non-decreasing), theta [rad], s [m] of one length; joints ``names`` (angle, lift,
+    then one name per column of ``more``: further joints' positions); ``velocity``: the
+    lift joint's velocity [m/s] or None (the other joints' velocities are then 0)."""
     st = np.asarray(stamp_ns, dtype=np.int64).reshape(-1)
-    pos = np.column_stack((np.asarray(theta, dtype='<f8').reshape(-1),
-                           np.asarray(s, dtype='<f8').reshape(-1)))
+    pos = np.column_stack([np.asarray(theta, dtype='<f8').reshape(-1),
+                           np.asarray(s, dtype='<f8').reshape(-1)] +
+                          [np.asarray(c, dtype='<f8').reshape(-1) for c in more])
+    vel = None
+    if velocity is not None:
+        vel = np.zeros_like(pos)
+        vel[:, 1] = np.asarray(velocity, dtype='<f8').reshape(-1)
     if st.size != pos.shape[0]:
         raise InputError('encode_sample_blocks', (st.size, pos.shape[0]),
                          'stamps, theta and s of the same length')
@@ -235,6 +275,7 @@ def encode_sample_blocks(frame_id: str, stamp_ns: Any, theta: Any, s: Any,
     for a in range(0, st.size, int(per_message)):
         b = min(st.size, a + int(per_message))
         t0 = int(st[a])
-        out.append((int(st[b - 1]), encode_joint_trajectory(frame_id, t0, names, pos[a:b],
-                                                            st[a:b] - t0)))
+        out.append((int(st[b - 1]), encode_joint_trajectory(
+            frame_id, t0, names, pos[a:b], st[a:b] - t0,
+            None if vel is None else vel[a:b])))
     return out
