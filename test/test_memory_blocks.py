@@ -302,3 +302,35 @@ def test_referenced_rows_are_the_kept_rows_of_the_referenced_table():
         # the base circle referenced: the offset (and the run-out) are gone
         base = rows[:, 2] == 0
         assert abs(float(np.median(rows[base, 1]))) < 1e-7 + 3e-6 * (not runout)
+
+
+def test_readings_minus_harmonic_built_in_blocks_into_a_spilled_column() -> None:
+    """The run-out-free readings of the per-revolution fits, written a block at a time
+    into a temporary file (1.2 M samples: above the spill size), equal the closed form
+    s - (a cos theta + b sin theta) to 1e-15 m; below the spill size they stay in memory
+    with the same values."""
+    rng = np.random.default_rng(11)
+    theta = rng.uniform(0.0, 8 * np.pi, 1_200_000)
+    s = 1e-3 * rng.normal(size=theta.size)
+    a, b = 12e-6, -7e-6
+    want = s - (a * np.cos(theta) + b * np.sin(theta))
+    got = block_lsq.minus_harmonic(theta, s, a, b)
+    assert isinstance(got, np.memmap) and not got.flags.writeable
+    assert float(np.max(np.abs(got - want))) < 1e-15
+    small = block_lsq.minus_harmonic(theta[:1000], s[:1000], a, b)
+    assert not isinstance(small, np.memmap)
+    assert float(np.max(np.abs(small - want[:1000]))) < 1e-15
+
+
+def test_base_reference_falls_back_to_the_fitted_level_and_runout() -> None:
+    """With fewer than 10 base-circle samples the reference is the fit's level and
+    run-out, c + a cos theta + b sin theta [m], at every sample."""
+    from cam_metrology.metrology.analysis import base_reference
+
+    theta = np.linspace(0.0, 2 * np.pi, 500, endpoint=False)
+    s = np.zeros(theta.size)
+    base = np.zeros(theta.size, bool)
+    base[:5] = True
+    ref = base_reference(theta, s, base, True, (2e-5, (3e-6, -4e-6)))
+    want = 2e-5 + 3e-6 * np.cos(theta) - 4e-6 * np.sin(theta)
+    assert float(np.max(np.abs(ref - want))) < 1e-18

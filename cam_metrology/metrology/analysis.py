@@ -349,7 +349,9 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                             f'{4 * settings.min_flank_samples})')
     lo, hi = law.support if hasattr(law, 'support') else (-np.pi, np.pi)
     # spilled samples (``features``): every pass gives back the pages it read
-    xraw = direction * fs.theta
+    xraw = np.empty(fs.theta.size)
+    for a, b in walk(xraw.size, fs.theta):   # one block of spilled angles resident
+        np.multiply(direction, fs.theta[a:b], out=xraw[a:b])
     x0 = coarse_align(xraw, fs.s, law)
     _release(fs)
     xraw -= x0
@@ -367,9 +369,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     _release(fs)
     good = ~outliers
     _check_fit(fit, settings, 'nose')
-    harmonic = block_lsq.first_harmonic(fs.theta, 0.0, *fit.runout)
-    _release(fs)
-    ref = base_reference(fs.theta, fs.s, base & good, runout, (fit.c, harmonic))
+    ref = base_reference(fs.theta, fs.s, base & good, runout, (fit.c, fit.runout))
     ref -= fs.s
     ref *= -1.0   # s - ref, in place
     _release(fs)
@@ -391,7 +391,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                               'samples_outliers_rejected': int(np.count_nonzero(outliers)),
                               **noise,
                               'iterations': fit.iterations}
-    values.update(_per_revolution(fs, x, fs.s - harmonic, law, fit, good, settings,
+    values.update(_per_revolution(fs, x, law, fit, good, settings,
                                   (_slope_zone(law, alpha_m, lo, 0.0),
                                    _slope_zone(law, alpha_n, 0.0, hi))))
     base &= good
@@ -399,7 +399,6 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     del base
     _release(fs)
     # the lift table (alpha, measured, design) in alpha order, built column by column
-    del harmonic   # recomputed for the table, a block at a time
     alpha = x
     alpha -= fit.d   # x is not used after this: alpha = x - d in place
     del x
@@ -414,7 +413,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         wave = block_lsq.first_harmonic(th, 0.0, *fit.runout)
         table[k:k + step, 1] = fs.s[idx] - fit.c - wave
         table[k:k + step, 2] = law(table[k:k + step, 0], 0)   # elementwise: the same
-        release(table)
+        release(table, fs.theta, fs.s)   # gathered rows: one block's pages resident
     del alpha, idx, th, wave   # idx is a view: it would keep the whole sort order alive
     _release(fs)
     table = seal(table)
@@ -461,21 +460,24 @@ def _release(fs: FeatureSamples) -> None:
     release(fs.theta, fs.s, fs.stamp_ns)
 
 
-def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.float64],
-                    law: Lift, fit: Any, good: NDArray[np.bool_], settings: Settings,
+def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: Any,
+                    good: NDArray[np.bool_], settings: Settings,
                     zones: tuple[tuple[float, float], ...]) -> dict[str, Any]:
     """Repeatability: the shift fitted on each revolution alone (revolutions counted
-    on the stamp-ordered unwrapped angle; ``s`` [m] with the fitted run-out removed),
-    as deviations [arcsec] from the joint fit; revolutions whose flanks are not
-    covered are left out."""
+    on the stamp-ordered unwrapped angle; the readings with the fitted run-out
+    removed), as deviations [arcsec] from the joint fit; revolutions whose flanks are
+    not covered are left out."""
     if fs.revolutions < 1.9:
         return {}
+    s = block_lsq.minus_harmonic(fs.theta, fs.s, *fit.runout)
+    _release(fs)
     rev = np.empty(fs.theta.size, np.int32)
     pos, first = 0, None
     for turns in unwrapped_blocks(fs.theta):   # np.unwrap, a block at a time
         first = turns[0] if first is None else first
         rev[pos:pos + turns.size] = np.floor(np.abs(turns - first) / (2 * np.pi))
         pos += turns.size
+    _release(fs)
     devs = []
     for k in range(int(rev.max()) + 1):
         sel = (rev == k) & good
@@ -485,6 +487,8 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], s: NDArray[np.fl
             one = fit_shift(x, s, law, d0=fit.d, c0=fit.c, used=sel)
         except (FeatureFailed, InputError):
             continue
+        finally:
+            release(s)   # one revolution's pages resident
         devs.append(float(np.degrees(one.d - fit.d) * 3600))
     if len(devs) < 2:
         return {}
@@ -503,14 +507,14 @@ def covers_circle(theta: NDArray[np.float64], need: int = 30) -> bool:
 
 def base_reference(theta: NDArray[np.float64], s: NDArray[np.float64],
                    base: NDArray[np.bool_], runout: bool,
-                   fallback: tuple[float, NDArray[np.float64]]) -> NDArray[np.float64]:
+                   fallback: tuple[float, tuple[float, float]]) -> NDArray[np.float64]:
     """Base-circle level [m] under every sample (a new array), from the base-circle
     samples alone: their median, or with ``runout`` (and base samples in >= 18 of 36
     sectors) the fitted circle c + a cos(theta) + b sin(theta); the LSQ level
-    ``fallback`` = (c, run-out column), c + run-out, when there are fewer than 10
-    base-circle samples."""
+    ``fallback`` = (c, (a, b)) [m], c + a cos(theta) + b sin(theta), when there are
+    fewer than 10 base-circle samples."""
     if np.count_nonzero(base) < 10:
-        return fallback[0] + np.asarray(fallback[1], dtype=float)
+        return fallback[0] + block_lsq.first_harmonic(theta, 0.0, *fallback[1])
     if runout and covers_circle(theta[base], need=18):
         coef = block_lsq.harmonic_lstsq(theta, s, base)
         return block_lsq.first_harmonic(theta, float(coef[0]), float(coef[1]), float(coef[2]))

@@ -18,7 +18,7 @@ from typing import Iterable
 import numpy as np
 from numpy.typing import NDArray
 
-from cam_metrology.metrology.spill import release
+from cam_metrology.metrology.spill import blank, release, seal, walk
 
 #: rows of a block (65 536 rows of 5 columns: 2.6 MB)
 BLOCK_ROWS = 1 << 16
@@ -111,3 +111,14 @@ def first_harmonic(theta: NDArray[np.float64], c: float, a: float,
     del part
     out += c
     return out
+
+
+def minus_harmonic(theta: NDArray[np.float64], s: NDArray[np.float64], a: float,
+                   b: float) -> NDArray[np.float64]:
+    """``s - (a cos theta + b sin theta)`` [units of s, a, b] (readings with a fitted
+    run-out removed), built a block at a time into a new column (a temporary file when
+    long: ``spill.blank``): the same values as the whole-column expression."""
+    out = blank((s.size,))
+    for lo, hi in walk(s.size, theta, s, out):
+        out[lo:hi] = s[lo:hi] - first_harmonic(theta[lo:hi], 0.0, a, b)
+    return seal(out)

@@ -154,6 +154,10 @@ def harmonics(theta: Any, dev: Any, max_upr: int, *, key: str = 'form.max_upr',
     return _lsq_spectrum(th, y, k, nyq)
 
 
+#: samples per block when counting samples per grid bin (``roundness``)
+BIN_BLOCK = 1 << 16
+
+
 def _bin_index(angle: NDArray[np.float64], width: float, bins: int) -> NDArray[np.int64]:
     """``min(angle // width, bins - 1)`` as int64 [bin number] of angles [rad] in
     [0, 2 pi), with one temporary instead of three (memory)."""
@@ -302,9 +306,13 @@ def roundness(theta: NDArray[np.float64], spec: Spectrum, cutoff_upr: int,
     if theta.size <= grid:
         t = theta[mask]
     else:
-        idx = _bin_index(np.mod(theta, TWO_PI), TWO_PI / grid, grid)
-        total = np.bincount(idx, minlength=grid)
-        inside = np.bincount(idx[mask], minlength=grid)
+        total = np.zeros(grid, np.int64)   # counted a block at a time (memory)
+        inside = np.zeros(grid, np.int64)
+        for a in range(0, theta.size, BIN_BLOCK):
+            idx = _bin_index(np.mod(theta[a:a + BIN_BLOCK], TWO_PI), TWO_PI / grid, grid)
+            total += np.bincount(idx, minlength=grid)
+            inside += np.bincount(idx[mask[a:a + BIN_BLOCK]], minlength=grid)
+        del idx
         t = ((np.arange(grid) + 0.5) * (TWO_PI / grid))[(total > 0) & (inside == total)]
         if t.size < 10:
             return None
