@@ -1,6 +1,7 @@
 """Errors for bad input: every message names the key, the value and what was expected."""
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 
@@ -86,3 +87,14 @@ def require_positive(key: str, value: Any, *, allow_zero: bool = False) -> float
     if out < 0 or (out == 0 and not allow_zero):
         raise InputError(key, value, 'a number >= 0' if allow_zero else 'a number > 0')
     return out
+
+
+def require_mapping(value: Any, key: str, known: Sequence[str]) -> Mapping[str, Any]:
+    """``value`` if it is a mapping whose keys are all in ``known``; else InputError
+    naming ``key`` (not a mapping) or ``key.<first unknown key>`` (a typo)."""
+    if not isinstance(value, Mapping):
+        raise InputError(key, value, 'a mapping with keys ' + ', '.join(known))
+    for k in value:
+        if k not in known:
+            raise InputError(f'{key}.{k}', value[k], 'one of ' + ', '.join(known))
+    return value

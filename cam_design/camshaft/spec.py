@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.errors import InputError, require_finite, require_mapping, require_positive
 
 SPROCKET = 'sprocket'
 DRIVE_KINDS = ('constant_speed', 'chain', 'belt', 'gear')
@@ -110,15 +110,6 @@ class CamshaftSpec:
         return dict(self.inertias).get(station, 0.0)
 
 
-def _mapping(value: Any, key: str, known: Sequence[str]) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise InputError(key, value, 'a mapping with keys ' + ', '.join(known))
-    for k in value:
-        if k not in known:
-            raise InputError(f'{key}.{k}', value[k], 'one of ' + ', '.join(known))
-    return value
-
-
 def _coefficient(block: Mapping[str, Any], key: str, name: str,
                  default: float | None) -> float:
     value = block.get(name, default)
@@ -150,7 +141,7 @@ def _sections(value: Any, n: int, key: str) -> tuple[Section, ...]:
     out = []
     for i, s in enumerate(value):
         k = f'{key}[{i}]'
-        s = _mapping(s, k, SECTION_KEYS)
+        s = require_mapping(s, k, SECTION_KEYS)
         d = _positive(s, k, 'diameter')
         bore = _non_negative(s, k, 'bore', 0.0)
         if bore >= d:
@@ -160,7 +151,7 @@ def _sections(value: Any, n: int, key: str) -> tuple[Section, ...]:
 
 
 def _drive(value: Any, key: str) -> Drive:
-    d = _mapping(value if value is not None else {}, key, DRIVE_KEYS)
+    d = require_mapping(value if value is not None else {}, key, DRIVE_KEYS)
     kind = d.get('kind', 'constant_speed')
     if kind not in DRIVE_KINDS:
         raise InputError(f'{key}.kind', kind, ' | '.join(DRIVE_KINDS))
@@ -180,11 +171,11 @@ def _drive(value: Any, key: str) -> Drive:
 def _friction(value: Any, key: str) -> Friction:
     if value is None:
         return Friction()
-    f = _mapping(value, key, FRICTION_KEYS)
+    f = require_mapping(value, key, FRICTION_KEYS)
     flat = roller = None
     if f.get('cam_follower') is not None:
         k = f'{key}.cam_follower'
-        c = _mapping(f['cam_follower'], k, FLAT_KEYS)
+        c = require_mapping(f['cam_follower'], k, FLAT_KEYS)
         if 'coefficient' in c:
             extra = [x for x in c if x != 'coefficient']
             if extra:
@@ -202,7 +193,7 @@ def _friction(value: Any, key: str) -> Friction:
                                 k_film_rpm=_positive(c, k, 'k_film_rpm'))
     if f.get('roller') is not None:
         k = f'{key}.roller'
-        r = _mapping(f['roller'], k, ROLLER_KEYS)
+        r = require_mapping(f['roller'], k, ROLLER_KEYS)
         roller = RollerFriction(
             rolling_resistance=_coefficient(r, k, 'rolling_resistance', 0.0),
             traction=_coefficient(r, k, 'traction', 0.1),
@@ -212,14 +203,15 @@ def _friction(value: Any, key: str) -> Friction:
     bearing = 0.0
     if f.get('bearing') is not None:
         k = f'{key}.bearing'
-        bearing = _coefficient(_mapping(f['bearing'], k, BEARING_KEYS), k, 'coefficient', 0.0)
+        bearing = _coefficient(require_mapping(f['bearing'], k, BEARING_KEYS), k, 'coefficient',
+                               0.0)
     return Friction(flat=flat, roller=roller, bearing=bearing)
 
 
 def camshaft_from_mapping(block: Any, lobe_ids: Sequence[str],
                           key: str = 'camshaft') -> CamshaftSpec:
     """Validate the ``camshaft:`` block against the scene's lobe ids."""
-    b = _mapping(block, key, BLOCK_KEYS)
+    b = require_mapping(block, key, BLOCK_KEYS)
     stations = b.get('stations')
     if (not isinstance(stations, Sequence) or isinstance(stations, (str, bytes))
             or len(stations) < 2 or not all(isinstance(s, str) for s in stations)):
@@ -235,8 +227,8 @@ def camshaft_from_mapping(block: Any, lobe_ids: Sequence[str],
             raise InputError(f'{key}.stations', lobe, f'every lobe on the shaft: lobes[{i}] '
                              f'({lobe}) is carried by no section')
     sections = _sections(b.get('sections'), len(stations) - 1, f'{key}.sections')
-    m = _mapping(b.get('material', {}), f'{key}.material', MATERIAL_KEYS)
-    inert = _mapping(b.get('inertias', {}), f'{key}.inertias', stations)
+    m = require_mapping(b.get('material', {}), f'{key}.material', MATERIAL_KEYS)
+    inert = require_mapping(b.get('inertias', {}), f'{key}.inertias', stations)
     lobe_inertia = _non_negative(b, key, 'lobe_inertia', 0.0)
     inertias = {s: (lobe_inertia if s in lobe_ids else 0.0) for s in stations}
     inertias.update({s: _non_negative(inert, f'{key}.inertias', s, 0.0) for s in inert})

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.errors import InputError, require_finite, require_mapping, require_positive
 from cam_design.cam_profile import Profile, inner_envelope
 from cam_design.follower import wrap_angle
 from cam_design.jets import jet_inverse_compose, jet_mul, jet_sqrt
@@ -274,14 +274,14 @@ def master_from_section(path: WheelPath, section: dict) -> MasterCam:
 
     if 'cradle' not in section:
         raise InputError('grinding.cradle', None, 'a mapping with ' + ', '.join(gs.CRADLE_KEYS))
-    cr = gs._mapping(section['cradle'], 'grinding.cradle', gs.CRADLE_KEYS)
+    cr = require_mapping(section['cradle'], 'grinding.cradle', gs.CRADLE_KEYS)
     vals = gs.floats(cr, 'grinding.cradle', gs.CRADLE_KEYS[:5], gs.CRADLE_KEYS[:4])
     for name in gs.CRADLE_KEYS[:4]:
         if name not in vals:
             raise InputError(f'grinding.cradle.{name}', None, 'a length > 0 [m]')
     cradle = Cradle(side=cr.get('side', 1), **vals)
-    mf = gs._mapping(section.get('master_follower', {'kind': 'roller'}),
-                     'grinding.master_follower', gs.MASTER_KEYS)
+    mf = require_mapping(section.get('master_follower', {'kind': 'roller'}),
+                         'grinding.master_follower', gs.MASTER_KEYS)
     kind = mf.get('kind', 'roller')
     radius = mf.get('radius', 0.0)
     if kind == 'roller' and 'radius' not in mf:

@@ -9,7 +9,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from cam_design.errors import InputError, require_finite, require_length, require_positive
+from cam_design.errors import (InputError, require_finite, require_length, require_mapping,
+                               require_positive)
 from cam_design.grinding.wheel_path import DESIGN_KINDS, Design
 
 SECTION_KEYS = ('design', 'wheel_radius', 'step_deg', 'cradle', 'master_follower', 'errors')
@@ -21,20 +22,11 @@ ERROR_KEYS = ('wheel_radius', 'centre_distance', 'index', 'run_out_x', 'run_out_
               'master_follower_radius')
 
 
-def _mapping(value: Any, key: str, allowed: tuple[str, ...]) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise InputError(key, value, 'a mapping with keys ' + ', '.join(allowed))
-    for k in value:
-        if k not in allowed:
-            raise InputError(f'{key}.{k}', value[k], 'one of the keys ' + ', '.join(allowed))
-    return value
-
-
 def section(doc: Any, key: str = 'grinding') -> Mapping[str, Any]:
     """The checked ``grinding:`` mapping of a YAML document (empty if absent)."""
     if not isinstance(doc, Mapping) or doc.get('grinding') is None:
         return {}
-    return _mapping(doc['grinding'], key, SECTION_KEYS)
+    return require_mapping(doc['grinding'], key, SECTION_KEYS)
 
 
 def design(value: Any, key: str = 'grinding.design') -> Design:
@@ -42,7 +34,7 @@ def design(value: Any, key: str = 'grinding.design') -> Design:
     delta}`` (or just the kind as a string)."""
     if isinstance(value, str):
         value = {'kind': value}
-    spec = _mapping(value, key, DESIGN_KEYS)
+    spec = require_mapping(value, key, DESIGN_KEYS)
     kind = spec.get('kind')
     if kind not in DESIGN_KINDS:
         raise InputError(f'{key}.kind', kind, ' | '.join(DESIGN_KINDS))

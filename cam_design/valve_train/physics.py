@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_design import checks
-from cam_design.errors import InputError, require_finite, require_positive
+from cam_design.errors import InputError, require_finite, require_mapping, require_positive
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.valve_train.params import SdofParams
 
@@ -64,15 +64,6 @@ class TrainChecks:
     piston: PistonGeometry | None = None
 
 
-def _mapping(value: Any, key: str, known: tuple[str, ...]) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise InputError(key, value, 'a mapping with keys ' + ', '.join(known))
-    unknown = sorted(set(value) - set(known))
-    if unknown:
-        raise InputError(f'{key}.{unknown[0]}', value[unknown[0]], 'one of ' + ', '.join(known))
-    return value
-
-
 def _required(spec: Mapping[str, Any], key: str, name: str) -> Any:
     if name not in spec:
         raise InputError(f'{key}.{name}', None, 'a value (see docs/scene.md)')
@@ -85,7 +76,7 @@ def train_checks_from(spring: Any, piston: Any, key: str = 'valve_train') -> Tra
     sg = pg = None
     if spring is not None:
         k = f'{key}.spring'
-        s = _mapping(spring, k, SPRING_KEYS)
+        s = require_mapping(spring, k, SPRING_KEYS)
         d = require_positive(f'{k}.wire_diameter', _required(s, k, 'wire_diameter'))
         nt = require_positive(f'{k}.total_coils', _required(s, k, 'total_coils'))
         free = require_positive(f'{k}.free_length', _required(s, k, 'free_length'))
@@ -108,7 +99,7 @@ def train_checks_from(spring: Any, piston: Any, key: str = 'valve_train') -> Tra
                             active_coils=na, installed_length=inst)
     if piston is not None:
         k = f'{key}.piston'
-        s = _mapping(piston, k, PISTON_KEYS)
+        s = require_mapping(piston, k, PISTON_KEYS)
         exact = s.get('exact', True)
         if not isinstance(exact, bool):
             raise InputError(f'{k}.exact', exact, 'true or false')

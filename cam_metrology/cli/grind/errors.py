@@ -33,6 +33,7 @@ def run(args: argparse.Namespace) -> int:
     predicted / simulated error with grinding.errors; 0, or 2 for bad input)."""
     import numpy as np
 
+    from cam_design.errors import require_mapping
     from cam_design.follower import convert_lift
     from cam_design.grinding import spec as gs
     from cam_design.grinding.machining_error import (UNITS, GroundCam, MachineErrors,
@@ -59,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         'reproduces_design': not path.bridged,
         'max_abs_sensitivity': {n: float(np.max(np.abs(v))) for n, v in sens.items()}}
     if 'errors' in section:
-        spec = gs._mapping(section['errors'], 'grinding.errors', gs.ERROR_KEYS)
+        spec = require_mapping(section['errors'], 'grinding.errors', gs.ERROR_KEYS)
         errors = MachineErrors(**gs.floats(spec, 'grinding.errors', gs.ERROR_KEYS))
         pred = sum(getattr(errors, n) * v for n, v in sens.items())
         sim = GroundCam(path, errors, cradle=cradle, probe=probe).lift(alpha)[0] - ref(alpha)
