@@ -390,15 +390,21 @@ def test_wrong_design_lift_fails_the_feature():
         analyze_lobe(_feature(smp), CAM, 1, Settings())
 
 
-def test_per_revolution_repeatability():
-    """Three revolutions whose noses differ by +-1 arcsec (a slipping drive): the joint
-    fit is the mean, the per-revolution deviations recover the slip."""
-    nose = np.radians(10.0)
+def _slipping_revolutions(nose: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(stamps [ns], theta [rad], s [m]) of three revolutions whose noses sit at
+    ``nose`` -1, 0 and +1 arcsec (a slipping drive), 3600 samples each."""
     parts = [sample_lobe(CAM, nose + k * np.radians(1 / 3600), 1, n_per_rev=3600,
                          start=0.5 + 2 * np.pi * (k + 1)) for k in (-1, 0, 1)]
     theta = np.concatenate([p.theta for p in parts])
     s = np.concatenate([p.s for p in parts])
-    stamps = np.arange(theta.size, dtype=np.int64) * 1_000_000
+    return np.arange(theta.size, dtype=np.int64) * 1_000_000, theta, s
+
+
+def test_per_revolution_repeatability():
+    """Three revolutions whose noses differ by +-1 arcsec (a slipping drive): the joint
+    fit is the mean, the per-revolution deviations recover the slip."""
+    nose = np.radians(10.0)
+    stamps, theta, s = _slipping_revolutions(nose)
     v = analyze_lobe(clean_feature('lobe_1', stamps, theta, s), CAM, 1, Settings()).values
     assert abs(_err_arcsec(v['angle_deg'], nose)) < 0.01
     assert np.allclose(v['per_revolution_deviation_arcsec'], [-1.0, 0.0, 1.0], atol=0.01)
@@ -410,11 +416,7 @@ def test_per_revolution_repeatability_with_an_angle_stepping_back():
     once, so revolutions are no longer runs of rows): the revolutions are still told
     apart (by mask) and give the same deviations as the runs-of-rows path."""
     nose = np.radians(10.0)
-    parts = [sample_lobe(CAM, nose + k * np.radians(1 / 3600), 1, n_per_rev=3600,
-                         start=0.5 + 2 * np.pi * (k + 1)) for k in (-1, 0, 1)]
-    theta = np.concatenate([p.theta for p in parts])
-    s = np.concatenate([p.s for p in parts])
-    stamps = np.arange(theta.size, dtype=np.int64) * 1_000_000
+    stamps, theta, s = _slipping_revolutions(nose)
     plain = analyze_lobe(clean_feature('lobe_1', stamps, theta, s), CAM, 1,
                          Settings()).values
     turns = np.floor((np.unwrap(theta) - theta[0]) / (2 * np.pi))

@@ -51,15 +51,21 @@ def test_block_bag_gives_the_runs(sim):
         assert a.notes == []
 
 
-def test_analyze_blocks_and_samples_agree(sim, tmp_path, capsys):
-    """`rig analyze` of the block bag equals that of the per-sample bag."""
-    folder, _, _ = sim
+def _analyze_both(folder: Path, tmp_path: Path, capsys) -> list[dict]:
+    """The `rig analyze` JSON of the per-sample bag and of the block bag in ``folder``."""
     res = []
     for name in ('samples', 'blocks'):
         out = tmp_path / f'{name}.json'
         assert main(['rig', 'analyze', str(folder / name), '--json', str(out),
                      '--no-jump']) == 0, capsys.readouterr()
         res.append(json.loads(out.read_text()))
+    return res
+
+
+def test_analyze_blocks_and_samples_agree(sim, tmp_path, capsys):
+    """`rig analyze` of the block bag equals that of the per-sample bag."""
+    folder, _, _ = sim
+    res = _analyze_both(folder, tmp_path, capsys)
     for a, b in zip(res[0]['runs'], res[1]['runs']):
         assert a['name'] == b['name']
         assert a['rpm'] == pytest.approx(b['rpm'], abs=1e-6)
@@ -223,12 +229,7 @@ def test_block_bag_carries_velocity_and_channels(sim_channels, tmp_path, capsys)
                                    rtol=0, atol=1e-9)                              # N
         np.testing.assert_allclose(b.channels['hla_pressure'],
                                    truth.channels['hla_pressure'], rtol=0, atol=1e-6)  # Pa
-    res = []
-    for name in ('samples', 'blocks'):
-        out = tmp_path / f'{name}.json'
-        assert main(['rig', 'analyze', str(folder / name), '--json', str(out),
-                     '--no-jump']) == 0, capsys.readouterr()
-        res.append(json.loads(out.read_text()))
+    res = _analyze_both(folder, tmp_path, capsys)
     for a, b in zip(res[0]['runs'], res[1]['runs']):
         assert b['vibrometer'] is True and a['vibrometer'] is True
         assert b['channels'] == a['channels'] == ['hla_pressure', 'spring_force']
