@@ -19,7 +19,7 @@ def number(x: Any, spec: str) -> str:
     if x is None:
         return '-'
     text = format(x, spec)
-    if text.startswith('-') and not any(c in '123456789' for c in text.split('e')[0]):
+    if text.startswith('-') and text.split('e')[0].strip('-0.,% ') == '':
         return text[1:]
     return text
 
