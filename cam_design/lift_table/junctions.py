@@ -34,6 +34,13 @@ convolution for left-opening junctions) and is reused while candidates are refus
 A candidate is first scored at the present level and unrefined angle (a pre-test);
 only one within ``PRETEST_SLACK`` of the bar gets its angle refined and the level
 chosen again, and the search stops after ``MAX_REFUSED`` refusals in a row.
+
+Look-ahead. Junctions that are only worth their price together (the four edges of a
+dwell: the smoothing level can rise only when all are in) each fail the GCV test alone.
+A candidate refused by that test alone is held (up to ``MAX_PENDING``) and tried again
+with the next: a set of k junctions is kept when it lowers N ln(GCV) by k times the
+bar, so the price per junction is unchanged (forward selection with look-ahead, as
+in stepwise regression's "enter several terms at once").
 """
 from __future__ import annotations
 
@@ -64,6 +71,11 @@ END_MARGIN = 0.02
 #: accuracy benchmark's 1544 candidates, 4 of the 431 kept came after 3 refusals in a
 #: row, none of them a junction of the law)
 MAX_REFUSED = 3
+#: candidates refused by the GCV test alone that are held and tried again together with
+#: the next one (look-ahead): the junctions of a dwell or a circular-arc cam lower the
+#: score only together, as the level can rise only when every step of h'' is explained
+#: (a rounded dwell table at 0.5 deg: one junction 7, two 17, three 28, all four 87)
+MAX_PENDING = 3
 #: a candidate whose gain at the present level, before its angle is refined and the
 #: level chosen again, is below GCV_GAIN - PRETEST_SLACK is refused without either (on
 #: the benchmark: 1 of the 431 kept had a pre-test gain below -30, 448 of 1113 refused)
@@ -500,6 +512,8 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
     taus: list[float] = []
     scores: list[float] = []
     vetoed: list[float] = []
+    pending: list[float] = []       # refused by the GCV test alone, tried again together
+    pending_scores: list[float] = []
     pos = stat = np.zeros(0)
     fresh = True
     while len(taus) < MAX_JUNCTIONS:
@@ -524,31 +538,39 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         # choosing the level again lowers the score by more, but on the accuracy
         # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
         # far below the bar is refused without either
-        quick = n * math.log(base / system.gcv(taus + [at], gamma))
-        if quick >= GCV_GAIN - PRETEST_SLACK:
-            trial = _refine(system, taus + [at])
+        held = taus + pending
+        bar = GCV_GAIN * (len(pending) + 1)
+        quick = n * math.log(base / system.gcv(held + [at], gamma))
+        if quick >= bar - PRETEST_SLACK:
+            trial = _refine(system, held + [at])
             lam_trial = choose_level(values, trial, gamma, lam, levels)
             trial_system = levels.at(lam_trial)
             # kept only if it lowers the GCV score of the whole fit: a step that stands
             # in for the smoothing bias of a smooth, strongly curved lobe raises it
             gain = n * math.log(base / trial_system.gcv(trial, gamma))
         else:
-            trial, lam_trial, gain = taus + [at], lam, quick
+            trial, lam_trial, gain = held + [at], lam, quick
         # nor if the rest of the fit has to get much rougher for it (a step of the
         # lift itself, which a step of h'' only imitates)
         # nor if its best angle is not within the row the scan pointed at (the bound
         # of the refinement: the residual has no sharp step there)
-        if (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) < 1.0
-                or abs(trial[-1] - at) > 0.9
-                or gain < GCV_GAIN or lam_trial < MIN_LEVEL_RATIO * lam):
+        placed = (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) >= 1.0
+                  and abs(trial[-1] - at) <= 0.9)
+        level_kept = lam_trial >= MIN_LEVEL_RATIO * lam
+        if not placed or gain < bar or not level_kept:
             vetoed.append(at)
+            if placed and level_kept and gain > 0.0 and len(pending) < MAX_PENDING:
+                pending.append(trial[-1])    # held: not a refusal in a row
+                pending_scores.append(float(stat[i]))
+                continue
             in_a_row += 1
             if in_a_row >= MAX_REFUSED:
                 break
             continue
         in_a_row = 0
         taus = trial
-        scores.append(float(stat[i]))
+        scores += pending_scores + [float(stat[i])]
+        pending, pending_scores = [], []
         lam, system, fresh = lam_trial, trial_system, True
     if not taus:
         return None

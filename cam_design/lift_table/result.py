@@ -127,24 +127,30 @@ def per_second(derivs: ArrayLike, rpm: float) -> dict[str, NDArray[np.float64]]:
 
 
 def sign_pattern(acc: NDArray[np.float64], frac: float = 0.05,
-                 lift: NDArray[np.float64] | None = None) -> str:
+                 lift: NDArray[np.float64] | None = None,
+                 still: NDArray[np.bool_] | None = None) -> str:
     """Run-length compressed signs ('+'/'-') of ``acc`` where |acc| > frac x max|acc|;
     with ``lift`` (same grid) only on the lobe, where the lift exceeds 2 % of its
-    largest value (on the base circle h'' is noise around 0)."""
+    largest value (on the base circle h'' is noise around 0); samples marked ``still``
+    (a dwell: h' = 0 within the noise, so h'' is noise around 0 too) are left out."""
     a = np.asarray(acc, dtype=float)
-    if lift is not None:
+    used = np.ones(a.size, dtype=bool)
+    if lift is not None and np.size(lift):
         h = np.asarray(lift, dtype=float)
-        a = a[h > LOBE_FRACTION * float(np.max(h))] if h.size else a
-    top = float(np.max(np.abs(a))) if a.size else 0.0
+        used &= h > LOBE_FRACTION * float(np.max(h))
+    if still is not None:
+        used &= ~np.asarray(still, dtype=bool)
+    top = float(np.max(np.abs(a[used]))) if np.any(used) else 0.0
     if not top > 0:
         return ''
-    s = np.sign(a[np.abs(a) > frac * top])
+    s = np.sign(a[used & (np.abs(a) > frac * top)])
     keep = np.concatenate([[True], s[1:] != s[:-1]])
     return ''.join('+' if v > 0 else '-' for v in s[keep])
 
 
 def sign_changes(acc: NDArray[np.float64], frac: float = 0.05,
-                 lift: NDArray[np.float64] | None = None) -> int:
+                 lift: NDArray[np.float64] | None = None,
+                 still: NDArray[np.bool_] | None = None) -> int:
     """Sign changes of ``acc`` among samples with |acc| > frac * max|acc| (on the lobe
-    only when ``lift`` is given: see ``sign_pattern``)."""
-    return max(len(sign_pattern(acc, frac, lift)) - 1, 0)
+    only when ``lift`` is given, and not ``still``: see ``sign_pattern``)."""
+    return max(len(sign_pattern(acc, frac, lift, still)) - 1, 0)

@@ -58,6 +58,9 @@ CRITERIA = ('risk', 'gcv')
 #: (and the rebound tolerance) off the smooth fit, and the largest miss near it
 SECOND_LOOK_SIGMAS = 6.0
 GCV_GAMMA = 1.4
+#: the sign-pattern rule leaves out a dwell: where |h'| is below this many standard
+#: deviations of the fitted h' that the noise alone gives (derivative_noise)
+SIGN_NOISE_SIGMAS = 4.0
 MAD_TO_SIGMA = 1.482602218505602
 
 
@@ -498,6 +501,18 @@ class SmoothingChoice:
     why: str
 
 
+def derivative_noise(sigma: float, step: float, lam_d: float, n: int, nu: int) -> float:
+    """Standard deviation [m/rad^nu] of the smoothed h' (``nu`` = 1) or h'' (2) at a row
+    from white noise of ``sigma`` [m] on ``n`` uniform rows ``step`` [rad] apart at the
+    discrete level ``lam_d``: sigma / step^nu sqrt(mean_k mu_k^nu g_k^2), g_k =
+    1 / (1 + lam_d mu_k^3) the smoother's DCT gains; mu_k^nu is the energy gain of the
+    first (nu = 1) and second difference (reflective second difference: eigenvalues
+    -mu_k)."""
+    mu = _spectrum(n)
+    gain = 1.0 / (1.0 + lam_d * mu ** 3)
+    return sigma / step ** nu * math.sqrt(float(np.mean(mu ** nu * gain ** 2)))
+
+
 def _spectrum(n: int) -> NDArray[np.float64]:
     """Eigenvalues mu_k = 2 - 2 cos(pi k / n) of the reflective second difference."""
     return 2.0 - 2.0 * np.cos(np.pi * np.arange(n) / n)
@@ -897,7 +912,15 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # more smoothing is only accepted while the fit still follows the data (RMS
         # residual within 25 % of the noise): a real feature (a second lobe) stays
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
-        while sign_changes(acc, lift=lift_out) > expected and raised < 5:
+        # a dwell (h' = 0 over an interval, within what the noise gives at this level)
+        # has h'' = 0 there too: the sign flicker of its noise is not counted
+        node_sigma = fair.sigma / math.sqrt(max(density, 1.0))
+
+        def significant_changes(fitted: Any, level: float) -> int:
+            band = SIGN_NOISE_SIGMAS * derivative_noise(node_sigma, step, level, grid.size, 1)
+            return sign_changes(fitted(out, 2), lift=fitted(out),
+                                still=np.abs(fitted(out, 1)) < band)
+        while significant_changes(spline, lam_d) > expected and raised < 5:
             trial = fit_spline(lam_d * 4.0)
             if float(np.sqrt(np.mean((ylift[kept] - trial(x[kept])) ** 2))) > rms_limit:
                 break
