@@ -76,6 +76,11 @@ MAX_REFUSED = 3
 #: score only together, as the level can rise only when every step of h'' is explained
 #: (a rounded dwell table at 0.5 deg: one junction 7, two 17, three 28, all four 87)
 MAX_PENDING = 3
+#: a set taken by the look-ahead must raise the smoothing level of the rest at least
+#: this many times (the way such junctions pay together; on the accuracy benchmark's
+#: tables at 0.1-2.5 deg the sets of true junctions raised it 3.2-1e5 times, most by
+#: 30 or more, the sets with a false one, at spikes and h''' kinks, 1.3-2.6 times)
+LOOKAHEAD_LEVEL_RISE = 3.0
 #: a candidate whose gain at the present level, before its angle is refined and the
 #: level chosen again, is below GCV_GAIN - PRETEST_SLACK is refused without either (on
 #: the benchmark: 1 of the 431 kept had a pre-test gain below -30, 448 of 1113 refused)
@@ -534,47 +539,94 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         if i < 0 or stat[i] < threshold:
             break
         at = float(pos[i])
-        # pre-test at the present level and the scan's angle: refining the angle and
-        # choosing the level again lowers the score by more, but on the accuracy
-        # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
-        # far below the bar is refused without either
-        held = taus + pending
-        bar = GCV_GAIN * (len(pending) + 1)
-        quick = n * math.log(base / system.gcv(held + [at], gamma))
-        if quick >= bar - PRETEST_SLACK:
-            trial = _refine(system, held + [at])
-            lam_trial = choose_level(values, trial, gamma, lam, levels)
-            trial_system = levels.at(lam_trial)
-            # kept only if it lowers the GCV score of the whole fit: a step that stands
-            # in for the smoothing bias of a smooth, strongly curved lobe raises it
-            gain = n * math.log(base / trial_system.gcv(trial, gamma))
-        else:
-            trial, lam_trial, gain = held + [at], lam, quick
-        # nor if the rest of the fit has to get much rougher for it (a step of the
-        # lift itself, which a step of h'' only imitates)
-        # nor if its best angle is not within the row the scan pointed at (the bound
-        # of the refinement: the residual has no sharp step there)
-        placed = (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) >= 1.0
-                  and abs(trial[-1] - at) <= 0.9)
-        level_kept = lam_trial >= MIN_LEVEL_RATIO * lam
-        if not placed or gain < bar or not level_kept:
+        # past MAX_REFUSED refusals in a row the search only goes on to complete the
+        # held candidates: a candidate alone is not taken there (none of the law's
+        # junctions came that late, see MAX_REFUSED)
+        completing = in_a_row >= MAX_REFUSED
+        alone = _attempt(system, levels, taus, [], at, lam, base, gamma)
+        taken = alone if not completing and alone.passes() else None
+        if taken is None and pending:
+            # the held candidates with this one: kept when the set pays the bar per
+            # junction and the held ones add the bar each to what this one does alone
+            joint = _attempt(system, levels, taus, pending, at, lam, base, gamma)
+            if (joint.passes() and joint.lam_d >= LOOKAHEAD_LEVEL_RISE * lam
+                    and joint.gain - alone.gain >= GCV_GAIN * len(pending)):
+                taken = joint
+        if taken is None:
             vetoed.append(at)
-            if placed and level_kept and gain > 0.0 and len(pending) < MAX_PENDING:
-                pending.append(trial[-1])    # held: not a refusal in a row
-                pending_scores.append(float(stat[i]))
-                continue
             in_a_row += 1
-            if in_a_row >= MAX_REFUSED:
+            if alone.refused_by_gcv_only() and len(pending) < MAX_PENDING:
+                pending.append(alone.trial[-1])
+                pending_scores.append(float(stat[i]))
+            if in_a_row >= MAX_REFUSED + (MAX_PENDING if pending else 0):
                 break
             continue
         in_a_row = 0
-        taus = trial
-        scores += pending_scores + [float(stat[i])]
-        pending, pending_scores = [], []
-        lam, system, fresh = lam_trial, trial_system, True
+        if taken is not alone:
+            scores += pending_scores
+            pending, pending_scores = [], []
+        taus = taken.trial
+        scores.append(float(stat[i]))
+        lam, system, fresh = taken.lam_d, levels.at(taken.lam_d), True
     if not taus:
         return None
     return _fit_result(grid, taus, lam, system.fit(taus), scores)
+
+
+@dataclass(frozen=True)
+class _Attempt:
+    """One candidate set tried by the search: junctions ``trial`` (node positions, the
+    last one the candidate, refined), the level ``lam_d`` chosen with them, the drop
+    ``gain`` of N ln(GCV), and whether the candidate stays where the scan put it
+    (``placed``) and keeps the level of the rest (``level_kept``)."""
+
+    trial: list[float]
+    added: int
+    lam_d: float
+    gain: float
+    placed: bool
+    level_kept: bool
+
+    def passes(self) -> bool:
+        """Kept: placed, the level kept, and N ln(GCV) lower by the bar for each
+        junction added."""
+        return self.placed and self.level_kept and self.gain >= GCV_GAIN * self.added
+
+    def refused_by_gcv_only(self) -> bool:
+        """A single candidate that lowers GCV, but by less than the bar."""
+        return (self.added == 1 and self.placed and self.level_kept
+                and 0.0 < self.gain < GCV_GAIN)
+
+
+def _attempt(system: LevelSystem, levels: Levels, taus: list[float], held: list[float],
+             at: float, lam: float, base: float, gamma: float) -> _Attempt:
+    """The junctions ``taus`` taken, the candidates ``held`` and one at node ``at``
+    (node positions), scored against the GCV score ``base`` of the present fit (level
+    ``lam``)."""
+    n = system.n
+    bar = GCV_GAIN * (len(held) + 1)
+    held = taus + held
+    # pre-test at the present level and the scan's angle: refining the angle and
+    # choosing the level again lowers the score by more, but on the accuracy
+    # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
+    # far below the bar is refused without either
+    quick = n * math.log(base / system.gcv(held + [at], gamma))
+    if quick >= bar - PRETEST_SLACK:
+        trial = _refine(system, held + [at])
+        lam_trial = choose_level(system.values, trial, gamma, lam, levels)
+        # kept only if it lowers the GCV score of the whole fit: a step that stands
+        # in for the smoothing bias of a smooth, strongly curved lobe raises it
+        gain = n * math.log(base / levels.at(lam_trial).gcv(trial, gamma))
+    else:
+        trial, lam_trial, gain = held + [at], lam, quick
+    # nor if the rest of the fit has to get much rougher for it (a step of the lift
+    # itself, which a step of h'' only imitates), nor if its best angle is not within
+    # the row the scan pointed at (the bound of the refinement: the residual has no
+    # sharp step there)
+    placed = (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) >= 1.0
+              and abs(trial[-1] - at) <= 0.9)
+    return _Attempt(trial, len(trial) - len(taus), lam_trial, gain, placed,
+                    lam_trial >= MIN_LEVEL_RATIO * lam)
 
 
 def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
