@@ -543,22 +543,26 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         # held candidates: a candidate alone is not taken there (none of the law's
         # junctions came that late, see MAX_REFUSED)
         completing = in_a_row >= MAX_REFUSED
-        alone = _attempt(system, levels, taus, [], at, lam, base, gamma)
-        taken = alone if not completing and alone.passes() else None
-        if taken is None and pending:
+        alone = None if completing else _attempt(system, levels, taus, [], at, lam, base,
+                                                 gamma)
+        taken = alone if alone is not None and alone.passes() else None
+        if taken is None and pending and (alone is None or alone.placed):
             # the held candidates with this one: kept when the set pays the bar per
-            # junction and the held ones add the bar each to what this one does alone
+            # junction, raises the level of the rest, and the held ones add the bar
+            # each to what this one does alone
             joint = _attempt(system, levels, taus, pending, at, lam, base, gamma)
-            if (joint.passes() and joint.lam_d >= LOOKAHEAD_LEVEL_RISE * lam
-                    and joint.gain - alone.gain >= GCV_GAIN * len(pending)):
-                taken = joint
+            if joint.passes() and joint.lam_d >= LOOKAHEAD_LEVEL_RISE * lam:
+                alone = alone or _attempt(system, levels, taus, [], at, lam, base, gamma)
+                if joint.gain - alone.gain >= GCV_GAIN * len(pending):
+                    taken = joint
         if taken is None:
             vetoed.append(at)
             in_a_row += 1
-            if alone.refused_by_gcv_only() and len(pending) < MAX_PENDING:
+            if (not completing and alone is not None and alone.refused_by_gcv_only()
+                    and len(pending) < MAX_PENDING):
                 pending.append(alone.trial[-1])
                 pending_scores.append(float(stat[i]))
-            if in_a_row >= MAX_REFUSED + (MAX_PENDING if pending else 0):
+            if in_a_row >= MAX_REFUSED + len(pending):
                 break
             continue
         in_a_row = 0
@@ -602,7 +606,11 @@ def _attempt(system: LevelSystem, levels: Levels, taus: list[float], held: list[
              at: float, lam: float, base: float, gamma: float) -> _Attempt:
     """The junctions ``taus`` taken, the candidates ``held`` and one at node ``at``
     (node positions), scored against the GCV score ``base`` of the present fit (level
-    ``lam``)."""
+    ``lam``). A set with held candidates is only of use if it raises the level
+    LOOKAHEAD_LEVEL_RISE times: when its GCV score (unimodal in the level) already
+    rises from sqrt(LOOKAHEAD_LEVEL_RISE) to LOOKAHEAD_LEVEL_RISE times the present
+    level, it is scored at the present level and the scan's angle (neither refined
+    nor searched)."""
     n = system.n
     bar = GCV_GAIN * (len(held) + 1)
     held = taus + held
@@ -611,7 +619,10 @@ def _attempt(system: LevelSystem, levels: Levels, taus: list[float], held: list[
     # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
     # far below the bar is refused without either
     quick = n * math.log(base / system.gcv(held + [at], gamma))
-    if quick >= bar - PRETEST_SLACK:
+    rise = LOOKAHEAD_LEVEL_RISE
+    flat = (len(held) > len(taus) and levels.at(lam * rise).gcv(held + [at], gamma)
+            >= levels.at(lam * math.sqrt(rise)).gcv(held + [at], gamma))
+    if quick >= bar - PRETEST_SLACK and not flat:
         trial = _refine(system, held + [at])
         lam_trial = choose_level(system.values, trial, gamma, lam, levels)
         # kept only if it lowers the GCV score of the whole fit: a step that stands

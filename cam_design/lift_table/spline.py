@@ -917,9 +917,12 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         node_sigma = fair.sigma / math.sqrt(max(density, 1.0))
 
         def significant_changes(fitted: Any, level: float) -> int:
+            acc, lift = fitted(out, 2), fitted(out)
+            count = sign_changes(acc, lift=lift)
+            if count <= expected:
+                return count
             band = SIGN_NOISE_SIGMAS * derivative_noise(node_sigma, step, level, grid.size, 1)
-            return sign_changes(fitted(out, 2), lift=fitted(out),
-                                still=np.abs(fitted(out, 1)) < band)
+            return sign_changes(acc, lift=lift, still=np.abs(fitted(out, 1)) < band)
         while significant_changes(spline, lam_d) > expected and raised < 5:
             trial = fit_spline(lam_d * 4.0)
             if float(np.sqrt(np.mean((ylift[kept] - trial(x[kept])) ** 2))) > rms_limit:
