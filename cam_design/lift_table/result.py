@@ -77,14 +77,16 @@ class Reconstruction:
             self.warnings.append(f'max residual {worst:.3g} m at {np.degrees(where):.2f} deg '
                                  f'exceeds {limit_text}')
 
-    def check_shape(self, expected: int | None) -> None:
+    def check_shape(self, expected: int | None,
+                    still: NDArray[np.bool_] | None = None) -> None:
         """Warn when the significant signs of h'' (|h''| > 5 % of its largest value) do
         not follow the pattern of a cam lobe: + - + for one lobe (``expected`` = 2 sign
         changes), + - + - + for 4, ...; None: no check. A table that is not a cam, a
-        stepped table or angles not taken from the lobe centre show up here."""
+        stepped table or angles not taken from the lobe centre show up here. ``still``
+        (on the output grid): a dwell, left out (see ``sign_pattern``)."""
         if expected is None or self.acceleration.size < 3:
             return
-        got = sign_pattern(self.acceleration, lift=self.lift)
+        got = sign_pattern(self.acceleration, lift=self.lift, still=still)
         want = '+' + '-+' * (expected // 2) if expected % 2 == 0 else None
         if (got == want) if want is not None else (len(got) - 1 == expected):
             return

@@ -903,6 +903,14 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                      f'outlier(s), {int(np.count_nonzero(back))} restored')
     out_step = opt.step or step
     out = output_grid(x[0], x[-1], out_step)
+    node_sigma = fair.sigma / math.sqrt(max(density, 1.0))
+
+    def dwell(fitted: Any, level: float) -> NDArray[np.bool_]:
+        """A dwell on the output grid: h' = 0 over an interval within what the noise
+        gives at this level, so h'' = 0 there too and the sign flicker of its noise
+        is not a sign change of the lobe."""
+        band = SIGN_NOISE_SIGMAS * derivative_noise(node_sigma, step, level, grid.size, 1)
+        return np.asarray(np.abs(fitted(out, 1)) < band, dtype=bool)
     acc = spline(out, 2)
     lift_out = spline(out)
     expected = opt.expected_sign_changes
@@ -912,17 +920,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # more smoothing is only accepted while the fit still follows the data (RMS
         # residual within 25 % of the noise): a real feature (a second lobe) stays
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
-        # a dwell (h' = 0 over an interval, within what the noise gives at this level)
-        # has h'' = 0 there too: the sign flicker of its noise is not counted
-        node_sigma = fair.sigma / math.sqrt(max(density, 1.0))
 
         def significant_changes(fitted: Any, level: float) -> int:
             acc, lift = fitted(out, 2), fitted(out)
             count = sign_changes(acc, lift=lift)
             if count <= expected:
                 return count
-            band = SIGN_NOISE_SIGMAS * derivative_noise(node_sigma, step, level, grid.size, 1)
-            return sign_changes(acc, lift=lift, still=np.abs(fitted(out, 1)) < band)
+            return sign_changes(acc, lift=lift, still=dwell(fitted, level))
         while significant_changes(spline, lam_d) > expected and raised < 5:
             trial = fit_spline(lam_d * 4.0)
             if float(np.sqrt(np.mean((ylift[kept] - trial(x[kept])) ** 2))) > rms_limit:
@@ -967,6 +971,6 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         outliers_alpha=x[outlier], warnings=warnings, notes=notes)
     rec.outlier_mask = outlier
     rec.check_residuals()
-    rec.check_shape(opt.expected_sign_changes)
+    rec.check_shape(opt.expected_sign_changes, still=dwell(final, lam_d))
     rec.check_finite()
     return rec
