@@ -36,11 +36,14 @@ only one within ``PRETEST_SLACK`` of the bar gets its angle refined and the leve
 chosen again, and the search stops after ``MAX_REFUSED`` refusals in a row.
 
 Look-ahead. Junctions that are only worth their price together (the four edges of a
-dwell: the smoothing level can rise only when all are in) each fail the GCV test alone.
-A candidate refused by that test alone is held (up to ``MAX_PENDING``) and tried again
-with the next: a set of k junctions is kept when it lowers N ln(GCV) by k times the
-bar, so the price per junction is unchanged (forward selection with look-ahead, as
-in stepwise regression's "enter several terms at once").
+dwell: the smoothing level can rise only when all are in) each fail the GCV test alone,
+the known weakness of forward selection with jointly useful terms. A candidate refused
+by that test alone is held (up to ``MAX_PENDING``; it still counts as a refusal) and a
+later candidate that fails alone is tried with the held ones: the set is kept when it
+lowers N ln(GCV) by the bar per junction added, the held ones add the bar each to what
+the candidate does alone, and the level of the rest rises ``LOOKAHEAD_LEVEL_RISE``
+times. Past ``MAX_REFUSED`` refusals in a row the search tries one more candidate per
+held one, only to complete a set.
 """
 from __future__ import annotations
 
@@ -619,10 +622,8 @@ def _attempt(system: LevelSystem, levels: Levels, taus: list[float], held: list[
     # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
     # far below the bar is refused without either
     quick = n * math.log(base / system.gcv(held + [at], gamma))
-    rise = LOOKAHEAD_LEVEL_RISE
-    flat = (len(held) > len(taus) and levels.at(lam * rise).gcv(held + [at], gamma)
-            >= levels.at(lam * math.sqrt(rise)).gcv(held + [at], gamma))
-    if quick >= bar - PRETEST_SLACK and not flat:
+    if quick >= bar - PRETEST_SLACK and not (len(held) > len(taus) and _climbs(
+            levels, held + [at], lam, gamma)):
         trial = _refine(system, held + [at])
         lam_trial = choose_level(system.values, trial, gamma, lam, levels)
         # kept only if it lowers the GCV score of the whole fit: a step that stands
@@ -638,6 +639,15 @@ def _attempt(system: LevelSystem, levels: Levels, taus: list[float], held: list[
               and abs(trial[-1] - at) <= 0.9)
     return _Attempt(trial, len(trial) - len(taus), lam_trial, gain, placed,
                     lam_trial >= MIN_LEVEL_RATIO * lam)
+
+
+def _climbs(levels: Levels, taus: list[float], lam: float, gamma: float) -> bool:
+    """The GCV score with junctions ``taus`` is higher at LOOKAHEAD_LEVEL_RISE times
+    the level ``lam`` than at its square root times: its minimum (GCV is unimodal in
+    the level) lies below LOOKAHEAD_LEVEL_RISE x ``lam``."""
+    rise = LOOKAHEAD_LEVEL_RISE
+    return bool(levels.at(lam * rise).gcv(taus, gamma)
+                >= levels.at(lam * math.sqrt(rise)).gcv(taus, gamma))
 
 
 def _refine(system: LevelSystem, taus: list[float]) -> list[float]:

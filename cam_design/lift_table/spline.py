@@ -922,11 +922,11 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
 
         def significant_changes(fitted: Any, level: float) -> int:
-            acc, lift = fitted(out, 2), fitted(out)
-            count = sign_changes(acc, lift=lift)
+            fit_acc, fit_lift = fitted(out, 2), fitted(out)
+            count = sign_changes(fit_acc, lift=fit_lift)
             if count <= expected:
                 return count
-            return sign_changes(acc, lift=lift, still=dwell(fitted, level))
+            return sign_changes(fit_acc, lift=fit_lift, still=dwell(fitted, level))
         while significant_changes(spline, lam_d) > expected and raised < 5:
             trial = fit_spline(lam_d * 4.0)
             if float(np.sqrt(np.mean((ylift[kept] - trial(x[kept])) ** 2))) > rms_limit:
