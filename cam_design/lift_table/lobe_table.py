@@ -406,8 +406,9 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             rows = clean_samples(b - mid, h, key=key, min_points=6)
             # the fairing the scatter estimate made is the engine's own when the engine
             # gets the same rows (none merged or re-ordered) with the estimated noise
-            same = (fairing is not None and known is None and rows.alpha.size == b.size
-                    and bool(np.all(rows.lift == h)))
+            # (not after a turn: the fairing was made of the rows in their first order)
+            same = (fairing is not None and known is None and not offset
+                    and rows.alpha.size == b.size and bool(np.all(rows.lift == h)))
             rec = reconstruct_spline(rows, options=SplineOptions(criterion='risk', sigma=known),
                                      fairing=fairing if same else None)
             curve = _Evaluated(rec.evaluate, mid)
