@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -558,3 +559,9 @@ def test_noisy_table_across_the_seam_is_smoothed_in_the_turned_frame(frame_deg) 
     t = _truth((1.0,))['heights'][0]
     assert abs((opening - 180.0 + 180.0) % 360.0 - 180.0 - t['opening_deg']) < 0.05
     assert abs((closing - 180.0 + 180.0) % 360.0 - 180.0 - t['closing_deg']) < 0.05
+    # the joins to the base circle are told in the table frame (the lobe's ends are
+    # 74-81 deg from its nose at 180 deg), not in the turned frame (+-74-81 deg)
+    said = re.search(r'jerk at (\S+)\.\.(\S+) deg, (\S+)\.\.(\S+) deg', law.lobe.note())
+    assert said is not None
+    for value in said.groups():
+        assert 95.0 < abs(float(value)) < 110.0, law.lobe.note()
