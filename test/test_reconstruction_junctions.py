@@ -283,6 +283,14 @@ def test_rounded_dwell_edges_are_found_together(step_deg, ratio):
     assert ours < ratio * ref
     assert ours < 1.3e-3                                                 # m/rad^2
     assert not rec.warnings
+    # each edge judged alone (the search without its look-ahead): none is taken
+    from cam_design.lift_table.spline import GCV_GAMMA, choose_smoothing
+    floor = 1e-5 / math.sqrt(12.0)
+    start = choose_smoothing(h, step, criterion='gcv', gamma=GCV_GAMMA, sigma_floor=floor)
+    assert junctions.find_junctions(a, h, start.lam_d, gamma=GCV_GAMMA, sigma_floor=floor,
+                                    lookahead=False) is None
+    assert len(junctions.find_junctions(a, h, start.lam_d, gamma=GCV_GAMMA,
+                                        sigma_floor=floor).angles) == 4
 
 
 def test_lookahead_does_not_take_false_pairs():

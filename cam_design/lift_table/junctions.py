@@ -503,10 +503,13 @@ def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
 
 def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0: float,
                    *, gamma: float = 1.0, sigma_floor: float = 0.0,
-                   false_alarm: float = FALSE_ALARM) -> JunctionFit | None:
+                   false_alarm: float = FALSE_ALARM,
+                   lookahead: bool = True) -> JunctionFit | None:
     """Greedy junction search and partial-spline fit of uniform ``values`` [m] on
     ``grid`` [rad], starting from the plain smoother's level ``lam0``. None when no
-    junction is significant (the plain smoothing spline stands)."""
+    junction is significant (the plain smoothing spline stands). ``lookahead``: hold
+    candidates refused by the GCV test alone and try them as a set (else each
+    candidate is judged alone)."""
     n = grid.size
     if n < 16:
         return None
@@ -562,7 +565,7 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
             vetoed.append(at)
             in_a_row += 1
             if (not completing and alone is not None and alone.refused_by_gcv_only()
-                    and len(pending) < MAX_PENDING):
+                    and len(pending) < (MAX_PENDING if lookahead else 0)):
                 pending.append(alone.trial[-1])
                 pending_scores.append(float(stat[i]))
             if in_a_row >= MAX_REFUSED + len(pending):
