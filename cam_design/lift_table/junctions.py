@@ -47,7 +47,7 @@ from numpy.polynomial import Polynomial
 from numpy.polynomial.polynomial import polyval
 from numpy.typing import NDArray
 from scipy.fft import irfft, next_fast_len, rfft
-from scipy.linalg import cho_solve_banded, cholesky_banded
+from scipy.linalg import lapack
 
 #: family-wise false-alarm probability of the junction search on a lobe without one
 FALSE_ALARM = 1e-3
@@ -75,8 +75,11 @@ LEVEL_STEP = 0.5
 LEVEL_REACH = 4
 #: golden-section iterations refining a junction's angle over +-1 row (to 0.07 row)
 REFINE_ITERATIONS = 7
-#: fits a level's system remembers (by junction set)
+#: fits a level's system remembers (by junction set): with their vectors, and scores
 FITS_KEPT = 4
+SCORES_KEPT = 64
+#: a hinge's column is solved this many smoother bandwidths either side (window_margin)
+WINDOW_BANDWIDTHS = 48.0
 
 
 def third_difference_gram(m: int) -> NDArray[np.float64]:
@@ -96,21 +99,54 @@ def _penalty(m: int) -> NDArray[np.float64]:
     return ab
 
 
-@lru_cache(maxsize=8)
-def _factor(n: int, lam_d: float) -> NDArray[np.float64]:
-    """Banded Cholesky factor of I + lam_d D3'D3 (read-only, cached: the search asks
-    for the same level many times)."""
-    ab = lam_d * _penalty(n)
-    ab[3] += 1.0
-    c = cholesky_banded(ab, check_finite=False)
+def _lower_band(upper: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """I + lam_d P in lower banded storage (Fortran order) from P in upper storage."""
+    m = upper.shape[1]
+    low = np.zeros((4, m), order='F')
+    for k in range(4):
+        low[k, :m - k] = lam_d * upper[3 - k, k:]
+    low[0] += 1.0
+    return low
+
+
+def _cholesky(low: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Lower banded Cholesky factor (read-only). The lower storage: OpenBLAS's
+    factorisation of it takes about 0.4 of the upper one's time at these sizes."""
+    c, info = lapack.dpbtrf(low, lower=1, overwrite_ab=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f'banded Cholesky failed (info {info})')
     c.setflags(write=False)
     return c
 
 
+@lru_cache(maxsize=32)
+def _factor(n: int, lam_d: float) -> NDArray[np.float64]:
+    """Banded Cholesky factor of I + lam_d D3'D3 (free ends, n nodes; cached: the
+    search asks for the same level many times)."""
+    return _cholesky(_lower_band(_penalty(n), lam_d))
+
+
+@lru_cache(maxsize=32)
+def _interior_factor(m: int, lam_d: float) -> NDArray[np.float64]:
+    """Banded Cholesky factor of the m x m block of I + lam_d D3'D3 away from both
+    ends (every row the full stencil 20, -15, 6, -1; Toeplitz)."""
+    stencil = np.array([-1.0, 6.0, -15.0, 20.0])
+    return _cholesky(_lower_band(np.repeat(stencil[:, None], m, axis=1), lam_d))
+
+
+def _solve(factor: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(L L')^-1 rhs for a lower banded factor whose first rhs.shape[0] columns are
+    used (the leading block's factor is the leading part of the whole one)."""
+    m = rhs.shape[0]
+    x, info = lapack.dpbtrs(factor[:, :m], rhs, lower=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f'banded solve failed (info {info})')
+    return np.asarray(x, dtype=np.float64)
+
+
 def _smooth(rhs: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
     """(I + lam_d D3'D3)^-1 rhs (rhs (n,) or (n, k))."""
-    return cho_solve_banded((_factor(rhs.shape[0], float(lam_d)), False), rhs,
-                            check_finite=False)
+    return _solve(_factor(rhs.shape[0], float(lam_d)), rhs)
 
 
 @lru_cache(maxsize=16)
@@ -174,7 +210,7 @@ def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[
     return out
 
 
-@lru_cache(maxsize=16)
+@lru_cache(maxsize=64)
 def _quadratics(n: int) -> NDArray[np.float64]:
     """Orthonormal basis (n, 3) of the quadratics on n nodes (read-only, cached)."""
     x = np.linspace(-1.0, 1.0, n)
@@ -191,18 +227,65 @@ def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
     return r - q @ (q.T @ r)
 
 
-def _residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
-    """R g = (I + lam_d P)^-1 lam_d P g, P = D3'D3: the same as g - S g, but formed from
-    third differences, so that the long quadratic tail of a hinge (S reproduces it)
-    adds no rounding."""
+def _penalised(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """lam_d P g = lam_d D3'D3 g (free ends of ``g``'s own rows)."""
     d3 = np.diff(g, 3, axis=0)
     pg = np.zeros(g.shape)
     for j, c in enumerate((-1.0, 3.0, -3.0, 1.0)):
         pg[j:j + d3.shape[0]] += c * d3
-    return _deflate(_smooth(lam_d * pg, lam_d))
+    return lam_d * pg
 
 
-@lru_cache(maxsize=128)
+def _residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """R g = (I + lam_d P)^-1 lam_d P g, P = D3'D3: the same as g - S g, but formed from
+    third differences, so that the long quadratic tail of a hinge (S reproduces it)
+    adds no rounding."""
+    return _deflate(_smooth(_penalised(g, lam_d), lam_d))
+
+
+def window_margin(lam_d: float) -> int:
+    """Nodes [>= 10] a hinge's column R g is solved for beyond the reach of P g: R g
+    decays like exp(-k / (2 bw)), bw = lam_d^(1/6) nodes, so at ``WINDOW_BANDWIDTHS``
+    bandwidths what is left out is below 1e-10 of its peak (the rounding of a
+    whole-table solve at the search's levels is 1e-12 .. 1e-9 of it)."""
+    reach = WINDOW_BANDWIDTHS * max(lam_d, 1.0) ** (1.0 / 6.0) + 10.0
+    return int(min(reach, 1e9))
+
+
+def _window(n: int, tau: float, lam_d: float) -> tuple[int, int]:
+    """Rows [lo, hi) on which the column R g of the junction at node ``tau`` is solved:
+    P g (the hinge's third differences: its node and its taper) and a margin either
+    side; the whole table, or a part reaching one end, where the margin reaches an
+    end (the ends' stencil differs), else a part of fixed length away from both."""
+    reach = int(math.ceil(taper_nodes(n))) + 12 + 2 * window_margin(lam_d)
+    node = int(math.floor(tau))
+    lo = node - reach + window_margin(lam_d) + 6 if side_of(tau, n) < 0 else \
+        node - window_margin(lam_d) - 5
+    hi = lo + reach
+    if lo < 3:
+        lo = 0
+    if hi > n - 3:
+        hi = n
+    return lo, hi
+
+
+def _windowed_residual(g: NDArray[np.float64], lam_d: float, lo: int, hi: int
+                       ) -> NDArray[np.float64]:
+    """R g on rows [lo, hi) of the n = g.shape[0] rows, zero outside (the rows of
+    I + lam_d P there: a leading block, a trailing one (the matrix reads the same
+    backwards) or the Toeplitz interior)."""
+    n = g.shape[0]
+    rhs = _penalised(g[lo:hi], lam_d)
+    if lo == 0:
+        x = _solve(_factor(n, lam_d), rhs)
+    elif hi == n:
+        x = _solve(_factor(n, lam_d), rhs[::-1])[::-1]
+    else:
+        x = _solve(_interior_factor(hi - lo, lam_d), rhs)
+    return _deflate(x)
+
+
+@lru_cache(maxsize=256)
 def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
     """(n, 2): g2 and g3 of one junction at node position ``tau``, opening on its
     longer side (node units; read-only, cached: the level search asks for the same
@@ -232,34 +315,124 @@ class PartialFit:
     resid: NDArray[np.float64]
 
 
+@dataclass(frozen=True)
+class FitScore:
+    """The scalars of a partial-spline fit (``PartialFit`` without its vectors):
+    hinge coefficients ``coef``, ``rss`` [m^2], ``edf``, ``objective`` [m^2]."""
+
+    coef: NDArray[np.float64]
+    rss: float
+    edf: float
+    objective: float
+
+
+#: (G_i'R G_j, (R G_i)'(R G_j)) of two junctions, 2 x 2 each
+Block = tuple[NDArray[np.float64], NDArray[np.float64]]
+
+
+@dataclass(frozen=True)
+class _Column:
+    """One junction's hinge at one level: rows [lo, hi) of R g (zero elsewhere), the
+    hinge g on all rows, and (R g)'y, (R g)'(R y) over the rows."""
+
+    lo: int
+    hi: int
+    g: NDArray[np.float64]
+    rg: NDArray[np.float64]
+    gy: NDArray[np.float64]
+    gry: NDArray[np.float64]
+
+
 class LevelSystem:
     """The partial-spline system of uniform ``values`` [m] at one discrete level
     ``lam_d``: the smoother's banded factor (cached by level), R y, and the hinge
-    columns (g, R g) of every junction asked for so far. The hinges are a low-rank
-    addition to the smoother's system: a fit with another set of junctions at the same
-    level costs only the new junctions' solves and a small dense system."""
+    columns of every junction asked for so far. The hinges are a low-rank addition to
+    the smoother's system. A hinge's column R g is solved on a window about it (it
+    decays within a few dozen bandwidths; ``window_margin``) and its inner products
+    with y, R y and the other hinges are kept, so a fit with another set of junctions
+    at the same level costs only the new junctions' windowed solves and a small dense
+    system; its vectors are formed only when asked for (``fit``)."""
 
     def __init__(self, values: NDArray[np.float64], lam_d: float) -> None:
         self.values = values
         self.n = int(values.size)
         self.lam_d = float(lam_d)
         self.ry = _deflate(values - _smooth(values, self.lam_d))
+        self.yry = float(values @ self.ry)
+        self.ryry = float(self.ry @ self.ry)
         self.trace = _trace_smoother(self.n, self.lam_d)
-        self._cols: dict[float, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+        self._cols: dict[float, _Column] = {}
+        self._pairs: dict[tuple[float, float], Block] = {}
         self._fits: dict[tuple[float, ...], PartialFit] = {}
+        self._scores: dict[tuple[float, ...], FitScore] = {}
+
+    def _column(self, tau: float) -> _Column:
+        col = self._cols.get(tau)
+        if col is None:
+            g = _hinge_pair(self.n, tau)
+            lo, hi = _window(self.n, tau, self.lam_d)
+            rg = _windowed_residual(g, self.lam_d, lo, hi)
+            col = self._cols[tau] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
+                                            rg.T @ self.ry[lo:hi])
+        return col
+
+    def _pair(self, ti: float, tj: float) -> Block:
+        """(G_i'R G_j, (R G_i)'(R G_j)), 2 x 2, kept for the level."""
+        key = (ti, tj)
+        done = self._pairs.get(key)
+        if done is None:
+            a, b = self._column(ti), self._column(tj)
+            m = a.g[b.lo:b.hi].T @ b.rg
+            lo, hi = max(a.lo, b.lo), min(a.hi, b.hi)
+            v = (a.rg[lo - a.lo:hi - a.lo].T @ b.rg[lo - b.lo:hi - b.lo] if hi > lo
+                 else np.zeros((2, 2)))
+            done = self._pairs[key] = (m, v)
+        return done
 
     def columns(self, taus: list[float]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(G, R G), (n, 2J), of junctions at node positions ``taus``."""
-        new = [t for t in dict.fromkeys(taus) if t not in self._cols]
-        if new:
-            g = _hinge_columns(self.n, new)
-            rg = _residual_operator(g, self.lam_d)
-            for k, t in enumerate(new):
-                self._cols[t] = (g[:, 2 * k:2 * k + 2], rg[:, 2 * k:2 * k + 2])
-        if not taus:
-            return np.zeros((self.n, 0)), np.zeros((self.n, 0))
-        return (np.concatenate([self._cols[t][0] for t in taus], axis=1),
-                np.concatenate([self._cols[t][1] for t in taus], axis=1))
+        g = np.zeros((self.n, 2 * len(taus)))
+        rg = np.zeros((self.n, 2 * len(taus)))
+        for k, t in enumerate(taus):
+            col = self._column(float(t))
+            g[:, 2 * k:2 * k + 2] = col.g
+            rg[col.lo:col.hi, 2 * k:2 * k + 2] = col.rg
+        return g, rg
+
+    def score(self, taus: list[float]) -> FitScore:
+        """The fit's scalars with hinges at node positions ``taus``, from the kept
+        inner products (no vector of the table's length is formed)."""
+        key = tuple(taus)
+        done = self._scores.get(key)
+        if done is not None:
+            return done
+        k = len(taus)
+        if not k:
+            done = FitScore(np.zeros(0), self.ryry, self.trace, self.yry)
+        else:
+            m = np.zeros((2 * k, 2 * k))
+            v = np.zeros((2 * k, 2 * k))
+            for i, ti in enumerate(taus):
+                for j, tj in enumerate(taus):
+                    m[2 * i:2 * i + 2, 2 * j:2 * j + 2], v[2 * i:2 * i + 2, 2 * j:2 * j + 2] \
+                        = self._pair(ti, tj)
+            cols = [self._column(t) for t in taus]
+            gy = np.concatenate([c.gy for c in cols])
+            gry = np.concatenate([c.gry for c in cols])
+            ridge = m + 1e-13 * np.trace(m) * np.eye(2 * k)
+            # G'R y formed as (R G)'y: g'(R y) multiplies the rounding of R y by the
+            # hinge's long quadratic tail (a 1e-15 change of the level moved the step
+            # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
+            # third differences and y is data, so the product keeps its digits
+            coef = np.linalg.solve(ridge, gy)
+            extra = float(np.trace(np.linalg.solve(ridge, v)))
+            rss = self.ryry - 2.0 * float(coef @ gry) + float(coef @ v @ coef)
+            objective = self.yry - 2.0 * float(coef @ gy) + float(coef @ m @ coef)
+            done = FitScore(coef, max(rss, 0.0), self.trace + extra, objective)
+        if len(self._scores) >= SCORES_KEPT:
+            self._scores.pop(next(iter(self._scores)))
+        self._scores[key] = done
+        return done
 
     def fit(self, taus: list[float]) -> PartialFit:
         """The partial spline with hinges at node positions ``taus`` (the last few
@@ -274,39 +447,28 @@ class LevelSystem:
         return done
 
     def _fit(self, taus: list[float]) -> PartialFit:
-        values, ry = self.values, self.ry
-        if taus:
-            g, rg = self.columns(taus)
-            m = g.T @ rg
-            m = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
-            # G'R y formed as (R G)'y: g'(R y) multiplies the rounding of R y by the
-            # hinge's long quadratic tail (a 1e-15 change of the level moved the step
-            # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
-            # third differences and y is data, so the product keeps its digits
-            coef = np.linalg.solve(m, rg.T @ values)
-            extra = float(np.trace(np.linalg.solve(m, rg.T @ rg)))
-            resid = ry - rg @ coef
-            z = values - g @ coef
-        else:
-            coef, extra, resid, z = np.zeros(0), 0.0, ry, values
+        s = self.score(taus)
+        resid = self.ry.copy()
+        z = self.values.copy()
+        for k, t in enumerate(taus):
+            col = self._column(float(t))
+            c = s.coef[2 * k:2 * k + 2]
+            resid[col.lo:col.hi] -= col.rg @ c
+            z -= col.g @ c
         smooth = z - resid                       # S (y - G c)
-        return PartialFit(smooth, coef, float(resid @ resid), self.trace + extra,
-                          float(z @ resid), resid)
+        return PartialFit(smooth, s.coef, float(resid @ resid), s.edf, float(z @ resid),
+                          resid)
 
     def gcv(self, taus: list[float], gamma: float) -> float:
         """GCV score of the fit with these junctions (``gamma`` weights the trace)."""
-        f = self.fit(taus)
-        return self.n * f.rss / max(self.n - gamma * f.edf, 1e-9) ** 2
+        s = self.score(taus)
+        return self.n * s.rss / max(self.n - gamma * s.edf, 1e-9) ** 2
 
 
 def partial_fit(values: NDArray[np.float64], taus: list[float], lam_d: float
                 ) -> PartialFit:
     """Partial spline of uniform ``values`` [m] with hinges at node positions ``taus``."""
     return LevelSystem(values, lam_d).fit(taus)
-
-
-def _gcv(values: NDArray[np.float64], taus: list[float], lam_d: float, gamma: float) -> float:
-    return LevelSystem(values, lam_d).gcv(taus, gamma)
 
 
 def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations: int) -> float:
@@ -371,19 +533,21 @@ def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
     return 10.0 ** (c0 + (best + shift) * h)
 
 
-@lru_cache(maxsize=64)
-def _hinge_gram(lam_d: float, offset: float, length: float
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+@lru_cache(maxsize=16)
+def _hinge_grams(lam_d: float, length: float
+                 ) -> tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...]:
     """(G'RG, G'R^2G), 2 x 2 in node units, of one right-opening junction far from the
-    ends: R G vanishes away from the hinge and its taper, so a window covering them
-    and a few dozen smoother bandwidths gives them (cached by level)."""
-    bw = int(40 * max(lam_d, 1.0) ** (1.0 / 6.0) + 20)
-    left = 2 * bw
-    nodes = np.arange(left + int(math.ceil(length)) + 3 * bw, dtype=float)
-    g = hinge_values(nodes - (left + offset), length)
-    rg = _residual_operator(g, lam_d)
-    core = slice(bw, nodes.size - bw)          # clear of the window's own ends
-    return g[core].T @ rg[core], rg[core].T @ rg[core]
+    ends at each of ``SCAN_OFFSETS`` (cached by level): its column solved on its
+    window (``window_margin``) as in the fit, all offsets in one solve."""
+    margin = window_margin(lam_d)
+    size = int(math.ceil(length)) + 12 + 2 * margin
+    nodes = np.arange(size, dtype=float)
+    g = np.concatenate([hinge_values(nodes - (margin + 5 + off), length)
+                        for off in SCAN_OFFSETS], axis=1)
+    rg = _deflate(_solve(_interior_factor(size, lam_d), _penalised(g, lam_d)))
+    return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
+                  rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
+                 for k in range(len(SCAN_OFFSETS)))
 
 
 @lru_cache(maxsize=4)
@@ -414,8 +578,7 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
     e = rfft(resid, nfft)
     right = np.zeros((n, len(SCAN_OFFSETS)))
     left = np.zeros((n, len(SCAN_OFFSETS)))
-    for col, off in enumerate(SCAN_OFFSETS):
-        m, v = _hinge_gram(float(lam_d), off, length)
+    for col, (m, v) in enumerate(_hinge_grams(float(lam_d), length)):
         # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
         w = np.array([1.0, -m[0, 1] / m[1, 1]])
         var = max(float(w @ v @ w) * sigma ** 2, 1e-300)
@@ -424,17 +587,17 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
         # b(j) = sum_i g(i - off) e_{n-1-j-i}
         right[:, col] = irfft(e * np.conj(kern), nfft)[:n] ** 2 / var
         left[:, col] = irfft(e * kern, nfft)[n - 1::-1] ** 2 / var
+    # positions node + offset (right-opening, rising in row order) up to the middle,
+    # then (n - 1 - node) - offset (left-opening, rising in reversed row order)
     offs = np.asarray(SCAN_OFFSETS)
     nodes = np.arange(n, dtype=float)
+    mid = 0.5 * (n - 1)
     pos_r = (nodes[:, None] + offs[None, :]).ravel()
-    pos_l = ((n - 1 - nodes)[:, None] - offs[None, :]).ravel()
-    pos = np.concatenate([pos_r, pos_l])
-    stat = np.concatenate([right.ravel(), left.ravel()])
-    opens = np.concatenate([np.ones(pos_r.size), -np.ones(pos_l.size)])
-    own = np.where(pos <= 0.5 * (n - 1), 1.0, -1.0) == opens
-    keep = own & (pos >= margin) & (pos <= n - 1 - margin)
-    order = np.argsort(pos[keep])
-    return pos[keep][order], stat[keep][order]
+    pos_l = ((n - 1 - nodes)[:, None] - offs[None, :]).ravel()[::-1]
+    keep_r = (pos_r >= margin) & (pos_r <= mid)
+    keep_l = (pos_l > mid) & (pos_l <= n - 1 - margin)
+    return (np.concatenate([pos_r[keep_r], pos_l[keep_l]]),
+            np.concatenate([right.ravel()[keep_r], left.ravel()[::-1][keep_l]]))
 
 
 @dataclass(frozen=True)
@@ -560,7 +723,7 @@ def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
     residual, the others held (the level's system keeps their columns)."""
     last = taus[-1]
     lo, hi = max(last - 1.0, 1.0), min(last + 1.0, system.n - 2.0)
-    best = golden_minimum(lambda t: system.fit(taus[:-1] + [t]).objective, lo, hi,
+    best = golden_minimum(lambda t: system.score(taus[:-1] + [t]).objective, lo, hi,
                           REFINE_ITERATIONS)
     return taus[:-1] + [best]
 
