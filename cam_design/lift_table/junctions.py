@@ -200,12 +200,12 @@ def _hinge_coefficients(length: float, nu: int) -> tuple[NDArray[np.float64], ..
 def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
     """(len(u), 2): nu-th u-derivatives of g2 and g3 (node units), ``u`` nodes from a
     junction that opens to the right."""
-    u = np.asarray(u, dtype=float)
+    u = np.asarray(u, dtype=float).reshape(-1)
     out = np.zeros((u.size, 2))
     quad, cubic = _hinge_coefficients(float(length), nu)
     pos = u > 0
-    near = pos & (u < length)
-    out[pos, 0] = polyval(u[pos], quad)
+    out[:, 0] = np.where(pos, polyval(u, quad), 0.0)
+    near = np.flatnonzero(pos & (u < length))
     out[near, 1] = polyval(u[near], cubic)
     return out
 
@@ -328,6 +328,9 @@ class FitScore:
 
 #: (G_i'R G_j, (R G_i)'(R G_j)) of two junctions, 2 x 2 each
 Block = tuple[NDArray[np.float64], NDArray[np.float64]]
+#: (G'R G, (R G)'(R G), (R G)'y, (R G)'R y) of a set of junctions
+Gram = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+             NDArray[np.float64]]
 
 
 @dataclass(frozen=True)
@@ -365,6 +368,7 @@ class LevelSystem:
         self._pairs: dict[tuple[float, float], Block] = {}
         self._fits: dict[tuple[float, ...], PartialFit] = {}
         self._scores: dict[tuple[float, ...], FitScore] = {}
+        self._grams: dict[tuple[float, ...], Gram] = {}
 
     def _column(self, tau: float) -> _Column:
         col = self._cols.get(tau)
@@ -399,27 +403,44 @@ class LevelSystem:
             rg[col.lo:col.hi, 2 * k:2 * k + 2] = col.rg
         return g, rg
 
+    def _gram(self, taus: tuple[float, ...]) -> Gram:
+        """(G'R G, (R G)'(R G), (R G)'y, (R G)'R y) of the hinges ``taus``, assembled
+        from the previous set's (the search adds one junction at a time)."""
+        done = self._grams.get(taus)
+        if done is not None:
+            return done
+        col = self._column(taus[-1])
+        if len(taus) == 1:
+            m, v = self._pair(taus[0], taus[0])
+            done = (m, v, col.gy, col.gry)
+        else:
+            pm, pv, pgy, pgry = self._gram(taus[:-1])
+            k = 2 * len(taus)
+            m = np.empty((k, k))
+            v = np.empty((k, k))
+            m[:-2, :-2], v[:-2, :-2] = pm, pv
+            for i, ti in enumerate(taus):
+                m[2 * i:2 * i + 2, -2:], v[2 * i:2 * i + 2, -2:] = self._pair(ti, taus[-1])
+                if i < len(taus) - 1:
+                    m[-2:, 2 * i:2 * i + 2], v[-2:, 2 * i:2 * i + 2] = self._pair(taus[-1], ti)
+            done = (m, v, np.concatenate([pgy, col.gy]), np.concatenate([pgry, col.gry]))
+        if len(self._grams) >= SCORES_KEPT:
+            self._grams.pop(next(iter(self._grams)))
+        self._grams[taus] = done
+        return done
+
     def score(self, taus: list[float]) -> FitScore:
         """The fit's scalars with hinges at node positions ``taus``, from the kept
         inner products (no vector of the table's length is formed)."""
-        key = tuple(taus)
+        key = tuple(float(t) for t in taus)
         done = self._scores.get(key)
         if done is not None:
             return done
-        k = len(taus)
-        if not k:
+        if not key:
             done = FitScore(np.zeros(0), self.ryry, self.trace, self.yry)
         else:
-            m = np.zeros((2 * k, 2 * k))
-            v = np.zeros((2 * k, 2 * k))
-            for i, ti in enumerate(taus):
-                for j, tj in enumerate(taus):
-                    m[2 * i:2 * i + 2, 2 * j:2 * j + 2], v[2 * i:2 * i + 2, 2 * j:2 * j + 2] \
-                        = self._pair(ti, tj)
-            cols = [self._column(t) for t in taus]
-            gy = np.concatenate([c.gy for c in cols])
-            gry = np.concatenate([c.gry for c in cols])
-            ridge = m + 1e-13 * np.trace(m) * np.eye(2 * k)
+            m, v, gy, gry = self._gram(key)
+            ridge = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
             # G'R y formed as (R G)'y: g'(R y) multiplies the rounding of R y by the
             # hinge's long quadratic tail (a 1e-15 change of the level moved the step
             # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
@@ -624,11 +645,16 @@ class JunctionFit:
         u = ((x - self.x0) / self.step).ravel()
         out = np.zeros(u.size)
         length = taper_nodes(self.nodes)
+        quad, cubic = _hinge_coefficients(float(length), nu)
         for k, t in enumerate(self.angles):
             tau = (t - self.x0) / self.step
             side = side_of(tau, self.nodes)
-            cols = hinge_values(side * (u - tau), length, nu) * float(side) ** nu
-            out += cols @ self.coef[2 * k:2 * k + 2]
+            v = side * (u - tau)
+            c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
+            pos = v > 0
+            out += np.where(pos, c2 * polyval(v, quad), 0.0)
+            near = np.flatnonzero(pos & (v < length))
+            out[near] += c3 * polyval(v[near], cubic)
         return out.reshape(x.shape) / self.step ** nu
 
 
