@@ -40,11 +40,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Callable
+from typing import Callable, TypeVar
 
 import numpy as np
 from numpy.polynomial import Polynomial
-from numpy.polynomial.polynomial import polyval
 from numpy.typing import NDArray
 from scipy.fft import irfft, next_fast_len, rfft
 from scipy.linalg import lapack
@@ -75,9 +74,12 @@ LEVEL_STEP = 0.5
 LEVEL_REACH = 4
 #: golden-section iterations refining a junction's angle over +-1 row (to 0.07 row)
 REFINE_ITERATIONS = 7
+#: a refined junction more than this many rows from the scan's angle is refused
+MAX_MOVE = 0.9
 #: fits a level's system remembers (by junction set): with their vectors, and scores
 FITS_KEPT = 4
 SCORES_KEPT = 64
+STACKS_KEPT = 8
 #: a hinge's column is solved this many smoother bandwidths either side (window_margin)
 WINDOW_BANDWIDTHS = 48.0
 
@@ -197,6 +199,14 @@ def _hinge_coefficients(length: float, nu: int) -> tuple[NDArray[np.float64], ..
     return tuple(np.asarray(p.deriv(nu).coef, dtype=np.float64) for p in _hinges_on(length))
 
 
+def _horner(x: NDArray[np.float64], coef: NDArray[np.float64]) -> NDArray[np.float64]:
+    """sum_k coef[k] x^k by Horner's rule (numpy's polyval without its checks)."""
+    acc = np.full(x.shape, coef[-1])
+    for c in coef[-2::-1]:
+        acc = acc * x + c
+    return acc
+
+
 def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
     """(len(u), 2): nu-th u-derivatives of g2 and g3 (node units), ``u`` nodes from a
     junction that opens to the right."""
@@ -204,9 +214,9 @@ def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[
     out = np.zeros((u.size, 2))
     quad, cubic = _hinge_coefficients(float(length), nu)
     pos = u > 0
-    out[:, 0] = np.where(pos, polyval(u, quad), 0.0)
+    out[:, 0] = np.where(pos, _horner(u, quad), 0.0)
     near = np.flatnonzero(pos & (u < length))
-    out[near, 1] = polyval(u[near], cubic)
+    out[near, 1] = _horner(u[near], cubic)
     return out
 
 
@@ -326,8 +336,8 @@ class FitScore:
     objective: float
 
 
-#: (G_i'R G_j, (R G_i)'(R G_j)) of two junctions, 2 x 2 each
-Block = tuple[NDArray[np.float64], NDArray[np.float64]]
+#: (G, R G), (n, 2J), of a set of junctions
+Stack = tuple[NDArray[np.float64], NDArray[np.float64]]
 #: (G'R G, (R G)'(R G), (R G)'y, (R G)'R y) of a set of junctions
 Gram = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
              NDArray[np.float64]]
@@ -336,7 +346,7 @@ Gram = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
 @dataclass(frozen=True)
 class _Column:
     """One junction's hinge at one level: rows [lo, hi) of R g (zero elsewhere), the
-    hinge g on all rows, and (R g)'y, (R g)'(R y) over the rows."""
+    hinge g on all rows, and (R g)'y, (R g)'(R y), g'R g, (R g)'(R g) over the rows."""
 
     lo: int
     hi: int
@@ -344,6 +354,28 @@ class _Column:
     rg: NDArray[np.float64]
     gy: NDArray[np.float64]
     gry: NDArray[np.float64]
+    m: NDArray[np.float64]
+    v: NDArray[np.float64]
+
+
+K = TypeVar('K')
+V = TypeVar('V')
+
+
+def _recall(kept: dict[K, V], key: K) -> V | None:
+    """``kept[key]`` (then the most recently used), or None."""
+    done = kept.pop(key, None)
+    if done is not None:
+        kept[key] = done
+    return done
+
+
+def _remember(kept: dict[K, V], key: K, value: V, size: int) -> V:
+    """``value`` kept under ``key``; the least recently used dropped beyond ``size``."""
+    if len(kept) >= size:
+        kept.pop(next(iter(kept)))
+    kept[key] = value
+    return value
 
 
 class LevelSystem:
@@ -365,7 +397,7 @@ class LevelSystem:
         self.ryry = float(self.ry @ self.ry)
         self.trace = _trace_smoother(self.n, self.lam_d)
         self._cols: dict[float, _Column] = {}
-        self._pairs: dict[tuple[float, float], Block] = {}
+        self._stacks: dict[tuple[float, ...], Stack] = {}
         self._fits: dict[tuple[float, ...], PartialFit] = {}
         self._scores: dict[tuple[float, ...], FitScore] = {}
         self._grams: dict[tuple[float, ...], Gram] = {}
@@ -377,63 +409,60 @@ class LevelSystem:
             lo, hi = _window(self.n, tau, self.lam_d)
             rg = _windowed_residual(g, self.lam_d, lo, hi)
             col = self._cols[tau] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
-                                            rg.T @ self.ry[lo:hi])
+                                            rg.T @ self.ry[lo:hi], g[lo:hi].T @ rg,
+                                            rg.T @ rg)
         return col
 
-    def _pair(self, ti: float, tj: float) -> Block:
-        """(G_i'R G_j, (R G_i)'(R G_j)), 2 x 2, kept for the level."""
-        key = (ti, tj)
-        done = self._pairs.get(key)
+    def columns(self, taus: list[float]) -> Stack:
+        """(G, R G), (n, 2J), of junctions at node positions ``taus`` (R G zero outside
+        each junction's window; the last few sets kept)."""
+        key = tuple(float(t) for t in taus)
+        done = _recall(self._stacks, key)
         if done is None:
-            a, b = self._column(ti), self._column(tj)
-            m = a.g[b.lo:b.hi].T @ b.rg
-            lo, hi = max(a.lo, b.lo), min(a.hi, b.hi)
-            v = (a.rg[lo - a.lo:hi - a.lo].T @ b.rg[lo - b.lo:hi - b.lo] if hi > lo
-                 else np.zeros((2, 2)))
-            done = self._pairs[key] = (m, v)
+            g = np.zeros((self.n, 2 * len(key)))
+            rg = np.zeros((self.n, 2 * len(key)))
+            for k, t in enumerate(key):
+                col = self._column(t)
+                g[:, 2 * k:2 * k + 2] = col.g
+                rg[col.lo:col.hi, 2 * k:2 * k + 2] = col.rg
+            done = _remember(self._stacks, key, (g, rg), STACKS_KEPT)
         return done
 
-    def columns(self, taus: list[float]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """(G, R G), (n, 2J), of junctions at node positions ``taus``."""
-        g = np.zeros((self.n, 2 * len(taus)))
-        rg = np.zeros((self.n, 2 * len(taus)))
-        for k, t in enumerate(taus):
-            col = self._column(float(t))
-            g[:, 2 * k:2 * k + 2] = col.g
-            rg[col.lo:col.hi, 2 * k:2 * k + 2] = col.rg
-        return g, rg
-
     def _gram(self, taus: tuple[float, ...]) -> Gram:
-        """(G'R G, (R G)'(R G), (R G)'y, (R G)'R y) of the hinges ``taus``, assembled
-        from the previous set's (the search adds one junction at a time)."""
-        done = self._grams.get(taus)
+        """(G'R G, (R G)'(R G), (R G)'y, (R G)'R y) of the hinges ``taus``: one more
+        row and column of blocks for a set one junction longer than a kept one (the
+        search adds one junction at a time), else from all columns at once."""
+        done = _recall(self._grams, taus)
         if done is not None:
             return done
         col = self._column(taus[-1])
         if len(taus) == 1:
-            m, v = self._pair(taus[0], taus[0])
-            done = (m, v, col.gy, col.gry)
-        else:
+            done = (col.m, col.v, col.gy, col.gry)
+        elif taus[:-1] in self._grams:
             pm, pv, pgy, pgry = self._gram(taus[:-1])
+            g, rg = self.columns(list(taus[:-1]))
             k = 2 * len(taus)
             m = np.empty((k, k))
             v = np.empty((k, k))
             m[:-2, :-2], v[:-2, :-2] = pm, pv
-            for i, ti in enumerate(taus):
-                m[2 * i:2 * i + 2, -2:], v[2 * i:2 * i + 2, -2:] = self._pair(ti, taus[-1])
-                if i < len(taus) - 1:
-                    m[-2:, 2 * i:2 * i + 2], v[-2:, 2 * i:2 * i + 2] = self._pair(taus[-1], ti)
+            m[-2:, -2:], v[-2:, -2:] = col.m, col.v
+            m[:-2, -2:] = g[col.lo:col.hi].T @ col.rg
+            m[-2:, :-2] = col.g.T @ rg
+            v[:-2, -2:] = rg[col.lo:col.hi].T @ col.rg
+            v[-2:, :-2] = v[:-2, -2:].T
             done = (m, v, np.concatenate([pgy, col.gy]), np.concatenate([pgry, col.gry]))
-        if len(self._grams) >= SCORES_KEPT:
-            self._grams.pop(next(iter(self._grams)))
-        self._grams[taus] = done
-        return done
+        else:
+            g, rg = self.columns(list(taus))
+            cols = [self._column(t) for t in taus]
+            done = (g.T @ rg, rg.T @ rg, np.concatenate([c.gy for c in cols]),
+                    np.concatenate([c.gry for c in cols]))
+        return _remember(self._grams, taus, done, SCORES_KEPT)
 
     def score(self, taus: list[float]) -> FitScore:
         """The fit's scalars with hinges at node positions ``taus``, from the kept
         inner products (no vector of the table's length is formed)."""
         key = tuple(float(t) for t in taus)
-        done = self._scores.get(key)
+        done = _recall(self._scores, key)
         if done is not None:
             return done
         if not key:
@@ -450,10 +479,7 @@ class LevelSystem:
             rss = self.ryry - 2.0 * float(coef @ gry) + float(coef @ v @ coef)
             objective = self.yry - 2.0 * float(coef @ gy) + float(coef @ m @ coef)
             done = FitScore(coef, max(rss, 0.0), self.trace + extra, objective)
-        if len(self._scores) >= SCORES_KEPT:
-            self._scores.pop(next(iter(self._scores)))
-        self._scores[key] = done
-        return done
+        return _remember(self._scores, key, done, SCORES_KEPT)
 
     def fit(self, taus: list[float]) -> PartialFit:
         """The partial spline with hinges at node positions ``taus`` (the last few
@@ -492,12 +518,16 @@ def partial_fit(values: NDArray[np.float64], taus: list[float], lam_d: float
     return LevelSystem(values, lam_d).fit(taus)
 
 
-def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations: int) -> float:
-    """Minimiser of a unimodal ``fun`` on [a, b] (golden section)."""
+def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations: int,
+                   stop: Callable[[float, float], bool] | None = None) -> float:
+    """Minimiser of a unimodal ``fun`` on [a, b] (golden section). ``stop(a, b)``: the
+    bracket is of no more interest (the midpoint of the present one is returned)."""
     g = (math.sqrt(5.0) - 1.0) / 2.0
     c, d = b - g * (b - a), a + g * (b - a)
     fc, fd = fun(c), fun(d)
     for _ in range(iterations):
+        if stop is not None and stop(a, b):
+            break
         if fc < fd:
             b, d, fd = d, c, fc
             c = b - g * (b - a)
@@ -511,11 +541,14 @@ def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations
 
 class Levels:
     """The level systems of one table, by level: a search that comes back to a level
-    (a refused candidate's level search retraces the last one's) reuses its factor,
-    R y and the hinge columns already solved there. Arithmetic as with a fresh system."""
+    reuses its factor, R y and the hinge columns already solved there. The level
+    search steps on one lattice of ``LEVEL_STEP`` decades, anchored at the first
+    level it starts from (``anchor``, log10), so that the searches of successive
+    candidates meet the same levels."""
 
     def __init__(self, values: NDArray[np.float64]) -> None:
         self.values = values
+        self.anchor: float | None = None
         self._systems: dict[float, LevelSystem] = {}
 
     def at(self, lam_d: float) -> LevelSystem:
@@ -530,13 +563,16 @@ class Levels:
 def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
                  lam0: float, levels: Levels | None = None) -> float:
     """The GCV-minimising discrete level with these hinges, searched around ``lam0``:
-    downhill from log10(lam0) in steps of ``LEVEL_STEP`` decades (at most
-    ``LEVEL_REACH`` either way) to a bracketing triple, then the vertex of the parabola
-    through it (GCV is smooth and unimodal in log lam near its minimum). ``levels``:
-    the systems already built for ``values``, if any."""
+    downhill from the lattice level nearest to log10(lam0) in steps of ``LEVEL_STEP``
+    decades (at most ``LEVEL_REACH`` either way) to a bracketing triple, then the
+    vertex of the parabola through it (GCV is smooth and unimodal in log lam near its
+    minimum). ``levels``: the systems already built for ``values``, if any, and the
+    lattice's anchor (without them, or on the first call, log10(lam0) itself)."""
     levels = levels if levels is not None else Levels(values)
-    c0 = math.log10(max(lam0, 1e-6))
     h = LEVEL_STEP
+    if levels.anchor is None:
+        levels.anchor = math.log10(max(lam0, 1e-6))
+    c0 = levels.anchor + h * round((math.log10(max(lam0, 1e-6)) - levels.anchor) / h)
     seen: dict[int, float] = {}
 
     def score(k: int) -> float:         # GCV at c0 + k h, each level computed once
@@ -652,9 +688,9 @@ class JunctionFit:
             v = side * (u - tau)
             c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
             pos = v > 0
-            out += np.where(pos, c2 * polyval(v, quad), 0.0)
+            out += np.where(pos, c2 * _horner(v, quad), 0.0)
             near = np.flatnonzero(pos & (v < length))
-            out[near] += c3 * polyval(v[near], cubic)
+            out[near] += c3 * _horner(v[near], cubic)
         return out.reshape(x.shape) / self.step ** nu
 
 
@@ -714,22 +750,20 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
         # far below the bar is refused without either
         quick = n * math.log(base / system.gcv(taus + [at], gamma))
+        trial, lam_trial, gain = taus + [at], lam, quick
         if quick >= GCV_GAIN - PRETEST_SLACK:
             trial = _refine(system, taus + [at])
-            lam_trial = choose_level(values, trial, gamma, lam, levels)
-            trial_system = levels.at(lam_trial)
-            # kept only if it lowers the GCV score of the whole fit: a step that stands
-            # in for the smoothing bias of a smooth, strongly curved lobe raises it
-            gain = n * math.log(base / trial_system.gcv(trial, gamma))
-        else:
-            trial, lam_trial, gain = taus + [at], lam, quick
+            # a junction refused for its place needs no level search
+            if not _misplaced(trial, at):
+                lam_trial = choose_level(values, trial, gamma, lam, levels)
+                trial_system = levels.at(lam_trial)
+                # kept only if it lowers the GCV score of the whole fit: a step that
+                # stands in for the smoothing bias of a smooth, strongly curved lobe
+                # raises it
+                gain = n * math.log(base / trial_system.gcv(trial, gamma))
         # nor if the rest of the fit has to get much rougher for it (a step of the
         # lift itself, which a step of h'' only imitates)
-        # nor if its best angle is not within the row the scan pointed at (the bound
-        # of the refinement: the residual has no sharp step there)
-        if (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) < 1.0
-                or abs(trial[-1] - at) > 0.9
-                or gain < GCV_GAIN or lam_trial < MIN_LEVEL_RATIO * lam):
+        if (_misplaced(trial, at) or gain < GCV_GAIN or lam_trial < MIN_LEVEL_RATIO * lam):
             vetoed.append(at)
             in_a_row += 1
             if in_a_row >= MAX_REFUSED:
@@ -749,9 +783,19 @@ def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
     residual, the others held (the level's system keeps their columns)."""
     last = taus[-1]
     lo, hi = max(last - 1.0, 1.0), min(last + 1.0, system.n - 2.0)
+    # a bracket that has left +-MAX_MOVE of the scan's angle ends in a refusal: stop
     best = golden_minimum(lambda t: system.score(taus[:-1] + [t]).objective, lo, hi,
-                          REFINE_ITERATIONS)
+                          REFINE_ITERATIONS,
+                          stop=lambda a, b: b < last - MAX_MOVE or a > last + MAX_MOVE)
     return taus[:-1] + [best]
+
+
+def _misplaced(trial: list[float], at: float) -> bool:
+    """The refined junction is refused for its place alone: within a node of another,
+    or more than ``MAX_MOVE`` from the scan's angle ``at`` (the residual has no sharp
+    step there)."""
+    return (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) < 1.0
+            or abs(trial[-1] - at) > MAX_MOVE)
 
 
 class JunctionSpline:
