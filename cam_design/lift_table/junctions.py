@@ -618,6 +618,19 @@ def _kernel_spectra(n: int, length: float, nfft: int) -> NDArray[np.complex128]:
     return out
 
 
+@lru_cache(maxsize=4)
+def _scan_positions(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Node positions of the scan, ascending: node + offset (right-opening, in row
+    order) and (n - 1 - node) - offset (left-opening, in reversed row order)."""
+    offs = np.asarray(SCAN_OFFSETS)
+    nodes = np.arange(n, dtype=float)
+    right = (nodes[:, None] + offs[None, :]).ravel()
+    left = ((n - 1 - nodes)[:, None] - offs[None, :]).ravel()[::-1].copy()
+    right.setflags(write=False)
+    left.setflags(write=False)
+    return right, left
+
+
 def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
          ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(node positions tau, statistic T) of one more junction at every quarter node,
@@ -627,34 +640,32 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
 
     The hinge's inner products with the residual at every position are one
     correlation (right-opening) and one convolution (left-opening) with the hinge,
-    both from one FFT of the residual."""
+    both from one FFT of the residual (and one batch of inverse FFTs)."""
     n = resid.size
     length = taper_nodes(n)
     nfft = next_fast_len(2 * n, real=True)
     spectra = _kernel_spectra(n, length, nfft)
     e = rfft(resid, nfft)
-    right = np.zeros((n, len(SCAN_OFFSETS)))
-    left = np.zeros((n, len(SCAN_OFFSETS)))
+    kern = np.empty((len(SCAN_OFFSETS), spectra.shape[-1]), dtype=complex)
+    var = np.empty(len(SCAN_OFFSETS))
     for col, (m, v) in enumerate(_hinge_grams(float(lam_d), length)):
         # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
         w = np.array([1.0, -m[0, 1] / m[1, 1]])
-        var = max(float(w @ v @ w) * sigma ** 2, 1e-300)
-        kern = w[0] * spectra[col, 0] + w[1] * spectra[col, 1]
-        # right: b(j) = sum_i g(i - off) e_{j+i}; left (the table reversed):
-        # b(j) = sum_i g(i - off) e_{n-1-j-i}
-        right[:, col] = irfft(e * np.conj(kern), nfft)[:n] ** 2 / var
-        left[:, col] = irfft(e * kern, nfft)[n - 1::-1] ** 2 / var
-    # positions node + offset (right-opening, rising in row order) up to the middle,
-    # then (n - 1 - node) - offset (left-opening, rising in reversed row order)
-    offs = np.asarray(SCAN_OFFSETS)
-    nodes = np.arange(n, dtype=float)
+        var[col] = max(float(w @ v @ w) * sigma ** 2, 1e-300)
+        kern[col] = w[0] * spectra[col, 0] + w[1] * spectra[col, 1]
+    # right: b(j) = sum_i g(i - off) e_{j+i}; left (the table reversed):
+    # b(j) = sum_i g(i - off) e_{n-1-j-i}
+    b = irfft(np.concatenate([e * np.conj(kern), e * kern]), nfft, axis=-1)
+    k = len(SCAN_OFFSETS)
+    right = (b[:k, :n] ** 2 / var[:, None]).T.ravel()
+    left = (b[k:, n - 1::-1] ** 2 / var[:, None]).T.ravel()[::-1]
+    pos_r, pos_l = _scan_positions(n)
     mid = 0.5 * (n - 1)
-    pos_r = (nodes[:, None] + offs[None, :]).ravel()
-    pos_l = ((n - 1 - nodes)[:, None] - offs[None, :]).ravel()[::-1]
-    keep_r = (pos_r >= margin) & (pos_r <= mid)
-    keep_l = (pos_l > mid) & (pos_l <= n - 1 - margin)
-    return (np.concatenate([pos_r[keep_r], pos_l[keep_l]]),
-            np.concatenate([right.ravel()[keep_r], left.ravel()[::-1][keep_l]]))
+    r0, r1 = np.searchsorted(pos_r, margin, side='left'), np.searchsorted(pos_r, mid, 'right')
+    l0 = np.searchsorted(pos_l, mid, side='right')
+    l1 = np.searchsorted(pos_l, n - 1 - margin, side='right')
+    return (np.concatenate([pos_r[r0:r1], pos_l[l0:l1]]),
+            np.concatenate([right[r0:r1], left[l0:l1]]))
 
 
 @dataclass(frozen=True)
@@ -739,8 +750,7 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
             base = system.gcv(taus, gamma)
             fresh = False
         if taus or vetoed:
-            near = np.min(np.abs(pos[:, None] - np.asarray(taus + vetoed)[None, :]), axis=1)
-            stat = np.where(near > max(1.5, bandwidth), stat, 0.0)
+            stat = _cleared(pos, stat, taus + vetoed, max(1.5, bandwidth))
         i = int(np.argmax(stat)) if stat.size else -1
         if i < 0 or stat[i] < threshold:
             break
@@ -776,6 +786,17 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
     if not taus:
         return None
     return _fit_result(grid, taus, lam, system.fit(taus), scores)
+
+
+def _cleared(pos: NDArray[np.float64], stat: NDArray[np.float64], points: list[float],
+             reach: float) -> NDArray[np.float64]:
+    """``stat`` set to 0 at the (ascending) positions ``pos`` within ``reach`` of any of
+    ``points``."""
+    out = stat.copy()
+    for p in points:
+        out[np.searchsorted(pos, p - reach, side='left'):
+            np.searchsorted(pos, p + reach, side='right')] = 0.0
+    return out
 
 
 def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
