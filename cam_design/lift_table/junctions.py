@@ -38,7 +38,7 @@ chosen again, and the search stops after ``MAX_REFUSED`` refusals in a row.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Callable, TypeVar
 
@@ -673,7 +673,8 @@ class JunctionFit:
     """The partial-spline fit with its junctions: ``angles`` [rad], acceleration
     ``jumps`` [m/rad^2] (h''(t+) - h''(t-)), the discrete level ``lam_d``, the smooth
     part ``smooth`` [m] on the grid, ``edf``, the search statistics ``scores``;
-    ``step`` [rad], ``x0`` [rad], ``nodes`` and ``coef`` (node units) for the hinges."""
+    ``step`` [rad], ``x0`` [rad], ``nodes`` and ``coef`` (node units) for the hinges;
+    ``fitted_on``: the grid values [m] of the fit, where they are kept."""
 
     angles: tuple[float, ...]
     jumps: tuple[float, ...]
@@ -685,6 +686,7 @@ class JunctionFit:
     x0: float
     nodes: int
     coef: NDArray[np.float64]
+    fitted_on: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
 
     def hinge_part(self, x: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
         """Sum of the hinges' nu-th derivative [m/rad^nu] at ``x`` [rad]."""
@@ -706,7 +708,8 @@ class JunctionFit:
 
 
 def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
-                fit: PartialFit, scores: list[float]) -> JunctionFit:
+                fit: PartialFit, scores: list[float],
+                fitted_on: NDArray[np.float64] | None = None) -> JunctionFit:
     step = float(grid[1] - grid[0])
     n = grid.size
     order = np.argsort(taus)
@@ -714,7 +717,7 @@ def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
     jumps = tuple(side_of(taus[i], n) * float(fit.coef[2 * i]) / step ** 2 for i in order)
     return JunctionFit(tuple(float(grid[0] + taus[i] * step) for i in order), jumps,
                        lam_d, fit.smooth, fit.edf, tuple(scores[i] for i in order), step,
-                       float(grid[0]), n, coef)
+                       float(grid[0]), n, coef, fitted_on)
 
 
 def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0: float,
@@ -785,7 +788,7 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         lam, system, fresh = lam_trial, trial_system, True
     if not taus:
         return None
-    return _fit_result(grid, taus, lam, system.fit(taus), scores)
+    return _fit_result(grid, taus, lam, system.fit(taus), scores, values.copy())
 
 
 def _cleared(pos: NDArray[np.float64], stat: NDArray[np.float64], points: list[float],
@@ -838,6 +841,9 @@ def refit(grid: NDArray[np.float64], values: NDArray[np.float64],
     """The fit with ``found``'s junctions at level ``lam_d``; nodes marked ``missing``
     (outliers, gaps, free end nodes) are refilled with the fit ``fills`` times, so that
     they end up carrying no weight (EM for the missing values)."""
+    if (found.fitted_on is not None and lam_d == found.lam_d and not np.any(missing)
+            and np.array_equal(found.fitted_on, values)):
+        return found                    # the search's own last fit
     step = float(grid[1] - grid[0])
     taus = [(t - float(grid[0])) / step for t in found.angles]
     vals = values.copy()
