@@ -237,13 +237,17 @@ def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
     return r - q @ (q.T @ r)
 
 
+#: the stencil of the third difference
+_THIRD_DIFFERENCE = np.array([-1.0, 3.0, -3.0, 1.0])
+
+
 def _penalised(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
     """lam_d P g = lam_d D3'D3 g (free ends of ``g``'s own rows)."""
     d3 = np.diff(g, 3, axis=0)
-    pg = np.zeros(g.shape)
-    for j, c in enumerate((-1.0, 3.0, -3.0, 1.0)):
-        pg[j:j + d3.shape[0]] += c * d3
-    return lam_d * pg
+    if g.ndim == 1:
+        return lam_d * np.convolve(d3, _THIRD_DIFFERENCE)
+    return lam_d * np.column_stack([np.convolve(d3[:, k], _THIRD_DIFFERENCE)
+                                    for k in range(g.shape[1])])
 
 
 def _residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
@@ -474,8 +478,9 @@ class LevelSystem:
             # hinge's long quadratic tail (a 1e-15 change of the level moved the step
             # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
             # third differences and y is data, so the product keeps its digits
-            coef = np.linalg.solve(ridge, gy)
-            extra = float(np.trace(np.linalg.solve(ridge, v)))
+            sol = np.linalg.solve(ridge, np.column_stack([gy, v]))
+            coef = sol[:, 0]
+            extra = float(np.trace(sol[:, 1:]))
             rss = self.ryry - 2.0 * float(coef @ gry) + float(coef @ v @ coef)
             objective = self.yry - 2.0 * float(coef @ gy) + float(coef @ m @ coef)
             done = FitScore(coef, max(rss, 0.0), self.trace + extra, objective)
@@ -694,15 +699,21 @@ class JunctionFit:
         u = ((x - self.x0) / self.step).ravel()
         out = np.zeros(u.size)
         length = taper_nodes(self.nodes)
-        quad, cubic = _hinge_coefficients(float(length), nu)
+        cubic = _hinge_coefficients(float(length), nu)[1]
         for k, t in enumerate(self.angles):
             tau = (t - self.x0) / self.step
             side = side_of(tau, self.nodes)
             v = side * (u - tau)
             c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
-            pos = v > 0
-            out += np.where(pos, c2 * _horner(v, quad), 0.0)
-            near = np.flatnonzero(pos & (v < length))
+            # the quadratic hinge: v^2/2, v, 1, 0 on v > 0 (Horner's values)
+            if nu == 0:
+                vp = np.maximum(v, 0.0)
+                out += c2 * ((0.5 * vp) * vp)
+            elif nu == 1:
+                out += c2 * np.maximum(v, 0.0)
+            elif nu == 2:
+                out += np.where(v > 0, c2, 0.0)
+            near = np.flatnonzero((v > 0) & (v < length))
             out[near] += c3 * _horner(v[near], cubic)
         return out.reshape(x.shape) / self.step ** nu
 
