@@ -67,7 +67,8 @@ def family_rows() -> list[str]:
     from cam_design.lift_table.truth_lobes import families, measured_table
 
     rows = []
-    with_junctions, without = [], []
+    with_junctions: list[float] = []
+    without: list[float] = []
     for fam in families():
         for n in (72, 3600):
             a, h = measured_table(fam.law, 2 * math.pi / n, sigma=NOISE, seed=7)
