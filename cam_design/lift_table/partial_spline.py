@@ -238,13 +238,29 @@ def _window(n: int, tau: float, lam_d: float) -> tuple[int, int]:
     return lo, hi
 
 
-def _windowed_residual(g: NDArray[np.float64], lam_d: float, lo: int, hi: int
-                       ) -> NDArray[np.float64]:
-    """R g on rows [lo, hi) of the n = g.shape[0] rows, zero outside (the rows of
-    I + lam_d P there: a leading block, a trailing one (the matrix reads the same
-    backwards) or the Toeplitz interior)."""
+def _hinge_support(n: int, tau: float, lo: int, hi: int) -> tuple[int, int]:
+    """Rows [a, b) within [lo, hi) holding P g of the junction at node ``tau``: its node
+    and its taper, with 3 rows to spare either side."""
+    node = int(math.floor(tau))
+    taper = int(math.ceil(taper_nodes(n)))
+    if side_of(tau, n) > 0:
+        a, b = node - 6, node + taper + 8
+    else:
+        a, b = node - taper - 7, node + 7
+    return max(a, lo), min(b, hi)
+
+
+def _windowed_residual(g: NDArray[np.float64], lam_d: float, lo: int, hi: int,
+                       tau: float) -> NDArray[np.float64]:
+    """R g of the junction at node ``tau`` on rows [lo, hi) of the n = g.shape[0] rows,
+    zero outside (the rows of I + lam_d P there: a leading block, a trailing one (the
+    matrix reads the same backwards) or the Toeplitz interior)."""
     n = g.shape[0]
-    rhs = _penalised(g[lo:hi], lam_d)
+    rhs = np.zeros((hi - lo,) + g.shape[1:])
+    # P g from the hinge's own rows only: beyond them its third differences are those of
+    # a quadratic or of zero (0 but for the rounding of the quadratic's values)
+    a, b = _hinge_support(n, tau, lo, hi)
+    rhs[a - lo:b - lo] = _penalised(g[a:b], lam_d)
     if lo == 0:
         x = _solve(_factor(n, lam_d), rhs)
     elif hi == n:
@@ -366,7 +382,7 @@ class LevelSystem:
         if col is None:
             g = _hinge_pair(self.n, tau)
             lo, hi = _window(self.n, tau, self.lam_d)
-            rg = _windowed_residual(g, self.lam_d, lo, hi)
+            rg = _windowed_residual(g, self.lam_d, lo, hi, tau)
             col = self._cols[tau] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
                                             rg.T @ self.ry[lo:hi], g[lo:hi].T @ rg,
                                             rg.T @ rg)
