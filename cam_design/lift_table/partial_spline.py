@@ -37,6 +37,8 @@ SCORES_KEPT = 64
 STACKS_KEPT = 8
 #: a hinge's column is solved this many smoother bandwidths either side (window_margin)
 WINDOW_BANDWIDTHS = 48.0
+#: ... and at most this many rows (the interior block's length does not depend on N)
+MAX_MARGIN = 100_000
 
 
 def third_difference_gram(m: int) -> NDArray[np.float64]:
@@ -216,9 +218,10 @@ def window_margin(lam_d: float) -> int:
     """Nodes [>= 10] a hinge's column R g is solved for beyond the reach of P g: R g
     decays like exp(-k / (2 bw)), bw = lam_d^(1/6) nodes, so at ``WINDOW_BANDWIDTHS``
     bandwidths what is left out is below 1e-10 of its peak (the rounding of a
-    whole-table solve at the search's levels is 1e-12 .. 1e-9 of it)."""
+    whole-table solve at the search's levels is 1e-12 .. 1e-9 of it). At most
+    ``MAX_MARGIN`` (a level above 1e19, a smoother that is all but a polynomial)."""
     reach = WINDOW_BANDWIDTHS * max(lam_d, 1.0) ** (1.0 / 6.0) + 10.0
-    return int(min(reach, 1e9))
+    return int(min(reach, MAX_MARGIN))
 
 
 def _window(n: int, tau: float, lam_d: float) -> tuple[int, int]:
