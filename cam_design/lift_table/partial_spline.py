@@ -283,12 +283,6 @@ def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
     return g
 
 
-def _hinge_columns(n: int, taus: list[float]) -> NDArray[np.float64]:
-    """(n, 2J): g2 and g3 of each junction, opening on its longer side (node units)."""
-    cols = [_hinge_pair(n, float(t)) for t in taus]
-    return np.concatenate(cols, axis=1) if cols else np.zeros((n, 0))
-
-
 @dataclass(frozen=True)
 class PartialFit:
     """A partial-spline fit at one level: smooth part ``smooth`` [m] on the grid, hinge
@@ -466,10 +460,7 @@ class LevelSystem:
         key = tuple(taus)
         done = self._fits.get(key)
         if done is None:
-            done = self._fit(taus)
-            if len(self._fits) >= FITS_KEPT:
-                self._fits.pop(next(iter(self._fits)))
-            self._fits[key] = done
+            done = _remember(self._fits, key, self._fit(taus), FITS_KEPT)
         return done
 
     def _fit(self, taus: list[float]) -> PartialFit:
