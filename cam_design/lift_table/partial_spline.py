@@ -277,8 +277,22 @@ def _windowed_residual(g: NDArray[np.float64], lam_d: float, lo: int, hi: int,
 def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
     """(n, 2): g2 and g3 of one junction at node position ``tau``, opening on its
     longer side (node units; read-only, cached: the level search asks for the same
-    junctions at every level)."""
-    g = hinge_values(side_of(tau, n) * (np.arange(n, dtype=float) - tau), taper_nodes(n))
+    junctions at every level). The values of ``hinge_values``, formed on the rows
+    where the hinge is not zero only."""
+    length = taper_nodes(n)
+    quad, cubic = hinge_coefficients(length, 0)
+    g = np.zeros((n, 2))
+    if side_of(tau, n) > 0:                  # rows after tau, u = row - tau rising
+        first = int(math.floor(tau)) + 1
+        u = np.arange(first, n, dtype=float) - tau
+        rows = g[first:]
+    else:                                    # rows before tau, backwards: u = tau - row
+        last = int(math.ceil(tau)) - 1
+        u = -(np.arange(last, -1, -1, dtype=float) - tau)
+        rows = g[last::-1]
+    rows[:, 0] = horner(u, quad)
+    near = int(np.searchsorted(u, length, side='left'))
+    rows[:near, 1] = horner(u[:near], cubic)
     g.setflags(write=False)
     return g
 
