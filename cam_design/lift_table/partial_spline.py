@@ -37,8 +37,9 @@ SCORES_KEPT = 64
 STACKS_KEPT = 8
 #: a hinge's column is solved this many smoother bandwidths either side (window_margin)
 WINDOW_BANDWIDTHS = 48.0
-#: ... and at most this many rows (the interior block's length does not depend on N)
-MAX_MARGIN = 100_000
+#: ... and at most this many rows (the interior block's length does not depend on N; a
+#: level that asks for more, above 1e15, is past what the factorisation can hold anyway)
+MAX_MARGIN = 20_000
 
 
 def third_difference_gram(m: int) -> NDArray[np.float64]:
@@ -85,7 +86,7 @@ def _factor(n: int, lam_d: float) -> NDArray[np.float64]:
     return _cholesky(_lower_band(_penalty(n), lam_d))
 
 
-@lru_cache(maxsize=32)
+@lru_cache(maxsize=16)
 def _interior_factor(m: int, lam_d: float) -> NDArray[np.float64]:
     """Banded Cholesky factor of the m x m block of I + lam_d D3'D3 away from both
     ends (every row the full stencil 20, -15, 6, -1; Toeplitz)."""
@@ -219,7 +220,7 @@ def window_margin(lam_d: float) -> int:
     decays like exp(-k / (2 bw)), bw = lam_d^(1/6) nodes, so at ``WINDOW_BANDWIDTHS``
     bandwidths what is left out is below 1e-10 of its peak (the rounding of a
     whole-table solve at the search's levels is 1e-12 .. 1e-9 of it). At most
-    ``MAX_MARGIN`` (a level above 1e19, a smoother that is all but a polynomial)."""
+    ``MAX_MARGIN``."""
     reach = WINDOW_BANDWIDTHS * max(lam_d, 1.0) ** (1.0 / 6.0) + 10.0
     return int(min(reach, MAX_MARGIN))
 
