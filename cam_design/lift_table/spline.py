@@ -47,6 +47,9 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
+from cam_design.lift_table.coarse import (STRUCTURED_LAG_ONE, STRUCTURED_RMS,
+                                          base_circle_sigma, coarse_junctions, cp_level,
+                                          structured_misfit)
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              golden_minimum, refit)
 from cam_design.lift_table.noise import rebound_sigma
@@ -732,6 +735,29 @@ class SplineOptions:
     junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
 
 
+def _coarse_level(values: NDArray[np.float64], missing: NDArray[np.bool_], fair: Fairing,
+                  lam_d: float, why: str) -> tuple[float, str]:
+    """The level of a coarse table without junctions: ``lam_d`` unless its fit leaves
+    structured residuals on the lobe far above the base circle's noise; then Mallows'
+    Cp with that noise (coarse.py)."""
+    rows = fair.lift[~fair.outlier]
+    sigma = base_circle_sigma(rows, fair.quantum)
+    if sigma is None or sigma <= 0.0:
+        return lam_d, why
+    live = ~missing
+    fit = smooth_grid(values, missing, lam_d)
+    rho, rms = structured_misfit(values[live], fit[live], sigma)
+    if rho <= STRUCTURED_LAG_ONE or rms <= STRUCTURED_RMS:
+        return lam_d, why
+    lam_cp = cp_level(values, sigma)
+    if lam_cp >= lam_d:
+        return lam_d, why
+    return lam_cp, (f'{why}; coarse table: that fit left residuals {rms:.3g} x the '
+                    f'base-circle noise ({sigma:.3g} m), correlated row to row '
+                    f'({rho:.2f}): level by Mallows\' Cp with that noise, '
+                    f'lam_d = {lam_cp:.4g}')
+
+
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
                        options: SplineOptions | None = None,
                        fairing: Fairing | None = None) -> Reconstruction:
@@ -825,19 +851,32 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     why = choice.why
     lam_d = choice.lam_d
     found = None
-    # not on tables coarser than VERY_COARSE_RAD: a few rows per segment cannot tell a
-    # step of h'' from a steep smooth change (the cards and jump speeds of 5 deg, 0.01 mm
-    # tables got worse with them)
-    if (opt.junctions and uniform and not exact and opt.smoothing is None
-            and step <= VERY_COARSE_RAD):
+    # tables coarser than VERY_COARSE_RAD (coarse.py): a few rows per segment cannot
+    # tell a step of h'' from a steep smooth change by GCV alone, so each junction is
+    # also tested against a soft change, and without junctions the level is checked
+    # against the base circle's noise
+    coarse = step > VERY_COARSE_RAD
+    if opt.junctions and uniform and not exact and opt.smoothing is None:
         # the search compares GCV scores: it starts from the plain GCV level
         start = choice if opt.criterion == 'gcv' else choose_smoothing(
             values, step, criterion='gcv', gamma=gamma, sigma_floor=floor)
-        found = find_junctions(grid, values, start.lam_d, gamma=gamma, sigma_floor=floor)
+        if coarse:
+            outcome = coarse_junctions(grid, values, missing, start.lam_d, gamma=gamma,
+                                       sigma_floor=floor)
+            found = outcome.found
+            if outcome.refused:
+                notes.append('coarse table: no step of h\'\' at ' + ', '.join(
+                    f'{math.degrees(t):.1f}' for t in outcome.refused)
+                    + ' deg (a change of h\'\' over 2-4 rows fits the rows better)')
+        else:
+            found = find_junctions(grid, values, start.lam_d, gamma=gamma,
+                                   sigma_floor=floor)
         if found is not None:
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
                     f'chosen again with them: lam_d = {lam_d:.4g}')
+    if coarse and uniform and found is None and not exact and opt.smoothing is None:
+        lam_d, why = _coarse_level(values, missing, fair, lam_d, why)
 
     ylift = fair.lift.copy()
 
