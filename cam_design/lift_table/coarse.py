@@ -133,35 +133,41 @@ def _step_column(n: int, tau: float, width: float) -> NDArray[np.float64]:
     return np.asarray(ramp / (6.0 * width), dtype=np.float64)
 
 
-def _gcv(values: NDArray[np.float64], r: NDArray[np.float64], trace_s: float,
-         g: NDArray[np.float64], gamma: float) -> float:
-    """GCV score of the partial spline y = f + G c at the smoother behind ``r``."""
-    n = values.size
-    rg = r @ g
-    m = g.T @ rg
-    m = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
-    coef = np.linalg.solve(m, rg.T @ values)
-    resid = r @ values - rg @ coef
-    edf = trace_s + float(np.trace(np.linalg.solve(m, rg.T @ rg)))
-    return n * float(resid @ resid) / max(n - gamma * edf, 1e-9) ** 2
+def _gcv_scores(values: NDArray[np.float64], r: NDArray[np.float64], trace_s: float,
+                fixed: NDArray[np.float64], candidates: NDArray[np.float64],
+                gamma: float) -> NDArray[np.float64]:
+    """GCV scores of the partial splines y = f + G c, G = [``fixed`` (n, J),
+    ``candidates[k]`` (n, c)], at the smoother behind ``r``: all K candidates at once."""
+    n, k = values.size, candidates.shape[0]
+    g = np.concatenate([np.broadcast_to(fixed, (k,) + fixed.shape), candidates], axis=2)
+    rg = np.einsum('ij,kjc->kic', r, g)                      # (K, n, J + c)
+    m = np.einsum('kni,knj->kij', g, rg)
+    j = m.shape[1]
+    m += 1e-13 * np.trace(m, axis1=1, axis2=2)[:, None, None] * np.eye(j)
+    coef = np.linalg.solve(m, np.einsum('knj,n->kj', rg, values)[:, :, None])[:, :, 0]
+    resid = (r @ values)[None, :] - np.einsum('knj,kj->kn', rg, coef)
+    gram = np.einsum('kni,knj->kij', rg, rg)
+    edf = trace_s + np.trace(np.linalg.solve(m, gram), axis1=1, axis2=2)
+    rss = np.einsum('kn,kn->k', resid, resid)
+    return np.asarray(n * rss / np.maximum(n - gamma * edf, 1e-9) ** 2, dtype=np.float64)
 
 
 def soft_gain(values: NDArray[np.float64], taus: list[float], j: int, lam_d: float,
               gamma: float) -> float:
     """N ln(GCV sharp / GCV soft) of junction ``j`` (node position ``taus[j]``) with the
     others kept as steps: > 0 when a linear change of h'' over ``SOFT_WIDTHS`` rows
-    (best width and position) explains the rows better than the step."""
+    (best width and position) explains the rows better than the step (best position
+    within ``SHARP_OFFSETS``)."""
     n = values.size
     r, trace_s = _residual_matrix(n, float(lam_d))
     others = [_step_column(n, t, 0.0) for i, t in enumerate(taus) if i != j]
-
-    def score(tau: float, width: float) -> float:
-        g = np.column_stack(others + [_step_column(n, tau, width)])
-        return _gcv(values, r, trace_s, g, gamma)
-
-    sharp = min(score(taus[j] + d, 0.0) for d in SHARP_OFFSETS)
-    soft = min(score(taus[j] + d, w) for w in SOFT_WIDTHS for d in SOFT_OFFSETS)
-    return n * math.log(sharp / soft)
+    fixed = np.column_stack(others) if others else np.zeros((n, 0))
+    sharp = [_step_column(n, taus[j] + d, 0.0) for d in SHARP_OFFSETS]
+    soft = [_step_column(n, taus[j] + d, w) for w in SOFT_WIDTHS for d in SOFT_OFFSETS]
+    scores = _gcv_scores(values, r, trace_s, fixed, np.stack(sharp + soft)[:, :, None],
+                         gamma)
+    return n * math.log(float(np.min(scores[:len(sharp)]))
+                        / float(np.min(scores[len(sharp):])))
 
 
 @dataclass(frozen=True)
@@ -193,7 +199,11 @@ def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
     kept = [k for k, s in enumerate(soft) if not s]
     if not kept:
         return CoarseJunctions(None, refused, lam0)
-    lam = choose_level(values, [taus[k] for k in kept], gamma, found.lam_d)
+    # chosen again without the refused ones, but never smoother than with them (GCV
+    # without a stand-in may read the lobe's fast change as noise, as without any),
+    # nor smoother than the plain fit the search started from
+    lam = min(choose_level(values, [taus[k] for k in kept], gamma, found.lam_d),
+              found.lam_d, lam0)
     pruned = replace(found, angles=tuple(found.angles[k] for k in kept),
                      scores=tuple(found.scores[k] for k in kept))
     return CoarseJunctions(refit(grid, values, missing, pruned, lam), refused, lam)

@@ -251,6 +251,8 @@ REBOUND_L1_FACTOR = _rebound_l1_factor()
 EXACT_NOISE_REL = 1e-6
 #: table step [rad] above which no row is taken for an outlier (only reported)
 VERY_COARSE_RAD = math.radians(4.5)
+#: table step [rad] above which junctions and the level get the coarse-table tests
+COARSE_RAD = VERY_COARSE_RAD
 #: on such a table an outlier (a typing error) also misses by more than this multiple of
 #: the rebound floor (5 x 2e-5 = 1e-4 of the lift range: 0.8 um on an 8 mm lobe)
 EXACT_FLOOR = 5.0
@@ -742,8 +744,10 @@ def _coarse_level(values: NDArray[np.float64], missing: NDArray[np.bool_], fair:
     Cp with that noise (coarse.py)."""
     rows = fair.lift[~fair.outlier]
     sigma = base_circle_sigma(rows, fair.quantum)
-    if sigma is None or sigma <= 0.0:
+    if sigma is None:
         return lam_d, why
+    # a base circle without scatter (a computed table): noise at the exact-table bound
+    sigma = max(sigma, EXACT_NOISE_REL * float(np.ptp(rows)))
     live = ~missing
     fit = smooth_grid(values, missing, lam_d)
     rho, rms = structured_misfit(values[live], fit[live], sigma)
@@ -855,7 +859,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     # tell a step of h'' from a steep smooth change by GCV alone, so each junction is
     # also tested against a soft change, and without junctions the level is checked
     # against the base circle's noise
-    coarse = step > VERY_COARSE_RAD
+    coarse = step > COARSE_RAD
     if opt.junctions and uniform and not exact and opt.smoothing is None:
         # the search compares GCV scores: it starts from the plain GCV level
         start = choice if opt.criterion == 'gcv' else choose_smoothing(
