@@ -207,3 +207,27 @@ def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
     pruned = replace(found, angles=tuple(found.angles[k] for k in kept),
                      scores=tuple(found.scores[k] for k in kept))
     return CoarseJunctions(refit(grid, values, missing, pruned, lam), refused, lam)
+
+
+def lobe_end_knots(grid: NDArray[np.float64], values: NDArray[np.float64],
+                   sigma: float) -> NDArray[np.float64] | None:
+    """Knots of a quintic interpolant of uniform ``values`` [m] on ``grid`` [rad] that
+    may kink h'' (jump of h''') where one lobe leaves the base circle: a triple knot at
+    the last base-circle row on each side (rows within 5 ``sigma`` or 1e-3 of the range
+    of the lowest), in place of the knots of its two neighbours; the not-a-knot knots
+    elsewhere. None without a single lobe clear of the table's ends."""
+    n = values.size
+    span = float(np.ptp(values))
+    base = values <= float(np.min(values)) + max(5.0 * sigma, 1e-3 * span)
+    lobe = np.flatnonzero(~base)
+    if lobe.size < 4 or np.any(np.diff(lobe) != 1):
+        return None
+    ends = (int(lobe[0]) - 1, int(lobe[-1]) + 1)
+    if ends[0] < 5 or ends[1] > n - 6:
+        return None
+    inner = [float(v) for v in grid[3:-3]]
+    for i in ends:
+        for j in (i - 1, i + 1):
+            inner.remove(float(grid[j]))
+        inner += [float(grid[i])] * 2
+    return np.concatenate([np.full(6, grid[0]), np.sort(inner), np.full(6, grid[-1])])

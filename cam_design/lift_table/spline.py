@@ -49,7 +49,7 @@ from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
 from cam_design.lift_table.coarse import (STRUCTURED_LAG_ONE, STRUCTURED_RMS,
                                           base_circle_sigma, coarse_junctions, cp_level,
-                                          structured_misfit)
+                                          lobe_end_knots, structured_misfit)
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              golden_minimum, refit)
 from cam_design.lift_table.noise import rebound_sigma
@@ -879,8 +879,12 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
                     f'chosen again with them: lam_d = {lam_d:.4g}')
+    knots = None
     if coarse and uniform and found is None and not exact and opt.smoothing is None:
         lam_d, why = _coarse_level(values, missing, fair, lam_d, why)
+        # h''' may jump where the lobe leaves the base circle (a C2 lobe's ends): a
+        # quintic interpolant without a knot there rounds that kink over two rows
+        knots = lobe_end_knots(grid, values, fair.sigma)
 
     ylift = fair.lift.copy()
 
@@ -889,7 +893,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             fit = refit(grid, values, missing, found, lam)
             return JunctionSpline(make_interp_spline(grid, fit.smooth, k=5), fit)
         if uniform:
-            return make_interp_spline(grid, smooth_grid(values, missing, lam), k=5)
+            smooth = smooth_grid(values, missing, lam)
+            if knots is not None:
+                try:
+                    return make_interp_spline(grid, smooth, k=5, t=knots)
+                except (ValueError, np.linalg.LinAlgError):
+                    pass
+            return make_interp_spline(grid, smooth, k=5)
         return _pspline(x[kept], ylift[kept], data.count[kept], grid, lam * density)
 
     spline = fit_spline(lam_d)
