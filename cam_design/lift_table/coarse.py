@@ -65,7 +65,8 @@ def base_circle_sigma(lift: NDArray[np.float64], quantum: float = 0.0) -> float 
     """Noise sigma [m] of a lift table from its base-circle rows (within
     ``BASE_FRACTION`` of the range above the lowest row): the MAD of their second
     differences over sqrt(6), at least the rounding's q/sqrt(12). None when fewer than
-    ``MIN_BASE_ROWS`` rows qualify (a table of the open valve only)."""
+    ``MIN_BASE_ROWS`` rows qualify (a table of the open valve only), or when most of
+    them are equal and the table is not rounded."""
     y = np.asarray(lift, dtype=float)
     if y.size < 3:
         return None
@@ -74,8 +75,12 @@ def base_circle_sigma(lift: NDArray[np.float64], quantum: float = 0.0) -> float 
     low = y[1:-1] <= float(np.min(y)) + BASE_FRACTION * span
     if np.count_nonzero(low) < MIN_BASE_ROWS:
         return None
-    sigma = MAD_TO_SIGMA * float(np.median(np.abs(d2[low]))) / math.sqrt(6.0)
-    return max(sigma, quantum / math.sqrt(12.0))
+    mad = float(np.median(np.abs(d2[low])))
+    if mad == 0.0:
+        # a base circle written as one value (zeros, or noise added to the lobe only)
+        # says nothing of the lobe's noise, beyond the rounding's
+        return quantum / math.sqrt(12.0) if quantum > 0.0 else None
+    return max(MAD_TO_SIGMA * mad / math.sqrt(6.0), quantum / math.sqrt(12.0))
 
 
 def cp_level(values: NDArray[np.float64], sigma: float) -> float:

@@ -738,16 +738,18 @@ class SplineOptions:
 
 
 def _coarse_level(values: NDArray[np.float64], missing: NDArray[np.bool_], fair: Fairing,
-                  lam_d: float, why: str) -> tuple[float, str]:
+                  lam_d: float, why: str, known: float) -> tuple[float, str]:
     """The level of a coarse table without junctions: ``lam_d`` unless its fit leaves
-    structured residuals on the lobe far above the base circle's noise; then Mallows'
-    Cp with that noise (coarse.py)."""
+    structured residuals on the lobe far above the base circle's noise (at least the
+    ``known`` noise [m]: the caller's or the rounding's); then Mallows' Cp with that
+    noise (coarse.py)."""
     rows = fair.lift[~fair.outlier]
     sigma = base_circle_sigma(rows, fair.quantum)
     if sigma is None:
         return lam_d, why
-    # a base circle without scatter (a computed table): noise at the exact-table bound
-    sigma = max(sigma, EXACT_NOISE_REL * float(np.ptp(rows)))
+    # a base circle without scatter (a computed table, or noise added to the lobe's
+    # rows only): the known noise, else the exact-table bound
+    sigma = max(sigma, known, EXACT_NOISE_REL * float(np.ptp(rows)))
     live = ~missing
     fit = smooth_grid(values, missing, lam_d)
     rho, rms = structured_misfit(values[live], fit[live], sigma)
@@ -881,7 +883,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                     f'chosen again with them: lam_d = {lam_d:.4g}')
     knots = None
     if coarse and uniform and found is None and not exact and opt.smoothing is None:
-        lam_d, why = _coarse_level(values, missing, fair, lam_d, why)
+        lam_d, why = _coarse_level(values, missing, fair, lam_d, why, floor)
         # h''' may jump where the lobe leaves the base circle (a C2 lobe's ends): a
         # quintic interpolant without a knot there rounds that kink over two rows
         knots = lobe_end_knots(grid, values, fair.sigma)
