@@ -35,7 +35,7 @@ from scipy.fft import dct
 
 from cam_design.lift_table.junctions import (JunctionFit, choose_level, find_junctions,
                                              golden_minimum, refit)
-from cam_design.lift_table.noise import MAD_TO_SIGMA
+from cam_design.lift_table.noise import EXACT_NOISE_REL, MAD_TO_SIGMA
 
 #: rows within this fraction of the lift range above the lowest row are taken for the
 #: base circle (a table's ramps start above it at 5 deg steps)
@@ -114,6 +114,32 @@ def structured_misfit(lift: NDArray[np.float64], fit: NDArray[np.float64],
     ss = float(r @ r)
     rho = float(r[1:] @ r[:-1]) / ss if ss > 0.0 else 0.0
     return rho, math.sqrt(float(np.mean(resid[lobe] ** 2))) / sigma
+
+
+def coarse_level(values: NDArray[np.float64], fit: NDArray[np.float64],
+                 live: NDArray[np.bool_], rows: NDArray[np.float64], quantum: float,
+                 known: float, lam_d: float) -> tuple[float, str]:
+    """The level of a coarse table without junctions and what to add to ``why``:
+    ``lam_d`` (its smoothed ``fit`` of the uniform ``values`` [m]; ``live`` the nodes
+    with data) unless that fit leaves structured residuals on the lobe far above the
+    noise of the base circle of ``rows`` [m] (rounded to ``quantum``, at least the
+    ``known`` noise [m]); then Mallows' Cp with that noise, if lower."""
+    sigma = base_circle_sigma(rows, quantum)
+    if sigma is None:
+        return lam_d, ''
+    # a base circle without scatter (a computed table): the known noise, else the
+    # exact-table bound
+    sigma = max(sigma, known, EXACT_NOISE_REL * float(np.ptp(rows)))
+    rho, rms = structured_misfit(values[live], fit[live], sigma)
+    if rho <= STRUCTURED_LAG_ONE or rms <= STRUCTURED_RMS:
+        return lam_d, ''
+    lam_cp = cp_level(values, sigma)
+    if lam_cp >= lam_d:
+        return lam_d, ''
+    return lam_cp, (f'; coarse table: that fit left residuals {rms:.3g} x the '
+                    f'base-circle noise ({sigma:.3g} m), correlated row to row '
+                    f'({rho:.2f}): level by Mallows\' Cp with that noise, '
+                    f'lam_d = {lam_cp:.4g}')
 
 
 @lru_cache(maxsize=8)

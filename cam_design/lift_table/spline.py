@@ -47,12 +47,10 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
-from cam_design.lift_table.coarse import (STRUCTURED_LAG_ONE, STRUCTURED_RMS,
-                                          base_circle_sigma, coarse_junctions, cp_level,
-                                          lobe_end_knots, structured_misfit)
+from cam_design.lift_table.coarse import coarse_junctions, coarse_level, lobe_end_knots
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              golden_minimum, refit)
-from cam_design.lift_table.noise import rebound_sigma
+from cam_design.lift_table.noise import EXACT_NOISE_REL, rebound_sigma
 from cam_design.lift_table.result import Reconstruction, output_grid, sign_changes
 from cam_design.lift_table.samples import CleanSamples, clean_samples
 
@@ -246,9 +244,6 @@ def _rebound_l1_factor() -> float:
 
 
 REBOUND_L1_FACTOR = _rebound_l1_factor()
-#: a table whose rebound noise is below this fraction of its lift range is computed, not
-#: measured (8 nm on an 8 mm lobe; gauges resolve 0.1 um at best)
-EXACT_NOISE_REL = 1e-6
 #: table step [rad] above which no row is taken for an outlier (only reported)
 VERY_COARSE_RAD = math.radians(4.5)
 #: table step [rad] above which junctions and the level get the coarse-table tests
@@ -737,33 +732,6 @@ class SplineOptions:
     junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
 
 
-def _coarse_level(values: NDArray[np.float64], missing: NDArray[np.bool_], fair: Fairing,
-                  lam_d: float, why: str, known: float) -> tuple[float, str]:
-    """The level of a coarse table without junctions: ``lam_d`` unless its fit leaves
-    structured residuals on the lobe far above the base circle's noise (at least the
-    ``known`` noise [m]: the caller's or the rounding's); then Mallows' Cp with that
-    noise (coarse.py)."""
-    rows = fair.lift[~fair.outlier]
-    sigma = base_circle_sigma(rows, fair.quantum)
-    if sigma is None:
-        return lam_d, why
-    # a base circle without scatter (a computed table, or noise added to the lobe's
-    # rows only): the known noise, else the exact-table bound
-    sigma = max(sigma, known, EXACT_NOISE_REL * float(np.ptp(rows)))
-    live = ~missing
-    fit = smooth_grid(values, missing, lam_d)
-    rho, rms = structured_misfit(values[live], fit[live], sigma)
-    if rho <= STRUCTURED_LAG_ONE or rms <= STRUCTURED_RMS:
-        return lam_d, why
-    lam_cp = cp_level(values, sigma)
-    if lam_cp >= lam_d:
-        return lam_d, why
-    return lam_cp, (f'{why}; coarse table: that fit left residuals {rms:.3g} x the '
-                    f'base-circle noise ({sigma:.3g} m), correlated row to row '
-                    f'({rho:.2f}): level by Mallows\' Cp with that noise, '
-                    f'lam_d = {lam_cp:.4g}')
-
-
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
                        options: SplineOptions | None = None,
                        fairing: Fairing | None = None) -> Reconstruction:
@@ -883,7 +851,10 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                     f'chosen again with them: lam_d = {lam_d:.4g}')
     knots = None
     if coarse and uniform and found is None and not exact and opt.smoothing is None:
-        lam_d, why = _coarse_level(values, missing, fair, lam_d, why, floor)
+        rows = fair.lift[~fair.outlier]
+        lam_d, reason = coarse_level(values, smooth_grid(values, missing, lam_d), ~missing,
+                                     rows, fair.quantum, floor, lam_d)
+        why += reason
         # h''' may jump where the lobe leaves the base circle (a C2 lobe's ends): a
         # quintic interpolant without a knot there rounds that kink over two rows
         knots = lobe_end_knots(grid, values, fair.sigma)
