@@ -167,19 +167,30 @@ def _step_column(n: int, tau: float, width: float) -> NDArray[np.float64]:
 def _gcv_scores(values: NDArray[np.float64], r: NDArray[np.float64], trace_s: float,
                 fixed: NDArray[np.float64], candidates: NDArray[np.float64],
                 gamma: float) -> NDArray[np.float64]:
-    """GCV scores of the partial splines y = f + G c, G = [``fixed`` (n, J),
-    ``candidates[k]`` (n, c)], at the smoother behind ``r``: all K candidates at once."""
-    n, k = values.size, candidates.shape[0]
-    g = np.concatenate([np.broadcast_to(fixed, (k,) + fixed.shape), candidates], axis=2)
-    rg = np.einsum('ij,kjc->kic', r, g)                      # (K, n, J + c)
-    m = np.einsum('kni,knj->kij', g, rg)
-    j = m.shape[1]
-    m += 1e-13 * np.trace(m, axis1=1, axis2=2)[:, None, None] * np.eye(j)
-    coef = np.linalg.solve(m, np.einsum('knj,n->kj', rg, values)[:, :, None])[:, :, 0]
-    resid = (r @ values)[None, :] - np.einsum('knj,kj->kn', rg, coef)
-    gram = np.einsum('kni,knj->kij', rg, rg)
+    """GCV scores of the partial splines y = f + G c, G = [``fixed`` (n, J), one column
+    of ``candidates`` (n, K)], at the smoother behind ``r``: all K at once (the fixed
+    blocks formed once, one batched (J + 1)-square solve)."""
+    n, k = candidates.shape
+    j = fixed.shape[1]
+    rf, rc, ry = r @ fixed, r @ candidates, r @ values
+    m = np.empty((k, j + 1, j + 1))
+    gram = np.empty((k, j + 1, j + 1))
+    m[:, :j, :j] = fixed.T @ rf
+    m[:, :j, j] = (fixed.T @ rc).T
+    m[:, j, :j] = m[:, :j, j]
+    m[:, j, j] = np.einsum('ik,ik->k', candidates, rc)
+    gram[:, :j, :j] = rf.T @ rf
+    gram[:, :j, j] = (rf.T @ rc).T
+    gram[:, j, :j] = gram[:, :j, j]
+    gram[:, j, j] = np.einsum('ik,ik->k', rc, rc)
+    m += 1e-13 * np.trace(m, axis1=1, axis2=2)[:, None, None] * np.eye(j + 1)
+    rhs = np.empty((k, j + 1, 1))
+    rhs[:, :j, 0] = rf.T @ values
+    rhs[:, j, 0] = rc.T @ values
+    coef = np.linalg.solve(m, rhs)[:, :, 0]                   # (K, J + 1)
+    resid = ry[:, None] - rf @ coef[:, :j].T - rc * coef[:, j]
     edf = trace_s + np.trace(np.linalg.solve(m, gram), axis1=1, axis2=2)
-    rss = np.einsum('kn,kn->k', resid, resid)
+    rss = np.einsum('ik,ik->k', resid, resid)
     return np.asarray(n * rss / np.maximum(n - gamma * edf, 1e-9) ** 2, dtype=np.float64)
 
 
@@ -195,8 +206,7 @@ def soft_gain(values: NDArray[np.float64], taus: list[float], j: int, lam_d: flo
     fixed = np.column_stack(others) if others else np.zeros((n, 0))
     sharp = [_step_column(n, taus[j] + d, 0.0) for d in SHARP_OFFSETS]
     soft = [_step_column(n, taus[j] + d, w) for w in SOFT_WIDTHS for d in SOFT_OFFSETS]
-    scores = _gcv_scores(values, r, trace_s, fixed, np.stack(sharp + soft)[:, :, None],
-                         gamma)
+    scores = _gcv_scores(values, r, trace_s, fixed, np.column_stack(sharp + soft), gamma)
     return n * math.log(float(np.min(scores[:len(sharp)]))
                         / float(np.min(scores[len(sharp):])))
 
