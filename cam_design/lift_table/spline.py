@@ -730,6 +730,10 @@ class SplineOptions:
     expected_sign_changes: int | None = 2   # of h'' (None: no check)
     step: float | None = None               # output grid step [rad]; None: data step
     junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
+    # also on tables coarser than COARSE_RAD, each junction tested against a soft change
+    # of h'' (coarse.py); off by default: at 5 deg a change of h'' within one row (the
+    # acceleration peak of a 2-10-18-26 polynomial lobe) passes that test as a step
+    coarse_junctions: bool = False
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
@@ -825,12 +829,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     why = choice.why
     lam_d = choice.lam_d
     found = None
-    # tables coarser than VERY_COARSE_RAD (coarse.py): a few rows per segment cannot
-    # tell a step of h'' from a steep smooth change by GCV alone, so each junction is
-    # also tested against a soft change, and without junctions the level is checked
-    # against the base circle's noise
+    # tables coarser than COARSE_RAD (coarse.py): a few rows per segment cannot tell a
+    # step of h'' from a steep smooth change, so junctions are sought there only when
+    # asked for (and then each is tested against a soft change), and without junctions
+    # the level is checked against the base circle's noise
     coarse = step > COARSE_RAD
-    if opt.junctions and uniform and not exact and opt.smoothing is None:
+    if (opt.junctions and uniform and not exact and opt.smoothing is None
+            and (opt.coarse_junctions or not coarse)):
         # the search compares GCV scores: it starts from the plain GCV level
         start = choice if opt.criterion == 'gcv' else choose_smoothing(
             values, step, criterion='gcv', gamma=gamma, sigma_floor=floor)
