@@ -55,9 +55,10 @@ SHARP_OFFSETS = tuple(np.linspace(-0.5, 0.5, 21))
 #: cam -1.8 and above
 SOFT_MARGIN = 6.0
 #: the GCV fit's lobe residuals are structure when their lag-one correlation exceeds this
-#: (white noise: 0 at most; spikes: negative) and their RMS exceeds STRUCTURED_RMS times
-#: the base-circle noise
-STRUCTURED_LAG_ONE = 0.15
+#: (spikes make it negative: -0.22 to -0.40 on the C2 lobe with 5 spikes; the misfit at
+#: the steps of the dwell and circular-arc cams +0.03 to +0.11, of the C2 and ramped
+#: lobes +0.2 to +0.56) and their RMS exceeds STRUCTURED_RMS times the base-circle noise
+STRUCTURED_LAG_ONE = 0.0
 STRUCTURED_RMS = 1.5
 
 
