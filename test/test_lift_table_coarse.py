@@ -188,3 +188,13 @@ def test_lobe_end_knots_are_triple_at_the_last_base_circle_rows():
     assert t is not None and t.size == a.size + 6
     for end in (-75.0, 75.0):
         assert np.count_nonzero(np.abs(np.degrees(t) - end) < 1e-9) == 3
+
+
+def test_two_and_a_half_degree_ramped_lobe_gets_the_coarse_level():
+    """At 2.5 deg (above 2.25 deg) a fit without junctions also gets the base-circle
+    level and the lobe-end knots: the ramped lobe at 0.1 um, seeds 1-4 pooled, 0.91 x
+    scipy's h'' error (1.38 before), 0.287e-3 m/rad^2; no junction found."""
+    ours, theirs, found = pooled_errors('ramped C1', 0.1e-6, step_deg=2.5)
+    assert ours <= 0.33e-3, (ours, theirs)
+    assert ours <= 1.0 * theirs, (ours, theirs)
+    assert not any(found)

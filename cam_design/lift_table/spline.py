@@ -248,6 +248,9 @@ REBOUND_L1_FACTOR = _rebound_l1_factor()
 VERY_COARSE_RAD = math.radians(4.5)
 #: table step [rad] above which junctions and the level get the coarse-table tests
 COARSE_RAD = VERY_COARSE_RAD
+#: table step [rad] above which a fit without junctions gets the coarse-table level rule
+#: and the lobe-end knots (2.5 deg tables: ramped C1 at 0.1 um 1.40 -> 0.93 x scipy)
+COARSE_LEVEL_RAD = math.radians(2.25)
 #: on such a table an outlier (a typing error) also misses by more than this multiple of
 #: the rebound floor (5 x 2e-5 = 1e-4 of the lift range: 0.8 um on an 8 mm lobe)
 EXACT_FLOOR = 5.0
@@ -855,7 +858,8 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
                     f'chosen again with them: lam_d = {lam_d:.4g}')
     knots = None
-    if coarse and uniform and found is None and not exact and opt.smoothing is None:
+    if (step > COARSE_LEVEL_RAD and uniform and found is None and not exact
+            and opt.smoothing is None):
         rows = fair.lift[~fair.outlier]
         lam_d, reason = coarse_level(values, smooth_grid(values, missing, lam_d), ~missing,
                                      rows, fair.quantum, floor, lam_d)
