@@ -1,8 +1,8 @@
-"""Coarse lift tables (steps above ``VERY_COARSE_RAD``, about 5 deg): which steps of h''
-to believe, and how much to smooth when there are none.
+"""Coarse lift tables (steps above 2.25 deg, ``spline.COARSE_LEVEL_RAD``; 144 rows a turn
+or fewer): which steps of h'' to believe, and how much to smooth when there are none.
 
-At 72 rows a turn a lobe is barely resolved, and two things that work on finer tables
-go wrong there (docs/methods.md, "Coarse tables"):
+At 72-144 rows a turn a lobe is barely resolved, and what works on finer tables goes
+wrong there (docs/reconstruction.md step 9):
 
 * **False junctions.** A smooth but fast change of h'' (the end of a C2 lobe, where
   h''' jumps; the steep flank of a polynomial lobe) lowers the GCV score of the junction
@@ -19,9 +19,13 @@ go wrong there (docs/methods.md, "Coarse tables"):
   the lobe far above that noise and correlated from row to row (structure, not noise),
   the level is chosen instead by Mallows' Cp (the unbiased risk estimate of the lift,
   Stein's SURE for a linear smoother) with the base-circle noise.
+* **The lobe's ends.** Without junctions the quintic interpolant gets a triple knot at
+  the last base-circle row each side of the lobe (``lobe_end_knots``), where a C2 lobe's
+  h''' jumps.
 
-Dense linear algebra: these tables have at most 80 rows. Lifts in m, angles in rad,
-positions along the table in rows (nodes).
+Dense linear algebra: these tables have at most 160 rows (a few hundred nodes with the
+free nodes of a table that ends on a flank). Lifts in m, angles in rad, positions along
+the table in rows (nodes).
 """
 from __future__ import annotations
 

@@ -246,10 +246,11 @@ def _rebound_l1_factor() -> float:
 REBOUND_L1_FACTOR = _rebound_l1_factor()
 #: table step [rad] above which no row is taken for an outlier (only reported)
 VERY_COARSE_RAD = math.radians(4.5)
-#: table step [rad] above which junctions and the level get the coarse-table tests
+#: table step [rad] above which junctions are sought only when asked for
 COARSE_RAD = VERY_COARSE_RAD
-#: table step [rad] above which a fit without junctions gets the coarse-table level rule
-#: and the lobe-end knots (2.5 deg tables: ramped C1 at 0.1 um 1.40 -> 0.93 x scipy)
+#: table step [rad] above which junctions get the soft-change test and a fit without
+#: junctions the coarse-table level rule and the lobe-end knots (2.5 deg tables: ramped
+#: C1 at 0.1 um 1.40 -> 0.93 x scipy, the flat-tappet preset 4.7 -> 0.78)
 COARSE_LEVEL_RAD = math.radians(2.25)
 #: on such a table an outlier (a typing error) also misses by more than this multiple of
 #: the rebound floor (5 x 2e-5 = 1e-4 of the lift range: 0.8 um on an 8 mm lobe)
@@ -832,17 +833,17 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     why = choice.why
     lam_d = choice.lam_d
     found = None
-    # tables coarser than COARSE_RAD (coarse.py): a few rows per segment cannot tell a
-    # step of h'' from a steep smooth change, so junctions are sought there only when
-    # asked for (and then each is tested against a soft change), and without junctions
-    # the level is checked against the base circle's noise
+    # coarse tables (coarse.py): a few rows per segment cannot tell a step of h'' from a
+    # steep smooth change by GCV alone, so above COARSE_LEVEL_RAD each junction is also
+    # tested against a soft change, and above COARSE_RAD junctions are sought only when
+    # asked for; without junctions the level is checked against the base circle's noise
     coarse = step > COARSE_RAD
     if (opt.junctions and uniform and not exact and opt.smoothing is None
             and (opt.coarse_junctions or not coarse)):
         # the search compares GCV scores: it starts from the plain GCV level
         start = choice if opt.criterion == 'gcv' else choose_smoothing(
             values, step, criterion='gcv', gamma=gamma, sigma_floor=floor)
-        if coarse:
+        if step > COARSE_LEVEL_RAD:
             outcome = coarse_junctions(grid, values, missing, start.lam_d, gamma=gamma,
                                        sigma_floor=floor)
             found = outcome.found
