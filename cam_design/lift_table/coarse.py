@@ -259,12 +259,15 @@ def lobe_end_knots(grid: NDArray[np.float64], values: NDArray[np.float64],
                    sigma: float) -> NDArray[np.float64] | None:
     """Knots of a quintic interpolant of uniform ``values`` [m] on ``grid`` [rad] that
     may kink h'' (jump of h''') where one lobe leaves the base circle: a triple knot at
-    the last base-circle row on each side (rows within 5 ``sigma`` or 1e-3 of the range
-    of the lowest), in place of the knots of its two neighbours; the not-a-knot knots
-    elsewhere. None without a single lobe clear of the table's ends."""
+    the last base-circle row on each side (rows within 5 ``sigma`` [m], the noise, or
+    1e-5 of the range above the base circle's median row), in place of the knots of its
+    two neighbours; the not-a-knot knots elsewhere. None without a single lobe clear of
+    the table's ends."""
     n = values.size
     span = float(np.ptp(values))
-    base = values <= float(np.min(values)) + max(5.0 * sigma, 1e-3 * span)
+    low = float(np.min(values))
+    level = float(np.median(values[values <= low + 1e-3 * span]))    # the base circle
+    base = values <= level + max(5.0 * sigma, 1e-5 * span)
     lobe = np.flatnonzero(~base)
     if lobe.size < 4 or np.any(np.diff(lobe) != 1):
         return None

@@ -47,7 +47,8 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
-from cam_design.lift_table.coarse import coarse_junctions, coarse_level, lobe_end_knots
+from cam_design.lift_table.coarse import (base_circle_sigma, coarse_junctions, coarse_level,
+                                          lobe_end_knots)
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              golden_minimum, refit)
 from cam_design.lift_table.noise import EXACT_NOISE_REL, rebound_sigma
@@ -867,7 +868,9 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         why += reason
         # h''' may jump where the lobe leaves the base circle (a C2 lobe's ends): a
         # quintic interpolant without a knot there rounds that kink over two rows
-        knots = lobe_end_knots(grid, values, fair.sigma)
+        base_sigma = base_circle_sigma(fair.lift[~fair.outlier], fair.quantum)
+        knots = lobe_end_knots(grid, values,
+                               fair.sigma if base_sigma is None else base_sigma)
 
     ylift = fair.lift.copy()
 
