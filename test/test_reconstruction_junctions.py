@@ -368,14 +368,22 @@ def test_rounded_dwell_edges_are_found_together(step_deg, ratio):
                                         sigma_floor=floor).angles) == 4
 
 
-def test_lookahead_does_not_take_false_pairs():
-    """A C2 lobe (no junction) at 2.5 deg with 0.1 um of noise and 5 spikes: two
-    candidates near a spike each miss the bar of 12 alone (N ln GCV lower by 6.6 and
-    4.4) and pass it together (36 for two), but the rest's level would rise only
-    1.4 times (its GCV already climbs between sqrt(3) and 3 times the level), where
-    the four edges of a dwell raise it 70-90 times: no junction is taken (without the
-    level test both are, at -27.6 and -23.1 deg)."""
+def test_lookahead_does_not_take_false_pairs(monkeypatch):
+    """A C2 lobe (no junction) at 2.5 deg with 0.1 um of noise and 5 spikes, searched
+    with the look-ahead (the reconstruction's own coarse path above 2.25 deg runs it
+    without): two candidates near a spike each miss the bar of 12 alone (N ln GCV
+    lower by 6.6 and 4.4) and pass it together (36 for two), but the rest's level
+    would rise only 1.4 times (its GCV already climbs between sqrt(3) and 3 times the
+    level), where the four edges of a dwell raise it 70-90 times: no junction is
+    taken. Without the level test both are, at -27.6 and -23.1 deg."""
+    from cam_design.lift_table.spline import GCV_GAMMA, choose_smoothing, rebound_fairing
+
     fam = FAMILIES['C2']
     a, h = measured_table(fam.law, 2.5 * DEG, sigma=0.1e-6, outliers=5, seed=3)
-    rec = reconstruct_spline(a, h)
-    assert 'junctions_deg' not in rec.parameter
+    rows = rebound_fairing(a, h).lift
+    start = choose_smoothing(rows, 2.5 * DEG, criterion='gcv', gamma=GCV_GAMMA)
+    assert junctions.find_junctions(a, rows, start.lam_d, gamma=GCV_GAMMA) is None
+    monkeypatch.setattr(junctions, 'LOOKAHEAD_LEVEL_RISE', 1.0)
+    taken = junctions.find_junctions(a, rows, start.lam_d, gamma=GCV_GAMMA)
+    assert taken is not None
+    assert np.degrees(taken.angles) == pytest.approx([-27.6, -23.1], abs=0.1)
