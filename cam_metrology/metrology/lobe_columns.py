@@ -112,3 +112,26 @@ def lift_table(x: NDArray[np.float64], d: float, theta: NDArray[np.float64],
     finally:
         rows.close()
     return seal(table), good_sorted
+
+
+#: rows kept around a design lift's support for the cam card and the table checks
+#: [rad]: wider than their widest local window (the peak's 3 deg)
+LOBE_WINDOW = float(np.radians(5.0))
+
+
+def lobe_window(table: NDArray[np.float64], law: Any,
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(alpha [rad], lift [m]) of a lift table as two contiguous columns: for a long
+    (spilled) table only the rows within ``LOBE_WINDOW`` of ``law``'s support, gathered
+    a block at a time (the card and the table checks with the design as reference read
+    nothing outside: the same numbers from a fraction of the rows); a short table
+    whole."""
+    support = getattr(law, 'support', None)
+    if not isinstance(table, np.memmap) or support is None:
+        return np.ascontiguousarray(table[:, 0]), np.ascontiguousarray(table[:, 1])
+    lo, hi = float(support[0]) - LOBE_WINDOW, float(support[1]) + LOBE_WINDOW
+    keep = mask_of(table.shape[0], lambda a, b: (table[a:b, 0] >= lo) & (table[a:b, 0] <= hi),
+                   table)
+    alpha = np.concatenate([table[a:b, 0][keep[a:b]] for a, b in walk(keep.size, table)])
+    lift = np.concatenate([table[a:b, 1][keep[a:b]] for a, b in walk(keep.size, table)])
+    return alpha, lift

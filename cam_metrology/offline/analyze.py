@@ -131,10 +131,9 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
     lobes referenced to the base circle as the verdict uses them ({} without
     ``plot_tables``: no referenced copies made, for a caller that draws nothing)."""
-    import numpy as np
-
     from cam_metrology.offline.acceptance import both_crank_timings, lobe_cards
     from cam_metrology.metrology.lift_error import referenced_rows
+    from cam_metrology.metrology.lobe_columns import lobe_window
     from cam_metrology.metrology.spill import release, spill
     from cam_metrology.report.provenance import provenance
 
@@ -152,7 +151,8 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
                 continue
             kept = referenced_rows(table, feature)   # the rows the verdict used
             release(table)
-            alpha, lift = (np.ascontiguousarray(kept[:, k]) for k in (0, 1))
+            # a long table: the rows around the lobe, all the card reads (memory)
+            alpha, lift = lobe_window(kept, designs.get(fid))
             if plot_tables:
                 tables[fid] = spill(kept)
             del kept   # the cards read two columns: the table is not kept alongside
