@@ -16,7 +16,7 @@ estimators return shifts ``d`` in this frame; the encoder angle of the nose is
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,7 +25,8 @@ from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.errors import InputError
 from cam_design.keyway import KeywayGeometry
 from cam_metrology.metrology import block_lsq
-from cam_metrology.metrology.asymmetry import lift_spline, top_point
+from cam_metrology.metrology.asymmetry import (lift_spline, merge_repeated_blocks,
+                                               spline_of_positions, top_point)
 from cam_metrology.metrology.features import FeatureSamples, unwrapped_blocks
 from cam_metrology.metrology.lift_error import (error_stats, error_stats_blocks,
                                                 local_deviation,
@@ -35,7 +36,7 @@ from cam_metrology.metrology.lobe_columns import (column_of, lift_table, mask_of
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
 from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
-from cam_metrology.metrology.spill import SPILL_BYTES, blank, release, seal, walk
+from cam_metrology.metrology.spill import blank, is_long, release, seal, walk
 
 DEG = np.pi / 180.0
 UM = 1e6
@@ -427,7 +428,7 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     del base
     _release(fs)
     # the lift table (alpha, measured, design) in alpha order
-    if x.nbytes >= SPILL_BYTES:   # long: through angle buckets in temporary files
+    if is_long(x.size):   # long: through angle buckets in temporary files
         table, good = lift_table(x, fit.d, fs.theta, fs.s, fit.c, fit.runout, law, good)
         del x
     else:
@@ -581,7 +582,7 @@ def _runout_um(theta: NDArray[np.float64], s: NDArray[np.float64], base: NDArray
     the samples ``base``; (None, None) with fewer than 10 base-circle samples."""
     if np.count_nonzero(base) < 10:
         return None, None
-    if theta.nbytes >= SPILL_BYTES:   # long: masked a block at a time, no gathered copies
+    if is_long(theta.size):   # long: masked a block at a time, no gathered copies
         coef = block_lsq.harmonic_lstsq(theta, s, base, offset=c)
     else:
         coef = block_lsq.harmonic_lstsq(theta[base], s[base] - c)
@@ -594,13 +595,17 @@ def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64],
                settings: Settings) -> dict[str, Any]:
     """Top point by the symmetry axis of the measured lift (frame: LSQ nose = 0), from
     the ``good`` samples on the lobe (lo < alpha < hi): only those are copied."""
-    sel = mask_of(alpha.size, lambda i, j: good[i:j] & (alpha[i:j] > lo) &
-                  (alpha[i:j] < hi), alpha, measured)
-    a, h = selected(alpha, sel), selected(measured, sel)
-    del sel
+    knots = settings.asymmetry_knot_deg * DEG
     try:
-        spline = lift_spline(a, h, knot_spacing=settings.asymmetry_knot_deg * DEG)
-        tp = top_point(spline, float(a.min()), float(a.max()))
+        if isinstance(alpha, np.memmap):   # a long table: merged a block of rows at a time
+            spline, a_lo, a_hi = _long_lobe_spline(alpha, measured, good, lo, hi, knots)
+        else:
+            sel = good & (alpha > lo) & (alpha < hi)
+            a, h = alpha[sel], measured[sel]
+            del sel
+            spline = lift_spline(a, h, knot_spacing=knots)
+            a_lo, a_hi = float(a.min()), float(a.max())
+        tp = top_point(spline, a_lo, a_hi)
     except (InputError, ValueError) as exc:
         return {'asymmetry_error': str(exc)}
     if not (np.isfinite(tp.d) and abs(tp.d) <= settings.max_shift_deg * DEG):
@@ -611,6 +616,30 @@ def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64],
             'flank_midpoint_scatter_deg': float(np.degrees(tp.flank_scatter)),
             'residual_asymmetry_um': {'rms': tp.residual_rms * UM, 'max': tp.residual_max * UM},
             'apparent_asymmetry_rms_um': tp.apparent_rms * UM}
+
+
+def _long_lobe_spline(alpha: NDArray[np.float64], measured: NDArray[np.float64],
+                      good: NDArray[np.bool_], lo: float, hi: float, knots: float,
+                      ) -> tuple[Any, float, float]:
+    """``lift_spline`` of the ``good`` rows with lo < alpha < hi of a long lift table in
+    angle order (repeated angles merged a block at a time: ``merge_repeated_blocks``),
+    and the smallest and largest of those angles [rad]."""
+    span = [np.inf, -np.inf]
+
+    def blocks() -> Iterator[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+        for i, j in walk(alpha.size, alpha, measured):
+            m = good[i:j] & (alpha[i:j] > lo) & (alpha[i:j] < hi)
+            a, h = alpha[i:j][m], measured[i:j][m]
+            bad = int(np.count_nonzero(~(np.isfinite(a) & np.isfinite(h))))
+            if bad:
+                raise InputError('asymmetry.samples', f'{bad} non-finite angle(s) or '
+                                 'lift(s)', 'finite numbers')
+            if a.size:
+                span[0], span[1] = min(span[0], float(a[0])), max(span[1], float(a[-1]))
+            yield a, h
+
+    merged = merge_repeated_blocks(blocks())
+    return spline_of_positions(*merged, knot_spacing=knots), span[0], span[1]
 
 
 def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,

@@ -16,7 +16,7 @@ asymmetry (reported as RMS and maximum, in m).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Iterable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -79,6 +79,50 @@ def merge_repeated(alpha: NDArray[np.float64], lift: NDArray[np.float64],
             count.astype(np.int64))
 
 
+def merge_repeated_blocks(blocks: Iterable[tuple[NDArray[np.float64], NDArray[np.float64]]],
+                          tol: float = SAME_ANGLE,
+                          ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """``merge_repeated`` of samples already in angle order, handed out as blocks
+    ``(alpha, lift)`` (a long lift table read a block of rows at a time): the same
+    numbers (a position continued from the previous block carries its sums in as the
+    first term, so every sum adds in the same order)."""
+    out_a: list[NDArray[np.float64]] = []
+    out_h: list[NDArray[np.float64]] = []
+    out_n: list[NDArray[np.int64]] = []
+    carry: tuple[float, float, int, float] | None = None   # sums, count, last angle
+    for alpha, lift in blocks:
+        if alpha.size == 0:
+            continue
+        start = np.concatenate(([carry is None or alpha[0] - carry[3] > tol],
+                                np.diff(alpha) > tol))
+        group = np.cumsum(start) - int(start[0])   # the first position numbered 0
+        if carry is not None and not start[0]:   # the first position goes on
+            group = np.concatenate(([0], group))
+            alpha = np.concatenate(([carry[0]], alpha))
+            lift = np.concatenate(([carry[1]], lift))
+            count = np.bincount(group)
+            count[0] += carry[2] - 1
+        else:
+            if carry is not None:
+                out_a.append(np.array([carry[0]]))
+                out_h.append(np.array([carry[1]]))
+                out_n.append(np.array([carry[2]]))
+            count = np.bincount(group)
+        sa, sh = np.bincount(group, alpha), np.bincount(group, lift)
+        out_a.append(sa[:-1])
+        out_h.append(sh[:-1])
+        out_n.append(count[:-1])
+        carry = (float(sa[-1]), float(sh[-1]), int(count[-1]), float(alpha[-1]))
+    if carry is not None:
+        out_a.append(np.array([carry[0]]))
+        out_h.append(np.array([carry[1]]))
+        out_n.append(np.array([carry[2]]))
+    if not out_n:
+        return np.zeros(0), np.zeros(0), np.zeros(0, np.int64)
+    count = np.concatenate(out_n).astype(np.int64)
+    return np.concatenate(out_a) / count, np.concatenate(out_h) / count, count
+
+
 def distinct_positions(alpha: NDArray[np.float64], resolution: float) -> int:
     """Number of cells of width ``resolution`` [rad] holding at least one angle."""
     return int(np.unique(np.floor((alpha - alpha.min()) / resolution)).size)
@@ -101,7 +145,13 @@ def lift_spline(alpha: NDArray[np.float64], lift: NDArray[np.float64], *,
     if bad:
         raise InputError('asymmetry.samples', f'{bad} non-finite angle(s) or lift(s)',
                          'finite numbers')
-    a, h, count = merge_repeated(alpha, lift)
+    return spline_of_positions(*merge_repeated(alpha, lift), knot_spacing=knot_spacing)
+
+
+def spline_of_positions(a: NDArray[np.float64], h: NDArray[np.float64],
+                        count: NDArray[np.int64], *, knot_spacing: float | None = None) -> Any:
+    """``lift_spline`` of merged positions (``merge_repeated``): angles [rad], mean
+    lifts [m] and sample counts."""
     if a.size < 8:
         raise InputError('asymmetry.samples', int(a.size), 'at least 8 distinct angles')
     if knot_spacing is None:

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from cam_design.errors import InputError
 from cam_metrology.metrology import block_lsq
 from cam_metrology.metrology.long_columns import median
-from cam_metrology.metrology.spill import blank, release, walk
+from cam_metrology.metrology.spill import blank, is_long, release, walk
 
 TWO_PI = 2.0 * np.pi
 Lift = Callable[[NDArray[np.float64], int], NDArray[np.float64]]
@@ -227,7 +227,7 @@ def coarse_align(x: NDArray[np.float64], s: NDArray[np.float64], template: Lift,
     interpolation; the peak is refined by a parabola. Resolution ~ 360/bins deg.
     """
     step = block_lsq.BLOCK_ROWS
-    if x.size > 16 * step:   # long: counts and sums a block at a time, no index column
+    if is_long(x.size):   # long: counts and sums a block at a time, no index column
         cnt = np.zeros(bins, np.int64)
         tot = np.zeros(bins)
         for k, e in walk(x.size, x, s, step=step):

@@ -37,7 +37,7 @@ from cam_design.errors import InputError
 from cam_metrology.metrology import block_lsq
 from cam_metrology.metrology.lobe_columns import mask_of, masked
 from cam_metrology.metrology.long_columns import Buckets, bucket_count
-from cam_metrology.metrology.spill import SPILL_BYTES, release, walk
+from cam_metrology.metrology.spill import is_long, release, walk
 
 TWO_PI = 2.0 * np.pi
 UM = 1e6
@@ -94,8 +94,8 @@ def _floats(a: Any) -> NDArray[np.float64]:
 
 
 def _long(a: NDArray[Any]) -> bool:
-    """True for a column read a block at a time (``SPILL_BYTES`` or more)."""
-    return a.nbytes >= SPILL_BYTES
+    """True for a column read a block at a time (``spill.is_long``)."""
+    return is_long(a.size, a.itemsize)
 
 
 def _sorted_steps(theta: NDArray[np.float64], mean: float) -> tuple[float, float, float]:

@@ -18,7 +18,7 @@ from scipy.ndimage import median_filter
 from cam_metrology.metrology import block_lsq
 from cam_metrology.metrology.long_columns import (Buckets, bucket_count, median,
                                                   running_deviation)
-from cam_metrology.metrology.spill import SPILL_BYTES, blank, release, seal, walk
+from cam_metrology.metrology.spill import blank, is_long, release, seal, walk
 
 #: gap between the lobe (design lift > 0) and the base-circle samples used [rad]
 BASE_MARGIN = float(np.radians(2.0))
@@ -35,9 +35,9 @@ def local_deviation(x: NDArray[np.float64], r: NDArray[np.float64], *,
     part of the residuals; isolated spikes stand out, a smooth real form error (or a
     biased first fit) does not. ``overwrite``: ``r`` (float64) may be used for the
     result (one column less in memory for a feature of millions of samples). Long
-    columns (``SPILL_BYTES`` and more) go through temporary files (``long_columns``):
+    columns (``spill.is_long``) go through temporary files (``long_columns``):
     the same numbers, the result a spilled column when ``r`` is not overwritten."""
-    if r.nbytes >= SPILL_BYTES:
+    if is_long(r.size):
         return _long_local_deviation(x, r, overwrite)
     if x.size < 2 or bool(np.all(x[1:] >= x[:-1])):   # in angle order already (tables)
         dev = r if overwrite and r.dtype == np.float64 else np.array(r, dtype=float)
@@ -157,7 +157,7 @@ def _columns(table: Any) -> tuple[NDArray[np.float64], NDArray[np.float64], int,
     table's own column (read as needed); measured - design a new column (spilled when
     long)."""
     n = table.shape[0]
-    long = n * 8 >= SPILL_BYTES
+    long = is_long(n)
     a = table[:, 0] if long else np.empty(n)
     err = blank((n,)) if long else np.empty(n)
     first = last = -1
@@ -228,7 +228,7 @@ def referenced_error_stats(table: Any, harmonic: bool, good: NDArray[np.bool_],
     keeps and ``good``, without the referenced table (a block of rows at a time)."""
     model, kept = base_model(table, harmonic)
     kept &= good
-    if table.shape[0] * 8 < SPILL_BYTES:   # a short table: whole columns
+    if not is_long(table.shape[0]):   # a short table: whole columns
         if model is None:
             return lift_error_stats(table, kept)
         err = _referenced_lift(table, model)
@@ -268,7 +268,7 @@ def error_stats(err: NDArray[np.float64], design: NDArray[np.float64],
                 good: NDArray[np.bool_]) -> dict[str, float] | None:
     """``lift_error_stats`` of the columns: ``err`` = measured - design [m] and the
     design lift [m] of every sample."""
-    if err.size * 8 >= SPILL_BYTES:   # long columns: a block at a time
+    if is_long(err.size):   # long columns: a block at a time
         return error_stats_blocks((err[a:b], design[a:b], good[a:b])
                                   for a, b in walk(err.size, err, design))
     lobe = (design > 0) & good

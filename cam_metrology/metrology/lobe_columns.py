@@ -132,6 +132,11 @@ def lobe_window(table: NDArray[np.float64], law: Any,
     lo, hi = float(support[0]) - LOBE_WINDOW, float(support[1]) + LOBE_WINDOW
     keep = mask_of(table.shape[0], lambda a, b: (table[a:b, 0] >= lo) & (table[a:b, 0] <= hi),
                    table)
-    alpha = np.concatenate([table[a:b, 0][keep[a:b]] for a, b in walk(keep.size, table)])
-    lift = np.concatenate([table[a:b, 1][keep[a:b]] for a, b in walk(keep.size, table)])
+    count = int(np.count_nonzero(keep))
+    alpha, lift = np.empty(count), np.empty(count)
+    pos = 0
+    for a, b in walk(keep.size, table):
+        rows = table[a:b][keep[a:b]]
+        alpha[pos:pos + rows.shape[0]], lift[pos:pos + rows.shape[0]] = rows[:, 0], rows[:, 1]
+        pos += rows.shape[0]
     return alpha, lift
