@@ -144,7 +144,7 @@ def test_lobe_on_its_long_column_path_gives_the_in_memory_report(monkeypatch) ->
     from cam_metrology.metrology.analysis import Settings, analyze_lobe
     from cam_metrology.metrology.feature_form import lobe_form
     from cam_metrology.metrology.lift_error import referenced_rows
-    from cam_metrology.metrology.lobe_columns import lobe_window
+    from cam_metrology.metrology.lobe_columns import card_rows, support_area
     from cam_metrology.scene.model import FormSettings
 
     fs = _feature(2e-6)
@@ -157,7 +157,11 @@ def test_lobe_on_its_long_column_path_gives_the_in_memory_report(monkeypatch) ->
         form = lobe_form(table, res.values, 1, FormSettings())
         rows = referenced_rows(table, res.values)
         assert isinstance(rows, np.memmap) == long
-        card = card_from_table(*lobe_window(rows, CAM), (1e-3, 3e-3), CAM)
+        heights = (1e-3, 3e-3)
+        area = support_area(rows, CAM.support) if long else None
+        alpha, lift = card_rows(rows, CAM, heights)
+        assert (alpha.size < rows.shape[0] / 4) == long   # only around peak and events
+        card = card_from_table(alpha, lift, heights, CAM, area=area)
         monkeypatch.undo()
         return res, form, card
 

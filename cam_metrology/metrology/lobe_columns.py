@@ -9,7 +9,7 @@ whole-column expression it replaces (the lift table's order: a stable sort by an
 """
 from __future__ import annotations
 
-from typing import Any, Callable, Iterator
+from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
 from numpy.typing import NDArray
@@ -114,24 +114,39 @@ def lift_table(x: NDArray[np.float64], d: float, theta: NDArray[np.float64],
     return seal(table), good_sorted
 
 
-#: rows kept around a design lift's support for the cam card and the table checks
-#: [rad]: wider than their widest local window (the peak's 3 deg)
-LOBE_WINDOW = float(np.radians(5.0))
+#: half-widths [rad] of the rows kept around the design's peak and its events for the
+#: cam card and the table checks: wider than their local windows (3 deg at the peak,
+#: 1 deg at an event), which are all they read besides the area
+PEAK_WINDOW, EVENT_WINDOW = float(np.radians(3.5)), float(np.radians(1.5))
 
 
-def lobe_window(table: NDArray[np.float64], law: Any,
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def card_rows(table: NDArray[np.float64], law: Any, heights: Iterable[float],
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(alpha [rad], lift [m]) of a lift table as two contiguous columns: for a long
-    (spilled) table only the rows within ``LOBE_WINDOW`` of ``law``'s support, gathered
-    a block at a time (the card and the table checks with the design as reference read
-    nothing outside: the same numbers from a fraction of the rows); a short table
-    whole."""
-    support = getattr(law, 'support', None)
-    if not isinstance(table, np.memmap) or support is None:
+    (spilled) table only the rows within ``PEAK_WINDOW`` of ``law``'s peak and
+    ``EVENT_WINDOW`` of its events at ``heights`` [m], gathered a block at a time (the
+    card and the table checks with the design as reference fit only those rows: the
+    same numbers, the area aside: ``support_area``); a short table whole."""
+    from cam_design.cam_card import law_events, law_peak
+    from cam_design.errors import InputError
+
+    if not isinstance(table, np.memmap) or law is None:
         return np.ascontiguousarray(table[:, 0]), np.ascontiguousarray(table[:, 1])
-    lo, hi = float(support[0]) - LOBE_WINDOW, float(support[1]) + LOBE_WINDOW
-    keep = mask_of(table.shape[0], lambda a, b: (table[a:b, 0] >= lo) & (table[a:b, 0] <= hi),
-                   table)
+    windows = [(law_peak(law)[0], PEAK_WINDOW)]
+    for y in heights:
+        try:
+            windows += [(e, EVENT_WINDOW) for e in law_events(law, y)]
+        except InputError:   # the card names the height itself
+            pass
+
+    def near(a: int, b: int) -> NDArray[np.bool_]:
+        alpha = table[a:b, 0]
+        keep = np.zeros(b - a, bool)
+        for centre, half in windows:
+            keep |= np.abs(alpha - centre) <= half
+        return keep
+
+    keep = mask_of(table.shape[0], near, table)
     count = int(np.count_nonzero(keep))
     alpha, lift = np.empty(count), np.empty(count)
     pos = 0
@@ -140,3 +155,24 @@ def lobe_window(table: NDArray[np.float64], law: Any,
         alpha[pos:pos + rows.shape[0]], lift[pos:pos + rows.shape[0]] = rows[:, 0], rows[:, 1]
         pos += rows.shape[0]
     return alpha, lift
+
+
+def support_area(table: NDArray[np.float64], support: tuple[float, float]) -> float:
+    """Trapezoid area [m rad] of the lift over the rows of a table in angle order whose
+    alpha lies in ``support`` [rad] (``numpy.trapezoid``, summed a block at a time:
+    equal to rounding); 0 with fewer than two such rows."""
+    lo, hi = support
+    total, count = 0.0, 0
+    last: tuple[float, float] | None = None
+    for a, b in walk(table.shape[0], table):
+        rows = table[a:b]
+        m = (rows[:, 0] >= lo) & (rows[:, 0] <= hi)
+        x, y = rows[m, 0], rows[m, 1]
+        count += x.size
+        if last is not None and x.size:
+            x, y = np.concatenate(([last[0]], x)), np.concatenate(([last[1]], y))
+        if x.size > 1:
+            total += float(np.sum(np.diff(x) * (y[1:] + y[:-1]) / 2.0))
+        if x.size:
+            last = (float(x[-1]), float(y[-1]))
+    return total if count > 1 else 0.0

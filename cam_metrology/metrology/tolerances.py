@@ -26,7 +26,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from cam_metrology.metrology.lift_error import referenced_rows
-from cam_metrology.metrology.lobe_columns import lobe_window
+from cam_metrology.metrology.lobe_columns import card_rows
 from cam_metrology.metrology.spill import walk
 from cam_metrology.scene.model import Band, Scene, Tolerances
 
@@ -200,8 +200,10 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
                     missing.append(_not(n, 'no lift table or design for this feature'))
         else:
             # the two columns the checks read (not a copy of the whole table: memory; of
-            # a long table only the rows around the lobe, all the checks look at)
-            alpha, lift = lobe_window(table, design)
+            # a long table only the rows around the peak and the events they fit)
+            heights = () if tol.duration_deg is None and tol.centreline_deg is None \
+                else (tol.checking_height_mm * 1e-3,)
+            alpha, lift = card_rows(table, design, heights)
             del table
             _table_checks(tol, alpha, lift, design, checks, missing)
     return _verdict(checks, missing)

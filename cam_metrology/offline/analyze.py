@@ -133,7 +133,9 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     ``plot_tables``: no referenced copies made, for a caller that draws nothing)."""
     from cam_metrology.offline.acceptance import both_crank_timings, lobe_cards
     from cam_metrology.metrology.lift_error import referenced_rows
-    from cam_metrology.metrology.lobe_columns import lobe_window
+    import numpy as np
+
+    from cam_metrology.metrology.lobe_columns import card_rows, support_area
     from cam_metrology.metrology.spill import release, spill
     from cam_metrology.report.provenance import provenance
 
@@ -151,13 +153,18 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
                 continue
             kept = referenced_rows(table, feature)   # the rows the verdict used
             release(table)
-            # a long table: the rows around the lobe, all the card reads (memory)
-            alpha, lift = lobe_window(kept, designs.get(fid))
+            # a long table: the rows around the peak and the events the card fits, and
+            # its area summed a block at a time (memory)
+            design = designs.get(fid)
+            alpha, lift = card_rows(kept, design, heights)
+            area = support_area(kept, design.support) if card and isinstance(
+                kept, np.memmap) else None
             if plot_tables:
                 tables[fid] = spill(kept)
             del kept   # the cards read two columns: the table is not kept alongside
             if card:
-                cards[fid] = lobe_cards(scene, fid, alpha, lift, designs[fid], heights)
+                cards[fid] = lobe_cards(scene, fid, alpha, lift, designs[fid], heights,
+                                        area=area)
             del alpha, lift
         crank = both_crank_timings(scene, features, cards)
         if crank is not None:
