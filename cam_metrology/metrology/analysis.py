@@ -518,8 +518,9 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: 
     count = int(rev.max()) + 1
     # revolutions counted on the stamp-ordered angle are runs of rows: each is fitted on
     # its own slice (cost ~ its samples); a back-and-forth angle falls back to masks
-    runs = np.searchsorted(rev, np.arange(count + 1)) if bool(np.all(rev[1:] >= rev[:-1])) \
-        else None
+    # (the searched values in rev's own type: int64 ones would convert a copy of rev)
+    runs = np.searchsorted(rev, np.arange(count + 1, dtype=rev.dtype)) \
+        if bool(np.all(rev[1:] >= rev[:-1])) else None
     for k in range(count):
         if runs is not None:
             part = slice(int(runs[k]), int(runs[k + 1]))
@@ -533,7 +534,7 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: 
         except (FeatureFailed, InputError):
             continue
         finally:
-            release(s)   # one revolution's pages resident
+            release(s, x)   # one revolution's pages resident
         devs.append(float(np.degrees(one.d - fit.d) * 3600))
     if len(devs) < 2:
         return {}
