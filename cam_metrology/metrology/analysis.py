@@ -16,7 +16,7 @@ estimators return shifts ``d`` in this frame; the encoder angle of the nose is
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,14 +25,14 @@ from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.errors import InputError
 from cam_design.keyway import KeywayGeometry
 from cam_metrology.metrology import block_lsq
-from cam_metrology.metrology.asymmetry import (lift_spline, merge_repeated_blocks,
-                                               spline_of_positions, top_point)
+from cam_metrology.metrology.asymmetry import lift_spline, lobe_spline_of_table, top_point
 from cam_metrology.metrology.features import FeatureSamples, unwrapped_blocks
 from cam_metrology.metrology.lift_error import (error_stats, error_stats_blocks,
                                                 local_deviation,
                                                 referenced_error_stats)
 from cam_metrology.metrology.lobe_columns import (column_of, lift_table, mask_of, masked,
-                                                  masked_median, selected)
+                                                  masked_median, selected,
+                                                  short_lift_table)
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
 from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
@@ -428,11 +428,8 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     del base
     _release(fs)
     # the lift table (alpha, measured, design) in alpha order
-    if is_long(x.size):   # long: through angle buckets in temporary files
-        table, good = lift_table(x, fit.d, fs.theta, fs.s, fit.c, fit.runout, law, good)
-        del x
-    else:
-        table, good = _short_lift_table(x, fs, fit, law, good)
+    build = lift_table if is_long(x.size) else short_lift_table   # long: angle buckets
+    table, good = build(x, fit.d, fs.theta, fs.s, fit.c, fit.runout, law, good)
     _release(fs)
     alpha, measured, design = table[:, 0], table[:, 1], table[:, 2]
     if isinstance(table, np.memmap):   # long: a block of rows at a time
@@ -473,22 +470,6 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         values['lift_error_reference'] = 'base circle'
     return FeatureResult(fs.feature_id, 'lobe', {**values, **_common(fs)}, table,
                          float(np.radians(values['angle_deg'])), skipped=skipped)
-
-
-def _short_lift_table(x: NDArray[np.float64], fs: FeatureSamples, fit: Any, law: Lift,
-                      good: NDArray[np.bool_]
-                      ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """The lift table (alpha = x - d, measured, design) of a short feature in alpha
-    order (``lobe_columns.lift_table`` for long ones), and ``good`` in that order."""
-    alpha = x - fit.d
-    order = np.argsort(alpha)
-    table = np.empty((alpha.size, 3))
-    table[:, 0] = alpha[order]
-    th = fs.theta[order]
-    wave = block_lsq.first_harmonic(th, 0.0, *fit.runout)
-    table[:, 1] = fs.s[order] - fit.c - wave
-    table[:, 2] = law(table[:, 0], 0)
-    return table, good[order]
 
 
 def _release(fs: FeatureSamples) -> None:
@@ -599,7 +580,7 @@ def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64],
     knots = settings.asymmetry_knot_deg * DEG
     try:
         if isinstance(alpha, np.memmap):   # a long table: merged a block of rows at a time
-            spline, a_lo, a_hi = _long_lobe_spline(alpha, measured, good, lo, hi, knots)
+            spline, a_lo, a_hi = lobe_spline_of_table(alpha, measured, good, lo, hi, knots)
         else:
             sel = good & (alpha > lo) & (alpha < hi)
             a, h = alpha[sel], measured[sel]
@@ -617,30 +598,6 @@ def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64],
             'flank_midpoint_scatter_deg': float(np.degrees(tp.flank_scatter)),
             'residual_asymmetry_um': {'rms': tp.residual_rms * UM, 'max': tp.residual_max * UM},
             'apparent_asymmetry_rms_um': tp.apparent_rms * UM}
-
-
-def _long_lobe_spline(alpha: NDArray[np.float64], measured: NDArray[np.float64],
-                      good: NDArray[np.bool_], lo: float, hi: float, knots: float,
-                      ) -> tuple[Any, float, float]:
-    """``lift_spline`` of the ``good`` rows with lo < alpha < hi of a long lift table in
-    angle order (repeated angles merged a block at a time: ``merge_repeated_blocks``),
-    and the smallest and largest of those angles [rad]."""
-    span = [np.inf, -np.inf]
-
-    def blocks() -> Iterator[tuple[NDArray[np.float64], NDArray[np.float64]]]:
-        for i, j in walk(alpha.size, alpha, measured):
-            m = good[i:j] & (alpha[i:j] > lo) & (alpha[i:j] < hi)
-            a, h = alpha[i:j][m], measured[i:j][m]
-            bad = int(np.count_nonzero(~(np.isfinite(a) & np.isfinite(h))))
-            if bad:
-                raise InputError('asymmetry.samples', f'{bad} non-finite angle(s) or '
-                                 'lift(s)', 'finite numbers')
-            if a.size:
-                span[0], span[1] = min(span[0], float(a[0])), max(span[1], float(a[-1]))
-            yield a, h
-
-    merged = merge_repeated_blocks(blocks())
-    return spline_of_positions(*merged, knot_spacing=knots), span[0], span[1]
 
 
 def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,

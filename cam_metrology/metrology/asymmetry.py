@@ -16,7 +16,7 @@ asymmetry (reported as RMS and maximum, in m).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator
 
 import numpy as np
 from numpy.typing import NDArray
@@ -108,7 +108,8 @@ def merge_repeated_blocks(blocks: Iterable[tuple[NDArray[np.float64], NDArray[np
                 out_h.append(np.array([carry[1]]))
                 out_n.append(np.array([carry[2]]))
             count = np.bincount(group)
-        sa, sh = np.bincount(group, alpha), np.bincount(group, lift)
+        sa = np.asarray(np.bincount(group, alpha), dtype=float)   # (float sums: typed)
+        sh = np.asarray(np.bincount(group, lift), dtype=float)
         out_a.append(sa[:-1])
         out_h.append(sh[:-1])
         out_n.append(count[:-1])
@@ -121,6 +122,33 @@ def merge_repeated_blocks(blocks: Iterable[tuple[NDArray[np.float64], NDArray[np
         return np.zeros(0), np.zeros(0), np.zeros(0, np.int64)
     count = np.concatenate(out_n).astype(np.int64)
     return np.concatenate(out_a) / count, np.concatenate(out_h) / count, count
+
+
+def lobe_spline_of_table(alpha: NDArray[np.float64], measured: NDArray[np.float64],
+                         good: NDArray[np.bool_], lo: float, hi: float, knots: float,
+                         ) -> tuple[Any, float, float]:
+    """``lift_spline`` (knots every ``knots`` [rad]) of the ``good`` rows with
+    lo < alpha < hi [rad] of a long lift table in angle order, read a block of rows at a
+    time (repeated angles merged as they come: ``merge_repeated_blocks``), and the
+    smallest and largest of those angles [rad]."""
+    from cam_metrology.metrology.spill import walk
+
+    span = [np.inf, -np.inf]
+
+    def blocks() -> Iterator[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+        for i, j in walk(alpha.size, alpha, measured):
+            m = good[i:j] & (alpha[i:j] > lo) & (alpha[i:j] < hi)
+            a, h = alpha[i:j][m], measured[i:j][m]
+            bad = int(np.count_nonzero(~(np.isfinite(a) & np.isfinite(h))))
+            if bad:
+                raise InputError('asymmetry.samples', f'{bad} non-finite angle(s) or '
+                                 'lift(s)', 'finite numbers')
+            if a.size:
+                span[0], span[1] = min(span[0], float(a[0])), max(span[1], float(a[-1]))
+            yield a, h
+
+    merged = merge_repeated_blocks(blocks())
+    return spline_of_positions(*merged, knot_spacing=knots), span[0], span[1]
 
 
 def distinct_positions(alpha: NDArray[np.float64], resolution: float) -> int:

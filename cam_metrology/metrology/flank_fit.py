@@ -239,7 +239,7 @@ def coarse_align(x: NDArray[np.float64], s: NDArray[np.float64], template: Lift,
         for k in range(0, x.size, step):
             idx[k:k + step] = _bin_of(x[k:k + step], bins)
         cnt = np.bincount(idx, minlength=bins)
-        tot = np.bincount(idx, weights=s, minlength=bins)
+        tot = np.asarray(np.bincount(idx, weights=s, minlength=bins), dtype=float)
         release(x, s)
     filled = cnt > 0
     if np.count_nonzero(filled) < 8:

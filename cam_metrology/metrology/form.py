@@ -236,8 +236,8 @@ def _binned_spectrum(th: NDArray[np.float64], y: NDArray[np.float64], k: int, ny
         angle = np.mod(th, TWO_PI)
         idx = _bin_index(angle, width, bins)
         count = np.bincount(idx, minlength=bins)
-        at_sum = np.bincount(idx, angle, minlength=bins)
-        y_sum = np.bincount(idx, y, minlength=bins)
+        at_sum = np.asarray(np.bincount(idx, angle, minlength=bins), dtype=float)
+        y_sum = np.asarray(np.bincount(idx, y, minlength=bins), dtype=float)
     filled = count > 0
     n = count[filled].astype(float)
     at = at_sum[filled] / n     # where the samples are

@@ -78,6 +78,21 @@ def span(column: NDArray[np.float64]) -> tuple[float, float]:
     return lo, hi
 
 
+def short_lift_table(x: NDArray[np.float64], d: float, theta: NDArray[np.float64],
+                     s: NDArray[np.float64], c: float, runout: tuple[float, float],
+                     law: Lift, good: NDArray[np.bool_]
+                     ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """``lift_table`` of a short feature, in memory (sorted by ``numpy.argsort``)."""
+    alpha = x - d
+    order = np.argsort(alpha)
+    table = np.empty((alpha.size, 3))
+    table[:, 0] = alpha[order]
+    wave = block_lsq.first_harmonic(theta[order], 0.0, *runout)
+    table[:, 1] = s[order] - c - wave
+    table[:, 2] = law(table[:, 0], 0)
+    return table, good[order]
+
+
 def lift_table(x: NDArray[np.float64], d: float, theta: NDArray[np.float64],
                s: NDArray[np.float64], c: float, runout: tuple[float, float], law: Lift,
                good: NDArray[np.bool_]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:

@@ -157,8 +157,8 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
             # its area summed a block at a time (memory)
             design = designs.get(fid)
             alpha, lift = card_rows(kept, design, heights)
-            area = support_area(kept, design.support) if card and isinstance(
-                kept, np.memmap) else None
+            area = support_area(kept, design.support) if card and design is not None \
+                and isinstance(kept, np.memmap) else None
             if plot_tables:
                 tables[fid] = spill(kept)
             del kept   # the cards read two columns: the table is not kept alongside
