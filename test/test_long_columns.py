@@ -193,3 +193,31 @@ def test_lobe_on_its_long_column_path_gives_the_in_memory_report(monkeypatch) ->
     for got, want in zip(long_card['heights'], short_card['heights']):
         assert got['opening_deg'] == pytest.approx(want['opening_deg'], abs=1e-10)
         assert got['closing_deg'] == pytest.approx(want['closing_deg'], abs=1e-10)
+
+
+def test_verdict_of_a_long_table_equals_the_in_memory_one(monkeypatch) -> None:
+    """``judge_lobe`` of a spilled lift table (lift-error band and zones by running
+    extremes, max lift, duration and centreline from the rows around the design's peak
+    and events) gives the checks of the in-memory table: the same names and statuses,
+    values to 1e-9 of their unit."""
+    from cam_metrology.metrology.tolerances import judge_lobe
+    from cam_metrology.scene.model import Tolerances, ToleranceZone
+
+    rng = np.random.default_rng(7)
+    alpha = np.sort(rng.uniform(-np.pi, np.pi, 60_000))
+    design = CAM(alpha, 0)
+    measured = design + 3e-6 + 2e-6 * np.sin(3 * alpha) + rng.normal(0, 5e-7, alpha.size)
+    table = np.column_stack([alpha, measured, design])
+    tol = Tolerances(lift_error_um=(-6.0, 6.0), max_lift_um=(-5.0, 5.0),
+                     duration_deg=(-1.0, 1.0), centreline_deg=(-0.5, 0.5),
+                     lift_error_zones=(ToleranceZone(-20.0, 10.0, (-4.0, 4.0)),
+                                       ToleranceZone(170.0, 175.0, (-1.0, 1.0))))
+    feature = {'runout_fitted': True, 'status': 'ok'}
+    want = judge_lobe(tol, feature, table, CAM)
+    monkeypatch.setattr(spill, 'SPILL_BYTES', 1024)
+    got = judge_lobe(tol, feature, spill.spill(table, min_bytes=1), CAM)
+    assert len(want['checks']) == len(got['checks']) >= 8
+    for g, w in zip(got['checks'], want['checks']):
+        assert (g['quantity'], g['result']) == (w['quantity'], w['result'])
+        assert g['value'] == pytest.approx(w['value'], abs=1e-9)
+    assert got['not_checked'] == want['not_checked']
