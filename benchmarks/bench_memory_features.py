@@ -75,9 +75,9 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
     ax.axhline(300, color='grey', lw=0.8, ls=':')
     ax.text(max(x), 290, '300 MB goal', color='grey', ha='right', va='top')
     ax.set_ylim(0, 1.15 * max(300.0, max(r['rss'] for r in rows)))   # room for the labels
-    bags = sorted({r['samples'] for r in rows})
+    bags = sorted({round(r['samples'] / 1e6, 2) for r in rows})
     finish_plot(fig, ax, path, 'samples of the largest feature (bags of %s samples)'
-                % ', '.join(f'{b / 1e6:.3g} M' for b in bags), 'peak RSS [MB]',
+                % ', '.join(f'{b:g} M' for b in bags), 'peak RSS [MB]',
                 'cam-bench analyze --only-metrology: memory against feature size')
 
 

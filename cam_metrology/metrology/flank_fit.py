@@ -233,7 +233,10 @@ def coarse_align(x: NDArray[np.float64], s: NDArray[np.float64], template: Lift,
         for k, e in walk(x.size, x, s, step=step):
             i = _bin_of(x[k:e], bins)
             cnt += np.bincount(i, minlength=bins)
-            tot += np.bincount(i, weights=s[k:e], minlength=bins)
+            # added in sample order onto the running sums: bincount's very sums (a
+            # different rounding would move x0 by an ulp, and ties in the angle order
+            # of the outlier test with it)
+            np.add.at(tot, i, s[k:e])
     else:
         idx = np.empty(x.size, np.int64)   # a block at a time: no full-size temporaries
         for k in range(0, x.size, step):

@@ -223,15 +223,15 @@ def _binned_spectrum(th: NDArray[np.float64], y: NDArray[np.float64], k: int, ny
     """Harmonics of the bin means (angle and deviation) over ``bins`` equal bins of the
     circle, the bins' averaging (sinc) divided out."""
     width = TWO_PI / bins
-    if _long(th):   # sums per bin a block at a time (equal to rounding)
+    if _long(th):   # sums per bin a block at a time, added in sample order: bincount's
         count = np.zeros(bins, np.int64)
         at_sum, y_sum = np.zeros(bins), np.zeros(bins)
         for a, b in walk(th.size, th, y):
             angle = np.mod(th[a:b], TWO_PI)
             idx = _bin_index(angle, width, bins)
             count += np.bincount(idx, minlength=bins)
-            at_sum += np.bincount(idx, angle, minlength=bins)
-            y_sum += np.bincount(idx, y[a:b], minlength=bins)
+            np.add.at(at_sum, idx, angle)
+            np.add.at(y_sum, idx, y[a:b])
     else:
         angle = np.mod(th, TWO_PI)
         idx = _bin_index(angle, width, bins)
