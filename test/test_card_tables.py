@@ -99,3 +99,20 @@ def test_eccentric_and_off_centre_lobes_keep_their_frame(step_deg: float,
         assert entry['duration_cam_deg'] == pytest.approx(2 * half, abs=allow)
         assert entry['opening_deg'] == pytest.approx(peak_deg - half, abs=allow)
         assert entry['closing_deg'] == pytest.approx(peak_deg + half, abs=allow)
+
+
+@pytest.mark.parametrize('nose_deg', [180.0, 200.0, 350.0])
+def test_card_of_a_0_to_360_table_is_told_in_its_frame(nose_deg: float) -> None:
+    """A gauge table written 0..360 deg (rows 0.5 deg apart, 0.01 mm) keeps its frame:
+    the centreline at the nose as written (180, 200, 350 deg, not -180, -160, -10) and
+    the events on either side of it, at the analytic lobe's half-durations."""
+    law = from_spec(LAWS['polynomial_ramped'])
+    a = np.arange(0.0, 360.0, 0.5) * DEG
+    rel = (a - nose_deg * DEG + math.pi) % (2 * math.pi) - math.pi
+    h = np.round(np.asarray(law(rel, 0), dtype=float) / Q) * Q
+    card = table_card(a, h, HEIGHTS[:1], 'lobe_0_360.csv')
+    truth = cc.card_from_law(law, HEIGHTS[:1])['heights'][0]
+    assert card['centreline_deg'] == pytest.approx(nose_deg, abs=0.02)
+    entry = card['heights'][0]
+    assert entry['opening_deg'] == pytest.approx(nose_deg + truth['opening_deg'], abs=0.05)
+    assert entry['closing_deg'] == pytest.approx(nose_deg + truth['closing_deg'], abs=0.05)

@@ -3,13 +3,14 @@ judged from the rows: closed-form lobes whose h'' jumps at known angles
 (``truth_lobes``), scipy's GCV smoothing spline as the reference to beat."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 from scipy.interpolate import make_smoothing_spline
 
-from cam_design.lift_table import junctions
+from cam_design.lift_table import junctions, partial_spline
 from cam_design.lift_table.noise import flat_rows
 from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_design.lift_table.truth_lobes import DEG, families, measured_table
@@ -21,6 +22,14 @@ EVAL = 0.05 * DEG
 def jump_at(law, t):
     """h''(t+) - h''(t-) [m/rad^2] of the truth."""
     return float((law(np.array([t + 1e-9]), 2) - law(np.array([t - 1e-9]), 2))[0])
+
+
+def hinge_matrix(taus, n):
+    """(n, 2J): each junction's hinges on n nodes, opening on its longer side."""
+    x = np.arange(n, dtype=float)
+    return np.column_stack([partial_spline.hinge_values(partial_spline.side_of(t, n) * (x - t),
+                                                        partial_spline.taper_nodes(n))
+                            for t in taus])
 
 
 def acc_errors(fam, a, h, **options):
@@ -59,8 +68,8 @@ def test_partial_spline_recovers_a_step_of_hpp_exactly():
     jump = 0.04                                               # m/rad^2
     h = 1e-3 * np.cos(a) + jump * 0.5 * np.clip(a - t, 0, None) ** 2
     tau = (t - a[0]) / step
-    fit = junctions.partial_fit(h, [tau], 100.0)
-    side = junctions.side_of(tau, a.size)          # the hinge opens on its longer side
+    fit = partial_spline.partial_fit(h, [tau], 100.0)
+    side = partial_spline.side_of(tau, a.size)          # the hinge opens on its longer side
     assert side * fit.coef[0] / step ** 2 == pytest.approx(jump, abs=1e-4)   # m/rad^2
 
 
@@ -162,9 +171,8 @@ def test_partial_fit_solves_the_penalised_least_squares_problem():
     x = np.arange(n, dtype=float)
     y = 1e-3 * np.sin(x / 9.0) + 1e-6 * rng.normal(size=n)
     taus = [23.4, 61.7]
-    fit = junctions.LevelSystem(y, lam).fit(taus)
-    g = np.column_stack([junctions.hinge_values(junctions.side_of(t, n) * (x - t),
-                                                junctions.taper_nodes(n)) for t in taus])
+    fit = partial_spline.LevelSystem(y, lam).fit(taus)
+    g = hinge_matrix(taus, n)
     d3 = np.diff(np.eye(n), 3, axis=0)
     k = g.shape[1]
     a = np.block([[np.eye(n) + lam * d3.T @ d3, g], [g.T, g.T @ g]])
@@ -172,6 +180,73 @@ def test_partial_fit_solves_the_penalised_least_squares_problem():
     assert np.allclose(fit.coef, sol[n:n + k], rtol=1e-6, atol=1e-12)
     fitted = fit.smooth + g @ fit.coef
     assert np.max(np.abs(fitted - (sol[:n] + g @ sol[n:]))) < 1e-12      # m
+
+
+def test_fit_scalars_from_kept_products_equal_the_dense_problem():
+    """The search scores a set of junctions from kept 2 x 2 inner products, without
+    forming the fit: its residual sum of squares, penalised residual and the hinges'
+    share of the hat-matrix trace against the dense partial spline on 80 nodes
+    (H = S + R G (G'R G)^-1 G'R, so tr H - tr S is the hinges' share)."""
+    rng = np.random.default_rng(6)
+    n, lam = 80, 30.0
+    x = np.arange(n, dtype=float)
+    y = 1e-3 * np.sin(x / 9.0) + 1e-6 * rng.normal(size=n)
+    taus = [23.4, 61.7, 40.25]
+    system = partial_spline.LevelSystem(y, lam)
+    score = system.score(taus)
+    g = hinge_matrix(taus, n)
+    d3 = np.diff(np.eye(n), 3, axis=0)
+    smoother = np.linalg.inv(np.eye(n) + lam * d3.T @ d3)
+    r = np.eye(n) - smoother
+    coef = np.linalg.solve(g.T @ r @ g, g.T @ r @ y)
+    f = smoother @ (y - g @ coef)
+    hat = smoother + r @ g @ np.linalg.solve(g.T @ r @ g, g.T @ r)
+    rss = float(np.sum((y - f - g @ coef) ** 2))
+    penalised = rss + lam * float(np.sum((d3 @ f) ** 2))
+    assert score.rss == pytest.approx(rss, rel=1e-7)                     # m^2
+    assert score.objective == pytest.approx(penalised, rel=1e-7)         # m^2
+    assert score.edf - system.trace == pytest.approx(np.trace(hat) - np.trace(smoother),
+                                                     abs=1e-6)
+    # one more junction added to a kept set gives the same as the set built at once
+    grown = partial_spline.LevelSystem(y, lam)
+    grown.score(taus[:2])
+    assert grown.score(taus).rss == pytest.approx(score.rss, rel=1e-9)
+
+
+@pytest.mark.parametrize('lam', [1e2, 1e4, 1e6, 1e8])
+def test_windowed_hinge_columns_equal_whole_table_solves(lam):
+    """A hinge's column R g is solved on a window (the level's Toeplitz interior, or a
+    block reaching one end of the table) and is zero outside it: against the
+    whole-table banded solve at 3600 rows, near either end and inside, within 1e-7 of
+    its peak (measured 2e-8 at lam 1e8, where an 80-bit reference puts the rounding of
+    either solve at 2e-8, and below 1e-9 at lower levels)."""
+    n = 3600
+    system = partial_spline.LevelSystem(np.zeros(n), lam)
+    for tau in (40.3, 500.25, 1700.5, 1900.75, 3100.1, 3560.6):
+        g, rg = system.columns([tau])
+        whole = partial_spline.residual_operator(np.array(g), lam)
+        peak = np.max(np.abs(whole), axis=0)
+        assert np.all(np.max(np.abs(rg - whole), axis=0) <= 1e-7 * peak), tau
+
+
+def test_refit_without_changes_is_the_search_fit():
+    """refit with the search's own values, level and no missing node hands back the
+    search's last fit: the same as a fit made afresh at its junctions (fitted lift
+    within 1e-12 m, steps of h'' within 1e-7 relative)."""
+    fam = FAMILIES['circular arc']
+    a, h = measured_table(fam.law, 0.5 * DEG, sigma=0.5e-6, seed=1)
+    grid = a - a[0]
+    found = junctions.find_junctions(grid, h, 10.0)
+    assert found is not None
+    same = junctions.refit(grid, h, np.zeros(h.size, dtype=bool), found, found.lam_d)
+    fresh = junctions.refit(grid, h.copy(), np.zeros(h.size, dtype=bool),
+                            dataclasses.replace(found, fitted_on=None), found.lam_d)
+    assert same is found
+    # the smooth part and the hinges' long quadratic tails nearly cancel: compare
+    # their sum, the fitted lift
+    fitted = same.smooth + same.hinge_part(grid)
+    assert np.max(np.abs(fitted - fresh.smooth - fresh.hinge_part(grid))) < 1e-12   # m
+    assert np.allclose(same.jumps, fresh.jumps, rtol=1e-7, atol=0.0)
 
 
 def test_scan_statistic_equals_direct_inner_products():
@@ -182,7 +257,7 @@ def test_scan_statistic_equals_direct_inner_products():
     n, lam, sigma = 600, 200.0, 2e-6
     resid = sigma * rng.normal(size=n)
     pos, stat = junctions.scan(resid, lam, sigma, margin=3)
-    system = junctions.LevelSystem(np.zeros(n), lam)
+    system = partial_spline.LevelSystem(np.zeros(n), lam)
     for tau in (150.25, 201.5, 420.75, 455.0):
         g, rg = system.columns([tau])
         m, v, b = g.T @ rg, rg.T @ rg, g.T @ resid
@@ -217,7 +292,7 @@ def test_reused_level_systems_give_the_plain_search_result(name, monkeypatch):
     fast = lobe_law(a, h, key='t')
     with monkeypatch.context() as m:
         m.setattr(junctions.Levels, 'at',
-                  lambda self, lam: junctions.LevelSystem(self.values, lam))
+                  lambda self, lam: partial_spline.LevelSystem(self.values, lam))
         m.setattr(junctions.LevelSystem, 'fit', junctions.LevelSystem._fit)
         plain = lobe_law(a, h, key='t')
     found = fast.lobe.rec.parameter['junctions_deg']

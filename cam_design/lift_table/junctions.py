@@ -25,29 +25,32 @@ and the search repeats. Angles in rad, lifts in m.
 
 Cost. A large T often marks the smoothing bias of a strongly curved, smooth lobe
 rather than a junction, and the GCV test refuses it; the search is built so that
-refusals are cheap. One ``LevelSystem`` per level keeps the banded factor, R y and
-the hinge columns (g, R g) it has solved for: the hinges are a low-rank addition to
-the smoother's system, so a fit with other junctions at the same level costs only the
-new columns' solves and a dense system of size 2J. The scan is one real FFT of the
-residual against cached spectra of the hinges (a correlation for right-opening and a
-convolution for left-opening junctions) and is reused while candidates are refused.
-A candidate is first scored at the present level and unrefined angle (a pre-test);
-only one within ``PRETEST_SLACK`` of the bar gets its angle refined and the level
-chosen again, and the search stops after ``MAX_REFUSED`` refusals in a row.
+refusals are cheap. The fits are ``partial_spline.LevelSystem``s, one per level, which
+keep what they have solved (the factor, R y, each junction's windowed column and its
+products), so a set of junctions at a level already met costs only its new columns and
+a dense system of size 2J; the level is searched on one lattice of half decades per
+table (``Levels``), so successive candidates meet the same levels. The scan is one
+real FFT of the residual against cached spectra of the hinges (a correlation for
+right-opening and a convolution for left-opening junctions) and is reused while
+candidates are refused. A candidate is first scored at the present level and
+unrefined angle (a pre-test); only one within ``PRETEST_SLACK`` of the bar gets its
+angle refined, and only one whose refined angle stays by the scan's gets the level
+chosen again; the search stops after ``MAX_REFUSED`` refusals in a row.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Callable
 
 import numpy as np
-from numpy.polynomial import Polynomial
-from numpy.polynomial.polynomial import polyval
 from numpy.typing import NDArray
 from scipy.fft import irfft, next_fast_len, rfft
-from scipy.linalg import cho_solve_banded, cholesky_banded
+
+from cam_design.lift_table.partial_spline import (LevelSystem, PartialFit, hinge_coefficients,
+                                                  hinge_values, horner, interior_hinge_grams,
+                                                  partial_fit, side_of, taper_nodes)
 
 #: family-wise false-alarm probability of the junction search on a lobe without one
 FALSE_ALARM = 1e-3
@@ -75,246 +78,20 @@ LEVEL_STEP = 0.5
 LEVEL_REACH = 4
 #: golden-section iterations refining a junction's angle over +-1 row (to 0.07 row)
 REFINE_ITERATIONS = 7
-#: fits a level's system remembers (by junction set)
-FITS_KEPT = 4
+#: a refined junction more than this many rows from the scan's angle is refused
+MAX_MOVE = 0.9
 
 
-def third_difference_gram(m: int) -> NDArray[np.float64]:
-    """D3^T D3 (free ends) for m >= 4 unknowns in upper banded storage (4 x m)."""
-    c = np.array([-1.0, 3.0, -3.0, 1.0])
-    ab = np.zeros((4, m))
-    for o in range(4):
-        diag = np.convolve(np.ones(m - 3), c[:4 - o] * c[o:])     # length m - o
-        ab[3 - o, o:] = diag[:m - o]
-    return ab
-
-
-@lru_cache(maxsize=16)
-def _penalty(m: int) -> NDArray[np.float64]:
-    ab = third_difference_gram(m)
-    ab.setflags(write=False)
-    return ab
-
-
-@lru_cache(maxsize=8)
-def _factor(n: int, lam_d: float) -> NDArray[np.float64]:
-    """Banded Cholesky factor of I + lam_d D3'D3 (read-only, cached: the search asks
-    for the same level many times)."""
-    ab = lam_d * _penalty(n)
-    ab[3] += 1.0
-    c = cholesky_banded(ab, check_finite=False)
-    c.setflags(write=False)
-    return c
-
-
-def _smooth(rhs: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
-    """(I + lam_d D3'D3)^-1 rhs (rhs (n,) or (n, k))."""
-    return cho_solve_banded((_factor(rhs.shape[0], float(lam_d)), False), rhs,
-                            check_finite=False)
-
-
-@lru_cache(maxsize=16)
-def _cubed_spectrum(n: int) -> NDArray[np.float64]:
-    """mu_k^3 of the reflective second difference, modes 1 .. n - 3 (read-only)."""
-    mu = 2.0 - 2.0 * np.cos(np.pi * np.arange(1, n - 2) / n)
-    m3 = mu ** 3
-    m3.setflags(write=False)
-    return m3
-
-
-def _trace_smoother(n: int, lam_d: float) -> float:
-    """tr (I + lam_d D3'D3)^-1: the three unpenalised quadratics plus the reflective
-    spectrum mu_k^3 of the other modes (boundary terms of order one left out)."""
-    return 3.0 + float(np.sum(1.0 / (1.0 + lam_d * _cubed_spectrum(n))))
-
-
-def _smoothstep() -> Polynomial:
-    """S(v) = v^6 sum_k C(5 + k, k) (1 - v)^k: 0 at 0, 1 at 1, flat to 5th order."""
-    v = Polynomial([0.0, 1.0])
-    return v ** 6 * sum(math.comb(5 + k, k) * Polynomial([1.0, -1.0]) ** k
-                        for k in range(6))
-
-
-def side_of(tau: float, n: int) -> int:
-    """+1: the junction at node ``tau`` opens to the right (its longer side), else -1."""
-    return 1 if tau <= 0.5 * (n - 1) else -1
-
-
-def taper_nodes(n: int) -> float:
-    """Length [nodes] of a junction's cubic hinge (long beside the smoother's
-    bandwidth, short enough to keep its values, and the rounding of R g, small)."""
-    return max(min(0.25 * (n - 1), 60.0 + 0.02 * n), 4.0)
-
-
-@lru_cache(maxsize=64)
-def _hinges_on(length: float) -> tuple[Polynomial, Polynomial]:
-    """g2 = u^2/2 on u > 0 (no taper: the free ends do not penalise a quadratic) and
-    g3 = u^3/6 w(u) on [0, L], w = 1 - S(u / L), 0 beyond (C5 there, 1 + O(u^6) at
-    0): unit steps of the second and third derivatives at 0, in node units."""
-    taper = 1.0 - _smoothstep()(Polynomial([0.0, 1.0 / length]))
-    return Polynomial([0.0, 0.0, 0.5]), Polynomial([0.0, 0.0, 0.0, 1.0 / 6.0]) * taper
-
-
-@lru_cache(maxsize=64)
-def _hinge_coefficients(length: float, nu: int) -> tuple[NDArray[np.float64], ...]:
-    """Power-series coefficients of the nu-th derivatives of g2 and g3."""
-    return tuple(np.asarray(p.deriv(nu).coef, dtype=np.float64) for p in _hinges_on(length))
-
-
-def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
-    """(len(u), 2): nu-th u-derivatives of g2 and g3 (node units), ``u`` nodes from a
-    junction that opens to the right."""
-    u = np.asarray(u, dtype=float)
-    out = np.zeros((u.size, 2))
-    quad, cubic = _hinge_coefficients(float(length), nu)
-    pos = u > 0
-    near = pos & (u < length)
-    out[pos, 0] = polyval(u[pos], quad)
-    out[near, 1] = polyval(u[near], cubic)
-    return out
-
-
-@lru_cache(maxsize=16)
-def _quadratics(n: int) -> NDArray[np.float64]:
-    """Orthonormal basis (n, 3) of the quadratics on n nodes (read-only, cached)."""
-    x = np.linspace(-1.0, 1.0, n)
-    q, _ = np.linalg.qr(np.column_stack([np.ones(n), x, x * x]))
-    q.setflags(write=False)
-    return q
-
-
-def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
-    """r without its quadratic part. R r is orthogonal to the quadratics (the free
-    ends reproduce them); the banded solve's rounding, amplified by the condition
-    number, is not, and a long hinge would sum it up."""
-    q = _quadratics(r.shape[0])
-    return r - q @ (q.T @ r)
-
-
-def _residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
-    """R g = (I + lam_d P)^-1 lam_d P g, P = D3'D3: the same as g - S g, but formed from
-    third differences, so that the long quadratic tail of a hinge (S reproduces it)
-    adds no rounding."""
-    d3 = np.diff(g, 3, axis=0)
-    pg = np.zeros(g.shape)
-    for j, c in enumerate((-1.0, 3.0, -3.0, 1.0)):
-        pg[j:j + d3.shape[0]] += c * d3
-    return _deflate(_smooth(lam_d * pg, lam_d))
-
-
-@lru_cache(maxsize=128)
-def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
-    """(n, 2): g2 and g3 of one junction at node position ``tau``, opening on its
-    longer side (node units; read-only, cached: the level search asks for the same
-    junctions at every level)."""
-    g = hinge_values(side_of(tau, n) * (np.arange(n, dtype=float) - tau), taper_nodes(n))
-    g.setflags(write=False)
-    return g
-
-
-def _hinge_columns(n: int, taus: list[float]) -> NDArray[np.float64]:
-    """(n, 2J): g2 and g3 of each junction, opening on its longer side (node units)."""
-    cols = [_hinge_pair(n, float(t)) for t in taus]
-    return np.concatenate(cols, axis=1) if cols else np.zeros((n, 0))
-
-
-@dataclass(frozen=True)
-class PartialFit:
-    """A partial-spline fit at one level: smooth part ``smooth`` [m] on the grid, hinge
-    coefficients ``coef`` [m per node^2], residual sum of squares ``rss`` [m^2], trace
-    of the hat matrix ``edf``, penalised residual ``objective`` [m^2], ``resid``."""
-
-    smooth: NDArray[np.float64]
-    coef: NDArray[np.float64]
-    rss: float
-    edf: float
-    objective: float
-    resid: NDArray[np.float64]
-
-
-class LevelSystem:
-    """The partial-spline system of uniform ``values`` [m] at one discrete level
-    ``lam_d``: the smoother's banded factor (cached by level), R y, and the hinge
-    columns (g, R g) of every junction asked for so far. The hinges are a low-rank
-    addition to the smoother's system: a fit with another set of junctions at the same
-    level costs only the new junctions' solves and a small dense system."""
-
-    def __init__(self, values: NDArray[np.float64], lam_d: float) -> None:
-        self.values = values
-        self.n = int(values.size)
-        self.lam_d = float(lam_d)
-        self.ry = _deflate(values - _smooth(values, self.lam_d))
-        self.trace = _trace_smoother(self.n, self.lam_d)
-        self._cols: dict[float, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
-        self._fits: dict[tuple[float, ...], PartialFit] = {}
-
-    def columns(self, taus: list[float]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """(G, R G), (n, 2J), of junctions at node positions ``taus``."""
-        new = [t for t in dict.fromkeys(taus) if t not in self._cols]
-        if new:
-            g = _hinge_columns(self.n, new)
-            rg = _residual_operator(g, self.lam_d)
-            for k, t in enumerate(new):
-                self._cols[t] = (g[:, 2 * k:2 * k + 2], rg[:, 2 * k:2 * k + 2])
-        if not taus:
-            return np.zeros((self.n, 0)), np.zeros((self.n, 0))
-        return (np.concatenate([self._cols[t][0] for t in taus], axis=1),
-                np.concatenate([self._cols[t][1] for t in taus], axis=1))
-
-    def fit(self, taus: list[float]) -> PartialFit:
-        """The partial spline with hinges at node positions ``taus`` (the last few
-        kept: the search asks for the same fit again, e.g. its score after its scan)."""
-        key = tuple(taus)
-        done = self._fits.get(key)
-        if done is None:
-            done = self._fit(taus)
-            if len(self._fits) >= FITS_KEPT:
-                self._fits.pop(next(iter(self._fits)))
-            self._fits[key] = done
-        return done
-
-    def _fit(self, taus: list[float]) -> PartialFit:
-        values, ry = self.values, self.ry
-        if taus:
-            g, rg = self.columns(taus)
-            m = g.T @ rg
-            m = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
-            # G'R y formed as (R G)'y: g'(R y) multiplies the rounding of R y by the
-            # hinge's long quadratic tail (a 1e-15 change of the level moved the step
-            # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
-            # third differences and y is data, so the product keeps its digits
-            coef = np.linalg.solve(m, rg.T @ values)
-            extra = float(np.trace(np.linalg.solve(m, rg.T @ rg)))
-            resid = ry - rg @ coef
-            z = values - g @ coef
-        else:
-            coef, extra, resid, z = np.zeros(0), 0.0, ry, values
-        smooth = z - resid                       # S (y - G c)
-        return PartialFit(smooth, coef, float(resid @ resid), self.trace + extra,
-                          float(z @ resid), resid)
-
-    def gcv(self, taus: list[float], gamma: float) -> float:
-        """GCV score of the fit with these junctions (``gamma`` weights the trace)."""
-        f = self.fit(taus)
-        return self.n * f.rss / max(self.n - gamma * f.edf, 1e-9) ** 2
-
-
-def partial_fit(values: NDArray[np.float64], taus: list[float], lam_d: float
-                ) -> PartialFit:
-    """Partial spline of uniform ``values`` [m] with hinges at node positions ``taus``."""
-    return LevelSystem(values, lam_d).fit(taus)
-
-
-def _gcv(values: NDArray[np.float64], taus: list[float], lam_d: float, gamma: float) -> float:
-    return LevelSystem(values, lam_d).gcv(taus, gamma)
-
-
-def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations: int) -> float:
-    """Minimiser of a unimodal ``fun`` on [a, b] (golden section)."""
+def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations: int,
+                   stop: Callable[[float, float], bool] | None = None) -> float:
+    """Minimiser of a unimodal ``fun`` on [a, b] (golden section). ``stop(a, b)``: the
+    bracket is of no more interest (the midpoint of the present one is returned)."""
     g = (math.sqrt(5.0) - 1.0) / 2.0
     c, d = b - g * (b - a), a + g * (b - a)
     fc, fd = fun(c), fun(d)
     for _ in range(iterations):
+        if stop is not None and stop(a, b):
+            break
         if fc < fd:
             b, d, fd = d, c, fc
             c = b - g * (b - a)
@@ -328,11 +105,14 @@ def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations
 
 class Levels:
     """The level systems of one table, by level: a search that comes back to a level
-    (a refused candidate's level search retraces the last one's) reuses its factor,
-    R y and the hinge columns already solved there. Arithmetic as with a fresh system."""
+    reuses its factor, R y and the hinge columns already solved there. The level
+    search steps on one lattice of ``LEVEL_STEP`` decades, anchored at the first
+    level it starts from (``anchor``, log10), so that the searches of successive
+    candidates meet the same levels."""
 
     def __init__(self, values: NDArray[np.float64]) -> None:
         self.values = values
+        self.anchor: float | None = None
         self._systems: dict[float, LevelSystem] = {}
 
     def at(self, lam_d: float) -> LevelSystem:
@@ -347,13 +127,16 @@ class Levels:
 def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
                  lam0: float, levels: Levels | None = None) -> float:
     """The GCV-minimising discrete level with these hinges, searched around ``lam0``:
-    downhill from log10(lam0) in steps of ``LEVEL_STEP`` decades (at most
-    ``LEVEL_REACH`` either way) to a bracketing triple, then the vertex of the parabola
-    through it (GCV is smooth and unimodal in log lam near its minimum). ``levels``:
-    the systems already built for ``values``, if any."""
+    downhill from the lattice level nearest to log10(lam0) in steps of ``LEVEL_STEP``
+    decades (at most ``LEVEL_REACH`` either way) to a bracketing triple, then the
+    vertex of the parabola through it (GCV is smooth and unimodal in log lam near its
+    minimum). ``levels``: the systems already built for ``values``, if any, and the
+    lattice's anchor (without them, or on the first call, log10(lam0) itself)."""
     levels = levels if levels is not None else Levels(values)
-    c0 = math.log10(max(lam0, 1e-6))
     h = LEVEL_STEP
+    if levels.anchor is None:
+        levels.anchor = math.log10(max(lam0, 1e-6))
+    c0 = levels.anchor + h * round((math.log10(max(lam0, 1e-6)) - levels.anchor) / h)
     seen: dict[int, float] = {}
 
     def score(k: int) -> float:         # GCV at c0 + k h, each level computed once
@@ -371,21 +154,6 @@ def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
     return 10.0 ** (c0 + (best + shift) * h)
 
 
-@lru_cache(maxsize=64)
-def _hinge_gram(lam_d: float, offset: float, length: float
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(G'RG, G'R^2G), 2 x 2 in node units, of one right-opening junction far from the
-    ends: R G vanishes away from the hinge and its taper, so a window covering them
-    and a few dozen smoother bandwidths gives them (cached by level)."""
-    bw = int(40 * max(lam_d, 1.0) ** (1.0 / 6.0) + 20)
-    left = 2 * bw
-    nodes = np.arange(left + int(math.ceil(length)) + 3 * bw, dtype=float)
-    g = hinge_values(nodes - (left + offset), length)
-    rg = _residual_operator(g, lam_d)
-    core = slice(bw, nodes.size - bw)          # clear of the window's own ends
-    return g[core].T @ rg[core], rg[core].T @ rg[core]
-
-
 @lru_cache(maxsize=4)
 def _kernel_spectra(n: int, length: float, nfft: int) -> NDArray[np.complex128]:
     """Real FFTs (len(SCAN_OFFSETS), 2, nfft // 2 + 1) of the hinges g2, g3 of a
@@ -397,6 +165,19 @@ def _kernel_spectra(n: int, length: float, nfft: int) -> NDArray[np.complex128]:
     return out
 
 
+@lru_cache(maxsize=4)
+def _scan_positions(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Node positions of the scan, ascending: node + offset (right-opening, in row
+    order) and (n - 1 - node) - offset (left-opening, in reversed row order)."""
+    offs = np.asarray(SCAN_OFFSETS)
+    nodes = np.arange(n, dtype=float)
+    right = (nodes[:, None] + offs[None, :]).ravel()
+    left = ((n - 1 - nodes)[:, None] - offs[None, :]).ravel()[::-1].copy()
+    right.setflags(write=False)
+    left.setflags(write=False)
+    return right, left
+
+
 def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
          ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(node positions tau, statistic T) of one more junction at every quarter node,
@@ -406,35 +187,32 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
 
     The hinge's inner products with the residual at every position are one
     correlation (right-opening) and one convolution (left-opening) with the hinge,
-    both from one FFT of the residual."""
+    both from one FFT of the residual (and one batch of inverse FFTs)."""
     n = resid.size
     length = taper_nodes(n)
     nfft = next_fast_len(2 * n, real=True)
     spectra = _kernel_spectra(n, length, nfft)
     e = rfft(resid, nfft)
-    right = np.zeros((n, len(SCAN_OFFSETS)))
-    left = np.zeros((n, len(SCAN_OFFSETS)))
-    for col, off in enumerate(SCAN_OFFSETS):
-        m, v = _hinge_gram(float(lam_d), off, length)
+    kern = np.empty((len(SCAN_OFFSETS), spectra.shape[-1]), dtype=complex)
+    var = np.empty(len(SCAN_OFFSETS))
+    for col, (m, v) in enumerate(interior_hinge_grams(float(lam_d), length, SCAN_OFFSETS)):
         # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
         w = np.array([1.0, -m[0, 1] / m[1, 1]])
-        var = max(float(w @ v @ w) * sigma ** 2, 1e-300)
-        kern = w[0] * spectra[col, 0] + w[1] * spectra[col, 1]
-        # right: b(j) = sum_i g(i - off) e_{j+i}; left (the table reversed):
-        # b(j) = sum_i g(i - off) e_{n-1-j-i}
-        right[:, col] = irfft(e * np.conj(kern), nfft)[:n] ** 2 / var
-        left[:, col] = irfft(e * kern, nfft)[n - 1::-1] ** 2 / var
-    offs = np.asarray(SCAN_OFFSETS)
-    nodes = np.arange(n, dtype=float)
-    pos_r = (nodes[:, None] + offs[None, :]).ravel()
-    pos_l = ((n - 1 - nodes)[:, None] - offs[None, :]).ravel()
-    pos = np.concatenate([pos_r, pos_l])
-    stat = np.concatenate([right.ravel(), left.ravel()])
-    opens = np.concatenate([np.ones(pos_r.size), -np.ones(pos_l.size)])
-    own = np.where(pos <= 0.5 * (n - 1), 1.0, -1.0) == opens
-    keep = own & (pos >= margin) & (pos <= n - 1 - margin)
-    order = np.argsort(pos[keep])
-    return pos[keep][order], stat[keep][order]
+        var[col] = max(float(w @ v @ w) * sigma ** 2, 1e-300)
+        kern[col] = w[0] * spectra[col, 0] + w[1] * spectra[col, 1]
+    # right: b(j) = sum_i g(i - off) e_{j+i}; left (the table reversed):
+    # b(j) = sum_i g(i - off) e_{n-1-j-i}
+    b = irfft(np.concatenate([e * np.conj(kern), e * kern]), nfft, axis=-1)
+    k = len(SCAN_OFFSETS)
+    right = (b[:k, :n] ** 2 / var[:, None]).T.ravel()
+    left = (b[k:, n - 1::-1] ** 2 / var[:, None]).T.ravel()[::-1]
+    pos_r, pos_l = _scan_positions(n)
+    mid = 0.5 * (n - 1)
+    r0, r1 = np.searchsorted(pos_r, margin, side='left'), np.searchsorted(pos_r, mid, 'right')
+    l0 = np.searchsorted(pos_l, mid, side='right')
+    l1 = np.searchsorted(pos_l, n - 1 - margin, side='right')
+    return (np.concatenate([pos_r[r0:r1], pos_l[l0:l1]]),
+            np.concatenate([right[r0:r1], left[l0:l1]]))
 
 
 @dataclass(frozen=True)
@@ -442,7 +220,8 @@ class JunctionFit:
     """The partial-spline fit with its junctions: ``angles`` [rad], acceleration
     ``jumps`` [m/rad^2] (h''(t+) - h''(t-)), the discrete level ``lam_d``, the smooth
     part ``smooth`` [m] on the grid, ``edf``, the search statistics ``scores``;
-    ``step`` [rad], ``x0`` [rad], ``nodes`` and ``coef`` (node units) for the hinges."""
+    ``step`` [rad], ``x0`` [rad], ``nodes`` and ``coef`` (node units) for the hinges;
+    ``fitted_on``: the grid values [m] of the fit, where they are kept."""
 
     angles: tuple[float, ...]
     jumps: tuple[float, ...]
@@ -454,6 +233,7 @@ class JunctionFit:
     x0: float
     nodes: int
     coef: NDArray[np.float64]
+    fitted_on: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
 
     def hinge_part(self, x: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
         """Sum of the hinges' nu-th derivative [m/rad^nu] at ``x`` [rad]."""
@@ -461,16 +241,28 @@ class JunctionFit:
         u = ((x - self.x0) / self.step).ravel()
         out = np.zeros(u.size)
         length = taper_nodes(self.nodes)
+        cubic = hinge_coefficients(float(length), nu)[1]
         for k, t in enumerate(self.angles):
             tau = (t - self.x0) / self.step
             side = side_of(tau, self.nodes)
-            cols = hinge_values(side * (u - tau), length, nu) * float(side) ** nu
-            out += cols @ self.coef[2 * k:2 * k + 2]
+            v = side * (u - tau)
+            c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
+            # the quadratic hinge: v^2/2, v, 1, 0 on v > 0 (Horner's values)
+            if nu == 0:
+                vp = np.maximum(v, 0.0)
+                out += c2 * ((0.5 * vp) * vp)
+            elif nu == 1:
+                out += c2 * np.maximum(v, 0.0)
+            elif nu == 2:
+                out += np.where(v > 0, c2, 0.0)
+            near = np.flatnonzero((v > 0) & (v < length))
+            out[near] += c3 * horner(v[near], cubic)
         return out.reshape(x.shape) / self.step ** nu
 
 
 def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
-                fit: PartialFit, scores: list[float]) -> JunctionFit:
+                fit: PartialFit, scores: list[float],
+                fitted_on: NDArray[np.float64] | None = None) -> JunctionFit:
     step = float(grid[1] - grid[0])
     n = grid.size
     order = np.argsort(taus)
@@ -478,7 +270,7 @@ def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
     jumps = tuple(side_of(taus[i], n) * float(fit.coef[2 * i]) / step ** 2 for i in order)
     return JunctionFit(tuple(float(grid[0] + taus[i] * step) for i in order), jumps,
                        lam_d, fit.smooth, fit.edf, tuple(scores[i] for i in order), step,
-                       float(grid[0]), n, coef)
+                       float(grid[0]), n, coef, fitted_on)
 
 
 def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0: float,
@@ -514,8 +306,7 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
             base = system.gcv(taus, gamma)
             fresh = False
         if taus or vetoed:
-            near = np.min(np.abs(pos[:, None] - np.asarray(taus + vetoed)[None, :]), axis=1)
-            stat = np.where(near > max(1.5, bandwidth), stat, 0.0)
+            stat = _cleared(pos, stat, taus + vetoed, max(1.5, bandwidth))
         i = int(np.argmax(stat)) if stat.size else -1
         if i < 0 or stat[i] < threshold:
             break
@@ -525,22 +316,20 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
         # far below the bar is refused without either
         quick = n * math.log(base / system.gcv(taus + [at], gamma))
+        trial, lam_trial, gain = taus + [at], lam, quick
         if quick >= GCV_GAIN - PRETEST_SLACK:
             trial = _refine(system, taus + [at])
-            lam_trial = choose_level(values, trial, gamma, lam, levels)
-            trial_system = levels.at(lam_trial)
-            # kept only if it lowers the GCV score of the whole fit: a step that stands
-            # in for the smoothing bias of a smooth, strongly curved lobe raises it
-            gain = n * math.log(base / trial_system.gcv(trial, gamma))
-        else:
-            trial, lam_trial, gain = taus + [at], lam, quick
+            # a junction refused for its place needs no level search
+            if not _misplaced(trial, at):
+                lam_trial = choose_level(values, trial, gamma, lam, levels)
+                trial_system = levels.at(lam_trial)
+                # kept only if it lowers the GCV score of the whole fit: a step that
+                # stands in for the smoothing bias of a smooth, strongly curved lobe
+                # raises it
+                gain = n * math.log(base / trial_system.gcv(trial, gamma))
         # nor if the rest of the fit has to get much rougher for it (a step of the
         # lift itself, which a step of h'' only imitates)
-        # nor if its best angle is not within the row the scan pointed at (the bound
-        # of the refinement: the residual has no sharp step there)
-        if (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) < 1.0
-                or abs(trial[-1] - at) > 0.9
-                or gain < GCV_GAIN or lam_trial < MIN_LEVEL_RATIO * lam):
+        if (_misplaced(trial, at) or gain < GCV_GAIN or lam_trial < MIN_LEVEL_RATIO * lam):
             vetoed.append(at)
             in_a_row += 1
             if in_a_row >= MAX_REFUSED:
@@ -552,7 +341,18 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         lam, system, fresh = lam_trial, trial_system, True
     if not taus:
         return None
-    return _fit_result(grid, taus, lam, system.fit(taus), scores)
+    return _fit_result(grid, taus, lam, system.fit(taus), scores, values.copy())
+
+
+def _cleared(pos: NDArray[np.float64], stat: NDArray[np.float64], points: list[float],
+             reach: float) -> NDArray[np.float64]:
+    """``stat`` set to 0 at the (ascending) positions ``pos`` within ``reach`` of any of
+    ``points``."""
+    out = stat.copy()
+    for p in points:
+        out[np.searchsorted(pos, p - reach, side='left'):
+            np.searchsorted(pos, p + reach, side='right')] = 0.0
+    return out
 
 
 def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
@@ -560,9 +360,19 @@ def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
     residual, the others held (the level's system keeps their columns)."""
     last = taus[-1]
     lo, hi = max(last - 1.0, 1.0), min(last + 1.0, system.n - 2.0)
-    best = golden_minimum(lambda t: system.fit(taus[:-1] + [t]).objective, lo, hi,
-                          REFINE_ITERATIONS)
+    # a bracket that has left +-MAX_MOVE of the scan's angle ends in a refusal: stop
+    best = golden_minimum(lambda t: system.score(taus[:-1] + [t]).objective, lo, hi,
+                          REFINE_ITERATIONS,
+                          stop=lambda a, b: b < last - MAX_MOVE or a > last + MAX_MOVE)
     return taus[:-1] + [best]
+
+
+def _misplaced(trial: list[float], at: float) -> bool:
+    """The refined junction is refused for its place alone: within a node of another,
+    or more than ``MAX_MOVE`` from the scan's angle ``at`` (the residual has no sharp
+    step there)."""
+    return (min((abs(trial[-1] - t) for t in trial[:-1]), default=math.inf) < 1.0
+            or abs(trial[-1] - at) > MAX_MOVE)
 
 
 class JunctionSpline:
@@ -584,6 +394,9 @@ def refit(grid: NDArray[np.float64], values: NDArray[np.float64],
     """The fit with ``found``'s junctions at level ``lam_d``; nodes marked ``missing``
     (outliers, gaps, free end nodes) are refilled with the fit ``fills`` times, so that
     they end up carrying no weight (EM for the missing values)."""
+    if (found.fitted_on is not None and lam_d == found.lam_d and not np.any(missing)
+            and np.array_equal(found.fitted_on, values)):
+        return found                    # the search's own last fit
     step = float(grid[1] - grid[0])
     taus = [(t - float(grid[0])) / step for t in found.angles]
     vals = values.copy()

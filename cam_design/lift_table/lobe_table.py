@@ -128,8 +128,9 @@ class LobeInfo:
                 + ('; periodic (no base circle)' if self.periodic else
                    '; runs out to the table\'s base-circle rows' if not any(self.joins) else
                    '; joined to the base circle with zero lift, velocity, acceleration and '
-                   'jerk at ' + ', '.join(f'{math.degrees(j[0]):.2f}..{math.degrees(j[1]):.2f}'
-                                          ' deg' for j in self.joins if j))
+                   'jerk at ' + ', '.join(
+                       f'{_table_deg(j[0] + self.offset):.2f}..'
+                       f'{_table_deg(j[1] + self.offset):.2f} deg' for j in self.joins if j))
                 + (f'; rows turned by {math.degrees(self.offset):.1f} deg to keep the lobe '
                    'off the +-180 deg seam (angles reported in the table frame)'
                    if self.offset else '')
@@ -170,6 +171,11 @@ class TableLobe(LiftLaw):
         if nu == 0 and self._floor:
             out -= self._floor
         return out
+
+
+def _table_deg(angle: float) -> float:
+    """A lobe-frame angle plus the turn [rad], in the table frame [deg], (-180, 180]."""
+    return math.degrees(float(wrap_pi(angle)))
 
 
 def table_quantum(lift: ArrayLike) -> float:
@@ -406,8 +412,9 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             rows = clean_samples(b - mid, h, key=key, min_points=6)
             # the fairing the scatter estimate made is the engine's own when the engine
             # gets the same rows (none merged or re-ordered) with the estimated noise
-            same = (fairing is not None and known is None and rows.alpha.size == b.size
-                    and bool(np.all(rows.lift == h)))
+            # (not after a turn: the fairing was made of the rows in their first order)
+            same = (fairing is not None and known is None and not offset
+                    and rows.alpha.size == b.size and bool(np.all(rows.lift == h)))
             rec = reconstruct_spline(rows, options=SplineOptions(criterion='risk', sigma=known),
                                      fairing=fairing if same else None)
             curve = _Evaluated(rec.evaluate, mid)

@@ -197,7 +197,7 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
     said = [w for w in (base_circle_warning(alpha, lift), *law.lobe.warnings) if w]
     if said:
         card['warning'] = '; '.join(said)
-    return _shifted(card, 0.0)
+    return _in_table_frame(card, alpha)
 
 
 def law_joins(law: Any) -> list[tuple[float, float, float]]:
@@ -214,12 +214,20 @@ def law_joins(law: Any) -> list[tuple[float, float, float]]:
     return out
 
 
-def _shifted(card: dict[str, Any], shift_deg: float) -> dict[str, Any]:
-    """``card`` with every angle moved by ``shift_deg``, then by whole turns so that the
-    centreline lies in (-180, 180] (events stay on either side of it)."""
+def _in_table_frame(card: dict[str, Any], alpha: Any) -> dict[str, Any]:
+    """``card`` with every angle moved by whole turns so that the centreline lies in the
+    turn the rows start at, [first row, first row + 360) deg (a 0..360 deg table with its
+    lobe at 180 deg says 180, events 141..219, not -180 and -219..-141; a -180..180 table
+    keeps its signs); events stay on either side of the centreline."""
+    import numpy as np
+
     centre = card.get('centreline_deg')
-    turns = 0.0 if centre is None else _wrap180(centre + shift_deg) - (centre + shift_deg)
-    move = shift_deg + turns
+    a = np.asarray(alpha, dtype=float)
+    a = a[np.isfinite(a)]
+    if centre is None or not a.size:
+        return card
+    low = math.degrees(float(np.min(a)))
+    move = (centre - low) % 360.0 + low - centre
     for key in ('centreline_deg', 'max_lift_alpha_deg'):
         if card.get(key) is not None:
             card[key] += move

@@ -1,0 +1,520 @@
+"""The partial spline of a uniform lift table at one smoothing level: the smooth part
+plus hinges that let h'' (and h''') step at given junctions.
+
+    y = f + sum_j [c_j g2(x - t_j) + d_j g3(x - t_j)] + noise,
+
+f the discrete quintic smoother (penalty lam_d |D3 f|^2, free ends: a quadratic costs
+it nothing), g2 = u_+^2 / 2 a unit step of h'' and g3 a unit step of h''' tapered to
+zero (Wahba, Spline Models for Observational Data, 1990, ch. 6). For a fixed level the
+hinge coefficients solve (G'R G) c = (R G)'y with R = I - S, S = (I + lam_d P)^-1 the
+smoother, P = D3'D3. Lengths in m, positions in nodes (grid rows).
+
+Cost. One ``LevelSystem`` per level keeps the smoother's banded Cholesky factor (lower
+band storage), R y, and per junction its column R g, solved on a window of
+``WINDOW_BANDWIDTHS`` smoother bandwidths (R g decays geometrically away from the
+hinge: the Toeplitz interior block of I + lam_d P, or a block reaching one end of the
+table, whose factor is the leading part of the whole one), with its inner products
+with y, R y and the other junctions' columns. A set of junctions is then scored
+(residual sum of squares, hat-matrix trace, penalised residual) from a dense system of
+size 2J without forming a vector of the table's length; the fit's vectors are formed
+only when asked for. ``junctions`` searches where the hinges go.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import TypeVar
+
+import numpy as np
+from numpy.polynomial import Polynomial
+from numpy.typing import NDArray
+from scipy.linalg import lapack
+
+#: fits a level's system remembers (by junction set): with their vectors, and scores
+FITS_KEPT = 4
+SCORES_KEPT = 64
+STACKS_KEPT = 8
+#: a hinge's column is solved this many smoother bandwidths either side (window_margin)
+WINDOW_BANDWIDTHS = 48.0
+#: ... and at most this many rows (the interior block's length does not depend on N; a
+#: level that asks for more, above 1e15, is past what the factorisation can hold anyway)
+MAX_MARGIN = 20_000
+
+
+def third_difference_gram(m: int) -> NDArray[np.float64]:
+    """D3^T D3 (free ends) for m >= 4 unknowns in upper banded storage (4 x m)."""
+    c = np.array([-1.0, 3.0, -3.0, 1.0])
+    ab = np.zeros((4, m))
+    for o in range(4):
+        diag = np.convolve(np.ones(m - 3), c[:4 - o] * c[o:])     # length m - o
+        ab[3 - o, o:] = diag[:m - o]
+    return ab
+
+
+@lru_cache(maxsize=16)
+def _penalty(m: int) -> NDArray[np.float64]:
+    ab = third_difference_gram(m)
+    ab.setflags(write=False)
+    return ab
+
+
+def _lower_band(upper: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """I + lam_d P in lower banded storage (Fortran order) from P in upper storage."""
+    m = upper.shape[1]
+    low = np.zeros((4, m), order='F')
+    for k in range(4):
+        low[k, :m - k] = lam_d * upper[3 - k, k:]
+    low[0] += 1.0
+    return low
+
+
+def _cholesky(low: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Lower banded Cholesky factor (read-only). The lower storage: OpenBLAS's
+    factorisation of it takes about 0.4 of the upper one's time at these sizes."""
+    c, info = lapack.dpbtrf(low, lower=1, overwrite_ab=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f'banded Cholesky failed (info {info})')
+    c.setflags(write=False)
+    return c
+
+
+@lru_cache(maxsize=32)
+def _factor(n: int, lam_d: float) -> NDArray[np.float64]:
+    """Banded Cholesky factor of I + lam_d D3'D3 (free ends, n nodes; cached: the
+    search asks for the same level many times)."""
+    return _cholesky(_lower_band(_penalty(n), lam_d))
+
+
+@lru_cache(maxsize=16)
+def _interior_factor(m: int, lam_d: float) -> NDArray[np.float64]:
+    """Banded Cholesky factor of the m x m block of I + lam_d D3'D3 away from both
+    ends (every row the full stencil 20, -15, 6, -1; Toeplitz)."""
+    stencil = np.array([-1.0, 6.0, -15.0, 20.0])
+    return _cholesky(_lower_band(np.repeat(stencil[:, None], m, axis=1), lam_d))
+
+
+def _solve(factor: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(L L')^-1 rhs for a lower banded factor whose first rhs.shape[0] columns are
+    used (the leading block's factor is the leading part of the whole one)."""
+    m = rhs.shape[0]
+    x, info = lapack.dpbtrs(factor[:, :m], rhs, lower=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f'banded solve failed (info {info})')
+    return np.asarray(x, dtype=np.float64)
+
+
+def _smooth(rhs: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """(I + lam_d D3'D3)^-1 rhs (rhs (n,) or (n, k))."""
+    return _solve(_factor(rhs.shape[0], float(lam_d)), rhs)
+
+
+@lru_cache(maxsize=16)
+def _cubed_spectrum(n: int) -> NDArray[np.float64]:
+    """mu_k^3 of the reflective second difference, modes 1 .. n - 3 (read-only)."""
+    mu = 2.0 - 2.0 * np.cos(np.pi * np.arange(1, n - 2) / n)
+    m3 = mu ** 3
+    m3.setflags(write=False)
+    return m3
+
+
+def _trace_smoother(n: int, lam_d: float) -> float:
+    """tr (I + lam_d D3'D3)^-1: the three unpenalised quadratics plus the reflective
+    spectrum mu_k^3 of the other modes (boundary terms of order one left out)."""
+    return 3.0 + float(np.sum(1.0 / (1.0 + lam_d * _cubed_spectrum(n))))
+
+
+def _smoothstep() -> Polynomial:
+    """S(v) = v^6 sum_k C(5 + k, k) (1 - v)^k: 0 at 0, 1 at 1, flat to 5th order."""
+    v = Polynomial([0.0, 1.0])
+    return v ** 6 * sum(math.comb(5 + k, k) * Polynomial([1.0, -1.0]) ** k
+                        for k in range(6))
+
+
+def side_of(tau: float, n: int) -> int:
+    """+1: the junction at node ``tau`` opens to the right (its longer side), else -1."""
+    return 1 if tau <= 0.5 * (n - 1) else -1
+
+
+def taper_nodes(n: int) -> float:
+    """Length [nodes] of a junction's cubic hinge (long beside the smoother's
+    bandwidth, short enough to keep its values, and the rounding of R g, small)."""
+    return max(min(0.25 * (n - 1), 60.0 + 0.02 * n), 4.0)
+
+
+@lru_cache(maxsize=64)
+def _hinges_on(length: float) -> tuple[Polynomial, Polynomial]:
+    """g2 = u^2/2 on u > 0 (no taper: the free ends do not penalise a quadratic) and
+    g3 = u^3/6 w(u) on [0, L], w = 1 - S(u / L), 0 beyond (C5 there, 1 + O(u^6) at
+    0): unit steps of the second and third derivatives at 0, in node units."""
+    taper = 1.0 - _smoothstep()(Polynomial([0.0, 1.0 / length]))
+    return Polynomial([0.0, 0.0, 0.5]), Polynomial([0.0, 0.0, 0.0, 1.0 / 6.0]) * taper
+
+
+@lru_cache(maxsize=64)
+def hinge_coefficients(length: float, nu: int) -> tuple[NDArray[np.float64], ...]:
+    """Power-series coefficients of the nu-th derivatives of g2 and g3."""
+    return tuple(np.asarray(p.deriv(nu).coef, dtype=np.float64) for p in _hinges_on(length))
+
+
+def horner(x: NDArray[np.float64], coef: NDArray[np.float64]) -> NDArray[np.float64]:
+    """sum_k coef[k] x^k by Horner's rule (numpy's polyval without its checks)."""
+    acc = np.full(x.shape, coef[-1])
+    for c in coef[-2::-1]:
+        acc = acc * x + c
+    return acc
+
+
+def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
+    """(len(u), 2): nu-th u-derivatives of g2 and g3 (node units), ``u`` nodes from a
+    junction that opens to the right."""
+    u = np.asarray(u, dtype=float).reshape(-1)
+    out = np.zeros((u.size, 2))
+    quad, cubic = hinge_coefficients(float(length), nu)
+    pos = u > 0
+    out[:, 0] = np.where(pos, horner(u, quad), 0.0)
+    near = np.flatnonzero(pos & (u < length))
+    out[near, 1] = horner(u[near], cubic)
+    return out
+
+
+@lru_cache(maxsize=64)
+def _quadratics(n: int) -> NDArray[np.float64]:
+    """Orthonormal basis (n, 3) of the quadratics on n nodes (read-only, cached)."""
+    x = np.linspace(-1.0, 1.0, n)
+    q, _ = np.linalg.qr(np.column_stack([np.ones(n), x, x * x]))
+    q.setflags(write=False)
+    return q
+
+
+def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
+    """r without its quadratic part. R r is orthogonal to the quadratics (the free
+    ends reproduce them); the banded solve's rounding, amplified by the condition
+    number, is not, and a long hinge would sum it up."""
+    q = _quadratics(r.shape[0])
+    return r - q @ (q.T @ r)
+
+
+#: the stencil of the third difference
+_THIRD_DIFFERENCE = np.array([-1.0, 3.0, -3.0, 1.0])
+
+
+def _penalised(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """lam_d P g = lam_d D3'D3 g (free ends of ``g``'s own rows)."""
+    d3 = np.diff(g, 3, axis=0)
+    if g.ndim == 1:
+        return lam_d * np.convolve(d3, _THIRD_DIFFERENCE)
+    return lam_d * np.column_stack([np.convolve(d3[:, k], _THIRD_DIFFERENCE)
+                                    for k in range(g.shape[1])])
+
+
+def residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """R g = (I + lam_d P)^-1 lam_d P g, P = D3'D3: the same as g - S g, but formed from
+    third differences, so that the long quadratic tail of a hinge (S reproduces it)
+    adds no rounding."""
+    return _deflate(_smooth(_penalised(g, lam_d), lam_d))
+
+
+def window_margin(lam_d: float) -> int:
+    """Nodes [>= 10] a hinge's column R g is solved for beyond the reach of P g: R g
+    decays like exp(-k / (2 bw)), bw = lam_d^(1/6) nodes, so at ``WINDOW_BANDWIDTHS``
+    bandwidths what is left out is below 1e-10 of its peak (the rounding of a
+    whole-table solve at the search's levels is 1e-12 .. 1e-9 of it). At most
+    ``MAX_MARGIN``."""
+    reach = WINDOW_BANDWIDTHS * max(lam_d, 1.0) ** (1.0 / 6.0) + 10.0
+    return int(min(reach, MAX_MARGIN))
+
+
+def _window(n: int, tau: float, lam_d: float) -> tuple[int, int]:
+    """Rows [lo, hi) on which the column R g of the junction at node ``tau`` is solved:
+    P g (the hinge's third differences: its node and its taper) and a margin either
+    side; the whole table, or a part reaching one end, where the margin reaches an
+    end (the ends' stencil differs), else a part of fixed length away from both."""
+    reach = int(math.ceil(taper_nodes(n))) + 12 + 2 * window_margin(lam_d)
+    node = int(math.floor(tau))
+    lo = node - reach + window_margin(lam_d) + 6 if side_of(tau, n) < 0 else \
+        node - window_margin(lam_d) - 5
+    hi = lo + reach
+    if lo < 3:
+        lo = 0
+    if hi > n - 3:
+        hi = n
+    return lo, hi
+
+
+def _hinge_support(n: int, tau: float, lo: int, hi: int) -> tuple[int, int]:
+    """Rows [a, b) within [lo, hi) holding P g of the junction at node ``tau``: its node
+    and its taper, with 3 rows to spare either side."""
+    node = int(math.floor(tau))
+    taper = int(math.ceil(taper_nodes(n)))
+    if side_of(tau, n) > 0:
+        a, b = node - 6, node + taper + 8
+    else:
+        a, b = node - taper - 7, node + 7
+    return max(a, lo), min(b, hi)
+
+
+def _windowed_residual(g: NDArray[np.float64], lam_d: float, lo: int, hi: int,
+                       tau: float) -> NDArray[np.float64]:
+    """R g of the junction at node ``tau`` on rows [lo, hi) of the n = g.shape[0] rows,
+    zero outside (the rows of I + lam_d P there: a leading block, a trailing one (the
+    matrix reads the same backwards) or the Toeplitz interior)."""
+    n = g.shape[0]
+    rhs = np.zeros((hi - lo,) + g.shape[1:])
+    # P g from the hinge's own rows only: beyond them its third differences are those of
+    # a quadratic or of zero (0 but for the rounding of the quadratic's values)
+    a, b = _hinge_support(n, tau, lo, hi)
+    rhs[a - lo:b - lo] = _penalised(g[a:b], lam_d)
+    if lo == 0:
+        x = _solve(_factor(n, lam_d), rhs)
+    elif hi == n:
+        x = _solve(_factor(n, lam_d), rhs[::-1])[::-1]
+    else:
+        x = _solve(_interior_factor(hi - lo, lam_d), rhs)
+    return _deflate(x)
+
+
+@lru_cache(maxsize=256)
+def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
+    """(n, 2): g2 and g3 of one junction at node position ``tau``, opening on its
+    longer side (node units; read-only, cached: the level search asks for the same
+    junctions at every level). The values of ``hinge_values``, formed on the rows
+    where the hinge is not zero only."""
+    length = taper_nodes(n)
+    quad, cubic = hinge_coefficients(length, 0)
+    g = np.zeros((n, 2))
+    if side_of(tau, n) > 0:                  # rows after tau, u = row - tau rising
+        first = int(math.floor(tau)) + 1
+        u = np.arange(first, n, dtype=float) - tau
+        rows = g[first:]
+    else:                                    # rows before tau, backwards: u = tau - row
+        last = int(math.ceil(tau)) - 1
+        u = -(np.arange(last, -1, -1, dtype=float) - tau)
+        rows = g[last::-1]
+    rows[:, 0] = horner(u, quad)
+    near = int(np.searchsorted(u, length, side='left'))
+    rows[:near, 1] = horner(u[:near], cubic)
+    g.setflags(write=False)
+    return g
+
+
+@dataclass(frozen=True)
+class PartialFit:
+    """A partial-spline fit at one level: smooth part ``smooth`` [m] on the grid, hinge
+    coefficients ``coef`` [m per node^2], residual sum of squares ``rss`` [m^2], trace
+    of the hat matrix ``edf``, penalised residual ``objective`` [m^2], ``resid``."""
+
+    smooth: NDArray[np.float64]
+    coef: NDArray[np.float64]
+    rss: float
+    edf: float
+    objective: float
+    resid: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class FitScore:
+    """The scalars of a partial-spline fit (``PartialFit`` without its vectors):
+    hinge coefficients ``coef``, ``rss`` [m^2], ``edf``, ``objective`` [m^2]."""
+
+    coef: NDArray[np.float64]
+    rss: float
+    edf: float
+    objective: float
+
+
+#: (G, R G), (n, 2J), of a set of junctions
+Stack = tuple[NDArray[np.float64], NDArray[np.float64]]
+#: (G'R G, (R G)'(R G), (R G)'y, (R G)'R y) of a set of junctions
+Gram = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+             NDArray[np.float64]]
+
+
+@dataclass(frozen=True)
+class _Column:
+    """One junction's hinge at one level: rows [lo, hi) of R g (zero elsewhere), the
+    hinge g on all rows, and (R g)'y, (R g)'(R y), g'R g, (R g)'(R g) over the rows."""
+
+    lo: int
+    hi: int
+    g: NDArray[np.float64]
+    rg: NDArray[np.float64]
+    gy: NDArray[np.float64]
+    gry: NDArray[np.float64]
+    m: NDArray[np.float64]
+    v: NDArray[np.float64]
+
+
+K = TypeVar('K')
+V = TypeVar('V')
+
+
+def _recall(kept: dict[K, V], key: K) -> V | None:
+    """``kept[key]`` (then the most recently used), or None."""
+    done = kept.pop(key, None)
+    if done is not None:
+        kept[key] = done
+    return done
+
+
+def _remember(kept: dict[K, V], key: K, value: V, size: int) -> V:
+    """``value`` kept under ``key``; the least recently used dropped beyond ``size``."""
+    if len(kept) >= size:
+        kept.pop(next(iter(kept)))
+    kept[key] = value
+    return value
+
+
+class LevelSystem:
+    """The partial-spline system of uniform ``values`` [m] at one discrete level
+    ``lam_d``: the smoother's banded factor (cached by level), R y, and the hinge
+    columns of every junction asked for so far. The hinges are a low-rank addition to
+    the smoother's system. A hinge's column R g is solved on a window about it (it
+    decays within a few dozen bandwidths; ``window_margin``) and its inner products
+    with y, R y and the other hinges are kept, so a fit with another set of junctions
+    at the same level costs only the new junctions' windowed solves and a small dense
+    system; its vectors are formed only when asked for (``fit``)."""
+
+    def __init__(self, values: NDArray[np.float64], lam_d: float) -> None:
+        self.values = values
+        self.n = int(values.size)
+        self.lam_d = float(lam_d)
+        self.ry = _deflate(values - _smooth(values, self.lam_d))
+        self.yry = float(values @ self.ry)
+        self.ryry = float(self.ry @ self.ry)
+        self.trace = _trace_smoother(self.n, self.lam_d)
+        self._cols: dict[float, _Column] = {}
+        self._stacks: dict[tuple[float, ...], Stack] = {}
+        self._fits: dict[tuple[float, ...], PartialFit] = {}
+        self._scores: dict[tuple[float, ...], FitScore] = {}
+        self._grams: dict[tuple[float, ...], Gram] = {}
+
+    def _column(self, tau: float) -> _Column:
+        col = self._cols.get(tau)
+        if col is None:
+            g = _hinge_pair(self.n, tau)
+            lo, hi = _window(self.n, tau, self.lam_d)
+            rg = _windowed_residual(g, self.lam_d, lo, hi, tau)
+            col = self._cols[tau] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
+                                            rg.T @ self.ry[lo:hi], g[lo:hi].T @ rg,
+                                            rg.T @ rg)
+        return col
+
+    def columns(self, taus: list[float]) -> Stack:
+        """(G, R G), (n, 2J), of junctions at node positions ``taus`` (R G zero outside
+        each junction's window; the last few sets kept)."""
+        key = tuple(float(t) for t in taus)
+        done = _recall(self._stacks, key)
+        if done is None:
+            g = np.zeros((self.n, 2 * len(key)))
+            rg = np.zeros((self.n, 2 * len(key)))
+            for k, t in enumerate(key):
+                col = self._column(t)
+                g[:, 2 * k:2 * k + 2] = col.g
+                rg[col.lo:col.hi, 2 * k:2 * k + 2] = col.rg
+            done = _remember(self._stacks, key, (g, rg), STACKS_KEPT)
+        return done
+
+    def _gram(self, taus: tuple[float, ...]) -> Gram:
+        """(G'R G, (R G)'(R G), (R G)'y, (R G)'R y) of the hinges ``taus``: one more
+        row and column of blocks for a set one junction longer than a kept one (the
+        search adds one junction at a time), else from all columns at once."""
+        done = _recall(self._grams, taus)
+        if done is not None:
+            return done
+        col = self._column(taus[-1])
+        if len(taus) == 1:
+            done = (col.m, col.v, col.gy, col.gry)
+        elif taus[:-1] in self._grams:
+            pm, pv, pgy, pgry = self._gram(taus[:-1])
+            g, rg = self.columns(list(taus[:-1]))
+            k = 2 * len(taus)
+            m = np.empty((k, k))
+            v = np.empty((k, k))
+            m[:-2, :-2], v[:-2, :-2] = pm, pv
+            m[-2:, -2:], v[-2:, -2:] = col.m, col.v
+            m[:-2, -2:] = g[col.lo:col.hi].T @ col.rg
+            m[-2:, :-2] = col.g.T @ rg
+            v[:-2, -2:] = rg[col.lo:col.hi].T @ col.rg
+            v[-2:, :-2] = v[:-2, -2:].T
+            done = (m, v, np.concatenate([pgy, col.gy]), np.concatenate([pgry, col.gry]))
+        else:
+            g, rg = self.columns(list(taus))
+            cols = [self._column(t) for t in taus]
+            done = (g.T @ rg, rg.T @ rg, np.concatenate([c.gy for c in cols]),
+                    np.concatenate([c.gry for c in cols]))
+        return _remember(self._grams, taus, done, SCORES_KEPT)
+
+    def score(self, taus: list[float]) -> FitScore:
+        """The fit's scalars with hinges at node positions ``taus``, from the kept
+        inner products (no vector of the table's length is formed)."""
+        key = tuple(float(t) for t in taus)
+        done = _recall(self._scores, key)
+        if done is not None:
+            return done
+        if not key:
+            done = FitScore(np.zeros(0), self.ryry, self.trace, self.yry)
+        else:
+            m, v, gy, gry = self._gram(key)
+            ridge = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
+            # G'R y formed as (R G)'y: g'(R y) multiplies the rounding of R y by the
+            # hinge's long quadratic tail (a 1e-15 change of the level moved the step
+            # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
+            # third differences and y is data, so the product keeps its digits
+            sol = np.linalg.solve(ridge, np.column_stack([gy, v]))
+            coef = sol[:, 0]
+            extra = float(np.trace(sol[:, 1:]))
+            rss = self.ryry - 2.0 * float(coef @ gry) + float(coef @ v @ coef)
+            objective = self.yry - 2.0 * float(coef @ gy) + float(coef @ m @ coef)
+            done = FitScore(coef, max(rss, 0.0), self.trace + extra, objective)
+        return _remember(self._scores, key, done, SCORES_KEPT)
+
+    def fit(self, taus: list[float]) -> PartialFit:
+        """The partial spline with hinges at node positions ``taus`` (the last few
+        kept: the search asks for the same fit again, e.g. its score after its scan)."""
+        key = tuple(taus)
+        done = self._fits.get(key)
+        if done is None:
+            done = _remember(self._fits, key, self._fit(taus), FITS_KEPT)
+        return done
+
+    def _fit(self, taus: list[float]) -> PartialFit:
+        s = self.score(taus)
+        resid = self.ry.copy()
+        z = self.values.copy()
+        for k, t in enumerate(taus):
+            col = self._column(float(t))
+            c = s.coef[2 * k:2 * k + 2]
+            resid[col.lo:col.hi] -= col.rg @ c
+            z -= col.g @ c
+        smooth = z - resid                       # S (y - G c)
+        return PartialFit(smooth, s.coef, float(resid @ resid), s.edf, float(z @ resid),
+                          resid)
+
+    def gcv(self, taus: list[float], gamma: float) -> float:
+        """GCV score of the fit with these junctions (``gamma`` weights the trace)."""
+        s = self.score(taus)
+        return self.n * s.rss / max(self.n - gamma * s.edf, 1e-9) ** 2
+
+
+def partial_fit(values: NDArray[np.float64], taus: list[float], lam_d: float
+                ) -> PartialFit:
+    """Partial spline of uniform ``values`` [m] with hinges at node positions ``taus``."""
+    return LevelSystem(values, lam_d).fit(taus)
+
+
+@lru_cache(maxsize=16)
+def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
+                         ) -> tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...]:
+    """(G'RG, G'R^2G), 2 x 2 in node units, of one right-opening junction far from the
+    ends at each of ``offsets`` [nodes] (cached by level): its column solved on its
+    window (``window_margin``) as in the fit, all offsets in one solve."""
+    margin = window_margin(lam_d)
+    size = int(math.ceil(length)) + 12 + 2 * margin
+    nodes = np.arange(size, dtype=float)
+    g = np.concatenate([hinge_values(nodes - (margin + 5 + off), length)
+                        for off in offsets], axis=1)
+    rg = _deflate(_solve(_interior_factor(size, lam_d), _penalised(g, lam_d)))
+    return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
+                  rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
+                 for k in range(len(offsets)))
