@@ -221,3 +221,26 @@ def test_verdict_of_a_long_table_equals_the_in_memory_one(monkeypatch) -> None:
         assert (g['quantity'], g['result']) == (w['quantity'], w['result'])
         assert g['value'] == pytest.approx(w['value'], abs=1e-9)
     assert got['not_checked'] == want['not_checked']
+
+
+def test_derivative_errors_of_a_long_table_equal_the_in_memory_ones(monkeypatch) -> None:
+    """The velocity and acceleration errors of a spilled lift table (its rows binned a
+    block at a time: bins going on across blocks) equal the in-memory ones: maxima and
+    rms to 1e-9 relative, the same angles of the maxima."""
+    from cam_metrology.metrology.derivative_error import derivative_errors
+
+    rng = np.random.default_rng(8)
+    alpha = np.sort(rng.uniform(-np.pi, np.pi, 150_000))   # about 20 rows a 0.05 deg bin
+    design = CAM(alpha, 0)
+    bump = 4e-6 * np.exp(-((alpha + 0.5) / 0.15) ** 2)
+    measured = design + bump + rng.normal(0, 2e-7, alpha.size)
+    table = np.column_stack([alpha, measured, design])
+    feature = {'runout_fitted': False}
+    want = derivative_errors(table, feature, CAM)
+    monkeypatch.setattr(spill, 'SPILL_BYTES', 1024)
+    got = derivative_errors(spill.spill(table, min_bytes=1), feature, CAM)
+    assert set(got) == set(want) and 'derivative_error' not in got
+    for quantity, stats in want.items():
+        for key in ('max_abs', 'rms'):
+            assert got[quantity][key] == pytest.approx(stats[key], rel=1e-9)
+        assert got[quantity]['at_deg'] == pytest.approx(stats['at_deg'], abs=1e-9)

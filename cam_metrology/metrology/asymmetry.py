@@ -84,44 +84,20 @@ def merge_repeated_blocks(blocks: Iterable[tuple[NDArray[np.float64], NDArray[np
                           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
     """``merge_repeated`` of samples already in angle order, handed out as blocks
     ``(alpha, lift)`` (a long lift table read a block of rows at a time): the same
-    numbers (a position continued from the previous block carries its sums in as the
-    first term, so every sum adds in the same order)."""
-    out_a: list[NDArray[np.float64]] = []
-    out_h: list[NDArray[np.float64]] = []
-    out_n: list[NDArray[np.int64]] = []
-    carry: tuple[float, float, int, float] | None = None   # sums, count, last angle
-    for alpha, lift in blocks:
-        if alpha.size == 0:
-            continue
-        start = np.concatenate(([carry is None or alpha[0] - carry[3] > tol],
-                                np.diff(alpha) > tol))
-        group = np.cumsum(start) - int(start[0])   # the first position numbered 0
-        if carry is not None and not start[0]:   # the first position goes on
-            group = np.concatenate(([0], group))
-            alpha = np.concatenate(([carry[0]], alpha))
-            lift = np.concatenate(([carry[1]], lift))
-            count = np.bincount(group)
-            count[0] += carry[2] - 1
-        else:
-            if carry is not None:
-                out_a.append(np.array([carry[0]]))
-                out_h.append(np.array([carry[1]]))
-                out_n.append(np.array([carry[2]]))
-            count = np.bincount(group)
-        sa = np.asarray(np.bincount(group, alpha), dtype=float)   # (float sums: typed)
-        sh = np.asarray(np.bincount(group, lift), dtype=float)
-        out_a.append(sa[:-1])
-        out_h.append(sh[:-1])
-        out_n.append(count[:-1])
-        carry = (float(sa[-1]), float(sh[-1]), int(count[-1]), float(alpha[-1]))
-    if carry is not None:
-        out_a.append(np.array([carry[0]]))
-        out_h.append(np.array([carry[1]]))
-        out_n.append(np.array([carry[2]]))
-    if not out_n:
-        return np.zeros(0), np.zeros(0), np.zeros(0, np.int64)
-    count = np.concatenate(out_n).astype(np.int64)
-    return np.concatenate(out_a) / count, np.concatenate(out_h) / count, count
+    numbers (``long_columns.run_means``)."""
+    from cam_metrology.metrology.long_columns import run_means
+
+    last: list[float] = []   # the previous block's last angle
+
+    def runs() -> Iterator[tuple[NDArray[np.bool_], NDArray[np.float64],
+                                 NDArray[np.float64]]]:
+        for alpha, lift in blocks:
+            if alpha.size:
+                first = not last or alpha[0] - last[0] > tol
+                yield np.concatenate(([first], np.diff(alpha) > tol)), alpha, lift
+                last[:] = [float(alpha[-1])]
+
+    return run_means(runs())
 
 
 def lobe_spline_of_table(alpha: NDArray[np.float64], measured: NDArray[np.float64],

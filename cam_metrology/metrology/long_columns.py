@@ -143,6 +143,49 @@ def bucket_count(size: int) -> int:
     return max(1, -(-int(size) // BUCKET_ROWS))
 
 
+def run_means(blocks: Iterable[tuple[NDArray[np.bool_], NDArray[np.float64],
+                                     NDArray[np.float64]]],
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """Means of two columns over runs of consecutive rows, and the rows in each run,
+    from blocks ``(new, u, v)``: ``new`` True where a row starts a run (False at a
+    block's first row: the previous block's last run goes on). The sums of
+    ``numpy.bincount`` over the whole columns, exactly: a run going on enters the next
+    block's sums as their first term, so every sum adds in the same order."""
+    out_u: list[NDArray[np.float64]] = []
+    out_v: list[NDArray[np.float64]] = []
+    out_n: list[NDArray[np.int64]] = []
+    carry: tuple[float, float, int] | None = None   # sums and count of the open run
+    for new, u, v in blocks:
+        if u.size == 0:
+            continue
+        group = np.cumsum(new) - int(new[0])   # the block's first run numbered 0
+        if carry is not None and not new[0]:   # the open run goes on
+            group = np.concatenate(([0], group))
+            u, v = np.concatenate(([carry[0]], u)), np.concatenate(([carry[1]], v))
+            count = np.bincount(group)
+            count[0] += carry[2] - 1
+        else:
+            if carry is not None:
+                out_u.append(np.array([carry[0]]))
+                out_v.append(np.array([carry[1]]))
+                out_n.append(np.array([carry[2]]))
+            count = np.bincount(group)
+        su = np.asarray(np.bincount(group, u), dtype=float)   # (float sums: typed)
+        sv = np.asarray(np.bincount(group, v), dtype=float)
+        out_u.append(su[:-1])
+        out_v.append(sv[:-1])
+        out_n.append(count[:-1])
+        carry = (float(su[-1]), float(sv[-1]), int(count[-1]))
+    if carry is not None:
+        out_u.append(np.array([carry[0]]))
+        out_v.append(np.array([carry[1]]))
+        out_n.append(np.array([carry[2]]))
+    if not out_n:
+        return np.zeros(0), np.zeros(0), np.zeros(0, np.int64)
+    count = np.concatenate(out_n).astype(np.int64)
+    return np.concatenate(out_u) / count, np.concatenate(out_v) / count, count
+
+
 def running_deviation(chunks: Iterable[tuple[NDArray[np.float64], NDArray[Any]]],
                       ) -> Iterator[tuple[NDArray[np.float64], NDArray[Any]]]:
     """For values in order, handed out as chunks ``(values, payload)`` (payload: an
