@@ -244,3 +244,21 @@ def test_derivative_errors_of_a_long_table_equal_the_in_memory_ones(monkeypatch)
         for key in ('max_abs', 'rms'):
             assert got[quantity][key] == pytest.approx(stats[key], rel=1e-9)
         assert got[quantity]['at_deg'] == pytest.approx(stats['at_deg'], abs=1e-9)
+
+
+def test_nose_lift_error_of_a_long_table_equals_the_in_memory_one(monkeypatch) -> None:
+    """A track's mean lift error at the nose from a spilled table (a block of rows at a
+    time) equals the in-memory mean to 1e-9 um."""
+    from cam_metrology.metrology.tracks import nose_lift_error_um
+
+    rng = np.random.default_rng(9)
+    alpha = np.sort(rng.uniform(-np.pi, np.pi, 100_000))
+    design = CAM(alpha, 0)
+    measured = design + 2e-6 * np.cos(alpha) ** 8 + rng.normal(0, 3e-7, alpha.size)
+    table = np.column_stack([alpha, measured, design])
+    values = {'runout_fitted': True}
+    want = nose_lift_error_um(table, values)
+    monkeypatch.setattr(spill, 'SPILL_BYTES', 1024)
+    got = nose_lift_error_um(spill.spill(table, min_bytes=1), values)
+    assert want is not None and abs(want) > 0.5   # um: the error at the nose is there
+    assert got == pytest.approx(want, abs=1e-9)
