@@ -30,8 +30,8 @@ from cam_metrology.metrology.features import FeatureSamples, unwrapped_blocks
 from cam_metrology.metrology.lift_error import (error_stats, error_stats_blocks,
                                                 local_deviation,
                                                 referenced_error_stats)
-from cam_metrology.metrology.lobe_columns import (column_of, lift_table, mask_of, masked,
-                                                  masked_median, selected,
+from cam_metrology.metrology.lobe_columns import (column_median, column_of, lift_table,
+                                                  mask_of, masked, masked_median, selected,
                                                   short_lift_table)
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
@@ -258,8 +258,7 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
                               overwrite=True)
         for a, b in walk(dev.size, dev):
             np.abs(dev[a:b], out=dev[a:b])
-        scale = max(1.4826 * masked_median(dev, np.ones(dev.size, bool)),
-                    OUTLIER_SCALE_FLOOR)
+        scale = max(1.4826 * column_median(dev), OUTLIER_SCALE_FLOOR)
         keep = cand.copy()
         keep[cand] = mask_of(dev.size, lambda a, b: dev[a:b] <= k * scale, dev)
         if np.count_nonzero(~keep[cand]) > OUTLIER_MAX_FRACTION * dev.size:

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from scipy.ndimage import median_filter
 
 from cam_metrology.metrology import block_lsq
+from cam_metrology.metrology.lobe_columns import column_median
 from cam_metrology.metrology.long_columns import (Buckets, bucket_count, median,
                                                   running_deviation)
 from cam_metrology.metrology.spill import blank, is_long, release, seal, walk
@@ -116,7 +117,7 @@ def base_model(table: Any, harmonic: bool,
     n = dev.size
     for k, e in walk(n, dev):
         np.abs(dev[k:e], out=dev[k:e])
-    scale = max(1.4826 * _median(dev), 1e-7)
+    scale = max(1.4826 * column_median(dev), 1e-7)
     bad = np.empty(n, bool)
     for k, e in walk(n, dev):
         np.greater(dev[k:e], 5.0 * scale, out=bad[k:e])
@@ -143,11 +144,6 @@ def base_model(table: Any, harmonic: bool,
         return (lambda alpha: block_lsq.first_harmonic(alpha, c, ca, cb)), ~bad
     level = median(lambda: (err for _, err in base_err()))
     return (lambda alpha: level), ~bad
-
-
-def _median(column: NDArray[np.float64]) -> float:
-    """``numpy.median`` of a column read a block at a time (``long_columns.median``)."""
-    return median(lambda: (column[k:e] for k, e in walk(column.size, column)))
 
 
 def _columns(table: Any) -> tuple[NDArray[np.float64], NDArray[np.float64], int, int]:
@@ -268,9 +264,6 @@ def error_stats(err: NDArray[np.float64], design: NDArray[np.float64],
                 good: NDArray[np.bool_]) -> dict[str, float] | None:
     """``lift_error_stats`` of the columns: ``err`` = measured - design [m] and the
     design lift [m] of every sample."""
-    if is_long(err.size):   # long columns: a block at a time
-        return error_stats_blocks((err[a:b], design[a:b], good[a:b])
-                                  for a, b in walk(err.size, err, design))
     lobe = (design > 0) & good
     if not np.any(lobe):
         return None

@@ -69,6 +69,11 @@ def masked_median(column: NDArray[np.float64], mask: NDArray[np.bool_]) -> float
     return median(blocks)
 
 
+def column_median(column: NDArray[np.float64]) -> float:
+    """``numpy.median(column)`` read a block at a time (``long_columns.median``)."""
+    return median(lambda: (column[a:b] for a, b in walk(column.size, column)))
+
+
 def span(column: NDArray[np.float64]) -> tuple[float, float]:
     """(min, max) of a column, a block at a time."""
     lo, hi = np.inf, -np.inf
