@@ -373,8 +373,8 @@ def test_lookahead_does_not_take_false_pairs(monkeypatch):
     with the look-ahead (the reconstruction's own coarse path above 2.25 deg runs it
     without): two candidates near a spike each miss the bar of 12 alone (N ln GCV
     lower by 6.6 and 4.4) and pass it together (36 for two), but the rest's level
-    would rise only 1.4 times (its GCV already climbs between sqrt(3) and 3 times the
-    level), where the four edges of a dwell raise it 70-90 times: no junction is
+    would rise only 1.4 times (its GCV already climbs between sqrt(10) and 10 times
+    the level), where the four edges of a dwell raise it 70-90 times: no junction is
     taken. Without the level test both are, at -27.6 and -23.1 deg."""
     from cam_design.lift_table.spline import GCV_GAMMA, choose_smoothing, rebound_fairing
 

@@ -84,9 +84,10 @@ MAX_REFUSED = 3
 MAX_PENDING = 3
 #: a set taken by the look-ahead must raise the smoothing level of the rest at least
 #: this many times (the way such junctions pay together; on the accuracy benchmark's
-#: tables at 0.1-2.5 deg the sets of true junctions raised it 3.2-1e5 times, most by
-#: 30 or more, the sets with a false one, at spikes and h''' kinks, 1.3-2.6 times)
-LOOKAHEAD_LEVEL_RISE = 3.0
+#: tables at 0.1-2.5 deg the sets of true junctions raised it 2-1e5 times, the four
+#: edges of a rounded dwell 70-90 times, the sets with a false member 1.3-5.7 times:
+#: spikes, h''' kinks, the fall of the narrow-peak lobe's acceleration peak at 1 deg)
+LOOKAHEAD_LEVEL_RISE = 10.0
 #: a candidate whose gain at the present level, before its angle is refined and the
 #: level chosen again, is below GCV_GAIN - PRETEST_SLACK is refused without either (on
 #: the benchmark: 1 of the 431 kept had a pre-test gain below -30, 448 of 1113 refused)
