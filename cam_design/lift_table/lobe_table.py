@@ -378,7 +378,6 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                          'the dynamics cannot take from a table): tabulate the ramp finer '
                          'or give the lift law')
     method = 'interpolated'
-    curve = _interpolant(b, h, periodic)
     if b.size < JUDGE_ROWS:
         why = (f'{b.size} rows, too few to tell noise from shape (at least {JUDGE_ROWS}): '
                'quintic interpolant through every row')
@@ -386,6 +385,8 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         why = (f'rows scatter {scatter * 1e6:.3g} um about a smooth curve, more than their '
                f'rounding explains ({floor * 1e6:.3g} um)')
         method = 'smoothed'
+    # the rows' quintic interpolant: built only for a table that keeps it
+    curve = _interpolant(b, h, periodic) if method == 'interpolated' else None
     if method == 'interpolated' and b.size >= JUDGE_ROWS:
         dense = np.linspace(b[0], b[-1] + (TWO_PI - (b[-1] - b[0]) if periodic else 0.0),
                             4001)
