@@ -393,6 +393,8 @@ class LevelSystem:
         self._fits: dict[tuple[float, ...], PartialFit] = {}
         self._scores: dict[tuple[float, ...], FitScore] = {}
         self._grams: dict[tuple[float, ...], Gram] = {}
+        #: per set of fixed junctions: smooth part, objective, columns, (X'R X)^-1
+        self._moving: dict[tuple[float, ...], tuple] = {}
 
     def _column(self, tau: float) -> _Column:
         col = self._cols.get(tau)
@@ -506,32 +508,40 @@ class LevelSystem:
         """Penalised residual [m^2] of the fit with the junctions ``fixed`` plus one at
         node ``tau`` (an ``interior`` one), without solving its column: one junction
         added to a least-squares fit lowers the objective by d'S^-1 d, d = g'R z (g the
-        new hinges, z the values less the fixed junctions' hinges), S = g'R g less its part
-        in the fixed junctions' columns (g'R X (X'R X)^-1 X'R g). g'R g of an interior
-        junction depends only on its place between two rows: interpolated from
-        ``GRAM_NODES`` solves per level. The same as ``score(fixed + [tau]).objective``
-        to the rounding of the solves; about a fifth of its cost where the column
-        is new (the angle refinement's case)."""
+        new hinges, z the values less the fixed junctions' hinges), S = g'R g less its
+        part in the fixed junctions' columns (g'R X (X'R X)^-1 X'R g). g'R g of an
+        interior junction depends only on its place between two rows: interpolated
+        from ``GRAM_NODES`` solves per level. The same as ``score(fixed +
+        [tau]).objective`` to the rounding of the solves, at a fraction of its cost
+        where the column is new (the angle refinement's case)."""
+        key = tuple(float(t) for t in fixed)
+        kept = _recall(self._moving, key)
+        if kept is None:
+            inverse = None
+            if key:
+                m = self._gram(key)[0]
+                inverse = np.linalg.inv(m + 1e-13 * np.trace(m) * np.eye(m.shape[0]))
+            kept = _remember(self._moving, key, (self.fit(list(key)).smooth,
+                                                 self.score(list(key)).objective,
+                                                 [self._column(t) for t in key], inverse),
+                             FITS_KEPT)
+        smooth, objective, cols, inverse = kept
         side = side_of(tau, self.n)
-        frac = tau - math.floor(tau)
-        coef = _interior_gram_fit(self.lam_d, taper_nodes(self.n), side)
-        m_t = chebyshev.chebval(2.0 * frac - 1.0, coef).reshape(2, 2)
-        g = _hinge_pair(self.n, tau)
-        base = self.fit(fixed)
+        length = taper_nodes(self.n)
+        s00, s01, s10, s11 = _interior_gram(self.lam_d, length, side, tau - math.floor(tau))
         # d = g'R z = (lam P g)'S z (R = lam P S): the hinge's third differences
         # against the smooth part on the hinge's own rows (g'e would multiply the
         # rounding of e by the hinge's long quadratic tail)
+        g = _hinge_pair(self.n, tau)
         a, b = _hinge_support(self.n, tau, *_window(self.n, tau, self.lam_d))
-        d = _penalised(g[a:b], self.lam_d).T @ base.smooth[a:b]
-        if fixed:
-            cross = np.empty((2, 2 * len(fixed)))
-            for k, t in enumerate(fixed):
-                col = self._column(float(t))
-                cross[:, 2 * k:2 * k + 2] = g[col.lo:col.hi].T @ col.rg
-            m = self._gram(tuple(float(t) for t in fixed))[0]
-            ridge = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
-            m_t = m_t - cross @ np.linalg.solve(ridge, cross.T)
-        return self.score(fixed).objective - float(d @ np.linalg.solve(m_t, d))
+        d0, d1 = _penalised(g[a:b], self.lam_d).T @ smooth[a:b]
+        if inverse is not None:
+            cross = np.concatenate([g[c.lo:c.hi].T @ c.rg for c in cols], axis=1)
+            (c00, c01), (c10, c11) = cross @ inverse @ cross.T
+            s00, s01, s10, s11 = s00 - c00, s01 - c01, s10 - c10, s11 - c11
+        # d'S^-1 d of the 2 x 2 S
+        return objective - float((d0 * (s11 * d0 - s01 * d1) + d1 * (s00 * d1 - s10 * d0))
+                                 / (s00 * s11 - s01 * s10))
 
     def gcv(self, taus: list[float], gamma: float) -> float:
         """GCV score of the fit with these junctions (``gamma`` weights the trace)."""
@@ -560,6 +570,18 @@ def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
     return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
                   rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
                  for k in range(len(offsets)))
+
+
+def _interior_gram(lam_d: float, length: float, side: int, frac: float
+                   ) -> tuple[float, float, float, float]:
+    """G'R G (row by row) of an interior junction ``frac`` of a row past its node, from
+    the Chebyshev fit in that place."""
+    x = 2.0 * frac - 1.0
+    basis = [1.0, x]
+    while len(basis) < GRAM_NODES:
+        basis.append(2.0 * x * basis[-1] - basis[-2])
+    out = np.array(basis) @ _interior_gram_fit(lam_d, length, side)
+    return float(out[0]), float(out[1]), float(out[2]), float(out[3])
 
 
 @lru_cache(maxsize=16)
