@@ -505,15 +505,12 @@ class LevelSystem:
         return lo > 0 and hi < self.n
 
     def moved_objective(self, fixed: list[float], tau: float) -> float:
-        """Penalised residual [m^2] of the fit with the junctions ``fixed`` plus one at
-        node ``tau`` (an ``interior`` one), without solving its column: one junction
-        added to a least-squares fit lowers the objective by d'S^-1 d, d = g'R z (g the
-        new hinges, z the values less the fixed junctions' hinges), S = g'R g less its
-        part in the fixed junctions' columns (g'R X (X'R X)^-1 X'R g). g'R g of an
-        interior junction depends only on its place between two rows: interpolated
-        from ``GRAM_NODES`` solves per level. The same as ``score(fixed +
-        [tau]).objective`` to the rounding of the solves, at a fraction of its cost
-        where the column is new (the angle refinement's case)."""
+        """``score(fixed + [tau]).objective`` [m^2] (to the solves' rounding) for an
+        ``interior`` junction at node ``tau``, without solving its column: one junction
+        added lowers the objective by d'S^-1 d, d = g'R z (g its hinges, z the values
+        less the fixed junctions' hinges), S = g'R g - g'R X (X'R X)^-1 X'R g (X the
+        fixed junctions' hinges); g'R g from its place between two rows
+        (``_interior_gram``)."""
         key = tuple(float(t) for t in fixed)
         kept = _recall(self._moving, key)
         if kept is None:
