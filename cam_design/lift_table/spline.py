@@ -354,6 +354,10 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     return Fairing(y, outlier, corr, r0, float(sigma), float(tol), sweeps, quantum)
 
 
+#: rows that ``quantisation_step`` tries a step on before all of them
+QUANTUM_HEAD = 64
+
+
 def quantisation_step(y: ArrayLike) -> float:
     """The rounding step q [same unit as y] of a table whose values are all whole
     multiples of q (1, 2 or 5 times a power of ten, from 1e-12 to 1e-2 of the largest
@@ -378,10 +382,6 @@ def quantisation_step(y: ArrayLike) -> float:
             if _whole_multiples(v, q):
                 return q
     return 0.0
-
-
-#: rows that ``quantisation_step`` tries a step on before all of them
-QUANTUM_HEAD = 64
 
 
 def _whole_multiples(v: NDArray[np.float64], q: float) -> bool:
