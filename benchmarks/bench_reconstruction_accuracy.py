@@ -2,7 +2,9 @@
 whose acceleration jumps, and the junctions it finds.
 
 Run: ``.venv/bin/python -m benchmarks reconstruction_accuracy`` (writes
-benchmarks/results/reconstruction_accuracy.md; ``CAM_BENCH_SEEDS=5`` for more seeds).
+benchmarks/results/reconstruction_accuracy.md; ``CAM_BENCH_SEEDS=5`` for more seeds;
+``CAM_BENCH_COARSE_JUNCTIONS=1`` with the opt-in junction search on tables coarser than
+4.5 deg, written to reconstruction_accuracy_coarse_junctions.md).
 Truth: the closed-form lobes of ``cam_design.lift_table.truth_lobes`` (ramped C1
 with the CA+CV ramp, a C2 lobe, a dwell cam, a constant-acceleration cam, a circular-arc
 cam), tabulated over a full revolution at 0.1-5 deg with Gaussian noise 0.1-2 um, or
@@ -25,10 +27,16 @@ import numpy as np
 
 from benchmarks.machine import describe, save_results
 from cam_design.lift_table.blas import single_thread_blas
-from cam_design.lift_table.spline import reconstruct_spline
+from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_design.lift_table.truth_lobes import DEG, Family, families, measured_table
 
-RESULT = Path(__file__).resolve().parent / 'results' / 'reconstruction_accuracy.md'
+#: ``CAM_BENCH_COARSE_JUNCTIONS=1``: with the opt-in junction search on tables coarser
+#: than 4.5 deg (results in their own file)
+COARSE_JUNCTIONS = os.environ.get('CAM_BENCH_COARSE_JUNCTIONS', '') == '1'
+OPTIONS = SplineOptions(coarse_junctions=COARSE_JUNCTIONS)
+RESULT = Path(__file__).resolve().parent / 'results' / (
+    'reconstruction_accuracy_coarse_junctions.md' if COARSE_JUNCTIONS
+    else 'reconstruction_accuracy.md')
 STEPS_DEG = (0.1, 0.5, 1.0, 2.5, 5.0)
 #: (label, noise sigma [m], rounding quantum [m])
 NOISE = (('0.1 um', 0.1e-6, 0.0), ('0.5 um', 0.5e-6, 0.0), ('2 um', 2e-6, 0.0),
@@ -70,7 +78,7 @@ def run_case(fam: Family, step_deg: float, sigma: float, quantum: float, outlier
                               outliers=outliers, seed=seed)
         grid = np.arange(a[0], a[-1], EVAL_STEP)
         truth = fam.law(grid, 2)
-        rec = reconstruct_spline(a, h)
+        rec = reconstruct_spline(a, h, OPTIONS)
         e_ours = float(np.mean((rec.evaluate(grid, 2) - truth) ** 2))
         e_ref = float(np.mean((scipy_acceleration(a, h, grid) - truth) ** 2))
         ours.append(e_ours)

@@ -17,6 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 MAD_TO_SIGMA = 1.482602218505602
+#: a table whose noise is below this fraction of its lift range is computed, not
+#: measured (8 nm on an 8 mm lobe; gauges resolve 0.1 um at best)
+EXACT_NOISE_REL = 1e-6
 #: lag-one correlation of neighbouring rebounds below which they are taken for noise
 #: (white noise: -0.87; interpolation error of a computed table: near +1)
 NOISE_LAG_ONE = -0.7

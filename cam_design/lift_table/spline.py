@@ -47,9 +47,11 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
+from cam_design.lift_table.coarse import (base_circle_sigma, coarse_junctions, coarse_level,
+                                          lobe_end_knots)
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              golden_minimum, refit)
-from cam_design.lift_table.noise import rebound_sigma
+from cam_design.lift_table.noise import EXACT_NOISE_REL, rebound_sigma
 from cam_design.lift_table.result import Reconstruction, output_grid, sign_changes
 from cam_design.lift_table.samples import CleanSamples, clean_samples
 
@@ -243,11 +245,14 @@ def _rebound_l1_factor() -> float:
 
 
 REBOUND_L1_FACTOR = _rebound_l1_factor()
-#: a table whose rebound noise is below this fraction of its lift range is computed, not
-#: measured (8 nm on an 8 mm lobe; gauges resolve 0.1 um at best)
-EXACT_NOISE_REL = 1e-6
 #: table step [rad] above which no row is taken for an outlier (only reported)
 VERY_COARSE_RAD = math.radians(4.5)
+#: table step [rad] above which junctions are sought only when asked for
+COARSE_RAD = VERY_COARSE_RAD
+#: table step [rad] above which junctions get the soft-change test and a fit without
+#: junctions the coarse-table level rule and the lobe-end knots (2.5 deg tables: ramped
+#: C1 at 0.1 um 1.40 -> 0.93 x scipy, the flat-tappet preset 4.7 -> 0.78)
+COARSE_LEVEL_RAD = math.radians(2.25)
 #: on such a table an outlier (a typing error) also misses by more than this multiple of
 #: the rebound floor (5 x 2e-5 = 1e-4 of the lift range: 0.8 um on an 8 mm lobe)
 EXACT_FLOOR = 5.0
@@ -742,6 +747,10 @@ class SplineOptions:
     expected_sign_changes: int | None = 2   # of h'' (None: no check)
     step: float | None = None               # output grid step [rad]; None: data step
     junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
+    # also on tables coarser than COARSE_RAD, each junction tested against a soft change
+    # of h'' (coarse.py); off by default: at 5 deg a change of h'' within one row (the
+    # acceleration peak of a 2-10-18-26 polynomial lobe) passes that test as a step
+    coarse_junctions: bool = False
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
@@ -837,19 +846,43 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     why = choice.why
     lam_d = choice.lam_d
     found = None
-    # not on tables coarser than VERY_COARSE_RAD: a few rows per segment cannot tell a
-    # step of h'' from a steep smooth change (the cards and jump speeds of 5 deg, 0.01 mm
-    # tables got worse with them)
+    # coarse tables (coarse.py): a few rows per segment cannot tell a step of h'' from a
+    # steep smooth change by GCV alone, so above COARSE_LEVEL_RAD each junction is also
+    # tested against a soft change, and above COARSE_RAD junctions are sought only when
+    # asked for; without junctions the level is checked against the base circle's noise
+    coarse = step > COARSE_RAD
     if (opt.junctions and uniform and not exact and opt.smoothing is None
-            and step <= VERY_COARSE_RAD):
+            and (opt.coarse_junctions or not coarse)):
         # the search compares GCV scores: it starts from the plain GCV level
         start = choice if opt.criterion == 'gcv' else choose_smoothing(
             values, step, criterion='gcv', gamma=gamma, sigma_floor=floor)
-        found = find_junctions(grid, values, start.lam_d, gamma=gamma, sigma_floor=floor)
+        if step > COARSE_LEVEL_RAD:
+            outcome = coarse_junctions(grid, values, missing, start.lam_d, gamma=gamma,
+                                       sigma_floor=floor)
+            found = outcome.found
+            if outcome.refused:
+                notes.append('coarse table: no step of h\'\' at ' + ', '.join(
+                    f'{math.degrees(t):.1f}' for t in outcome.refused)
+                    + ' deg (a change of h\'\' over 2-4 rows fits the rows better)')
+        else:
+            found = find_junctions(grid, values, start.lam_d, gamma=gamma,
+                                   sigma_floor=floor)
         if found is not None:
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
                     f'chosen again with them: lam_d = {lam_d:.4g}')
+    knots = None
+    if (step > COARSE_LEVEL_RAD and uniform and found is None and not exact
+            and opt.smoothing is None):
+        rows = fair.lift[~fair.outlier]
+        lam_d, reason = coarse_level(values, smooth_grid(values, missing, lam_d), ~missing,
+                                     rows, fair.quantum, floor, lam_d)
+        why += reason
+        # h''' may jump where the lobe leaves the base circle (a C2 lobe's ends): a
+        # quintic interpolant without a knot there rounds that kink over two rows
+        base_sigma = base_circle_sigma(fair.lift[~fair.outlier], fair.quantum)
+        knots = lobe_end_knots(grid, values,
+                               fair.sigma if base_sigma is None else base_sigma)
 
     ylift = fair.lift.copy()
 
@@ -858,7 +891,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             fit = refit(grid, values, missing, found, lam)
             return JunctionSpline(make_interp_spline(grid, fit.smooth, k=5), fit)
         if uniform:
-            return make_interp_spline(grid, smooth_grid(values, missing, lam), k=5)
+            smooth = smooth_grid(values, missing, lam)
+            if knots is not None:
+                try:
+                    return make_interp_spline(grid, smooth, k=5, t=knots)
+                except (ValueError, np.linalg.LinAlgError):
+                    pass
+            return make_interp_spline(grid, smooth, k=5)
         return _pspline(x[kept], ylift[kept], data.count[kept], grid, lam * density)
 
     spline = fit_spline(lam_d)
