@@ -508,9 +508,8 @@ class LevelSystem:
         """``score(fixed + [tau]).objective`` [m^2] (to the solves' rounding) for an
         ``interior`` junction at node ``tau``, without solving its column: one junction
         added lowers the objective by d'S^-1 d, d = g'R z (g its hinges, z the values
-        less the fixed junctions' hinges), S = g'R g - g'R X (X'R X)^-1 X'R g (X the
-        fixed junctions' hinges); g'R g from its place between two rows
-        (``_interior_gram``)."""
+        less the fixed junctions' hinges X), S = g'R g - g'R X (X'R X)^-1 X'R g; g'R g
+        from its place between two rows (``_interior_gram``)."""
         key = tuple(float(t) for t in fixed)
         kept = _recall(self._moving, key)
         if kept is None:
@@ -526,9 +525,8 @@ class LevelSystem:
         side = side_of(tau, self.n)
         length = taper_nodes(self.n)
         s00, s01, s10, s11 = _interior_gram(self.lam_d, length, side, tau - math.floor(tau))
-        # d = g'R z = (lam P g)'S z (R = lam P S): the hinge's third differences
-        # against the smooth part on the hinge's own rows (g'e would multiply the
-        # rounding of e by the hinge's long quadratic tail)
+        # d = g'R z = (lam P g)'S z on the hinge's own rows (R = lam P S; g'e would
+        # multiply the rounding of e by the hinge's long quadratic tail)
         g = _hinge_pair(self.n, tau)
         a, b = _hinge_support(self.n, tau, *_window(self.n, tau, self.lam_d))
         d0, d1 = _penalised(g[a:b], self.lam_d).T @ smooth[a:b]
@@ -536,9 +534,12 @@ class LevelSystem:
             cross = np.concatenate([g[c.lo:c.hi].T @ c.rg for c in cols], axis=1)
             (c00, c01), (c10, c11) = cross @ inverse @ cross.T
             s00, s01, s10, s11 = s00 - c00, s01 - c01, s10 - c10, s11 - c11
+        det = s00 * s11 - s01 * s10
+        if not det > 0.0:   # on a fixed junction: S is singular, the exact score is not
+            return self.score(list(key) + [tau]).objective
         # d'S^-1 d of the 2 x 2 S
         return objective - float((d0 * (s11 * d0 - s01 * d1) + d1 * (s00 * d1 - s10 * d0))
-                                 / (s00 * s11 - s01 * s10))
+                                 / det)
 
     def gcv(self, taus: list[float], gamma: float) -> float:
         """GCV score of the fit with these junctions (``gamma`` weights the trace)."""
