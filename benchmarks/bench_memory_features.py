@@ -2,12 +2,13 @@
 bag size.
 
     .venv/bin/python -m benchmarks.bench_memory_features [--samples 10000000]
-        [--features 1,3,100]
+        [--features 1,3,100] [--single 2e6,5e6]
 
 For each count F of features, a bag of about ``--samples`` samples (default scene's
 lobes, 1 um probe noise) in which every feature holds samples / F samples:
 F = 1: lobe_1 alone; F = 3: lobes 1-3; F = 100: the five features of the default scene
-measured 20 times over (``write_sim_bag(rounds=20)``). Each bag is analysed by
+measured 20 times over (``write_sim_bag(rounds=20)``); ``--single``: bags of one
+feature of those sample counts besides (the curve against feature size). Each bag is analysed by
 ``cam-bench analyze BAG --only-metrology --json F`` in a child process
 (``bench_memory.measure``: peak RSS, CPU time user + system, wall time) and deleted.
 The 300 MB goal is drawn on the plot. Measuring 10 M samples takes minutes of CPU for
@@ -65,6 +66,7 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
+    rows = sorted(rows, key=lambda r: r['largest'])
     x = [r['largest'] for r in rows]
     ax.plot(x, [r['rss'] for r in rows], '-o', color='C3', label='peak RSS of analyze')
     for r in rows:
@@ -73,8 +75,9 @@ def plot(rows: list[dict[str, Any]], path: Path) -> None:
     ax.axhline(300, color='grey', lw=0.8, ls=':')
     ax.text(max(x), 290, '300 MB goal', color='grey', ha='right', va='top')
     ax.set_ylim(0, 1.15 * max(300.0, max(r['rss'] for r in rows)))   # room for the labels
-    finish_plot(fig, ax, path, 'samples of the largest feature (bag of %s samples)'
-                % f"{rows[0]['samples']:,}", 'peak RSS [MB]',
+    bags = sorted({round(r['samples'] / 1e6, 2) for r in rows})
+    finish_plot(fig, ax, path, 'samples of the largest feature (bags of %s samples)'
+                % ', '.join(f'{b:g} M' for b in bags), 'peak RSS [MB]',
                 'cam-bench analyze --only-metrology: memory against feature size')
 
 
@@ -83,15 +86,19 @@ def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog='python -m benchmarks.bench_memory_features')
     p.add_argument('--samples', type=float, default=1e7)
     p.add_argument('--features', default='1,3,100')
+    p.add_argument('--single', default='',
+                   help='sample counts of extra one-feature bags, e.g. 2e6,5e6')
     p.add_argument('--tmp', default=tempfile.gettempdir())
     args = p.parse_args(argv)
     machine = describe()
     rows: list[dict[str, Any]] = []
-    for count in (int(c) for c in args.features.split(',')):
+    runs = [(int(args.samples), int(c)) for c in args.features.split(',') if c]
+    runs += [(int(float(n)), 1) for n in args.single.split(',') if n]
+    for samples, count in runs:
         work = Path(tempfile.mkdtemp(prefix='cam_bench_memfeat_', dir=args.tmp))
         try:
             t0 = time.perf_counter()
-            n, largest = write_bag(work / 'bag', int(args.samples), count)
+            n, largest = write_bag(work / 'bag', samples, count)
             write_s = time.perf_counter() - t0
             rss, wall, code, cpu = measure(work / 'bag', work / 'r.json', None, False)
             rows.append({'features': count, 'samples': n, 'largest': largest, 'rss': rss,
@@ -107,6 +114,7 @@ def main(argv: list[str] | None = None) -> None:
              'average after the run (other jobs share the machine).', '',
              '| features | samples | samples of the largest feature | peak RSS [MB] | '
              'CPU [s] | wall [s] | exit | load |', '|---:|---:|---:|---:|---:|---:|---:|---:|']
+    rows.sort(key=lambda r: (-r['samples'], r['features']))
     lines += [f"| {r['features']} | {r['samples']:,} | {r['largest']:,} | {r['rss']:.0f} | "
               f"{r['cpu']:.1f} | {r['wall']:.1f} | {r['code']} | {r['load']:.1f} |"
               for r in rows]

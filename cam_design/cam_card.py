@@ -388,10 +388,14 @@ def card_from_law(law: LiftLaw, heights: Sequence[float] = DEFAULT_HEIGHTS_M,
 
 def card_from_table(alpha: Any, lift: Any, heights: Sequence[float] = DEFAULT_HEIGHTS_M,
                     reference: Any = None, *, rocker_ratio: float | None = None,
-                    key: str = 'heights', source: str = 'measured') -> dict[str, Any]:
+                    key: str = 'heights', source: str = 'measured',
+                    area: float | None = None) -> dict[str, Any]:
     """The card of a measured lift table (``reference``: the design law for the same
     probe, used for the local fits; module doc). Derivatives of measured data are not
-    given here (they need a smoothing model: ``cam-bench reconstruct``)."""
+    given here (they need a smoothing model: ``cam-bench reconstruct``). ``area``: the
+    lift area over the support [m rad] when the caller has it (a table too long to
+    pass whole: then only the rows around the peak and the events are given); computed
+    here otherwise."""
     a, h = _sorted(alpha, lift)
     peak_alpha, max_lift = table_peak(a, h, reference)
     events = [(y, *table_events(a, h, y, reference, key=f'{key}[{j}]'))
@@ -401,9 +405,10 @@ def card_from_table(alpha: Any, lift: Any, heights: Sequence[float] = DEFAULT_HE
     else:
         idx = np.nonzero(h > 0.002 * max_lift)[0]
         support = (float(a[idx[0]]), float(a[idx[-1]])) if idx.size else (0.0, 0.0)
-    inside = (a >= support[0]) & (a <= support[1])
-    trap = getattr(np, 'trapezoid', None) or getattr(np, 'trapz')
-    area = float(trap(h[inside], a[inside])) if np.count_nonzero(inside) > 1 else 0.0
+    if area is None:
+        inside = (a >= support[0]) & (a <= support[1])
+        trap = getattr(np, 'trapezoid', None) or getattr(np, 'trapz')
+        area = float(trap(h[inside], a[inside])) if np.count_nonzero(inside) > 1 else 0.0
     card = _common(max_lift, peak_alpha, _height_entries(events), area, support,
                    rocker_ratio)
     card['source'] = source

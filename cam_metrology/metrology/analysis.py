@@ -25,14 +25,18 @@ from cam_design.dowel_pin import DowelPinGeometry
 from cam_design.errors import InputError
 from cam_design.keyway import KeywayGeometry
 from cam_metrology.metrology import block_lsq
-from cam_metrology.metrology.asymmetry import lift_spline, top_point
+from cam_metrology.metrology.asymmetry import lift_spline, lobe_spline_of_table, top_point
 from cam_metrology.metrology.features import FeatureSamples, unwrapped_blocks
-from cam_metrology.metrology.lift_error import (error_stats, local_deviation,
+from cam_metrology.metrology.lift_error import (error_stats, error_stats_blocks,
+                                                local_deviation,
                                                 referenced_error_stats)
+from cam_metrology.metrology.lobe_columns import (column_median, column_of, lift_table,
+                                                  mask_of, masked, masked_median, selected,
+                                                  short_lift_table)
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
 from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
-from cam_metrology.metrology.spill import blank, release, seal, walk
+from cam_metrology.metrology.spill import blank, is_long, release, seal, walk
 
 DEG = np.pi / 180.0
 UM = 1e6
@@ -147,7 +151,8 @@ def is_symmetric(law: Lift, lo: float, hi: float, tol: float = 1e-9) -> bool:
 def _zone_check(x: NDArray[np.float64], zone: tuple[float, float], flank: str,
                 settings: Settings) -> None:
     """Fail the feature when a flank's sensitive zone has too few samples or a gap."""
-    inside = np.sort(x[(x >= zone[0]) & (x <= zone[1])])
+    inside = np.sort(selected(x, mask_of(x.size, lambda a, b: (x[a:b] >= zone[0]) &
+                                         (x[a:b] <= zone[1]), x)))
     lo, hi = np.degrees(zone[0]), np.degrees(zone[1])
     need = settings.min_flank_samples
     if inside.size < need:
@@ -251,10 +256,11 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
         # the residuals' column becomes their local deviation (one column in memory)
         dev = local_deviation(_used(x, cand), _residuals(x, s, law, fit, theta, cand),
                               overwrite=True)
-        np.abs(dev, out=dev)
-        scale = max(1.4826 * float(np.median(dev)), OUTLIER_SCALE_FLOOR)
+        for a, b in walk(dev.size, dev):
+            np.abs(dev[a:b], out=dev[a:b])
+        scale = max(1.4826 * column_median(dev), OUTLIER_SCALE_FLOOR)
         keep = cand.copy()
-        keep[cand] = dev <= k * scale
+        keep[cand] = mask_of(dev.size, lambda a, b: dev[a:b] <= k * scale, dev)
         if np.count_nonzero(~keep[cand]) > OUTLIER_MAX_FRACTION * dev.size:
             keep = fit.used   # not isolated spikes: systematic, keep everything
         dev = None   # type: ignore[assignment]  # freed before the next fit
@@ -269,8 +275,8 @@ def robust_fit(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift,
 
 
 def _used(a: NDArray[np.float64], used: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """``a[used]``, without a copy when every sample is used."""
-    return a if used.all() else a[used]
+    """``a[used]``, without a copy when every sample is used (spilled when long)."""
+    return a if used.all() else masked(a, used)
 
 
 def _residuals(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift, fit: Any,
@@ -278,7 +284,7 @@ def _residuals(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift, fit: A
                ) -> NDArray[np.float64]:
     """Residuals [m] of the samples ``used`` under ``fit`` (offset, shift and run-out),
     computed a block at a time (no full-size temporaries)."""
-    out = np.empty(int(np.count_nonzero(used)))
+    out = blank((int(np.count_nonzero(used)),))
     step, pos = block_lsq.BLOCK_ROWS, 0
     for k in range(0, x.size, step):
         m = used[k:k + step]
@@ -289,7 +295,7 @@ def _residuals(x: NDArray[np.float64], s: NDArray[np.float64], law: Lift, fit: A
             rb -= block_lsq.first_harmonic(tb, 0.0, *fit.runout)
         out[pos:pos + rb.size] = rb
         pos += rb.size
-        release(s, theta)   # spilled samples: one block resident
+        release(x, s, theta, out)   # spilled samples: one block resident
     return out
 
 
@@ -309,33 +315,51 @@ def _angle_noise_weighting(x: NDArray[np.float64], s: NDArray[np.float64], law: 
     # the noise part of the residuals only: a real form error must not pass for noise
     r2 = local_deviation(xu, fit.residuals, overwrite=True)
     fit = replace(fit, residuals=np.empty(0))
-    gp2 = law(xu - fit.d, 1)   # after the deviations: one column less alive at once
-    gp2 **= 2
-    del xu
-    r2 **= 2
-    r2 /= MEDIAN9_VARIANCE
-    # r2 ~ a + b gp2 by least squares, a block of rows at a time
     step = block_lsq.BLOCK_ROWS
+
+    def slope2(k: int) -> NDArray[np.float64]:
+        """h'^2 of the used samples k .. k + step (a block at a time: no column)."""
+        g = law(xu[k:k + step] - fit.d, 1)
+        g **= 2
+        return g
+
+    for k, e in walk(r2.size, r2, step=step):
+        r2[k:e] **= 2
+        r2[k:e] /= MEDIAN9_VARIANCE
+    # r2 ~ a + b gp2 by least squares, a block of rows at a time
     tri, rows = block_lsq.triangle(
         (np.column_stack([np.ones(g.size), g]), r2[k:k + step])
-        for k in range(0, gp2.size, step) for g in (gp2[k:k + step],))
+        for k, _ in walk(r2.size, xu, r2, step=step) for g in (slope2(k),))
     coef = block_lsq.solve(tri, rows)
     a, b = float(coef[0]), float(coef[1])
-    rss = sum(float(res @ res) for k in range(0, gp2.size, step)
-              for res in (r2[k:k + step] - (coef[0] + coef[1] * gp2[k:k + step]),))
+    rss, gmax = 0.0, -np.inf
+    for k, _ in walk(r2.size, xu, r2, step=step):
+        g = slope2(k)
+        res = r2[k:k + step] - (coef[0] + coef[1] * g)
+        rss += float(res @ res)
+        gmax = max(gmax, float(np.max(g)))
+    size = r2.size
     del r2
     normal = tri[:2, :2].T @ tri[:2, :2]   # design^T design = R^T R
-    cov = rss / max(gp2.size - 2, 1) * np.linalg.pinv(normal)
+    cov = rss / max(size - 2, 1) * np.linalg.pinv(normal)
     b_se = float(np.sqrt(max(cov[1, 1], 0.0)))
     noise = {'probe_noise_estimate_um': float(np.sqrt(max(a, 0.0))) * UM,
              'angle_noise_estimate_arcsec': float(np.degrees(np.sqrt(max(b, 0.0)))) * 3600}
-    if a <= 0 or b <= 3 * b_se or b * float(np.max(gp2)) <= 0.2 * a:
+    if a <= 0 or b <= 3 * b_se or b * gmax <= 0.2 * a:
         return fit, noise
-    weights = np.ones(x.size)
-    gp2 *= b   # 1 / (a + b h'^2), in place: no column of it alive during the refit
-    gp2 += a
-    weights[used] = np.reciprocal(gp2, out=gp2)
-    del gp2
+
+    def weight(lo: int, hi: int) -> NDArray[np.float64]:
+        """1 / (a + b h'^2) of the used samples lo .. hi, 1 elsewhere."""
+        w = np.ones(hi - lo)
+        m = used[lo:hi]
+        g = law(x[lo:hi][m] - fit.d, 1)
+        g **= 2
+        g *= b
+        g += a
+        w[m] = np.reciprocal(g, out=g)
+        return w
+
+    weights = column_of(x.size, weight, x)
     refit = fit_shift(x, s, law, theta=theta, d0=fit.d, c0=fit.c, used=used,
                       weights=weights)
     return replace(refit, residuals=np.empty(0)), noise
@@ -348,20 +372,22 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
         raise FeatureFailed(f'{fs.theta.size} valid samples (need >= '
                             f'{4 * settings.min_flank_samples})')
     lo, hi = law.support if hasattr(law, 'support') else (-np.pi, np.pi)
-    # spilled samples (``features``): every pass gives back the pages it read
-    xraw = np.empty(fs.theta.size)
-    for a, b in walk(xraw.size, fs.theta):   # one block of spilled angles resident
-        np.multiply(direction, fs.theta[a:b], out=xraw[a:b])
-    x0 = coarse_align(xraw, fs.s, law)
+    # spilled samples (``features``): every pass gives back the pages it read; the
+    # angle column x is itself spilled when long (``lobe_columns``)
+    theta = fs.theta
+    x = blank((theta.size,))
+    for a, b in walk(x.size, theta, x):   # one block of spilled angles resident
+        np.multiply(direction, theta[a:b], out=x[a:b])
+    x0 = coarse_align(x, fs.s, law)
     _release(fs)
-    xraw -= x0
-    x = wrap_pi(xraw)
-    del xraw
+    for a, b in walk(x.size, x):   # x = wrap(direction theta - x0), in place
+        x[a:b] = wrap_pi(x[a:b] - x0)
+    x = seal(x)
     alpha_m, alpha_n = sensitive_points(law, lo, hi)
     _zone_check(x, _slope_zone(law, alpha_m, lo, 0.0), 'rise', settings)
     _zone_check(x, _slope_zone(law, alpha_n, 0.0, hi), 'fall', settings)
-    base = (x < lo - 2 * DEG) | (x > hi + 2 * DEG)
-    c_base = float(np.median(fs.s[base])) if np.count_nonzero(base) >= 5 else None
+    base = mask_of(x.size, lambda a, b: (x[a:b] < lo - 2 * DEG) | (x[a:b] > hi + 2 * DEG), x)
+    c_base = masked_median(fs.s, base) if np.count_nonzero(base) >= 5 else None
     _release(fs)
     runout = settings.fit_runout and covers_circle(fs.theta)
     fit, outliers, noise = robust_fit(x, fs.s, law, settings, c0=c_base,
@@ -370,8 +396,10 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
     good = ~outliers
     _check_fit(fit, settings, 'nose')
     ref = base_reference(fs.theta, fs.s, base & good, runout, (fit.c, fit.runout))
-    ref -= fs.s
-    ref *= -1.0   # s - ref, in place
+    for a, b in walk(ref.size, ref, fs.s):   # s - ref, in place
+        ref[a:b] -= fs.s[a:b]
+        ref[a:b] *= -1.0
+    ref = seal(ref)
     _release(fs)
     try:
         sp = sensitive_point_shift(
@@ -395,32 +423,20 @@ def analyze_lobe(fs: FeatureSamples, law: Lift, direction: int, settings: Settin
                                   (_slope_zone(law, alpha_m, lo, 0.0),
                                    _slope_zone(law, alpha_n, 0.0, hi))))
     base &= good
-    base_runout, base_centre = _runout_um(fs.theta[base], fs.s[base] - fit.c)
+    base_runout, base_centre = _runout_um(fs.theta, fs.s, base, fit.c)
     del base
     _release(fs)
-    # the lift table (alpha, measured, design) in alpha order, built column by column
-    alpha = x
-    alpha -= fit.d   # x is not used after this: alpha = x - d in place
-    del x
-    order = np.argsort(alpha)
-    # a long feature's table goes to a temporary file as it is built (``spill.blank``)
-    table = blank((alpha.size, 3))
-    step = block_lsq.BLOCK_ROWS
-    for k in range(0, alpha.size, step):   # the same values as whole-column expressions
-        idx = order[k:k + step]
-        th = fs.theta[idx]
-        table[k:k + step, 0] = alpha[idx]
-        wave = block_lsq.first_harmonic(th, 0.0, *fit.runout)
-        table[k:k + step, 1] = fs.s[idx] - fit.c - wave
-        table[k:k + step, 2] = law(table[k:k + step, 0], 0)   # elementwise: the same
-        release(table, fs.theta, fs.s)   # gathered rows: one block's pages resident
-    del alpha, idx, th, wave   # idx is a view: it would keep the whole sort order alive
+    # the lift table (alpha, measured, design) in alpha order
+    build = lift_table if is_long(x.size) else short_lift_table   # long: angle buckets
+    table, good = build(x, fit.d, fs.theta, fs.s, fit.c, fit.runout, law, good)
     _release(fs)
-    table = seal(table)
-    good = good[order]
-    del order
     alpha, measured, design = table[:, 0], table[:, 1], table[:, 2]
-    fit_error = error_stats(measured - design, design, good)
+    if isinstance(table, np.memmap):   # long: a block of rows at a time
+        fit_error = error_stats_blocks(
+            (table[a:b, 1] - table[a:b, 2], table[a:b, 2], good[a:b])
+            for a, b in walk(table.shape[0], table))
+    else:
+        fit_error = error_stats(measured - design, design, good)
     release(table)
     if fit_error is not None:   # what the fit leaves; a smooth form error partly hides here
         values['fit_residual_um'] = fit_error
@@ -482,8 +498,9 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: 
     count = int(rev.max()) + 1
     # revolutions counted on the stamp-ordered angle are runs of rows: each is fitted on
     # its own slice (cost ~ its samples); a back-and-forth angle falls back to masks
-    runs = np.searchsorted(rev, np.arange(count + 1)) if bool(np.all(rev[1:] >= rev[:-1])) \
-        else None
+    # (the searched values in rev's own type: int64 ones would convert a copy of rev)
+    runs = np.searchsorted(rev, np.arange(count + 1, dtype=rev.dtype)) \
+        if bool(np.all(rev[1:] >= rev[:-1])) else None
     for k in range(count):
         if runs is not None:
             part = slice(int(runs[k]), int(runs[k + 1]))
@@ -497,7 +514,7 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: 
         except (FeatureFailed, InputError):
             continue
         finally:
-            release(s)   # one revolution's pages resident
+            release(s, x)   # one revolution's pages resident
         devs.append(float(np.degrees(one.d - fit.d) * 3600))
     if len(devs) < 2:
         return {}
@@ -505,12 +522,14 @@ def _per_revolution(fs: FeatureSamples, x: NDArray[np.float64], law: Lift, fit: 
             'per_revolution_std_arcsec': float(np.std(devs, ddof=1))}
 
 
-def covers_circle(theta: NDArray[np.float64], need: int = 30) -> bool:
-    """True if the angles [rad] fall in at least ``need`` of 36 sectors of 10 deg
-    (a first harmonic is then well determined)."""
+def covers_circle(theta: NDArray[np.float64], need: int = 30,
+                  mask: NDArray[np.bool_] | None = None) -> bool:
+    """True if the angles [rad] (those of ``mask``, all when None) fall in at least
+    ``need`` of 36 sectors of 10 deg (a first harmonic is then well determined)."""
     seen = np.zeros(36 + 1, bool)   # a block at a time: no full-size temporaries
     for a, b in walk(theta.size, theta):
-        seen[(np.mod(theta[a:b], 2 * np.pi) // (np.pi / 18)).astype(np.int64)] = True
+        t = theta[a:b] if mask is None else theta[a:b][mask[a:b]]
+        seen[(np.mod(t, 2 * np.pi) // (np.pi / 18)).astype(np.int64)] = True
     return bool(np.count_nonzero(seen) >= need)
 
 
@@ -522,23 +541,32 @@ def base_reference(theta: NDArray[np.float64], s: NDArray[np.float64],
     sectors) the fitted circle c + a cos(theta) + b sin(theta); the LSQ level
     ``fallback`` = (c, (a, b)) [m], c + a cos(theta) + b sin(theta), when there are
     fewer than 10 base-circle samples."""
+    n = theta.size
     if np.count_nonzero(base) < 10:
-        return fallback[0] + block_lsq.first_harmonic(theta, 0.0, *fallback[1])
-    if runout and covers_circle(theta[base], need=18):
+        c, (a, b) = fallback
+        return column_of(n, lambda i, j: c + block_lsq.first_harmonic(theta[i:j], 0.0, a, b),
+                         theta)
+    if runout and covers_circle(theta, need=18, mask=base):
         coef = block_lsq.harmonic_lstsq(theta, s, base)
-        return block_lsq.first_harmonic(theta, float(coef[0]), float(coef[1]), float(coef[2]))
-    return np.full(theta.size, float(np.median(s[base])))
+        c, a, b = float(coef[0]), float(coef[1]), float(coef[2])
+        return column_of(n, lambda i, j: block_lsq.first_harmonic(theta[i:j], c, a, b),
+                         theta)
+    level = masked_median(s, base)
+    return column_of(n, lambda i, j: np.full(j - i, level))
 
 
-def _runout_um(theta: NDArray[np.float64], lift: NDArray[np.float64]
-               ) -> tuple[float | None, list[float] | None]:
+def _runout_um(theta: NDArray[np.float64], s: NDArray[np.float64], base: NDArray[np.bool_],
+               c: float) -> tuple[float | None, list[float] | None]:
     """Total indicated run-out [um] of the base circle (2 x first-harmonic amplitude) and
     its centre's eccentricity vector ``[a, b]`` [um] from the datum axis (the reading
-    ``c + a cos theta + b sin theta``, as a journal's); (None, None) with fewer than 10
-    base-circle samples."""
-    if theta.size < 10:
+    ``c + a cos theta + b sin theta``, as a journal's) of the readings ``s - c`` [m] of
+    the samples ``base``; (None, None) with fewer than 10 base-circle samples."""
+    if np.count_nonzero(base) < 10:
         return None, None
-    coef = block_lsq.harmonic_lstsq(theta, lift)
+    if is_long(theta.size):   # long: masked a block at a time, no gathered copies
+        coef = block_lsq.harmonic_lstsq(theta, s, base, offset=c)
+    else:
+        coef = block_lsq.harmonic_lstsq(theta[base], s[base] - c)
     return (float(2.0 * np.hypot(coef[1], coef[2]) * UM),
             [float(coef[1]) * UM, float(coef[2]) * UM])
 
@@ -548,12 +576,17 @@ def _asymmetry(alpha: NDArray[np.float64], measured: NDArray[np.float64],
                settings: Settings) -> dict[str, Any]:
     """Top point by the symmetry axis of the measured lift (frame: LSQ nose = 0), from
     the ``good`` samples on the lobe (lo < alpha < hi): only those are copied."""
-    sel = good & (alpha > lo) & (alpha < hi)
-    a, h = alpha[sel], measured[sel]
-    del sel
+    knots = settings.asymmetry_knot_deg * DEG
     try:
-        spline = lift_spline(a, h, knot_spacing=settings.asymmetry_knot_deg * DEG)
-        tp = top_point(spline, float(a.min()), float(a.max()))
+        if isinstance(alpha, np.memmap):   # a long table: merged a block of rows at a time
+            spline, a_lo, a_hi = lobe_spline_of_table(alpha, measured, good, lo, hi, knots)
+        else:
+            sel = good & (alpha > lo) & (alpha < hi)
+            a, h = alpha[sel], measured[sel]
+            del sel
+            spline = lift_spline(a, h, knot_spacing=knots)
+            a_lo, a_hi = float(a.min()), float(a.max())
+        tp = top_point(spline, a_lo, a_hi)
     except (InputError, ValueError) as exc:
         return {'asymmetry_error': str(exc)}
     if not (np.isfinite(tp.d) and abs(tp.d) <= settings.max_shift_deg * DEG):

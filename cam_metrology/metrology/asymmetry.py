@@ -16,7 +16,7 @@ asymmetry (reported as RMS and maximum, in m).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Iterable, Iterator
 
 import numpy as np
 from numpy.typing import NDArray
@@ -79,6 +79,54 @@ def merge_repeated(alpha: NDArray[np.float64], lift: NDArray[np.float64],
             count.astype(np.int64))
 
 
+def merge_repeated_blocks(blocks: Iterable[tuple[NDArray[np.float64], NDArray[np.float64]]],
+                          tol: float = SAME_ANGLE,
+                          ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """``merge_repeated`` of samples already in angle order, handed out as blocks
+    ``(alpha, lift)`` (a long lift table read a block of rows at a time): the same
+    numbers (``long_columns.run_means``)."""
+    from cam_metrology.metrology.long_columns import run_means
+
+    last: list[float] = []   # the previous block's last angle
+
+    def runs() -> Iterator[tuple[NDArray[np.bool_], NDArray[np.float64],
+                                 NDArray[np.float64]]]:
+        for alpha, lift in blocks:
+            if alpha.size:
+                first = not last or alpha[0] - last[0] > tol
+                yield np.concatenate(([first], np.diff(alpha) > tol)), alpha, lift
+                last[:] = [float(alpha[-1])]
+
+    return run_means(runs())
+
+
+def lobe_spline_of_table(alpha: NDArray[np.float64], measured: NDArray[np.float64],
+                         good: NDArray[np.bool_], lo: float, hi: float, knots: float,
+                         ) -> tuple[Any, float, float]:
+    """``lift_spline`` (knots every ``knots`` [rad]) of the ``good`` rows with
+    lo < alpha < hi [rad] of a long lift table in angle order, read a block of rows at a
+    time (repeated angles merged as they come: ``merge_repeated_blocks``), and the
+    smallest and largest of those angles [rad]."""
+    from cam_metrology.metrology.spill import walk
+
+    span = [np.inf, -np.inf]
+
+    def blocks() -> Iterator[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+        for i, j in walk(alpha.size, alpha, measured):
+            m = good[i:j] & (alpha[i:j] > lo) & (alpha[i:j] < hi)
+            a, h = alpha[i:j][m], measured[i:j][m]
+            bad = int(np.count_nonzero(~(np.isfinite(a) & np.isfinite(h))))
+            if bad:
+                raise InputError('asymmetry.samples', f'{bad} non-finite angle(s) or '
+                                 'lift(s)', 'finite numbers')
+            if a.size:
+                span[0], span[1] = min(span[0], float(a[0])), max(span[1], float(a[-1]))
+            yield a, h
+
+    merged = merge_repeated_blocks(blocks())
+    return spline_of_positions(*merged, knot_spacing=knots), span[0], span[1]
+
+
 def distinct_positions(alpha: NDArray[np.float64], resolution: float) -> int:
     """Number of cells of width ``resolution`` [rad] holding at least one angle."""
     return int(np.unique(np.floor((alpha - alpha.min()) / resolution)).size)
@@ -101,7 +149,13 @@ def lift_spline(alpha: NDArray[np.float64], lift: NDArray[np.float64], *,
     if bad:
         raise InputError('asymmetry.samples', f'{bad} non-finite angle(s) or lift(s)',
                          'finite numbers')
-    a, h, count = merge_repeated(alpha, lift)
+    return spline_of_positions(*merge_repeated(alpha, lift), knot_spacing=knot_spacing)
+
+
+def spline_of_positions(a: NDArray[np.float64], h: NDArray[np.float64],
+                        count: NDArray[np.int64], *, knot_spacing: float | None = None) -> Any:
+    """``lift_spline`` of merged positions (``merge_repeated``): angles [rad], mean
+    lifts [m] and sample counts."""
     if a.size < 8:
         raise InputError('asymmetry.samples', int(a.size), 'at least 8 distinct angles')
     if knot_spacing is None:

@@ -82,20 +82,27 @@ def lstsq(a: NDArray[np.float64], y: NDArray[np.float64],
 
 def harmonic_lstsq(theta: NDArray[np.float64], y: NDArray[np.float64],
                    mask: NDArray[np.bool_] | None = None,
-                   block_rows: int = BLOCK_ROWS) -> NDArray[np.float64]:
-    """Coefficients ``(c, a, b)`` of ``y ~ c + a cos(theta) + b sin(theta)`` [units of
-    y] by least squares over the samples of ``mask`` (all when None), built a block at
-    a time (the 3-column matrix of every sample is never formed)."""
+                   block_rows: int = BLOCK_ROWS, offset: float = 0.0) -> NDArray[np.float64]:
+    """Coefficients ``(c, a, b)`` of ``y - offset ~ c + a cos(theta) + b sin(theta)``
+    [units of y] by least squares over the samples of ``mask`` (all when None), built a
+    block at a time (the 3-column matrix of every sample is never formed)."""
     def blocks() -> Iterable[tuple[NDArray[np.float64], NDArray[np.float64]]]:
         for k in range(0, theta.size, block_rows):
             t, v = theta[k:k + block_rows], y[k:k + block_rows]
             if mask is not None:
                 m = mask[k:k + block_rows]
                 t, v = t[m], v[m]
-            yield np.column_stack([np.ones_like(t), np.cos(t), np.sin(t)]), v
+            yield t, (v - offset if offset else v)
             release(theta, y)   # spilled columns (``spill``): one block resident
 
-    return solve(*triangle(blocks()))
+    return harmonic_fit(blocks())
+
+
+def harmonic_fit(blocks: Iterable[tuple[NDArray[np.float64], NDArray[np.float64]]],
+                 ) -> NDArray[np.float64]:
+    """``harmonic_lstsq`` of samples handed out as blocks ``(theta [rad], y)``."""
+    return solve(*triangle((np.column_stack([np.ones_like(t), np.cos(t), np.sin(t)]), v)
+                           for t, v in blocks))
 
 
 def first_harmonic(theta: NDArray[np.float64], c: float, a: float,

@@ -26,6 +26,8 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from cam_metrology.metrology.lift_error import referenced_rows
+from cam_metrology.metrology.long_columns import run_means
+from cam_metrology.metrology.spill import walk
 
 #: bin width [deg] of the table before the spline (7200 bins a revolution at most)
 BIN_DEG = 0.05
@@ -42,6 +44,40 @@ def _binned(alpha: Any, lift: Any) -> tuple[Any, Any]:
     a = np.bincount(inverse, alpha) / count
     h = np.bincount(inverse, lift) / count
     return a, h
+
+
+def _long_binned(rows: Any, margin: float) -> tuple[Any, Any] | None:
+    """``_binned`` of the rows within ``margin`` [rad] of the lobe (design > 0) of a long
+    referenced table in angle order, read a block at a time (the bins are runs of
+    rows: ``long_columns.run_means``, the same sums); None with fewer than 10 lobe rows."""
+    n = rows.shape[0]
+    first = last = -1
+    count = 0
+    for a, b in walk(n, rows):
+        on = np.flatnonzero(rows[a:b, 2] > 0)
+        count += on.size
+        if on.size:
+            first = a + int(on[0]) if first < 0 else first
+            last = a + int(on[-1])
+    if count < 10:
+        return None
+    lo, hi = rows[first, 0] - margin, rows[last, 0] + margin
+    width = math.radians(BIN_DEG)
+    prev: list[int] = []   # the previous block's last bin
+
+    def runs() -> Any:
+        for a, b in walk(n, rows):
+            part = rows[a:b]
+            m = (part[:, 0] >= lo) & (part[:, 0] <= hi)
+            alpha, err = part[m, 0], part[m, 1] - part[m, 2]
+            if alpha.size:
+                k = np.floor(alpha / width).astype(np.int64)
+                first_new = not prev or int(k[0]) != prev[0]
+                yield np.concatenate(([first_new], k[1:] != k[:-1])), alpha, err
+                prev[:] = [int(k[-1])]
+
+    a_mean, e_mean, _ = run_means(runs())
+    return a_mean, e_mean
 
 
 def _stats(grid: Any, err: Any, scale: float) -> dict[str, float] | None:
@@ -90,14 +126,20 @@ def derivative_errors(table: Any, values: Mapping[str, Any],
     from scipy.interpolate import make_smoothing_spline
 
     rows = referenced_rows(table, values)
-    alpha, nominal = rows[:, 0], rows[:, 2]
-    error = rows[:, 1] - nominal
-    on = np.flatnonzero(nominal > 0)
-    if on.size < 10:
-        return {'derivative_error': 'fewer than 10 samples on the lobe'}
     margin = math.radians(MARGIN_DEG)
-    sel = (alpha >= alpha[on[0]] - margin) & (alpha <= alpha[on[-1]] + margin)
-    a, e = _binned(alpha[sel], error[sel])
+    if isinstance(rows, np.memmap):   # a long table: binned a block of rows at a time
+        binned = _long_binned(rows, margin)
+        if binned is None:
+            return {'derivative_error': 'fewer than 10 samples on the lobe'}
+        a, e = binned
+    else:
+        alpha, nominal = rows[:, 0], rows[:, 2]
+        error = rows[:, 1] - nominal
+        on = np.flatnonzero(nominal > 0)
+        if on.size < 10:
+            return {'derivative_error': 'fewer than 10 samples on the lobe'}
+        sel = (alpha >= alpha[on[0]] - margin) & (alpha <= alpha[on[-1]] + margin)
+        a, e = _binned(alpha[sel], error[sel])
     try:
         spline = make_smoothing_spline(a, e)
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:

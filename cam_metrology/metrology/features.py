@@ -299,7 +299,10 @@ def probe_units_problem(fs: FeatureSamples) -> str | None:
     ``MAX_PROBE_SPAN_M``, naming the unit they look like), or None."""
     if fs.s.size < 2:
         return None
-    span = float(np.ptp(fs.s))
+    lo, hi = np.inf, -np.inf   # a block at a time: a spilled column gives back its pages
+    for a, b in walk(fs.s.size, fs.s):
+        lo, hi = min(lo, float(np.min(fs.s[a:b]))), max(hi, float(np.max(fs.s[a:b])))
+    span = hi - lo
     if span <= MAX_PROBE_SPAN_M:
         return None
     slip = unit_slip(span, MAX_PROBE_SPAN_M, floor=2e-4)

@@ -23,7 +23,8 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError
 from cam_metrology.metrology import block_lsq
-from cam_metrology.metrology.spill import release
+from cam_metrology.metrology.long_columns import median
+from cam_metrology.metrology.spill import blank, is_long, release, walk
 
 TWO_PI = 2.0 * np.pi
 Lift = Callable[[NDArray[np.float64], int], NDArray[np.float64]]
@@ -71,7 +72,9 @@ class _UsedRows:
                  weights: NDArray[np.float64] | None, block_rows: int) -> None:
         self.count = int(np.count_nonzero(used))
         self.block_rows = block_rows
-        arrays = [x, s, theta, None if weights is None else np.asarray(weights, dtype=float)]
+        if weights is not None and weights.dtype != np.float64:
+            weights = np.asarray(weights, dtype=float)   # (a spilled column stays mapped)
+        arrays = [x, s, theta, weights]
         self.mask: NDArray[np.bool_] | None = None if self.count == x.size else used
         if self.mask is not None and self.count <= block_rows:
             arrays = [None if a is None else a[used] for a in arrays]
@@ -132,15 +135,17 @@ def fit_shift(x: NDArray[np.float64], s: NDArray[np.float64], lift: Lift, *,
     if n < npar + 2:
         raise InputError('samples', n, f'at least {npar + 2} samples for the fit')
     d = float(d0)
-    r = np.empty(n)
-    r_new = np.empty(n)
+    r = blank((n,))   # residual columns: temporary files for millions of samples
+    r_new = blank((n,))
     if c0 is None:
         for xs, ss, _, _, where in rows.blocks():
             r[where] = ss - lift(xs - d, 0)
-        c = float(np.median(r, overwrite_input=True))
+            release(r)
+        c = median(lambda: (r[a:b] for a, b in walk(n, r)))
     else:
         c = float(c0)
     extra = np.zeros(2)
+    mapped = isinstance(r, np.memmap)   # sums of squares a block at a time
 
     def resid(d_: float, c_: float, ab: NDArray[np.float64],
               out: NDArray[np.float64]) -> float:
@@ -151,17 +156,21 @@ def fit_shift(x: NDArray[np.float64], s: NDArray[np.float64], lift: Lift, *,
             if th is not None:
                 rb -= block_lsq.first_harmonic(th, 0.0, float(ab[0]), float(ab[1]))
             out[where] = rb
+            release(out)
             if sw is not None:
                 rw = rb * sw
                 total += float(rw @ rw)
-        return total if weighted else float(out @ out)
+            elif mapped:
+                total += float(rb @ rb)
+        return total if weighted or mapped else float(out @ out)
 
     def triangle(d_: float, res: NDArray[np.float64]) -> NDArray[np.float64]:
         """QR triangle of the weighted [Jacobian | residuals] at shift ``d_``."""
         def blocks():   # type: ignore[no-untyped-def]
             for xs, _, th, sw, where in rows.blocks():
                 jac = _design_matrix(lift(xs - d_, 1), th)
-                rb = res[where]
+                rb = np.array(res[where])
+                release(res)
                 yield (jac, rb) if sw is None else (jac * sw[:, None], rb * sw)
         return block_lsq.triangle(blocks())[0]
 
@@ -217,13 +226,24 @@ def coarse_align(x: NDArray[np.float64], s: NDArray[np.float64], template: Lift,
     the probe zero does not matter); empty bins are filled by circular
     interpolation; the peak is refined by a parabola. Resolution ~ 360/bins deg.
     """
-    idx = np.empty(x.size, np.int64)   # a block at a time: no full-size float temporaries
-    for k in range(0, x.size, block_lsq.BLOCK_ROWS):
-        xm = np.mod(x[k:k + block_lsq.BLOCK_ROWS], TWO_PI)
-        idx[k:k + xm.size] = np.minimum((xm / TWO_PI * bins).astype(np.int64), bins - 1)
-    cnt = np.bincount(idx, minlength=bins)
-    tot = np.bincount(idx, weights=s, minlength=bins)
-    release(s)
+    step = block_lsq.BLOCK_ROWS
+    if is_long(x.size):   # long: counts and sums a block at a time, no index column
+        cnt = np.zeros(bins, np.int64)
+        tot = np.zeros(bins)
+        for k, e in walk(x.size, x, s, step=step):
+            i = _bin_of(x[k:e], bins)
+            cnt += np.bincount(i, minlength=bins)
+            # added in sample order onto the running sums: bincount's very sums (a
+            # different rounding would move x0 by an ulp, and ties in the angle order
+            # of the outlier test with it)
+            np.add.at(tot, i, s[k:e])
+    else:
+        idx = np.empty(x.size, np.int64)   # a block at a time: no full-size temporaries
+        for k in range(0, x.size, step):
+            idx[k:k + step] = _bin_of(x[k:k + step], bins)
+        cnt = np.bincount(idx, minlength=bins)
+        tot = np.asarray(np.bincount(idx, weights=s, minlength=bins), dtype=float)
+        release(x, s)
     filled = cnt > 0
     if np.count_nonzero(filled) < 8:
         raise InputError('samples', int(np.count_nonzero(filled)),
@@ -239,6 +259,12 @@ def coarse_align(x: NDArray[np.float64], s: NDArray[np.float64], template: Lift,
     den = y0 - 2 * y1 + y2
     frac = 0.5 * (y0 - y2) / den if den < 0 else 0.0
     return float(wrap_pi((k + frac) * TWO_PI / bins))
+
+
+def _bin_of(x: NDArray[np.float64], bins: int) -> NDArray[np.int64]:
+    """Bin number of angles [rad] (taken mod 2 pi) among ``bins`` equal bins."""
+    xm = np.mod(x, TWO_PI)
+    return np.minimum((xm / TWO_PI * bins).astype(np.int64), bins - 1)
 
 
 _HERMITE = np.array([   # quintic Hermite basis in monomials t^0..t^5

@@ -35,6 +35,9 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError
 from cam_metrology.metrology import block_lsq
+from cam_metrology.metrology.lobe_columns import mask_of, masked
+from cam_metrology.metrology.long_columns import Buckets, bucket_count
+from cam_metrology.metrology.spill import is_long, release, walk
 
 TWO_PI = 2.0 * np.pi
 UM = 1e6
@@ -83,12 +86,55 @@ class Spectrum:
         return out
 
 
+def _floats(a: Any) -> NDArray[np.float64]:
+    """``a`` as float64 (a float64 array itself: a spilled column stays mapped)."""
+    if isinstance(a, np.ndarray) and a.dtype == np.float64:
+        return a
+    return np.asarray(a, dtype=float)
+
+
+def _long(a: NDArray[Any]) -> bool:
+    """True for a column read a block at a time (``spill.is_long``)."""
+    return is_long(a.size, a.itemsize)
+
+
+def _sorted_steps(theta: NDArray[np.float64], mean: float) -> tuple[float, float, float]:
+    """Of the angles mod 2 pi in ascending order (sorted a chunk at a time through
+    ``long_columns.Buckets``): the largest step between neighbours, the largest
+    |step - ``mean``| and the step across 2 pi (first + 2 pi - last) [rad]."""
+    n = theta.size
+    rows = Buckets([('t', 'f8')], 't', 0.0, TWO_PI, bucket_count(n))
+    big, off, first, last = -np.inf, 0.0, None, None
+    try:
+        for a, b in walk(n, theta):
+            part = np.empty(b - a, rows.dtype)
+            part['t'] = np.mod(theta[a:b], TWO_PI)
+            rows.add(part)
+        for part in rows.sorted():
+            t = part['t'] if last is None else np.concatenate(([last], part['t']))
+            first = float(t[0]) if first is None else first
+            if t.size > 1:
+                step = np.diff(t)
+                big = max(big, float(np.max(step)))
+                step -= mean
+                off = max(off, float(np.max(np.abs(step, out=step))))
+            last = float(t[-1])
+    finally:
+        rows.close()
+    assert first is not None and last is not None
+    return big, off, float(first + TWO_PI - last)
+
+
 def nyquist_upr(theta: NDArray[np.float64]) -> int:
     """Highest UPR the samples resolve: ``pi`` over the largest angular gap between
     neighbouring samples on the circle (every revolution folded onto one)."""
-    t = np.mod(np.asarray(theta, dtype=float), TWO_PI)
-    if t.size < 3:
+    th = _floats(theta)
+    if th.size < 3:
         return 0
+    if _long(th):
+        big, _, wrap = _sorted_steps(th, 0.0)
+        return int(np.floor(np.pi / max(big, wrap) * (1.0 + 1e-6)))
+    t = np.mod(th, TWO_PI)
     t.sort()   # in place: one column of the angles alive, not three
     gap = max(float(np.max(np.diff(t))), float(t[0] + TWO_PI - t[-1]))
     return int(np.floor(np.pi / gap * (1.0 + 1e-6)))
@@ -99,6 +145,10 @@ def _uniform_revolution(theta: NDArray[np.float64]) -> bool:
     n = theta.size
     if n < 8:
         return False
+    if _long(theta):
+        mean = TWO_PI / n
+        _, off, wrap = _sorted_steps(theta, mean)
+        return bool(max(off, abs(wrap - mean)) < 1e-9 * mean)
     t = np.mod(theta, TWO_PI)
     t.sort()
     step = np.diff(t)
@@ -111,7 +161,11 @@ def _uniform_revolution(theta: NDArray[np.float64]) -> bool:
 def finite_pairs(th: NDArray[np.float64], y: NDArray[np.float64],
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The samples where both angle and value are finite (the arrays themselves, not
-    copies, when all are)."""
+    copies, when all are; long ones checked and copied a block at a time)."""
+    if _long(th):
+        keep = mask_of(th.size, lambda a, b: np.isfinite(th[a:b]) & np.isfinite(y[a:b]),
+                       th, y)
+        return (th, y) if keep.all() else (masked(th, keep), masked(y, keep))
     keep = np.isfinite(th)
     keep &= np.isfinite(y)
     if keep.all():
@@ -132,9 +186,7 @@ def harmonics(theta: Any, dev: Any, max_upr: int, *, key: str = 'form.max_upr',
     sample. InputError naming ``key`` when ``max_upr`` exceeds the Nyquist UPR of the
     samples (or there are too few samples for the fit). ``nyquist``: the Nyquist UPR of
     the finite samples when the caller has it (``nyquist_upr``, a sort of the angles)."""
-    th = np.asarray(theta, dtype=float)
-    y = np.asarray(dev, dtype=float)
-    th, y = finite_pairs(th, y)
+    th, y = finite_pairs(_floats(theta), _floats(dev))
     nyq = nyquist_upr(th) if nyquist is None else nyquist
     if isinstance(max_upr, bool) or int(max_upr) != max_upr or max_upr < 1:
         raise InputError(key, max_upr, 'a whole number of UPR >= 1')
@@ -171,13 +223,25 @@ def _binned_spectrum(th: NDArray[np.float64], y: NDArray[np.float64], k: int, ny
     """Harmonics of the bin means (angle and deviation) over ``bins`` equal bins of the
     circle, the bins' averaging (sinc) divided out."""
     width = TWO_PI / bins
-    angle = np.mod(th, TWO_PI)
-    idx = _bin_index(angle, width, bins)
-    count = np.bincount(idx, minlength=bins)
+    if _long(th):   # sums per bin a block at a time, added in sample order: bincount's
+        count = np.zeros(bins, np.int64)
+        at_sum, y_sum = np.zeros(bins), np.zeros(bins)
+        for a, b in walk(th.size, th, y):
+            angle = np.mod(th[a:b], TWO_PI)
+            idx = _bin_index(angle, width, bins)
+            count += np.bincount(idx, minlength=bins)
+            np.add.at(at_sum, idx, angle)
+            np.add.at(y_sum, idx, y[a:b])
+    else:
+        angle = np.mod(th, TWO_PI)
+        idx = _bin_index(angle, width, bins)
+        count = np.bincount(idx, minlength=bins)
+        at_sum = np.asarray(np.bincount(idx, angle, minlength=bins), dtype=float)
+        y_sum = np.asarray(np.bincount(idx, y, minlength=bins), dtype=float)
     filled = count > 0
     n = count[filled].astype(float)
-    at = np.bincount(idx, angle, minlength=bins)[filled] / n     # where the samples are
-    mean = np.bincount(idx, y, minlength=bins)[filled] / n
+    at = at_sum[filled] / n     # where the samples are
+    mean = y_sum[filled] / n
     spec = _lsq_spectrum(at, mean, k, nyq, weights=np.sqrt(n))
     gain = np.sinc(np.arange(1, k + 1) / bins)
     return Spectrum(spec.c0, spec.a / gain, spec.b / gain, nyq)
@@ -312,6 +376,7 @@ def roundness(theta: NDArray[np.float64], spec: Spectrum, cutoff_upr: int,
             idx = _bin_index(np.mod(theta[a:a + BIN_BLOCK], TWO_PI), TWO_PI / grid, grid)
             total += np.bincount(idx, minlength=grid)
             inside += np.bincount(idx[mask[a:a + BIN_BLOCK]], minlength=grid)
+            release(theta)   # a spilled column: one block resident
         del idx
         t = ((np.arange(grid) + 0.5) * (TWO_PI / grid))[(total > 0) & (inside == total)]
         if t.size < 10:
@@ -342,12 +407,17 @@ def analyze_form(theta: Any, dev: Any, *, cutoff_upr: int = DEFAULT_CUTOFF_UPR,
     in ``band`` (default: 15 UPR to the cut-off) of the profile ``dev`` [m] at
     ``theta`` [rad]; InputError naming ``key`` for a band or cut-off the sampling does
     not resolve."""
-    th = np.asarray(theta, dtype=float)
-    y = np.asarray(dev, dtype=float)
-    ok = np.isfinite(th)
-    ok &= np.isfinite(y)
+    th, y = _floats(theta), _floats(dev)
+    if _long(th):   # a block at a time
+        ok = mask_of(th.size, lambda a, b: np.isfinite(th[a:b]) & np.isfinite(y[a:b]), th, y)
+    else:
+        ok = np.isfinite(th)
+        ok &= np.isfinite(y)
     mask = ok if circle is None else ok & np.asarray(circle, bool)
-    th_ok, y_ok = (th, y) if ok.all() else (th[ok], y[ok])
+    if ok.all():
+        th_ok, y_ok = th, y
+    else:
+        th_ok, y_ok = (masked(th, ok), masked(y, ok)) if _long(th) else (th[ok], y[ok])
     band = band or (min(15, cutoff_upr), cutoff_upr)
     nyq = nyquist_upr(th_ok)
     check_band(band, nyq, f'{key}.waviness_band_upr')

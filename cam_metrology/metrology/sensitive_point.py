@@ -27,6 +27,7 @@ from scipy.optimize import brentq
 
 from cam_design.errors import InputError
 from cam_metrology.metrology.flank_fit import Lift
+from cam_metrology.metrology.lobe_columns import mask_of, selected
 
 ARCSEC = np.pi / (180 * 3600)
 
@@ -164,11 +165,12 @@ def sensitive_point_shift(x: NDArray[np.float64], lift_ref: NDArray[np.float64],
               order=order, inward_only=inward_only, validity_tol=validity_tol,
               max_iter=max_iter)
     reach = half_window + (2 * pairs if inward_only else pairs) * spacing + SP_REACH
-    near = (np.abs(x - alpha_m) <= reach) | (np.abs(x - alpha_n) <= reach)
+    near = mask_of(x.size, lambda a, b: (np.abs(x[a:b] - alpha_m) <= reach) |
+                   (np.abs(x[a:b] - alpha_n) <= reach), x)   # a block at a time
     if used is not None:
         near &= used
     try:
-        return _sp_iterate(x[near], lift_ref[near], lift, alpha_m, alpha_n,
+        return _sp_iterate(selected(x, near), selected(lift_ref, near), lift, alpha_m, alpha_n,
                            max_shift=SP_REACH, **kw)   # type: ignore[arg-type]
     except _OutOfReach:
         sel = np.ones(x.size, bool) if used is None else used

@@ -106,11 +106,19 @@ def spooled(column: NDArray[Any], min_bytes: int = SPILL_BYTES) -> NDArray[Any]:
     return spool.column()
 
 
+def is_long(rows: int, itemsize: int = 8) -> bool:
+    """True when a column of ``rows`` rows of ``itemsize`` bytes is long enough
+    (``SPILL_BYTES``) to be spilled and read a block at a time."""
+    return rows * itemsize >= SPILL_BYTES
+
+
 def blank(shape: tuple[int, ...], dtype: Any = float,
-          min_bytes: int = SPILL_BYTES) -> NDArray[Any]:
-    """An uninitialised array of ``shape``: in memory when small, else a writable map
-    of an unlinked temporary file (``seal`` makes it read-only once filled)."""
+          min_bytes: int | None = None) -> NDArray[Any]:
+    """An uninitialised array of ``shape``: in memory when smaller than ``min_bytes``
+    (default ``SPILL_BYTES``), else a writable map of an unlinked temporary file
+    (``seal`` makes it read-only once filled)."""
     dt = np.dtype(dtype)
+    min_bytes = SPILL_BYTES if min_bytes is None else min_bytes
     nbytes = int(np.prod(shape)) * dt.itemsize
     if nbytes < min_bytes or nbytes == 0:
         return np.empty(shape, dt)

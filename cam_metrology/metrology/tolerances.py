@@ -26,6 +26,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from cam_metrology.metrology.lift_error import referenced_rows
+from cam_metrology.metrology.lobe_columns import card_rows
+from cam_metrology.metrology.spill import walk
 from cam_metrology.scene.model import Band, Scene, Tolerances
 
 __all__ = ['check', 'judge_lobe', 'judge_datum', 'judge_part', 'PASS', 'FAIL', 'NOT_CHECKED']
@@ -79,6 +81,9 @@ def _lift_error_checks(tol: Tolerances, table: Any, good: Any,
     if table is None:
         missing.append(_not('lift_error_um', 'no lift table for this feature'))
         return
+    if isinstance(table, np.memmap):   # a long table: a block of rows at a time
+        _long_lift_error_checks(tol, table, good, checks, missing)
+        return
     # masks over the whole table instead of copies of its good rows (memory: one
     # column of errors, and the angles in degrees only when there are zones)
     good = np.ones(table.shape[0], bool) if good is None else good
@@ -103,6 +108,45 @@ def _lift_error_checks(tol: Tolerances, table: Any, good: Any,
                                 tol.lift_error_um, 'um'))
             checks.append(check('lift_error_max_minus_um', float(np.min(err[sel])),
                                 tol.lift_error_um, 'um'))
+
+
+def _widen(hi: Any, lo: Any, j: int, values: Any) -> None:
+    """Extend the running extremes ``hi[j]``, ``lo[j]`` by ``values`` (if any)."""
+    if values.size:
+        hi[j], lo[j] = max(hi[j], float(np.max(values))), min(lo[j], float(np.min(values)))
+
+
+def _long_lift_error_checks(tol: Tolerances, table: Any, good: Any,
+                            checks: list[dict[str, Any]], missing: list[dict[str, str]]
+                            ) -> None:
+    """``_lift_error_checks`` of a spilled table, its extremes gathered a block of rows
+    at a time (the same numbers)."""
+    n = table.shape[0]
+    zones = list(tol.lift_error_zones)
+    hi = np.full(len(zones) + 1, -np.inf)   # per zone, then the lobe outside the zones
+    lo = np.full(len(zones) + 1, np.inf)
+    for a, b in walk(n, table):
+        rows = table[a:b]
+        err = rows[:, 1] - rows[:, 2]
+        err *= 1e6
+        ok = np.ones(b - a, bool) if good is None else good[a:b]
+        in_zone = np.zeros(b - a, bool)
+        deg = np.degrees(rows[:, 0]) if zones else None
+        for j, z in enumerate(zones):
+            sel = (deg >= z.from_deg) & (deg <= z.to_deg) & ok
+            in_zone |= sel
+            _widen(hi, lo, j, err[sel])
+        _widen(hi, lo, -1, err[(rows[:, 2] > 0) & ~in_zone & ok])
+    for j, z in enumerate(zones):
+        name = f'lift_error_um[{z.from_deg:g}..{z.to_deg:g} deg]'
+        if not np.isfinite(hi[j]):
+            missing.append(_not(name, 'no samples in this zone'))
+            continue
+        checks.append(check(f'{name}.max_plus', float(hi[j]), z.band_um, 'um'))
+        checks.append(check(f'{name}.max_minus', float(lo[j]), z.band_um, 'um'))
+    if tol.lift_error_um is not None and np.isfinite(hi[-1]):
+        checks.append(check('lift_error_max_plus_um', float(hi[-1]), tol.lift_error_um, 'um'))
+        checks.append(check('lift_error_max_minus_um', float(lo[-1]), tol.lift_error_um, 'um'))
 
 
 def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = None,
@@ -155,8 +199,11 @@ def judge_lobe(tol: Tolerances | None, feature: Mapping[str, Any], table: Any = 
                 if v is not None:
                     missing.append(_not(n, 'no lift table or design for this feature'))
         else:
-            # the two columns the checks read (not a copy of the whole table: memory)
-            alpha, lift = table[:, 0].copy(), table[:, 1].copy()
+            # the two columns the checks read (not a copy of the whole table: memory; of
+            # a long table only the rows around the peak and the events they fit)
+            heights = () if tol.duration_deg is None and tol.centreline_deg is None \
+                else (tol.checking_height_mm * 1e-3,)
+            alpha, lift = card_rows(table, design, heights)
             del table
             _table_checks(tol, alpha, lift, design, checks, missing)
     return _verdict(checks, missing)

@@ -16,7 +16,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from cam_design.errors import InputError
-from cam_metrology.metrology.lift_error import feature_referenced
+from cam_metrology.metrology.lift_error import feature_referenced, referenced_rows
+from cam_metrology.metrology.spill import walk
 
 #: nose zone [rad] over which a track's lift error at the nose is averaged (+-1 deg)
 NOSE_HALF_WIDTH = math.radians(1.0)
@@ -41,7 +42,16 @@ def track_label(frame_id: str) -> tuple[str, float] | None:
 def nose_lift_error_um(table: Any, values: Mapping[str, Any]) -> float | None:
     """Mean measured - design lift [um] within ``NOSE_HALF_WIDTH`` of the fitted nose of a
     lobe's (alpha, measured, design) table, base-circle referenced as the verdict does;
-    None without samples there."""
+    None without samples there. A long (spilled) table is read a block of rows at a time
+    (the mean summed by blocks: equal to rounding)."""
+    if isinstance(table, np.memmap):
+        rows = referenced_rows(table, values)   # the kept rows, spilled
+        total, count = 0.0, 0
+        for a, b in walk(rows.shape[0], rows):
+            part = rows[a:b][np.abs(rows[a:b, 0]) <= NOSE_HALF_WIDTH]
+            total += float(np.sum(part[:, 1] - part[:, 2]))
+            count += part.shape[0]
+        return total / count * 1e6 if count else None
     ref, good = feature_referenced(table, values)
     near = good & (np.abs(ref[:, 0]) <= NOSE_HALF_WIDTH)
     if not np.any(near):

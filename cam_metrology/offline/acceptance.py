@@ -74,16 +74,18 @@ def measured_cards(scene: Any, features: dict[str, Any], tables: dict[str, Any],
 
 
 def lobe_cards(scene: Any, fid: str, alpha: Any, lift: Any, design: Any,
-               heights: tuple[float, ...]) -> dict[str, Any]:
+               heights: tuple[float, ...], area: float | None = None) -> dict[str, Any]:
     """{measured, nominal, follower} cards of one lobe (both as seen by the probe) from its
-    base-referenced samples: ``alpha`` [rad], ``lift`` [m]; or {error} naming the problem."""
+    base-referenced samples: ``alpha`` [rad], ``lift`` [m] (``area``: the measured lift
+    area [m rad] when only the rows around the peak and events are given,
+    ``lobe_columns.card_rows``); or {error} naming the problem."""
     from cam_design.cam_card import card_from_law, card_from_table
     from cam_design.errors import InputError
 
     rocker = scene.valve_train.rocker_ratio if scene.valve_train else None
     try:
         return {
-            'measured': card_from_table(alpha, lift, heights, design,
+            'measured': card_from_table(alpha, lift, heights, design, area=area,
                                         rocker_ratio=rocker, key='--heights-mm'),
             'nominal': card_from_law(design, heights, rocker_ratio=rocker,
                                      key='--heights-mm', derivatives=exact_seen(

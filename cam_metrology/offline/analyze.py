@@ -131,10 +131,11 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
     report; returns the lift tables (feature id -> table) for the HTML plots, those of
     lobes referenced to the base circle as the verdict uses them ({} without
     ``plot_tables``: no referenced copies made, for a caller that draws nothing)."""
-    import numpy as np
-
     from cam_metrology.offline.acceptance import both_crank_timings, lobe_cards
     from cam_metrology.metrology.lift_error import referenced_rows
+    import numpy as np
+
+    from cam_metrology.metrology.lobe_columns import card_rows, support_area
     from cam_metrology.metrology.spill import release, spill
     from cam_metrology.report.provenance import provenance
 
@@ -152,12 +153,18 @@ def add_cards_and_provenance(report: dict[str, Any], metrology: Any, bag: str,
                 continue
             kept = referenced_rows(table, feature)   # the rows the verdict used
             release(table)
-            alpha, lift = (np.ascontiguousarray(kept[:, k]) for k in (0, 1))
+            # a long table: the rows around the peak and the events the card fits, and
+            # its area summed a block at a time (memory)
+            design = designs.get(fid)
+            alpha, lift = card_rows(kept, design, heights)
+            area = support_area(kept, design.support) if card and design is not None \
+                and isinstance(kept, np.memmap) else None
             if plot_tables:
                 tables[fid] = spill(kept)
             del kept   # the cards read two columns: the table is not kept alongside
             if card:
-                cards[fid] = lobe_cards(scene, fid, alpha, lift, designs[fid], heights)
+                cards[fid] = lobe_cards(scene, fid, alpha, lift, designs[fid], heights,
+                                        area=area)
             del alpha, lift
         crank = both_crank_timings(scene, features, cards)
         if crank is not None:
