@@ -335,6 +335,60 @@ def test_search_is_not_moved_by_rounding_of_the_start_level():
         assert np.max(np.abs(np.subtract(moved.angles, ref.angles))) <= 0.01 * step
 
 
+@pytest.mark.parametrize('step_deg, ratio', [(0.5, 0.75), (1.0, 0.6)])
+def test_rounded_dwell_edges_are_found_together(step_deg, ratio):
+    """A dwell cam tabulated at 0.5 and 1 deg, 0.1 um of noise, rounded to 0.01 mm:
+    each dwell edge alone lowers N ln(GCV) by only 7-10 (the level of the rest cannot
+    rise while the other three steps of h'' are unexplained), all four together by
+    about 80. The look-ahead finds all four within one step, with the sign of the
+    truth's step, and h'' comes out well below scipy's GCV error (measured 0.56-0.66 x
+    at 0.5 deg, 0.39-0.44 x at 1 deg; without the junctions 1.0 and 0.95 x) and below
+    1.3 mm/rad^2 against the closed form (peak h'' 26 mm/rad^2)."""
+    fam = FAMILIES['dwell']
+    step = step_deg * DEG
+    a, h = measured_table(fam.law, step, sigma=0.1e-6, quantum=1e-5, seed=5)
+    ours, ref, rec = acc_errors(fam, a, h)
+    found = np.radians(rec.parameter.get('junctions_deg', []))
+    jumps = np.asarray(rec.parameter.get('acceleration_jumps_m_per_rad2', []))
+    assert found.size == 4
+    for t in fam.junctions:
+        k = int(np.argmin(np.abs(found - t)))
+        assert abs(found[k] - t) <= step
+        assert np.sign(jumps[k]) == np.sign(jump_at(fam.law, t))
+    assert ours < ratio * ref
+    assert ours < 1.3e-3                                                 # m/rad^2
+    assert not rec.warnings
+    # each edge judged alone (the search without its look-ahead): none is taken
+    from cam_design.lift_table.spline import GCV_GAMMA, choose_smoothing
+    floor = 1e-5 / math.sqrt(12.0)
+    start = choose_smoothing(h, step, criterion='gcv', gamma=GCV_GAMMA, sigma_floor=floor)
+    assert junctions.find_junctions(a, h, start.lam_d, gamma=GCV_GAMMA, sigma_floor=floor,
+                                    lookahead=False) is None
+    assert len(junctions.find_junctions(a, h, start.lam_d, gamma=GCV_GAMMA,
+                                        sigma_floor=floor).angles) == 4
+
+
+def test_lookahead_does_not_take_false_pairs(monkeypatch):
+    """A C2 lobe (no junction) at 2.5 deg with 0.1 um of noise and 5 spikes, searched
+    with the look-ahead (the reconstruction's own coarse path above 2.25 deg runs it
+    without): two candidates near a spike each miss the bar of 12 alone (N ln GCV
+    lower by 6.6 and 4.4) and pass it together (36 for two), but the rest's level
+    would rise only 1.4 times (its GCV already climbs between sqrt(10) and 10 times
+    the level), where the four edges of a dwell raise it 70-90 times: no junction is
+    taken. Without the level test both are, at -27.6 and -23.1 deg."""
+    from cam_design.lift_table.spline import GCV_GAMMA, choose_smoothing, rebound_fairing
+
+    fam = FAMILIES['C2']
+    a, h = measured_table(fam.law, 2.5 * DEG, sigma=0.1e-6, outliers=5, seed=3)
+    rows = rebound_fairing(a, h).lift
+    start = choose_smoothing(rows, 2.5 * DEG, criterion='gcv', gamma=GCV_GAMMA)
+    assert junctions.find_junctions(a, rows, start.lam_d, gamma=GCV_GAMMA) is None
+    monkeypatch.setattr(junctions, 'LOOKAHEAD_LEVEL_RISE', 1.0)
+    taken = junctions.find_junctions(a, rows, start.lam_d, gamma=GCV_GAMMA)
+    assert taken is not None
+    assert np.degrees(taken.angles) == pytest.approx([-27.6, -23.1], abs=0.1)
+
+
 def _moving_junction_table(n=600):
     """A lobe-like row set with a step of h'' at node 260.3 and 0.2 um of noise [m]."""
     rng = np.random.default_rng(11)

@@ -36,6 +36,16 @@ candidates are refused. A candidate is first scored at the present level and
 unrefined angle (a pre-test); only one within ``PRETEST_SLACK`` of the bar gets its
 angle refined, and only one whose refined angle stays by the scan's gets the level
 chosen again; the search stops after ``MAX_REFUSED`` refusals in a row.
+
+Look-ahead. Junctions that are only worth their price together (the four edges of a
+dwell: the smoothing level can rise only when all are in) each fail the GCV test alone,
+the known weakness of forward selection with jointly useful terms. A candidate refused
+by that test alone is held (up to ``MAX_PENDING``; it still counts as a refusal) and a
+later candidate that fails alone is tried with the held ones: the set is kept when it
+lowers N ln(GCV) by the bar per junction added, the held ones add the bar each to what
+the candidate does alone, and the level of the rest rises ``LOOKAHEAD_LEVEL_RISE``
+times. Past ``MAX_REFUSED`` refusals in a row the search tries one more candidate per
+held one, only to complete a set.
 """
 from __future__ import annotations
 
@@ -67,6 +77,17 @@ END_MARGIN = 0.02
 #: accuracy benchmark's 1544 candidates, 4 of the 431 kept came after 3 refusals in a
 #: row, none of them a junction of the law)
 MAX_REFUSED = 3
+#: candidates refused by the GCV test alone that are held and tried again together with
+#: the next one (look-ahead): the junctions of a dwell or a circular-arc cam lower the
+#: score only together, as the level can rise only when every step of h'' is explained
+#: (a rounded dwell table at 0.5 deg: one junction 7, two 17, three 28, all four 87)
+MAX_PENDING = 3
+#: a set taken by the look-ahead must raise the smoothing level of the rest at least
+#: this many times (the way such junctions pay together; on the accuracy benchmark's
+#: tables at 0.1-2.5 deg the sets of true junctions raised it 2-1e5 times, the four
+#: edges of a rounded dwell 70-90 times, the sets with a false member 1.3-5.7 times:
+#: spikes, h''' kinks, the fall of the narrow-peak lobe's acceleration peak at 1 deg)
+LOOKAHEAD_LEVEL_RISE = 10.0
 #: a candidate whose gain at the present level, before its angle is refined and the
 #: level chosen again, is below GCV_GAIN - PRETEST_SLACK is refused without either (on
 #: the benchmark: 1 of the 431 kept had a pre-test gain below -30, 448 of 1113 refused)
@@ -276,10 +297,13 @@ def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
 
 def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0: float,
                    *, gamma: float = 1.0, sigma_floor: float = 0.0,
-                   false_alarm: float = FALSE_ALARM) -> JunctionFit | None:
+                   false_alarm: float = FALSE_ALARM,
+                   lookahead: bool = True) -> JunctionFit | None:
     """Greedy junction search and partial-spline fit of uniform ``values`` [m] on
     ``grid`` [rad], starting from the plain smoother's level ``lam0``. None when no
-    junction is significant (the plain smoothing spline stands)."""
+    junction is significant (the plain smoothing spline stands). ``lookahead``: hold
+    candidates refused by the GCV test alone and try them as a set (else each
+    candidate is judged alone)."""
     n = grid.size
     if n < 16:
         return None
@@ -293,6 +317,8 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
     taus: list[float] = []
     scores: list[float] = []
     vetoed: list[float] = []
+    pending: list[float] = []       # refused by the GCV test alone, tried again together
+    pending_scores: list[float] = []
     pos = stat = np.zeros(0)
     fresh = True
     while len(taus) < MAX_JUNCTIONS:
@@ -312,34 +338,39 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         if i < 0 or stat[i] < threshold:
             break
         at = float(pos[i])
-        # pre-test at the present level and the scan's angle: refining the angle and
-        # choosing the level again lowers the score by more, but on the accuracy
-        # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
-        # far below the bar is refused without either
-        quick = n * math.log(base / system.gcv(taus + [at], gamma))
-        trial, lam_trial, gain = taus + [at], lam, quick
-        if quick >= GCV_GAIN - PRETEST_SLACK:
-            trial = _refine(system, taus + [at])
-            # a junction refused for its place needs no level search
-            if not _misplaced(trial, at):
-                lam_trial = choose_level(values, trial, gamma, lam, levels)
-                trial_system = levels.at(lam_trial)
-                # kept only if it lowers the GCV score of the whole fit: a step that
-                # stands in for the smoothing bias of a smooth, strongly curved lobe
-                # raises it
-                gain = n * math.log(base / trial_system.gcv(trial, gamma))
-        # nor if the rest of the fit has to get much rougher for it (a step of the
-        # lift itself, which a step of h'' only imitates)
-        if (_misplaced(trial, at) or gain < GCV_GAIN or lam_trial < MIN_LEVEL_RATIO * lam):
+        # past MAX_REFUSED refusals in a row the search only goes on to complete the
+        # held candidates: a candidate alone is not taken there (none of the law's
+        # junctions came that late, see MAX_REFUSED)
+        completing = in_a_row >= MAX_REFUSED
+        alone = None if completing else _attempt(system, levels, taus, [], at, lam, base,
+                                                 gamma)
+        taken = alone if alone is not None and alone.passes() else None
+        if taken is None and pending and (alone is None or alone.placed):
+            # the held candidates with this one: kept when the set pays the bar per
+            # junction, raises the level of the rest, and the held ones add the bar
+            # each to what this one does alone
+            joint = _attempt(system, levels, taus, pending, at, lam, base, gamma)
+            if joint.passes() and joint.lam_d >= LOOKAHEAD_LEVEL_RISE * lam:
+                alone = alone or _attempt(system, levels, taus, [], at, lam, base, gamma)
+                if joint.gain - alone.gain >= GCV_GAIN * len(pending):
+                    taken = joint
+        if taken is None:
             vetoed.append(at)
             in_a_row += 1
-            if in_a_row >= MAX_REFUSED:
+            if (not completing and alone is not None and alone.refused_by_gcv_only()
+                    and len(pending) < (MAX_PENDING if lookahead else 0)):
+                pending.append(alone.trial[-1])
+                pending_scores.append(float(stat[i]))
+            if in_a_row >= MAX_REFUSED + len(pending):
                 break
             continue
         in_a_row = 0
-        taus = trial
+        if taken is not alone:
+            scores += pending_scores
+            pending, pending_scores = [], []
+        taus = taken.trial
         scores.append(float(stat[i]))
-        lam, system, fresh = lam_trial, trial_system, True
+        lam, system, fresh = taken.lam_d, levels.at(taken.lam_d), True
     if not taus:
         return None
     return _fit_result(grid, taus, lam, system.fit(taus), scores, values.copy())
@@ -354,6 +385,76 @@ def _cleared(pos: NDArray[np.float64], stat: NDArray[np.float64], points: list[f
         out[np.searchsorted(pos, p - reach, side='left'):
             np.searchsorted(pos, p + reach, side='right')] = 0.0
     return out
+
+
+@dataclass(frozen=True)
+class _Attempt:
+    """One candidate set tried by the search: junctions ``trial`` (node positions, the
+    last one the candidate, refined), the level ``lam_d`` chosen with them, the drop
+    ``gain`` of N ln(GCV), and whether the candidate stays where the scan put it
+    (``placed``) and keeps the level of the rest (``level_kept``)."""
+
+    trial: list[float]
+    added: int
+    lam_d: float
+    gain: float
+    placed: bool
+    level_kept: bool
+
+    def passes(self) -> bool:
+        """Kept: placed, the level kept, and N ln(GCV) lower by the bar for each
+        junction added."""
+        return self.placed and self.level_kept and self.gain >= GCV_GAIN * self.added
+
+    def refused_by_gcv_only(self) -> bool:
+        """A single candidate that lowers GCV, but by less than the bar."""
+        return (self.added == 1 and self.placed and self.level_kept
+                and 0.0 < self.gain < GCV_GAIN)
+
+
+def _attempt(system: LevelSystem, levels: Levels, taus: list[float], held: list[float],
+             at: float, lam: float, base: float, gamma: float) -> _Attempt:
+    """The junctions ``taus`` taken, the candidates ``held`` and one at node ``at``
+    (node positions), scored against the GCV score ``base`` of the present fit (level
+    ``lam``). A set with held candidates is only of use if it raises the level
+    LOOKAHEAD_LEVEL_RISE times: when its GCV score (unimodal in the level) already
+    rises from sqrt(LOOKAHEAD_LEVEL_RISE) to LOOKAHEAD_LEVEL_RISE times the present
+    level, it is scored at the present level and the scan's angle (neither refined
+    nor searched)."""
+    n = system.n
+    bar = GCV_GAIN * (len(held) + 1)
+    held = taus + held
+    # pre-test at the present level and the scan's angle: refining the angle and
+    # choosing the level again lowers the score by more, but on the accuracy
+    # benchmark almost never by PRETEST_SLACK more (constants above), so a junction
+    # far below the bar is refused without either
+    quick = n * math.log(base / system.gcv(held + [at], gamma))
+    if quick >= bar - PRETEST_SLACK and not (len(held) > len(taus) and _climbs(
+            levels, held + [at], lam, gamma)):
+        trial, lam_trial, gain = _refine(system, held + [at]), lam, quick
+        # a junction refused for its place needs no level search
+        if not _misplaced(trial, at):
+            lam_trial = choose_level(system.values, trial, gamma, lam, levels)
+            # kept only if it lowers the GCV score of the whole fit: a step that
+            # stands in for the smoothing bias of a smooth, strongly curved lobe
+            # raises it
+            gain = n * math.log(base / levels.at(lam_trial).gcv(trial, gamma))
+    else:
+        trial, lam_trial, gain = held + [at], lam, quick
+    # nor if the rest of the fit has to get much rougher for it (a step of the lift
+    # itself, which a step of h'' only imitates), nor if it is refused for its place
+    placed = not _misplaced(trial, at)
+    return _Attempt(trial, len(trial) - len(taus), lam_trial, gain, placed,
+                    lam_trial >= MIN_LEVEL_RATIO * lam)
+
+
+def _climbs(levels: Levels, taus: list[float], lam: float, gamma: float) -> bool:
+    """The GCV score with junctions ``taus`` is higher at LOOKAHEAD_LEVEL_RISE times
+    the level ``lam`` than at its square root times: its minimum (GCV is unimodal in
+    the level) lies below LOOKAHEAD_LEVEL_RISE x ``lam``."""
+    rise = LOOKAHEAD_LEVEL_RISE
+    return bool(levels.at(lam * rise).gcv(taus, gamma)
+                >= levels.at(lam * math.sqrt(rise)).gcv(taus, gamma))
 
 
 def _refine(system: LevelSystem, taus: list[float]) -> list[float]:

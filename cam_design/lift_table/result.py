@@ -77,14 +77,16 @@ class Reconstruction:
             self.warnings.append(f'max residual {worst:.3g} m at {np.degrees(where):.2f} deg '
                                  f'exceeds {limit_text}')
 
-    def check_shape(self, expected: int | None) -> None:
+    def check_shape(self, expected: int | None,
+                    still: NDArray[np.bool_] | None = None) -> None:
         """Warn when the significant signs of h'' (|h''| > 5 % of its largest value) do
         not follow the pattern of a cam lobe: + - + for one lobe (``expected`` = 2 sign
         changes), + - + - + for 4, ...; None: no check. A table that is not a cam, a
-        stepped table or angles not taken from the lobe centre show up here."""
+        stepped table or angles not taken from the lobe centre show up here. ``still``
+        (on the output grid): a dwell, left out (see ``sign_pattern``)."""
         if expected is None or self.acceleration.size < 3:
             return
-        got = sign_pattern(self.acceleration, lift=self.lift)
+        got = sign_pattern(self.acceleration, lift=self.lift, still=still)
         want = '+' + '-+' * (expected // 2) if expected % 2 == 0 else None
         if (got == want) if want is not None else (len(got) - 1 == expected):
             return
@@ -127,24 +129,30 @@ def per_second(derivs: ArrayLike, rpm: float) -> dict[str, NDArray[np.float64]]:
 
 
 def sign_pattern(acc: NDArray[np.float64], frac: float = 0.05,
-                 lift: NDArray[np.float64] | None = None) -> str:
+                 lift: NDArray[np.float64] | None = None,
+                 still: NDArray[np.bool_] | None = None) -> str:
     """Run-length compressed signs ('+'/'-') of ``acc`` where |acc| > frac x max|acc|;
     with ``lift`` (same grid) only on the lobe, where the lift exceeds 2 % of its
-    largest value (on the base circle h'' is noise around 0)."""
+    largest value (on the base circle h'' is noise around 0); samples marked ``still``
+    (a dwell: h' = 0 within the noise, so h'' is noise around 0 too) are left out."""
     a = np.asarray(acc, dtype=float)
-    if lift is not None:
+    used = np.ones(a.size, dtype=bool)
+    if lift is not None and np.size(lift):
         h = np.asarray(lift, dtype=float)
-        a = a[h > LOBE_FRACTION * float(np.max(h))] if h.size else a
-    top = float(np.max(np.abs(a))) if a.size else 0.0
+        used &= h > LOBE_FRACTION * float(np.max(h))
+    if still is not None:
+        used &= ~np.asarray(still, dtype=bool)
+    top = float(np.max(np.abs(a[used]))) if np.any(used) else 0.0
     if not top > 0:
         return ''
-    s = np.sign(a[np.abs(a) > frac * top])
+    s = np.sign(a[used & (np.abs(a) > frac * top)])
     keep = np.concatenate([[True], s[1:] != s[:-1]])
     return ''.join('+' if v > 0 else '-' for v in s[keep])
 
 
 def sign_changes(acc: NDArray[np.float64], frac: float = 0.05,
-                 lift: NDArray[np.float64] | None = None) -> int:
+                 lift: NDArray[np.float64] | None = None,
+                 still: NDArray[np.bool_] | None = None) -> int:
     """Sign changes of ``acc`` among samples with |acc| > frac * max|acc| (on the lobe
-    only when ``lift`` is given: see ``sign_pattern``)."""
-    return max(len(sign_pattern(acc, frac, lift)) - 1, 0)
+    only when ``lift`` is given, and not ``still``: see ``sign_pattern``)."""
+    return max(len(sign_pattern(acc, frac, lift, still)) - 1, 0)

@@ -60,6 +60,9 @@ CRITERIA = ('risk', 'gcv')
 #: (and the rebound tolerance) off the smooth fit, and the largest miss near it
 SECOND_LOOK_SIGMAS = 6.0
 GCV_GAMMA = 1.4
+#: the sign-pattern rule leaves out a dwell: where |h'| is below this many standard
+#: deviations of the fitted h' that the noise alone gives (derivative_noise)
+SIGN_NOISE_SIGMAS = 4.0
 MAD_TO_SIGMA = 1.482602218505602
 
 
@@ -515,6 +518,18 @@ class SmoothingChoice:
     why: str
 
 
+def derivative_noise(sigma: float, step: float, lam_d: float, n: int, nu: int) -> float:
+    """Standard deviation [m/rad^nu] of the smoothed h' (``nu`` = 1) or h'' (2) at a row
+    from white noise of ``sigma`` [m] on ``n`` uniform rows ``step`` [rad] apart at the
+    discrete level ``lam_d``: sigma / step^nu sqrt(mean_k mu_k^nu g_k^2), g_k =
+    1 / (1 + lam_d mu_k^3) the smoother's DCT gains; mu_k^nu is the energy gain of the
+    first (nu = 1) and second difference (reflective second difference: eigenvalues
+    -mu_k)."""
+    mu = _spectrum(n)
+    gain = 1.0 / (1.0 + lam_d * mu ** 3)
+    return sigma / step ** nu * math.sqrt(float(np.mean(mu ** nu * gain ** 2)))
+
+
 def _spectrum(n: int) -> NDArray[np.float64]:
     """Eigenvalues mu_k = 2 - 2 cos(pi k / n) of the reflective second difference."""
     return 2.0 - 2.0 * np.cos(np.pi * np.arange(n) / n)
@@ -939,6 +954,14 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                      f'outlier(s), {int(np.count_nonzero(back))} restored')
     out_step = opt.step or step
     out = output_grid(x[0], x[-1], out_step)
+    node_sigma = fair.sigma / math.sqrt(max(density, 1.0))
+
+    def dwell(fitted: Any, level: float) -> NDArray[np.bool_]:
+        """A dwell on the output grid: h' = 0 over an interval within what the noise
+        gives at this level, so h'' = 0 there too and the sign flicker of its noise
+        is not a sign change of the lobe."""
+        band = SIGN_NOISE_SIGMAS * derivative_noise(node_sigma, step, level, grid.size, 1)
+        return np.asarray(np.abs(fitted(out, 1)) < band, dtype=bool)
     acc = spline(out, 2)
     lift_out = spline(out)
     expected = opt.expected_sign_changes
@@ -948,7 +971,14 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # more smoothing is only accepted while the fit still follows the data (RMS
         # residual within 25 % of the noise): a real feature (a second lobe) stays
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
-        while sign_changes(acc, lift=lift_out) > expected and raised < 5:
+
+        def significant_changes(fitted: Any, level: float) -> int:
+            fit_acc, fit_lift = fitted(out, 2), fitted(out)
+            count = sign_changes(fit_acc, lift=fit_lift)
+            if count <= expected:
+                return count
+            return sign_changes(fit_acc, lift=fit_lift, still=dwell(fitted, level))
+        while significant_changes(spline, lam_d) > expected and raised < 5:
             trial = fit_spline(lam_d * 4.0)
             if float(np.sqrt(np.mean((ylift[kept] - trial(x[kept])) ** 2))) > rms_limit:
                 break
@@ -992,6 +1022,6 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         outliers_alpha=x[outlier], warnings=warnings, notes=notes)
     rec.outlier_mask = outlier
     rec.check_residuals()
-    rec.check_shape(opt.expected_sign_changes)
+    rec.check_shape(opt.expected_sign_changes, still=dwell(final, lam_d))
     rec.check_finite()
     return rec
