@@ -39,3 +39,35 @@ def test_rounded_two_degree_eccentric_acceleration() -> None:
     x = np.radians(np.arange(-150.0, 150.0, 0.25))
     assert np.max(np.abs(np.asarray(smooth(x, 2)) + e * np.cos(x))) < 0.04 * e
     assert 'grid noise 2.89e-07 m' in note   # the floor q/sqrt(12), not the spectrum's
+
+
+def _rounding_step_of_all_rows(v):
+    """The rounding step the slow way: every candidate step tried on all rows."""
+    top, span = float(np.max(np.abs(v))), float(np.ptp(v))
+    for k in range(math.floor(math.log10(span / 20.0)), math.floor(math.log10(top)) - 13, -1):
+        for m in (5.0, 2.0, 1.0):
+            q = m * 10.0 ** k
+            if q <= span / 20.0 and np.max(np.abs(v / q - np.rint(v / q))) <= 1e-6:
+                return q
+    return 0.0
+
+
+def test_rounding_step_tried_on_the_first_rows_first_gives_the_same_step():
+    """quantisation_step tries each step on the first rows before all of them: the same
+    step [m] as trying every row, on lobes rounded to 0.01 mm, 1 um and 0.0001 in, not
+    rounded, and rounded only in their first 100 rows (base-circle zeros first, which
+    every step divides)."""
+    from cam_design.lift_table.spline import quantisation_step
+
+    law = from_spec({'family': 'preset', 'name': 'methods_example'})
+    alpha = np.radians(np.arange(-180.0, 180.0, 0.1))
+    exact = np.asarray(law(alpha), dtype=float)
+    noisy = exact + np.random.default_rng(3).normal(0.0, 0.5e-6, exact.size)
+    head_only = noisy.copy()
+    head_only[:100] = np.round(head_only[:100] / 1e-5) * 1e-5
+    tables = [np.round(exact / q) * q for q in (1e-5, 1e-6, 2.54e-6)]
+    tables += [noisy, head_only, np.concatenate([np.zeros(200), tables[0]])]
+    steps = [quantisation_step(t) for t in tables]
+    assert steps == [_rounding_step_of_all_rows(t) for t in tables]
+    assert steps[0] == pytest.approx(1e-5, rel=1e-12)                      # m
+    assert steps[3] == 0.0 and steps[4] == 0.0

@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, partial
 from typing import Callable
 
 import numpy as np
@@ -266,18 +266,19 @@ class JunctionFit:
         for k, t in enumerate(self.angles):
             tau = (t - self.x0) / self.step
             side = side_of(tau, self.nodes)
-            v = side * (u - tau)
             c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
+            # formed on the points the hinge opens to only (beyond them it adds 0)
+            on = np.flatnonzero(side * u > side * tau)
+            v = side * (u[on] - tau)
             # the quadratic hinge: v^2/2, v, 1, 0 on v > 0 (Horner's values)
             if nu == 0:
-                vp = np.maximum(v, 0.0)
-                out += c2 * ((0.5 * vp) * vp)
+                out[on] += c2 * ((0.5 * v) * v)
             elif nu == 1:
-                out += c2 * np.maximum(v, 0.0)
+                out[on] += c2 * v
             elif nu == 2:
-                out += np.where(v > 0, c2, 0.0)
-            near = np.flatnonzero((v > 0) & (v < length))
-            out[near] += c3 * horner(v[near], cubic)
+                out[on] += c2
+            near = v < length
+            out[on[near]] += c3 * horner(v[near], cubic)
         return out.reshape(x.shape) / self.step ** nu
 
 
@@ -461,11 +462,24 @@ def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
     residual, the others held (the level's system keeps their columns)."""
     last = taus[-1]
     lo, hi = max(last - 1.0, 1.0), min(last + 1.0, system.n - 2.0)
+    fixed = taus[:-1]
+    objective: Callable[[float], float]
+    if (system.interior(lo) and system.interior(hi)
+            and side_of(lo, system.n) == side_of(hi, system.n)):
+        # the same penalised residual without solving each trial angle's column
+        objective = partial(system.moved_objective, fixed)
+    else:
+        objective = partial(_objective, system, fixed)
     # a bracket that has left +-MAX_MOVE of the scan's angle ends in a refusal: stop
-    best = golden_minimum(lambda t: system.score(taus[:-1] + [t]).objective, lo, hi,
+    best = golden_minimum(objective, lo, hi,
                           REFINE_ITERATIONS,
                           stop=lambda a, b: b < last - MAX_MOVE or a > last + MAX_MOVE)
     return taus[:-1] + [best]
+
+
+def _objective(system: LevelSystem, fixed: list[float], tau: float) -> float:
+    """Penalised residual [m^2] of the fit with ``fixed`` plus a junction at ``tau``."""
+    return system.score(fixed + [tau]).objective
 
 
 def _misplaced(trial: list[float], at: float) -> bool:

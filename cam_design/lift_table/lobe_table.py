@@ -378,7 +378,6 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                          'the dynamics cannot take from a table): tabulate the ramp finer '
                          'or give the lift law')
     method = 'interpolated'
-    curve = _interpolant(b, h, periodic)
     if b.size < JUDGE_ROWS:
         why = (f'{b.size} rows, too few to tell noise from shape (at least {JUDGE_ROWS}): '
                'quintic interpolant through every row')
@@ -386,7 +385,10 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         why = (f'rows scatter {scatter * 1e6:.3g} um about a smooth curve, more than their '
                f'rounding explains ({floor * 1e6:.3g} um)')
         method = 'smoothed'
-    if method == 'interpolated' and b.size >= JUDGE_ROWS:
+    # the rows' quintic interpolant: built only for a table that may keep it (a smoothed
+    # table gets the smoothing spline below)
+    curve: Curve | None = _interpolant(b, h, periodic) if method == 'interpolated' else None
+    if curve is not None and b.size >= JUDGE_ROWS:
         dense = np.linspace(b[0], b[-1] + (TWO_PI - (b[-1] - b[0]) if periodic else 0.0),
                             4001)
         peak_acc = float(np.max(np.abs(curve(dense, 2))))
@@ -431,6 +433,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     info = LobeInfo(key=key, method=method, why=why, sigma=sigma, quantum=q, step=step,
                     offset=offset, periodic=periodic, level=tau, rec=rec,
                     rows=(raw_a.copy(), raw_h.copy()), steps=steps)
+    assert curve is not None        # the interpolant, or the smoothing spline above
     law = _build(curve, b, h, info)
     info.warnings.extend(notes_warning(notes))
     return law

@@ -27,7 +27,7 @@ from functools import lru_cache
 from typing import TypeVar
 
 import numpy as np
-from numpy.polynomial import Polynomial
+from numpy.polynomial import Polynomial, chebyshev
 from numpy.typing import NDArray
 from scipy.linalg import lapack
 
@@ -35,6 +35,11 @@ from scipy.linalg import lapack
 FITS_KEPT = 4
 SCORES_KEPT = 64
 STACKS_KEPT = 8
+#: Chebyshev nodes in a junction's place between two rows at which a level's interior
+#: hinge Gram G'R G is solved once (``moved_objective``): it is a smooth function of
+#: that place (it moves by 1e-4 relative over a row), and 7 nodes reach the rounding of
+#: the solves themselves (1e-9 .. 7e-8 relative at levels 1e2.5 .. 1e8)
+GRAM_NODES = 7
 #: a hinge's column is solved this many smoother bandwidths either side (window_margin)
 WINDOW_BANDWIDTHS = 48.0
 #: ... and at most this many rows (the interior block's length does not depend on N; a
@@ -388,6 +393,8 @@ class LevelSystem:
         self._fits: dict[tuple[float, ...], PartialFit] = {}
         self._scores: dict[tuple[float, ...], FitScore] = {}
         self._grams: dict[tuple[float, ...], Gram] = {}
+        #: per set of fixed junctions: smooth part, objective, columns, (X'R X)^-1
+        self._moving: dict[tuple[float, ...], tuple] = {}
 
     def _column(self, tau: float) -> _Column:
         col = self._cols.get(tau)
@@ -491,6 +498,49 @@ class LevelSystem:
         return PartialFit(smooth, s.coef, float(resid @ resid), s.edf, float(z @ resid),
                           resid)
 
+    def interior(self, tau: float) -> bool:
+        """The column of a junction at node ``tau`` is solved on the interior block (its
+        window reaches neither end of the table)."""
+        lo, hi = _window(self.n, tau, self.lam_d)
+        return lo > 0 and hi < self.n
+
+    def moved_objective(self, fixed: list[float], tau: float) -> float:
+        """``score(fixed + [tau]).objective`` [m^2] (to the solves' rounding) for an
+        ``interior`` junction at node ``tau``, without solving its column: one junction
+        added lowers the objective by d'S^-1 d, d = g'R z (g its hinges, z the values
+        less the fixed junctions' hinges X), S = g'R g - g'R X (X'R X)^-1 X'R g; g'R g
+        from its place between two rows (``_interior_gram``)."""
+        key = tuple(float(t) for t in fixed)
+        kept = _recall(self._moving, key)
+        if kept is None:
+            inverse = None
+            if key:
+                m = self._gram(key)[0]
+                inverse = np.linalg.inv(m + 1e-13 * np.trace(m) * np.eye(m.shape[0]))
+            kept = _remember(self._moving, key, (self.fit(list(key)).smooth,
+                                                 self.score(list(key)).objective,
+                                                 [self._column(t) for t in key], inverse),
+                             FITS_KEPT)
+        smooth, objective, cols, inverse = kept
+        side = side_of(tau, self.n)
+        length = taper_nodes(self.n)
+        s00, s01, s10, s11 = _interior_gram(self.lam_d, length, side, tau - math.floor(tau))
+        # d = g'R z = (lam P g)'S z on the hinge's own rows (R = lam P S; g'e would
+        # multiply the rounding of e by the hinge's long quadratic tail)
+        g = _hinge_pair(self.n, tau)
+        a, b = _hinge_support(self.n, tau, *_window(self.n, tau, self.lam_d))
+        d0, d1 = _penalised(g[a:b], self.lam_d).T @ smooth[a:b]
+        if inverse is not None:
+            cross = np.concatenate([g[c.lo:c.hi].T @ c.rg for c in cols], axis=1)
+            (c00, c01), (c10, c11) = cross @ inverse @ cross.T
+            s00, s01, s10, s11 = s00 - c00, s01 - c01, s10 - c10, s11 - c11
+        det = s00 * s11 - s01 * s10
+        if not det > 0.0:   # on a fixed junction: S is singular, the exact score is not
+            return self.score(list(key) + [tau]).objective
+        # d'S^-1 d of the 2 x 2 S
+        return objective - float((d0 * (s11 * d0 - s01 * d1) + d1 * (s00 * d1 - s10 * d0))
+                                 / det)
+
     def gcv(self, taus: list[float], gamma: float) -> float:
         """GCV score of the fit with these junctions (``gamma`` weights the trace)."""
         s = self.score(taus)
@@ -518,3 +568,32 @@ def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
     return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
                   rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
                  for k in range(len(offsets)))
+
+
+def _interior_gram(lam_d: float, length: float, side: int, frac: float
+                   ) -> tuple[float, float, float, float]:
+    """G'R G (row by row) of an interior junction ``frac`` of a row past its node, from
+    the Chebyshev fit in that place."""
+    x = 2.0 * frac - 1.0
+    basis = [1.0, x]
+    while len(basis) < GRAM_NODES:
+        basis.append(2.0 * x * basis[-1] - basis[-2])
+    out = np.array(basis) @ _interior_gram_fit(lam_d, length, side)
+    return float(out[0]), float(out[1]), float(out[2]), float(out[3])
+
+
+@lru_cache(maxsize=16)
+def _interior_gram_fit(lam_d: float, length: float, side: int) -> NDArray[np.float64]:
+    """Chebyshev coefficients (GRAM_NODES, 4) in 2 f - 1 of G'R G (2 x 2, flattened) of
+    an interior junction at the fraction f of a row past a node, opening to the right
+    (``side`` +1) or to the left (-1; the window's mirror image places it -f past its
+    node), at level ``lam_d`` (read-only, cached)."""
+    k = np.arange(GRAM_NODES)
+    frac = 0.5 - 0.5 * np.cos(np.pi * (k + 0.5) / GRAM_NODES)
+    grams = interior_hinge_grams(float(lam_d), float(length),
+                                 tuple(float(side) * float(f) for f in frac))
+    values = np.array([m.reshape(4) for m, _ in grams])
+    coef = np.asarray(chebyshev.chebfit(2.0 * frac - 1.0, values, GRAM_NODES - 1),
+                      dtype=np.float64)
+    coef.setflags(write=False)
+    return coef

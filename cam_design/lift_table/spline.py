@@ -362,6 +362,10 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     return Fairing(y, outlier, corr, r0, float(sigma), float(tol), sweeps, quantum)
 
 
+#: rows that ``quantisation_step`` tries a step on before all of them
+QUANTUM_HEAD = 64
+
+
 def quantisation_step(y: ArrayLike) -> float:
     """The rounding step q [same unit as y] of a table whose values are all whole
     multiples of q (1, 2 or 5 times a power of ten, from 1e-12 to 1e-2 of the largest
@@ -375,15 +379,23 @@ def quantisation_step(y: ArrayLike) -> float:
     if not (top > 0 and span > 0):
         return 0.0
     start = math.floor(math.log10(span / 20.0))
+    # a step the first rows already refuse is refused by all of them (the same answer:
+    # the largest misfit of all rows is at least that of the first)
+    head = v[:QUANTUM_HEAD]
     for k in range(start, int(math.floor(math.log10(top))) - 13, -1):
         for m in (5.0, 2.0, 1.0):
             q = m * 10.0 ** k
-            if q > span / 20.0:
+            if q > span / 20.0 or not _whole_multiples(head, q):
                 continue
-            ratio = v / q
-            if float(np.max(np.abs(ratio - np.rint(ratio)))) <= 1e-6:
+            if _whole_multiples(v, q):
                 return q
     return 0.0
+
+
+def _whole_multiples(v: NDArray[np.float64], q: float) -> bool:
+    """Every value of ``v`` within 1e-6 q of a whole multiple of ``q``."""
+    ratio = v / q
+    return float(np.max(np.abs(ratio - np.rint(ratio)))) <= 1e-6
 
 
 def _local_maxima(a: NDArray[np.float64]) -> NDArray[np.bool_]:
