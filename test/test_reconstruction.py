@@ -16,9 +16,9 @@ from cam_design.errors import InputError
 from cam_design.lift_table.blas import single_thread_blas
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
 from cam_design.lift_table.samples import clean_samples
-from cam_design.lift_table.spline import (REBOUND_NOISE_FACTOR, ReboundOperator,
-                                          SplineOptions, rebound_fairing,
-                                          reconstruct_spline)
+from cam_design.lift_table.rebound import (REBOUND_NOISE_FACTOR, ReboundOperator,
+                                           rebound_fairing)
+from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_metrology.reconstruction.synthetic import (DEG, EccentricLobe, PolynomialLobe,
                                                     simulate)
 

@@ -376,7 +376,8 @@ def test_lookahead_does_not_take_false_pairs(monkeypatch):
     would rise only 1.4 times (its GCV already climbs between sqrt(10) and 10 times
     the level), where the four edges of a dwell raise it 70-90 times: no junction is
     taken. Without the level test both are, at -27.6 and -23.1 deg."""
-    from cam_design.lift_table.spline import GCV_GAMMA, choose_smoothing, rebound_fairing
+    from cam_design.lift_table.rebound import rebound_fairing
+    from cam_design.lift_table.spline import GCV_GAMMA, choose_smoothing
 
     fam = FAMILIES['C2']
     a, h = measured_table(fam.law, 2.5 * DEG, sigma=0.1e-6, outliers=5, seed=3)

@@ -57,7 +57,7 @@ def test_rounding_step_tried_on_the_first_rows_first_gives_the_same_step():
     step [m] as trying every row, on lobes rounded to 0.01 mm, 1 um and 0.0001 in, not
     rounded, and rounded only in their first 100 rows (base-circle zeros first, which
     every step divides)."""
-    from cam_design.lift_table.spline import quantisation_step
+    from cam_design.lift_table.rebound import quantisation_step
 
     law = from_spec({'family': 'preset', 'name': 'methods_example'})
     alpha = np.radians(np.arange(-180.0, 180.0, 0.1))

@@ -45,7 +45,7 @@ from cam_design.lift_laws.jet_table import JetTableLift
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 
 if TYPE_CHECKING:
-    from cam_design.lift_table.spline import Fairing
+    from cam_design.lift_table.rebound import Fairing
 
 TWO_PI = 2.0 * math.pi
 #: a curve of the lobe frame: (alpha [rad], nu) -> nu-th derivative [m/rad^nu]
@@ -180,7 +180,7 @@ def _table_deg(angle: float) -> float:
 
 def table_quantum(lift: ArrayLike) -> float:
     """The rounding step q [m] of lifts [m] rounded in mm or in inches (0: not rounded)."""
-    from cam_design.lift_table.spline import quantisation_step
+    from cam_design.lift_table.rebound import quantisation_step
 
     v = np.asarray(lift, dtype=float)
     # both: an inch quantum in m is also a (much finer) whole multiple of 1e-8 m
@@ -257,7 +257,7 @@ def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[float, Fai
     of a smooth shape grows as a power of it (at least ``SHAPE_GROWTH`` times when the
     step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2.
     Returns (scatter, the engine's fairing of all the rows, for the engine to reuse)."""
-    from cam_design.lift_table.spline import rebound_fairing
+    from cam_design.lift_table.rebound import rebound_fairing
 
     fairing = rebound_fairing(b, h)
     full = float(fairing.sigma)

@@ -1,6 +1,6 @@
 """The noise of a lift table judged from its rows, not from its digits.
 
-The rebound r_i of a row (spline.ReboundOperator) measured in units of its own noise
+The rebound r_i of a row (rebound.ReboundOperator) measured in units of its own noise
 factor has the noise sigma as its scale. Its median absolute deviation over all rows
 is blind when more than half of the rows carry no scatter at all: a sensor trace whose
 valve sits for two thirds of the cycle and reads exactly 0 there, or a table whose base

@@ -36,7 +36,7 @@ from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
 from cam_design.lift_table.result import Reconstruction, output_grid
 from cam_design.lift_table.samples import CleanSamples
-from cam_design.lift_table.spline import Fairing, rebound_fairing
+from cam_design.lift_table.rebound import Fairing, rebound_fairing
 
 BASES = ('section', 'full')
 CRITERIA = ('noise', 'cp', 'bic', 'risk', 'residual')

@@ -24,8 +24,8 @@ from cam_design.lift_table.result import Reconstruction, output_grid, per_second
 from cam_design.lift_table.samples import (CleanSamples, LiftTable, base_circle_warning,
                                            clean_samples, find_steps, nose_warning,
                                            other_lobes_warning, step_warnings, wrap_pi)
-from cam_design.lift_table.spline import (SplineOptions, rebound_fairing,
-                                          reconstruct_spline)
+from cam_design.lift_table.rebound import rebound_fairing
+from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
 
 METHODS = ('spline', 'harmonic')
