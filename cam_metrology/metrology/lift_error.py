@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from scipy.ndimage import median_filter
 
 from cam_metrology.metrology import block_lsq
-from cam_metrology.metrology.lobe_columns import column_median
+from cam_metrology.metrology.lobe_columns import column_median, span
 from cam_metrology.metrology.long_columns import (Buckets, bucket_count, median,
                                                   running_deviation)
 from cam_metrology.metrology.spill import blank, is_long, release, seal, walk
@@ -80,9 +80,7 @@ def _long_local_deviation(x: NDArray[np.float64], r: NDArray[np.float64],
             out[idx[0]:idx[-1] + 1] = dev
             release(out)
         return out
-    lo, hi = np.inf, -np.inf
-    for a, b in walk(n, x):
-        lo, hi = min(lo, float(np.min(x[a:b]))), max(hi, float(np.max(x[a:b])))
+    lo, hi = span(x)
     by_angle = Buckets([('x', 'f8'), ('r', 'f8'), ('i', 'i8')], 'x', lo, hi, bucket_count(n))
     by_row = Buckets([('i', 'f8'), ('d', 'f8')], 'i', 0.0, float(n), bucket_count(n))
     try:
@@ -263,13 +261,8 @@ def lift_error_stats(table: Any, good: NDArray[np.bool_]) -> dict[str, float] | 
 def error_stats(err: NDArray[np.float64], design: NDArray[np.float64],
                 good: NDArray[np.bool_]) -> dict[str, float] | None:
     """``lift_error_stats`` of the columns: ``err`` = measured - design [m] and the
-    design lift [m] of every sample."""
-    lobe = (design > 0) & good
-    if not np.any(lobe):
-        return None
-    err = err[lobe]
-    return {'max_plus': float(np.max(err)) * UM, 'max_minus': float(np.min(err)) * UM,
-            'rms': float(np.sqrt(np.mean(err ** 2))) * UM}
+    design lift [m] of every sample (``error_stats_blocks`` of one block)."""
+    return error_stats_blocks([(err, design, good)])
 
 
 def error_stats_blocks(blocks: Iterable[tuple[NDArray[np.float64], NDArray[np.float64],

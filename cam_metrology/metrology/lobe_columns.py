@@ -34,8 +34,9 @@ def column_of(size: int, fill: Callable[[int, int], NDArray[Any]], *sources: Any
 
 
 def selected(column: NDArray[Any], mask: NDArray[np.bool_]) -> NDArray[Any]:
-    """``column[mask]`` (in memory), gathered a block at a time."""
-    parts = [column[a:b][mask[a:b]] for a, b in walk(column.size, column)]
+    """``column[mask]`` (in memory; the rows of a 2-D table), gathered a block at a
+    time."""
+    parts = [column[a:b][mask[a:b]] for a, b in walk(column.shape[0], column)]
     return np.concatenate(parts) if parts else column[:0].copy()
 
 
@@ -166,15 +167,8 @@ def card_rows(table: NDArray[np.float64], law: Any, heights: Iterable[float],
             keep |= np.abs(alpha - centre) <= half
         return keep
 
-    keep = mask_of(table.shape[0], near, table)
-    count = int(np.count_nonzero(keep))
-    alpha, lift = np.empty(count), np.empty(count)
-    pos = 0
-    for a, b in walk(keep.size, table):
-        rows = table[a:b][keep[a:b]]
-        alpha[pos:pos + rows.shape[0]], lift[pos:pos + rows.shape[0]] = rows[:, 0], rows[:, 1]
-        pos += rows.shape[0]
-    return alpha, lift
+    rows = selected(table, mask_of(table.shape[0], near, table))
+    return np.ascontiguousarray(rows[:, 0]), np.ascontiguousarray(rows[:, 1])
 
 
 def support_area(table: NDArray[np.float64], support: tuple[float, float]) -> float:
