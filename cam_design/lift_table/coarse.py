@@ -121,30 +121,40 @@ def structured_misfit(lift: NDArray[np.float64], fit: NDArray[np.float64],
     return rho, math.sqrt(float(np.mean(resid[lobe] ** 2))) / sigma
 
 
+@dataclass(frozen=True)
+class CoarseLevel:
+    """The level ``lam_d`` of a coarse table without junctions, what to add to
+    ``why``, and the noise [m] it was chosen by Mallows' Cp with (None: by GCV)."""
+
+    lam_d: float
+    why: str = ''
+    cp_sigma: float | None = None
+
+
 def coarse_level(values: NDArray[np.float64], fit: NDArray[np.float64],
                  live: NDArray[np.bool_], rows: NDArray[np.float64], quantum: float,
-                 known: float, lam_d: float) -> tuple[float, str]:
-    """The level of a coarse table without junctions and what to add to ``why``:
-    ``lam_d`` (its smoothed ``fit`` of the uniform ``values`` [m]; ``live`` the nodes
-    with data) unless that fit leaves structured residuals on the lobe far above the
-    noise of the base circle of ``rows`` [m] (rounded to ``quantum``, at least the
-    ``known`` noise [m]); then Mallows' Cp with that noise, if lower."""
+                 known: float, lam_d: float) -> CoarseLevel:
+    """The level of a coarse table without junctions: ``lam_d`` (its smoothed ``fit``
+    of the uniform ``values`` [m]; ``live`` the nodes with data) unless that fit leaves
+    structured residuals on the lobe far above the noise of the base circle of ``rows``
+    [m] (rounded to ``quantum``, at least the ``known`` noise [m]); then Mallows' Cp
+    with that noise, if lower."""
     sigma = base_circle_sigma(rows, quantum)
     if sigma is None:
-        return lam_d, ''
+        return CoarseLevel(lam_d)
     # a base circle without scatter (a computed table): the known noise, else the
     # exact-table bound
     sigma = max(sigma, known, EXACT_NOISE_REL * float(np.ptp(rows)))
     rho, rms = structured_misfit(values[live], fit[live], sigma)
     if rho <= STRUCTURED_LAG_ONE or rms <= STRUCTURED_RMS:
-        return lam_d, ''
+        return CoarseLevel(lam_d)
     lam_cp = cp_level(values, sigma)
     if lam_cp >= lam_d:
-        return lam_d, ''
-    return lam_cp, (f'; coarse table: that fit left residuals {rms:.3g} x the '
-                    f'base-circle noise ({sigma:.3g} m), correlated row to row '
-                    f'({rho:.2f}): level by Mallows\' Cp with that noise, '
-                    f'lam_d = {lam_cp:.4g}')
+        return CoarseLevel(lam_d)
+    return CoarseLevel(lam_cp, f'; coarse table: that fit left residuals {rms:.3g} x the '
+                       f'base-circle noise ({sigma:.3g} m), correlated row to row '
+                       f'({rho:.2f}): level by Mallows\' Cp with that noise, '
+                       f'lam_d = {lam_cp:.4g}', sigma)
 
 
 @lru_cache(maxsize=8)
@@ -260,14 +270,10 @@ def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
     return CoarseJunctions(refit(grid, values, missing, pruned, lam), refused, lam)
 
 
-def lobe_end_knots(grid: NDArray[np.float64], values: NDArray[np.float64],
-                   sigma: float) -> NDArray[np.float64] | None:
-    """Knots of a quintic interpolant of uniform ``values`` [m] on ``grid`` [rad] that
-    may kink h'' (jump of h''') where one lobe leaves the base circle: a triple knot at
-    the last base-circle row on each side (rows within 5 ``sigma`` [m], the noise, or
-    1e-5 of the range above the base circle's median row), in place of the knots of its
-    two neighbours; the not-a-knot knots elsewhere. None without a single lobe clear of
-    the table's ends."""
+def lobe_end_rows(values: NDArray[np.float64], sigma: float) -> tuple[int, int] | None:
+    """The last base-circle row on each side of the one lobe of uniform ``values`` [m]
+    (rows within 5 ``sigma`` [m], the noise, or 1e-5 of the range above the base
+    circle's median row). None without a single lobe clear of the table's ends."""
     n = values.size
     span = float(np.ptp(values))
     low = float(np.min(values))
@@ -279,9 +285,117 @@ def lobe_end_knots(grid: NDArray[np.float64], values: NDArray[np.float64],
     ends = (int(lobe[0]) - 1, int(lobe[-1]) + 1)
     if ends[0] < 5 or ends[1] > n - 6:
         return None
+    return ends
+
+
+def lobe_end_knots(grid: NDArray[np.float64], values: NDArray[np.float64],
+                   sigma: float) -> NDArray[np.float64] | None:
+    """Knots of a quintic interpolant of uniform ``values`` [m] on ``grid`` [rad] that
+    may kink h'' (jump of h''') where one lobe leaves the base circle: a triple knot at
+    the last base-circle row on each side (``lobe_end_rows``), in place of the knots of
+    its two neighbours; the not-a-knot knots elsewhere. None without a single lobe
+    clear of the table's ends."""
+    ends = lobe_end_rows(values, sigma)
+    if ends is None:
+        return None
     inner = [float(v) for v in grid[3:-3]]
     for i in ends:
         for j in (i - 1, i + 1):
             inner.remove(float(grid[j]))
         inner += [float(grid[i])] * 2
     return np.concatenate([np.full(6, grid[0]), np.sort(inner), np.full(6, grid[-1])])
+
+
+@lru_cache(maxsize=8)
+def _fourth_difference_basis(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Eigenvalues (ascending, >= 0) and orthonormal eigenvectors of D4'D4 on ``n``
+    nodes, D4 the fourth difference with free ends (read-only, cached)."""
+    d4 = np.diff(np.eye(n), 4, axis=0)
+    e, v = np.linalg.eigh(d4.T @ d4)
+    e = np.maximum(e, 0.0)
+    e.setflags(write=False)
+    v.setflags(write=False)
+    return e, v
+
+
+def _kink_columns(n: int, ends: tuple[int, int]) -> NDArray[np.float64]:
+    """Unit steps of h''' at the lobe's ends (node positions ``ends``), each opening
+    into the lobe: (u)_+^3 scaled to a largest value of 1 (n, 2)."""
+    nodes = np.arange(n, dtype=float)
+    cols = np.column_stack([np.maximum(nodes - ends[0], 0.0) ** 3,
+                            np.maximum(ends[1] - nodes, 0.0) ** 3])
+    return np.asarray(cols / np.max(cols, axis=0), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class KinkedLobe:
+    """The lobe-end fit of a coarse table: smoothed ``values`` [m] on the grid, the
+    discrete level ``lam_d`` of its fourth-difference penalty and ``edf``."""
+
+    values: NDArray[np.float64]
+    lam_d: float
+    edf: float
+
+
+class _KinkedSmoother:
+    """y = f + G c with f penalised by lam |D4 f|^2 (free ends) and G the steps of h'''
+    at the lobe ends, in the eigenbasis of D4'D4: each level costs O(n)."""
+
+    def __init__(self, values: NDArray[np.float64], ends: tuple[int, int]) -> None:
+        n = values.size
+        self.e, v = _fourth_difference_basis(n)
+        self.g_hat = v.T @ _kink_columns(n, ends)
+        self.v = v
+        self.n = n
+        self.y_hat = v.T @ values
+
+    def fit(self, lam_d: float) -> tuple[NDArray[np.float64], float, float]:
+        """(residual in the eigenbasis, rss [m^2], trace of the hat matrix)."""
+        s = 1.0 / (1.0 + lam_d * self.e)
+        r = 1.0 - s
+        rg = r[:, None] * self.g_hat
+        m = self.g_hat.T @ rg
+        m += 1e-12 * np.trace(m) * np.eye(2)
+        c = np.linalg.solve(m, rg.T @ self.y_hat)
+        resid = r * (self.y_hat - self.g_hat @ c)
+        trace = float(np.sum(s)) + float(np.trace(np.linalg.solve(m, rg.T @ rg)))
+        return resid, float(resid @ resid), trace
+
+    def values(self, lam_d: float) -> NDArray[np.float64]:
+        """The fitted values [m] on the grid."""
+        resid = self.fit(lam_d)[0]
+        return np.asarray(self.v @ (self.y_hat - resid), dtype=np.float64)
+
+
+def kinked_lobe_fit(values: NDArray[np.float64], missing: NDArray[np.bool_],
+                    ends: tuple[int, int], *, gamma: float, cp_sigma: float | None,
+                    scale: float = 1.0, fills: int = 3) -> KinkedLobe:
+    """Smoothing of a coarse single-lobe table that lets h''' jump at the lobe's ends
+    (rows ``ends``, the last base-circle rows; a C2 lobe joins its base circle there
+    with h'' continuous and h''' stepping). A penalty on third differences charges a
+    kink of h'' nothing specific and rounds it over the smoother's bandwidth; here the
+    smooth part is penalised on fourth differences, where a step of h''' is a local
+    feature, and a cubic hinge at each end carries that step (a partial spline: Wahba,
+    *Spline Models for Observational Data*, 1990, ch. 6). The level minimises GCV
+    (``gamma``) or, when ``cp_sigma`` [m] is given (the coarse level rule found
+    structure), Mallows' Cp with that noise; then times ``scale``. ``missing`` nodes
+    are refilled with the fit ``fills`` times."""
+    smoother = _KinkedSmoother(values, ends)
+    n = values.size
+
+    def score(log_lam: float) -> float:
+        _, rss, trace = smoother.fit(10.0 ** log_lam)
+        if cp_sigma is not None:
+            return rss + 2.0 * cp_sigma ** 2 * trace
+        return n * rss / max(n - gamma * trace, 1e-9) ** 2
+
+    lattice = np.arange(-8.0, 10.01, 0.5)
+    i = int(np.argmin([score(v) for v in lattice]))
+    a, b = lattice[max(i - 1, 0)], lattice[min(i + 1, lattice.size - 1)]
+    lam = 10.0 ** golden_minimum(score, a, b, 20) * scale
+    fitted = smoother.values(lam)
+    if np.any(missing):
+        for _ in range(fills):
+            fitted = _KinkedSmoother(np.where(missing, fitted, values), ends).values(lam)
+    trace = smoother.fit(lam)[2]
+    return KinkedLobe(fitted, lam, trace)
