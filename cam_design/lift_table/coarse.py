@@ -399,3 +399,33 @@ def kinked_lobe_fit(values: NDArray[np.float64], missing: NDArray[np.bool_],
             fitted = _KinkedSmoother(np.where(missing, fitted, values), ends).values(lam)
     trace = smoother.fit(lam)[2]
     return KinkedLobe(fitted, lam, trace)
+
+
+@dataclass(frozen=True)
+class LobeEndFit:
+    """The lobe-end fit of one coarse single-lobe table (``kinked_lobe_fit``): the end
+    rows, GCV's ``gamma``, the noise [m] for Cp (None: GCV) and the level ``base`` the
+    caller's level is measured against (the sign rule raises it). The reconstruction
+    uses it with the GCV criterion only; not yet for the risk criterion of the lobe law
+    (card, dynamics), where the jump speed's uncertainty from noisy copies of a rounded
+    5 deg table grew from 7 % to 15 % (docs/limits.md). It stands only where its h''
+    has the lobe's sign pattern: raising its level for the pattern made a rounded 5 deg
+    flat-tappet table 1.44 x scipy's h'' error (0.99 with the plain smoother)."""
+
+    ends: tuple[int, int]
+    gamma: float
+    cp_sigma: float | None
+    base: float
+
+    def fit(self, values: NDArray[np.float64], missing: NDArray[np.bool_],
+            lam_d: float) -> KinkedLobe:
+        """The fit of ``values`` [m] (``missing`` nodes refilled) at its own level times
+        ``lam_d`` / ``base``."""
+        return kinked_lobe_fit(values, missing, self.ends, gamma=self.gamma,
+                               cp_sigma=self.cp_sigma, scale=lam_d / self.base)
+
+    def why(self, grid: NDArray[np.float64], fit: KinkedLobe) -> str:
+        """What to add to a reconstruction's ``why`` (``grid`` [rad])."""
+        at = ', '.join(f'{math.degrees(float(grid[i])):.4g}' for i in self.ends)
+        return (f"; h''' free to jump at the lobe's ends ({at} deg): fourth differences "
+                f'penalised, lam_d = {fit.lam_d:.4g}, edf = {fit.edf:.1f}')

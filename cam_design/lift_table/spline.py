@@ -33,8 +33,8 @@ from scipy.interpolate import make_interp_spline
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
-from cam_design.lift_table.coarse import (KinkedLobe, base_circle_sigma, coarse_junctions,
-                                          coarse_level, kinked_lobe_fit, lobe_end_knots,
+from cam_design.lift_table.coarse import (KinkedLobe, LobeEndFit, base_circle_sigma,
+                                          coarse_junctions, coarse_level, lobe_end_knots,
                                           lobe_end_rows)
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              golden_minimum, refit)
@@ -443,7 +443,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
                     f'chosen again with them: lam_d = {lam_d:.4g}')
     knots = None
-    kinked: Any = None      # the lobe-end fit's arguments (coarse.kinked_lobe_fit)
+    kinked: LobeEndFit | None = None
     if (step > COARSE_LEVEL_RAD and uniform and found is None and not exact
             and opt.smoothing is None):
         rows = fair.lift[~fair.outlier]
@@ -452,18 +452,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         lam_d = level.lam_d
         why += level.why
         # h''' may jump where the lobe leaves the base circle (a C2 lobe's ends): a
-        # quintic interpolant without a knot there rounds that kink over two rows, and a
-        # smoother penalising third differences rounds it in the smoothed values
+        # quintic interpolant without a knot, or a third-difference smoother, rounds it
         base_sigma = base_circle_sigma(fair.lift[~fair.outlier], fair.quantum)
         end_sigma = fair.sigma if base_sigma is None else base_sigma
         knots = lobe_end_knots(grid, values, end_sigma)
         ends = lobe_end_rows(values, end_sigma)
-        # the lobe-end fit with the GCV criterion only (its level by GCV, or by Cp where
-        # the coarse rule chose Cp). Not yet for the risk criterion (the lobe law of
-        # card and dynamics): there the jump speed's uncertainty from noisy copies of
-        # a rounded 5 deg table grew from 7 % to 15 % (docs/limits.md)
         if knots is not None and ends is not None and opt.criterion == 'gcv':
-            kinked = dict(ends=ends, gamma=gamma, cp_sigma=level.cp_sigma, base=lam_d)
+            kinked = LobeEndFit(ends, gamma, level.cp_sigma, lam_d)
     kinked_fit: list[KinkedLobe] = []
 
     ylift = fair.lift.copy()
@@ -474,12 +469,8 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             return JunctionSpline(make_interp_spline(grid, fit.smooth, k=5), fit)
         if uniform:
             if kinked is not None:
-                kinked_fit[:] = [kinked_lobe_fit(
-                    values, missing, kinked['ends'], gamma=kinked['gamma'],
-                    cp_sigma=kinked['cp_sigma'], scale=lam / kinked['base'])]
-                smooth = kinked_fit[0].values
-            else:
-                smooth = smooth_grid(values, missing, lam)
+                kinked_fit[:] = [kinked.fit(values, missing, lam)]
+            smooth = kinked_fit[0].values if kinked_fit else smooth_grid(values, missing, lam)
             if knots is not None:
                 try:
                     return make_interp_spline(grid, smooth, k=5, t=knots)
@@ -552,9 +543,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                 return count
             return sign_changes(fit_acc, lift=fit_lift, still=dwell(fitted, level))
         if kinked_fit and significant_changes(spline, lam_d) > expected:
-            # the lobe-end fit stands only with the lobe's sign pattern; else the plain
-            # smoother, whose level the rule may raise (raising the lobe-end fit's level
-            # made a rounded 5 deg flat-tappet table 1.44 x scipy's h'' error, 0.99 so)
+            # the lobe-end fit stands only with the lobe's sign pattern (LobeEndFit)
             kinked, kinked_fit[:] = None, []
             spline = fit_spline(lam_d)
             acc, lift_out, at_rows = spline(out, 2), spline(out), spline(x)
@@ -582,12 +571,9 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         'max_rebound_m': float(np.max(np.abs(fair.rebound0[1:-1]))),
         'median_rebound_m': float(np.median(np.abs(fair.rebound0[1:-1]))),
     }
-    if kinked_fit:
+    if kinked is not None and kinked_fit:
         parameter['edf'] = kinked_fit[0].edf
-        at = ', '.join(f'{math.degrees(float(grid[i])):.4g}' for i in kinked['ends'])
-        why += (f"; h''' free to jump at the lobe's ends ({at} deg): fourth differences "
-                f'penalised, lam_d = {kinked_fit[0].lam_d:.4g}, '
-                f'edf = {kinked_fit[0].edf:.1f}')
+        why += kinked.why(grid, kinked_fit[0])
     if isinstance(spline, JunctionSpline):
         parameter['edf'] = spline.junctions.edf
         parameter['junctions_deg'] = [math.degrees(t) for t in spline.junctions.angles]
