@@ -216,7 +216,7 @@ def test_two_and_a_half_degree_flat_tappet_without_false_junctions():
             assert min(abs(t - math.degrees(j)) for t in angles) <= 2.5, (j, angles)
 
 
-def _dense_kinked_fit(values: np.ndarray, ends: tuple[int, int], lam: float
+def _dense_kinked_fit(values: np.ndarray, ends: tuple[float, float], lam: float
                       ) -> tuple[np.ndarray, float, float]:
     """Brute force of the lobe-end fit at level ``lam``: min |y - f - G c|^2 +
     lam |D4 f|^2 (free ends), G the cubic hinges (u)_+^3 opening into the lobe at the
@@ -247,7 +247,8 @@ def test_lobe_end_fit_is_the_penalised_least_squares_fit_at_its_gcv_level():
     ends = lobe_end_rows(h, 0.5e-6)
     assert ends == (20, 50)          # -75 and 75 deg
     fit = kinked_lobe_fit(h, np.zeros(h.size, dtype=bool), ends, gamma=1.4, cp_sigma=None)
-    dense, edf, gcv = _dense_kinked_fit(h, ends, fit.lam_d)
+    assert fit.ends == (20.0, 50.0)  # the kinks of h'' found at the rows
+    dense, edf, gcv = _dense_kinked_fit(h, fit.ends, fit.lam_d)
     assert float(np.max(np.abs(fit.values - dense))) <= 1e-7 * float(np.ptp(h))
     assert abs(fit.edf - edf) <= 1e-6 * edf
     for k in (0.7, 1.4):
