@@ -10,7 +10,15 @@ what the rows could not tell. The rules (docs/methods.md, "One table, one lobe")
 * **frame**: a table over the whole turn is turned so that the seam (+-180 deg) lies
   in the middle of its longest base-circle run (a lobe across +-180 deg is not cut);
   one with no base-circle run (an eccentric) is periodic, its lowest row at the seam.
-  Angles of the law are those of the table (the turn is undone).
+  Angles of the law are those of the table (the turn is undone), continuous across the
+  lobe, in the turn of the table's first row: the lobe's middle (halfway between where
+  it passes half its max lift) lies in [first row, first row + 360 deg), one within
+  ``SEAM_TOL_STEPS`` row steps below the end of that turn at the first row
+  (``lobe_turn``). So a
+  -180..180 deg table with its nose at 180 deg has the nose at -180 deg and its events
+  on both sides of it (-219 .. -141 deg), a 0..360 deg table with its nose at 0/360
+  deg the nose at 0 deg, a 0..360 deg table with its nose at 200 deg the nose at 200
+  deg, on every route (card, dynamics, reconstruct's lobe law, scene tables).
 * **smoothing**: the rows are interpolated (quintic spline through every row) when
   their scatter about a smooth curve is no more than their rounding explains and the
   rounding, carried through the interpolant, stays below ``ROUNDING_ACC_SHARE`` of the
@@ -89,6 +97,11 @@ ACC_PLAUSIBLE = 100.0
 CRANK_SUSPECT_DEG = 200.0
 #: inch gauges round to 0.0001 in: a quantum in inches [m per in]
 INCH = 0.0254
+#: a lobe whose middle lies less than this share of a row step before the end of the
+#: turn of the table's first row is placed at the first row (a nose on the seam row of
+#: a closed table, 0/360 or -180/180 deg, which the fit of rounded or measured rows
+#: puts a little to either side)
+SEAM_TOL_STEPS = 0.25
 
 
 @dataclass
@@ -97,7 +110,10 @@ class LobeInfo:
 
     ``method``: 'interpolated' or 'smoothed'; ``why``: the sentence behind it;
     ``sigma``: the noise the rows carry (rounding or estimate); ``quantum``: the
-    rounding step q (0: not rounded); ``offset``: the turn applied to the rows (frame);
+    rounding step q (0: not rounded); ``offset``: the turn applied to the rows (frame:
+    lobe-frame angle + offset = table angle, in (-pi, pi]); ``shift``: the whole turns
+    [rad] added to that so that the lobe lies in the turn of the table's first row
+    ``first`` [rad] (``lobe_turn``; ``law_offset`` = offset + shift);
     ``periodic``: no base circle (an eccentric); ``joins``: (start, end) of the join
     before and after the lobe (None: the lobe runs out to the table's own rows);
     ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
@@ -119,6 +135,14 @@ class LobeInfo:
     rows: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
     rec: object = None
     steps: list[str] = field(default_factory=list)
+    first: float | None = None
+    shift: float = 0.0
+
+    @property
+    def law_offset(self) -> float:
+        """Lobe-frame angle + this = the law's angle [rad] (the turn off the seam and
+        the whole turns that put the lobe in the table's turn)."""
+        return self.offset + self.shift
 
     def note(self) -> str:
         """One sentence for a route's output: how the table became the lobe."""
@@ -129,10 +153,12 @@ class LobeInfo:
                    '; runs out to the table\'s base-circle rows' if not any(self.joins) else
                    '; joined to the base circle with zero lift, velocity, acceleration and '
                    'jerk at ' + ', '.join(
-                       f'{_table_deg(j[0] + self.offset):.2f}..'
-                       f'{_table_deg(j[1] + self.offset):.2f} deg' for j in self.joins if j))
+                       f'{math.degrees(j[0] + self.law_offset):.2f}..'
+                       f'{math.degrees(j[1] + self.law_offset):.2f} deg'
+                       for j in self.joins if j))
                 + (f'; rows turned by {math.degrees(self.offset):.1f} deg to keep the lobe '
-                   'off the +-180 deg seam (angles reported in the table frame)'
+                   'off the +-180 deg seam (angles reported in the table frame, the lobe '
+                   'in the turn of the first row)'
                    if self.offset else '')
                 + ''.join(f'; {s}: lifts, velocities and events near it are the law\'s '
                           'bridge over the step, not the cam' for s in self.steps))
@@ -173,9 +199,33 @@ class TableLobe(LiftLaw):
         return out
 
 
-def _table_deg(angle: float) -> float:
-    """A lobe-frame angle plus the turn [rad], in the table frame [deg], (-180, 180]."""
-    return math.degrees(float(wrap_pi(angle)))
+def lobe_middle(alpha: NDArray[np.float64], lift: NDArray[np.float64]) -> float:
+    """The middle [rad] of the lobe of a curve sampled at ascending ``alpha`` [rad]
+    (``lift`` [m]): halfway between where it passes half its max lift on either side
+    of its highest sample (linear between samples; the highest sample when the curve
+    does not come down to half its lift within ``alpha``). A dwell's flat top or a
+    nose between samples moves it little, unlike the highest sample itself."""
+    top = int(np.argmax(lift))
+    half = 0.5 * float(lift[top])
+    below = np.flatnonzero(lift[:top] < half)
+    above = np.flatnonzero(lift[top:] < half)
+    if not below.size or not above.size:
+        return float(alpha[top])
+    i, k = int(below[-1]), top + int(above[0]) - 1
+
+    def cross(j: int) -> float:   # where the chord from sample j to j + 1 passes half
+        return float(alpha[j] + (half - lift[j]) * (alpha[j + 1] - alpha[j])
+                     / (lift[j + 1] - lift[j]))
+    return 0.5 * (cross(i) + cross(k))
+
+
+def lobe_turn(middle: float, first: float, step: float) -> float:
+    """The whole turns [rad] to add to a lobe whose middle is at ``middle`` [rad] so that
+    it lies in the turn of the table's first row ``first`` [rad]: [first - tol, first +
+    2 pi - tol), tol = ``SEAM_TOL_STEPS`` x the row step ``step`` [rad] (the one frame
+    rule of every route)."""
+    tol = SEAM_TOL_STEPS * step
+    return -TWO_PI * math.floor((middle - first + tol) / TWO_PI)
 
 
 def table_quantum(lift: ArrayLike) -> float:
@@ -359,10 +409,17 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     else:
         scatter = noise = float(noise)
     offset, periodic = _frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
+    if (offset or periodic) and a0[-1] - a0[0] >= TWO_PI - 1e-9:
+        # a closed turn (-180..180, 0..360 deg): its last row is its first row again,
+        # which the turn would put on the same angle: one row, their mean
+        _check_repeats(a0, h, notes, key)
+        notes.append(f'merged the row at {math.degrees(a0[-1]):g} deg into the one at '
+                     f'{math.degrees(a0[0]):g} deg (the same angle; lifts '
+                     f'{h[0] * 1e3:.4g} and {h[-1] * 1e3:.4g} mm, their mean kept)')
+        h = np.concatenate([[0.5 * (h[0] + h[-1])], h[1:-1]])
+        a0 = a0[:-1]
     b = wrap_pi(a0 - offset) if offset else a0
-    if periodic:   # the turn [-pi, pi) from the lowest row (a closing row merged)
-        if a0[-1] - a0[0] >= TWO_PI - 1e-9:
-            a0, h = a0[:-1], h[:-1]
+    if periodic:   # the turn [-pi, pi) from the lowest row
         b = np.mod(a0 - offset + math.pi, TWO_PI) - math.pi
     if offset or periodic:
         order = np.argsort(b, kind='stable')
@@ -432,7 +489,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     tau = max(3.0 * sigma, 0.5 * q, BASE_LEVEL_REL * span)
     info = LobeInfo(key=key, method=method, why=why, sigma=sigma, quantum=q, step=step,
                     offset=offset, periodic=periodic, level=tau, rec=rec,
-                    rows=(raw_a.copy(), raw_h.copy()), steps=steps)
+                    rows=(raw_a.copy(), raw_h.copy()), steps=steps, first=lo_a)
     assert curve is not None        # the interpolant, or the smoothing spline above
     law = _build(curve, b, h, info)
     info.warnings.extend(notes_warning(notes))
@@ -462,7 +519,7 @@ def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -
         BASE_MIN_DEG) else 0.0)
     info = LobeInfo(key=key, method='reconstructed', why="a reconstruction's jets",
                     sigma=ripple, quantum=0.0, step=step, offset=0.0, periodic=False,
-                    level=max(3.0 * ripple, EXACT_SCATTER_REL * span))
+                    level=max(3.0 * ripple, EXACT_SCATTER_REL * span), first=float(a[0]))
     return _build(_Evaluated(curve), a, h, info)
 
 
@@ -477,6 +534,11 @@ def _build(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], info: L
     else:
         law = TableLobe(_lobe_pieces(curve, b, h, info.level, info.step,
                                      _grid_step(info.step), info), info.offset)
+    # the one frame of every route: the lobe in the turn of the table's first row
+    if info.first is not None:
+        grid = np.linspace(*law.support, 8001)
+        info.shift = lobe_turn(lobe_middle(grid, law(grid, 0)), info.first, info.step)
+        law._offset = info.law_offset
     law.lobe = info
     rows = info.rows or (b, h)
     law.table = (rows[0], rows[1], info.quantum or None, info.sigma)
@@ -632,7 +694,7 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
         j = info.joins[0] if side == 'start' else info.joins[1]
         assert j is not None   # a mid-lobe end is always joined
         at = j[1] if side == 'start' else j[0]
-        level = float(law(np.array([at + info.offset]), 0)[0])
+        level = float(law(np.array([at + info.law_offset]), 0)[0])
         out.append(f'the table {side}s mid-lobe ({level * 1e3:.4g} mm, '
                    f'{level / top * 100:.2g} % of the max lift, no base-circle row): joined '
                    f'to the base circle over {math.degrees(j[1] - j[0]):.2f} deg; events '

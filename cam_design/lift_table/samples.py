@@ -104,7 +104,8 @@ def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     if merged:
         spread = (np.maximum.reduceat(h, np.flatnonzero(new))
                   - np.minimum.reduceat(h, np.flatnonzero(new)))
-        worst = int(np.argmax(spread))
+        # among the merged angles only (an angle of one sample has spread 0 too)
+        worst = int(np.argmax(np.where(count > 1, spread, -1.0)))
         notes.append(f'merged {merged} sample(s) at repeated angles into their mean (largest '
                      f'spread {spread[worst] * 1e3:.4g} mm at '
                      f'{math.degrees(float(a_u[worst])):.3f} deg)')
