@@ -398,7 +398,9 @@ def test_reconstruct_fits_a_lobe_across_the_seam_in_the_lobe_frame(tmp_path: Pat
         c, t = centred[0][method], turned[0][method]
         assert c['ok'] and t['ok'], method
         ca, ta = np.array(c['alpha_rad']), np.array(t['alpha_rad'])
-        assert np.all(np.diff(ta) > 0) and -math.pi < ta[0] and ta[-1] <= math.pi
+        assert np.all(np.diff(ca) > 0) and -math.pi < ca[0] and ca[-1] <= math.pi
+        # the lobe at 170 deg is not in (-180, 180]: the turn centred on it, -10..350 deg
+        assert np.all(np.diff(ta) > 0) and -10 * D < ta[0] and ta[-1] <= 350 * D
         for col in ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
                     'jerk_m_per_rad3'):
             cv, tv = np.array(c[col]), np.array(t[col])
@@ -630,11 +632,13 @@ def test_a_lobe_at_the_seam_has_one_frame_on_every_route(tmp_path: Path, case: s
     each route (1e-6 deg, 1e-9 m, 1e-6 relative: one law), and the analytic lobe's,
     moved to that nose, within what the rounding and the step allow. (The card said
     -180 deg and the dynamics +180 deg for the same rows; the closed -180..180 table was
-    a traceback: its two rows at +-180 deg fell on one angle once turned.)"""
+    a traceback: its two rows at +-180 deg fell on one angle once turned.) reconstruct's
+    own spline, over the turn centred on the lobe, has its events there too."""
     from cam_metrology.cli.card import table_card
     from cam_metrology.cli.reconstruct import lobe_entry
     from cam_metrology.dynamics.tables import table_input
     from cam_metrology.inputs.lift_tables import read_table_file
+    from cam_metrology.reconstruction.profile import reconstruct_table
     from cam_design.lift_table.lobe_table import lobe_from_jets
 
     lobe, step, lo, hi, nose, expected = SEAM_CASES[case]
@@ -651,6 +655,16 @@ def test_a_lobe_at_the_seam_has_one_frame_on_every_route(tmp_path: Path, case: s
     rec = lobe_from_jets(np.array(entry['alpha_rad']), jets, key='r.json')
     cards['reconstruct (r.json)'] = cc.card_from_law(rec, heights)
     truth = _seam_truth(lobe, heights)
+    # reconstruct's own spline (its own smoothing level) over the turn centred on the
+    # lobe when the lobe is not in (-180, 180]: its events where the card's are
+    spline = reconstruct_table(table, methods=('spline',))['spline'].reconstruction
+    assert spline is not None
+    for want in cards['card']['heights']:
+        got = _events_deg(spline.alpha, spline.lift, want['height_m'])
+        for x, k in zip(got, ('opening_deg', 'closing_deg')):
+            allow = 2.0 * _event_allow_deg(lobe, 1e-5, step, want['height_m'],
+                                           want[k] - expected)
+            assert abs(x - want[k]) <= allow, ('spline', k, x, want[k])
     ref = cards['card']
     assert ref['centreline_deg'] == pytest.approx(expected, abs=0.05), ref
     for route, card in cards.items():

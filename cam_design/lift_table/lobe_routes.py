@@ -6,6 +6,7 @@ the reconstruction, which keeps its own fits, is told about the same rows
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -65,6 +66,23 @@ def fit_turn(alpha: ArrayLike, law: TableLobe | None) -> float:
     if law is not None and not law.lobe.periodic:
         return float(law.lobe.offset)
     return 0.0
+
+
+def fit_window(alpha: ArrayLike, law: TableLobe | None) -> float | None:
+    """The start w [rad] of the turn (w, w + 2 pi] over which a route that fits a whole
+    turn gives its curve back: (-pi, pi] when the lobe law's lobe lies in it (or there
+    is no lobe law, or it is periodic); else the turn centred on the lobe's middle, to
+    the whole degree (a -180..180 deg table with its nose at 180 deg: -360..0 deg, the
+    lobe where the card and the dynamics put it). None for a table over part of the
+    turn (its own contiguous angles)."""
+    if part_turn_centre(alpha):
+        return None
+    if law is None or law.lobe.periodic or law.lobe.middle is None:
+        return -math.pi
+    lo, hi = law.support
+    if lo > -math.pi and hi <= math.pi:
+        return -math.pi
+    return math.radians(round(math.degrees(law.lobe.middle))) - math.pi
 
 
 def beyond_rows(law: TableLobe | None, lift: NDArray[np.float64], rows: ArrayLike) -> str:

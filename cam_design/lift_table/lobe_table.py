@@ -113,7 +113,8 @@ class LobeInfo:
     rounding step q (0: not rounded); ``offset``: the turn applied to the rows (frame:
     lobe-frame angle + offset = table angle, in (-pi, pi]); ``shift``: the whole turns
     [rad] added to that so that the lobe lies in the turn of the table's first row
-    ``first`` [rad] (``lobe_turn``; ``law_offset`` = offset + shift);
+    ``first`` [rad] (``lobe_turn``; ``law_offset`` = offset + shift); ``middle``: the
+    lobe's middle in the law's angles [rad] (``lobe_middle``);
     ``periodic``: no base circle (an eccentric); ``joins``: (start, end) of the join
     before and after the lobe (None: the lobe runs out to the table's own rows);
     ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
@@ -137,6 +138,7 @@ class LobeInfo:
     steps: list[str] = field(default_factory=list)
     first: float | None = None
     shift: float = 0.0
+    middle: float | None = None
 
     @property
     def law_offset(self) -> float:
@@ -535,14 +537,17 @@ def _build(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], info: L
         law = TableLobe(_lobe_pieces(curve, b, h, info.level, info.step,
                                      _grid_step(info.step), info), info.offset)
     # the one frame of every route: the lobe in the turn of the table's first row
+    grid = np.linspace(*law.support, 8001)
+    lift = law(grid, 0)
+    middle = lobe_middle(grid, lift)
     if info.first is not None:
-        grid = np.linspace(*law.support, 8001)
-        info.shift = lobe_turn(lobe_middle(grid, law(grid, 0)), info.first, info.step)
+        info.shift = lobe_turn(middle, info.first, info.step)
         law._offset = info.law_offset
+    info.middle = middle + info.shift
     law.lobe = info
     rows = info.rows or (b, h)
     law.table = (rows[0], rows[1], info.quantum or None, info.sigma)
-    info.warnings.extend(_checks(law, b, h, info))
+    info.warnings.extend(_checks(law, b, h, info, (grid + info.shift, lift)))
     return law
 
 
@@ -663,11 +668,12 @@ def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], t
 
 
 def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
-            info: LobeInfo) -> list[str]:
-    """Warnings on the law; InputError for a lobe no cam can have."""
+            info: LobeInfo, sampled: tuple[NDArray[np.float64], NDArray[np.float64]]
+            ) -> list[str]:
+    """Warnings on the law; InputError for a lobe no cam can have. ``sampled``: the
+    law's lift [m] on 8001 points over its support [rad] (``_build`` has them)."""
     out: list[str] = []
-    grid = np.linspace(*law.support, 8001)
-    lift = law(grid, 0)
+    grid, lift = sampled
     top = float(np.max(lift))
     # between rows a lobe rises above its highest row by up to |h''| (step/2)^2 / 2
     acc = float(np.max(np.abs(law(grid, 2))))

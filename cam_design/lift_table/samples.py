@@ -68,6 +68,13 @@ def wrap_pi(alpha: ArrayLike) -> NDArray[np.float64]:
     return out
 
 
+def wrap_from(alpha: ArrayLike, start: float) -> NDArray[np.float64]:
+    """Angles [rad] wrapped to the turn (start, start + 2 pi] (``wrap_pi``: start -pi)."""
+    a = np.asarray(alpha, dtype=float)
+    top = start + 2.0 * np.pi
+    return top - np.mod(top - a, 2.0 * np.pi)
+
+
 def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                   min_points: int = 8) -> CleanSamples:
     """Drop non-finite rows, wrap to (-pi, pi], sort, merge repeated angles.
