@@ -14,7 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
-from cam_design.lift_table.lobe_table import TableLobe, lobe_law, part_turn_centre
+from cam_design.lift_table.lobe_frame import part_turn_centre
+from cam_design.lift_table.lobe_table import TableLobe, lobe_law
 
 #: a fit rising this share of the lift above every row and the lobe law left the rows
 BEYOND_ROWS = 0.01

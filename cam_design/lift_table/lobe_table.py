@@ -50,12 +50,13 @@ from numpy.typing import ArrayLike, NDArray
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.lift_laws.jet_table import JetTableLift
+from cam_design.lift_table.lobe_frame import (BASE_MIN_DEG, TWO_PI, lobe_middle, lobe_turn,
+                                              part_turn_centre, seam_frame)
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 
 if TYPE_CHECKING:
     from cam_design.lift_table.rebound import Fairing
 
-TWO_PI = 2.0 * math.pi
 #: a curve of the lobe frame: (alpha [rad], nu) -> nu-th derivative [m/rad^nu]
 Curve = Callable[[Any, int], Any]
 #: largest step [deg] of the grid on which the lobe's jets are tabulated for the
@@ -75,8 +76,6 @@ ROUNDING_ACC_SHARE = 0.02
 #: std of the quintic interpolant's h'' at unit white noise on unit steps (measured on
 #: 1e4 rows of unit noise: 9.7 at the rows, up to 11 between; the larger is used)
 ROUNDING_GAIN = 11.0
-#: a run of base-circle rows shorter than this [deg] is the bottom of an eccentric
-BASE_MIN_DEG = 20.0
 #: the misfit of a smooth shape grows at least this much when the step doubles (the
 #: engine's estimate on exact tables of ramped, cycloidal and harmonic lobes at
 #: 0.5-5 deg: 14 to 1e9; on noisy tables 0.7 to 1.7)
@@ -97,11 +96,6 @@ ACC_PLAUSIBLE = 100.0
 CRANK_SUSPECT_DEG = 200.0
 #: inch gauges round to 0.0001 in: a quantum in inches [m per in]
 INCH = 0.0254
-#: a lobe whose middle lies less than this share of a row step before the end of the
-#: turn of the table's first row is placed at the first row (a nose on the seam row of
-#: a closed table, 0/360 or -180/180 deg, which the fit of rounded or measured rows
-#: puts a little to either side)
-SEAM_TOL_STEPS = 0.25
 
 
 @dataclass
@@ -201,35 +195,6 @@ class TableLobe(LiftLaw):
         return out
 
 
-def lobe_middle(alpha: NDArray[np.float64], lift: NDArray[np.float64]) -> float:
-    """The middle [rad] of the lobe of a curve sampled at ascending ``alpha`` [rad]
-    (``lift`` [m]): halfway between where it passes half its max lift on either side
-    of its highest sample (linear between samples; the highest sample when the curve
-    does not come down to half its lift within ``alpha``). A dwell's flat top or a
-    nose between samples moves it little, unlike the highest sample itself."""
-    top = int(np.argmax(lift))
-    half = 0.5 * float(lift[top])
-    below = np.flatnonzero(lift[:top] < half)
-    above = np.flatnonzero(lift[top:] < half)
-    if not below.size or not above.size:
-        return float(alpha[top])
-    i, k = int(below[-1]), top + int(above[0]) - 1
-
-    def cross(j: int) -> float:   # where the chord from sample j to j + 1 passes half
-        return float(alpha[j] + (half - lift[j]) * (alpha[j + 1] - alpha[j])
-                     / (lift[j + 1] - lift[j]))
-    return 0.5 * (cross(i) + cross(k))
-
-
-def lobe_turn(middle: float, first: float, step: float) -> float:
-    """The whole turns [rad] to add to a lobe whose middle is at ``middle`` [rad] so that
-    it lies in the turn of the table's first row ``first`` [rad]: [first - tol, first +
-    2 pi - tol), tol = ``SEAM_TOL_STEPS`` x the row step ``step`` [rad] (the one frame
-    rule of every route)."""
-    tol = SEAM_TOL_STEPS * step
-    return -TWO_PI * math.floor((middle - first + tol) / TWO_PI)
-
-
 def table_quantum(lift: ArrayLike) -> float:
     """The rounding step q [m] of lifts [m] rounded in mm or in inches (0: not rounded)."""
     from cam_design.lift_table.rebound import quantisation_step
@@ -237,58 +202,6 @@ def table_quantum(lift: ArrayLike) -> float:
     v = np.asarray(lift, dtype=float)
     # both: an inch quantum in m is also a (much finer) whole multiple of 1e-8 m
     return float(max(quantisation_step(v), INCH * quantisation_step(v / INCH)))
-
-
-def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """(first index, index after the last) of each run of True in ``mask``."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-
-
-def part_turn_centre(alpha: ArrayLike) -> float:
-    """The middle [rad] of the rows' angles ``alpha`` [rad] when they cover part of the
-    turn (their span is shorter than the turn less 1.5 row steps), else 0. Such a table
-    keeps its angles contiguous around that middle (0..300 deg is not cut at 180 deg,
-    118..242 deg not wrapped into two pieces); a whole turn is wrapped to (-180, 180]."""
-    a = np.asarray(alpha, dtype=float).reshape(-1)
-    a = a[np.isfinite(a)]
-    if a.size < 2:
-        return 0.0
-    lo, hi = float(np.min(a)), float(np.max(a))
-    gaps = np.diff(np.unique(a))
-    row_step = float(np.median(gaps)) if gaps.size else 0.0
-    return 0.5 * (lo + hi) if hi - lo < TWO_PI - 1.5 * row_step else 0.0
-
-
-def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: float
-           ) -> tuple[float, bool]:
-    """(offset [rad], periodic) of the rows (sorted, in (-pi, pi]): offset 0 unless the
-    table covers the whole turn and its lobe crosses the seam. Base circle: the rows
-    within ``level`` [m] of the lowest (a few noise sigmas); a run of them shorter than
-    ``BASE_MIN_DEG`` is the bottom of an eccentric, not a base circle (the law is then
-    periodic)."""
-    if a[-1] - a[0] < TWO_PI - 1.5 * step:           # part of the turn: keep its frame
-        return 0.0, False
-    base = h <= float(np.min(h)) + level
-    n = a.size
-    if base.all():
-        return 0.0, False
-    # the cyclic runs of base rows (walked from a lobe row, so none wraps); the longest
-    # one's middle goes to the seam
-    start = int(np.flatnonzero(~base)[0])
-    first, last = _runs(np.roll(base, -start))
-    best, best_len = None, -1.0
-    if first.size:
-        first, last = (first + start) % n, (last - 1 + start) % n
-        spans = (a[last] - a[first]) % TWO_PI
-        k = int(np.argmax(spans))
-        best, best_len = (int(first[k]), int(last[k])), float(spans[k])
-    if best is None or best_len < math.radians(BASE_MIN_DEG):
-        return float(wrap_pi(a[int(np.argmin(h))] + math.pi)), True   # an eccentric
-    if base[0] and base[-1]:
-        return 0.0, False
-    mid = a[best[0]] + 0.5 * ((a[best[1]] - a[best[0]]) % TWO_PI)
-    return float(wrap_pi(mid - math.pi)), False
 
 
 def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool) -> Any:
@@ -410,7 +323,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         noise = scatter
     else:
         scatter = noise = float(noise)
-    offset, periodic = _frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
+    offset, periodic = seam_frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
     if (offset or periodic) and a0[-1] - a0[0] >= TWO_PI - 1e-9:
         # a closed turn (-180..180, 0..360 deg): its last row is its first row again,
         # which the turn would put on the same angle: one row, their mean
@@ -510,7 +423,7 @@ def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -
     curve = JetTableLift(a, j, key=key, trim=-1.0)
     h = j[0]
     step = float(np.median(np.diff(a)))
-    offset, periodic = _frame(a, h, step, max(1e-4 * float(np.ptp(h)), 1e-6))
+    offset, periodic = seam_frame(a, h, step, max(1e-4 * float(np.ptp(h)), 1e-6))
     if offset or periodic:
         # a lobe across the seam of the profile's grid: its lift rows, re-framed
         return lobe_law(a, h, key=key)

@@ -35,10 +35,10 @@ BUCKET_ROWS = 1 << 18
 _SIGN = np.uint64(1 << 63)
 
 
-def angle_order(key: NDArray[np.float64]) -> NDArray[np.intp]:
-    """The order of a lift table's rows: by ``key`` (the angle), ties (samples of several
-    revolutions at one encoder angle) in arrival order, i.e. stamp order
-    (``numpy.argsort(key, kind='stable')``). The one order of a table on every path (a
+def angle_order(key: NDArray[Any]) -> NDArray[np.intp]:
+    """The order of a lift table's rows: by ``key`` (the angle, or its bucket), ties
+    (samples of several revolutions at one encoder angle) in arrival order, i.e. stamp
+    order (``numpy.argsort(key, kind='stable')``). The one order of a table on every path (a
     short feature in memory, a long one through ``Buckets``): the table's readers that
     look at neighbours (the base reference's running median, the card's area) give the
     same numbers on both, on every machine."""
