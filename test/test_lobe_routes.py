@@ -665,6 +665,12 @@ def test_a_lobe_at_the_seam_has_one_frame_on_every_route(tmp_path: Path, case: s
             allow = 2.0 * _event_allow_deg(lobe, 1e-5, step, want['height_m'],
                                            want[k] - expected)
             assert abs(x - want[k]) <= allow, ('spline', k, x, want[k])
+    # and its warning that alpha = 0 is not on the lobe names the lobe axis there too
+    said = [re.search(r'the lobe axis is at (\S+) deg', w) for w in spline.warnings]
+    axes = [float(m.group(1)) for m in said if m]
+    assert len(axes) == (1 if abs(expected) > 90.0 else 0), spline.warnings
+    for axis in axes:
+        assert axis == pytest.approx(expected, abs=0.05)
     ref = cards['card']
     assert ref['centreline_deg'] == pytest.approx(expected, abs=0.05), ref
     for route, card in cards.items():

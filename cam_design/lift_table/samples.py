@@ -380,11 +380,12 @@ def other_lobes_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
             'each lobe its own table (or cut the table) to read them')
 
 
-def nose_warning(data: CleanSamples) -> str | None:
+def nose_warning(data: CleanSamples, near: float | None = None) -> str | None:
     """A warning when alpha = 0 is not on the lobe (lift there below half the largest
     lift): the angles are not taken from the lobe centreline, which the section harmonic
     basis and every lobe-centred quantity assume. Names the lobe axis (flank
-    midpoints) and the option that re-centres a table file."""
+    midpoints; in the turn nearest ``near`` [rad], the lobe law's middle, when given:
+    the frame every route states) and the option that re-centres a table file."""
     a, h = data.alpha, data.lift
     top = float(np.max(h))
     base = float(np.percentile(h, 5))
@@ -395,6 +396,8 @@ def nose_warning(data: CleanSamples) -> str | None:
         return None
     try:
         _, shift = centre_on_nose(LiftTable('table', a, h))
+        if near is not None:
+            shift += 2.0 * math.pi * round((near - shift) / (2.0 * math.pi))
         where = f'the lobe axis is at {math.degrees(shift):.2f} deg'
     except InputError:
         where = f'the largest lift is at {math.degrees(float(a[int(np.argmax(h))])):.2f} deg'

@@ -282,7 +282,8 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     fit_steps = find_steps(fit.alpha, fit.lift, fairing.sigma) if turn else steps
     table_warnings = step_warnings(steps)
     # (with a design the table is aligned on it; a dual-peak lobe may have a valley at 0)
-    off_centre = nose_warning(data) if design is None else None
+    off_centre = (nose_warning(data, None if lobe is None else lobe.lobe.middle)
+                  if design is None else None)
     if off_centre:
         table_warnings.append(off_centre)
     table_warnings += [w for w in (base_circle_warning(data.alpha, data.lift),
