@@ -719,3 +719,32 @@ def test_seam_table_card_and_dynamics_print_one_frame(tmp_path: Path, capsys) ->
     # a 1 deg grid, a stiff train at 1000 rpm (1 um of deflection): within 0.05 deg
     assert got[0] == pytest.approx(opens, abs=0.05)
     assert got[1] == pytest.approx(closes, abs=0.05)
+
+
+def test_a_scene_nominal_file_keeps_the_scene_frame(tmp_path: Path) -> None:
+    """A gauge nominal file written 0..360 deg with its nose at 300 deg: in a scene (whose
+    angles are from the lobe centreline, in (-180, 180]) its lobe is at -60 deg, inside
+    [-180, 180] where the follower conversion takes it (as it was before the one-frame
+    rule); the same file given to `card` is told in its own turn (nose 300 deg)."""
+    from cam_metrology.cli.card import table_card
+    from cam_metrology.inputs.lift_tables import read_gauge_file
+    from cam_metrology.scene.parse import load_scene
+
+    deg = np.arange(0.0, 360.0, 0.5)
+    lift_mm = np.round(LOBE(((deg - 300.0 + 180.0) % 360.0 - 180.0) * D) * 1e7) / 1e4
+    gauge = tmp_path / 'lobe.txt'
+    gauge.write_text('0.0\n' + f'{deg.size}\n' + ''.join(
+        f'{a:.4f} {v:.4f}\n' for a, v in zip(deg, lift_mm)), encoding='utf-8')
+    (tmp_path / 's.yaml').write_text(
+        'probe: {kind: roller, radius: 0.0125}\nbase_circle_radius: 0.0165\n'
+        'lobes:\n  - {id: lobe, nominal_file: lobe.txt}\n', encoding='utf-8')
+    law = load_scene(tmp_path / 's.yaml').lobe('lobe').lift
+    lo, hi = law.support
+    assert -math.pi <= lo < hi <= math.pi
+    peak = cc.card_from_law(law, (1e-3,))
+    assert peak['centreline_deg'] == pytest.approx(-60.0, abs=0.01)
+    table = read_gauge_file(gauge)
+    card = table_card(table.alpha, table.lift, (1e-3,), gauge.name)
+    assert card['centreline_deg'] == pytest.approx(300.0, abs=0.01)
+    assert card['heights'][0]['duration_cam_deg'] == pytest.approx(
+        peak['heights'][0]['duration_cam_deg'], abs=1e-6)

@@ -32,7 +32,7 @@ def table_from_spec(spec: Mapping[str, Any], key: str) -> TableLobe:
 
     P.reject_unknown(spec, key, ('alpha', 'h'))
     a, v = check_design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'), key)
-    return lobe_law(a, v, key=key)
+    return lobe_law(a, v, key=key, turn_from=-math.pi)   # alpha from the centreline
 
 
 def lobe_warnings(alpha: ArrayLike, lift: ArrayLike, key: str = 'table', *,

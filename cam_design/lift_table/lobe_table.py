@@ -281,7 +281,8 @@ def _edge(curve: Curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: ND
 
 
 def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
-             allow_steps: bool = False, noise: float | None = None) -> TableLobe:
+             allow_steps: bool = False, noise: float | None = None,
+             turn_from: float | None = None) -> TableLobe:
     """The lobe law of a lift table, ``alpha`` [rad] (any frame), ``lift`` [m] (module
     doc for the rules). InputError naming ``key`` when the rows cannot define a lobe.
 
@@ -289,7 +290,10 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     an impact no lobe law drawn through the rows can give: refused unless
     ``allow_steps`` (a cam card, whose events away from the step are still right; the
     note then names the step). ``noise`` [m]: the rows' noise when the caller knows it
-    (a replica of a table with a drawn noise), instead of the estimate."""
+    (a replica of a table with a drawn noise), instead of the estimate. ``turn_from``
+    [rad]: the start of the turn the lobe is told in (``lobe_frame.lobe_turn``), when not
+    the table's first row (a scene's lobe: -pi, its angles from the lobe centreline
+    wrapped to (-180, 180] deg, whatever turn a nominal file is written in)."""
     from cam_design.lift_table.samples import find_steps, step_warnings
     from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 
@@ -404,7 +408,8 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     tau = max(3.0 * sigma, 0.5 * q, BASE_LEVEL_REL * span)
     info = LobeInfo(key=key, method=method, why=why, sigma=sigma, quantum=q, step=step,
                     offset=offset, periodic=periodic, level=tau, rec=rec,
-                    rows=(raw_a.copy(), raw_h.copy()), steps=steps, first=lo_a)
+                    rows=(raw_a.copy(), raw_h.copy()), steps=steps,
+                    first=lo_a if turn_from is None else float(turn_from))
     assert curve is not None        # the interpolant, or the smoothing spline above
     law = _build(curve, b, h, info)
     info.warnings.extend(notes_warning(notes))
