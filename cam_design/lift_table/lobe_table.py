@@ -11,14 +11,14 @@ what the rows could not tell. The rules (docs/methods.md, "One table, one lobe")
   in the middle of its longest base-circle run (a lobe across +-180 deg is not cut);
   one with no base-circle run (an eccentric) is periodic, its lowest row at the seam.
   Angles of the law are those of the table (the turn is undone), continuous across the
-  lobe, in the turn of the table's first row: the lobe's middle (halfway between where
-  it passes half its max lift) lies in [first row, first row + 360 deg), one within
-  ``SEAM_TOL_STEPS`` row steps below the end of that turn at the first row
-  (``lobe_turn``). So a
-  -180..180 deg table with its nose at 180 deg has the nose at -180 deg and its events
-  on both sides of it (-219 .. -141 deg), a 0..360 deg table with its nose at 0/360
-  deg the nose at 0 deg, a 0..360 deg table with its nose at 200 deg the nose at 200
-  deg, on every route (card, dynamics, reconstruct's lobe law, scene tables).
+  lobe, in the turn of the table's first row (``lobe_frame``): the lobe's middle
+  (halfway between where it passes half its max lift) lies in [first row, first row +
+  360 deg), one within ``SEAM_TOL_STEPS`` row steps below the end of that turn at the
+  first row. So a -180..180 deg table with its nose at 180 deg has the nose at -180
+  deg and its events on both sides of it (-219 .. -141 deg), a 0..360 deg table with
+  its nose at 0/360 deg the nose at 0 deg, one with its nose at 200 deg the nose at 200
+  deg, on every route that reads a table (card, dynamics, reconstruct's lobe law); a
+  scene's lobe is told from its centreline, in (-180, 180] (``turn_from``).
 * **smoothing**: the rows are interpolated (quintic spline through every row) when
   their scatter about a smooth curve is no more than their rounding explains and the
   rounding, carried through the interpolant, stays below ``ROUNDING_ACC_SHARE`` of the
