@@ -156,6 +156,53 @@ def test_sensor_trace_is_judged_noisy():
     assert float(np.max(np.abs(rec.acceleration))) < 1.25 * peak
 
 
+@pytest.mark.parametrize('kind', ['noisy', 'rounded', 'seated trace'])
+def test_noise_of_the_rows_without_fairing_them(kind):
+    """rebound_noise (the halves of the scatter estimate need only the noise) gives the
+    sigma [m] the fairing estimates, within 1e-12 relative: a noisy lobe with spikes,
+    one rounded to 0.01 mm, and a trace with exactly flat seated rows."""
+    from cam_design.lift_table.rebound import rebound_fairing, rebound_noise
+
+    if kind == 'seated trace':
+        a, h, _ = cycle_trace(20e-6)
+    else:
+        fam = FAMILIES['dwell']
+        a, h = measured_table(fam.law, 0.5 * DEG, sigma=0.5e-6, outliers=5, seed=2,
+                              quantum=1e-5 if kind == 'rounded' else 0.0)
+    sigma = rebound_noise(a, h)
+    assert sigma == pytest.approx(rebound_fairing(a, h).sigma, rel=1e-12, abs=0.0)
+    assert sigma > 0.0
+
+
+def test_hinges_on_a_grid_equal_the_hinges_at_scattered_points():
+    """JunctionFit.hinge_part on an ascending grid (each hinge's points a slice) equals
+    its values at the same points shuffled (found point by point), and both equal the
+    sum over the junctions of their hinge values times their coefficients, for h..h'''
+    (within 1e-12 of the largest value)."""
+    fam = FAMILIES['circular arc']
+    a, h = measured_table(fam.law, 0.5 * DEG, sigma=0.5e-6, seed=1)
+    found = junctions.find_junctions(a, h, 10.0)
+    assert found is not None and len(found.angles) >= 2
+    x = np.linspace(a[0], a[-1], 4001)
+    order = np.random.default_rng(0).permutation(x.size)
+    length = partial_spline.taper_nodes(found.nodes)
+    for nu in range(4):
+        on_grid = found.hinge_part(x, nu)
+        scattered = np.empty_like(x)
+        scattered[order] = found.hinge_part(x[order], nu)
+        direct = np.zeros_like(x)
+        u = (x - found.x0) / found.step
+        for k, t in enumerate(found.angles):
+            tau = (t - found.x0) / found.step
+            side = partial_spline.side_of(tau, found.nodes)
+            vals = partial_spline.hinge_values(side * (u - tau), length, nu)
+            direct += vals @ found.coef[2 * k:2 * k + 2] * float(side) ** nu
+        direct /= found.step ** nu
+        scale = float(np.max(np.abs(direct)))
+        assert np.max(np.abs(on_grid - scattered)) <= 1e-12 * scale
+        assert np.max(np.abs(on_grid - direct)) <= 1e-12 * scale
+
+
 def test_flat_rows_are_runs_of_equal_values():
     y = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 2.0, 2.0, 2.0, 2.0, 2.0, 3.0])
     assert flat_rows(y).tolist() == [True, True, True, False, False, False, False,

@@ -263,12 +263,20 @@ class JunctionFit:
         out = np.zeros(u.size)
         length = taper_nodes(self.nodes)
         cubic = hinge_coefficients(float(length), nu)[1]
+        # ascending points (a grid): each hinge's points are a slice, found by bisection
+        ascending = u.size > 1 and bool(np.all(u[1:] >= u[:-1]))
         for k, t in enumerate(self.angles):
             tau = (t - self.x0) / self.step
             side = side_of(tau, self.nodes)
             c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
-            # formed on the points the hinge opens to only (beyond them it adds 0)
-            on = np.flatnonzero(side * u > side * tau)
+            # formed on the points the hinge opens to only (beyond them it adds 0): a
+            # slice of ``out`` (a view) on ascending points, else its indices
+            on: slice | NDArray[np.intp]
+            if ascending:
+                on = (slice(int(np.searchsorted(u, tau, side='right')), u.size) if side > 0
+                      else slice(0, int(np.searchsorted(u, tau, side='left'))))
+            else:
+                on = np.flatnonzero(side * u > side * tau)
             v = side * (u[on] - tau)
             # the quadratic hinge: v^2/2, v, 1, 0 on v > 0 (Horner's values)
             if nu == 0:
@@ -278,7 +286,11 @@ class JunctionFit:
             elif nu == 2:
                 out[on] += c2
             near = v < length
-            out[on[near]] += c3 * horner(v[near], cubic)
+            taper = c3 * horner(v[near], cubic)
+            if ascending:
+                out[on][near] += taper
+            else:
+                out[on[near]] += taper
         return out.reshape(x.shape) / self.step ** nu
 
 

@@ -389,7 +389,7 @@ class LevelSystem:
         self.ryry = float(self.ry @ self.ry)
         self.trace = _trace_smoother(self.n, self.lam_d)
         self._cols: dict[float, _Column] = {}
-        self._stacks: dict[tuple[float, ...], Stack] = {}
+        self._stacks: dict[tuple[float, ...], NDArray[np.float64]] = {}
         self._fits: dict[tuple[float, ...], PartialFit] = {}
         self._scores: dict[tuple[float, ...], FitScore] = {}
         self._grams: dict[tuple[float, ...], Gram] = {}
@@ -409,17 +409,23 @@ class LevelSystem:
 
     def columns(self, taus: list[float]) -> Stack:
         """(G, R G), (n, 2J), of junctions at node positions ``taus`` (R G zero outside
-        each junction's window; the last few sets kept)."""
+        each junction's window)."""
         key = tuple(float(t) for t in taus)
+        g = np.zeros((self.n, 2 * len(key)))
+        for k, t in enumerate(key):
+            g[:, 2 * k:2 * k + 2] = self._column(t).g
+        return g, self._residual_stack(key)
+
+    def _residual_stack(self, key: tuple[float, ...]) -> NDArray[np.float64]:
+        """R G, (n, 2J), of the junctions ``key``, zero outside each junction's window
+        (the last few sets kept)."""
         done = _recall(self._stacks, key)
         if done is None:
-            g = np.zeros((self.n, 2 * len(key)))
             rg = np.zeros((self.n, 2 * len(key)))
             for k, t in enumerate(key):
                 col = self._column(t)
-                g[:, 2 * k:2 * k + 2] = col.g
                 rg[col.lo:col.hi, 2 * k:2 * k + 2] = col.rg
-            done = _remember(self._stacks, key, (g, rg), STACKS_KEPT)
+            done = _remember(self._stacks, key, rg, STACKS_KEPT)
         return done
 
     def _gram(self, taus: tuple[float, ...]) -> Gram:
@@ -434,13 +440,16 @@ class LevelSystem:
             done = (col.m, col.v, col.gy, col.gry)
         elif taus[:-1] in self._grams:
             pm, pv, pgy, pgry = self._gram(taus[:-1])
-            g, rg = self.columns(list(taus[:-1]))
+            rg = self._residual_stack(taus[:-1])
             k = 2 * len(taus)
             m = np.empty((k, k))
             v = np.empty((k, k))
             m[:-2, :-2], v[:-2, :-2] = pm, pv
             m[-2:, -2:], v[-2:, -2:] = col.m, col.v
-            m[:-2, -2:] = g[col.lo:col.hi].T @ col.rg
+            # the rows of the window of the earlier hinges G, as rows of their (n, 2J - 2)
+            # stack would be (the same product)
+            g = np.concatenate([self._column(t).g[col.lo:col.hi] for t in taus[:-1]], axis=1)
+            m[:-2, -2:] = g.T @ col.rg
             m[-2:, :-2] = col.g.T @ rg
             v[:-2, -2:] = rg[col.lo:col.hi].T @ col.rg
             v[-2:, :-2] = v[:-2, -2:].T
