@@ -204,13 +204,28 @@ def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
 _THIRD_DIFFERENCE = np.array([-1.0, 3.0, -3.0, 1.0])
 
 
-def _penalised(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
-    """lam_d P g = lam_d D3'D3 g (free ends of ``g``'s own rows)."""
+def _penalty_of(g: NDArray[np.float64]) -> NDArray[np.float64]:
+    """P g = D3'D3 g (free ends of ``g``'s own rows)."""
     d3 = np.diff(g, 3, axis=0)
     if g.ndim == 1:
-        return lam_d * np.convolve(d3, _THIRD_DIFFERENCE)
-    return lam_d * np.column_stack([np.convolve(d3[:, k], _THIRD_DIFFERENCE)
-                                    for k in range(g.shape[1])])
+        return np.convolve(d3, _THIRD_DIFFERENCE)
+    return np.column_stack([np.convolve(d3[:, k], _THIRD_DIFFERENCE)
+                            for k in range(g.shape[1])])
+
+
+def _penalised(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
+    """lam_d P g = lam_d D3'D3 g (free ends of ``g``'s own rows)."""
+    return lam_d * _penalty_of(g)
+
+
+@lru_cache(maxsize=512)
+def _hinge_penalty(n: int, tau: float, a: int, b: int) -> NDArray[np.float64]:
+    """P g (``_penalty_of``) on rows [a, b) of the hinges g of the junction at node ``tau``
+    on n nodes (read-only, cached: the search asks for the same junction at every level
+    it tries, the level only scales it)."""
+    out = _penalty_of(_hinge_pair(n, tau)[a:b])
+    out.setflags(write=False)
+    return out
 
 
 def residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
@@ -259,17 +274,16 @@ def _hinge_support(n: int, tau: float, lo: int, hi: int) -> tuple[int, int]:
     return max(a, lo), min(b, hi)
 
 
-def _windowed_residual(g: NDArray[np.float64], lam_d: float, lo: int, hi: int,
-                       tau: float) -> NDArray[np.float64]:
-    """R g of the junction at node ``tau`` on rows [lo, hi) of the n = g.shape[0] rows,
-    zero outside (the rows of I + lam_d P there: a leading block, a trailing one (the
-    matrix reads the same backwards) or the Toeplitz interior)."""
-    n = g.shape[0]
-    rhs = np.zeros((hi - lo,) + g.shape[1:])
+def _windowed_residual(n: int, lam_d: float, lo: int, hi: int, tau: float
+                       ) -> NDArray[np.float64]:
+    """R g, (hi - lo, 2), of the hinges g of the junction at node ``tau`` on rows
+    [lo, hi) of n rows, zero outside (the rows of I + lam_d P there: a leading block, a
+    trailing one (the matrix reads the same backwards) or the Toeplitz interior)."""
+    rhs = np.zeros((hi - lo, 2))
     # P g from the hinge's own rows only: beyond them its third differences are those of
     # a quadratic or of zero (0 but for the rounding of the quadratic's values)
     a, b = _hinge_support(n, tau, lo, hi)
-    rhs[a - lo:b - lo] = _penalised(g[a:b], lam_d)
+    rhs[a - lo:b - lo] = lam_d * _hinge_penalty(n, float(tau), a, b)
     if lo == 0:
         x = _solve(_factor(n, lam_d), rhs)
     elif hi == n:
@@ -401,7 +415,7 @@ class LevelSystem:
         if col is None:
             g = _hinge_pair(self.n, tau)
             lo, hi = _window(self.n, tau, self.lam_d)
-            rg = _windowed_residual(g, self.lam_d, lo, hi, tau)
+            rg = _windowed_residual(self.n, self.lam_d, lo, hi, tau)
             col = self._cols[tau] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
                                             rg.T @ self.ry[lo:hi], g[lo:hi].T @ rg,
                                             rg.T @ rg)
@@ -538,7 +552,7 @@ class LevelSystem:
         # multiply the rounding of e by the hinge's long quadratic tail)
         g = _hinge_pair(self.n, tau)
         a, b = _hinge_support(self.n, tau, *_window(self.n, tau, self.lam_d))
-        d0, d1 = _penalised(g[a:b], self.lam_d).T @ smooth[a:b]
+        d0, d1 = (self.lam_d * _hinge_penalty(self.n, float(tau), a, b)).T @ smooth[a:b]
         if inverse is not None:
             cross = np.concatenate([g[c.lo:c.hi].T @ c.rg for c in cols], axis=1)
             (c00, c01), (c10, c11) = cross @ inverse @ cross.T
