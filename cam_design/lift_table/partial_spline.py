@@ -364,6 +364,13 @@ class _Column:
     v: NDArray[np.float64]
 
 
+def _ridged(m: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``m`` with 1e-13 of its trace added to its diagonal (the hinge Gram's ridge)."""
+    out = m.copy()
+    out.flat[::m.shape[0] + 1] += 1e-13 * np.trace(m)
+    return out
+
+
 K = TypeVar('K')
 V = TypeVar('V')
 
@@ -486,7 +493,7 @@ class LevelSystem:
             done = FitScore(np.zeros(0), self.ryry, self.trace, self.yry)
         else:
             m, v, gy, gry = self._gram(key)
-            ridge = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
+            ridge = _ridged(m)
             # G'R y formed as (R G)'y: g'(R y) multiplies the rounding of R y by the
             # hinge's long quadratic tail (a 1e-15 change of the level moved the step
             # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
@@ -539,7 +546,7 @@ class LevelSystem:
             inverse = None
             if key:
                 m = self._gram(key)[0]
-                inverse = np.linalg.inv(m + 1e-13 * np.trace(m) * np.eye(m.shape[0]))
+                inverse = np.linalg.inv(_ridged(m))
             kept = _remember(self._moving, key, (self.fit(list(key)).smooth,
                                                  self.score(list(key)).objective,
                                                  [self._column(t) for t in key], inverse),
