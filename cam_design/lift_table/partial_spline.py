@@ -166,7 +166,8 @@ def horner(x: NDArray[np.float64], coef: NDArray[np.float64]) -> NDArray[np.floa
     """sum_k coef[k] x^k by Horner's rule (numpy's polyval without its checks)."""
     acc = np.full(x.shape, coef[-1])
     for c in coef[-2::-1]:
-        acc = acc * x + c
+        acc *= x            # in place: the same operations, no temporaries
+        acc += c
     return acc
 
 
