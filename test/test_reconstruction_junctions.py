@@ -260,6 +260,28 @@ def test_fit_scalars_from_kept_products_equal_the_dense_problem():
     assert grown.score(taus).rss == pytest.approx(score.rss, rel=1e-9)
 
 
+def test_kept_hinge_penalty_is_the_third_differences_of_the_hinges():
+    """P g of a junction's hinges on its own rows is kept per place and scaled by the
+    level: equal to lam D3'D3 g formed afresh from hinge_values (within 1e-12 of its
+    largest value) for junctions opening either way, and the same array again when the
+    same place is asked for at another level (the search's levels share it)."""
+    n = 3600
+    length = partial_spline.taper_nodes(n)
+    for tau in (900.37, 2500.81):
+        side = partial_spline.side_of(tau, n)
+        a, b = partial_spline._hinge_support(n, tau, 0, n)
+        x = np.arange(n, dtype=float)
+        g = partial_spline.hinge_values(side * (x - tau), length)[a:b]
+        d3 = np.diff(g, 3, axis=0)
+        for lam in (1e3, 1e7):
+            direct = lam * np.column_stack([np.convolve(d3[:, k], [-1.0, 3.0, -3.0, 1.0])
+                                            for k in range(2)])
+            kept = lam * partial_spline._hinge_penalty(n, tau, a, b)
+            assert np.max(np.abs(kept - direct)) <= 1e-12 * np.max(np.abs(direct))
+        assert partial_spline._hinge_penalty(n, tau, a, b) is \
+            partial_spline._hinge_penalty(n, tau, a, b)
+
+
 @pytest.mark.parametrize('lam', [1e2, 1e4, 1e6, 1e8])
 def test_windowed_hinge_columns_equal_whole_table_solves(lam):
     """A hinge's column R g is solved on a window (the level's Toeplitz interior, or a

@@ -214,26 +214,39 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
     nfft = next_fast_len(2 * n, real=True)
     spectra = _kernel_spectra(n, length, nfft)
     e = rfft(resid, nfft)
-    kern = np.empty((len(SCAN_OFFSETS), spectra.shape[-1]), dtype=complex)
-    var = np.empty(len(SCAN_OFFSETS))
+    k = len(SCAN_OFFSETS)
+    # the products with the hinges' spectra, one batch of inverse FFTs: rows [0, k)
+    # correlate (right-opening junctions), rows [k, 2k) convolve (left-opening)
+    prod = np.empty((2 * k, spectra.shape[-1]), dtype=complex)
+    var = np.empty(k)
     for col, (m, v) in enumerate(interior_hinge_grams(float(lam_d), length, SCAN_OFFSETS)):
         # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
         w = np.array([1.0, -m[0, 1] / m[1, 1]])
         var[col] = max(float(w @ v @ w) * sigma ** 2, 1e-300)
-        kern[col] = w[0] * spectra[col, 0] + w[1] * spectra[col, 1]
+        kern = w[0] * spectra[col, 0] + w[1] * spectra[col, 1]
+        np.multiply(e, np.conj(kern), out=prod[col])
+        np.multiply(e, kern, out=prod[k + col])
     # right: b(j) = sum_i g(i - off) e_{j+i}; left (the table reversed):
     # b(j) = sum_i g(i - off) e_{n-1-j-i}
-    b = irfft(np.concatenate([e * np.conj(kern), e * kern]), nfft, axis=-1)
-    k = len(SCAN_OFFSETS)
-    right = (b[:k, :n] ** 2 / var[:, None]).T.ravel()
-    left = (b[k:, n - 1::-1] ** 2 / var[:, None]).T.ravel()[::-1]
+    b = irfft(prod, nfft, axis=-1)
     pos_r, pos_l = _scan_positions(n)
     mid = 0.5 * (n - 1)
-    r0, r1 = np.searchsorted(pos_r, margin, side='left'), np.searchsorted(pos_r, mid, 'right')
-    l0 = np.searchsorted(pos_l, mid, side='right')
-    l1 = np.searchsorted(pos_l, n - 1 - margin, side='right')
+    r0 = int(np.searchsorted(pos_r, margin, side='left'))
+    r1 = int(np.searchsorted(pos_r, mid, side='right'))
+    l0 = int(np.searchsorted(pos_l, mid, side='right'))
+    l1 = int(np.searchsorted(pos_l, n - 1 - margin, side='right'))
     return (np.concatenate([pos_r[r0:r1], pos_l[l0:l1]]),
-            np.concatenate([right[r0:r1], left[l0:l1]]))
+            np.concatenate([_statistic(b[:k, :n], var, r0, r1),
+                            _statistic(b[k:, n - 1::-1], var, k * n - l1, k * n - l0)[::-1]]))
+
+
+def _statistic(b: NDArray[np.float64], var: NDArray[np.float64], p0: int, p1: int
+               ) -> NDArray[np.float64]:
+    """Entries [p0, p1) of (b^2 / var).T.ravel() (b: offsets x nodes; the scan's
+    positions node by node, offset by offset), formed on the nodes they need only."""
+    k = b.shape[0]
+    j0, j1 = p0 // k, -(-p1 // k)
+    return (b[:, j0:j1] ** 2 / var[:, None]).T.ravel()[p0 - k * j0:p1 - k * j0]
 
 
 @dataclass(frozen=True)
