@@ -282,6 +282,25 @@ def test_kept_hinge_penalty_is_the_third_differences_of_the_hinges():
             partial_spline._hinge_penalty(n, tau, a, b)
 
 
+def test_levels_on_the_lattice_are_the_level_searches_own():
+    """Levels.on_lattice: a level on the search's half-decade lattice (within 1e-12
+    decades of anchor + k LEVEL_STEP), within half a step of the level asked for, and
+    the very level (the same system) the level search builds there."""
+    fam = FAMILIES['dwell']
+    a, h = measured_table(fam.law, 0.5 * DEG, sigma=0.5e-6, seed=1)
+    levels = junctions.Levels(h)
+    assert levels.on_lattice(123.0) == 123.0            # no lattice yet
+    junctions.choose_level(h, [300.4], 1.4, 10 ** 3.3, levels)
+    step = junctions.LEVEL_STEP
+    for lam in (10 ** 2.1, 10 ** 3.3, 10 ** 4.74, 10 ** 6.0):
+        snapped = levels.on_lattice(lam)
+        k = (math.log10(snapped) - levels.anchor) / step
+        assert abs(k - round(k)) < 1e-12 / step
+        assert abs(math.log10(snapped) - math.log10(lam)) <= 0.5 * step + 1e-12
+    built = [lam for lam in levels._systems if abs(math.log10(lam) - 3.3) > 1e-9]
+    assert built and all(levels.on_lattice(lam) == lam for lam in built)
+
+
 @pytest.mark.parametrize('lam', [1e2, 1e4, 1e6, 1e8])
 def test_windowed_hinge_columns_equal_whole_table_solves(lam):
     """A hinge's column R g is solved on a window (the level's Toeplitz interior, or a

@@ -136,6 +136,15 @@ class Levels:
         self.anchor: float | None = None
         self._systems: dict[float, LevelSystem] = {}
 
+    def on_lattice(self, lam_d: float) -> float:
+        """The lattice level nearest to ``lam_d`` (``lam_d`` itself before the lattice is
+        anchored)."""
+        if self.anchor is None:
+            return lam_d
+        h = LEVEL_STEP
+        c0 = self.anchor + h * round((math.log10(max(lam_d, 1e-6)) - self.anchor) / h)
+        return 10.0 ** (c0 + 0 * h)
+
     def at(self, lam_d: float) -> LevelSystem:
         """The system at discrete level ``lam_d``."""
         lam_d = float(lam_d)
@@ -476,10 +485,12 @@ def _attempt(system: LevelSystem, levels: Levels, taus: list[float], held: list[
 def _climbs(levels: Levels, taus: list[float], lam: float, gamma: float) -> bool:
     """The GCV score with junctions ``taus`` is higher at LOOKAHEAD_LEVEL_RISE times
     the level ``lam`` than at its square root times: its minimum (GCV is unimodal in
-    the level) lies below LOOKAHEAD_LEVEL_RISE x ``lam``."""
+    the level) lies below LOOKAHEAD_LEVEL_RISE x ``lam``. Both levels are taken on the
+    search's lattice (``Levels.on_lattice``), where the level searches have already
+    built their systems and the columns of the junctions taken."""
     rise = LOOKAHEAD_LEVEL_RISE
-    return bool(levels.at(lam * rise).gcv(taus, gamma)
-                >= levels.at(lam * math.sqrt(rise)).gcv(taus, gamma))
+    return bool(levels.at(levels.on_lattice(lam * rise)).gcv(taus, gamma)
+                >= levels.at(levels.on_lattice(lam * math.sqrt(rise))).gcv(taus, gamma))
 
 
 def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
