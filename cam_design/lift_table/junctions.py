@@ -174,7 +174,9 @@ def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
             seen[k] = levels.at(10.0 ** (c0 + k * h)).gcv(taus, gamma)
         return seen[k]
 
-    d = -1 if score(-1) < score(1) else 1
+    # downhill (GCV is unimodal in the level near its minimum): a lower score one step
+    # up already says which way, the step down is then not scored
+    d = 1 if score(1) < score(0) or score(-1) >= score(1) else -1
     best = 0
     while abs(best) < LEVEL_REACH and score(best + d) < score(best):
         best += d
