@@ -214,16 +214,10 @@ def _penalty_of(g: NDArray[np.float64]) -> NDArray[np.float64]:
                             for k in range(g.shape[1])])
 
 
-def _penalised(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
-    """lam_d P g = lam_d D3'D3 g (free ends of ``g``'s own rows)."""
-    return lam_d * _penalty_of(g)
-
-
 @lru_cache(maxsize=512)
 def _hinge_penalty(n: int, tau: float, a: int, b: int) -> NDArray[np.float64]:
-    """P g (``_penalty_of``) on rows [a, b) of the hinges g of the junction at node ``tau``
-    on n nodes (read-only, cached: the search asks for the same junction at every level
-    it tries, the level only scales it)."""
+    """P g on rows [a, b) of the hinges g of the junction at node ``tau`` on n nodes
+    (read-only, kept: asked for at every level, which only scales it)."""
     out = _penalty_of(_hinge_pair(n, tau)[a:b])
     out.setflags(write=False)
     return out
@@ -233,7 +227,7 @@ def residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float6
     """R g = (I + lam_d P)^-1 lam_d P g, P = D3'D3: the same as g - S g, but formed from
     third differences, so that the long quadratic tail of a hinge (S reproduces it)
     adds no rounding."""
-    return _deflate(_smooth(_penalised(g, lam_d), lam_d))
+    return _deflate(_smooth(lam_d * _penalty_of(g), lam_d))
 
 
 def window_margin(lam_d: float) -> int:
@@ -430,12 +424,9 @@ class LevelSystem:
         return col
 
     def columns(self, taus: list[float]) -> Stack:
-        """(G, R G), (n, 2J), of junctions at node positions ``taus`` (R G zero outside
-        each junction's window)."""
+        """(G, R G), (n, 2J), of junctions at node positions ``taus``."""
         key = tuple(float(t) for t in taus)
-        g = np.zeros((self.n, 2 * len(key)))
-        for k, t in enumerate(key):
-            g[:, 2 * k:2 * k + 2] = self._column(t).g
+        g = np.hstack([self._column(t).g for t in key]) if key else np.zeros((self.n, 0))
         return g, self._residual_stack(key)
 
     def _residual_stack(self, key: tuple[float, ...]) -> NDArray[np.float64]:
@@ -595,7 +586,7 @@ def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
     nodes = np.arange(size, dtype=float)
     g = np.concatenate([hinge_values(nodes - (margin + 5 + off), length)
                         for off in offsets], axis=1)
-    rg = _deflate(_solve(_interior_factor(size, lam_d), _penalised(g, lam_d)))
+    rg = _deflate(_solve(_interior_factor(size, lam_d), lam_d * _penalty_of(g)))
     return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
                   rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
                  for k in range(len(offsets)))
