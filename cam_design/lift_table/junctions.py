@@ -314,7 +314,7 @@ class JunctionFit:
             if ascending:
                 out[on][near] += taper
             else:
-                out[on[near]] += taper
+                out[np.asarray(on)[near]] += taper      # the indices themselves
         return out.reshape(x.shape) / self.step ** nu
 
 

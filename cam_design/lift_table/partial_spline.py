@@ -490,7 +490,7 @@ class LevelSystem:
             # hinge's long quadratic tail (a 1e-15 change of the level moved the step
             # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
             # third differences and y is data, so the product keeps its digits
-            sol = np.linalg.solve(ridge, np.column_stack([gy, v]))
+            sol = np.asarray(np.linalg.solve(ridge, np.column_stack([gy, v])), dtype=np.float64)
             coef = sol[:, 0]
             extra = float(np.trace(sol[:, 1:]))
             rss = self.ryry - 2.0 * float(coef @ gry) + float(coef @ v @ coef)
