@@ -178,7 +178,7 @@ def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[
     out = np.zeros((u.size, 2))
     quad, cubic = hinge_coefficients(float(length), nu)
     pos = u > 0
-    out[:, 0] = np.where(pos, horner(u, quad), 0.0)
+    out[pos, 0] = horner(u[pos], quad)          # 0 where the hinge is closed
     near = np.flatnonzero(pos & (u < length))
     out[near, 1] = horner(u[near], cubic)
     return out
