@@ -234,9 +234,10 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
         # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
         w = np.array([1.0, -m[0, 1] / m[1, 1]])
         var[col] = max(float(w @ v @ w) * sigma ** 2, 1e-300)
-        kern = w[0] * spectra[col, 0] + w[1] * spectra[col, 1]
-        np.multiply(e, np.conj(kern), out=prod[col])
+        kern = spectra[col, 1] * w[1]      # + spectra[col, 0] * w[0], w[0] = 1
+        kern += spectra[col, 0]
         np.multiply(e, kern, out=prod[k + col])
+        np.multiply(e, np.conjugate(kern, out=kern), out=prod[col])
     # right: b(j) = sum_i g(i - off) e_{j+i}; left (the table reversed):
     # b(j) = sum_i g(i - off) e_{n-1-j-i}
     b = irfft(prod, nfft, axis=-1)
