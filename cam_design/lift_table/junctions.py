@@ -141,9 +141,9 @@ class Levels:
         anchored)."""
         if self.anchor is None:
             return lam_d
-        h = LEVEL_STEP
-        c0 = self.anchor + h * round((math.log10(max(lam_d, 1e-6)) - self.anchor) / h)
-        return 10.0 ** (c0 + 0 * h)
+        h = LEVEL_STEP      # the level as choose_level forms it at its start (k = 0)
+        steps = round((math.log10(max(lam_d, 1e-6)) - self.anchor) / h)
+        return 10.0 ** (self.anchor + h * steps)
 
     def at(self, lam_d: float) -> LevelSystem:
         """The system at discrete level ``lam_d``."""
