@@ -320,7 +320,7 @@ class SplineOptions:
     # also on tables coarser than COARSE_RAD, each junction tested against a soft change
     # of h'' (coarse.py); off by default: at 5 deg a change of h'' within one row (the
     # acceleration peak of a 2-10-18-26 polynomial lobe) passes that test as a step
-    coarse_junctions: bool = False
+    coarse_junctions: bool = True
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
