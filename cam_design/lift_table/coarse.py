@@ -76,13 +76,16 @@ SOFT_MARGIN = 6.0
 STRUCTURED_LAG_ONE = 0.0
 STRUCTURED_RMS = 1.5
 #: width [rows] of the linear change of h'' that stands for every junction kept on a
-#: table coarser than VERY_COARSE_RAD. On the accuracy families at 5 deg (3 seeds, 8
-#: noise kinds; h'' RMS error / scipy's GCV spline's) widths 0 / 0.5 / 0.65 / 0.75 /
-#: 0.8 / 0.85 / 1 row: circular arc at most 0.62 / 0.77 / 0.83 / 0.88 / 0.91 / 0.94 /
-#: 1.01, narrow peak without spikes at most 3.9 / 1.38 / 1.07 / 0.98 / 0.94 / 0.92 /
-#: 0.88 (a true step costs about J^2 w / 12 per unit step J of h'' over the row, a
-#: fitted step where h'' rises over one row J^2 / 12: the width balances the two)
-HEDGE_WIDTH = 0.8
+#: table coarser than VERY_COARSE_RAD. A fitted step where h'' in truth rises over one
+#: row costs about J^2 / 12 of integrated squared h'' error per row (J the change of
+#: h''), a ramp of width w where the truth is a step J^2 w / 12: the width balances the
+#: two. On the accuracy families at 5 deg (3 seeds, 8 noise kinds; h'' RMS error /
+#: scipy's GCV spline's) widths 0 / 0.5 / 0.65 / 0.75 / 0.8 / 0.85 / 1 row: circular
+#: arc at most 0.62 / 0.77 / 0.83 / 0.88 / 0.91 / 0.94 / 1.01; narrow peak without
+#: spikes at most 3.9 / 1.38 / 1.07 / 0.98 / 0.95 / 0.92 / 0.88, at 0.1 um 3.9 / 1.32 /
+#: 0.99 / 0.82 / 0.75 / 0.69 / 0.60 (0.72 without junctions: from 0.85 on no case that
+#: is within 0.9 without junctions is worse with them)
+HEDGE_WIDTH = 0.85
 #: places [rows] of a ramp's centre tried around the search's angle, and passes over
 #: the junctions (each placed with the others held)
 RAMP_OFFSETS = tuple(np.linspace(-0.5, 0.5, 11))

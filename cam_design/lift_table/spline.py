@@ -52,7 +52,7 @@ GCV_GAMMA = 1.4
 SIGN_NOISE_SIGMAS = 4.0
 MAD_TO_SIGMA = 1.482602218505602
 
-#: table step [rad] above which junctions are sought only when asked for
+#: table step [rad] above which the junctions kept are fitted as short ramps of h''
 COARSE_RAD = VERY_COARSE_RAD
 #: table step [rad] above which junctions get the soft-change test and a fit without
 #: junctions the coarse-table level rule and the lobe-end knots (2.5 deg tables: ramped
@@ -318,8 +318,8 @@ class SplineOptions:
     step: float | None = None               # output grid step [rad]; None: data step
     junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
     # also on tables coarser than COARSE_RAD, each junction tested against a soft change
-    # of h'' (coarse.py); off by default: at 5 deg a change of h'' within one row (the
-    # acceleration peak of a 2-10-18-26 polynomial lobe) passes that test as a step
+    # of h'' and fitted as a short ramp of h'' (coarse.py): a step cannot be told there
+    # from a rise within one row; False: no junctions on such tables
     coarse_junctions: bool = True
 
 
@@ -418,8 +418,9 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     found = None
     # coarse tables (coarse.py): a few rows per segment cannot tell a step of h'' from a
     # steep smooth change by GCV alone, so above COARSE_LEVEL_RAD each junction is also
-    # tested against a soft change, and above COARSE_RAD junctions are sought only when
-    # asked for; without junctions the level is checked against the base circle's noise
+    # tested against a soft change, and above COARSE_RAD the junctions kept are fitted
+    # as short ramps of h'' (none sought if opt.coarse_junctions is False); without
+    # junctions the level is checked against the base circle's noise
     coarse = step > COARSE_RAD
     if (opt.junctions and uniform and not exact and opt.smoothing is None
             and (opt.coarse_junctions or not coarse)):
@@ -561,9 +562,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         parameter['edf'] = spline.junctions.edf
         parameter['junctions_deg'] = [math.degrees(t) for t in spline.junctions.angles]
         parameter['acceleration_jumps_m_per_rad2'] = list(spline.junctions.jumps)
+        widths = [spline.junctions.width(k) * math.degrees(step)
+                  for k in range(len(spline.junctions.angles))]
+        parameter['junction_widths_deg'] = widths
         notes.append("h'' jumps at " + ', '.join(
-            f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2)'
-            for t, j in zip(spline.junctions.angles, spline.junctions.jumps)))
+            f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2'
+            + (f' over {w:.3g} deg)' if w > 0.0 else ')')
+            for t, j, w in zip(spline.junctions.angles, spline.junctions.jumps, widths)))
     final = spline
 
     def evaluate(a: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
