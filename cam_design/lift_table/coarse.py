@@ -49,7 +49,6 @@ from cam_design.lift_table.junctions import (JunctionFit, choose_level, find_jun
                                              golden_minimum, ramp_columns, ramp_fit, ramp_hinge,
                                              refit)
 from cam_design.lift_table.noise import EXACT_NOISE_REL, MAD_TO_SIGMA
-from cam_design.lift_table.partial_spline import side_of
 from cam_design.lift_table.rebound import VERY_COARSE_RAD
 
 #: rows within this fraction of the lift range above the lowest row are taken for the
@@ -205,10 +204,13 @@ def _residual_matrix(n: int, lam_d: float) -> tuple[NDArray[np.float64], float]:
     return r, float(np.trace(s))
 
 
-def _step_column(n: int, tau: float, width: float) -> NDArray[np.float64]:
-    """A unit change of h'' at node ``tau`` (node units), opening on its longer side:
-    a step (``width`` 0) or a linear change over ``width`` rows centred on ``tau``."""
-    return ramp_hinge(side_of(tau, n) * (np.arange(n, dtype=float) - tau), width)
+def _step_columns(n: int, taus: list[float], width: float) -> NDArray[np.float64]:
+    """(n, K): a unit change of h'' at each node position of ``taus`` (node units),
+    opening on its longer side: a step (``width`` 0) or a linear change over ``width``
+    rows centred there."""
+    t = np.asarray(taus, dtype=float)
+    side = np.where(t <= 0.5 * (n - 1), 1.0, -1.0)
+    return ramp_hinge(side * (np.arange(n, dtype=float)[:, None] - t), width)
 
 
 def _gcv_scores(values: NDArray[np.float64], r: NDArray[np.float64], trace_s: float,
@@ -249,23 +251,24 @@ def soft_gain(values: NDArray[np.float64], taus: list[float], j: int, lam_d: flo
     within ``SHARP_OFFSETS``)."""
     n = values.size
     r, trace_s = _residual_matrix(n, float(lam_d))
-    others = [_step_column(n, t, 0.0) for i, t in enumerate(taus) if i != j]
-    fixed = np.column_stack(others) if others else np.zeros((n, 0))
-    sharp = [_step_column(n, taus[j] + d, 0.0) for d in SHARP_OFFSETS]
-    soft = [_step_column(n, taus[j] + d, w) for w in SOFT_WIDTHS for d in SOFT_OFFSETS]
-    scores = _gcv_scores(values, r, trace_s, fixed, np.column_stack(sharp + soft), gamma)
-    return n * math.log(float(np.min(scores[:len(sharp)]))
-                        / float(np.min(scores[len(sharp):])))
+    fixed = _step_columns(n, [t for i, t in enumerate(taus) if i != j], 0.0)
+    sharp = _step_columns(n, [taus[j] + d for d in SHARP_OFFSETS], 0.0)
+    soft = [_step_columns(n, [taus[j] + d for d in SOFT_OFFSETS], w) for w in SOFT_WIDTHS]
+    scores = _gcv_scores(values, r, trace_s, fixed, np.column_stack([sharp] + soft), gamma)
+    return n * math.log(float(np.min(scores[:len(SHARP_OFFSETS)]))
+                        / float(np.min(scores[len(SHARP_OFFSETS):])))
 
 
 @dataclass(frozen=True)
 class CoarseJunctions:
     """The junction fit kept on a coarse table (None: none kept), the angles [rad]
-    refused as stand-ins for a fast smooth change of h'', and the level ``lam_d``."""
+    refused as stand-ins for a fast smooth change of h'', the level ``lam_d`` and what
+    to add to the fit's ``why``."""
 
     found: JunctionFit | None
     refused: tuple[float, ...]
     lam_d: float
+    why: str = ''
 
 
 def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
@@ -283,9 +286,9 @@ def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
                                sigma_floor=sigma_floor)
     if tested.found is None or float(grid[1] - grid[0]) <= VERY_COARSE_RAD:
         return tested
-    fit = hedged_junctions(grid, values, missing, tested.found, gamma=gamma,
-                           sigma_floor=sigma_floor)
-    return CoarseJunctions(fit, tested.refused, fit.lam_d)
+    fit, why = hedged_junctions(grid, values, missing, tested.found, gamma=gamma,
+                                sigma_floor=sigma_floor)
+    return CoarseJunctions(fit, tested.refused, fit.lam_d, why)
 
 
 def _tested_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
@@ -343,6 +346,42 @@ def lobe_end_knots(grid: NDArray[np.float64], values: NDArray[np.float64],
     return np.concatenate([np.full(6, grid[0]), np.sort(inner), np.full(6, grid[-1])])
 
 
+@lru_cache(maxsize=8)
+def _penalty_eigen(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Eigenvalues mu (n,) and orthonormal eigenvectors V (n, n) of D3'D3 (free ends):
+    the smoother (I + lam_d D3'D3)^-1 is V diag(1 / (1 + lam_d mu)) V' at every level
+    (read-only, cached)."""
+    d3 = np.diff(np.eye(n), 3, axis=0)
+    mu, vec = np.linalg.eigh(d3.T @ d3)
+    mu = np.maximum(mu, 0.0)
+    mu.setflags(write=False)
+    vec.setflags(write=False)
+    return mu, vec
+
+
+def ramp_scores(values: NDArray[np.float64], taus: list[float], widths: list[float]
+                ) -> Callable[[float], tuple[float, float]]:
+    """(RSS [m^2], edf) of the partial spline with the hinges of ``ramp_columns`` at
+    node positions ``taus`` (``widths`` [rows]) as a function of log10 of the discrete
+    level: the fit of ``ramp_fit`` (its edf with the smoother's exact trace) in the
+    eigenbasis of the penalty, O(n J^2) per level."""
+    mu, vec = _penalty_eigen(values.size)
+    gt = vec.T @ ramp_columns(values.size, taus, widths)
+    yt = vec.T @ values
+
+    def at(log_lam: float) -> tuple[float, float]:
+        lam = 10.0 ** log_lam
+        r = lam * mu / (1.0 + lam * mu)              # eigenvalues of R = I - S
+        rg = r[:, None] * gt
+        m = gt.T @ rg
+        m += 1e-13 * np.trace(m) * np.eye(m.shape[0])
+        sol = np.linalg.solve(m, np.column_stack([rg.T @ yt, rg.T @ rg]))
+        e = r * (yt - gt @ sol[:, 0])
+        return float(e @ e), float(np.sum(1.0 - r)) + float(np.trace(sol[:, 1:]))
+
+    return at
+
+
 def _best_log_level(score: Callable[[float], float], lo: float, hi: float) -> float:
     """log10 of the level minimising ``score(log10 level)`` on [lo, hi]: the best of a
     half-decade lattice, then golden section between its neighbours."""
@@ -367,30 +406,32 @@ def _place_ramps(values: NDArray[np.float64], taus: list[float], widths: list[fl
                 ramp_columns(n, [placed[k] for k in others], [widths[k] for k in others]),
                 ramp_columns(n, [tau], [0.0])[:, 1]])
             trials = [tau + d for d in RAMP_OFFSETS]
-            scores = _gcv_scores(values, r, trace_s, fixed, np.column_stack(
-                [_step_column(n, t, widths[j]) for t in trials]), gamma)
+            scores = _gcv_scores(values, r, trace_s, fixed,
+                                 _step_columns(n, trials, widths[j]), gamma)
             placed[j] = trials[int(np.argmin(scores))]
     return placed
 
 
 def hedged_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
                      missing: NDArray[np.bool_], found: JunctionFit, *, gamma: float,
-                     sigma_floor: float) -> JunctionFit:
+                     sigma_floor: float) -> tuple[JunctionFit, str]:
     """``found``'s junctions on a table coarser than VERY_COARSE_RAD fitted as linear
     changes of h'' over ``HEDGE_WIDTH`` rows (``ramp_hinge``), each centred by GCV
     within half a row of the search's angle; the level by GCV with them, or by
     Mallows' Cp with the base-circle noise (at least ``sigma_floor`` [m]) when the GCV
     fit leaves structured residuals on the lobe and Cp's level is lower (the rule of
-    ``coarse_level``)."""
+    ``coarse_level``). With what to add to the fit's ``why``."""
     n = values.size
     step = float(grid[1] - grid[0])
     widths = [HEDGE_WIDTH] * len(found.angles)
     taus = _place_ramps(values, [(t - float(grid[0])) / step for t in found.angles],
                         widths, found.lam_d, gamma)
 
+    scores = ramp_scores(values, taus, widths)
+
     def gcv(log_lam: float) -> float:
-        fit = ramp_fit(values, taus, widths, 10.0 ** log_lam)
-        return n * fit.rss / max(n - gamma * fit.edf, 1e-9) ** 2
+        rss, edf = scores(log_lam)
+        return n * rss / max(n - gamma * edf, 1e-9) ** 2
 
     start = math.log10(found.lam_d)
     log_lam = _best_log_level(gcv, start - RAMP_LEVEL_REACH, start + RAMP_LEVEL_REACH)
@@ -399,14 +440,22 @@ def hedged_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
     # where the base circle is written as one value
     sigma = noise_sigma(values[live], math.sqrt(12.0) * sigma_floor, sigma_floor)
     fit = ramp_fit(values, taus, widths, 10.0 ** log_lam)
+    why = (f'; on a table this coarse a step of h\'\' cannot be told from a rise within '
+           f'one row: each junction fitted as a linear change of h\'\' over '
+           f'{HEDGE_WIDTH:g} row')
     if sigma is not None and structured(values[live], (values - fit.resid)[live], sigma)[0]:
         noise = sigma
 
         def cp(log_lam: float) -> float:
-            fit = ramp_fit(values, taus, widths, 10.0 ** log_lam)
-            return fit.rss + 2.0 * noise ** 2 * fit.edf
+            rss, edf = scores(log_lam)
+            return rss + 2.0 * noise ** 2 * edf
 
-        log_lam = min(log_lam, _best_log_level(cp, *CP_LOG_LEVELS))
+        log_cp = _best_log_level(cp, *CP_LOG_LEVELS)
+        if log_cp < log_lam:
+            log_lam = log_cp
+            why += (f'; that fit left residuals correlated row to row, above the '
+                    f'base-circle noise ({noise:.3g} m): level by Mallows\' Cp with that '
+                    f'noise')
     ramps = replace(found, angles=tuple(float(grid[0]) + t * step for t in taus),
                     widths=tuple(widths), fitted_on=None)
-    return refit(grid, values, missing, ramps, 10.0 ** log_lam)
+    return refit(grid, values, missing, ramps, 10.0 ** log_lam), why

@@ -427,10 +427,12 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # the search compares GCV scores: it starts from the plain GCV level
         start = choice if opt.criterion == 'gcv' else choose_smoothing(
             values, step, criterion='gcv', gamma=gamma, sigma_floor=floor)
+        hedge = ''
         if step > COARSE_LEVEL_RAD:
             outcome = coarse_junctions(grid, values, missing, start.lam_d, gamma=gamma,
                                        sigma_floor=floor)
             found = outcome.found
+            hedge = outcome.why
             if outcome.refused:
                 notes.append('coarse table: no step of h\'\' at ' + ', '.join(
                     f'{math.degrees(t):.1f}' for t in outcome.refused)
@@ -441,7 +443,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         if found is not None:
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
-                    f'chosen again with them: lam_d = {lam_d:.4g}')
+                    f'chosen again with them: lam_d = {lam_d:.4g}' + hedge)
     knots = None
     if (step > COARSE_LEVEL_RAD and uniform and found is None and not exact
             and opt.smoothing is None):
