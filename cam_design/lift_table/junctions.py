@@ -587,7 +587,7 @@ def ramp_fit(values: NDArray[np.float64], taus: list[float], widths: list[float]
     m = g.T @ rg
     m += 1e-13 * np.trace(m) * np.eye(m.shape[0])
     sol = np.linalg.solve(m, np.column_stack([rg.T @ values, rg.T @ rg]))
-    coef = sol[:, 0]
+    coef = np.asarray(sol[:, 0], dtype=np.float64)
     resid = system.ry - rg @ coef
     z = values - g @ coef
     return PartialFit(z - resid, coef, float(resid @ resid),
