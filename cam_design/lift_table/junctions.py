@@ -276,14 +276,12 @@ class JunctionFit:
             side = side_of(tau, self.nodes)
             c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
             width = self.width(k)
-            if width > 0.0:     # a ramp of h'' in place of the quadratic hinge
-                out += c2 * ramp_hinge(side * (u - tau), width, nu)
             # formed on the points the hinge opens to only (beyond them it adds 0)
             on = np.flatnonzero(side * u > side * tau)
             v = side * (u[on] - tau)
+            if width > 0.0:     # a ramp of h'' in place of the quadratic hinge
+                out += c2 * ramp_hinge(side * (u - tau), width, nu)
             # the quadratic hinge: v^2/2, v, 1, 0 on v > 0 (Horner's values)
-            if width > 0.0:
-                pass
             elif nu == 0:
                 out[on] += c2 * ((0.5 * v) * v)
             elif nu == 1:
