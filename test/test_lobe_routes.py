@@ -30,6 +30,7 @@ from cam_design.lift_laws.registry import from_spec
 from cam_metrology.cli import main
 from cam_design.lift_table.lobe_table import lobe_law
 from cam_metrology.reconstruction.synthetic import PolynomialLobe
+from cam_design.lift_table.truth_lobes import BumpLobe
 
 D = math.pi / 180.0
 LOBE = PolynomialLobe()              # 8.3 mm, ramps 0.3 mm over 30 deg, support +-80 deg
@@ -397,7 +398,9 @@ def test_reconstruct_fits_a_lobe_across_the_seam_in_the_lobe_frame(tmp_path: Pat
         c, t = centred[0][method], turned[0][method]
         assert c['ok'] and t['ok'], method
         ca, ta = np.array(c['alpha_rad']), np.array(t['alpha_rad'])
-        assert np.all(np.diff(ta) > 0) and -math.pi < ta[0] and ta[-1] <= math.pi
+        assert np.all(np.diff(ca) > 0) and -math.pi < ca[0] and ca[-1] <= math.pi
+        # the lobe at 170 deg is not in (-180, 180]: the turn centred on it, -10..350 deg
+        assert np.all(np.diff(ta) > 0) and -10 * D < ta[0] and ta[-1] <= 350 * D
         for col in ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2',
                     'jerk_m_per_rad3'):
             cv, tv = np.array(c[col]), np.array(t[col])
@@ -564,4 +567,184 @@ def test_noisy_table_across_the_seam_is_smoothed_in_the_turned_frame(frame_deg) 
     said = re.search(r'jerk at (\S+)\.\.(\S+) deg, (\S+)\.\.(\S+) deg', law.lobe.note())
     assert said is not None
     for value in said.groups():
-        assert 95.0 < abs(float(value)) < 110.0, law.lobe.note()
+        # in the frame of the lobe's events: continuous across it, 74-81 deg from the
+        # nose on either side (99-106 and 254-261 deg)
+        assert 74.0 < abs(float(value) - 180.0) < 81.0, law.lobe.note()
+
+
+# ------------------------------------------------------------ one frame at the seam
+C2_LOBE = BumpLobe()                 # 8 mm, h = H (1 - x^2)^3 over +-75 deg: C2
+
+
+def _seam_csv(path: Path, lobe, step: float, lo: float, hi: float, nose: float) -> Path:
+    """``lobe`` tabulated every ``step`` deg from ``lo`` to ``hi`` (both rows: a closed
+    turn, as gauges write it), its nose at ``nose`` deg, lifts rounded to 0.01 mm."""
+    deg = np.arange(lo, hi + 1e-9, step)
+    rel = (deg - nose + 180.0) % 360.0 - 180.0
+    lift = np.round(np.asarray(lobe(rel * D), dtype=float) * 1e5) / 1e2
+    path.write_text('Cam Angle [deg],Valve Lift [mm]\n' + ''.join(
+        f'{a:g},{v:.2f}\n' for a, v in zip(deg, lift)), encoding='utf-8')
+    return path
+
+
+def _event_allow_deg(lobe, q_m: float, step_deg: float, height_m: float, at_deg: float
+                     ) -> float:
+    """What rounding q and the step allow an event of ``lobe`` to move [deg]: 4 q/sqrt(12)
+    over the slope at the event, plus 0.02 deg (smoothing bias) and 0.004 x the step."""
+    slope = abs(float(lobe(np.array([at_deg * D]), 1)[0])) * D        # m/deg
+    return 4.0 * q_m / math.sqrt(12.0) / slope + 0.02 + 0.004 * step_deg
+
+
+#: (lobe, step [deg], first and last row [deg], nose [deg], the nose's angle in the one
+#: frame [deg]: the lobe in the turn of the first row)
+SEAM_CASES = {
+    'ramped_2.5_m180_nose180': (LOBE, 2.5, -180.0, 180.0, 180.0, -180.0),
+    'ramped_1_0to360_nose0': (LOBE, 1.0, 0.0, 360.0, 0.0, 0.0),
+    'c2_1_m180_nose180': (C2_LOBE, 1.0, -180.0, 180.0, 180.0, -180.0),
+    'c2_2.5_0to360_nose360': (C2_LOBE, 2.5, 0.0, 360.0, 360.0, 0.0),
+    'ramped_2.5_0to360_nose200': (LOBE, 2.5, 0.0, 360.0, 200.0, 200.0),
+    'c2_2.5_m180_nose170': (C2_LOBE, 2.5, -180.0, 180.0, 170.0, 170.0),
+}
+
+
+def _seam_truth(lobe, heights: tuple[float, ...]) -> dict:
+    """The analytic lobe's card, nose at 0: the ramped lobe's from its lift law; the C2
+    lobe's in closed form (events at +-w sqrt(1 - (y/H)^(1/3)), peak h'' on 0.001 deg)."""
+    if lobe is LOBE:
+        return cc.card_from_law(LOBE_LAW, heights)
+    w, top = C2_LOBE.half_width, C2_LOBE.rise
+    fine = np.linspace(-w, w, 300001)
+    rows = []
+    for y in heights:
+        x = math.degrees(w * math.sqrt(1.0 - (y / top) ** (1.0 / 3.0)))
+        rows.append({'height_m': y, 'opening_deg': -x, 'closing_deg': x})
+    return {'max_lift_m': top, 'heights': rows,
+            'acceleration_max_si': float(np.max(C2_LOBE(fine, 2)))}
+
+
+@pytest.mark.parametrize('case', list(SEAM_CASES))
+def test_a_lobe_at_the_seam_has_one_frame_on_every_route(tmp_path: Path, case: str) -> None:
+    """A closed table (-180..180 or 0..360 deg, both end rows) whose lobe sits at or
+    across the seam: the card, the lobe law `dynamics TABLE` runs, the lobe law
+    `reconstruct` writes (and `dynamics r.json` reads back) state the nose, the events
+    at 0.1 and 1 mm, the duration and the peak h'' in one frame: the lobe in the turn of
+    the table's first row (a nose at the seam at the first row), the same numbers on
+    each route (1e-6 deg, 1e-9 m, 1e-6 relative: one law), and the analytic lobe's,
+    moved to that nose, within what the rounding and the step allow. (The card said
+    -180 deg and the dynamics +180 deg for the same rows; the closed -180..180 table was
+    a traceback: its two rows at +-180 deg fell on one angle once turned.) reconstruct's
+    own spline, over the turn centred on the lobe, has its events there too."""
+    from cam_metrology.cli.card import table_card
+    from cam_metrology.cli.reconstruct import lobe_entry
+    from cam_metrology.dynamics.tables import table_input
+    from cam_metrology.inputs.lift_tables import read_table_file
+    from cam_metrology.reconstruction.profile import reconstruct_table
+    from cam_design.lift_table.lobe_table import lobe_from_jets
+
+    lobe, step, lo, hi, nose, expected = SEAM_CASES[case]
+    path = _seam_csv(tmp_path / f'{case}.csv', lobe, step, lo, hi, nose)
+    heights = (1e-3, 1e-4)
+    table = read_table_file(path)
+    cards = {'card': table_card(table.alpha, table.lift, heights, path.name)}
+    _name, dyn, _source, _note = table_input(path)
+    cards['dynamics TABLE'] = cc.card_from_law(dyn, heights)
+    entry = lobe_entry(table, path.name)
+    assert entry['ok'], entry
+    jets = np.array([entry[k] for k in ('lift_m', 'velocity_m_per_rad',
+                                        'acceleration_m_per_rad2', 'jerk_m_per_rad3')])
+    rec = lobe_from_jets(np.array(entry['alpha_rad']), jets, key='r.json')
+    cards['reconstruct (r.json)'] = cc.card_from_law(rec, heights)
+    truth = _seam_truth(lobe, heights)
+    # reconstruct's own spline (its own smoothing level) over the turn centred on the
+    # lobe when the lobe is not in (-180, 180]: its events where the card's are
+    spline = reconstruct_table(table, methods=('spline',))['spline'].reconstruction
+    assert spline is not None
+    for want in cards['card']['heights']:
+        got = _events_deg(spline.alpha, spline.lift, want['height_m'])
+        for x, k in zip(got, ('opening_deg', 'closing_deg')):
+            allow = 2.0 * _event_allow_deg(lobe, 1e-5, step, want['height_m'],
+                                           want[k] - expected)
+            assert abs(x - want[k]) <= allow, ('spline', k, x, want[k])
+    # and its warning that alpha = 0 is not on the lobe names the lobe axis there too
+    said = [re.search(r'the lobe axis is at (\S+) deg', w) for w in spline.warnings]
+    axes = [float(m.group(1)) for m in said if m]
+    assert len(axes) == (1 if abs(expected) > 90.0 else 0), spline.warnings
+    for axis in axes:
+        assert axis == pytest.approx(expected, abs=0.05)
+    ref = cards['card']
+    assert ref['centreline_deg'] == pytest.approx(expected, abs=0.05), ref
+    for route, card in cards.items():
+        assert card['max_lift_m'] == pytest.approx(ref['max_lift_m'], abs=1e-9), route
+        # the r.json law is the lobe law on a 0.1 deg grid (a cubic Hermite between
+        # its jets): its h'' within 1e-4 of the peak, its events within 1e-4 deg
+        tol_deg, rel = (1e-4, 1e-4) if route.startswith('reconstruct') else (1e-6, 1e-6)
+        for k in ('max_lift_alpha_deg', 'centreline_deg'):
+            assert card[k] == pytest.approx(ref[k], abs=tol_deg), (route, k)
+        assert card['acceleration_max_si'] == pytest.approx(ref['acceleration_max_si'],
+                                                            rel=rel), route
+        for got, want in zip(card['heights'], ref['heights']):
+            for k in ('opening_deg', 'closing_deg', 'duration_cam_deg'):
+                assert got[k] == pytest.approx(want[k], abs=tol_deg), (route, k)
+        # against the cam: max lift within the rounding, the events where the analytic
+        # lobe's are once its nose is put at the expected angle (no whole turns allowed)
+        assert card['max_lift_m'] == pytest.approx(truth['max_lift_m'], abs=1e-5 + 2e-6)
+        assert card['acceleration_max_si'] == pytest.approx(truth['acceleration_max_si'],
+                                                            rel=0.06), route
+        for got, want in zip(card['heights'], truth['heights']):
+            for k in ('opening_deg', 'closing_deg'):
+                allow = _event_allow_deg(lobe, 1e-5, step, want['height_m'], want[k])
+                assert abs(got[k] - (want[k] + expected)) <= allow, (route, k, got[k], allow)
+
+
+def test_seam_table_card_and_dynamics_print_one_frame(tmp_path: Path, capsys) -> None:
+    """`cam-bench card` and `cam-bench dynamics` on one closed -180..180 deg table with
+    the nose at 180 deg: the card's centreline and events, the dynamics' valve events
+    and its valve lift at 1 mm, all around -180 deg (the turn of the first row)."""
+    path = _seam_csv(tmp_path / 'seam.csv', LOBE, 2.5, -180.0, 180.0, 180.0)
+    assert main(['card', str(path), '--heights-mm', '1']) == 0
+    text = capsys.readouterr().out
+    row = next(line for line in text.splitlines() if line.strip().startswith('1.0000'))
+    opens, closes, _dur, _crank, centre = (float(v) for v in row.split()[1:])
+    assert centre == pytest.approx(-180.0, abs=0.01)
+    t = _truth((1.0,))['heights'][0]
+    allow = _allow_deg(1e-5, 2.5, 1e-3)
+    assert opens == pytest.approx(t['opening_deg'] - 180.0, abs=allow)
+    assert closes == pytest.approx(t['closing_deg'] - 180.0, abs=allow)
+    entry = _dynamics(tmp_path, path, '--rpm', '1000')
+    run = entry['runs'][0]
+    # the valve leaves and returns to its seat where the lobe does (support ends,
+    # -260..-100 deg), and its lift passes 1 mm where the card's events are
+    assert -265.0 < run['opening_deg'] < opens < closes < run['closing_deg'] < -95.0
+    got = _events_deg(np.radians(run['alpha_deg']), np.array(run['valve_lift_m']), 1e-3)
+    # a 1 deg grid, a stiff train at 1000 rpm (1 um of deflection): within 0.05 deg
+    assert got[0] == pytest.approx(opens, abs=0.05)
+    assert got[1] == pytest.approx(closes, abs=0.05)
+
+
+def test_a_scene_nominal_file_keeps_the_scene_frame(tmp_path: Path) -> None:
+    """A gauge nominal file written 0..360 deg with its nose at 300 deg: in a scene (whose
+    angles are from the lobe centreline, in (-180, 180]) its lobe is at -60 deg, inside
+    [-180, 180] where the follower conversion takes it (as it was before the one-frame
+    rule); the same file given to `card` is told in its own turn (nose 300 deg)."""
+    from cam_metrology.cli.card import table_card
+    from cam_metrology.inputs.lift_tables import read_gauge_file
+    from cam_metrology.scene.parse import load_scene
+
+    deg = np.arange(0.0, 360.0, 0.5)
+    lift_mm = np.round(LOBE(((deg - 300.0 + 180.0) % 360.0 - 180.0) * D) * 1e7) / 1e4
+    gauge = tmp_path / 'lobe.txt'
+    gauge.write_text('0.0\n' + f'{deg.size}\n' + ''.join(
+        f'{a:.4f} {v:.4f}\n' for a, v in zip(deg, lift_mm)), encoding='utf-8')
+    (tmp_path / 's.yaml').write_text(
+        'probe: {kind: roller, radius: 0.0125}\nbase_circle_radius: 0.0165\n'
+        'lobes:\n  - {id: lobe, nominal_file: lobe.txt}\n', encoding='utf-8')
+    law = load_scene(tmp_path / 's.yaml').lobe('lobe').lift
+    lo, hi = law.support
+    assert -math.pi <= lo < hi <= math.pi
+    peak = cc.card_from_law(law, (1e-3,))
+    assert peak['centreline_deg'] == pytest.approx(-60.0, abs=0.01)
+    table = read_gauge_file(gauge)
+    card = table_card(table.alpha, table.lift, (1e-3,), gauge.name)
+    assert card['centreline_deg'] == pytest.approx(300.0, abs=0.01)
+    assert card['heights'][0]['duration_cam_deg'] == pytest.approx(
+        peak['heights'][0]['duration_cam_deg'], abs=1e-6)

@@ -118,10 +118,12 @@ def test_repeated_angles_merged_block_by_block_equal_the_whole_merge() -> None:
             np.testing.assert_allclose(g, w, rtol=0, atol=1e-15)
 
 
-def _feature(jitter: float):
+def _feature(jitter: float, grid: bool = False):
     """A lobe of 3.3 revolutions x 3600 samples (1 um noise, a first-harmonic run-out
     of 3 um, three spikes), encoder angles jittered by ``jitter`` [rad] (no two
-    samples at the same angle: the table order is then the same for any sort)."""
+    samples at the same angle: the table order is then the same for any sort), or on
+    the encoder's grid of 3600 counts (``grid``: the samples of 3-4 revolutions at each
+    angle are ties of the table's sort)."""
     from cam_metrology.metrology.features import FeatureSamples
     from cam_metrology.metrology.synthetic import sample_lobe
 
@@ -129,17 +131,26 @@ def _feature(jitter: float):
                           noise=1e-6, seed=6)
     rng = np.random.default_rng(6)
     theta = samples.theta + rng.uniform(-jitter, jitter, samples.theta.size)
+    if grid:
+        count = 2.0 * np.pi / 3600
+        theta = np.round(samples.theta / count) * count
     s = samples.s + 3e-6 * np.cos(theta - 0.4)
     s[[500, 4000, 9000]] += 40e-6
     return FeatureSamples('lobe_1', theta, s, samples.stamp_ns, theta.size, 0, 0, 3.3)
 
 
-def test_lobe_on_its_long_column_path_gives_the_in_memory_report(monkeypatch) -> None:
+@pytest.mark.parametrize('grid', [False, True], ids=['jittered', 'encoder_grid_ties'])
+def test_lobe_on_its_long_column_path_gives_the_in_memory_report(
+        monkeypatch, grid: bool) -> None:
     """The whole lobe analysis (fit, outliers, noise model, base reference, sensitive
     point, per-revolution repeatability, lift table, asymmetry, lift errors) and the
     form and cam card of its table, on the long-column path (every column spilled and
     read a block at a time: spill size lowered to 1 KiB) equal the in-memory path:
-    angles to 1e-10 deg, lifts to 1e-9 um, the same outliers and iterations."""
+    angles to 1e-10 deg, lifts to 1e-9 um, the same outliers and iterations; also with
+    thousands of tied angles (samples on the encoder's grid), whose order both paths
+    take from one rule (``long_columns.angle_order``: ties in stamp order): the short
+    path's unstable sort once moved the card's area by 8e-7 of itself and lift-error
+    values by nm against the long path's."""
     from cam_design.cam_card import card_from_table
     from cam_metrology.metrology.analysis import Settings, analyze_lobe
     from cam_metrology.metrology.feature_form import lobe_form
@@ -147,7 +158,7 @@ def test_lobe_on_its_long_column_path_gives_the_in_memory_report(monkeypatch) ->
     from cam_metrology.metrology.lobe_columns import card_rows, support_area
     from cam_metrology.scene.model import FormSettings
 
-    fs = _feature(2e-6)
+    fs = _feature(0.0, grid=True) if grid else _feature(2e-6)
 
     def report(long: bool):
         if long:
@@ -168,6 +179,8 @@ def test_lobe_on_its_long_column_path_gives_the_in_memory_report(monkeypatch) ->
     short, short_form, short_card = report(False)
     long, long_form, long_card = report(True)
     assert isinstance(long.table, np.memmap)
+    tied = int(np.count_nonzero(np.diff(short.table[:, 0]) == 0))
+    assert (tied > 3000) == grid, tied
     for key in ('samples_outliers_rejected', 'iterations'):
         assert long.values[key] == short.values[key]
     assert short.values['samples_outliers_rejected'] >= 3   # the spikes

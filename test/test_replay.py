@@ -296,3 +296,35 @@ def test_write_outputs_bag_decodes_with_mcap_alone(tmp_path):
                                2 * np.array([[1.0 + 0.1 * i, 1e-3 * i] for i in range(5)]))
     assert [s.name for s in got[RESULT][0].status] == ['lobe_1/spline', 'lobe_2/spline']
     assert got['/metrology/report'][0].data == '{"done": 10}'
+
+
+def test_a_bags_scenes_are_read_once_for_the_check_and_the_replay(monkeypatch):
+    """``analyze`` checks the bag's scenes before the replay (``bag_warnings``) and the
+    replay takes the sample joint names from its first scene (``sample_joints_of``):
+    each scene message is parsed once (it was parsed twice), and the report is the one
+    of a fresh read of the scenes at every call."""
+    from pathlib import Path
+
+    from cam_metrology.offline.analyze import analyze_report
+    from cam_metrology.report.golden import golden_of
+    from cam_metrology.scene import recorded
+
+    bag = Path(__file__).resolve().parent.parent / 'bags' / 'default_clean'
+    scenes = sum(1 for _ in bagio.iter_messages(bag, [recorded.SCENE_TOPIC]))
+    assert scenes >= 1
+    parsed = []
+    real = recorded.parse_scene
+
+    def counting(*args, **kwargs):
+        parsed.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(recorded, 'parse_scene', counting)
+    recorded._LAST.clear()
+    once = golden_of(analyze_report(str(bag), None))
+    assert len(parsed) == scenes
+    # the same report with the scenes read afresh at every call
+    monkeypatch.setattr(recorded, 'bag_scenes', recorded._read_scenes)
+    fresh = golden_of(analyze_report(str(bag), None))
+    assert len(parsed) == 3 * scenes
+    assert once == fresh

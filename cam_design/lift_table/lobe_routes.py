@@ -6,6 +6,7 @@ the reconstruction, which keeps its own fits, is told about the same rows
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -13,7 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cam_design.errors import InputError
-from cam_design.lift_table.lobe_table import TableLobe, lobe_law, part_turn_centre
+from cam_design.lift_table.lobe_frame import part_turn_centre
+from cam_design.lift_table.lobe_table import TableLobe, lobe_law
 
 #: a fit rising this share of the lift above every row and the lobe law left the rows
 BEYOND_ROWS = 0.01
@@ -30,7 +32,7 @@ def table_from_spec(spec: Mapping[str, Any], key: str) -> TableLobe:
 
     P.reject_unknown(spec, key, ('alpha', 'h'))
     a, v = check_design_table(P.numbers(spec, key, 'alpha'), P.numbers(spec, key, 'h'), key)
-    return lobe_law(a, v, key=key)
+    return lobe_law(a, v, key=key, turn_from=-math.pi)   # alpha from the centreline
 
 
 def lobe_warnings(alpha: ArrayLike, lift: ArrayLike, key: str = 'table', *,
@@ -65,6 +67,23 @@ def fit_turn(alpha: ArrayLike, law: TableLobe | None) -> float:
     if law is not None and not law.lobe.periodic:
         return float(law.lobe.offset)
     return 0.0
+
+
+def fit_window(alpha: ArrayLike, law: TableLobe | None) -> float | None:
+    """The start w [rad] of the turn (w, w + 2 pi] over which a route that fits a whole
+    turn gives its curve back: (-pi, pi] when the lobe law's lobe lies in it (or there
+    is no lobe law, or it is periodic); else the turn centred on the lobe's middle, to
+    the whole degree (a -180..180 deg table with its nose at 180 deg: -360..0 deg, the
+    lobe where the card and the dynamics put it). None for a table over part of the
+    turn (its own contiguous angles)."""
+    if part_turn_centre(alpha):
+        return None
+    if law is None or law.lobe.periodic or law.lobe.middle is None:
+        return -math.pi
+    lo, hi = law.support
+    if lo > -math.pi and hi <= math.pi:
+        return -math.pi
+    return math.radians(round(math.degrees(law.lobe.middle))) - math.pi
 
 
 def beyond_rows(law: TableLobe | None, lift: NDArray[np.float64], rows: ArrayLike) -> str:

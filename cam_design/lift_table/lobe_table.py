@@ -10,7 +10,15 @@ what the rows could not tell. The rules (docs/methods.md, "One table, one lobe")
 * **frame**: a table over the whole turn is turned so that the seam (+-180 deg) lies
   in the middle of its longest base-circle run (a lobe across +-180 deg is not cut);
   one with no base-circle run (an eccentric) is periodic, its lowest row at the seam.
-  Angles of the law are those of the table (the turn is undone).
+  Angles of the law are those of the table (the turn is undone), continuous across the
+  lobe, in the turn of the table's first row (``lobe_frame``): the lobe's middle
+  (halfway between where it passes half its max lift) lies in [first row, first row +
+  360 deg), one within ``SEAM_TOL_STEPS`` row steps below the end of that turn at the
+  first row. So a -180..180 deg table with its nose at 180 deg has the nose at -180
+  deg and its events on both sides of it (-219 .. -141 deg), a 0..360 deg table with
+  its nose at 0/360 deg the nose at 0 deg, one with its nose at 200 deg the nose at 200
+  deg, on every route that reads a table (card, dynamics, reconstruct's lobe law); a
+  scene's lobe is told from its centreline, in (-180, 180] (``turn_from``).
 * **smoothing**: the rows are interpolated (quintic spline through every row) when
   their scatter about a smooth curve is no more than their rounding explains and the
   rounding, carried through the interpolant, stays below ``ROUNDING_ACC_SHARE`` of the
@@ -42,12 +50,13 @@ from numpy.typing import ArrayLike, NDArray
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.lift_laws.jet_table import JetTableLift
+from cam_design.lift_table.lobe_frame import (BASE_MIN_DEG, TWO_PI, lobe_middle, lobe_turn,
+                                              part_turn_centre, seam_frame)
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 
 if TYPE_CHECKING:
     from cam_design.lift_table.rebound import Fairing
 
-TWO_PI = 2.0 * math.pi
 #: a curve of the lobe frame: (alpha [rad], nu) -> nu-th derivative [m/rad^nu]
 Curve = Callable[[Any, int], Any]
 #: largest step [deg] of the grid on which the lobe's jets are tabulated for the
@@ -67,8 +76,6 @@ ROUNDING_ACC_SHARE = 0.02
 #: std of the quintic interpolant's h'' at unit white noise on unit steps (measured on
 #: 1e4 rows of unit noise: 9.7 at the rows, up to 11 between; the larger is used)
 ROUNDING_GAIN = 11.0
-#: a run of base-circle rows shorter than this [deg] is the bottom of an eccentric
-BASE_MIN_DEG = 20.0
 #: the misfit of a smooth shape grows at least this much when the step doubles (the
 #: engine's estimate on exact tables of ramped, cycloidal and harmonic lobes at
 #: 0.5-5 deg: 14 to 1e9; on noisy tables 0.7 to 1.7)
@@ -97,7 +104,11 @@ class LobeInfo:
 
     ``method``: 'interpolated' or 'smoothed'; ``why``: the sentence behind it;
     ``sigma``: the noise the rows carry (rounding or estimate); ``quantum``: the
-    rounding step q (0: not rounded); ``offset``: the turn applied to the rows (frame);
+    rounding step q (0: not rounded); ``offset``: the turn applied to the rows (frame:
+    lobe-frame angle + offset = table angle, in (-pi, pi]); ``shift``: the whole turns
+    [rad] added to that so that the lobe lies in the turn of the table's first row
+    ``first`` [rad] (``lobe_turn``; ``law_offset`` = offset + shift); ``middle``: the
+    lobe's middle in the law's angles [rad] (``lobe_middle``);
     ``periodic``: no base circle (an eccentric); ``joins``: (start, end) of the join
     before and after the lobe (None: the lobe runs out to the table's own rows);
     ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
@@ -119,6 +130,15 @@ class LobeInfo:
     rows: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
     rec: object = None
     steps: list[str] = field(default_factory=list)
+    first: float | None = None
+    shift: float = 0.0
+    middle: float | None = None
+
+    @property
+    def law_offset(self) -> float:
+        """Lobe-frame angle + this = the law's angle [rad] (the turn off the seam and
+        the whole turns that put the lobe in the table's turn)."""
+        return self.offset + self.shift
 
     def note(self) -> str:
         """One sentence for a route's output: how the table became the lobe."""
@@ -129,10 +149,12 @@ class LobeInfo:
                    '; runs out to the table\'s base-circle rows' if not any(self.joins) else
                    '; joined to the base circle with zero lift, velocity, acceleration and '
                    'jerk at ' + ', '.join(
-                       f'{_table_deg(j[0] + self.offset):.2f}..'
-                       f'{_table_deg(j[1] + self.offset):.2f} deg' for j in self.joins if j))
+                       f'{math.degrees(j[0] + self.law_offset):.2f}..'
+                       f'{math.degrees(j[1] + self.law_offset):.2f} deg'
+                       for j in self.joins if j))
                 + (f'; rows turned by {math.degrees(self.offset):.1f} deg to keep the lobe '
-                   'off the +-180 deg seam (angles reported in the table frame)'
+                   'off the +-180 deg seam (angles reported in the table frame, the lobe '
+                   'in the turn of the first row)'
                    if self.offset else '')
                 + ''.join(f'; {s}: lifts, velocities and events near it are the law\'s '
                           'bridge over the step, not the cam' for s in self.steps))
@@ -173,11 +195,6 @@ class TableLobe(LiftLaw):
         return out
 
 
-def _table_deg(angle: float) -> float:
-    """A lobe-frame angle plus the turn [rad], in the table frame [deg], (-180, 180]."""
-    return math.degrees(float(wrap_pi(angle)))
-
-
 def table_quantum(lift: ArrayLike) -> float:
     """The rounding step q [m] of lifts [m] rounded in mm or in inches (0: not rounded)."""
     from cam_design.lift_table.rebound import quantisation_step
@@ -185,58 +202,6 @@ def table_quantum(lift: ArrayLike) -> float:
     v = np.asarray(lift, dtype=float)
     # both: an inch quantum in m is also a (much finer) whole multiple of 1e-8 m
     return float(max(quantisation_step(v), INCH * quantisation_step(v / INCH)))
-
-
-def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """(first index, index after the last) of each run of True in ``mask``."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-
-
-def part_turn_centre(alpha: ArrayLike) -> float:
-    """The middle [rad] of the rows' angles ``alpha`` [rad] when they cover part of the
-    turn (their span is shorter than the turn less 1.5 row steps), else 0. Such a table
-    keeps its angles contiguous around that middle (0..300 deg is not cut at 180 deg,
-    118..242 deg not wrapped into two pieces); a whole turn is wrapped to (-180, 180]."""
-    a = np.asarray(alpha, dtype=float).reshape(-1)
-    a = a[np.isfinite(a)]
-    if a.size < 2:
-        return 0.0
-    lo, hi = float(np.min(a)), float(np.max(a))
-    gaps = np.diff(np.unique(a))
-    row_step = float(np.median(gaps)) if gaps.size else 0.0
-    return 0.5 * (lo + hi) if hi - lo < TWO_PI - 1.5 * row_step else 0.0
-
-
-def _frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float, level: float
-           ) -> tuple[float, bool]:
-    """(offset [rad], periodic) of the rows (sorted, in (-pi, pi]): offset 0 unless the
-    table covers the whole turn and its lobe crosses the seam. Base circle: the rows
-    within ``level`` [m] of the lowest (a few noise sigmas); a run of them shorter than
-    ``BASE_MIN_DEG`` is the bottom of an eccentric, not a base circle (the law is then
-    periodic)."""
-    if a[-1] - a[0] < TWO_PI - 1.5 * step:           # part of the turn: keep its frame
-        return 0.0, False
-    base = h <= float(np.min(h)) + level
-    n = a.size
-    if base.all():
-        return 0.0, False
-    # the cyclic runs of base rows (walked from a lobe row, so none wraps); the longest
-    # one's middle goes to the seam
-    start = int(np.flatnonzero(~base)[0])
-    first, last = _runs(np.roll(base, -start))
-    best, best_len = None, -1.0
-    if first.size:
-        first, last = (first + start) % n, (last - 1 + start) % n
-        spans = (a[last] - a[first]) % TWO_PI
-        k = int(np.argmax(spans))
-        best, best_len = (int(first[k]), int(last[k])), float(spans[k])
-    if best is None or best_len < math.radians(BASE_MIN_DEG):
-        return float(wrap_pi(a[int(np.argmin(h))] + math.pi)), True   # an eccentric
-    if base[0] and base[-1]:
-        return 0.0, False
-    mid = a[best[0]] + 0.5 * ((a[best[1]] - a[best[0]]) % TWO_PI)
-    return float(wrap_pi(mid - math.pi)), False
 
 
 def _interpolant(b: NDArray[np.float64], h: NDArray[np.float64], periodic: bool) -> Any:
@@ -316,7 +281,8 @@ def _edge(curve: Curve, x: NDArray[np.float64], y: NDArray[np.float64], rows: ND
 
 
 def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
-             allow_steps: bool = False, noise: float | None = None) -> TableLobe:
+             allow_steps: bool = False, noise: float | None = None,
+             turn_from: float | None = None) -> TableLobe:
     """The lobe law of a lift table, ``alpha`` [rad] (any frame), ``lift`` [m] (module
     doc for the rules). InputError naming ``key`` when the rows cannot define a lobe.
 
@@ -324,7 +290,10 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     an impact no lobe law drawn through the rows can give: refused unless
     ``allow_steps`` (a cam card, whose events away from the step are still right; the
     note then names the step). ``noise`` [m]: the rows' noise when the caller knows it
-    (a replica of a table with a drawn noise), instead of the estimate."""
+    (a replica of a table with a drawn noise), instead of the estimate. ``turn_from``
+    [rad]: the start of the turn the lobe is told in (``lobe_frame.lobe_turn``), when not
+    the table's first row (a scene's lobe: -pi, its angles from the lobe centreline
+    wrapped to (-180, 180] deg, whatever turn a nominal file is written in)."""
     from cam_design.lift_table.samples import find_steps, step_warnings
     from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 
@@ -358,11 +327,18 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         noise = scatter
     else:
         scatter = noise = float(noise)
-    offset, periodic = _frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
+    offset, periodic = seam_frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
+    if (offset or periodic) and a0[-1] - a0[0] >= TWO_PI - 1e-9:
+        # a closed turn (-180..180, 0..360 deg): its last row is its first row again,
+        # which the turn would put on the same angle: one row, their mean
+        _check_repeats(a0, h, notes, key)
+        notes.append(f'merged the row at {math.degrees(a0[-1]):g} deg into the one at '
+                     f'{math.degrees(a0[0]):g} deg (the same angle; lifts '
+                     f'{h[0] * 1e3:.4g} and {h[-1] * 1e3:.4g} mm, their mean kept)')
+        h = np.concatenate([[0.5 * (h[0] + h[-1])], h[1:-1]])
+        a0 = a0[:-1]
     b = wrap_pi(a0 - offset) if offset else a0
-    if periodic:   # the turn [-pi, pi) from the lowest row (a closing row merged)
-        if a0[-1] - a0[0] >= TWO_PI - 1e-9:
-            a0, h = a0[:-1], h[:-1]
+    if periodic:   # the turn [-pi, pi) from the lowest row
         b = np.mod(a0 - offset + math.pi, TWO_PI) - math.pi
     if offset or periodic:
         order = np.argsort(b, kind='stable')
@@ -432,7 +408,8 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     tau = max(3.0 * sigma, 0.5 * q, BASE_LEVEL_REL * span)
     info = LobeInfo(key=key, method=method, why=why, sigma=sigma, quantum=q, step=step,
                     offset=offset, periodic=periodic, level=tau, rec=rec,
-                    rows=(raw_a.copy(), raw_h.copy()), steps=steps)
+                    rows=(raw_a.copy(), raw_h.copy()), steps=steps,
+                    first=lo_a if turn_from is None else float(turn_from))
     assert curve is not None        # the interpolant, or the smoothing spline above
     law = _build(curve, b, h, info)
     info.warnings.extend(notes_warning(notes))
@@ -451,7 +428,7 @@ def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -
     curve = JetTableLift(a, j, key=key, trim=-1.0)
     h = j[0]
     step = float(np.median(np.diff(a)))
-    offset, periodic = _frame(a, h, step, max(1e-4 * float(np.ptp(h)), 1e-6))
+    offset, periodic = seam_frame(a, h, step, max(1e-4 * float(np.ptp(h)), 1e-6))
     if offset or periodic:
         # a lobe across the seam of the profile's grid: its lift rows, re-framed
         return lobe_law(a, h, key=key)
@@ -462,7 +439,7 @@ def lobe_from_jets(alpha: ArrayLike, jets: ArrayLike, *, key: str = 'profile') -
         BASE_MIN_DEG) else 0.0)
     info = LobeInfo(key=key, method='reconstructed', why="a reconstruction's jets",
                     sigma=ripple, quantum=0.0, step=step, offset=0.0, periodic=False,
-                    level=max(3.0 * ripple, EXACT_SCATTER_REL * span))
+                    level=max(3.0 * ripple, EXACT_SCATTER_REL * span), first=float(a[0]))
     return _build(_Evaluated(curve), a, h, info)
 
 
@@ -477,10 +454,18 @@ def _build(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], info: L
     else:
         law = TableLobe(_lobe_pieces(curve, b, h, info.level, info.step,
                                      _grid_step(info.step), info), info.offset)
+    # the one frame of every route: the lobe in the turn of the table's first row
+    grid = np.linspace(*law.support, 8001)
+    lift = law(grid, 0)
+    middle = lobe_middle(grid, lift)
+    if info.first is not None:
+        info.shift = lobe_turn(middle, info.first, info.step)
+        law._offset = info.law_offset
+    info.middle = middle + info.shift
     law.lobe = info
     rows = info.rows or (b, h)
     law.table = (rows[0], rows[1], info.quantum or None, info.sigma)
-    info.warnings.extend(_checks(law, b, h, info))
+    info.warnings.extend(_checks(law, b, h, info, (grid + info.shift, lift)))
     return law
 
 
@@ -601,11 +586,12 @@ def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], t
 
 
 def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
-            info: LobeInfo) -> list[str]:
-    """Warnings on the law; InputError for a lobe no cam can have."""
+            info: LobeInfo, sampled: tuple[NDArray[np.float64], NDArray[np.float64]]
+            ) -> list[str]:
+    """Warnings on the law; InputError for a lobe no cam can have. ``sampled``: the
+    law's lift [m] on 8001 points over its support [rad] (``_build`` has them)."""
     out: list[str] = []
-    grid = np.linspace(*law.support, 8001)
-    lift = law(grid, 0)
+    grid, lift = sampled
     top = float(np.max(lift))
     # between rows a lobe rises above its highest row by up to |h''| (step/2)^2 / 2
     acc = float(np.max(np.abs(law(grid, 2))))
@@ -632,7 +618,7 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
         j = info.joins[0] if side == 'start' else info.joins[1]
         assert j is not None   # a mid-lobe end is always joined
         at = j[1] if side == 'start' else j[0]
-        level = float(law(np.array([at + info.offset]), 0)[0])
+        level = float(law(np.array([at + info.law_offset]), 0)[0])
         out.append(f'the table {side}s mid-lobe ({level * 1e3:.4g} mm, '
                    f'{level / top * 100:.2g} % of the max lift, no base-circle row): joined '
                    f'to the base circle over {math.degrees(j[1] - j[0]):.2f} deg; events '

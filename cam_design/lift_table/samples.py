@@ -68,6 +68,13 @@ def wrap_pi(alpha: ArrayLike) -> NDArray[np.float64]:
     return out
 
 
+def wrap_from(alpha: ArrayLike, start: float) -> NDArray[np.float64]:
+    """Angles [rad] wrapped to the turn (start, start + 2 pi] (``wrap_pi``: start -pi)."""
+    a = np.asarray(alpha, dtype=float)
+    top = start + 2.0 * np.pi
+    return top - np.mod(top - a, 2.0 * np.pi)
+
+
 def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                   min_points: int = 8) -> CleanSamples:
     """Drop non-finite rows, wrap to (-pi, pi], sort, merge repeated angles.
@@ -104,7 +111,8 @@ def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     if merged:
         spread = (np.maximum.reduceat(h, np.flatnonzero(new))
                   - np.minimum.reduceat(h, np.flatnonzero(new)))
-        worst = int(np.argmax(spread))
+        # among the merged angles only (an angle of one sample has spread 0 too)
+        worst = int(np.argmax(np.where(count > 1, spread, -1.0)))
         notes.append(f'merged {merged} sample(s) at repeated angles into their mean (largest '
                      f'spread {spread[worst] * 1e3:.4g} mm at '
                      f'{math.degrees(float(a_u[worst])):.3f} deg)')
@@ -372,11 +380,12 @@ def other_lobes_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
             'each lobe its own table (or cut the table) to read them')
 
 
-def nose_warning(data: CleanSamples) -> str | None:
+def nose_warning(data: CleanSamples, near: float | None = None) -> str | None:
     """A warning when alpha = 0 is not on the lobe (lift there below half the largest
     lift): the angles are not taken from the lobe centreline, which the section harmonic
     basis and every lobe-centred quantity assume. Names the lobe axis (flank
-    midpoints) and the option that re-centres a table file."""
+    midpoints; in the turn nearest ``near`` [rad], the lobe law's middle, when given:
+    the frame every route states) and the option that re-centres a table file."""
     a, h = data.alpha, data.lift
     top = float(np.max(h))
     base = float(np.percentile(h, 5))
@@ -387,6 +396,8 @@ def nose_warning(data: CleanSamples) -> str | None:
         return None
     try:
         _, shift = centre_on_nose(LiftTable('table', a, h))
+        if near is not None:
+            shift += 2.0 * math.pi * round((near - shift) / (2.0 * math.pi))
         where = f'the lobe axis is at {math.degrees(shift):.2f} deg'
     except InputError:
         where = f'the largest lift is at {math.degrees(float(a[int(np.argmax(h))])):.2f} deg'

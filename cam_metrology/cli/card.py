@@ -183,8 +183,9 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
                ) -> dict[str, Any]:
     """The card of a lift table [rad, m]: that of its lobe law
     (``cam_design.lift_table.lobe_table.lobe_law``, the same lobe every route reads from the
-    rows), with ``source`` and ``note`` saying how the rows became the lobe and
-    ``warning`` what they could not tell."""
+    rows, its angles in the lobe law's frame: the lobe in the turn of the first row),
+    with ``source`` and ``note`` saying how the rows became the lobe and ``warning``
+    what they could not tell."""
     from cam_design.cam_card import card_from_law
     from cam_design.lift_table.lobe_table import lobe_law
     from cam_design.lift_table.samples import base_circle_warning
@@ -197,7 +198,7 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
     said = [w for w in (base_circle_warning(alpha, lift), *law.lobe.warnings) if w]
     if said:
         card['warning'] = '; '.join(said)
-    return _in_table_frame(card, alpha)
+    return card
 
 
 def law_joins(law: Any) -> list[tuple[float, float, float]]:
@@ -209,32 +210,9 @@ def law_joins(law: Any) -> list[tuple[float, float, float]]:
     out = []
     for side in info.mid_lobe:
         lo, hi = info.joins[0] if side == 'start' else info.joins[1]
-        at = (hi if side == 'start' else lo) + info.offset
-        out.append((lo + info.offset, hi + info.offset, float(law(at))))
+        at = (hi if side == 'start' else lo) + info.law_offset
+        out.append((lo + info.law_offset, hi + info.law_offset, float(law(at))))
     return out
-
-
-def _in_table_frame(card: dict[str, Any], alpha: Any) -> dict[str, Any]:
-    """``card`` with every angle moved by whole turns so that the centreline lies in the
-    turn the rows start at, [first row, first row + 360) deg (a 0..360 deg table with its
-    lobe at 180 deg says 180, events 141..219, not -180 and -219..-141; a -180..180 table
-    keeps its signs); events stay on either side of the centreline."""
-    import numpy as np
-
-    centre = card.get('centreline_deg')
-    a = np.asarray(alpha, dtype=float)
-    a = a[np.isfinite(a)]
-    if centre is None or not a.size:
-        return card
-    low = math.degrees(float(np.min(a)))
-    move = (centre - low) % 360.0 + low - centre
-    for key in ('centreline_deg', 'max_lift_alpha_deg'):
-        if card.get(key) is not None:
-            card[key] += move
-    for entry in card.get('heights', []):
-        for key in ('opening_deg', 'closing_deg', 'centreline_deg'):
-            entry[key] += move
-    return card
 
 
 #: lobe -> (alpha [rad], lift [m], probe radius [m]) of tables and bags, for --nominal

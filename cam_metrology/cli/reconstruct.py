@@ -397,12 +397,21 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
         fig, axes = plt.subplots(4, 1, figsize=(9, 11), sharex=True)
         spans: dict[int, list[float]] = {}
         table = core.tables.get(fid)
+        first = next((o.reconstruction for o in outcomes.values()
+                      if o.reconstruction is not None), None)
+        rows = None
         if table is not None:
-            axes[0].plot(np.degrees(table.alpha), table.lift * 1e3, 'o', ms=1.5, mew=0,
+            # the rows in the turn of the fits (the one centred on a lobe that lies
+            # outside (-180, 180]), by whole turns, in angle order
+            rows = table.alpha
+            if first is not None and first.alpha.size:
+                mid = 0.5 * float(first.alpha[0] + first.alpha[-1])
+                rows = rows + 2.0 * np.pi * np.round((mid - rows) / (2.0 * np.pi))
+            order = np.argsort(rows, kind='stable')
+            rows = (rows[order], table.lift[order])
+            axes[0].plot(np.degrees(rows[0]), rows[1] * 1e3, 'o', ms=1.5, mew=0,
                          color='0.35', zorder=4, label='measured')
             design = design_from_table(table)
-            first = next((o.reconstruction for o in outcomes.values()
-                          if o.reconstruction is not None), None)
             if design is not None and first is not None:
                 for nu, ax in enumerate(axes):
                     ax.plot(np.degrees(first.alpha), design(first.alpha, nu) * 1e3, 'k--',
@@ -416,8 +425,8 @@ def _plots(core: Any, folder: Path, feature: str | None) -> None:
                 spans.setdefault(k, []).extend([float(np.min(values)), float(np.max(values))])
             if rec.outliers_alpha.size and m == next(iter(outcomes)):
                 axes[0].plot(np.degrees(rec.outliers_alpha),
-                             np.interp(rec.outliers_alpha, table.alpha, table.lift) * 1e3
-                             if table is not None else np.zeros(rec.outliers_alpha.size),
+                             np.interp(rec.outliers_alpha, *rows) * 1e3
+                             if rows is not None else np.zeros(rec.outliers_alpha.size),
                              'rx', label='outliers')
         for k, (ax, name) in enumerate(zip(axes, names)):
             ax.set_ylabel(name)

@@ -35,6 +35,7 @@ from cam_metrology.metrology.lobe_columns import (column_median, column_of, lift
                                                   short_lift_table)
 from cam_metrology.metrology.flank_fit import (HermiteLift, Lift, coarse_align, fit_shift,
                                                wrap_pi)
+from cam_metrology.metrology.long_columns import angle_order
 from cam_metrology.metrology.sensitive_point import sensitive_point_shift, sensitive_points
 from cam_metrology.metrology.spill import blank, is_long, release, seal, walk
 
@@ -673,7 +674,7 @@ def analyze_pin(fs: FeatureSamples, pin: DowelPinGeometry, direction: int,
     values['lift_error_um'] = {'max_plus': float(np.max(err)) * UM,
                                'max_minus': float(np.min(err)) * UM,
                                'rms': float(np.sqrt(np.mean(err ** 2))) * UM}
-    order = np.argsort(alpha)
+    order = angle_order(alpha)
     table = np.column_stack([alpha[order], measured[order], design[order]])
     return FeatureResult(fs.feature_id, 'dowel_pin', {**values, **_common(fs)}, table,
                          float(np.radians(values['angle_deg'])),
@@ -761,7 +762,7 @@ def analyze_keyway(fs: FeatureSamples, geo: KeywayGeometry, direction: int,
     d_all = law(a_all[near])
     keep = np.isfinite(d_all)
     a_near = a_all[near][keep]
-    order = np.argsort(a_near)
+    order = angle_order(a_near)
     table = np.column_stack([a_near[order], (fs.s - fit.c - harmonic)[near][keep][order],
                              d_all[keep][order]])
     skipped = [('sensitive_point', 'not applied to a keyway: its centre comes from the two '

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cam_metrology.metrology import block_lsq
-from cam_metrology.metrology.long_columns import Buckets, bucket_count, median
+from cam_metrology.metrology.long_columns import Buckets, angle_order, bucket_count, median
 from cam_metrology.metrology.spill import blank, release, seal, walk
 
 Lift = Callable[[NDArray[np.float64], int], NDArray[np.float64]]
@@ -88,9 +88,10 @@ def short_lift_table(x: NDArray[np.float64], d: float, theta: NDArray[np.float64
                      s: NDArray[np.float64], c: float, runout: tuple[float, float],
                      law: Lift, good: NDArray[np.bool_]
                      ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """``lift_table`` of a short feature, in memory (sorted by ``numpy.argsort``)."""
+    """``lift_table`` of a short feature, in memory, in the same order (``angle_order``:
+    ties in stamp order)."""
     alpha = x - d
-    order = np.argsort(alpha)
+    order = angle_order(alpha)
     table = np.empty((alpha.size, 3))
     table[:, 0] = alpha[order]
     wave = block_lsq.first_harmonic(theta[order], 0.0, *runout)

@@ -11,7 +11,7 @@ over blocks of rows, the columns staying in temporary files (``spill``):
   few). Two to four passes over the values.
 * ``Buckets``: rows partitioned by a monotone key (equal-width bins of the angle) into
   temporary files, appended in arrival order; each bucket sorted stably in memory gives
-  the rows in the order of ``numpy.argsort(key, kind='stable')`` (the buckets cover
+  the rows in ``angle_order`` (``numpy.argsort(key, kind='stable')``: the buckets cover
   increasing key ranges and keep arrival order within a bucket), without a permutation
   of the whole column and without reading it at random.
 * ``running_deviation``: value minus the running median of 9 (``median_filter(size=9,
@@ -33,6 +33,16 @@ GATHER_MAX = 1 << 20
 #: rows of a bucket in ``Buckets`` (about; 256 Ki rows of 3 float64 columns: 6 MB)
 BUCKET_ROWS = 1 << 18
 _SIGN = np.uint64(1 << 63)
+
+
+def angle_order(key: NDArray[Any]) -> NDArray[np.intp]:
+    """The order of a lift table's rows: by ``key`` (the angle, or its bucket), ties
+    (samples of several revolutions at one encoder angle) in arrival order, i.e. stamp
+    order (``numpy.argsort(key, kind='stable')``). The one order of a table on every path (a
+    short feature in memory, a long one through ``Buckets``): the table's readers that
+    look at neighbours (the base reference's running median, the card's area) give the
+    same numbers on both, on every machine."""
+    return np.argsort(key, kind='stable')
 
 
 def sortable_keys(values: NDArray[np.float64]) -> NDArray[np.uint64]:
@@ -112,7 +122,7 @@ class Buckets:
     def add(self, rows: NDArray[Any]) -> None:
         """Append ``rows`` (of ``dtype``) to their buckets, in their order."""
         b = self.bucket_of(rows[self.key])
-        order = np.argsort(b, kind='stable')
+        order = angle_order(b)
         b = b[order]
         cuts = np.flatnonzero(b[1:] != b[:-1]) + 1
         for lo, hi in zip(np.concatenate(([0], cuts)), np.concatenate((cuts, [b.size]))):
@@ -129,7 +139,7 @@ class Buckets:
         for which in sorted(self._spools):
             spool = self._spools.pop(which)
             rows = np.array(spool.column())
-            yield rows[np.argsort(rows[self.key], kind='stable')]
+            yield rows[angle_order(rows[self.key])]
 
     def close(self) -> None:
         """Drop the buckets not read."""

@@ -23,7 +23,8 @@ from cam_design.errors import InputError
 from cam_design.lift_table.result import Reconstruction, output_grid, per_second
 from cam_design.lift_table.samples import (CleanSamples, LiftTable, base_circle_warning,
                                            clean_samples, find_steps, nose_warning,
-                                           other_lobes_warning, step_warnings, wrap_pi)
+                                           other_lobes_warning, step_warnings, wrap_from,
+                                           wrap_pi)
 from cam_design.lift_table.rebound import rebound_fairing
 from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_metrology.reconstruction.harmonic import HarmonicOptions, reconstruct_harmonic
@@ -173,30 +174,31 @@ def turned_rows(data: CleanSamples, turn: float) -> tuple[CleanSamples, NDArray[
 
 
 def table_frame_grid(rec: Reconstruction, turn: float, span: tuple[float, float],
-                     wrap: bool) -> NDArray[np.float64]:
+                     window: float | None) -> NDArray[np.float64]:
     """The output grid [rad] in the table's angles for a fit made in the frame turned by
     ``turn`` over the rows' ``span`` (fit frame, rad): the multiples of the fit's grid
-    step whose fit-frame angle lies in that span, in (-pi, pi] for a whole turn
-    (``wrap``), in the table's own contiguous angles for a table over part of the turn.
-    No angle outside the rows' range is given a value."""
+    step whose fit-frame angle lies in that span, in the turn (window, window + 2 pi]
+    for a whole turn (``lobe_routes.fit_window``: (-pi, pi] unless the lobe lies
+    outside it), in the table's own contiguous angles for a table over part of the turn
+    (``window`` None). No angle outside the rows' range is given a value."""
     n = rec.alpha.size
     step = float(rec.alpha[-1] - rec.alpha[0]) / (n - 1) if n > 1 else 2.0 * math.pi
-    if not wrap:
+    if window is None:
         return output_grid(span[0] + turn, span[1] + turn, step)
-    grid = output_grid(-math.pi + 0.5 * step, math.pi, step)
+    grid = output_grid(window + 0.5 * step, window + 2.0 * math.pi, step)
     b = wrap_pi(grid - turn)
     return grid[(b >= span[0] - 1e-12) & (b <= span[1] + 1e-12)]
 
 
 def in_table_frame(rec: Reconstruction, turn: float, grid: NDArray[np.float64],
-                   perm: NDArray[np.intp], wrap: bool) -> Reconstruction:
+                   perm: NDArray[np.intp], window: float | None) -> Reconstruction:
     """``rec``, fitted to the rows turned by ``turn`` [rad] (``turned_rows``), back in the
-    table's angles on ``grid`` (``table_frame_grid``; ``wrap`` as there). Values are the
+    table's angles on ``grid`` (``table_frame_grid``; ``window`` as there). Values are the
     fit's own, at b = wrap(alpha - turn); the fit's seam lies where its rows end (the
     middle of the base circle, or the gap of a partial table)."""
     def back(b: NDArray[np.float64]) -> NDArray[np.float64]:
         a = np.asarray(b, dtype=float) + turn
-        return wrap_pi(a) if wrap else a
+        return a if window is None else wrap_from(a, window)
 
     def evaluate(a: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
         return np.asarray(rec.evaluate(wrap_pi(np.asarray(a, dtype=float) - turn), nu),
@@ -214,12 +216,16 @@ def in_table_frame(rec: Reconstruction, turn: float, grid: NDArray[np.float64],
         mask = np.zeros(perm.size, dtype=bool)
         mask[perm] = rec.outlier_mask
     deg = math.degrees(turn)
-    why = ('the lobe crosses +-180 deg' if wrap else
+    why = ('the lobe crosses +-180 deg' if window is not None else
            'the table covers part of the turn: its rows kept contiguous')
+    over = ('' if window is None or window == -math.pi else
+            f' over {math.degrees(window):.0f}..{math.degrees(window) + 360.0:.0f} deg (the '
+            'turn centred on the lobe, where the card and the dynamics put it)')
     note = (f'fitted to the rows turned by {deg:.1f} deg ({why}), so that no fit is cut '
-            'inside the lobe or bridges a gap; results are in the table\'s angles, angles '
-            'named in this fit\'s other notes and warnings in the turned frame (table '
-            f'angle = that + {deg:.1f} deg)')
+            'inside the lobe or bridges a gap; results are in the table\'s angles' + over
+            + ', angles named in this fit\'s other notes and warnings in the turned frame '
+            f'(table angle = that + {deg:.1f} deg)') if turn else (
+        'results are in the table\'s angles' + over)
     return dataclasses.replace(
         rec, alpha=grid, lift=d[0], velocity=d[1], acceleration=d[2], jerk=d[3],
         data_alpha=data_alpha[order], residual=rec.residual[order],
@@ -261,14 +267,14 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     outcomes: dict[str, MethodOutcome] = {}
     # what the lobe law of the same rows says of them (every route's warnings: mid-lobe
     # ends, crank degrees, steps, results no cam can have), with or without a design
-    from cam_design.lift_table.lobe_routes import fit_turn, lobe_warnings
-    from cam_design.lift_table.lobe_table import part_turn_centre
+    from cam_design.lift_table.lobe_routes import fit_turn, fit_window, lobe_warnings
     lobe, said = lobe_warnings(table.alpha, table.lift, key=table.feature,
                                design_known=design is not None)
     # the fits run in the lobe law's frame: rows turned so that their seam lies in the
     # base circle (a lobe across +-180 deg) or in the gap of a partial table
     turn = fit_turn(table.alpha, lobe)
-    wrap = not part_turn_centre(table.alpha)   # a whole turn: results in (-pi, pi]
+    # a whole turn: results over (-pi, pi], or the turn centred on a lobe outside it
+    window = fit_window(table.alpha, lobe)
     fit, perm = turned_rows(data, turn) if turn else (data, np.arange(data.alpha.size))
     fairing = rebound_fairing(fit.alpha, fit.lift, threshold=sopt.threshold,
                               gain=sopt.gain, cap=sopt.cap, sigma=sopt.sigma)
@@ -276,7 +282,8 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     fit_steps = find_steps(fit.alpha, fit.lift, fairing.sigma) if turn else steps
     table_warnings = step_warnings(steps)
     # (with a design the table is aligned on it; a dual-peak lobe may have a valley at 0)
-    off_centre = nose_warning(data) if design is None else None
+    off_centre = (nose_warning(data, None if lobe is None else lobe.lobe.middle)
+                  if design is None else None)
     if off_centre:
         table_warnings.append(off_centre)
     table_warnings += [w for w in (base_circle_warning(data.alpha, data.lift),
@@ -324,11 +331,11 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
             outcomes[m] = outcome
             continue
         engine = None   # the design follower's lift, converted in the fit's frame
-        if turn:
-            grid = table_frame_grid(rec, turn, (fit.alpha[0], fit.alpha[-1]), wrap)
+        if turn or (window is not None and window != -math.pi):
+            grid = table_frame_grid(rec, turn, (fit.alpha[0], fit.alpha[-1]), window)
             if conversion is not None:
                 engine = _engine(rec, conversion, wrap_pi(grid - turn))
-            rec = in_table_frame(rec, turn, grid, perm, wrap)
+            rec = in_table_frame(rec, turn, grid, perm, window)
         rec.notes = list(table.notes) + rec.notes + table_notes
         rec.warnings = table_warnings + rec.warnings
         if lobe is not None:

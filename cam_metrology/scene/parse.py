@@ -453,7 +453,9 @@ def _table_law(ctx: _Ctx, key: str, alpha: np.ndarray, h: np.ndarray, *,
     from cam_design.lift_table.lobe_table import lobe_law
 
     a, v = (check_design_table(alpha, h, key) if design else (alpha, h))
-    law = lobe_law(a, v, key=key)
+    # a scene's lobe is told from its centreline, in (-180, 180] deg (a nominal file
+    # written 0..360 deg with its nose at 300 deg: a lobe at -60 deg, as the scene says)
+    law = lobe_law(a, v, key=key, turn_from=-math.pi)
     if law.lobe.method != 'interpolated' or law.lobe.warnings:
         ctx.warnings.append(f'{key}: ' + law.lobe.note()
                             + ''.join(f'; {w}' for w in law.lobe.warnings))

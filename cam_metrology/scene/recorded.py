@@ -1,5 +1,7 @@
 """The scenes a bag carries: every ``/bench/scene`` message read with ``bagio`` and
-parsed once (``bag info`` and ``analyze`` use it: one place where a bag's scene is read).
+parsed once (``bag info`` and ``analyze`` use it: one place where a bag's scene is read;
+the scenes of the last bag are kept, so that the check before a replay and the replay's
+joint names read the bag once).
 """
 from __future__ import annotations
 
@@ -25,8 +27,37 @@ class BagScene(NamedTuple):
     error: InputError | None
 
 
+#: the scenes of the last bag read, by its identity (``_bag_identity``): ``analyze``
+#: checks them before the replay and the replay takes the joint names from them; the
+#: bag is read and its scenes parsed once
+_LAST: dict[str, Any] = {}
+
+
+def _bag_identity(path: str | Path) -> tuple[Any, ...]:
+    """The bag's resolved path with the size and modification time of its files (a
+    rosbag2 directory: each file in it; a bare MCAP file: itself)."""
+    p = Path(path).resolve()
+    files = sorted(f for f in p.iterdir() if f.is_file()) if p.is_dir() else [p]
+    return (str(p), *((f.name, f.stat().st_size, f.stat().st_mtime_ns) for f in files))
+
+
 def bag_scenes(path: str | Path) -> list[BagScene]:
-    """Every scene message of a bag in log-time order, parsed."""
+    """Every scene message of a bag in log-time order, parsed (once: a second call for
+    the same unchanged bag gives the same scenes without reading it again)."""
+    try:
+        key = _bag_identity(path)
+    except OSError:   # not there: the reader names it
+        key = None
+    if key is not None and _LAST.get('key') == key:
+        return list(_LAST['scenes'])
+    out = _read_scenes(path)
+    if key is not None:
+        _LAST.update(key=key, scenes=tuple(out))
+    return out
+
+
+def _read_scenes(path: str | Path) -> list[BagScene]:
+    """``bag_scenes`` read from the bag."""
     out = []
     for m in iter_messages(path, [SCENE_TOPIC]):
         text = str(getattr(m.msg, 'data', ''))
