@@ -399,12 +399,19 @@ def _place_ramps(values: NDArray[np.float64], taus: list[float], widths: list[fl
     n = values.size
     r, trace_s = _residual_matrix(n, float(lam_d))
     placed = list(taus)
+    built: dict[tuple[float, float], NDArray[np.float64]] = {}
+
+    def pair(tau: float, width: float) -> NDArray[np.float64]:
+        """The hinge pair of one junction (each built once)."""
+        key = (tau, width)
+        if key not in built:
+            built[key] = ramp_columns(n, [tau], [width])
+        return built[key]
+
     for _ in range(RAMP_PASSES):
         for j, tau in enumerate(taus):
-            others = [k for k in range(len(taus)) if k != j]
-            fixed = np.column_stack([
-                ramp_columns(n, [placed[k] for k in others], [widths[k] for k in others]),
-                ramp_columns(n, [tau], [0.0])[:, 1]])
+            fixed = np.column_stack([pair(placed[k], widths[k]) for k in range(len(taus))
+                                     if k != j] + [pair(tau, 0.0)[:, 1:]])
             trials = [tau + d for d in RAMP_OFFSETS]
             scores = _gcv_scores(values, r, trace_s, fixed,
                                  _step_columns(n, trials, widths[j]), gamma)
