@@ -534,3 +534,51 @@ def test_refinement_with_the_shortcut_lands_where_exact_scores_do():
             junctions.REFINE_ITERATIONS)
         assert fast == pytest.approx(exact, abs=0.01)
         assert fast == pytest.approx(260.3, abs=0.1)
+
+
+@pytest.mark.parametrize('width', [0.0, 0.5, 0.85, 2.0])
+def test_ramp_hinge_is_a_linear_change_of_h2_over_its_width(width):
+    """ramp_hinge: its second derivative is 0 before the ramp, rises linearly to 1 over
+    ``width`` nodes centred on 0 and stays 1 (a step at 0 for width 0); each derivative
+    is the slope of the one below (central differences, 1e-4 node: within 1e-6, away
+    from the ramp's ends); beyond the ramp the value is the step's u^2 / 2 + w^2 / 24."""
+    u = np.linspace(-3.0, 3.0, 6001) + 1e-3 / 3.0
+    h2 = junctions.ramp_hinge(u, width, 2)
+    expect = np.clip(u / width + 0.5, 0.0, 1.0) if width > 0.0 else (u > 0.0).astype(float)
+    assert np.max(np.abs(h2 - expect)) < 1e-12
+    d = 1e-4
+    clear = np.min(np.abs(u[:, None] - np.array([-0.5 * width, 0.5 * width])), axis=1) > 2 * d
+    for nu in (0, 1):
+        slope = (junctions.ramp_hinge(u + d, width, nu)
+                 - junctions.ramp_hinge(u - d, width, nu)) / (2.0 * d)
+        assert np.max(np.abs(slope - junctions.ramp_hinge(u, width, nu + 1))[clear]) < 1e-6
+    beyond = u > 0.5 * width + 1e-9
+    assert np.max(np.abs(junctions.ramp_hinge(u[beyond], width)
+                         - (0.5 * u[beyond] ** 2 + width ** 2 / 24.0))) < 1e-12
+
+
+def test_ramp_fit_of_width_zero_is_the_partial_spline_and_a_ramp_is_recovered():
+    """ramp_fit with widths 0 is partial_fit (fitted lift within 1e-12 m, coefficients
+    within 1e-9 relative). On exact rows of a quadratic plus a change of h'' by
+    2e-6 m/node^2 over 0.85 node at node 30.4, the ramp fit at that width recovers
+    the change within 1e-3 relative and, as a JunctionFit, evaluates h'' within 1e-6 of
+    the change of the truth between the rows."""
+    fam = FAMILIES['dwell']
+    _, h = measured_table(fam.law, 5 * DEG, sigma=0.1e-6, seed=1)
+    taus = [10.3, 30.7, 50.2]
+    plain = partial_spline.partial_fit(h, taus, 1e3)
+    ramp = junctions.ramp_fit(h, taus, [0.0] * 3, 1e3)
+    assert np.max(np.abs(plain.smooth - ramp.smooth)) < 1e-12
+    assert np.allclose(plain.coef, ramp.coef, rtol=1e-9, atol=0.0)
+    n, tau, width, jump = 72, 30.4, 0.85, 2e-6
+    x = np.arange(n, dtype=float)
+    values = 1e-7 * (x - 36.0) ** 2 + jump * junctions.ramp_hinge(x - tau, width)
+    fit = junctions.ramp_fit(values, [tau], [width], 1e2)
+    assert abs(fit.coef[0] - jump) <= 1e-3 * jump
+    found = junctions.JunctionFit((tau,), (float(fit.coef[0]),), 1e2, fit.smooth, fit.edf,
+                                  (0.0,), 1.0, 0.0, n, fit.coef, widths=(width,))
+    fine = np.linspace(27.0, 34.0, 701)
+    smooth2 = np.interp(fine, x, np.gradient(np.gradient(fit.smooth, x), x))
+    h2 = smooth2 + found.hinge_part(fine, 2)
+    truth = 2e-7 + jump * junctions.ramp_hinge(fine - tau, width, 2)
+    assert np.max(np.abs(h2 - truth)) < 1e-6 * jump

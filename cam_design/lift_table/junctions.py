@@ -60,7 +60,8 @@ from scipy.fft import irfft, next_fast_len, rfft
 
 from cam_design.lift_table.partial_spline import (LevelSystem, PartialFit, hinge_coefficients,
                                                   hinge_values, horner, interior_hinge_grams,
-                                                  partial_fit, side_of, taper_nodes)
+                                                  partial_fit, residual_operator, side_of,
+                                                  taper_nodes)
 
 #: family-wise false-alarm probability of the junction search on a lobe without one
 FALSE_ALARM = 1e-3
@@ -267,7 +268,9 @@ class JunctionFit:
     ``jumps`` [m/rad^2] (h''(t+) - h''(t-)), the discrete level ``lam_d``, the smooth
     part ``smooth`` [m] on the grid, ``edf``, the search statistics ``scores``;
     ``step`` [rad], ``x0`` [rad], ``nodes`` and ``coef`` (node units) for the hinges;
-    ``fitted_on``: the grid values [m] of the fit, where they are kept."""
+    ``fitted_on``: the grid values [m] of the fit, where they are kept; ``widths``
+    [nodes] per junction, where h'' changes linearly over that width centred on the
+    angle instead of stepping (``ramp_hinge``; empty: every one a step)."""
 
     angles: tuple[float, ...]
     jumps: tuple[float, ...]
@@ -280,6 +283,11 @@ class JunctionFit:
     nodes: int
     coef: NDArray[np.float64]
     fitted_on: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
+    widths: tuple[float, ...] = ()
+
+    def width(self, k: int) -> float:
+        """Width [nodes] of junction ``k``'s change of h'' (0: a step)."""
+        return self.widths[k] if self.widths else 0.0
 
     def hinge_part(self, x: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
         """Sum of the hinges' nu-th derivative [m/rad^nu] at ``x`` [rad]."""
@@ -294,6 +302,7 @@ class JunctionFit:
             tau = (t - self.x0) / self.step
             side = side_of(tau, self.nodes)
             c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
+            width = self.width(k)
             # formed on the points the hinge opens to only (beyond them it adds 0): a
             # slice of ``out`` (a view) on ascending points, else its indices
             on: slice | NDArray[np.intp]
@@ -303,8 +312,10 @@ class JunctionFit:
             else:
                 on = np.flatnonzero(side * u > side * tau)
             v = side * (u[on] - tau)
+            if width > 0.0:     # a ramp of h'' in place of the quadratic hinge
+                out += c2 * ramp_hinge(side * (u - tau), width, nu)
             # the quadratic hinge: v^2/2, v, 1, 0 on v > 0 (Horner's values)
-            if nu == 0:
+            elif nu == 0:
                 out[on] += c2 * ((0.5 * v) * v)
             elif nu == 1:
                 out[on] += c2 * v
@@ -321,7 +332,8 @@ class JunctionFit:
 
 def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
                 fit: PartialFit, scores: list[float],
-                fitted_on: NDArray[np.float64] | None = None) -> JunctionFit:
+                fitted_on: NDArray[np.float64] | None = None,
+                widths: tuple[float, ...] = ()) -> JunctionFit:
     step = float(grid[1] - grid[0])
     n = grid.size
     order = np.argsort(taus)
@@ -329,7 +341,8 @@ def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
     jumps = tuple(side_of(taus[i], n) * float(fit.coef[2 * i]) / step ** 2 for i in order)
     return JunctionFit(tuple(float(grid[0] + taus[i] * step) for i in order), jumps,
                        lam_d, fit.smooth, fit.edf, tuple(scores[i] for i in order), step,
-                       float(grid[0]), n, coef, fitted_on)
+                       float(grid[0]), n, coef, fitted_on,
+                       tuple(widths[i] for i in order) if widths else ())
 
 
 def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0: float,
@@ -553,8 +566,66 @@ def refit(grid: NDArray[np.float64], values: NDArray[np.float64],
         return found                    # the search's own last fit
     step = float(grid[1] - grid[0])
     taus = [(t - float(grid[0])) / step for t in found.angles]
+    widths = [found.width(k) for k in range(len(taus))]
     vals = values.copy()
     for _ in range(fills + 1 if np.any(missing) else 1):
-        fit = partial_fit(vals, taus, lam_d)
+        fit = (ramp_fit(vals, taus, widths, lam_d) if any(widths)
+               else partial_fit(vals, taus, lam_d))
         vals = np.where(missing, vals - fit.resid, values)
-    return _fit_result(grid, taus, lam_d, fit, list(found.scores))
+    return _fit_result(grid, taus, lam_d, fit, list(found.scores), widths=found.widths)
+
+
+def _truncated_power(x: NDArray[np.float64], k: int) -> NDArray[np.float64]:
+    """x_+^k / k! (k >= 0; k = 0: the unit step at x > 0)."""
+    if k == 0:
+        return np.asarray(x > 0.0, dtype=np.float64)
+    return np.asarray(np.maximum(x, 0.0) ** k / math.factorial(k), dtype=np.float64)
+
+
+def ramp_hinge(u: NDArray[np.float64], width: float, nu: int = 0) -> NDArray[np.float64]:
+    """nu-th u-derivative of a unit change of h'' at u = 0 (node units, opening to
+    positive u): the step u_+^2 / 2 (``width`` 0) or a linear change of h'' over
+    ``width`` nodes centred on 0, ((u + w/2)_+^3 - (u - w/2)_+^3) / (6 w), which beyond
+    the ramp is the step's u^2 / 2 plus the constant w^2 / 24. Derivatives of order
+    above 2 (step) or 3 (ramp) are 0 (the delta functions left out)."""
+    u = np.asarray(u, dtype=float)
+    if width <= 0.0:
+        return _truncated_power(u, 2 - nu) if nu <= 2 else np.zeros(u.shape)
+    if nu > 3:
+        return np.zeros(u.shape)
+    return np.asarray((_truncated_power(u + 0.5 * width, 3 - nu)
+                       - _truncated_power(u - 0.5 * width, 3 - nu)) / width,
+                      dtype=np.float64)
+
+
+def ramp_columns(n: int, taus: list[float], widths: list[float]) -> NDArray[np.float64]:
+    """(n, 2J): per junction at node ``taus[j]`` (opening on its longer side) the change
+    of h'' over ``widths[j]`` nodes (``ramp_hinge``) and the tapered step of h''' of the
+    partial spline's hinge pair (node units)."""
+    rows = np.arange(n, dtype=float)
+    length = taper_nodes(n)
+    g = np.zeros((n, 2 * len(taus)))
+    for j, (tau, width) in enumerate(zip(taus, widths)):
+        u = side_of(tau, n) * (rows - tau)
+        g[:, 2 * j] = ramp_hinge(u, width)
+        g[:, 2 * j + 1] = hinge_values(u, length)[:, 1]
+    return g
+
+
+def ramp_fit(values: NDArray[np.float64], taus: list[float], widths: list[float],
+             lam_d: float) -> PartialFit:
+    """The partial spline of uniform ``values`` [m] at level ``lam_d`` with the hinges
+    of ``ramp_columns`` (a change of h'' over ``widths[j]`` nodes at node ``taus[j]``):
+    the fit of ``partial_fit`` (whose hinges are steps, width 0) with the columns
+    solved on the whole table (for coarse tables: at most a few hundred rows)."""
+    system = LevelSystem(values, lam_d)
+    g = ramp_columns(values.size, taus, widths)
+    rg = residual_operator(g, lam_d)
+    m = g.T @ rg
+    m += 1e-13 * np.trace(m) * np.eye(m.shape[0])
+    sol = np.linalg.solve(m, np.column_stack([rg.T @ values, rg.T @ rg]))
+    coef = np.asarray(sol[:, 0], dtype=np.float64)
+    resid = system.ry - rg @ coef
+    z = values - g @ coef
+    return PartialFit(z - resid, coef, float(resid @ resid),
+                      system.trace + float(np.trace(sol[:, 1:])), float(z @ resid), resid)

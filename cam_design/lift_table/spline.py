@@ -52,7 +52,7 @@ GCV_GAMMA = 1.4
 SIGN_NOISE_SIGMAS = 4.0
 MAD_TO_SIGMA = 1.482602218505602
 
-#: table step [rad] above which junctions are sought only when asked for
+#: table step [rad] above which the junctions kept are fitted as short ramps of h''
 COARSE_RAD = VERY_COARSE_RAD
 #: table step [rad] above which junctions get the soft-change test and a fit without
 #: junctions the coarse-table level rule and the lobe-end knots (2.5 deg tables: ramped
@@ -318,9 +318,9 @@ class SplineOptions:
     step: float | None = None               # output grid step [rad]; None: data step
     junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
     # also on tables coarser than COARSE_RAD, each junction tested against a soft change
-    # of h'' (coarse.py); off by default: at 5 deg a change of h'' within one row (the
-    # acceleration peak of a 2-10-18-26 polynomial lobe) passes that test as a step
-    coarse_junctions: bool = False
+    # of h'' and fitted as a short ramp of h'' (coarse.py): a step cannot be told there
+    # from a rise within one row; False: no junctions on such tables
+    coarse_junctions: bool = True
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
@@ -418,18 +418,21 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     found = None
     # coarse tables (coarse.py): a few rows per segment cannot tell a step of h'' from a
     # steep smooth change by GCV alone, so above COARSE_LEVEL_RAD each junction is also
-    # tested against a soft change, and above COARSE_RAD junctions are sought only when
-    # asked for; without junctions the level is checked against the base circle's noise
+    # tested against a soft change, and above COARSE_RAD the junctions kept are fitted
+    # as short ramps of h'' (none sought if opt.coarse_junctions is False); without
+    # junctions the level is checked against the base circle's noise
     coarse = step > COARSE_RAD
     if (opt.junctions and uniform and not exact and opt.smoothing is None
             and (opt.coarse_junctions or not coarse)):
         # the search compares GCV scores: it starts from the plain GCV level
         start = choice if opt.criterion == 'gcv' else choose_smoothing(
             values, step, criterion='gcv', gamma=gamma, sigma_floor=floor)
+        hedge = ''
         if step > COARSE_LEVEL_RAD:
             outcome = coarse_junctions(grid, values, missing, start.lam_d, gamma=gamma,
                                        sigma_floor=floor)
             found = outcome.found
+            hedge = outcome.why
             if outcome.refused:
                 notes.append('coarse table: no step of h\'\' at ' + ', '.join(
                     f'{math.degrees(t):.1f}' for t in outcome.refused)
@@ -440,7 +443,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         if found is not None:
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
-                    f'chosen again with them: lam_d = {lam_d:.4g}')
+                    f'chosen again with them: lam_d = {lam_d:.4g}' + hedge)
     knots = None
     if (step > COARSE_LEVEL_RAD and uniform and found is None and not exact
             and opt.smoothing is None):
@@ -566,9 +569,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         parameter['edf'] = spline.junctions.edf
         parameter['junctions_deg'] = [math.degrees(t) for t in spline.junctions.angles]
         parameter['acceleration_jumps_m_per_rad2'] = list(spline.junctions.jumps)
+        widths = [spline.junctions.width(k) * math.degrees(step)
+                  for k in range(len(spline.junctions.angles))]
+        parameter['junction_widths_deg'] = widths
         notes.append("h'' jumps at " + ', '.join(
-            f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2)'
-            for t, j in zip(spline.junctions.angles, spline.junctions.jumps)))
+            f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2'
+            + (f' over {w:.3g} deg)' if w > 0.0 else ')')
+            for t, j, w in zip(spline.junctions.angles, spline.junctions.jumps, widths)))
     final = spline
 
     def evaluate(a: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
