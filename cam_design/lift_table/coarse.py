@@ -12,6 +12,13 @@ wrong there (docs/reconstruction.md step 9):
   within +-1.5 rows). A real step fits the rows better sharp; a stand-in for a fast
   smooth change fits better soft. A junction is kept unless the best soft alternative
   lowers N ln(GCV) by more than ``SOFT_MARGIN``.
+* **A step or a one-row rise?** Above 4.5 deg (72 rows a turn or fewer) a change of h''
+  within about one row (the acceleration peak of a polynomial lobe) passes that test as
+  a step, and no criterion on the rows tells the two apart (docs/limits.md lists the
+  rules tried). Every kept junction there is fitted as a linear change of h'' over
+  ``HEDGE_WIDTH`` rows, placed by GCV: a hedge between a step and a one-row rise
+  (docs/methods.md), with the level of the junction fit checked against the
+  base-circle noise as below.
 * **Smoothing level without junctions.** GCV reads the part of an under-resolved lobe
   that the smoother cannot follow as noise (edf 37-40 of 72 rows, residuals of tens of
   um on a table with 0.1 um of noise). The noise of a full-turn table can be measured
@@ -32,14 +39,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from typing import Callable
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.fft import dct
 
 from cam_design.lift_table.junctions import (JunctionFit, choose_level, find_junctions,
-                                             golden_minimum, refit)
+                                             golden_minimum, ramp_columns, ramp_fit, ramp_hinge,
+                                             refit)
 from cam_design.lift_table.noise import EXACT_NOISE_REL, MAD_TO_SIGMA
+from cam_design.lift_table.rebound import VERY_COARSE_RAD
 
 #: rows within this fraction of the lift range above the lowest row are taken for the
 #: base circle (a table's ramps start above it at 5 deg steps)
@@ -64,11 +74,25 @@ SOFT_MARGIN = 6.0
 #: lobes +0.2 to +0.56) and their RMS exceeds STRUCTURED_RMS times the base-circle noise
 STRUCTURED_LAG_ONE = 0.0
 STRUCTURED_RMS = 1.5
-#: the lobe-end fit seeks each kink of h'' from the last base-circle row out to this many
-#: rows away from the lobe, in steps of KINK_STEP rows (the C2 lobe at 2.5 deg, 0.5 um:
-#: 0.66 x scipy's h'' error at the row, 0.38 with the search)
-KINK_REACH = 3.0
-KINK_STEP = 0.5
+#: width [rows] of the linear change of h'' that stands for every junction kept on a
+#: table coarser than VERY_COARSE_RAD. A fitted step where h'' in truth rises over one
+#: row costs about J^2 / 12 of integrated squared h'' error per row (J the change of
+#: h''), a ramp of width w where the truth is a step J^2 w / 12: the width balances the
+#: two. On the accuracy families at 5 deg (3 seeds, 8 noise kinds; h'' RMS error /
+#: scipy's GCV spline's) widths 0 / 0.5 / 0.65 / 0.75 / 0.8 / 0.85 / 1 row: circular
+#: arc at most 0.62 / 0.77 / 0.83 / 0.88 / 0.91 / 0.94 / 1.01; narrow peak without
+#: spikes at most 3.9 / 1.38 / 1.07 / 0.98 / 0.95 / 0.92 / 0.88, at 0.1 um 3.9 / 1.32 /
+#: 0.99 / 0.82 / 0.75 / 0.69 / 0.60 (0.72 without junctions: from 0.85 on no case that
+#: is within 0.9 without junctions is worse with them)
+HEDGE_WIDTH = 0.85
+#: places [rows] of a ramp's centre tried around the search's angle, and passes over
+#: the junctions (each placed with the others held)
+RAMP_OFFSETS = tuple(np.linspace(-0.5, 0.5, 11))
+RAMP_PASSES = 2
+#: the level of a ramp fit is searched this many decades either side of the search's
+#: (GCV), and over this range of log10 levels (Mallows' Cp)
+RAMP_LEVEL_REACH = 2.0
+CP_LOG_LEVELS = (-7.0, 4.0)
 
 
 def base_circle_sigma(lift: NDArray[np.float64], quantum: float = 0.0) -> float | None:
@@ -136,6 +160,26 @@ class CoarseLevel:
     cp_sigma: float | None = None
 
 
+def noise_sigma(rows: NDArray[np.float64], quantum: float, known: float) -> float | None:
+    """The noise [m] a coarse table's fit is judged against: that of the base circle of
+    ``rows`` [m] (rounded to ``quantum``), at least the ``known`` noise [m] and the
+    exact-table bound (a computed table's base circle has no scatter); None without
+    base-circle rows."""
+    sigma = base_circle_sigma(rows, quantum)
+    if sigma is None:
+        return None
+    return max(sigma, known, EXACT_NOISE_REL * float(np.ptp(rows)))
+
+
+def structured(values: NDArray[np.float64], fit: NDArray[np.float64], sigma: float
+               ) -> tuple[bool, float, float]:
+    """(structure, lag-one correlation, RMS / ``sigma``) of the residuals ``values -
+    fit`` [m] on the lobe: structure when they exceed STRUCTURED_RMS times the noise
+    and are positively correlated row to row (a fit that cannot follow the lobe)."""
+    rho, rms = structured_misfit(values, fit, sigma)
+    return rho > STRUCTURED_LAG_ONE and rms > STRUCTURED_RMS, rho, rms
+
+
 def coarse_level(values: NDArray[np.float64], fit: NDArray[np.float64],
                  live: NDArray[np.bool_], rows: NDArray[np.float64], quantum: float,
                  known: float, lam_d: float) -> CoarseLevel:
@@ -144,14 +188,11 @@ def coarse_level(values: NDArray[np.float64], fit: NDArray[np.float64],
     structured residuals on the lobe far above the noise of the base circle of ``rows``
     [m] (rounded to ``quantum``, at least the ``known`` noise [m]); then Mallows' Cp
     with that noise, if lower."""
-    sigma = base_circle_sigma(rows, quantum)
+    sigma = noise_sigma(rows, quantum, known)
     if sigma is None:
         return CoarseLevel(lam_d)
-    # a base circle without scatter (a computed table): the known noise, else the
-    # exact-table bound
-    sigma = max(sigma, known, EXACT_NOISE_REL * float(np.ptp(rows)))
-    rho, rms = structured_misfit(values[live], fit[live], sigma)
-    if rho <= STRUCTURED_LAG_ONE or rms <= STRUCTURED_RMS:
+    misfit, rho, rms = structured(values[live], fit[live], sigma)
+    if not misfit:
         return CoarseLevel(lam_d)
     lam_cp = cp_level(values, sigma)
     if lam_cp >= lam_d:
@@ -173,15 +214,13 @@ def _residual_matrix(n: int, lam_d: float) -> tuple[NDArray[np.float64], float]:
     return r, float(np.trace(s))
 
 
-def _step_column(n: int, tau: float, width: float) -> NDArray[np.float64]:
-    """A unit change of h'' at node ``tau`` (node units), opening on its longer side:
-    a step (``width`` 0) or a linear change over ``width`` rows centred on ``tau``."""
-    side = 1.0 if tau <= 0.5 * (n - 1) else -1.0
-    u = side * (np.arange(n, dtype=float) - tau)
-    if width <= 0.0:
-        return np.asarray(0.5 * np.maximum(u, 0.0) ** 2, dtype=np.float64)
-    ramp = np.maximum(u + 0.5 * width, 0.0) ** 3 - np.maximum(u - 0.5 * width, 0.0) ** 3
-    return np.asarray(ramp / (6.0 * width), dtype=np.float64)
+def _step_columns(n: int, taus: list[float], width: float) -> NDArray[np.float64]:
+    """(n, K): a unit change of h'' at each node position of ``taus`` (node units),
+    opening on its longer side: a step (``width`` 0) or a linear change over ``width``
+    rows centred there."""
+    t = np.asarray(taus, dtype=float)
+    side = np.where(t <= 0.5 * (n - 1), 1.0, -1.0)
+    return ramp_hinge(side * (np.arange(n, dtype=float)[:, None] - t), width)
 
 
 def _gcv_scores(values: NDArray[np.float64], r: NDArray[np.float64], trace_s: float,
@@ -222,23 +261,24 @@ def soft_gain(values: NDArray[np.float64], taus: list[float], j: int, lam_d: flo
     within ``SHARP_OFFSETS``)."""
     n = values.size
     r, trace_s = _residual_matrix(n, float(lam_d))
-    others = [_step_column(n, t, 0.0) for i, t in enumerate(taus) if i != j]
-    fixed = np.column_stack(others) if others else np.zeros((n, 0))
-    sharp = [_step_column(n, taus[j] + d, 0.0) for d in SHARP_OFFSETS]
-    soft = [_step_column(n, taus[j] + d, w) for w in SOFT_WIDTHS for d in SOFT_OFFSETS]
-    scores = _gcv_scores(values, r, trace_s, fixed, np.column_stack(sharp + soft), gamma)
-    return n * math.log(float(np.min(scores[:len(sharp)]))
-                        / float(np.min(scores[len(sharp):])))
+    fixed = _step_columns(n, [t for i, t in enumerate(taus) if i != j], 0.0)
+    sharp = _step_columns(n, [taus[j] + d for d in SHARP_OFFSETS], 0.0)
+    soft = [_step_columns(n, [taus[j] + d for d in SOFT_OFFSETS], w) for w in SOFT_WIDTHS]
+    scores = _gcv_scores(values, r, trace_s, fixed, np.column_stack([sharp] + soft), gamma)
+    return n * math.log(float(np.min(scores[:len(SHARP_OFFSETS)]))
+                        / float(np.min(scores[len(SHARP_OFFSETS):])))
 
 
 @dataclass(frozen=True)
 class CoarseJunctions:
     """The junction fit kept on a coarse table (None: none kept), the angles [rad]
-    refused as stand-ins for a fast smooth change of h'', and the level ``lam_d``."""
+    refused as stand-ins for a fast smooth change of h'', the level ``lam_d`` and what
+    to add to the fit's ``why``."""
 
     found: JunctionFit | None
     refused: tuple[float, ...]
     lam_d: float
+    why: str = ''
 
 
 def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
@@ -246,11 +286,25 @@ def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
                      sigma_floor: float) -> CoarseJunctions:
     """The junction search of ``find_junctions`` on a coarse uniform table, each
     junction then tested against a soft change of h'' (``soft_gain``); the kept ones
-    refitted at their GCV level. Without the search's look-ahead: a set taken only
+    refitted at their GCV level, on a table coarser than VERY_COARSE_RAD as short ramps
+    of h'' (``hedged_junctions``). Without the search's look-ahead: a set taken only
     together is justified by the level it lets the rest have, which a junction-by-
     junction test that drops some of them would take away (a circular-arc table at
     2.5 deg, 0.5 um: a held pair taken with a third at 289 times the level, then the
     soft test dropped a true edge: h'' 2.2 x worse)."""
+    tested = _tested_junctions(grid, values, missing, lam0, gamma=gamma,
+                               sigma_floor=sigma_floor)
+    if tested.found is None or float(grid[1] - grid[0]) <= VERY_COARSE_RAD:
+        return tested
+    fit, why = hedged_junctions(grid, values, missing, tested.found, gamma=gamma,
+                                sigma_floor=sigma_floor)
+    return CoarseJunctions(fit, tested.refused, fit.lam_d, why)
+
+
+def _tested_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
+                      missing: NDArray[np.bool_], lam0: float, *, gamma: float,
+                      sigma_floor: float) -> CoarseJunctions:
+    """The junctions of the search that pass the soft-change test, as steps."""
     found = find_junctions(grid, values, lam0, gamma=gamma, sigma_floor=sigma_floor,
                            lookahead=False)
     if found is None:
@@ -312,163 +366,123 @@ def lobe_end_knots(grid: NDArray[np.float64], values: NDArray[np.float64],
 
 
 @lru_cache(maxsize=8)
-def _fourth_difference_basis(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Eigenvalues (ascending, >= 0) and orthonormal eigenvectors of D4'D4 on ``n``
-    nodes, D4 the fourth difference with free ends (read-only, cached)."""
-    d4 = np.diff(np.eye(n), 4, axis=0)
-    e, v = np.linalg.eigh(d4.T @ d4)
-    e = np.maximum(e, 0.0)
-    e.setflags(write=False)
-    v.setflags(write=False)
-    return e, v
+def penalty_eigen(n: int, order: int = 3
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Eigenvalues mu (n,) and orthonormal eigenvectors V (n, n) of D'D, D the
+    differences of ``order`` (free ends): the smoother (I + lam_d D'D)^-1 is
+    V diag(1 / (1 + lam_d mu)) V' at every level (read-only, cached)."""
+    d3 = np.diff(np.eye(n), order, axis=0)
+    mu, vec = np.linalg.eigh(d3.T @ d3)
+    mu = np.maximum(mu, 0.0)
+    mu.setflags(write=False)
+    vec.setflags(write=False)
+    return mu, vec
 
 
-def _kink_columns(n: int, ends: tuple[float, float]) -> NDArray[np.float64]:
-    """Unit steps of h''' at the lobe's ends (node positions ``ends``), each opening
-    into the lobe: (u)_+^3 scaled to a largest value of 1 (n, 2)."""
-    nodes = np.arange(n, dtype=float)
-    cols = np.column_stack([np.maximum(nodes - ends[0], 0.0) ** 3,
-                            np.maximum(ends[1] - nodes, 0.0) ** 3])
-    return np.asarray(cols / np.max(cols, axis=0), dtype=np.float64)
+def ramp_scores(values: NDArray[np.float64], taus: list[float], widths: list[float]
+                ) -> Callable[[float], tuple[float, float]]:
+    """(RSS [m^2], edf) of the partial spline with the hinges of ``ramp_columns`` at
+    node positions ``taus`` (``widths`` [rows]) as a function of log10 of the discrete
+    level: the fit of ``ramp_fit`` (its edf with the smoother's exact trace) in the
+    eigenbasis of the penalty, O(n J^2) per level."""
+    mu, vec = penalty_eigen(values.size)
+    gt = vec.T @ ramp_columns(values.size, taus, widths)
+    yt = vec.T @ values
+
+    def at(log_lam: float) -> tuple[float, float]:
+        lam = 10.0 ** log_lam
+        r = lam * mu / (1.0 + lam * mu)              # eigenvalues of R = I - S
+        rg = r[:, None] * gt
+        m = gt.T @ rg
+        m += 1e-13 * np.trace(m) * np.eye(m.shape[0])
+        sol = np.linalg.solve(m, np.column_stack([rg.T @ yt, rg.T @ rg]))
+        e = r * (yt - gt @ sol[:, 0])
+        return float(e @ e), float(np.sum(1.0 - r)) + float(np.trace(sol[:, 1:]))
+
+    return at
 
 
-@dataclass(frozen=True)
-class KinkedLobe:
-    """The lobe-end fit of a coarse table: smoothed ``values`` [m] on the grid, the
-    discrete level ``lam_d`` of its fourth-difference penalty, ``edf``, and the node
-    positions ``ends`` of its kinks."""
-
-    values: NDArray[np.float64]
-    lam_d: float
-    edf: float
-    ends: tuple[float, float]
+def _best_log_level(score: Callable[[float], float], lo: float, hi: float) -> float:
+    """log10 of the level minimising ``score(log10 level)`` on [lo, hi]: the best of a
+    half-decade lattice, then golden section between its neighbours."""
+    lattice = np.arange(lo, hi + 1e-9, 0.5)
+    i = int(np.argmin([score(float(v)) for v in lattice]))
+    return golden_minimum(score, float(lattice[max(i - 1, 0)]),
+                          float(lattice[min(i + 1, lattice.size - 1)]), 16)
 
 
-class _KinkedSmoother:
-    """y = f + G c with f penalised by lam |D4 f|^2 (free ends) and G the steps of h'''
-    at the lobe ends, in the eigenbasis of D4'D4: each level costs O(n)."""
+def _place_ramps(values: NDArray[np.float64], taus: list[float], widths: list[float],
+                 lam_d: float, gamma: float) -> list[float]:
+    """Centres [nodes] of the ramps of h'' (``widths`` [rows]) near ``taus``, each by
+    GCV at level ``lam_d`` among ``RAMP_OFFSETS`` with the others held (the step of
+    h''' of each junction's hinge pair held at the search's angle)."""
+    n = values.size
+    r, trace_s = _residual_matrix(n, float(lam_d))
+    placed = list(taus)
+    built: dict[tuple[float, float], NDArray[np.float64]] = {}
 
-    def __init__(self, values: NDArray[np.float64], ends: tuple[float, float]) -> None:
-        n = values.size
-        self.e, v = _fourth_difference_basis(n)
-        self.g_hat = v.T @ _kink_columns(n, ends)
-        self.v = v
-        self.n = n
-        self.y_hat = v.T @ values
+    def pair(tau: float, width: float) -> NDArray[np.float64]:
+        """The hinge pair of one junction (each built once)."""
+        key = (tau, width)
+        if key not in built:
+            built[key] = ramp_columns(n, [tau], [width])
+        return built[key]
 
-    def fit(self, lam_d: float) -> tuple[NDArray[np.float64], float, float]:
-        """(residual in the eigenbasis, rss [m^2], trace of the hat matrix)."""
-        s = 1.0 / (1.0 + lam_d * self.e)
-        r = 1.0 - s
-        rg = r[:, None] * self.g_hat
-        m = self.g_hat.T @ rg
-        m += 1e-12 * np.trace(m) * np.eye(2)
-        c = np.linalg.solve(m, rg.T @ self.y_hat)
-        resid = r * (self.y_hat - self.g_hat @ c)
-        trace = float(np.sum(s)) + float(np.trace(np.linalg.solve(m, rg.T @ rg)))
-        return resid, float(resid @ resid), trace
-
-    def values(self, lam_d: float) -> NDArray[np.float64]:
-        """The fitted values [m] on the grid."""
-        resid = self.fit(lam_d)[0]
-        return np.asarray(self.v @ (self.y_hat - resid), dtype=np.float64)
-
-    def criterion(self, log_lams: NDArray[np.float64], gamma: float,
-                  cp_sigma: float | None) -> NDArray[np.float64]:
-        """GCV (``gamma``) or, with ``cp_sigma`` [m], Mallows' Cp at each log10 level
-        (all levels at once)."""
-        s = 1.0 / (1.0 + 10.0 ** log_lams[:, None] * self.e[None, :])       # (L, n)
-        r = 1.0 - s
-        g = self.g_hat
-        # products of the two hinge columns (g0 g0, g0 g1, g1 g1) and with y, per node
-        pairs = np.column_stack([g[:, 0] * g[:, 0], g[:, 0] * g[:, 1], g[:, 1] * g[:, 1]])
-        mp, gp = r @ pairs, (r * r) @ pairs                                   # (L, 3)
-        m = np.stack([mp[:, [0, 1]], mp[:, [1, 2]]], axis=1)                  # (L, 2, 2)
-        gram = np.stack([gp[:, [0, 1]], gp[:, [1, 2]]], axis=1)
-        m += 1e-12 * (mp[:, 0] + mp[:, 2])[:, None, None] * np.eye(2)
-        c = np.linalg.solve(m, (r @ (g * self.y_hat[:, None]))[:, :, None])[:, :, 0]
-        resid = r * (self.y_hat[None, :] - c @ g.T)
-        rss = np.sum(resid * resid, axis=1)
-        trace = s.sum(axis=1) + np.trace(np.linalg.solve(m, gram), axis1=1, axis2=2)
-        if cp_sigma is not None:
-            return np.asarray(rss + 2.0 * cp_sigma ** 2 * trace, dtype=np.float64)
-        return np.asarray(self.n * rss / np.maximum(self.n - gamma * trace, 1e-9) ** 2,
-                          dtype=np.float64)
+    for _ in range(RAMP_PASSES):
+        for j, tau in enumerate(taus):
+            fixed = np.column_stack([pair(placed[k], widths[k]) for k in range(len(taus))
+                                     if k != j] + [pair(tau, 0.0)[:, 1:]])
+            trials = [tau + d for d in RAMP_OFFSETS]
+            scores = _gcv_scores(values, r, trace_s, fixed,
+                                 _step_columns(n, trials, widths[j]), gamma)
+            placed[j] = trials[int(np.argmin(scores))]
+    return placed
 
 
-def _kink_level(smoother: _KinkedSmoother, gamma: float, cp_sigma: float | None,
-                lattice_step: float) -> tuple[float, float]:
-    """(criterion, log10 level) minimising GCV (``gamma``) or Mallows' Cp with noise
-    ``cp_sigma`` [m] for this smoother: the best of a lattice of log levels, moved to
-    the vertex of the parabola through it and its neighbours."""
-    lattice = np.arange(-8.0, 10.01, lattice_step)
-    scores = smoother.criterion(lattice, gamma, cp_sigma)
-    i = min(max(int(np.argmin(scores)), 1), lattice.size - 2)
-    a, b, c = scores[i - 1:i + 2]
-    curve = a - 2.0 * b + c
-    best = lattice[i] + (0.5 * (a - c) / curve * lattice_step if curve > 0.0 else 0.0)
-    score = float(smoother.criterion(np.array([best]), gamma, cp_sigma)[0])
-    if score > b:
-        return float(b), float(lattice[i])
-    return score, float(best)
+def hedged_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
+                     missing: NDArray[np.bool_], found: JunctionFit, *, gamma: float,
+                     sigma_floor: float) -> tuple[JunctionFit, str]:
+    """``found``'s junctions on a table coarser than VERY_COARSE_RAD fitted as linear
+    changes of h'' over ``HEDGE_WIDTH`` rows (``ramp_hinge``), each centred by GCV
+    within half a row of the search's angle; the level by GCV with them, or by
+    Mallows' Cp with the base-circle noise (at least ``sigma_floor`` [m]) when the GCV
+    fit leaves structured residuals on the lobe and Cp's level is lower (the rule of
+    ``coarse_level``). With what to add to the fit's ``why``."""
+    n = values.size
+    step = float(grid[1] - grid[0])
+    widths = [HEDGE_WIDTH] * len(found.angles)
+    taus = _place_ramps(values, [(t - float(grid[0])) / step for t in found.angles],
+                        widths, found.lam_d, gamma)
 
+    scores = ramp_scores(values, taus, widths)
 
-def kinked_lobe_fit(values: NDArray[np.float64], missing: NDArray[np.bool_],
-                    ends: tuple[int, int], *, gamma: float, cp_sigma: float | None,
-                    scale: float = 1.0, fills: int = 3) -> KinkedLobe:
-    """Smoothing of a coarse single-lobe table that lets h''' jump at the lobe's ends (a
-    C2 lobe joins its base circle with h'' continuous and h''' stepping). A penalty on
-    third differences charges h''' itself and rounds such a kink over the smoother's
-    bandwidth; here the smooth part is penalised on fourth differences, which a cubic
-    costs nothing, and an unpenalised cubic hinge at each end carries the step of h'''
-    (a partial spline: Wahba, *Spline Models for Observational Data*, 1990, ch. 6). Each
-    hinge is placed by the criterion, from the last base-circle row (``ends``) out to
-    ``KINK_REACH`` rows away from the lobe (a C2 lobe rises as (alpha - t)^3 from its
-    kink t: its first rows above the noise lie rows inside it). The level minimises
-    GCV (``gamma``) or, when ``cp_sigma`` [m] is given (the coarse level rule found
-    structure), Mallows' Cp with that noise; then times ``scale``. ``missing`` nodes
-    are refilled with the fit ``fills`` times."""
-    at = (float(ends[0]), float(ends[1]))
-    offsets = np.arange(0.0, KINK_REACH + 1e-9, KINK_STEP)
-    for side in (0, 1):
-        trials = [(at[0] - d, at[1]) if side == 0 else (at[0], at[1] + d) for d in offsets]
-        at = min(trials, key=lambda t: _kink_level(
-            _KinkedSmoother(values, t), gamma, cp_sigma, 0.25)[0])
-    smoother = _KinkedSmoother(values, at)
-    lam = 10.0 ** _kink_level(smoother, gamma, cp_sigma, 0.1)[1] * scale
-    fitted = smoother.values(lam)
-    if np.any(missing):
-        for _ in range(fills):
-            fitted = _KinkedSmoother(np.where(missing, fitted, values), at).values(lam)
-    return KinkedLobe(fitted, lam, smoother.fit(lam)[2], at)
+    def gcv(log_lam: float) -> float:
+        rss, edf = scores(log_lam)
+        return n * rss / max(n - gamma * edf, 1e-9) ** 2
 
+    start = math.log10(found.lam_d)
+    log_lam = _best_log_level(gcv, start - RAMP_LEVEL_REACH, start + RAMP_LEVEL_REACH)
+    live = ~missing
+    # the floor is the known noise or the rounding's q / sqrt(12): it stands for both
+    # where the base circle is written as one value
+    sigma = noise_sigma(values[live], math.sqrt(12.0) * sigma_floor, sigma_floor)
+    fit = ramp_fit(values, taus, widths, 10.0 ** log_lam)
+    why = (f'; on a table this coarse a step of h\'\' cannot be told from a rise within '
+           f'one row: each junction fitted as a linear change of h\'\' over '
+           f'{HEDGE_WIDTH:g} row')
+    if sigma is not None and structured(values[live], (values - fit.resid)[live], sigma)[0]:
+        noise = sigma
 
-@dataclass(frozen=True)
-class LobeEndFit:
-    """The lobe-end fit of one coarse single-lobe table (``kinked_lobe_fit``): the end
-    rows, GCV's ``gamma``, the noise [m] for Cp (None: GCV) and the level ``base`` the
-    caller's level is measured against (the sign rule raises it). The reconstruction
-    uses it with the GCV criterion only; not yet for the risk criterion of the lobe law
-    (card, dynamics), where the jump speed's uncertainty from noisy copies of a rounded
-    5 deg table grew from 7 % to 15 % (docs/limits.md). It stands only where its h''
-    has the lobe's sign pattern: raising its level for the pattern made a rounded 5 deg
-    flat-tappet table 1.44 x scipy's h'' error (0.99 with the plain smoother)."""
+        def cp(log_lam: float) -> float:
+            rss, edf = scores(log_lam)
+            return rss + 2.0 * noise ** 2 * edf
 
-    ends: tuple[int, int]
-    gamma: float
-    cp_sigma: float | None
-    base: float
-
-    def fit(self, values: NDArray[np.float64], missing: NDArray[np.bool_],
-            lam_d: float) -> KinkedLobe:
-        """The fit of ``values`` [m] (``missing`` nodes refilled) at its own level times
-        ``lam_d`` / ``base``."""
-        return kinked_lobe_fit(values, missing, self.ends, gamma=self.gamma,
-                               cp_sigma=self.cp_sigma, scale=lam_d / self.base)
-
-    def why(self, grid: NDArray[np.float64], fit: KinkedLobe) -> str:
-        """What to add to a reconstruction's ``why`` (``grid`` [rad])."""
-        step = float(grid[1] - grid[0])
-        at = ', '.join(f'{math.degrees(float(grid[0]) + e * step):.4g}' for e in fit.ends)
-        return (f"; h''' free to jump at the lobe's ends ({at} deg): fourth differences "
-                f'penalised, lam_d = {fit.lam_d:.4g}, edf = {fit.edf:.1f}')
+        log_cp = _best_log_level(cp, *CP_LOG_LEVELS)
+        if log_cp < log_lam:
+            log_lam = log_cp
+            why += (f'; that fit left residuals correlated row to row, above the '
+                    f'base-circle noise ({noise:.3g} m): level by Mallows\' Cp with that '
+                    f'noise')
+    ramps = replace(found, angles=tuple(float(grid[0]) + t * step for t in taus),
+                    widths=tuple(widths), fitted_on=None)
+    return refit(grid, values, missing, ramps, 10.0 ** log_lam), why

@@ -60,7 +60,8 @@ from scipy.fft import irfft, next_fast_len, rfft
 
 from cam_design.lift_table.partial_spline import (LevelSystem, PartialFit, hinge_coefficients,
                                                   hinge_values, horner, interior_hinge_grams,
-                                                  partial_fit, side_of, taper_nodes)
+                                                  partial_fit, residual_operator, side_of,
+                                                  taper_nodes)
 
 #: family-wise false-alarm probability of the junction search on a lobe without one
 FALSE_ALARM = 1e-3
@@ -136,6 +137,15 @@ class Levels:
         self.anchor: float | None = None
         self._systems: dict[float, LevelSystem] = {}
 
+    def on_lattice(self, lam_d: float) -> float:
+        """The lattice level nearest to ``lam_d`` (``lam_d`` itself before the lattice is
+        anchored)."""
+        if self.anchor is None:
+            return lam_d
+        h = LEVEL_STEP      # the level as choose_level forms it at its start (k = 0)
+        steps = round((math.log10(max(lam_d, 1e-6)) - self.anchor) / h)
+        return 10.0 ** (self.anchor + h * steps)
+
     def at(self, lam_d: float) -> LevelSystem:
         """The system at discrete level ``lam_d``."""
         lam_d = float(lam_d)
@@ -165,7 +175,9 @@ def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
             seen[k] = levels.at(10.0 ** (c0 + k * h)).gcv(taus, gamma)
         return seen[k]
 
-    d = -1 if score(-1) < score(1) else 1
+    # downhill (GCV is unimodal in the level near its minimum): a lower score one step
+    # up already says which way, the step down is then not scored
+    d = 1 if score(1) < score(0) or score(-1) >= score(1) else -1
     best = 0
     while abs(best) < LEVEL_REACH and score(best + d) < score(best):
         best += d
@@ -214,26 +226,40 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
     nfft = next_fast_len(2 * n, real=True)
     spectra = _kernel_spectra(n, length, nfft)
     e = rfft(resid, nfft)
-    kern = np.empty((len(SCAN_OFFSETS), spectra.shape[-1]), dtype=complex)
-    var = np.empty(len(SCAN_OFFSETS))
+    k = len(SCAN_OFFSETS)
+    # the products with the hinges' spectra, one batch of inverse FFTs: rows [0, k)
+    # correlate (right-opening junctions), rows [k, 2k) convolve (left-opening)
+    prod = np.empty((2 * k, spectra.shape[-1]), dtype=complex)
+    var = np.empty(k)
     for col, (m, v) in enumerate(interior_hinge_grams(float(lam_d), length, SCAN_OFFSETS)):
         # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
         w = np.array([1.0, -m[0, 1] / m[1, 1]])
         var[col] = max(float(w @ v @ w) * sigma ** 2, 1e-300)
-        kern[col] = w[0] * spectra[col, 0] + w[1] * spectra[col, 1]
+        kern = spectra[col, 1] * w[1]      # + spectra[col, 0] * w[0], w[0] = 1
+        kern += spectra[col, 0]
+        np.multiply(e, kern, out=prod[k + col])
+        np.multiply(e, np.conjugate(kern, out=kern), out=prod[col])
     # right: b(j) = sum_i g(i - off) e_{j+i}; left (the table reversed):
     # b(j) = sum_i g(i - off) e_{n-1-j-i}
-    b = irfft(np.concatenate([e * np.conj(kern), e * kern]), nfft, axis=-1)
-    k = len(SCAN_OFFSETS)
-    right = (b[:k, :n] ** 2 / var[:, None]).T.ravel()
-    left = (b[k:, n - 1::-1] ** 2 / var[:, None]).T.ravel()[::-1]
+    b = irfft(prod, nfft, axis=-1)
     pos_r, pos_l = _scan_positions(n)
     mid = 0.5 * (n - 1)
-    r0, r1 = np.searchsorted(pos_r, margin, side='left'), np.searchsorted(pos_r, mid, 'right')
-    l0 = np.searchsorted(pos_l, mid, side='right')
-    l1 = np.searchsorted(pos_l, n - 1 - margin, side='right')
+    r0 = int(np.searchsorted(pos_r, margin, side='left'))
+    r1 = int(np.searchsorted(pos_r, mid, side='right'))
+    l0 = int(np.searchsorted(pos_l, mid, side='right'))
+    l1 = int(np.searchsorted(pos_l, n - 1 - margin, side='right'))
     return (np.concatenate([pos_r[r0:r1], pos_l[l0:l1]]),
-            np.concatenate([right[r0:r1], left[l0:l1]]))
+            np.concatenate([_statistic(b[:k, :n], var, r0, r1),
+                            _statistic(b[k:, n - 1::-1], var, k * n - l1, k * n - l0)[::-1]]))
+
+
+def _statistic(b: NDArray[np.float64], var: NDArray[np.float64], p0: int, p1: int
+               ) -> NDArray[np.float64]:
+    """Entries [p0, p1) of (b^2 / var).T.ravel() (b: offsets x nodes; the scan's
+    positions node by node, offset by offset), formed on the nodes they need only."""
+    k = b.shape[0]
+    j0, j1 = p0 // k, -(-p1 // k)
+    return (b[:, j0:j1] ** 2 / var[:, None]).T.ravel()[p0 - k * j0:p1 - k * j0]
 
 
 @dataclass(frozen=True)
@@ -242,7 +268,9 @@ class JunctionFit:
     ``jumps`` [m/rad^2] (h''(t+) - h''(t-)), the discrete level ``lam_d``, the smooth
     part ``smooth`` [m] on the grid, ``edf``, the search statistics ``scores``;
     ``step`` [rad], ``x0`` [rad], ``nodes`` and ``coef`` (node units) for the hinges;
-    ``fitted_on``: the grid values [m] of the fit, where they are kept."""
+    ``fitted_on``: the grid values [m] of the fit, where they are kept; ``widths``
+    [nodes] per junction, where h'' changes linearly over that width centred on the
+    angle instead of stepping (``ramp_hinge``; empty: every one a step)."""
 
     angles: tuple[float, ...]
     jumps: tuple[float, ...]
@@ -255,6 +283,11 @@ class JunctionFit:
     nodes: int
     coef: NDArray[np.float64]
     fitted_on: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
+    widths: tuple[float, ...] = ()
+
+    def width(self, k: int) -> float:
+        """Width [nodes] of junction ``k``'s change of h'' (0: a step)."""
+        return self.widths[k] if self.widths else 0.0
 
     def hinge_part(self, x: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
         """Sum of the hinges' nu-th derivative [m/rad^nu] at ``x`` [rad]."""
@@ -263,28 +296,44 @@ class JunctionFit:
         out = np.zeros(u.size)
         length = taper_nodes(self.nodes)
         cubic = hinge_coefficients(float(length), nu)[1]
+        # ascending points (a grid): each hinge's points are a slice, found by bisection
+        ascending = u.size > 1 and bool(np.all(u[1:] >= u[:-1]))
         for k, t in enumerate(self.angles):
             tau = (t - self.x0) / self.step
             side = side_of(tau, self.nodes)
             c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
-            # formed on the points the hinge opens to only (beyond them it adds 0)
-            on = np.flatnonzero(side * u > side * tau)
+            width = self.width(k)
+            # formed on the points the hinge opens to only (beyond them it adds 0): a
+            # slice of ``out`` (a view) on ascending points, else its indices
+            on: slice | NDArray[np.intp]
+            if ascending:
+                on = (slice(int(np.searchsorted(u, tau, side='right')), u.size) if side > 0
+                      else slice(0, int(np.searchsorted(u, tau, side='left'))))
+            else:
+                on = np.flatnonzero(side * u > side * tau)
             v = side * (u[on] - tau)
+            if width > 0.0:     # a ramp of h'' in place of the quadratic hinge
+                out += c2 * ramp_hinge(side * (u - tau), width, nu)
             # the quadratic hinge: v^2/2, v, 1, 0 on v > 0 (Horner's values)
-            if nu == 0:
+            elif nu == 0:
                 out[on] += c2 * ((0.5 * v) * v)
             elif nu == 1:
                 out[on] += c2 * v
             elif nu == 2:
                 out[on] += c2
             near = v < length
-            out[on[near]] += c3 * horner(v[near], cubic)
+            taper = c3 * horner(v[near], cubic)
+            if ascending:
+                out[on][near] += taper
+            else:
+                out[np.asarray(on)[near]] += taper      # the indices themselves
         return out.reshape(x.shape) / self.step ** nu
 
 
 def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
                 fit: PartialFit, scores: list[float],
-                fitted_on: NDArray[np.float64] | None = None) -> JunctionFit:
+                fitted_on: NDArray[np.float64] | None = None,
+                widths: tuple[float, ...] = ()) -> JunctionFit:
     step = float(grid[1] - grid[0])
     n = grid.size
     order = np.argsort(taus)
@@ -292,7 +341,8 @@ def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
     jumps = tuple(side_of(taus[i], n) * float(fit.coef[2 * i]) / step ** 2 for i in order)
     return JunctionFit(tuple(float(grid[0] + taus[i] * step) for i in order), jumps,
                        lam_d, fit.smooth, fit.edf, tuple(scores[i] for i in order), step,
-                       float(grid[0]), n, coef, fitted_on)
+                       float(grid[0]), n, coef, fitted_on,
+                       tuple(widths[i] for i in order) if widths else ())
 
 
 def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0: float,
@@ -451,10 +501,12 @@ def _attempt(system: LevelSystem, levels: Levels, taus: list[float], held: list[
 def _climbs(levels: Levels, taus: list[float], lam: float, gamma: float) -> bool:
     """The GCV score with junctions ``taus`` is higher at LOOKAHEAD_LEVEL_RISE times
     the level ``lam`` than at its square root times: its minimum (GCV is unimodal in
-    the level) lies below LOOKAHEAD_LEVEL_RISE x ``lam``."""
+    the level) lies below LOOKAHEAD_LEVEL_RISE x ``lam``. Both levels are taken on the
+    search's lattice (``Levels.on_lattice``), where the level searches have already
+    built their systems and the columns of the junctions taken."""
     rise = LOOKAHEAD_LEVEL_RISE
-    return bool(levels.at(lam * rise).gcv(taus, gamma)
-                >= levels.at(lam * math.sqrt(rise)).gcv(taus, gamma))
+    return bool(levels.at(levels.on_lattice(lam * rise)).gcv(taus, gamma)
+                >= levels.at(levels.on_lattice(lam * math.sqrt(rise))).gcv(taus, gamma))
 
 
 def _refine(system: LevelSystem, taus: list[float]) -> list[float]:
@@ -514,8 +566,66 @@ def refit(grid: NDArray[np.float64], values: NDArray[np.float64],
         return found                    # the search's own last fit
     step = float(grid[1] - grid[0])
     taus = [(t - float(grid[0])) / step for t in found.angles]
+    widths = [found.width(k) for k in range(len(taus))]
     vals = values.copy()
     for _ in range(fills + 1 if np.any(missing) else 1):
-        fit = partial_fit(vals, taus, lam_d)
+        fit = (ramp_fit(vals, taus, widths, lam_d) if any(widths)
+               else partial_fit(vals, taus, lam_d))
         vals = np.where(missing, vals - fit.resid, values)
-    return _fit_result(grid, taus, lam_d, fit, list(found.scores))
+    return _fit_result(grid, taus, lam_d, fit, list(found.scores), widths=found.widths)
+
+
+def _truncated_power(x: NDArray[np.float64], k: int) -> NDArray[np.float64]:
+    """x_+^k / k! (k >= 0; k = 0: the unit step at x > 0)."""
+    if k == 0:
+        return np.asarray(x > 0.0, dtype=np.float64)
+    return np.asarray(np.maximum(x, 0.0) ** k / math.factorial(k), dtype=np.float64)
+
+
+def ramp_hinge(u: NDArray[np.float64], width: float, nu: int = 0) -> NDArray[np.float64]:
+    """nu-th u-derivative of a unit change of h'' at u = 0 (node units, opening to
+    positive u): the step u_+^2 / 2 (``width`` 0) or a linear change of h'' over
+    ``width`` nodes centred on 0, ((u + w/2)_+^3 - (u - w/2)_+^3) / (6 w), which beyond
+    the ramp is the step's u^2 / 2 plus the constant w^2 / 24. Derivatives of order
+    above 2 (step) or 3 (ramp) are 0 (the delta functions left out)."""
+    u = np.asarray(u, dtype=float)
+    if width <= 0.0:
+        return _truncated_power(u, 2 - nu) if nu <= 2 else np.zeros(u.shape)
+    if nu > 3:
+        return np.zeros(u.shape)
+    return np.asarray((_truncated_power(u + 0.5 * width, 3 - nu)
+                       - _truncated_power(u - 0.5 * width, 3 - nu)) / width,
+                      dtype=np.float64)
+
+
+def ramp_columns(n: int, taus: list[float], widths: list[float]) -> NDArray[np.float64]:
+    """(n, 2J): per junction at node ``taus[j]`` (opening on its longer side) the change
+    of h'' over ``widths[j]`` nodes (``ramp_hinge``) and the tapered step of h''' of the
+    partial spline's hinge pair (node units)."""
+    rows = np.arange(n, dtype=float)
+    length = taper_nodes(n)
+    g = np.zeros((n, 2 * len(taus)))
+    for j, (tau, width) in enumerate(zip(taus, widths)):
+        u = side_of(tau, n) * (rows - tau)
+        g[:, 2 * j] = ramp_hinge(u, width)
+        g[:, 2 * j + 1] = hinge_values(u, length)[:, 1]
+    return g
+
+
+def ramp_fit(values: NDArray[np.float64], taus: list[float], widths: list[float],
+             lam_d: float) -> PartialFit:
+    """The partial spline of uniform ``values`` [m] at level ``lam_d`` with the hinges
+    of ``ramp_columns`` (a change of h'' over ``widths[j]`` nodes at node ``taus[j]``):
+    the fit of ``partial_fit`` (whose hinges are steps, width 0) with the columns
+    solved on the whole table (for coarse tables: at most a few hundred rows)."""
+    system = LevelSystem(values, lam_d)
+    g = ramp_columns(values.size, taus, widths)
+    rg = residual_operator(g, lam_d)
+    m = g.T @ rg
+    m += 1e-13 * np.trace(m) * np.eye(m.shape[0])
+    sol = np.linalg.solve(m, np.column_stack([rg.T @ values, rg.T @ rg]))
+    coef = np.asarray(sol[:, 0], dtype=np.float64)
+    resid = system.ry - rg @ coef
+    z = values - g @ coef
+    return PartialFit(z - resid, coef, float(resid @ resid),
+                      system.trace + float(np.trace(sol[:, 1:])), float(z @ resid), resid)

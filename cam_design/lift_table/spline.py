@@ -33,11 +33,11 @@ from scipy.interpolate import make_interp_spline
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
-from cam_design.lift_table.coarse import (KinkedLobe, LobeEndFit, base_circle_sigma,
-                                          coarse_junctions, coarse_level, lobe_end_knots,
-                                          lobe_end_rows)
+from cam_design.lift_table.coarse import (base_circle_sigma, coarse_junctions, coarse_level,
+                                          lobe_end_knots, lobe_end_rows)
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              golden_minimum, refit)
+from cam_design.lift_table.lobe_ends import KinkedLobe, LobeEndFit
 from cam_design.lift_table.noise import EXACT_NOISE_REL
 from cam_design.lift_table.rebound import VERY_COARSE_RAD, Fairing, rebound_fairing
 from cam_design.lift_table.result import Reconstruction, output_grid, sign_changes
@@ -53,7 +53,7 @@ GCV_GAMMA = 1.4
 SIGN_NOISE_SIGMAS = 4.0
 MAD_TO_SIGMA = 1.482602218505602
 
-#: table step [rad] above which junctions are sought only when asked for
+#: table step [rad] above which the junctions kept are fitted as short ramps of h''
 COARSE_RAD = VERY_COARSE_RAD
 #: table step [rad] above which junctions get the soft-change test and a fit without
 #: junctions the coarse-table level rule and the lobe-end knots (2.5 deg tables: ramped
@@ -319,9 +319,9 @@ class SplineOptions:
     step: float | None = None               # output grid step [rad]; None: data step
     junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
     # also on tables coarser than COARSE_RAD, each junction tested against a soft change
-    # of h'' (coarse.py); off by default: at 5 deg a change of h'' within one row (the
-    # acceleration peak of a 2-10-18-26 polynomial lobe) passes that test as a step
-    coarse_junctions: bool = False
+    # of h'' and fitted as a short ramp of h'' (coarse.py): a step cannot be told there
+    # from a rise within one row; False: no junctions on such tables
+    coarse_junctions: bool = True
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
@@ -419,18 +419,21 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     found = None
     # coarse tables (coarse.py): a few rows per segment cannot tell a step of h'' from a
     # steep smooth change by GCV alone, so above COARSE_LEVEL_RAD each junction is also
-    # tested against a soft change, and above COARSE_RAD junctions are sought only when
-    # asked for; without junctions the level is checked against the base circle's noise
+    # tested against a soft change, and above COARSE_RAD the junctions kept are fitted
+    # as short ramps of h'' (none sought if opt.coarse_junctions is False); without
+    # junctions the level is checked against the base circle's noise
     coarse = step > COARSE_RAD
     if (opt.junctions and uniform and not exact and opt.smoothing is None
             and (opt.coarse_junctions or not coarse)):
         # the search compares GCV scores: it starts from the plain GCV level
         start = choice if opt.criterion == 'gcv' else choose_smoothing(
             values, step, criterion='gcv', gamma=gamma, sigma_floor=floor)
+        hedge = ''
         if step > COARSE_LEVEL_RAD:
             outcome = coarse_junctions(grid, values, missing, start.lam_d, gamma=gamma,
                                        sigma_floor=floor)
             found = outcome.found
+            hedge = outcome.why
             if outcome.refused:
                 notes.append('coarse table: no step of h\'\' at ' + ', '.join(
                     f'{math.degrees(t):.1f}' for t in outcome.refused)
@@ -441,7 +444,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         if found is not None:
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
-                    f'chosen again with them: lam_d = {lam_d:.4g}')
+                    f'chosen again with them: lam_d = {lam_d:.4g}' + hedge)
     knots = None
     kinked: LobeEndFit | None = None
     if (step > COARSE_LEVEL_RAD and uniform and found is None and not exact
@@ -520,12 +523,15 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     out = output_grid(x[0], x[-1], out_step)
     node_sigma = fair.sigma / math.sqrt(max(density, 1.0))
 
-    def dwell(fitted: Any, level: float) -> NDArray[np.bool_]:
+    def dwell(fitted: Any, level: float, velocity: NDArray[np.float64] | None = None
+              ) -> NDArray[np.bool_]:
         """A dwell on the output grid: h' = 0 over an interval within what the noise
         gives at this level, so h'' = 0 there too and the sign flicker of its noise
-        is not a sign change of the lobe."""
+        is not a sign change of the lobe (``velocity``: h' of ``fitted`` on the output
+        grid, when already evaluated)."""
         band = SIGN_NOISE_SIGMAS * derivative_noise(node_sigma, step, level, grid.size, 1)
-        return np.asarray(np.abs(fitted(out, 1)) < band, dtype=bool)
+        h1 = fitted(out, 1) if velocity is None else velocity
+        return np.asarray(np.abs(h1) < band, dtype=bool)
     acc = spline(out, 2)
     lift_out = spline(out)
     expected = opt.expected_sign_changes
@@ -537,7 +543,9 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
 
         def significant_changes(fitted: Any, level: float) -> int:
-            fit_acc, fit_lift = fitted(out, 2), fitted(out)
+            # the spline at hand is already evaluated on the output grid
+            fit_acc, fit_lift = (acc, lift_out) if fitted is spline else (fitted(out, 2),
+                                                                          fitted(out))
             count = sign_changes(fit_acc, lift=fit_lift)
             if count <= expected:
                 return count
@@ -578,22 +586,27 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         parameter['edf'] = spline.junctions.edf
         parameter['junctions_deg'] = [math.degrees(t) for t in spline.junctions.angles]
         parameter['acceleration_jumps_m_per_rad2'] = list(spline.junctions.jumps)
+        widths = [spline.junctions.width(k) * math.degrees(step)
+                  for k in range(len(spline.junctions.angles))]
+        parameter['junction_widths_deg'] = widths
         notes.append("h'' jumps at " + ', '.join(
-            f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2)'
-            for t, j in zip(spline.junctions.angles, spline.junctions.jumps)))
+            f'{math.degrees(t):.2f} deg ({j:+.3g} m/rad^2'
+            + (f' over {w:.3g} deg)' if w > 0.0 else ')')
+            for t, j, w in zip(spline.junctions.angles, spline.junctions.jumps, widths)))
     final = spline
 
     def evaluate(a: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
         return np.asarray(final(np.asarray(a, dtype=float), nu), dtype=float)
 
+    velocity = spline(out, 1)
     rec = Reconstruction(
-        method='spline', alpha=out, lift=lift_out, velocity=spline(out, 1),
+        method='spline', alpha=out, lift=lift_out, velocity=velocity,
         acceleration=acc, jerk=spline(out, 3), data_alpha=x[kept],
         residual=y0[kept] - fit, parameter=parameter, why=why, sigma=fair.sigma,
         evaluate=evaluate,
         outliers_alpha=x[outlier], warnings=warnings, notes=notes)
     rec.outlier_mask = outlier
     rec.check_residuals()
-    rec.check_shape(opt.expected_sign_changes, still=dwell(final, lam_d))
+    rec.check_shape(opt.expected_sign_changes, still=dwell(final, lam_d, velocity))
     rec.check_finite()
     return rec
