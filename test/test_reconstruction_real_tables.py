@@ -384,12 +384,10 @@ def test_very_coarse_table_keeps_a_spike():
     assert rec.outliers_alpha.size == 0
 
 
-@pytest.mark.xfail(strict=True, reason='known limit (docs/limits.md): with the junction '
-                   'search on 5 deg tables the spike makes a false junction at -33 deg and '
-                   'the fit passes through the spike row; the largest miss, and the '
-                   'warning, move to 40 deg')
 def test_very_coarse_table_names_the_spike_row():
-    """The warning names the spike's angle (it did without the 5 deg junction search)."""
+    """The warning names the spike's angle (by default no junction is sought on a 5 deg
+    table; with the opt-in search the spike lets a false junction in at -30.5 deg, the
+    fit passes through the spike row and the warning moves to 40 deg: docs/limits.md)."""
     a, h, k = _spiky_five_degree_table()
     rec = reconstruct_table(LiftTable('spiky', a, h))['spline'].reconstruction
     assert any(f'{math.degrees(a[k]):.1f}' in w for w in rec.warnings), rec.warnings
