@@ -156,6 +156,53 @@ def test_sensor_trace_is_judged_noisy():
     assert float(np.max(np.abs(rec.acceleration))) < 1.25 * peak
 
 
+@pytest.mark.parametrize('kind', ['noisy', 'rounded', 'seated trace'])
+def test_noise_of_the_rows_without_fairing_them(kind):
+    """rebound_noise (the halves of the scatter estimate need only the noise) gives the
+    sigma [m] the fairing estimates, within 1e-12 relative: a noisy lobe with spikes,
+    one rounded to 0.01 mm, and a trace with exactly flat seated rows."""
+    from cam_design.lift_table.rebound import rebound_fairing, rebound_noise
+
+    if kind == 'seated trace':
+        a, h, _ = cycle_trace(20e-6)
+    else:
+        fam = FAMILIES['dwell']
+        a, h = measured_table(fam.law, 0.5 * DEG, sigma=0.5e-6, outliers=5, seed=2,
+                              quantum=1e-5 if kind == 'rounded' else 0.0)
+    sigma = rebound_noise(a, h)
+    assert sigma == pytest.approx(rebound_fairing(a, h).sigma, rel=1e-12, abs=0.0)
+    assert sigma > 0.0
+
+
+def test_hinges_on_a_grid_equal_the_hinges_at_scattered_points():
+    """JunctionFit.hinge_part on an ascending grid (each hinge's points a slice) equals
+    its values at the same points shuffled (found point by point), and both equal the
+    sum over the junctions of their hinge values times their coefficients, for h..h'''
+    (within 1e-12 of the largest value)."""
+    fam = FAMILIES['circular arc']
+    a, h = measured_table(fam.law, 0.5 * DEG, sigma=0.5e-6, seed=1)
+    found = junctions.find_junctions(a, h, 10.0)
+    assert found is not None and len(found.angles) >= 2
+    x = np.linspace(a[0], a[-1], 4001)
+    order = np.random.default_rng(0).permutation(x.size)
+    length = partial_spline.taper_nodes(found.nodes)
+    for nu in range(4):
+        on_grid = found.hinge_part(x, nu)
+        scattered = np.empty_like(x)
+        scattered[order] = found.hinge_part(x[order], nu)
+        direct = np.zeros_like(x)
+        u = (x - found.x0) / found.step
+        for k, t in enumerate(found.angles):
+            tau = (t - found.x0) / found.step
+            side = partial_spline.side_of(tau, found.nodes)
+            vals = partial_spline.hinge_values(side * (u - tau), length, nu)
+            direct += vals @ found.coef[2 * k:2 * k + 2] * float(side) ** nu
+        direct /= found.step ** nu
+        scale = float(np.max(np.abs(direct)))
+        assert np.max(np.abs(on_grid - scattered)) <= 1e-12 * scale
+        assert np.max(np.abs(on_grid - direct)) <= 1e-12 * scale
+
+
 def test_flat_rows_are_runs_of_equal_values():
     y = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 2.0, 2.0, 2.0, 2.0, 2.0, 3.0])
     assert flat_rows(y).tolist() == [True, True, True, False, False, False, False,
@@ -211,6 +258,47 @@ def test_fit_scalars_from_kept_products_equal_the_dense_problem():
     grown = partial_spline.LevelSystem(y, lam)
     grown.score(taus[:2])
     assert grown.score(taus).rss == pytest.approx(score.rss, rel=1e-9)
+
+
+def test_kept_hinge_penalty_is_the_third_differences_of_the_hinges():
+    """P g of a junction's hinges on its own rows is kept per place and scaled by the
+    level: equal to lam D3'D3 g formed afresh from hinge_values (within 1e-12 of its
+    largest value) for junctions opening either way, and the same array again when the
+    same place is asked for at another level (the search's levels share it)."""
+    n = 3600
+    length = partial_spline.taper_nodes(n)
+    for tau in (900.37, 2500.81):
+        side = partial_spline.side_of(tau, n)
+        a, b = partial_spline._hinge_support(n, tau, 0, n)
+        x = np.arange(n, dtype=float)
+        g = partial_spline.hinge_values(side * (x - tau), length)[a:b]
+        d3 = np.diff(g, 3, axis=0)
+        for lam in (1e3, 1e7):
+            direct = lam * np.column_stack([np.convolve(d3[:, k], [-1.0, 3.0, -3.0, 1.0])
+                                            for k in range(2)])
+            kept = lam * partial_spline._hinge_penalty(n, tau, a, b)
+            assert np.max(np.abs(kept - direct)) <= 1e-12 * np.max(np.abs(direct))
+        assert partial_spline._hinge_penalty(n, tau, a, b) is \
+            partial_spline._hinge_penalty(n, tau, a, b)
+
+
+def test_levels_on_the_lattice_are_the_level_searches_own():
+    """Levels.on_lattice: a level on the search's half-decade lattice (within 1e-12
+    decades of anchor + k LEVEL_STEP), within half a step of the level asked for, and
+    the very level (the same system) the level search builds there."""
+    fam = FAMILIES['dwell']
+    a, h = measured_table(fam.law, 0.5 * DEG, sigma=0.5e-6, seed=1)
+    levels = junctions.Levels(h)
+    assert levels.on_lattice(123.0) == 123.0            # no lattice yet
+    junctions.choose_level(h, [300.4], 1.4, 10 ** 3.3, levels)
+    step = junctions.LEVEL_STEP
+    for lam in (10 ** 2.1, 10 ** 3.3, 10 ** 4.74, 10 ** 6.0):
+        snapped = levels.on_lattice(lam)
+        k = (math.log10(snapped) - levels.anchor) / step
+        assert abs(k - round(k)) < 1e-12 / step
+        assert abs(math.log10(snapped) - math.log10(lam)) <= 0.5 * step + 1e-12
+    built = [lam for lam in levels._systems if abs(math.log10(lam) - 3.3) > 1e-9]
+    assert built and all(levels.on_lattice(lam) == lam for lam in built)
 
 
 @pytest.mark.parametrize('lam', [1e2, 1e4, 1e6, 1e8])

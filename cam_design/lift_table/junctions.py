@@ -137,6 +137,15 @@ class Levels:
         self.anchor: float | None = None
         self._systems: dict[float, LevelSystem] = {}
 
+    def on_lattice(self, lam_d: float) -> float:
+        """The lattice level nearest to ``lam_d`` (``lam_d`` itself before the lattice is
+        anchored)."""
+        if self.anchor is None:
+            return lam_d
+        h = LEVEL_STEP      # the level as choose_level forms it at its start (k = 0)
+        steps = round((math.log10(max(lam_d, 1e-6)) - self.anchor) / h)
+        return 10.0 ** (self.anchor + h * steps)
+
     def at(self, lam_d: float) -> LevelSystem:
         """The system at discrete level ``lam_d``."""
         lam_d = float(lam_d)
@@ -166,7 +175,9 @@ def choose_level(values: NDArray[np.float64], taus: list[float], gamma: float,
             seen[k] = levels.at(10.0 ** (c0 + k * h)).gcv(taus, gamma)
         return seen[k]
 
-    d = -1 if score(-1) < score(1) else 1
+    # downhill (GCV is unimodal in the level near its minimum): a lower score one step
+    # up already says which way, the step down is then not scored
+    d = 1 if score(1) < score(0) or score(-1) >= score(1) else -1
     best = 0
     while abs(best) < LEVEL_REACH and score(best + d) < score(best):
         best += d
@@ -215,26 +226,40 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
     nfft = next_fast_len(2 * n, real=True)
     spectra = _kernel_spectra(n, length, nfft)
     e = rfft(resid, nfft)
-    kern = np.empty((len(SCAN_OFFSETS), spectra.shape[-1]), dtype=complex)
-    var = np.empty(len(SCAN_OFFSETS))
+    k = len(SCAN_OFFSETS)
+    # the products with the hinges' spectra, one batch of inverse FFTs: rows [0, k)
+    # correlate (right-opening junctions), rows [k, 2k) convolve (left-opening)
+    prod = np.empty((2 * k, spectra.shape[-1]), dtype=complex)
+    var = np.empty(k)
     for col, (m, v) in enumerate(interior_hinge_grams(float(lam_d), length, SCAN_OFFSETS)):
         # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
         w = np.array([1.0, -m[0, 1] / m[1, 1]])
         var[col] = max(float(w @ v @ w) * sigma ** 2, 1e-300)
-        kern[col] = w[0] * spectra[col, 0] + w[1] * spectra[col, 1]
+        kern = spectra[col, 1] * w[1]      # + spectra[col, 0] * w[0], w[0] = 1
+        kern += spectra[col, 0]
+        np.multiply(e, kern, out=prod[k + col])
+        np.multiply(e, np.conjugate(kern, out=kern), out=prod[col])
     # right: b(j) = sum_i g(i - off) e_{j+i}; left (the table reversed):
     # b(j) = sum_i g(i - off) e_{n-1-j-i}
-    b = irfft(np.concatenate([e * np.conj(kern), e * kern]), nfft, axis=-1)
-    k = len(SCAN_OFFSETS)
-    right = (b[:k, :n] ** 2 / var[:, None]).T.ravel()
-    left = (b[k:, n - 1::-1] ** 2 / var[:, None]).T.ravel()[::-1]
+    b = irfft(prod, nfft, axis=-1)
     pos_r, pos_l = _scan_positions(n)
     mid = 0.5 * (n - 1)
-    r0, r1 = np.searchsorted(pos_r, margin, side='left'), np.searchsorted(pos_r, mid, 'right')
-    l0 = np.searchsorted(pos_l, mid, side='right')
-    l1 = np.searchsorted(pos_l, n - 1 - margin, side='right')
+    r0 = int(np.searchsorted(pos_r, margin, side='left'))
+    r1 = int(np.searchsorted(pos_r, mid, side='right'))
+    l0 = int(np.searchsorted(pos_l, mid, side='right'))
+    l1 = int(np.searchsorted(pos_l, n - 1 - margin, side='right'))
     return (np.concatenate([pos_r[r0:r1], pos_l[l0:l1]]),
-            np.concatenate([right[r0:r1], left[l0:l1]]))
+            np.concatenate([_statistic(b[:k, :n], var, r0, r1),
+                            _statistic(b[k:, n - 1::-1], var, k * n - l1, k * n - l0)[::-1]]))
+
+
+def _statistic(b: NDArray[np.float64], var: NDArray[np.float64], p0: int, p1: int
+               ) -> NDArray[np.float64]:
+    """Entries [p0, p1) of (b^2 / var).T.ravel() (b: offsets x nodes; the scan's
+    positions node by node, offset by offset), formed on the nodes they need only."""
+    k = b.shape[0]
+    j0, j1 = p0 // k, -(-p1 // k)
+    return (b[:, j0:j1] ** 2 / var[:, None]).T.ravel()[p0 - k * j0:p1 - k * j0]
 
 
 @dataclass(frozen=True)
@@ -271,13 +296,21 @@ class JunctionFit:
         out = np.zeros(u.size)
         length = taper_nodes(self.nodes)
         cubic = hinge_coefficients(float(length), nu)[1]
+        # ascending points (a grid): each hinge's points are a slice, found by bisection
+        ascending = u.size > 1 and bool(np.all(u[1:] >= u[:-1]))
         for k, t in enumerate(self.angles):
             tau = (t - self.x0) / self.step
             side = side_of(tau, self.nodes)
             c2, c3 = self.coef[2 * k:2 * k + 2] * float(side) ** nu
             width = self.width(k)
-            # formed on the points the hinge opens to only (beyond them it adds 0)
-            on = np.flatnonzero(side * u > side * tau)
+            # formed on the points the hinge opens to only (beyond them it adds 0): a
+            # slice of ``out`` (a view) on ascending points, else its indices
+            on: slice | NDArray[np.intp]
+            if ascending:
+                on = (slice(int(np.searchsorted(u, tau, side='right')), u.size) if side > 0
+                      else slice(0, int(np.searchsorted(u, tau, side='left'))))
+            else:
+                on = np.flatnonzero(side * u > side * tau)
             v = side * (u[on] - tau)
             if width > 0.0:     # a ramp of h'' in place of the quadratic hinge
                 out += c2 * ramp_hinge(side * (u - tau), width, nu)
@@ -289,7 +322,11 @@ class JunctionFit:
             elif nu == 2:
                 out[on] += c2
             near = v < length
-            out[on[near]] += c3 * horner(v[near], cubic)
+            taper = c3 * horner(v[near], cubic)
+            if ascending:
+                out[on][near] += taper
+            else:
+                out[np.asarray(on)[near]] += taper      # the indices themselves
         return out.reshape(x.shape) / self.step ** nu
 
 
@@ -464,10 +501,12 @@ def _attempt(system: LevelSystem, levels: Levels, taus: list[float], held: list[
 def _climbs(levels: Levels, taus: list[float], lam: float, gamma: float) -> bool:
     """The GCV score with junctions ``taus`` is higher at LOOKAHEAD_LEVEL_RISE times
     the level ``lam`` than at its square root times: its minimum (GCV is unimodal in
-    the level) lies below LOOKAHEAD_LEVEL_RISE x ``lam``."""
+    the level) lies below LOOKAHEAD_LEVEL_RISE x ``lam``. Both levels are taken on the
+    search's lattice (``Levels.on_lattice``), where the level searches have already
+    built their systems and the columns of the junctions taken."""
     rise = LOOKAHEAD_LEVEL_RISE
-    return bool(levels.at(lam * rise).gcv(taus, gamma)
-                >= levels.at(lam * math.sqrt(rise)).gcv(taus, gamma))
+    return bool(levels.at(levels.on_lattice(lam * rise)).gcv(taus, gamma)
+                >= levels.at(levels.on_lattice(lam * math.sqrt(rise))).gcv(taus, gamma))
 
 
 def _refine(system: LevelSystem, taus: list[float]) -> list[float]:

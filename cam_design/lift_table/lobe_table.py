@@ -222,14 +222,14 @@ def _scatter(b: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[float, Fai
     of a smooth shape grows as a power of it (at least ``SHAPE_GROWTH`` times when the
     step doubles, on every lobe tried), so scatter^2 = full^2 - (half/SHAPE_GROWTH)^2.
     Returns (scatter, the engine's fairing of all the rows, for the engine to reuse)."""
-    from cam_design.lift_table.rebound import rebound_fairing
+    from cam_design.lift_table.rebound import rebound_fairing, rebound_noise
 
     fairing = rebound_fairing(b, h)
     full = float(fairing.sigma)
     if b.size < 24 or full <= 0.0:
         return max(full, 0.0), fairing
-    half = min(float(rebound_fairing(b[0::2], h[0::2]).sigma),
-               float(rebound_fairing(b[1::2], h[1::2]).sigma))
+    # of the halves only the noise estimate is needed, not their fairing
+    half = min(float(rebound_noise(b[0::2], h[0::2])), float(rebound_noise(b[1::2], h[1::2])))
     return math.sqrt(max(full ** 2 - (half / SHAPE_GROWTH) ** 2, 0.0)), fairing
 
 

@@ -166,7 +166,8 @@ def horner(x: NDArray[np.float64], coef: NDArray[np.float64]) -> NDArray[np.floa
     """sum_k coef[k] x^k by Horner's rule (numpy's polyval without its checks)."""
     acc = np.full(x.shape, coef[-1])
     for c in coef[-2::-1]:
-        acc = acc * x + c
+        acc *= x            # in place: the same operations, no temporaries
+        acc += c
     return acc
 
 
@@ -177,7 +178,7 @@ def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[
     out = np.zeros((u.size, 2))
     quad, cubic = hinge_coefficients(float(length), nu)
     pos = u > 0
-    out[:, 0] = np.where(pos, horner(u, quad), 0.0)
+    out[pos, 0] = horner(u[pos], quad)          # 0 where the hinge is closed
     near = np.flatnonzero(pos & (u < length))
     out[near, 1] = horner(u[near], cubic)
     return out
@@ -204,20 +205,29 @@ def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
 _THIRD_DIFFERENCE = np.array([-1.0, 3.0, -3.0, 1.0])
 
 
-def _penalised(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
-    """lam_d P g = lam_d D3'D3 g (free ends of ``g``'s own rows)."""
+def _penalty_of(g: NDArray[np.float64]) -> NDArray[np.float64]:
+    """P g = D3'D3 g (free ends of ``g``'s own rows)."""
     d3 = np.diff(g, 3, axis=0)
     if g.ndim == 1:
-        return lam_d * np.convolve(d3, _THIRD_DIFFERENCE)
-    return lam_d * np.column_stack([np.convolve(d3[:, k], _THIRD_DIFFERENCE)
-                                    for k in range(g.shape[1])])
+        return np.convolve(d3, _THIRD_DIFFERENCE)
+    return np.column_stack([np.convolve(d3[:, k], _THIRD_DIFFERENCE)
+                            for k in range(g.shape[1])])
+
+
+@lru_cache(maxsize=512)
+def _hinge_penalty(n: int, tau: float, a: int, b: int) -> NDArray[np.float64]:
+    """P g on rows [a, b) of the hinges g of the junction at node ``tau`` on n nodes
+    (read-only, kept: asked for at every level, which only scales it)."""
+    out = _penalty_of(_hinge_pair(n, tau)[a:b])
+    out.setflags(write=False)
+    return out
 
 
 def residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
     """R g = (I + lam_d P)^-1 lam_d P g, P = D3'D3: the same as g - S g, but formed from
     third differences, so that the long quadratic tail of a hinge (S reproduces it)
     adds no rounding."""
-    return _deflate(_smooth(_penalised(g, lam_d), lam_d))
+    return _deflate(_smooth(lam_d * _penalty_of(g), lam_d))
 
 
 def window_margin(lam_d: float) -> int:
@@ -259,17 +269,16 @@ def _hinge_support(n: int, tau: float, lo: int, hi: int) -> tuple[int, int]:
     return max(a, lo), min(b, hi)
 
 
-def _windowed_residual(g: NDArray[np.float64], lam_d: float, lo: int, hi: int,
-                       tau: float) -> NDArray[np.float64]:
-    """R g of the junction at node ``tau`` on rows [lo, hi) of the n = g.shape[0] rows,
-    zero outside (the rows of I + lam_d P there: a leading block, a trailing one (the
-    matrix reads the same backwards) or the Toeplitz interior)."""
-    n = g.shape[0]
-    rhs = np.zeros((hi - lo,) + g.shape[1:])
+def _windowed_residual(n: int, lam_d: float, lo: int, hi: int, tau: float
+                       ) -> NDArray[np.float64]:
+    """R g, (hi - lo, 2), of the hinges g of the junction at node ``tau`` on rows
+    [lo, hi) of n rows, zero outside (the rows of I + lam_d P there: a leading block, a
+    trailing one (the matrix reads the same backwards) or the Toeplitz interior)."""
+    rhs = np.zeros((hi - lo, 2))
     # P g from the hinge's own rows only: beyond them its third differences are those of
     # a quadratic or of zero (0 but for the rounding of the quadratic's values)
     a, b = _hinge_support(n, tau, lo, hi)
-    rhs[a - lo:b - lo] = _penalised(g[a:b], lam_d)
+    rhs[a - lo:b - lo] = lam_d * _hinge_penalty(n, float(tau), a, b)
     if lo == 0:
         x = _solve(_factor(n, lam_d), rhs)
     elif hi == n:
@@ -350,6 +359,13 @@ class _Column:
     v: NDArray[np.float64]
 
 
+def _ridged(m: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``m`` with 1e-13 of its trace added to its diagonal (the hinge Gram's ridge)."""
+    out = m.copy()
+    out.flat[::m.shape[0] + 1] += 1e-13 * np.trace(m)
+    return out
+
+
 K = TypeVar('K')
 V = TypeVar('V')
 
@@ -389,7 +405,7 @@ class LevelSystem:
         self.ryry = float(self.ry @ self.ry)
         self.trace = _trace_smoother(self.n, self.lam_d)
         self._cols: dict[float, _Column] = {}
-        self._stacks: dict[tuple[float, ...], Stack] = {}
+        self._stacks: dict[tuple[float, ...], NDArray[np.float64]] = {}
         self._fits: dict[tuple[float, ...], PartialFit] = {}
         self._scores: dict[tuple[float, ...], FitScore] = {}
         self._grams: dict[tuple[float, ...], Gram] = {}
@@ -401,25 +417,28 @@ class LevelSystem:
         if col is None:
             g = _hinge_pair(self.n, tau)
             lo, hi = _window(self.n, tau, self.lam_d)
-            rg = _windowed_residual(g, self.lam_d, lo, hi, tau)
+            rg = _windowed_residual(self.n, self.lam_d, lo, hi, tau)
             col = self._cols[tau] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
                                             rg.T @ self.ry[lo:hi], g[lo:hi].T @ rg,
                                             rg.T @ rg)
         return col
 
     def columns(self, taus: list[float]) -> Stack:
-        """(G, R G), (n, 2J), of junctions at node positions ``taus`` (R G zero outside
-        each junction's window; the last few sets kept)."""
+        """(G, R G), (n, 2J), of junctions at node positions ``taus``."""
         key = tuple(float(t) for t in taus)
+        g = np.hstack([self._column(t).g for t in key]) if key else np.zeros((self.n, 0))
+        return g, self._residual_stack(key)
+
+    def _residual_stack(self, key: tuple[float, ...]) -> NDArray[np.float64]:
+        """R G, (n, 2J), of the junctions ``key``, zero outside each junction's window
+        (the last few sets kept)."""
         done = _recall(self._stacks, key)
         if done is None:
-            g = np.zeros((self.n, 2 * len(key)))
             rg = np.zeros((self.n, 2 * len(key)))
             for k, t in enumerate(key):
                 col = self._column(t)
-                g[:, 2 * k:2 * k + 2] = col.g
                 rg[col.lo:col.hi, 2 * k:2 * k + 2] = col.rg
-            done = _remember(self._stacks, key, (g, rg), STACKS_KEPT)
+            done = _remember(self._stacks, key, rg, STACKS_KEPT)
         return done
 
     def _gram(self, taus: tuple[float, ...]) -> Gram:
@@ -434,13 +453,16 @@ class LevelSystem:
             done = (col.m, col.v, col.gy, col.gry)
         elif taus[:-1] in self._grams:
             pm, pv, pgy, pgry = self._gram(taus[:-1])
-            g, rg = self.columns(list(taus[:-1]))
+            rg = self._residual_stack(taus[:-1])
             k = 2 * len(taus)
             m = np.empty((k, k))
             v = np.empty((k, k))
             m[:-2, :-2], v[:-2, :-2] = pm, pv
             m[-2:, -2:], v[-2:, -2:] = col.m, col.v
-            m[:-2, -2:] = g[col.lo:col.hi].T @ col.rg
+            # the rows of the window of the earlier hinges G, as rows of their (n, 2J - 2)
+            # stack would be (the same product)
+            g = np.concatenate([self._column(t).g[col.lo:col.hi] for t in taus[:-1]], axis=1)
+            m[:-2, -2:] = g.T @ col.rg
             m[-2:, :-2] = col.g.T @ rg
             v[:-2, -2:] = rg[col.lo:col.hi].T @ col.rg
             v[-2:, :-2] = v[:-2, -2:].T
@@ -463,12 +485,12 @@ class LevelSystem:
             done = FitScore(np.zeros(0), self.ryry, self.trace, self.yry)
         else:
             m, v, gy, gry = self._gram(key)
-            ridge = m + 1e-13 * np.trace(m) * np.eye(m.shape[0])
+            ridge = _ridged(m)
             # G'R y formed as (R G)'y: g'(R y) multiplies the rounding of R y by the
             # hinge's long quadratic tail (a 1e-15 change of the level moved the step
             # of h'' by 0.3 % and flipped the search's decisions); R G is formed from
             # third differences and y is data, so the product keeps its digits
-            sol = np.linalg.solve(ridge, np.column_stack([gy, v]))
+            sol = np.asarray(np.linalg.solve(ridge, np.column_stack([gy, v])), dtype=np.float64)
             coef = sol[:, 0]
             extra = float(np.trace(sol[:, 1:]))
             rss = self.ryry - 2.0 * float(coef @ gry) + float(coef @ v @ coef)
@@ -516,7 +538,7 @@ class LevelSystem:
             inverse = None
             if key:
                 m = self._gram(key)[0]
-                inverse = np.linalg.inv(m + 1e-13 * np.trace(m) * np.eye(m.shape[0]))
+                inverse = np.linalg.inv(_ridged(m))
             kept = _remember(self._moving, key, (self.fit(list(key)).smooth,
                                                  self.score(list(key)).objective,
                                                  [self._column(t) for t in key], inverse),
@@ -529,7 +551,7 @@ class LevelSystem:
         # multiply the rounding of e by the hinge's long quadratic tail)
         g = _hinge_pair(self.n, tau)
         a, b = _hinge_support(self.n, tau, *_window(self.n, tau, self.lam_d))
-        d0, d1 = _penalised(g[a:b], self.lam_d).T @ smooth[a:b]
+        d0, d1 = (self.lam_d * _hinge_penalty(self.n, float(tau), a, b)).T @ smooth[a:b]
         if inverse is not None:
             cross = np.concatenate([g[c.lo:c.hi].T @ c.rg for c in cols], axis=1)
             (c00, c01), (c10, c11) = cross @ inverse @ cross.T
@@ -564,7 +586,7 @@ def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
     nodes = np.arange(size, dtype=float)
     g = np.concatenate([hinge_values(nodes - (margin + 5 + off), length)
                         for off in offsets], axis=1)
-    rg = _deflate(_solve(_interior_factor(size, lam_d), _penalised(g, lam_d)))
+    rg = _deflate(_solve(_interior_factor(size, lam_d), lam_d * _penalty_of(g)))
     return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
                   rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
                  for k in range(len(offsets)))

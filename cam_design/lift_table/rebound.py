@@ -265,18 +265,11 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     factor = op.noise_factors()
     interior = np.zeros(n, dtype=bool)
     interior[1:-1] = True
-    u = r[interior] / factor[interior]              # rebounds in noise units
     span = float(np.ptp(y)) if n else 0.0
     quantum = quantisation_step(y)
     floor = max(min_tolerance_rel * span, 1e-300)
     if sigma is None:
-        # judged from the rows' scatter, rows sitting on a flat run left out when the
-        # rest looks like noise (noise.py): digits do not make a table exact
-        sigma = rebound_sigma(u, y)
-        exact = sigma < EXACT_NOISE_REL * span
-        # rounding to a step q is noise of std q / sqrt(12) on the lobe, where the MAD
-        # of a table whose base circle rounds to exact zeros does not see it
-        sigma = rebound_sigma(u, y, quantum)
+        sigma, exact = _estimated_noise(r, factor, y, span, quantum)
     else:
         sigma = require_positive('sigma', sigma, allow_zero=True)
         exact = sigma < EXACT_NOISE_REL * span
@@ -326,6 +319,32 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     return Fairing(y, outlier, corr, r0, float(sigma), float(tol), sweeps, quantum)
 
 
+def _estimated_noise(r: NDArray[np.float64], factor: NDArray[np.float64],
+                     y: NDArray[np.float64], span: float, quantum: float
+                     ) -> tuple[float, bool]:
+    """(sigma [m], exact) of rows ``y`` from their rebounds ``r`` and noise factors:
+    judged from the rows' scatter, rows sitting on a flat run left out when the rest
+    looks like noise (noise.py), so digits do not make a table exact; rounding to a
+    step ``quantum`` is noise of std q / sqrt(12) on the lobe, where the MAD of a table
+    whose base circle rounds to exact zeros does not see it."""
+    u = r[1:-1] / factor[1:-1]                      # rebounds in noise units
+    sigma = rebound_sigma(u, y)
+    exact = sigma < EXACT_NOISE_REL * span
+    if quantum:     # (with no rounding the same estimate)
+        sigma = rebound_sigma(u, y, quantum)
+    return sigma, exact
+
+
+def rebound_noise(alpha: ArrayLike, lift: ArrayLike) -> float:
+    """The noise sigma [m] that ``rebound_fairing`` estimates for these rows (``alpha``
+    [rad] strictly increasing, ``lift`` [m]), without fairing them."""
+    op = ReboundOperator(alpha)
+    y = np.asarray(lift, dtype=float)
+    span = float(np.ptp(y)) if y.size else 0.0
+    return _estimated_noise(op.rebound(y), op.noise_factors(), y, span,
+                            quantisation_step(y))[0]
+
+
 #: rows that ``quantisation_step`` tries a step on before all of them
 QUANTUM_HEAD = 64
 
@@ -343,16 +362,19 @@ def quantisation_step(y: ArrayLike) -> float:
     if not (top > 0 and span > 0):
         return 0.0
     start = math.floor(math.log10(span / 20.0))
+    steps = [q for q in (m * 10.0 ** k for k in range(start, int(math.floor(math.log10(top)))
+                                                      - 13, -1) for m in (5.0, 2.0, 1.0))
+             if q <= span / 20.0]
+    if not steps:
+        return 0.0
     # a step the first rows already refuse is refused by all of them (the same answer:
-    # the largest misfit of all rows is at least that of the first)
-    head = v[:QUANTUM_HEAD]
-    for k in range(start, int(math.floor(math.log10(top))) - 13, -1):
-        for m in (5.0, 2.0, 1.0):
-            q = m * 10.0 ** k
-            if q > span / 20.0 or not _whole_multiples(head, q):
-                continue
-            if _whole_multiples(v, q):
-                return q
+    # the largest misfit of all rows is at least that of the first); the first rows are
+    # tried on every step at once
+    ratio = v[None, :QUANTUM_HEAD] / np.asarray(steps)[:, None]
+    head_ok = np.max(np.abs(ratio - np.rint(ratio)), axis=1) <= 1e-6
+    for q in (q for q, ok in zip(steps, head_ok) if ok):
+        if _whole_multiples(v, q):
+            return q
     return 0.0
 
 

@@ -516,12 +516,15 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     out = output_grid(x[0], x[-1], out_step)
     node_sigma = fair.sigma / math.sqrt(max(density, 1.0))
 
-    def dwell(fitted: Any, level: float) -> NDArray[np.bool_]:
+    def dwell(fitted: Any, level: float, velocity: NDArray[np.float64] | None = None
+              ) -> NDArray[np.bool_]:
         """A dwell on the output grid: h' = 0 over an interval within what the noise
         gives at this level, so h'' = 0 there too and the sign flicker of its noise
-        is not a sign change of the lobe."""
+        is not a sign change of the lobe (``velocity``: h' of ``fitted`` on the output
+        grid, when already evaluated)."""
         band = SIGN_NOISE_SIGMAS * derivative_noise(node_sigma, step, level, grid.size, 1)
-        return np.asarray(np.abs(fitted(out, 1)) < band, dtype=bool)
+        h1 = fitted(out, 1) if velocity is None else velocity
+        return np.asarray(np.abs(h1) < band, dtype=bool)
     acc = spline(out, 2)
     lift_out = spline(out)
     expected = opt.expected_sign_changes
@@ -533,7 +536,9 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
 
         def significant_changes(fitted: Any, level: float) -> int:
-            fit_acc, fit_lift = fitted(out, 2), fitted(out)
+            # the spline at hand is already evaluated on the output grid
+            fit_acc, fit_lift = (acc, lift_out) if fitted is spline else (fitted(out, 2),
+                                                                          fitted(out))
             count = sign_changes(fit_acc, lift=fit_lift)
             if count <= expected:
                 return count
@@ -578,14 +583,15 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     def evaluate(a: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
         return np.asarray(final(np.asarray(a, dtype=float), nu), dtype=float)
 
+    velocity = spline(out, 1)
     rec = Reconstruction(
-        method='spline', alpha=out, lift=lift_out, velocity=spline(out, 1),
+        method='spline', alpha=out, lift=lift_out, velocity=velocity,
         acceleration=acc, jerk=spline(out, 3), data_alpha=x[kept],
         residual=y0[kept] - fit, parameter=parameter, why=why, sigma=fair.sigma,
         evaluate=evaluate,
         outliers_alpha=x[outlier], warnings=warnings, notes=notes)
     rec.outlier_mask = outlier
     rec.check_residuals()
-    rec.check_shape(opt.expected_sign_changes, still=dwell(final, lam_d))
+    rec.check_shape(opt.expected_sign_changes, still=dwell(final, lam_d, velocity))
     rec.check_finite()
     return rec
