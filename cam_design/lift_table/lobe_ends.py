@@ -14,7 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cam_design.lift_table.coarse import penalty_eigen
+from cam_design.lift_table.coarse import (base_circle_sigma, coarse_level, lobe_end_knots,
+                                          lobe_end_rows, penalty_eigen)
+from cam_design.lift_table.rebound import Fairing
 
 #: the lobe-end fit seeks each kink of h'' from the last base-circle row out to this many
 #: rows away from the lobe, in steps of KINK_STEP rows (the C2 lobe at 2.5 deg, 0.5 um:
@@ -172,3 +174,35 @@ class LobeEndFit:
         at = ', '.join(f'{math.degrees(float(grid[0]) + e * step):.4g}' for e in fit.ends)
         return (f"; h''' free to jump at the lobe's ends ({at} deg): fourth differences "
                 f'penalised, lam_d = {fit.lam_d:.4g}, edf = {fit.edf:.1f}')
+
+
+@dataclass(frozen=True)
+class CoarseLobe:
+    """How a coarse table without junctions is smoothed: the level ``lam_d``, what to add
+    to ``why``, the interpolant's ``knots`` (None: not-a-knot) and the lobe-end fit
+    (None: the plain smoother)."""
+
+    lam_d: float
+    why: str
+    knots: NDArray[np.float64] | None
+    plan: LobeEndFit | None
+
+
+def coarse_lobe(grid: NDArray[np.float64], values: NDArray[np.float64],
+                fit: NDArray[np.float64], missing: NDArray[np.bool_], fair: Fairing,
+                floor: float, lam_d: float, gamma: float, gcv: bool) -> CoarseLobe:
+    """The coarse-table rules for uniform ``values`` [m] on ``grid`` [rad] without
+    junctions (``fit`` [m]: their smoothing at ``lam_d``; ``fair``: the rows' fairing;
+    ``floor`` [m]: the known noise): the level (``coarse.coarse_level``), the knots
+    where the lobe leaves the base circle, and with the GCV criterion (``gcv``) the
+    lobe-end fit. h''' may jump there (a C2 lobe's ends): a quintic interpolant without
+    a knot, or a third-difference smoother, rounds it."""
+    rows = fair.lift[~fair.outlier]
+    level = coarse_level(values, fit, ~missing, rows, fair.quantum, floor, lam_d)
+    base_sigma = base_circle_sigma(rows, fair.quantum)
+    end_sigma = fair.sigma if base_sigma is None else base_sigma
+    knots = lobe_end_knots(grid, values, end_sigma)
+    ends = lobe_end_rows(values, end_sigma)
+    plan = (LobeEndFit(ends, gamma, level.cp_sigma, level.lam_d)
+            if knots is not None and ends is not None and gcv else None)
+    return CoarseLobe(level.lam_d, level.why, knots, plan)

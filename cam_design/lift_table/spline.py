@@ -33,11 +33,10 @@ from scipy.interpolate import make_interp_spline
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
-from cam_design.lift_table.coarse import (base_circle_sigma, coarse_junctions, coarse_level,
-                                          lobe_end_knots, lobe_end_rows)
+from cam_design.lift_table.coarse import coarse_junctions
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              golden_minimum, refit)
-from cam_design.lift_table.lobe_ends import KinkedLobe, LobeEndFit
+from cam_design.lift_table.lobe_ends import KinkedLobe, coarse_lobe
 from cam_design.lift_table.noise import EXACT_NOISE_REL
 from cam_design.lift_table.rebound import VERY_COARSE_RAD, Fairing, rebound_fairing
 from cam_design.lift_table.result import Reconstruction, output_grid, sign_changes
@@ -447,25 +446,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
                     f'chosen again with them: lam_d = {lam_d:.4g}' + hedge)
-    knots = None
-    kinked: LobeEndFit | None = None
+    knots, kinked = None, None   # the coarse rules (lobe_ends.coarse_lobe)
     if (step > COARSE_LEVEL_RAD and uniform and found is None and not exact
             and opt.smoothing is None):
-        rows = fair.lift[~fair.outlier]
-        level = coarse_level(values, smooth_grid(values, missing, lam_d), ~missing,
-                             rows, fair.quantum, floor, lam_d)
-        lam_d = level.lam_d
-        why += level.why
-        # h''' may jump where the lobe leaves the base circle (a C2 lobe's ends): a
-        # quintic interpolant without a knot, or a third-difference smoother, rounds it
-        base_sigma = base_circle_sigma(fair.lift[~fair.outlier], fair.quantum)
-        end_sigma = fair.sigma if base_sigma is None else base_sigma
-        knots = lobe_end_knots(grid, values, end_sigma)
-        ends = lobe_end_rows(values, end_sigma)
-        if knots is not None and ends is not None and opt.criterion == 'gcv':
-            kinked = LobeEndFit(ends, gamma, level.cp_sigma, lam_d)
+        lobe = coarse_lobe(grid, values, smooth_grid(values, missing, lam_d), missing, fair,
+                           floor, lam_d, gamma, opt.criterion == 'gcv')
+        lam_d, why, knots, kinked = lobe.lam_d, why + lobe.why, lobe.knots, lobe.plan
     kinked_fit: list[KinkedLobe] = []
-
     ylift = fair.lift.copy()
 
     def fit_spline(lam: float) -> Any:
@@ -473,8 +460,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             fit = refit(grid, values, missing, found, lam)
             return JunctionSpline(make_interp_spline(grid, fit.smooth, k=5), fit)
         if uniform:
-            if kinked is not None:
-                kinked_fit[:] = [kinked.fit(values, missing, lam)]
+            kinked_fit[:] = [kinked.fit(values, missing, lam)] if kinked is not None else []
             smooth = kinked_fit[0].values if kinked_fit else smooth_grid(values, missing, lam)
             if knots is not None:
                 try:
@@ -553,8 +539,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                 return count
             return sign_changes(fit_acc, lift=fit_lift, still=dwell(fitted, level))
         if kinked_fit and significant_changes(spline, lam_d) > expected:
-            # the lobe-end fit stands only with the lobe's sign pattern (LobeEndFit)
-            kinked, kinked_fit[:] = None, []
+            kinked, kinked_fit[:] = None, []    # only with the sign pattern (LobeEndFit)
             spline = fit_spline(lam_d)
             acc, lift_out, at_rows = spline(out, 2), spline(out), spline(x)
         while significant_changes(spline, lam_d) > expected and raised < 5:
