@@ -178,13 +178,19 @@ def horner(x: NDArray[np.float64], coef: NDArray[np.float64]) -> NDArray[np.floa
 def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
     """(len(u), 2): nu-th u-derivatives of g2 and g3 (node units), ``u`` nodes from a
     junction that opens to the right."""
-    u = np.asarray(u, dtype=float).reshape(-1)
-    out = np.zeros((u.size, 2))
+    return hinge_block(np.asarray(u, dtype=float).reshape(-1, 1), length, nu)
+
+
+def hinge_block(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
+    """(m, 2k): ``hinge_values`` of each column of ``u`` (m, k) side by side (g2 and g3
+    of column j in columns 2j, 2j + 1), all in one pass of Horner's rule."""
+    out = np.zeros((u.shape[0], 2 * u.shape[1]))
     quad, cubic = hinge_coefficients(float(length), nu)
     pos = u > 0
-    out[pos, 0] = horner(u[pos], quad)          # 0 where the hinge is closed
-    near = np.flatnonzero(pos & (u < length))
-    out[near, 1] = horner(u[near], cubic)
+    g2, g3 = out[:, 0::2], out[:, 1::2]         # views
+    g2[pos] = horner(u[pos], quad)              # 0 where the hinge is closed
+    near = pos & (u < length)
+    g3[near] = horner(u[near], cubic)
     return out
 
 
@@ -587,9 +593,8 @@ def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
     ``level_interior_grams``)."""
     margin = window_margin(lam_d)
     size = int(math.ceil(length)) + 12 + 2 * margin
-    nodes = np.arange(size, dtype=float)
-    g = np.concatenate([hinge_values(nodes - (margin + 5 + off), length)
-                        for off in offsets], axis=1)
+    g = hinge_block(np.arange(size, dtype=float)[:, None]
+                    - (margin + 5.0 + np.asarray(offsets, dtype=float))[None, :], length)
     rg = _deflate(_solve(_interior_factor(size, lam_d), lam_d * _penalty_of(g)))
     return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
                   rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
