@@ -58,10 +58,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.fft import irfft, next_fast_len, rfft
 
-from cam_design.lift_table.partial_spline import (SCAN_OFFSETS, LevelSystem, PartialFit,
-                                                  hinge_coefficients, hinge_values, horner,
-                                                  level_interior_grams, partial_fit,
-                                                  residual_operator, side_of, taper_nodes)
+from cam_design.lift_table.partial_spline import (LevelSystem, PartialFit, hinge_coefficients,
+                                                  hinge_values, horner, interior_hinge_grams,
+                                                  partial_fit, residual_operator, side_of,
+                                                  taper_nodes)
 
 #: family-wise false-alarm probability of the junction search on a lobe without one
 FALSE_ALARM = 1e-3
@@ -93,6 +93,8 @@ LOOKAHEAD_LEVEL_RISE = 10.0
 #: level chosen again, is below GCV_GAIN - PRETEST_SLACK is refused without either (on
 #: the benchmark: 1 of the 431 kept had a pre-test gain below -30, 448 of 1113 refused)
 PRETEST_SLACK = 42.0
+#: positions tried per grid step by the scan
+SCAN_OFFSETS = (0.0, 0.25, 0.5, 0.75)
 #: the level search: steps [decades] downhill from the start, at most this many
 LEVEL_STEP = 0.5
 LEVEL_REACH = 4
@@ -229,7 +231,7 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
     # correlate (right-opening junctions), rows [k, 2k) convolve (left-opening)
     prod = np.empty((2 * k, spectra.shape[-1]), dtype=complex)
     var = np.empty(k)
-    for col, (m, v) in enumerate(level_interior_grams(float(lam_d), length)[0]):
+    for col, (m, v) in enumerate(interior_hinge_grams(float(lam_d), length, SCAN_OFFSETS)):
         # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
         w = np.array([1.0, -m[0, 1] / m[1, 1]])
         var[col] = max(float(w @ v @ w) * sigma ** 2, 1e-300)

@@ -40,10 +40,6 @@ STACKS_KEPT = 8
 #: that place (it moves by 1e-4 relative over a row), and 7 nodes reach the rounding of
 #: the solves themselves (1e-9 .. 7e-8 relative at levels 1e2.5 .. 1e8)
 GRAM_NODES = 7
-#: positions tried per grid step by the junction scan (``junctions.scan``), whose
-#: interior hinge Grams are solved at each level together with the refinement's
-#: (``level_interior_grams``)
-SCAN_OFFSETS = (0.0, 0.25, 0.5, 0.75)
 #: a hinge's column is solved this many smoother bandwidths either side (window_margin)
 WINDOW_BANDWIDTHS = 48.0
 #: ... and at most this many rows (the interior block's length does not depend on N; a
@@ -585,12 +581,12 @@ def partial_fit(values: NDArray[np.float64], taus: list[float], lam_d: float
     return LevelSystem(values, lam_d).fit(taus)
 
 
+@lru_cache(maxsize=16)
 def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
                          ) -> tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...]:
     """(G'RG, G'R^2G), 2 x 2 in node units, of one right-opening junction far from the
-    ends at each of ``offsets`` [nodes]: its column solved on its window
-    (``window_margin``) as in the fit, all offsets in one solve (a level's are kept by
-    ``level_interior_grams``)."""
+    ends at each of ``offsets`` [nodes] (cached by level): its column solved on its
+    window (``window_margin``) as in the fit, all offsets in one solve."""
     margin = window_margin(lam_d)
     size = int(math.ceil(length)) + 12 + 2 * margin
     g = hinge_block(np.arange(size, dtype=float)[:, None]
@@ -599,41 +595,6 @@ def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
     return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
                   rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
                  for k in range(len(offsets)))
-
-
-#: the places [nodes past a node] of the Chebyshev fits in a junction's place, one
-#: side's (``_interior_gram_fit``): the GRAM_NODES Chebyshev nodes of [0, 1]
-_GRAM_FRACTIONS = tuple(float(f) for f in
-                        0.5 - 0.5 * np.cos(np.pi * (np.arange(GRAM_NODES) + 0.5) / GRAM_NODES))
-
-
-@lru_cache(maxsize=16)
-def level_interior_grams(lam_d: float, length: float
-                         ) -> tuple[tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...],
-                                    NDArray[np.float64], NDArray[np.float64]]:
-    """What a level asks of an interior junction's hinges, in one solve (cached by
-    level): (G'RG, G'R^2G) at each of ``SCAN_OFFSETS`` (the scan), and the Chebyshev
-    coefficients (``_interior_gram_fit``) of G'RG in the place of a right- and of a
-    left-opening junction (the refinement). A banded solve treats each right-hand
-    side alone, so each is what ``interior_hinge_grams`` of its own offsets gives."""
-    k = len(SCAN_OFFSETS)
-    right = _GRAM_FRACTIONS
-    left = tuple(-f for f in _GRAM_FRACTIONS)
-    grams = interior_hinge_grams(float(lam_d), float(length), SCAN_OFFSETS + right + left)
-    return (grams[:k], _chebyshev_fit(grams[k:k + GRAM_NODES]),
-            _chebyshev_fit(grams[k + GRAM_NODES:]))
-
-
-def _chebyshev_fit(grams: tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...]
-                   ) -> NDArray[np.float64]:
-    """Chebyshev coefficients (GRAM_NODES, 4) in 2 f - 1 of G'R G (2 x 2, flattened)
-    given at the places ``_GRAM_FRACTIONS`` f (read-only)."""
-    frac = np.array(_GRAM_FRACTIONS)
-    values = np.array([m.reshape(4) for m, _ in grams])
-    coef = np.asarray(chebyshev.chebfit(2.0 * frac - 1.0, values, GRAM_NODES - 1),
-                      dtype=np.float64)
-    coef.setflags(write=False)
-    return coef
 
 
 def _interior_gram(lam_d: float, length: float, side: int, frac: float
@@ -648,9 +609,18 @@ def _interior_gram(lam_d: float, length: float, side: int, frac: float
     return float(out[0]), float(out[1]), float(out[2]), float(out[3])
 
 
+@lru_cache(maxsize=16)
 def _interior_gram_fit(lam_d: float, length: float, side: int) -> NDArray[np.float64]:
     """Chebyshev coefficients (GRAM_NODES, 4) in 2 f - 1 of G'R G (2 x 2, flattened) of
     an interior junction at the fraction f of a row past a node, opening to the right
     (``side`` +1) or to the left (-1; the window's mirror image places it -f past its
-    node), at level ``lam_d`` (read-only; ``level_interior_grams``)."""
-    return level_interior_grams(float(lam_d), float(length))[1 if side > 0 else 2]
+    node), at level ``lam_d`` (read-only, cached)."""
+    k = np.arange(GRAM_NODES)
+    frac = 0.5 - 0.5 * np.cos(np.pi * (k + 0.5) / GRAM_NODES)
+    grams = interior_hinge_grams(float(lam_d), float(length),
+                                 tuple(float(side) * float(f) for f in frac))
+    values = np.array([m.reshape(4) for m, _ in grams])
+    coef = np.asarray(chebyshev.chebfit(2.0 * frac - 1.0, values, GRAM_NODES - 1),
+                      dtype=np.float64)
+    coef.setflags(write=False)
+    return coef
