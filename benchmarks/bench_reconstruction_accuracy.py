@@ -3,8 +3,8 @@ whose acceleration jumps, and the junctions it finds.
 
 Run: ``.venv/bin/python -m benchmarks reconstruction_accuracy`` (writes
 benchmarks/results/reconstruction_accuracy.md; ``CAM_BENCH_SEEDS=5`` for more seeds;
-``CAM_BENCH_COARSE_JUNCTIONS=0`` without the junction search on tables coarser than
-4.5 deg, written to reconstruction_accuracy_no_coarse_junctions.md).
+``CAM_BENCH_COARSE_JUNCTIONS=1`` with the opt-in junction search on tables coarser than
+4.5 deg, written to reconstruction_accuracy_coarse_junctions.md).
 Truth: the closed-form lobes of ``cam_design.lift_table.truth_lobes`` (ramped C1
 with the CA+CV ramp, a C2 lobe, a dwell cam, a constant-acceleration cam, a circular-arc
 cam, the flat-tappet intake preset as a narrow acceleration peak: 6 families, 240 cases),
@@ -31,13 +31,13 @@ from cam_design.lift_table.blas import single_thread_blas
 from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_design.lift_table.truth_lobes import DEG, Family, families, measured_table
 
-#: ``CAM_BENCH_COARSE_JUNCTIONS=0``: without the junction search on tables coarser than
-#: 4.5 deg (the default searches; results in their own file)
-COARSE_JUNCTIONS = os.environ.get('CAM_BENCH_COARSE_JUNCTIONS', '') != '0'
+#: ``CAM_BENCH_COARSE_JUNCTIONS=1``: with the opt-in junction search on tables coarser
+#: than 4.5 deg (the default does not search there; results in their own file)
+COARSE_JUNCTIONS = os.environ.get('CAM_BENCH_COARSE_JUNCTIONS', '') == '1'
 OPTIONS = SplineOptions(coarse_junctions=COARSE_JUNCTIONS)
 RESULT = Path(__file__).resolve().parent / 'results' / (
-    'reconstruction_accuracy.md' if COARSE_JUNCTIONS
-    else 'reconstruction_accuracy_no_coarse_junctions.md')
+    'reconstruction_accuracy_coarse_junctions.md' if COARSE_JUNCTIONS
+    else 'reconstruction_accuracy.md')
 STEPS_DEG = (0.1, 0.5, 1.0, 2.5, 5.0)
 #: (label, noise sigma [m], rounding quantum [m])
 NOISE = (('0.1 um', 0.1e-6, 0.0), ('0.5 um', 0.5e-6, 0.0), ('2 um', 2e-6, 0.0),

@@ -300,12 +300,9 @@ def _rigid_rpm(law, p: SdofParams) -> float:
 
 @pytest.mark.parametrize('name, offset', [
     ('polynomial 70/70', 0.0), ('cycloidal 60/60', 2.5), ('harmonic 80/80', 2.5),
-    # the 5 deg junction fit (a ramp of h'' at the -70 deg lobe end) smooths the nose
-    # more: 3329 rpm found against 3250.5 analytic, +-69 stated (without the search
-    # 3304 +-55); docs/limits.md
-    pytest.param('harmonic 70/100', 0.0, marks=pytest.mark.xfail(
-        strict=True, reason='known limit: the 5 deg junction fit biases the jump speed '
-        '78 rpm, beyond the stated 69 rpm'))])
+    # with the opt-in 5 deg junction search (a ramp of h'' at the -70 deg lobe end) this
+    # lobe's jump speed was 3329 rpm +-69 stated against 3250.5 analytic (docs/limits.md)
+    ('harmonic 70/100', 0.0)])
 def test_table_jump_speed_uncertainty_covers_the_cam(name: str, offset: float) -> None:
     """A 5 deg table rounded to 0.01 mm does not define h'' (and the jerk that excites
     the train near its resonance) well enough for 1 % on every lobe: these four were

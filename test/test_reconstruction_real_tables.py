@@ -20,6 +20,7 @@ from scipy.interpolate import make_smoothing_spline
 from cam_metrology.cli import main
 from cam_metrology.reconstruction.profile import reconstruct_table
 from cam_design.lift_table.samples import LiftTable, find_steps
+from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_metrology.inputs.lift_tables import read_table_file
 from cam_metrology.reconstruction.synthetic import PolynomialLobe, simulate
 from cam_design.lift_table.truth_lobes import CircularArcCam
@@ -384,12 +385,26 @@ def test_very_coarse_table_keeps_a_spike():
     assert rec.outliers_alpha.size == 0
 
 
-@pytest.mark.xfail(strict=True, reason='known limit (docs/limits.md): with the junction '
-                   'search on 5 deg tables the spike makes a false junction at -33 deg and '
-                   'the fit passes through the spike row; the largest miss, and the '
-                   'warning, move to 40 deg')
 def test_very_coarse_table_names_the_spike_row():
-    """The warning names the spike's angle (it did without the 5 deg junction search)."""
+    """The warning names the spike's angle (by default no junction is sought on a 5 deg
+    table)."""
     a, h, k = _spiky_five_degree_table()
     rec = reconstruct_table(LiftTable('spiky', a, h))['spline'].reconstruction
     assert any(f'{math.degrees(a[k]):.1f}' in w for w in rec.warnings), rec.warnings
+
+
+@pytest.mark.parametrize('spike_deg', [-60, -45, -30, 0, 20, 50])
+def test_opt_in_coarse_junctions_take_no_spike_for_a_junction(spike_deg):
+    """With the opt-in 5 deg junction search, one row 50 um off an exact table makes no
+    junction: the base circle shows no noise, so the search does not run, and the fit
+    is the default's (before that rule, junctions at -30.5, -29.8 and +29.9 deg for
+    the spikes at -30, -45 and 50 deg, and the warning moved off the spike row)."""
+    a = rows(5.0) * DEG
+    h = LOBE(a)
+    k = int(np.argmin(np.abs(a - spike_deg * DEG)))
+    h[k] += 50e-6
+    rec = reconstruct_spline(a, h, SplineOptions(coarse_junctions=True))
+    assert not rec.parameter.get('junctions_deg'), rec.parameter.get('junctions_deg')
+    plain = reconstruct_spline(a, h)
+    grid = np.linspace(a[0], a[-1], 2001)
+    assert np.allclose(rec.evaluate(grid, 2), plain.evaluate(grid, 2), rtol=0, atol=1e-9)

@@ -281,7 +281,19 @@ def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
     together is justified by the level it lets the rest have, which a junction-by-
     junction test that drops some of them would take away (a circular-arc table at
     2.5 deg, 0.5 um: a held pair taken with a third at 289 times the level, then the
-    soft test dropped a true edge: h'' 2.2 x worse)."""
+    soft test dropped a true edge: h'' 2.2 x worse).
+
+    No search on a table coarser than VERY_COARSE_RAD whose base circle gives no
+    noise (``base_circle_sigma`` None: fewer than MIN_BASE_ROWS base-circle rows, or
+    no scatter there and not rounded; the known noise ``sigma_floor`` [m] stands for
+    the rounding). Where the base circle is exact the rows are computed, and a few rows
+    off them (a spike) only make the table look noisy, so that the search takes the
+    lobe's own fast change of h'' for a junction and the fit bends to the spike row (a
+    polynomial lobe's exact 5 deg rows with one row 50 um off: a junction kept beside
+    it in three of six placements). The hedge's level check needs that noise too."""
+    if (float(grid[1] - grid[0]) > VERY_COARSE_RAD
+            and base_circle_sigma(values[~missing], math.sqrt(12.0) * sigma_floor) is None):
+        return CoarseJunctions(None, (), lam0)
     tested = _tested_junctions(grid, values, missing, lam0, gamma=gamma,
                                sigma_floor=sigma_floor)
     if tested.found is None or float(grid[1] - grid[0]) <= VERY_COARSE_RAD:

@@ -317,10 +317,12 @@ class SplineOptions:
     expected_sign_changes: int | None = 2   # of h'' (None: no check)
     step: float | None = None               # output grid step [rad]; None: data step
     junctions: bool = True                  # find h'' jumps and fit them (junctions.py)
-    # also on tables coarser than COARSE_RAD, each junction tested against a soft change
-    # of h'' and fitted as a short ramp of h'' (coarse.py): a step cannot be told there
-    # from a rise within one row; False: no junctions on such tables
-    coarse_junctions: bool = True
+    # also on tables coarser than COARSE_RAD (opt-in), each junction tested against a
+    # soft change of h'' and fitted as a short ramp of h'' (coarse.py): a step cannot be
+    # told there from a rise within one row. Off by default: a single spike on such a
+    # table can make a false junction, and the fit's model choice biases a jump speed
+    # beyond its stated uncertainty (docs/limits.md)
+    coarse_junctions: bool = False
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
