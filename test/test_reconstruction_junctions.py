@@ -317,6 +317,29 @@ def test_windowed_hinge_columns_equal_whole_table_solves(lam):
         assert np.all(np.max(np.abs(rg - whole), axis=0) <= 1e-7 * peak), tau
 
 
+@pytest.mark.parametrize('lam', [10.0 ** 2.5, 10.0 ** 4.3, 10.0 ** 7.1])
+def test_kept_interior_grams_equal_their_own_solves(lam):
+    """A level's interior hinge Grams G'R G and G'R^2 G, kept per level (one Chebyshev
+    fit in a right-opening junction's place, its mirror image for a left-opening one;
+    the scan and the refinement read them) against the solve of the single place, at
+    odd places between rows: within 1e-7 of the block's largest entry [node units] (7
+    nodes reach 3e-9 .. 7e-8 relative at these levels); and the hinges of many places formed in one
+    pass (``hinge_block``) equal to each place's own ``hinge_values`` within 1e-15 of
+    the largest value."""
+    length = partial_spline.taper_nodes(3600)
+    for side in (1, -1):
+        for frac in (0.0, 0.13, 0.5, 0.77, 0.999):
+            (m1, v1), = partial_spline.interior_hinge_grams(lam, length, (side * frac,))
+            m, v = partial_spline.interior_grams(lam, length, side, frac)
+            assert np.max(np.abs(m - m1)) <= 1e-7 * np.max(np.abs(m1)), (side, frac)
+            assert np.max(np.abs(v - v1)) <= 1e-7 * np.max(np.abs(v1)), (side, frac)
+    u = np.arange(400.0)[:, None] - np.array([3.0, 10.25, 150.5, -2.0])[None, :]
+    block = partial_spline.hinge_block(u, length)
+    for j in range(u.shape[1]):
+        one = partial_spline.hinge_values(u[:, j], length)
+        assert np.max(np.abs(block[:, 2 * j:2 * j + 2] - one)) <= 1e-15 * np.max(np.abs(one))
+
+
 def test_refit_without_changes_is_the_search_fit():
     """refit with the search's own values, level and no missing node hands back the
     search's last fit: the same as a fit made afresh at its junctions (fitted lift

@@ -59,7 +59,7 @@ from numpy.typing import NDArray
 from scipy.fft import irfft, next_fast_len, rfft
 
 from cam_design.lift_table.partial_spline import (LevelSystem, PartialFit, hinge_coefficients,
-                                                  hinge_values, horner, interior_hinge_grams,
+                                                  hinge_values, horner, interior_grams,
                                                   partial_fit, residual_operator, side_of,
                                                   taper_nodes)
 
@@ -231,7 +231,8 @@ def scan(resid: NDArray[np.float64], lam_d: float, sigma: float, margin: int = 3
     # correlate (right-opening junctions), rows [k, 2k) convolve (left-opening)
     prod = np.empty((2 * k, spectra.shape[-1]), dtype=complex)
     var = np.empty(k)
-    for col, (m, v) in enumerate(interior_hinge_grams(float(lam_d), length, SCAN_OFFSETS)):
+    for col, off in enumerate(SCAN_OFFSETS):
+        m, v = interior_grams(float(lam_d), length, 1, off)
         # efficient score of the step of h'' with a step of h''' free: w'b, w = (1, -k)
         w = np.array([1.0, -m[0, 1] / m[1, 1]])
         var[col] = max(float(w @ v @ w) * sigma ** 2, 1e-300)

@@ -36,9 +36,10 @@ FITS_KEPT = 4
 SCORES_KEPT = 64
 STACKS_KEPT = 8
 #: Chebyshev nodes in a junction's place between two rows at which a level's interior
-#: hinge Gram G'R G is solved once (``moved_objective``): it is a smooth function of
-#: that place (it moves by 1e-4 relative over a row), and 7 nodes reach the rounding of
-#: the solves themselves (1e-9 .. 7e-8 relative at levels 1e2.5 .. 1e8)
+#: hinge Grams G'R G and G'R^2 G are solved once (``interior_grams``: the scan and
+#: ``moved_objective``): smooth functions of that place (they move by 1e-4 relative
+#: over a row), and 7 nodes reach the rounding of the solves themselves (1e-9 .. 7e-8
+#: relative at levels 1e2.5 .. 1e8)
 GRAM_NODES = 7
 #: a hinge's column is solved this many smoother bandwidths either side (window_margin)
 WINDOW_BANDWIDTHS = 48.0
@@ -174,13 +175,19 @@ def horner(x: NDArray[np.float64], coef: NDArray[np.float64]) -> NDArray[np.floa
 def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
     """(len(u), 2): nu-th u-derivatives of g2 and g3 (node units), ``u`` nodes from a
     junction that opens to the right."""
-    u = np.asarray(u, dtype=float).reshape(-1)
-    out = np.zeros((u.size, 2))
+    return hinge_block(np.asarray(u, dtype=float).reshape(-1, 1), length, nu)
+
+
+def hinge_block(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
+    """(m, 2k): ``hinge_values`` of each column of ``u`` (m, k) side by side (g2 and g3
+    of column j in columns 2j, 2j + 1), all in one pass of Horner's rule."""
+    out = np.zeros((u.shape[0], 2 * u.shape[1]))
     quad, cubic = hinge_coefficients(float(length), nu)
     pos = u > 0
-    out[pos, 0] = horner(u[pos], quad)          # 0 where the hinge is closed
-    near = np.flatnonzero(pos & (u < length))
-    out[near, 1] = horner(u[near], cubic)
+    g2, g3 = out[:, 0::2], out[:, 1::2]         # views
+    g2[pos] = horner(u[pos], quad)              # 0 where the hinge is closed
+    near = pos & (u < length)
+    g3[near] = horner(u[near], cubic)
     return out
 
 
@@ -531,7 +538,7 @@ class LevelSystem:
         ``interior`` junction at node ``tau``, without solving its column: one junction
         added lowers the objective by d'S^-1 d, d = g'R z (g its hinges, z the values
         less the fixed junctions' hinges X), S = g'R g - g'R X (X'R X)^-1 X'R g; g'R g
-        from its place between two rows (``_interior_gram``)."""
+        from its place between two rows (``interior_grams``)."""
         key = tuple(float(t) for t in fixed)
         kept = _recall(self._moving, key)
         if kept is None:
@@ -546,7 +553,8 @@ class LevelSystem:
         smooth, objective, cols, inverse = kept
         side = side_of(tau, self.n)
         length = taper_nodes(self.n)
-        s00, s01, s10, s11 = _interior_gram(self.lam_d, length, side, tau - math.floor(tau))
+        s00, s01, s10, s11 = interior_grams(self.lam_d, length, side,
+                                            tau - math.floor(tau))[0].reshape(4)
         # d = g'R z = (lam P g)'S z on the hinge's own rows (R = lam P S; g'e would
         # multiply the rounding of e by the hinge's long quadratic tail)
         g = _hinge_pair(self.n, tau)
@@ -583,38 +591,39 @@ def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
     window (``window_margin``) as in the fit, all offsets in one solve."""
     margin = window_margin(lam_d)
     size = int(math.ceil(length)) + 12 + 2 * margin
-    nodes = np.arange(size, dtype=float)
-    g = np.concatenate([hinge_values(nodes - (margin + 5 + off), length)
-                        for off in offsets], axis=1)
+    g = hinge_block(np.arange(size, dtype=float)[:, None]
+                    - (margin + 5.0 + np.asarray(offsets, dtype=float))[None, :], length)
     rg = _deflate(_solve(_interior_factor(size, lam_d), lam_d * _penalty_of(g)))
     return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
                   rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
                  for k in range(len(offsets)))
 
 
-def _interior_gram(lam_d: float, length: float, side: int, frac: float
-                   ) -> tuple[float, float, float, float]:
-    """G'R G (row by row) of an interior junction ``frac`` of a row past its node, from
-    the Chebyshev fit in that place."""
-    x = 2.0 * frac - 1.0
+def interior_grams(lam_d: float, length: float, side: int, frac: float
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(G'R G, G'R^2 G), 2 x 2 in node units, of an interior junction ``frac`` of a row
+    past its node, opening to the right (``side`` +1) or to the left (-1), at level
+    ``lam_d``: from the level's Chebyshev fit in the place (``_interior_gram_fit``).
+    Far from the ends the matrix reads the same backwards, so a left-opening junction
+    ``frac`` past its node is the mirror image of a right-opening one 1 - ``frac`` past
+    its node (the same Grams, but for the windows' truncation, 1e-10 of them)."""
+    x = 2.0 * frac - 1.0 if side > 0 else 1.0 - 2.0 * frac
     basis = [1.0, x]
     while len(basis) < GRAM_NODES:
         basis.append(2.0 * x * basis[-1] - basis[-2])
-    out = np.array(basis) @ _interior_gram_fit(lam_d, length, side)
-    return float(out[0]), float(out[1]), float(out[2]), float(out[3])
+    out = np.array(basis) @ _interior_gram_fit(float(lam_d), float(length))
+    return out[:4].reshape(2, 2), out[4:].reshape(2, 2)
 
 
 @lru_cache(maxsize=16)
-def _interior_gram_fit(lam_d: float, length: float, side: int) -> NDArray[np.float64]:
-    """Chebyshev coefficients (GRAM_NODES, 4) in 2 f - 1 of G'R G (2 x 2, flattened) of
-    an interior junction at the fraction f of a row past a node, opening to the right
-    (``side`` +1) or to the left (-1; the window's mirror image places it -f past its
-    node), at level ``lam_d`` (read-only, cached)."""
+def _interior_gram_fit(lam_d: float, length: float) -> NDArray[np.float64]:
+    """Chebyshev coefficients (GRAM_NODES, 8) in 2 f - 1 of G'R G and G'R^2 G (2 x 2
+    each, flattened) of an interior right-opening junction at the fraction f of a row
+    past a node, at level ``lam_d`` (read-only, cached: one solve per level)."""
     k = np.arange(GRAM_NODES)
     frac = 0.5 - 0.5 * np.cos(np.pi * (k + 0.5) / GRAM_NODES)
-    grams = interior_hinge_grams(float(lam_d), float(length),
-                                 tuple(float(side) * float(f) for f in frac))
-    values = np.array([m.reshape(4) for m, _ in grams])
+    grams = interior_hinge_grams(float(lam_d), float(length), tuple(float(f) for f in frac))
+    values = np.array([np.concatenate([m.reshape(4), v.reshape(4)]) for m, v in grams])
     coef = np.asarray(chebyshev.chebfit(2.0 * frac - 1.0, values, GRAM_NODES - 1),
                       dtype=np.float64)
     coef.setflags(write=False)
