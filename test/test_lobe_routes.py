@@ -563,13 +563,15 @@ def test_noisy_table_across_the_seam_is_smoothed_in_the_turned_frame(frame_deg) 
     assert abs((opening - 180.0 + 180.0) % 360.0 - 180.0 - t['opening_deg']) < 0.05
     assert abs((closing - 180.0 + 180.0) % 360.0 - 180.0 - t['closing_deg']) < 0.05
     # the joins to the base circle are told in the table frame (the lobe's ends are
-    # 74-81 deg from its nose at 180 deg), not in the turned frame (+-74-81 deg)
+    # 74-85 deg from its nose at 180 deg: the law's lobe ends at +-80 deg, the join runs
+    # out to where a rise from the base circle through the smoothed lobe's jets starts,
+    # up to 5 deg beyond at this noise), not in the turned frame (+-74-85 deg)
     said = re.search(r'jerk at (\S+)\.\.(\S+) deg, (\S+)\.\.(\S+) deg', law.lobe.note())
     assert said is not None
     for value in said.groups():
-        # in the frame of the lobe's events: continuous across it, 74-81 deg from the
-        # nose on either side (99-106 and 254-261 deg)
-        assert 74.0 < abs(float(value) - 180.0) < 81.0, law.lobe.note()
+        # in the frame of the lobe's events: continuous across it, 74-85 deg from the
+        # nose on either side (95-106 and 254-265 deg)
+        assert 74.0 < abs(float(value) - 180.0) < 85.0, law.lobe.note()
 
 
 # ------------------------------------------------------------ one frame at the seam

@@ -161,6 +161,7 @@ def lobe_entry(table: Any, key: str) -> dict[str, Any]:
     reads first), with its note and warnings; or ``ok: false`` and the refusal."""
     import numpy as np
 
+    from cam_design.cam_card import law_peak
     from cam_design.errors import InputError
     from cam_design.lift_table.lobe_table import lobe_law
 
@@ -174,7 +175,7 @@ def lobe_entry(table: Any, key: str) -> dict[str, Any]:
     names = ('lift_m', 'velocity_m_per_rad', 'acceleration_m_per_rad2', 'jerk_m_per_rad3')
     out: dict[str, Any] = {'ok': True, 'method': law.lobe.method, 'note': law.lobe.note(),
                            'warnings': list(law.lobe.warnings),
-                           'max_lift_m': float(np.max(jets[0])), 'alpha_rad': grid.tolist()}
+                           'max_lift_m': law_peak(law)[1], 'alpha_rad': grid.tolist()}
     out.update({n: v.tolist() for n, v in zip(names, jets)})
     return out
 
