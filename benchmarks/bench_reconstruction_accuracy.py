@@ -4,7 +4,9 @@ whose acceleration jumps, and the junctions it finds.
 Run: ``.venv/bin/python -m benchmarks reconstruction_accuracy`` (writes
 benchmarks/results/reconstruction_accuracy.md; ``CAM_BENCH_SEEDS=5`` for more seeds;
 ``CAM_BENCH_COARSE_JUNCTIONS=1`` with the opt-in junction search on tables coarser than
-4.5 deg, written to reconstruction_accuracy_coarse_junctions.md).
+4.5 deg, written to reconstruction_accuracy_coarse_junctions.md; ``CAM_BENCH_ROUTE=
+lobe_law`` judges the lobe law that card, dynamics and the scene routes use instead of
+the reconstruction spline: written to reconstruction_accuracy_lobe_law.md).
 Truth: the closed-form lobes of ``cam_design.lift_table.truth_lobes`` (ramped C1
 with the CA+CV ramp, a C2 lobe, a dwell cam, a constant-acceleration cam, a circular-arc
 cam, the flat-tappet intake preset as a narrow acceleration peak: 6 families, 240 cases),
@@ -28,6 +30,7 @@ import numpy as np
 
 from benchmarks.machine import describe, save_results
 from cam_design.lift_table.blas import single_thread_blas
+from cam_design.lift_table.lobe_table import lobe_law
 from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_design.lift_table.truth_lobes import DEG, Family, families, measured_table
 
@@ -35,8 +38,12 @@ from cam_design.lift_table.truth_lobes import DEG, Family, families, measured_ta
 #: than 4.5 deg (the default does not search there; results in their own file)
 COARSE_JUNCTIONS = os.environ.get('CAM_BENCH_COARSE_JUNCTIONS', '') == '1'
 OPTIONS = SplineOptions(coarse_junctions=COARSE_JUNCTIONS)
+#: ``CAM_BENCH_ROUTE=lobe_law``: the lobe law (``lobe_table.lobe_law``: its smoothing
+#: rule, risk criterion and joins to the base circle) instead of the spline
+LOBE_LAW = os.environ.get('CAM_BENCH_ROUTE', '') == 'lobe_law'
 RESULT = Path(__file__).resolve().parent / 'results' / (
-    'reconstruction_accuracy_coarse_junctions.md' if COARSE_JUNCTIONS
+    'reconstruction_accuracy_lobe_law.md' if LOBE_LAW
+    else 'reconstruction_accuracy_coarse_junctions.md' if COARSE_JUNCTIONS
     else 'reconstruction_accuracy.md')
 STEPS_DEG = (0.1, 0.5, 1.0, 2.5, 5.0)
 #: (label, noise sigma [m], rounding quantum [m])
@@ -79,14 +86,19 @@ def run_case(fam: Family, step_deg: float, sigma: float, quantum: float, outlier
                               outliers=outliers, seed=seed)
         grid = np.arange(a[0], a[-1], EVAL_STEP)
         truth = fam.law(grid, 2)
-        rec = reconstruct_spline(a, h, OPTIONS)
-        e_ours = float(np.mean((rec.evaluate(grid, 2) - truth) ** 2))
+        if LOBE_LAW:
+            law = lobe_law(a, h)
+            e_ours = float(np.mean((law(grid, 2) - truth) ** 2))
+            found = getattr(law.lobe.rec, 'parameter', {}).get('junctions_deg', [])
+        else:
+            rec = reconstruct_spline(a, h, OPTIONS)
+            e_ours = float(np.mean((rec.evaluate(grid, 2) - truth) ** 2))
+            found = rec.parameter.get('junctions_deg', [])
         e_ref = float(np.mean((scipy_acceleration(a, h, grid) - truth) ** 2))
         ours.append(e_ours)
         ref.append(e_ref)
         ratios.append(math.sqrt(e_ours / e_ref))
-        d, fl = junction_errors(fam.junctions, rec.parameter.get('junctions_deg', []) and
-                                [v * DEG for v in rec.parameter['junctions_deg']], step)
+        d, fl = junction_errors(fam.junctions, [v * DEG for v in found], step)
         dists += d
         false += fl
     return {'ours': math.sqrt(np.mean(ours)), 'scipy': math.sqrt(np.mean(ref)),
@@ -110,7 +122,7 @@ def timing_rows() -> list[str]:
     fam = families()[0]
     for n in (72, 3600):
         a, h = measured_table(fam.law, 2 * math.pi / n, sigma=0.5e-6, seed=7)
-        t = cpu_time(lambda: reconstruct_spline(a, h))
+        t = cpu_time(lambda: lobe_law(a, h) if LOBE_LAW else reconstruct_spline(a, h))
         t_ref = cpu_time(lambda: scipy_acceleration(a, h, a), 2)
         rows.append(f'| {n} | {t * 1e3:.1f} | {t_ref * 1e3:.1f} |')
     return rows
@@ -155,7 +167,9 @@ def main() -> None:
     fam_rows = [f'| {k} | {np.median(v):.2f} | {max(v):.2f} | {min(v):.2f} |'
                 for k, v in per_family.items()]
     text = [
-        '# Reconstruction accuracy against scipy (junction-aware spline)', '',
+        '# Reconstruction accuracy against scipy (' + (
+            'the lobe law of card, dynamics and the scene routes' if LOBE_LAW
+            else 'junction-aware spline') + ')', '',
         f'Machine: {machine}. CPU time of the run {cpu:.0f} s '
         f'(wall {time.perf_counter() - wall0:.0f} s).', '',
         __doc__.split('\n\n')[1].replace('\n', ' '), '',
