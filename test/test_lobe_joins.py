@@ -1,4 +1,4 @@
-"""The joins of a smoothed lobe to the base circle (``lobe_table.join_width``): long
+"""The joins of a smoothed lobe to the base circle (``lobe_joins.join_width``): long
 enough that the join adds no acceleration the lobe does not have, never dipping below
 the base circle; checked on closed-form lobes and against scipy's GCV spline."""
 from __future__ import annotations
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from scipy.interpolate import BPoly, make_smoothing_spline
 
-from cam_design.lift_table.lobe_table import _join, join_width, lobe_law
+from cam_design.lift_table.lobe_joins import join, join_width
+from cam_design.lift_table.lobe_table import lobe_law
 from cam_design.lift_table.truth_lobes import DEG, families, measured_table
 
 
@@ -18,7 +19,7 @@ def _family(name: str):
 
 
 @pytest.mark.parametrize('side', [-1, 1])
-def test_join_width_is_the_least_acceleration_monotone_join(side: int) -> None:
+def test_join_width_is_the_least_acceleration_monotonejoin(side: int) -> None:
     """Against a brute-force scan of the degree-7 Hermite joins (scipy's BPoly) over
     widths 2..6 h/h' (fine steps): the width chosen has a peak |h''| within 2 % of the
     least any monotone join of that range has, and its join rises monotonically."""
@@ -29,11 +30,11 @@ def test_join_width_is_the_least_acceleration_monotone_join(side: int) -> None:
     w = join_width(jets, side)
     best = math.inf
     for width in np.linspace(2.0, 6.0, 401) * jets[0] / abs(jets[1]):
-        f = _join(0.0, width, jets, side)
+        f = join(0.0, width, jets, side)
         t = np.linspace(-width, 0.0, 801) if side < 0 else np.linspace(0.0, width, 801)
         if np.all(f(t, 1) * -side >= -1e-15):
             best = min(best, float(np.max(np.abs(f(t, 2)))))
-    f = _join(0.0, w, jets, side)
+    f = join(0.0, w, jets, side)
     t = np.linspace(-w, 0.0, 801) if side < 0 else np.linspace(0.0, w, 801)
     assert isinstance(f, BPoly)
     assert float(np.max(np.abs(f(t, 2)))) <= 1.02 * best + 1e-12
@@ -41,7 +42,7 @@ def test_join_width_is_the_least_acceleration_monotone_join(side: int) -> None:
     # it reaches the floor, the lobe's own h'' at the join point; the old rule's join
     # (2 h/h') needs 1.32 times that here
     assert float(np.max(np.abs(f(t, 2)))) <= 1.02 * abs(jets[2])
-    short = _join(0.0, 2.0 * jets[0] / abs(jets[1]), jets, side)
+    short = join(0.0, 2.0 * jets[0] / abs(jets[1]), jets, side)
     ts = np.linspace(-1, 0, 801) * 2 * jets[0] / abs(jets[1]) if side < 0 else \
         np.linspace(0, 1, 801) * 2 * jets[0] / abs(jets[1])
     assert float(np.max(np.abs(short(ts, 2)))) > 1.3 * abs(jets[2])
