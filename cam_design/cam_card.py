@@ -463,9 +463,18 @@ def centreline_crank_atdc(phase_deg: float, centreline_alpha_deg: float, directi
     return out
 
 
+def _fixed(value: float, spec: str) -> str:
+    """``value`` formatted by ``spec``, without the minus sign of a value that rounds
+    to zero (a nose at -1e-13 deg prints 0.000, not -0.000; the width is kept)."""
+    text = format(value, spec)
+    if not (text.lstrip().startswith('-') and float(text) == 0.0):
+        return text
+    return text.replace('-', ' ', 1) if text.startswith(' ') else text[1:]
+
+
 def _num(value: Any, spec: str) -> str:
     width = int(spec.split('.')[0] or 0)
-    return '-'.rjust(width) if value is None else format(value, spec)
+    return '-'.rjust(width) if value is None else _fixed(value, spec)
 
 
 def card_text(cards: dict[str, dict[str, Any]]) -> str:
@@ -486,16 +495,17 @@ def card_text(cards: dict[str, dict[str, Any]]) -> str:
         lines.append(f'  {"height mm":>10}{"opens deg":>11}{"closes deg":>11}'
                      f'{"dur cam":>10}{"dur crank":>11}{"centre deg":>11}')
         for e in card.get('heights', []):
-            lines.append(f'  {e["height_mm"]:>10.4f}{e["opening_deg"]:>11.3f}'
-                         f'{e["closing_deg"]:>11.3f}{e["duration_cam_deg"]:>10.3f}'
-                         f'{e["duration_crank_deg"]:>11.3f}{e["centreline_deg"]:>11.4f}')
+            lines.append(f'  {e["height_mm"]:>10.4f}{_fixed(e["opening_deg"], ">11.3f")}'
+                         f'{_fixed(e["closing_deg"], ">11.3f")}{e["duration_cam_deg"]:>10.3f}'
+                         f'{e["duration_crank_deg"]:>11.3f}'
+                         f'{_fixed(e["centreline_deg"], ">11.4f")}')
         if 'velocity_max_mm_per_deg' in card:
-            lines.append(f'  velocity {card["velocity_min_mm_per_deg"]:.5f} .. '
-                         f'{card["velocity_max_mm_per_deg"]:.5f} mm/deg, acceleration '
-                         f'{card["acceleration_min_mm_per_deg2"]:.6f} .. '
-                         f'{card["acceleration_max_mm_per_deg2"]:.6f} mm/deg^2, jerk '
-                         f'{card["jerk_min_mm_per_deg3"]:.3e} .. '
-                         f'{card["jerk_max_mm_per_deg3"]:.3e} mm/deg^3')
+            lines.append(f'  velocity {_fixed(card["velocity_min_mm_per_deg"], ".5f")} .. '
+                         f'{_fixed(card["velocity_max_mm_per_deg"], ".5f")} mm/deg, '
+                         f'acceleration {_fixed(card["acceleration_min_mm_per_deg2"], ".6f")}'
+                         f' .. {_fixed(card["acceleration_max_mm_per_deg2"], ".6f")} mm/deg^2,'
+                         f' jerk {_fixed(card["jerk_min_mm_per_deg3"], ".3e")} .. '
+                         f'{_fixed(card["jerk_max_mm_per_deg3"], ".3e")} mm/deg^3')
         crank = card.get('crank')
         if crank:
             for e in crank['events']:

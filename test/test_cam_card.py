@@ -336,3 +336,17 @@ def test_law_area_against_the_closed_form_and_adaptive_quadrature() -> None:
                epsabs=1e-16, epsrel=1e-12)[0]
     # 1e-11 m rad: 1e-9 of the lobe's area, far below the card's printed digits
     assert cc.law_area(table, [lo, hi]) == pytest.approx(ref, abs=1e-11)
+
+
+def test_card_text_prints_no_negative_zero() -> None:
+    """A nose on 0 deg that the root finder puts at -1e-13 deg prints 0.0000, not
+    -0.0000, in a column of the same width; a real negative angle keeps its sign."""
+    card = cc.card_from_law(from_spec(SPEC), HEIGHTS)
+    entry = card['heights'][0]
+    near = dict(card, max_lift_alpha_deg=-1e-14,
+                heights=[dict(entry, centreline_deg=-1e-13)])
+    exact = dict(card, max_lift_alpha_deg=0.0, heights=[dict(entry, centreline_deg=0.0)])
+    text, want = cc.card_text({'x': near}), cc.card_text({'x': exact})
+    assert '-0.000' not in text
+    assert text == want
+    assert f'{entry["opening_deg"]:.3f}' in text and entry['opening_deg'] < 0.0
