@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import make_smoothing_spline
 
-from cam_design.lift_table import junctions, partial_spline
+from cam_design.lift_table import hinges, junctions, partial_spline
 from cam_design.lift_table.noise import flat_rows
 from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_design.lift_table.truth_lobes import DEG, families, measured_table
@@ -27,8 +27,8 @@ def jump_at(law, t):
 def hinge_matrix(taus, n):
     """(n, 2J): each junction's hinges on n nodes, opening on its longer side."""
     x = np.arange(n, dtype=float)
-    return np.column_stack([partial_spline.hinge_values(partial_spline.side_of(t, n) * (x - t),
-                                                        partial_spline.taper_nodes(n))
+    return np.column_stack([hinges.hinge_values(hinges.side_of(t, n) * (x - t),
+                                                hinges.taper_nodes(n))
                             for t in taus])
 
 
@@ -69,7 +69,7 @@ def test_partial_spline_recovers_a_step_of_hpp_exactly():
     h = 1e-3 * np.cos(a) + jump * 0.5 * np.clip(a - t, 0, None) ** 2
     tau = (t - a[0]) / step
     fit = partial_spline.partial_fit(h, [tau], 100.0)
-    side = partial_spline.side_of(tau, a.size)          # the hinge opens on its longer side
+    side = hinges.side_of(tau, a.size)          # the hinge opens on its longer side
     assert side * fit.coef[0] / step ** 2 == pytest.approx(jump, abs=1e-4)   # m/rad^2
 
 
@@ -185,7 +185,7 @@ def test_hinges_on_a_grid_equal_the_hinges_at_scattered_points():
     assert found is not None and len(found.angles) >= 2
     x = np.linspace(a[0], a[-1], 4001)
     order = np.random.default_rng(0).permutation(x.size)
-    length = partial_spline.taper_nodes(found.nodes)
+    length = hinges.taper_nodes(found.nodes)
     for nu in range(4):
         on_grid = found.hinge_part(x, nu)
         scattered = np.empty_like(x)
@@ -194,8 +194,8 @@ def test_hinges_on_a_grid_equal_the_hinges_at_scattered_points():
         u = (x - found.x0) / found.step
         for k, t in enumerate(found.angles):
             tau = (t - found.x0) / found.step
-            side = partial_spline.side_of(tau, found.nodes)
-            vals = partial_spline.hinge_values(side * (u - tau), length, nu)
+            side = hinges.side_of(tau, found.nodes)
+            vals = hinges.hinge_values(side * (u - tau), length, nu)
             direct += vals @ found.coef[2 * k:2 * k + 2] * float(side) ** nu
         direct /= found.step ** nu
         scale = float(np.max(np.abs(direct)))
@@ -266,12 +266,12 @@ def test_kept_hinge_penalty_is_the_third_differences_of_the_hinges():
     largest value) for junctions opening either way, and the same array again when the
     same place is asked for at another level (the search's levels share it)."""
     n = 3600
-    length = partial_spline.taper_nodes(n)
+    length = hinges.taper_nodes(n)
     for tau in (900.37, 2500.81):
-        side = partial_spline.side_of(tau, n)
+        side = hinges.side_of(tau, n)
         a, b = partial_spline._hinge_support(n, tau, 0, n)
         x = np.arange(n, dtype=float)
-        g = partial_spline.hinge_values(side * (x - tau), length)[a:b]
+        g = hinges.hinge_values(side * (x - tau), length)[a:b]
         d3 = np.diff(g, 3, axis=0)
         for lam in (1e3, 1e7):
             direct = lam * np.column_stack([np.convolve(d3[:, k], [-1.0, 3.0, -3.0, 1.0])
@@ -326,7 +326,7 @@ def test_kept_interior_grams_equal_their_own_solves(lam):
     nodes reach 3e-9 .. 7e-8 relative at these levels); and the hinges of many places formed in one
     pass (``hinge_block``) equal to each place's own ``hinge_values`` within 1e-15 of
     the largest value."""
-    length = partial_spline.taper_nodes(3600)
+    length = hinges.taper_nodes(3600)
     for side in (1, -1):
         for frac in (0.0, 0.13, 0.5, 0.77, 0.999):
             (m1, v1), = partial_spline.interior_hinge_grams(lam, length, (side * frac,))
@@ -334,9 +334,9 @@ def test_kept_interior_grams_equal_their_own_solves(lam):
             assert np.max(np.abs(m - m1)) <= 1e-7 * np.max(np.abs(m1)), (side, frac)
             assert np.max(np.abs(v - v1)) <= 1e-7 * np.max(np.abs(v1)), (side, frac)
     u = np.arange(400.0)[:, None] - np.array([3.0, 10.25, 150.5, -2.0])[None, :]
-    block = partial_spline.hinge_block(u, length)
+    block = hinges.hinge_block(u, length)
     for j in range(u.shape[1]):
-        one = partial_spline.hinge_values(u[:, j], length)
+        one = hinges.hinge_values(u[:, j], length)
         assert np.max(np.abs(block[:, 2 * j:2 * j + 2] - one)) <= 1e-15 * np.max(np.abs(one))
 
 
@@ -566,17 +566,17 @@ def test_ramp_hinge_is_a_linear_change_of_h2_over_its_width(width):
     is the slope of the one below (central differences, 1e-4 node: within 1e-6, away
     from the ramp's ends); beyond the ramp the value is the step's u^2 / 2 + w^2 / 24."""
     u = np.linspace(-3.0, 3.0, 6001) + 1e-3 / 3.0
-    h2 = junctions.ramp_hinge(u, width, 2)
+    h2 = hinges.ramp_hinge(u, width, 2)
     expect = np.clip(u / width + 0.5, 0.0, 1.0) if width > 0.0 else (u > 0.0).astype(float)
     assert np.max(np.abs(h2 - expect)) < 1e-12
     d = 1e-4
     clear = np.min(np.abs(u[:, None] - np.array([-0.5 * width, 0.5 * width])), axis=1) > 2 * d
     for nu in (0, 1):
-        slope = (junctions.ramp_hinge(u + d, width, nu)
-                 - junctions.ramp_hinge(u - d, width, nu)) / (2.0 * d)
-        assert np.max(np.abs(slope - junctions.ramp_hinge(u, width, nu + 1))[clear]) < 1e-6
+        slope = (hinges.ramp_hinge(u + d, width, nu)
+                 - hinges.ramp_hinge(u - d, width, nu)) / (2.0 * d)
+        assert np.max(np.abs(slope - hinges.ramp_hinge(u, width, nu + 1))[clear]) < 1e-6
     beyond = u > 0.5 * width + 1e-9
-    assert np.max(np.abs(junctions.ramp_hinge(u[beyond], width)
+    assert np.max(np.abs(hinges.ramp_hinge(u[beyond], width)
                          - (0.5 * u[beyond] ** 2 + width ** 2 / 24.0))) < 1e-12
 
 
@@ -595,7 +595,7 @@ def test_ramp_fit_of_width_zero_is_the_partial_spline_and_a_ramp_is_recovered():
     assert np.allclose(plain.coef, ramp.coef, rtol=1e-9, atol=0.0)
     n, tau, width, jump = 72, 30.4, 0.85, 2e-6
     x = np.arange(n, dtype=float)
-    values = 1e-7 * (x - 36.0) ** 2 + jump * junctions.ramp_hinge(x - tau, width)
+    values = 1e-7 * (x - 36.0) ** 2 + jump * hinges.ramp_hinge(x - tau, width)
     fit = junctions.ramp_fit(values, [tau], [width], 1e2)
     assert abs(fit.coef[0] - jump) <= 1e-3 * jump
     found = junctions.JunctionFit((tau,), (float(fit.coef[0]),), 1e2, fit.smooth, fit.edf,
@@ -603,5 +603,5 @@ def test_ramp_fit_of_width_zero_is_the_partial_spline_and_a_ramp_is_recovered():
     fine = np.linspace(27.0, 34.0, 701)
     smooth2 = np.interp(fine, x, np.gradient(np.gradient(fit.smooth, x), x))
     h2 = smooth2 + found.hinge_part(fine, 2)
-    truth = 2e-7 + jump * junctions.ramp_hinge(fine - tau, width, 2)
+    truth = 2e-7 + jump * hinges.ramp_hinge(fine - tau, width, 2)
     assert np.max(np.abs(h2 - truth)) < 1e-6 * jump

@@ -45,9 +45,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.fft import dct
 
+from cam_design.lift_table.hinges import ramp_hinge
 from cam_design.lift_table.junctions import (JunctionFit, choose_level, find_junctions,
-                                             golden_minimum, ramp_columns, ramp_fit, ramp_hinge,
-                                             refit)
+                                             golden_minimum, ramp_columns, ramp_fit, refit)
 from cam_design.lift_table.noise import EXACT_NOISE_REL, MAD_TO_SIGMA
 from cam_design.lift_table.rebound import VERY_COARSE_RAD
 

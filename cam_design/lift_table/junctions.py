@@ -58,10 +58,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.fft import irfft, next_fast_len, rfft
 
-from cam_design.lift_table.partial_spline import (LevelSystem, PartialFit, hinge_coefficients,
-                                                  hinge_values, horner, interior_grams,
-                                                  partial_fit, residual_operator, side_of,
-                                                  taper_nodes)
+from cam_design.lift_table.hinges import (hinge_coefficients, hinge_values, horner,
+                                          ramp_hinge, side_of, taper_nodes)
+from cam_design.lift_table.partial_spline import (LevelSystem, PartialFit, interior_grams,
+                                                  partial_fit, residual_operator)
 
 #: family-wise false-alarm probability of the junction search on a lobe without one
 FALSE_ALARM = 1e-3
@@ -574,29 +574,6 @@ def refit(grid: NDArray[np.float64], values: NDArray[np.float64],
                else partial_fit(vals, taus, lam_d))
         vals = np.where(missing, vals - fit.resid, values)
     return _fit_result(grid, taus, lam_d, fit, list(found.scores), widths=found.widths)
-
-
-def _truncated_power(x: NDArray[np.float64], k: int) -> NDArray[np.float64]:
-    """x_+^k / k! (k >= 0; k = 0: the unit step at x > 0)."""
-    if k == 0:
-        return np.asarray(x > 0.0, dtype=np.float64)
-    return np.asarray(np.maximum(x, 0.0) ** k / math.factorial(k), dtype=np.float64)
-
-
-def ramp_hinge(u: NDArray[np.float64], width: float, nu: int = 0) -> NDArray[np.float64]:
-    """nu-th u-derivative of a unit change of h'' at u = 0 (node units, opening to
-    positive u): the step u_+^2 / 2 (``width`` 0) or a linear change of h'' over
-    ``width`` nodes centred on 0, ((u + w/2)_+^3 - (u - w/2)_+^3) / (6 w), which beyond
-    the ramp is the step's u^2 / 2 plus the constant w^2 / 24. Derivatives of order
-    above 2 (step) or 3 (ramp) are 0 (the delta functions left out)."""
-    u = np.asarray(u, dtype=float)
-    if width <= 0.0:
-        return _truncated_power(u, 2 - nu) if nu <= 2 else np.zeros(u.shape)
-    if nu > 3:
-        return np.zeros(u.shape)
-    return np.asarray((_truncated_power(u + 0.5 * width, 3 - nu)
-                       - _truncated_power(u - 0.5 * width, 3 - nu)) / width,
-                      dtype=np.float64)
 
 
 def ramp_columns(n: int, taus: list[float], widths: list[float]) -> NDArray[np.float64]:

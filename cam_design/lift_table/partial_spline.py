@@ -27,9 +27,12 @@ from functools import lru_cache
 from typing import TypeVar
 
 import numpy as np
-from numpy.polynomial import Polynomial, chebyshev
+from numpy.polynomial import chebyshev
 from numpy.typing import NDArray
 from scipy.linalg import lapack
+
+from cam_design.lift_table.hinges import (hinge_block, hinge_coefficients, horner, side_of,
+                                          taper_nodes)
 
 #: fits a level's system remembers (by junction set): with their vectors, and scores
 FITS_KEPT = 4
@@ -128,67 +131,6 @@ def _trace_smoother(n: int, lam_d: float) -> float:
     """tr (I + lam_d D3'D3)^-1: the three unpenalised quadratics plus the reflective
     spectrum mu_k^3 of the other modes (boundary terms of order one left out)."""
     return 3.0 + float(np.sum(1.0 / (1.0 + lam_d * _cubed_spectrum(n))))
-
-
-def _smoothstep() -> Polynomial:
-    """S(v) = v^6 sum_k C(5 + k, k) (1 - v)^k: 0 at 0, 1 at 1, flat to 5th order."""
-    v = Polynomial([0.0, 1.0])
-    return v ** 6 * sum(math.comb(5 + k, k) * Polynomial([1.0, -1.0]) ** k
-                        for k in range(6))
-
-
-def side_of(tau: float, n: int) -> int:
-    """+1: the junction at node ``tau`` opens to the right (its longer side), else -1."""
-    return 1 if tau <= 0.5 * (n - 1) else -1
-
-
-def taper_nodes(n: int) -> float:
-    """Length [nodes] of a junction's cubic hinge (long beside the smoother's
-    bandwidth, short enough to keep its values, and the rounding of R g, small)."""
-    return max(min(0.25 * (n - 1), 60.0 + 0.02 * n), 4.0)
-
-
-@lru_cache(maxsize=64)
-def _hinges_on(length: float) -> tuple[Polynomial, Polynomial]:
-    """g2 = u^2/2 on u > 0 (no taper: the free ends do not penalise a quadratic) and
-    g3 = u^3/6 w(u) on [0, L], w = 1 - S(u / L), 0 beyond (C5 there, 1 + O(u^6) at
-    0): unit steps of the second and third derivatives at 0, in node units."""
-    taper = 1.0 - _smoothstep()(Polynomial([0.0, 1.0 / length]))
-    return Polynomial([0.0, 0.0, 0.5]), Polynomial([0.0, 0.0, 0.0, 1.0 / 6.0]) * taper
-
-
-@lru_cache(maxsize=64)
-def hinge_coefficients(length: float, nu: int) -> tuple[NDArray[np.float64], ...]:
-    """Power-series coefficients of the nu-th derivatives of g2 and g3."""
-    return tuple(np.asarray(p.deriv(nu).coef, dtype=np.float64) for p in _hinges_on(length))
-
-
-def horner(x: NDArray[np.float64], coef: NDArray[np.float64]) -> NDArray[np.float64]:
-    """sum_k coef[k] x^k by Horner's rule (numpy's polyval without its checks)."""
-    acc = np.full(x.shape, coef[-1])
-    for c in coef[-2::-1]:
-        acc *= x            # in place: the same operations, no temporaries
-        acc += c
-    return acc
-
-
-def hinge_values(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
-    """(len(u), 2): nu-th u-derivatives of g2 and g3 (node units), ``u`` nodes from a
-    junction that opens to the right."""
-    return hinge_block(np.asarray(u, dtype=float).reshape(-1, 1), length, nu)
-
-
-def hinge_block(u: NDArray[np.float64], length: float, nu: int = 0) -> NDArray[np.float64]:
-    """(m, 2k): ``hinge_values`` of each column of ``u`` (m, k) side by side (g2 and g3
-    of column j in columns 2j, 2j + 1), all in one pass of Horner's rule."""
-    out = np.zeros((u.shape[0], 2 * u.shape[1]))
-    quad, cubic = hinge_coefficients(float(length), nu)
-    pos = u > 0
-    g2, g3 = out[:, 0::2], out[:, 1::2]         # views
-    g2[pos] = horner(u[pos], quad)              # 0 where the hinge is closed
-    near = pos & (u < length)
-    g3[near] = horner(u[near], cubic)
-    return out
 
 
 @lru_cache(maxsize=64)
