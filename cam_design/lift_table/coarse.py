@@ -47,7 +47,7 @@ from scipy.fft import dct
 
 from cam_design.lift_table.hinges import ramp_hinge
 from cam_design.lift_table.junctions import (JunctionFit, choose_level, find_junctions,
-                                             golden_minimum, ramp_columns, ramp_fit, refit)
+                                             lattice_minimum, ramp_columns, ramp_fit, refit)
 from cam_design.lift_table.noise import EXACT_NOISE_REL, MAD_TO_SIGMA
 from cam_design.lift_table.rebound import VERY_COARSE_RAD
 
@@ -129,10 +129,7 @@ def cp_level(values: NDArray[np.float64], sigma: float) -> float:
         hk = 1.0 / (1.0 + 10.0 ** log_lam * m3)
         return float(np.dot((1.0 - hk) ** 2, c2)) + 2.0 * sigma ** 2 * float(hk.sum())
 
-    grid = np.arange(-6.0, 12.01, 1.0)
-    i = int(np.argmin([score(v) for v in grid]))
-    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    return 10.0 ** golden_minimum(score, a, b, 22)
+    return 10.0 ** lattice_minimum(score, np.arange(-6.0, 12.01, 1.0), 22)[0]
 
 
 def structured_misfit(lift: NDArray[np.float64], fit: NDArray[np.float64],
@@ -417,10 +414,7 @@ def ramp_scores(values: NDArray[np.float64], taus: list[float], widths: list[flo
 def _best_log_level(score: Callable[[float], float], lo: float, hi: float) -> float:
     """log10 of the level minimising ``score(log10 level)`` on [lo, hi]: the best of a
     half-decade lattice, then golden section between its neighbours."""
-    lattice = np.arange(lo, hi + 1e-9, 0.5)
-    i = int(np.argmin([score(float(v)) for v in lattice]))
-    return golden_minimum(score, float(lattice[max(i - 1, 0)]),
-                          float(lattice[min(i + 1, lattice.size - 1)]), 16)
+    return lattice_minimum(score, np.arange(lo, hi + 1e-9, 0.5), 16)[0]
 
 
 def _place_ramps(values: NDArray[np.float64], taus: list[float], widths: list[float],

@@ -125,6 +125,15 @@ def golden_minimum(fun: Callable[[float], float], a: float, b: float, iterations
     return 0.5 * (a + b)
 
 
+def lattice_minimum(fun: Callable[[float], float], lattice: NDArray[np.float64],
+                    iterations: int) -> tuple[float, int]:
+    """(minimiser, index of the best lattice point) of ``fun`` over the span of
+    ``lattice``: the best of the lattice, then golden section between its neighbours."""
+    i = int(np.argmin([fun(v) for v in lattice]))
+    a, b = lattice[max(i - 1, 0)], lattice[min(i + 1, lattice.size - 1)]
+    return golden_minimum(fun, a, b, iterations), i
+
+
 class Levels:
     """The level systems of one table, by level: a search that comes back to a level
     reuses its factor, R y and the hinge columns already solved there. The level

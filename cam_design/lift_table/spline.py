@@ -35,7 +35,7 @@ from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
 from cam_design.lift_table.coarse import coarse_junctions
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
-                                             golden_minimum, refit)
+                                             lattice_minimum, refit)
 from cam_design.lift_table.lobe_ends import KinkedLobe, coarse_lobe
 from cam_design.lift_table.noise import EXACT_NOISE_REL
 from cam_design.lift_table.rebound import VERY_COARSE_RAD, Fairing, rebound_fairing
@@ -135,10 +135,7 @@ def choose_smoothing(values: NDArray[np.float64], step: float, *, criterion: str
         sigma = max(MAD_TO_SIGMA * float(np.median(np.abs(coef[n // 2:]))), sigma_floor)
     score = _Criterion(coef, mu, sigma, criterion, gamma)
     grid = np.arange(-6.0, 18.01, 1.0)
-    s = [score(v) for v in grid]
-    i = int(np.argmin(s))
-    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    log_lam = golden_minimum(score, a, b, 22)
+    log_lam, i = lattice_minimum(score, grid, 22)
     lam_d = 10.0 ** log_lam
     edf = float(np.sum(1.0 / (1.0 + lam_d * score.m3)))
     what = ('minimum of the estimated acceleration error (SURE)' if criterion == 'risk'
