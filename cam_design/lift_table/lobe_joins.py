@@ -95,20 +95,18 @@ def lobe_edge(curve: Curve, x: NDArray[np.float64], y: NDArray[np.float64],
               min_width: float) -> tuple[float, float, bool]:
     """(join point [rad], join width [rad], mid-lobe) on one side of the lobe: walk out
     from the top to the last grid point above ``tau``; the join ends on the first row
-    inside it (so the law passes through every lobe row) when the join a ramp would
-    need there, 2 h/|h'|, is at least ``min_width``; else further in, on the grid."""
+    inside it (so the law passes through every lobe row) when the join it needs there
+    (``join_width``) is at least ``ROW_JOIN_SHARE`` of ``min_width``; else further in, on
+    the grid, at the first point whose join is at least ``min_width``."""
     idx = np.arange(top, -1, -1) if side < 0 else np.arange(top, x.size)
     below = np.flatnonzero(y[idx] <= tau)
     mid_lobe = below.size == 0
     k = int(idx[-1]) if mid_lobe else int(idx[below[0] - 1])
 
     def width_at(at: float) -> float:
-        h = float(curve(at, 0))
-        v = float(curve(at, 1)) * -side       # rising towards the top: positive
-        if not (v > 0 and h > 0):
-            return math.inf
         jets = np.array([float(curve(at, nu)) for nu in range(4)])
-        return join_width(jets, side)
+        # lifted, and rising towards the top
+        return join_width(jets, side) if jets[0] > 0 and jets[1] * -side > 0 else math.inf
 
     lo, hi = sorted((float(x[k]), float(x[top])))
     inside = rows[(rows >= lo - 1e-12) & (rows <= hi + 1e-12)]

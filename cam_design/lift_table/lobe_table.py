@@ -522,7 +522,6 @@ def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], t
     # a mid-lobe end) the join
     run_lo = info.method == 'interpolated' and not mid_lo
     run_hi = info.method == 'interpolated' and not mid_hi
-    info.joins[:] = [None if run_lo else (lo - w_lo, lo), None if run_hi else (hi, hi + w_hi)]
     # the base-circle rows next to the lobe (not the table's ends: another lobe may lie
     # beyond them)
     before, after = b[(b <= lo) & (h <= tau)], b[(b >= hi) & (h <= tau)]

@@ -38,7 +38,8 @@ def _bag_identity(path: str | Path) -> tuple[Any, ...]:
     rosbag2 directory: each file in it; a bare MCAP file: itself)."""
     p = Path(path).resolve()
     files = sorted(f for f in p.iterdir() if f.is_file()) if p.is_dir() else [p]
-    return (str(p), *((f.name, f.stat().st_size, f.stat().st_mtime_ns) for f in files))
+    stats = [(f.name, f.stat()) for f in files]
+    return (str(p), *((name, st.st_size, st.st_mtime_ns) for name, st in stats))
 
 
 def bag_scenes(path: str | Path) -> list[BagScene]:
