@@ -13,9 +13,9 @@ it flags, and the rounding step of the rows (docs/reconstruction.md, steps 1-2).
    knots, estimated per point on uneven ones), and is the local maximum within +-2
    points, are moved by ``gain * r_i``; a point whose cumulative move would exceed
    ``cap`` noise standard deviations is declared an outlier, replaced by its
-   leave-one-out value and given zero weight. On tables coarser than 0.75 deg a local
-   quintic leave-one-out prediction must confirm each candidate (spikes.py). Sweeps repeat until
-   no point exceeds the tolerance.
+   leave-one-out value and given zero weight. On tables coarser than 0.75 deg local
+   quintic predictions must confirm each candidate, alone or in a group of up to four
+   nearby rows (spikes.py). Sweeps repeat until no point exceeds the tolerance.
 
 Angles in rad, lifts in m. The smoothing that follows is ``spline.reconstruct_spline``.
 """
@@ -285,6 +285,7 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     # nor on a table coarser than VERY_COARSE_RAD, where a single row off the fit cannot
     # be told from the lobe's own shape (a junction of the law between two rows)
     keep_all = exact or float(np.median(op.h)) > VERY_COARSE_RAD
+    seen: dict[bytes, dict[int, float]] = {}
     for sweeps in range(1, 0 if keep_all else max_sweeps + 1):
         a = np.divide(np.abs(r), tol_i, out=np.zeros(n), where=interior & ~outlier)
         big = a > 1.0
@@ -293,14 +294,25 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
             break
         # candidates: local maxima of |r|/tol. On coarse tables (steps > 0.75 deg) the
         # cubic spline's own interpolation error on the flanks exceeds the noise, so
-        # each candidate must be confirmed by a local quintic leave-one-out prediction
-        # (which follows the lift); a rejected maximum is vetoed and the next tried.
-        if coarse or exact:
-            cand = confirmed_candidates(x_arr, y, a, big, outlier, threshold * sigma,
-                                        floor, exact)
+        # the rows near each candidate are confirmed by local quintic predictions
+        # (which follow the lift), in groups of up to four (spikes one or two rows apart
+        # hide each other): a group of one is moved by its rebound as below, the rows
+        # of a larger group are outliers at once, set to their local prediction; a
+        # rejected maximum is vetoed and the next tried (spikes.py).
+        grouped = 0
+        if coarse:
+            confirmed = confirmed_candidates(x_arr, y, a, big, outlier, threshold * sigma,
+                                             floor, seen)
+            cand = confirmed.single
+            outlier[confirmed.grouped] = True
+            y[confirmed.grouped] = confirmed.fill
+            grouped = confirmed.grouped.size
         else:
             cand = np.flatnonzero(big & local_maxima(a))
         if cand.size == 0:
+            if grouped:
+                r = op.rebound(y)
+                continue
             sweeps -= 1
             break
         step = gain * r[cand]
