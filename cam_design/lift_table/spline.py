@@ -415,6 +415,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     why = choice.why
     lam_d = choice.lam_d
     found = None
+    spiked = np.zeros(x.size, dtype=bool)     # rows that explain a junction (coarse.py)
     # coarse tables (coarse.py): a few rows per segment cannot tell a step of h'' from a
     # steep smooth change by GCV alone, so above COARSE_LEVEL_RAD each junction is also
     # tested against a soft change, and above COARSE_RAD the junctions kept are fitted
@@ -432,6 +433,14 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                                        sigma_floor=floor)
             found = outcome.found
             hedge = outcome.why
+            spiked[[k - pad for k in outcome.rows if 0 <= k - pad < x.size]] = True
+            if not step > VERY_COARSE_RAD:      # taken out (kept and named above it)
+                missing[pad:pad + x.size] |= spiked
+            if np.any(spiked):
+                notes.append('coarse table: rows at ' + ', '.join(
+                    f'{math.degrees(v):.1f}' for v in x[spiked]) + ' deg explain a step '
+                    'of h\'\' beside them better as spikes'
+                    + ('' if step > VERY_COARSE_RAD else ': taken out'))
             if outcome.refused:
                 notes.append('coarse table: no step of h\'\' at ' + ', '.join(
                     f'{math.degrees(t):.1f}' for t in outcome.refused)
@@ -471,7 +480,8 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     # second look with the smooth fit: a spike the rebound missed (two spikes in
     # adjacent rows hide each other's rebound) stands out of the fit, a point flagged
     # next to it fits; refit once with the corrected set
-    outlier = fair.outlier.copy()
+    outlier = fair.outlier | (spiked & (step <= VERY_COARSE_RAD))
+    kept = ~outlier
     at_rows = spline(x)
     resid = y0 - at_rows
     absr = np.abs(resid)
@@ -485,6 +495,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
            & (absk > 1e-9 * float(np.max(np.abs(y0))))
            & (absk > 3.0 * window.max(axis=1)))
     if exact or step > VERY_COARSE_RAD:   # every row kept; say which stand out
+        new |= spiked
         if np.any(new):
             listed = ', '.join(f'{math.degrees(v):.1f}' for v in x[new][:5])
             warnings.append(f'rows at {listed} deg stand out of the fit by up to '
