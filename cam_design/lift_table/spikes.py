@@ -116,11 +116,13 @@ def _junction_explains(x: NDArray[np.float64], y: NDArray[np.float64],
                        bar: float) -> bool:
     """Does a step of h'' explain a row of ``group`` instead? A least-squares quintic
     plus a hinge (x - t)_+^2 through the ``GROUP_FIT_ROWS`` + 2 usable rows nearest to
-    the group (the group left out), for t from a row before the group to a row after
-    it in quarter rows: True when, for some t, it predicts a row of the group within
-    ``bar`` [m]. A junction changes h'' for every row after it, so that a step fitted
-    to the rows around it also predicts the rows next to it; a spike moves one row,
-    which no step fitted to its neighbours predicts (a spike beside a junction would
+    the group (the group left out, and in turn each of them within ``GROUP_REACH``
+    beside the group that misses its own prediction by more than ``bar``: another
+    spike), for t from a row before the group to a row after it in quarter
+    rows: True when, for some t, it predicts a row of the group within ``bar`` [m]. A
+    junction changes h'' for every row after it, so that a step fitted to the rows
+    around it also predicts the rows next to it; a spike moves one row, which no step
+    fitted to its neighbours predicts (a spike beside a junction would
     otherwise take the junction's rows with it into a group)."""
     centre = 0.5 * (group[0] + group[-1])
     others = sorted((int(j) for j in usable if j not in group),
@@ -135,13 +137,24 @@ def _junction_explains(x: NDArray[np.float64], y: NDArray[np.float64],
     xg = (x[list(group)] - x[mid]) / scale
     fit_base = np.vander(xs, 6, increasing=True)
     at_base = np.vander(xg, 6, increasing=True)
+    # a stencil row beside the group that misses its own prediction (the group left
+    # out) by more than the bar may be another spike: each such row left out in turn
+    beside = np.array([j for j in idx if group[0] - GROUP_REACH <= j < group[0]
+                       or group[-1] < j <= group[-1] + GROUP_REACH], dtype=np.int64)
+    drops: list[int | None] = [None]
+    if beside.size:
+        skips = np.isin(usable[None, :], group) | (usable[None, :] == beside[:, None])
+        off = np.abs(_misses(x, y, usable, beside, skips)[0]) > bar
+        drops += [int(np.searchsorted(idx, j)) for j in beside[off]]
     for t in np.arange(group[0] - 1.0, group[-1] + 1.0 + 1e-9, HINGE_STEP):
         where = (t - mid) * step / scale
         design = np.column_stack([fit_base, np.maximum(xs - where, 0.0) ** 2])
-        coef = np.linalg.lstsq(design, y[idx], rcond=None)[0]
-        at = np.column_stack([at_base, np.maximum(xg - where, 0.0) ** 2]) @ coef
-        if float(np.min(np.abs(y[list(group)] - at))) <= bar:
-            return True
+        at_design = np.column_stack([at_base, np.maximum(xg - where, 0.0) ** 2])
+        for drop in drops:
+            use = np.arange(idx.size) != (-1 if drop is None else drop)
+            coef = np.linalg.lstsq(design[use], y[idx][use], rcond=None)[0]
+            if float(np.min(np.abs(y[list(group)] - at_design @ coef))) <= bar:
+                return True
     return False
 
 
