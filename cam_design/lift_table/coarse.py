@@ -289,9 +289,9 @@ def row_gain(values: NDArray[np.float64], missing: NDArray[np.bool_], taus: list
     if not near:
         return -math.inf, ()
     eye = np.eye(n)
-    best = (math.inf, ())
     singles = _gcv_scores(values, r, trace_s, fixed, eye[:, near], gamma)
-    best = min(best, (float(np.min(singles)), (near[int(np.argmin(singles))],)))
+    best: tuple[float, tuple[int, ...]] = (float(np.min(singles)),
+                                           (near[int(np.argmin(singles))],))
     for k in near:
         partners = [m for m in near if 0 < m - k <= 2]
         if partners:
