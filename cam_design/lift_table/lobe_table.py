@@ -574,6 +574,23 @@ def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], t
     return pieces
 
 
+def _odd_row(b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo) -> str:
+    """'; the row at A deg (H mm) stands D mm off its neighbours' for the row farthest
+    from the median of its six neighbours, when that is more than a tenth of the lift
+    range (a typo, a spike); '' otherwise. Angles in the table's frame."""
+    if h.size < 7:
+        return ''
+    pad = np.concatenate([h[-3:], h, h[:3]]) if info.periodic else np.pad(h, 3, mode='edge')
+    near = np.stack([pad[3 + k:3 + k + h.size] for k in (-3, -2, -1, 1, 2, 3)])
+    off = h - np.median(near, axis=0)
+    j = int(np.argmax(np.abs(off)))
+    if abs(float(off[j])) <= 0.1 * float(np.ptp(h)):
+        return ''
+    at = math.degrees(float(wrap_pi(b[j] + info.offset)))
+    return (f'; the row at {at:.6g} deg ({(h[j] + info.base) * 1e3:.6g} mm) stands '
+            f'{abs(float(off[j])) * 1e3:.4g} mm off its neighbours: a typo?')
+
+
 def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
             info: LobeInfo, sampled: tuple[NDArray[np.float64], NDArray[np.float64]]
             ) -> list[str]:
@@ -601,8 +618,8 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
         raise InputError(info.key, f"peak acceleration {acc:.3g} m/rad^2",
                          f'a lobe its lift ({top * 1e3:.3g} mm) and duration '
                          f'({math.degrees(2 * half):.0f} deg) allow (at most '
-                         f'{plausible:.3g} m/rad^2): the rows are noisier than they look; '
-                         'smooth or re-measure the table')
+                         f'{plausible:.3g} m/rad^2): the rows are noisier than they look'
+                         f'{_odd_row(b, h, info)}; smooth or re-measure the table')
     for side in info.mid_lobe:
         j = info.joins[0] if side == 'start' else info.joins[1]
         assert j is not None   # a mid-lobe end is always joined
