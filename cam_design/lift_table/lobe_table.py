@@ -374,8 +374,9 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             # (not after a turn: the fairing was made of the rows in their first order)
             same = (fairing is not None and known is None and not offset
                     and rows.alpha.size == b.size and bool(np.all(rows.lift == h)))
-            rec = reconstruct_spline(rows, options=SplineOptions(criterion='risk', sigma=known),
-                                     fairing=fairing if same else None)
+            rec = reconstruct_spline(rows, options=SplineOptions(
+                criterion='risk', sigma=known, correlated_noise=base_noise is not None),
+                fairing=fairing if same else None)
             curve = _Evaluated(rec.evaluate, mid)
         sigma = max(float(rec.sigma), sigma_q)
         why += f'; smoothed by the reconstruction spline ({rec.why})'

@@ -320,6 +320,10 @@ class SplineOptions:
     # table can make a false junction, and the fit's model choice biases a jump speed
     # beyond its stated uncertainty (docs/limits.md)
     coarse_junctions: bool = False
+    # the rows' noise is correlated row to row (a filtered trace, found on the base
+    # circle by the lobe law): the sign rule's noise band, built for independent rows,
+    # cannot tell the lobe's own sign changes of h'' from the noise's; none are kept
+    correlated_noise: bool = False
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
@@ -555,7 +559,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # rows) tells the lobe's shape; one that nearly interpolates carries every
         # row's miss into h''.
         target = expected
-        if significant_changes(spline, lam_d) > expected and \
+        if not opt.correlated_noise and significant_changes(spline, lam_d) > expected and \
                 float(np.sum(1.0 / (1.0 + lam_d * _spectrum(grid.size) ** 3))) <= \
                 0.5 * np.count_nonzero(kept):
             target = max(expected, beyond_noise(spline, lam_d))
