@@ -340,10 +340,13 @@ class JunctionFit:
         return out.reshape(x.shape) / self.step ** nu
 
 
-def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
-                fit: PartialFit, scores: list[float],
-                fitted_on: NDArray[np.float64] | None = None,
-                widths: tuple[float, ...] = ()) -> JunctionFit:
+def fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
+               fit: PartialFit, scores: list[float],
+               fitted_on: NDArray[np.float64] | None = None,
+               widths: tuple[float, ...] = ()) -> JunctionFit:
+    """The JunctionFit of the partial-spline ``fit`` with junctions at node positions
+    ``taus`` on ``grid`` [rad] (each a change of h'' over ``widths`` nodes, 0 or none:
+    steps), ordered by angle."""
     step = float(grid[1] - grid[0])
     n = grid.size
     order = np.argsort(taus)
@@ -433,7 +436,7 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         lam, system, fresh = taken.lam_d, levels.at(taken.lam_d), True
     if not taus:
         return None
-    return _fit_result(grid, taus, lam, system.fit(taus), scores, values.copy())
+    return fit_result(grid, taus, lam, system.fit(taus), scores, values.copy())
 
 
 def _cleared(pos: NDArray[np.float64], stat: NDArray[np.float64], points: list[float],
@@ -582,7 +585,7 @@ def refit(grid: NDArray[np.float64], values: NDArray[np.float64],
         fit = (ramp_fit(vals, taus, widths, lam_d) if any(widths)
                else partial_fit(vals, taus, lam_d))
         vals = np.where(missing, vals - fit.resid, values)
-    return _fit_result(grid, taus, lam_d, fit, list(found.scores), widths=found.widths)
+    return fit_result(grid, taus, lam_d, fit, list(found.scores), widths=found.widths)
 
 
 def ramp_columns(n: int, taus: list[float], widths: list[float]) -> NDArray[np.float64]:
