@@ -23,6 +23,8 @@ Lifts in m, positions and widths in nodes (grid rows).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, replace
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -51,58 +53,149 @@ def ramp_less_step(n: int, tau: float, widths: tuple[float, ...], lo: int, hi: i
     """(hi - lo, len(widths)) on rows [lo, hi): each ramp of h'' over ``widths`` nodes at
     node ``tau`` less the step there (``ramp_hinge``, opening on the longer side of n
     rows): 0 before the ramp, the constant w^2 / 24 past it."""
-    u = side_of(tau, n) * (np.arange(lo, hi, dtype=float) - tau)
+    side = side_of(tau, n)
     out = np.zeros((hi - lo, len(widths)))
     for i, w in enumerate(widths):
-        near = np.abs(u) < 0.5 * w + 1.0
-        out[near, i] = ramp_hinge(u[near], w) - ramp_hinge(u[near], 0.0)
-        out[(u > 0.0) & ~near, i] = w ** 2 / 24.0
+        # the rows within w/2 + 1 of tau, the others 0 or the constant
+        a = min(max(math.ceil(tau - 0.5 * w - 1.0), lo), hi)
+        b = max(min(math.floor(tau + 0.5 * w + 1.0) + 1, hi), lo)
+        if b > a:
+            u = side * (np.arange(a, b, dtype=float) - tau)
+            out[a - lo:b - lo, i] = ramp_hinge(u, w) - ramp_hinge(u, 0.0)
+        past = slice(b - lo, None) if side > 0 else slice(0, a - lo)
+        out[past, i] = w ** 2 / 24.0
     return out
+
+
+@dataclass(frozen=True)
+class _Ramps:
+    """Junction ``k``'s ramps less its step, d (one column per ramp width): on rows
+    [a, b) about the junction ``near`` ((b - a, R)), beyond them on the side the hinge
+    opens to (``side``) the constant ``tail`` (R,), 0 on the other; R d on the window
+    [lo, hi) (``rd``, 0 elsewhere) and its running sums down the window (``sums``,
+    (hi - lo + 1, R), from 0)."""
+
+    a: int
+    b: int
+    near: NDArray[np.float64]
+    tail: NDArray[np.float64]
+    side: int
+    lo: int
+    hi: int
+    rd: NDArray[np.float64]
+    sums: NDArray[np.float64]
+
+    def past(self, lo: int, hi: int) -> tuple[int, int]:
+        """Rows of [lo, hi) where d is its constant ``tail`` (an empty pair if none)."""
+        return (max(self.b, lo), hi) if self.side > 0 else (lo, min(self.a, hi))
+
+    def dot(self, other: _Ramps) -> NDArray[np.float64]:
+        """d' R d_other (R, R): over ``other``'s window, from the rows about this
+        junction and the running sums of R d_other beyond them."""
+        a, b = max(self.a, other.lo), min(self.b, other.hi)
+        out = (self.near[a - self.a:b - self.a].T @ other.rd[a - other.lo:b - other.lo]
+               if b > a else np.zeros((self.near.shape[1],) * 2))
+        lo, hi = self.past(other.lo, other.hi)
+        if hi > lo:
+            out += np.outer(self.tail, other.sums[hi - other.lo] - other.sums[lo - other.lo])
+        return out
 
 
 class WidthScores:
     """GCV scores of the partial spline of uniform ``values`` [m] at level ``lam_d``
     with junctions at node positions ``taus``, each a change of h'' over one of
-    ``widths`` rows (beside the tapered step of h''' of its hinge pair).
+    ``widths`` rows (beside the tapered step of h''' of its hinge pair); ``system``:
+    the level system of these values at ``lam_d`` where one is at hand (the search's).
 
-    A ramp differs from the step by d = ramp - step (``ramp_less_step``): the third
-    differences of d, and so P d, lie on the ramp's own rows, and R d = (I + lam_d
-    P)^-1 lam_d P d (the constant beyond costs the smoother nothing). So R ramp =
-    R step + R d, R step the search's own windowed column (``LevelSystem.columns``);
-    every column is solved once, and each choice costs a dense system of size 2J."""
+    A ramp differs from the step by d = ramp - step (``ramp_less_step``): 0 before the
+    ramp, a constant after it. Its third differences, and so P d, lie on the ramp's own
+    rows, and R d = (I + lam_d P)^-1 lam_d P d (the constant costs the smoother nothing)
+    decays within ``window_margin`` of them. So R ramp = R step + R d, with R step the
+    search's own windowed column (``LevelSystem.columns``) and R d solved on a window
+    about the ramp; the inner products of the ramps' columns are the steps' plus those
+    of d (a few rows and a constant) and R d (its window), so nothing of the table's
+    length is formed per ramp, and each choice costs a dense system of size 2J."""
 
     def __init__(self, values: NDArray[np.float64], taus: list[float],
-                 widths: tuple[float, ...], lam_d: float, gamma: float) -> None:
+                 widths: tuple[float, ...], lam_d: float, gamma: float,
+                 system: LevelSystem | None = None) -> None:
         n = values.size
         self.n, self.gamma, self.nw, self.j = n, gamma, len(widths), len(taus)
-        system = LevelSystem(values, lam_d)
-        g, rg = system.columns(taus)
-        ramps = widths[1:]
-        # the columns: the hinge pairs, then junction k's ramps (its step plus d)
-        a = np.empty((n, 2 * self.j + self.j * len(ramps)))
-        ra = np.empty_like(a)
-        a[:, :2 * self.j], ra[:, :2 * self.j] = g, rg
-        a[:, 2 * self.j:] = np.repeat(g[:, 0::2], len(ramps), axis=1)
-        ra[:, 2 * self.j:] = np.repeat(rg[:, 0::2], len(ramps), axis=1)
-        reach = window_margin(lam_d) + 0.5 * max(ramps) + 8.0
-        for k, tau in enumerate(taus):
-            cols = slice(2 * self.j + k * len(ramps), 2 * self.j + (k + 1) * len(ramps))
-            # d on a window about the ramp (R d decays within window_margin of P d's
-            # rows; a window reaching an end of the table takes that end)
-            lo, hi = max(int(tau - reach), 0), min(int(tau + reach) + 2, n)
-            d = ramp_less_step(n, tau, ramps, lo, hi)
-            a[lo:hi, cols] += d
-            if side_of(tau, n) > 0:       # past the window: d's constant w^2 / 24
-                a[hi:, cols] += d[-1]
-            else:
-                a[:lo, cols] += d[0]
-            ra[lo:hi, cols] += residual_operator(d, lam_d)
-        self.values, self.a, self.ra, self.ry = values, a, ra, system.ry
-        self.m = a.T @ ra
-        self.v = ra.T @ ra
-        self.gy = ra.T @ values           # (R G)'y: keeps its digits (partial_spline)
-        self.gry = ra.T @ system.ry
+        self.ramps = widths[1:]
+        if system is None or system.lam_d != lam_d or system.values is not values:
+            system = LevelSystem(values, lam_d)
+        self.values, self.ry = values, system.ry
         self.ryry, self.trace = system.ryry, system.trace
+        self.g, self.rg = system.columns(taus)
+        half = 0.5 * max(self.ramps) + 1.0
+        reach = window_margin(lam_d) + half + 8.0
+        self.parts = []
+        for tau in taus:
+            # a window reaching an end of the table takes that end
+            lo, hi = max(int(tau - reach), 0), min(int(tau + reach) + 2, n)
+            a, b = max(math.ceil(tau - half), 0), min(math.floor(tau + half) + 1, n)
+            d = ramp_less_step(n, tau, self.ramps, lo, hi)
+            rd = residual_operator(d, lam_d)
+            sums = np.zeros((hi - lo + 1, len(self.ramps)))
+            np.cumsum(rd, axis=0, out=sums[1:])
+            side = side_of(tau, n)
+            self.parts.append(_Ramps(a, b, d[a - lo:b - lo], d[-1] if side > 0 else d[0],
+                                     side, lo, hi, rd, sums))
+        self._products()
+
+    def _block(self, k: int) -> slice:
+        """Columns of junction ``k``'s ramps."""
+        r = len(self.ramps)
+        return slice(2 * self.j + k * r, 2 * self.j + (k + 1) * r)
+
+    def _products(self) -> None:
+        """m = A'R A, v = (R A)'(R A), (R A)'y and (R A)'R y of all columns A: the hinge
+        pairs G, then each junction's ramps (its step's column plus d)."""
+        g, rg, two = self.g, self.rg, 2 * self.j
+        size = two + self.j * len(self.ramps)
+        m, v = np.empty((size, size)), np.empty((size, size))
+        gy, gry = np.empty(size), np.empty(size)
+        m[:two, :two], v[:two, :two] = g.T @ rg, rg.T @ rg
+        gy[:two], gry[:two] = rg.T @ self.values, rg.T @ self.ry
+        sums = np.zeros((self.n + 1, two))          # running sums of R G down the table
+        np.cumsum(rg, axis=0, out=sums[1:])
+        d_rg, g_rd, rg_rd = [], [], []
+        for k, p in enumerate(self.parts):
+            rows, c = slice(p.lo, p.hi), self._block(k)
+            lo, hi = p.past(0, self.n)
+            d_rg.append(p.near.T @ rg[p.a:p.b] + np.outer(p.tail, sums[hi] - sums[lo]))
+            g_rd.append(g[rows].T @ p.rd)
+            rg_rd.append(rg[rows].T @ p.rd)
+            m[:two, c] = m[:two, 2 * k, None] + g_rd[k]
+            m[c, :two] = m[None, 2 * k, :two] + d_rg[k]
+            v[:two, c] = v[:two, 2 * k, None] + rg_rd[k]
+            v[c, :two] = v[:two, c].T
+            gy[c] = gy[2 * k] + p.rd.T @ self.values[rows]
+            gry[c] = gry[2 * k] + p.rd.T @ self.ry[rows]
+        for k, p in enumerate(self.parts):
+            for i, q in enumerate(self.parts):
+                # (g_k + d_k)'(R g_i + R d_i) and (R g_k + R d_k)'(R g_i + R d_i)
+                m[self._block(k), self._block(i)] = (
+                    m[2 * k, 2 * i] + g_rd[i][None, 2 * k, :] + d_rg[k][:, 2 * i, None]
+                    + p.dot(q))
+                lo, hi = max(p.lo, q.lo), min(p.hi, q.hi)
+                both = (p.rd[lo - p.lo:hi - p.lo].T @ q.rd[lo - q.lo:hi - q.lo] if hi > lo
+                        else 0.0)
+                v[self._block(k), self._block(i)] = (
+                    v[2 * k, 2 * i] + rg_rd[i][None, 2 * k, :] + rg_rd[k][2 * i, :, None]
+                    + both)
+        self.m, self.v, self.gy, self.gry = m, v, gy, gry
+
+    def column(self, k: int, w: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(a, R a), (n,) each, of junction ``k``'s change of h'' over ``widths[w]``."""
+        a, ra = self.g[:, 2 * k].copy(), self.rg[:, 2 * k].copy()
+        if w > 0:
+            p = self.parts[k]
+            a[p.a:p.b] += p.near[:, w - 1]
+            lo, hi = p.past(0, self.n)
+            a[lo:hi] += p.tail[w - 1]
+            ra[p.lo:p.hi] += p.rd[:, w - 1]
+        return a, ra
 
     def _columns(self, choice: list[int]) -> NDArray[np.intp]:
         """Columns of the hinge pairs with junction k's change of h'' over
@@ -147,10 +240,12 @@ class WidthScores:
     def fit(self, choice: list[int]) -> PartialFit:
         """The partial spline with junction k's change of h'' over
         ``widths[choice[k]]``."""
-        idx = self._columns(choice)
-        coef, rss, edf = self._solved(idx)
-        resid = self.ry - self.ra[:, idx] @ coef
-        z = self.values - self.a[:, idx] @ coef
+        coef, rss, edf = self._solved(self._columns(choice))
+        resid, z = self.ry.copy(), self.values.copy()
+        for k, w in enumerate(choice):
+            a, ra = self.column(k, w)
+            resid -= coef[2 * k] * ra + coef[2 * k + 1] * self.rg[:, 2 * k + 1]
+            z -= coef[2 * k] * a + coef[2 * k + 1] * self.g[:, 2 * k + 1]
         return PartialFit(z - resid, coef, float(rss), float(edf), float(z @ resid), resid)
 
 
@@ -178,9 +273,9 @@ def with_widths(grid: NDArray[np.float64], values: NDArray[np.float64],
     and its fit (``found`` itself when every junction stays a step)."""
     step = float(grid[1] - grid[0])
     taus = [(t - float(grid[0])) / step for t in found.angles]
-    scores = WidthScores(values, taus, WIDTHS, found.lam_d, gamma)
+    scores = WidthScores(values, taus, WIDTHS, found.lam_d, gamma, found.system)
     choice = choose_widths(scores)
     if not any(choice):
-        return found
+        return replace(found, system=None)      # the search's caches not kept further
     return fit_result(grid, taus, found.lam_d, scores.fit(choice), list(found.scores),
                       values.copy(), tuple(WIDTHS[w] for w in choice))
