@@ -10,13 +10,13 @@ among ``WIDTHS``, chosen by the criterion the search already uses (GCV of the wh
 partial spline at the search's level, the other junctions held at their present
 widths, at most ``PASSES`` passes). A ramp is taken where (a) it lowers N ln(GCV) by
 more than ``RAMP_MARGIN`` against the step (the charge for one chosen parameter, as in
-AIC) and (b) a free mix of the step and that ramp (both columns, the mix's share of
-the change on the ramp, ``WidthScores.share``) puts between ``SHARE`` of the change on
-the ramp. Beside a true step the smooth part's local bias makes GCV prefer narrow
-ramps for their bump alone (measured on the circular-arc and constant-acceleration
-cams: gains up to 30 for ramps of 1-2 rows, whose free mix put 1.5-4.4 times the
-whole change on the ramp): hence (b), and no ramp narrower than 3 rows (at 1-2 rows a
-ramp differs from the step at one or two rows only, by c w^2 / 24).
+AIC) and (b) a free mix of the step and that ramp (both columns) puts a part of the
+change within ``SHARE`` on the ramp (``WidthScores.share``). Beside a true step the
+smooth part's local bias makes GCV prefer narrow ramps for their bump alone
+(measured on the circular-arc and constant-acceleration cams: gains up to 30 for
+ramps of 1-2 rows, whose free mix put 1.5-4.4 times the whole change on the ramp):
+hence (b), and no ramp narrower than 3 rows (at 1-2 rows a ramp differs from the step
+at one or two rows only, by c w^2 / 24).
 
 Lifts in m, positions and widths in nodes (grid rows).
 """
@@ -38,9 +38,10 @@ from cam_design.lift_table.partial_spline import (LevelSystem, PartialFit, resid
 WIDTHS = (0.0, 3.0, 4.0, 6.0, 8.0)
 #: coordinate passes over the junctions (each chosen with the others held)
 PASSES = 2
-#: a ramp replaces a step only when it lowers N ln(GCV) by more than this (on the
-#: accuracy benchmark's 576 tables at 0.1-1 deg: 0 let ramps in beside true steps,
-#: circular-arc h'' error +14 %; 2 kept every family within +1 %)
+#: a ramp replaces a step only when it lowers N ln(GCV) by more than this. On the
+#: accuracy benchmark's 576 tables at 0.1-2.5 deg, pooled h'' error of the constant-
+#: acceleration / circular-arc cams: margin 0 +1.45 / +1.06 %, 1 +0.85 / +0.75 %,
+#: 2 +0.79 / +0.48 % (every width of 1-8 rows by GCV alone: +8 / +14 %)
 RAMP_MARGIN = 2.0
 #: ... and only when a free mix of the step and that ramp puts this part of the change
 #: on the ramp (at the flat-tappet rise 0.55-1.3 at the chosen width; beside true steps
@@ -201,8 +202,11 @@ class WidthScores:
         """Columns of the hinge pairs with junction k's change of h'' over
         ``widths[choice[k]]``."""
         return np.asarray([i for k, w in enumerate(choice)
-                           for i in (2 * k if w == 0 else
-                                     2 * self.j + k * (self.nw - 1) + w - 1, 2 * k + 1)])
+                           for i in (self._change(k, w), 2 * k + 1)])
+
+    def _change(self, k: int, w: int) -> int:
+        """Column of junction ``k``'s change of h'' over ``widths[w]`` (its step: 2k)."""
+        return 2 * k if w == 0 else 2 * self.j + k * (self.nw - 1) + w - 1
 
     def _solved(self, idx: NDArray[np.intp]) -> tuple[NDArray[np.float64], ...]:
         """(coef, rss [m^2], edf) of the column sets ``idx`` (..., 2J), batched."""
@@ -231,8 +235,7 @@ class WidthScores:
         its ramp over ``widths[w]`` puts on the ramp (the others as ``choice``): near 1
         where the rows rise over the ramp, far from [0, 1] where the ramp's small bump
         only stands in for the smooth part's bias beside a step."""
-        idx = self._columns(choice[:k] + [0] + choice[k + 1:])
-        idx = np.append(idx, self._columns([0] * k + [w])[-2])
+        idx = np.append(self._columns(choice[:k] + [0] + choice[k + 1:]), self._change(k, w))
         coef = self._solved(idx)[0]
         total = coef[2 * k] + coef[-1]
         return float(coef[-1] / total) if total != 0.0 else math.inf
@@ -270,7 +273,8 @@ def choose_widths(scores: WidthScores) -> list[int]:
 def with_widths(grid: NDArray[np.float64], values: NDArray[np.float64],
                 found: JunctionFit, gamma: float) -> JunctionFit:
     """``found`` with each junction's width chosen by ``choose_widths`` at its level,
-    and its fit (``found`` itself when every junction stays a step)."""
+    fitted with those widths (``found`` itself, less its level system, when every
+    junction stays a step)."""
     step = float(grid[1] - grid[0])
     taus = [(t - float(grid[0])) / step for t in found.angles]
     scores = WidthScores(values, taus, WIDTHS, found.lam_d, gamma, found.system)
