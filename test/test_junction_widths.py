@@ -117,3 +117,31 @@ def test_the_narrow_acceleration_peak_at_one_degree_beats_scipy(sigma, quantum, 
         if quantum == 0.0:
             assert all(w >= 3.0 for w in rec.parameter.get('junction_widths_deg', []))
     assert math.sqrt(sum(ours) / sum(ref)) < bound
+
+
+def test_true_steps_of_the_circular_arc_cam_stay_steps(monkeypatch):
+    """The circular-arc cam at 0.5 deg with 0.1 um of noise (steps of h'' of 42 and
+    56 mm/rad^2 at +-62.3 and +-42.5 deg): every junction kept stays a step, and h''
+    there is the step's. By GCV alone among ramps of 1-8 rows (no margin, no share
+    test) the steps at -42.5 and 42.5 deg of seed 1 become ramps of 2 and 1 rows, and
+    h'' within +-3 deg of -42.5 deg is 6.4 mm/rad^2 RMS off instead of 0.29."""
+    fam = {f.name: f for f in families()}['circular arc']
+
+    def fit(seed):
+        a, h = measured_table(fam.law, 0.5 * DEG, sigma=0.1e-6, seed=seed)
+        return reconstruct_spline(a, h)
+
+    for seed in (1, 2, 3):
+        rec = fit(seed)
+        assert len(rec.parameter['junctions_deg']) == 4
+        assert rec.parameter['junction_widths_deg'] == [0.0] * 4
+    near = np.linspace(-45.5, -39.5, 601) * DEG
+    truth = fam.law(near, 2)
+    guarded = float(np.sqrt(np.mean((fit(1).evaluate(near, 2) - truth) ** 2)))
+    monkeypatch.setattr(junction_widths, 'WIDTHS', (0.0, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0))
+    monkeypatch.setattr(junction_widths, 'RAMP_MARGIN', 0.0)
+    monkeypatch.setattr(junction_widths, 'SHARE', (-math.inf, math.inf))
+    bare = fit(1)
+    assert max(bare.parameter['junction_widths_deg']) > 0.0
+    unguarded = float(np.sqrt(np.mean((bare.evaluate(near, 2) - truth) ** 2)))
+    assert guarded < 1e-3 < 5e-3 < unguarded                                 # m/rad^2
