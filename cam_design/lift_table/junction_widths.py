@@ -140,7 +140,7 @@ class WidthScores:
             sums = np.zeros((hi - lo + 1, len(self.ramps)))
             np.cumsum(rd, axis=0, out=sums[1:])
             side = side_of(tau, n)
-            self.parts.append(_Ramps(a, b, d[a - lo:b - lo], d[-1] if side > 0 else d[0],
+            self.parts.append(_Ramps(a, b, d[a - lo:b - lo], np.asarray(self.ramps) ** 2 / 24.0,
                                      side, lo, hi, rd, sums))
         self._products()
 
