@@ -104,7 +104,7 @@ def test_the_narrow_acceleration_peak_at_one_degree_beats_scipy(sigma, quantum, 
     three seeds, below ``bound`` x scipy's GCV spline's (measured 0.56 with 2 um of
     noise, 0.83 rounded to 0.01 mm; 1.48 and 1.35 when those junctions were steps),
     and the junctions kept there ramps of 3 rows or more where the rows show the rise
-    (2 um: every one)."""
+    (2 um: every one, and ``why`` says so)."""
     fam = {f.name: f for f in families()}['narrow peak']
     ours, ref = [], []
     for seed in (1, 2, 3):
@@ -115,7 +115,9 @@ def test_the_narrow_acceleration_peak_at_one_degree_beats_scipy(sigma, quantum, 
         ours.append(float(np.mean((rec.evaluate(grid, 2) - truth) ** 2)))
         ref.append(float(np.mean((make_smoothing_spline(a, h)(grid, 2) - truth) ** 2)))
         if quantum == 0.0:
-            assert all(w >= 3.0 for w in rec.parameter.get('junction_widths_deg', []))
+            widths = rec.parameter.get('junction_widths_deg', [])
+            assert all(w >= 3.0 for w in widths)
+            assert ("a change of h'' over" in rec.why) == bool(widths)
     assert math.sqrt(sum(ours) / sum(ref)) < bound
 
 

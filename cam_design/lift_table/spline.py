@@ -442,6 +442,11 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                                    sigma_floor=floor)
             if found is not None:
                 found = with_widths(grid, values, found, gamma)
+                ramps = [w for w in found.widths if w > 0.0]
+                if ramps:
+                    hedge = (f'; {len(ramps)} of them a change of h\'\' over '
+                             + ', '.join(f'{w:g}' for w in ramps) + ' rows (GCV: the rows '
+                             'rise there rather than step)')
         if found is not None:
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
