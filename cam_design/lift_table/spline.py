@@ -34,6 +34,7 @@ from scipy.interpolate import make_interp_spline
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
 from cam_design.lift_table.coarse import coarse_junctions
+from cam_design.lift_table.junction_widths import with_widths
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              lattice_minimum, refit)
 from cam_design.lift_table.lobe_ends import KinkedLobe, coarse_lobe
@@ -443,6 +444,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         else:
             found = find_junctions(grid, values, start.lam_d, gamma=gamma,
                                    sigma_floor=floor)
+            if found is not None:
+                found = with_widths(grid, values, found, gamma)
+                ramps = [w for w in found.widths if w > 0.0]
+                if ramps:
+                    hedge = (f'; {len(ramps)} of them a change of h\'\' over '
+                             + ', '.join(f'{w:g}' for w in ramps) + ' rows (GCV: the rows '
+                             'rise there rather than step)')
         if found is not None:
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
