@@ -449,7 +449,8 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             if outcome.refused:
                 notes.append('coarse table: no step of h\'\' at ' + ', '.join(
                     f'{math.degrees(t):.1f}' for t in outcome.refused)
-                    + ' deg (a change of h\'\' over 2-4 rows fits the rows better)')
+                    + ' deg (a change of h\'\' over 2-4 rows, or spikes, fit the rows '
+                    'better)')
         else:
             found = find_junctions(grid, values, start.lam_d, gamma=gamma,
                                    sigma_floor=floor)
