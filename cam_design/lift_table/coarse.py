@@ -12,6 +12,10 @@ wrong there (docs/reconstruction.md step 9):
   within +-1.5 rows). A real step fits the rows better sharp; a stand-in for a fast
   smooth change fits better soft. A junction is kept unless the best soft alternative
   lowers N ln(GCV) by more than ``SOFT_MARGIN``.
+* **A step or spikes?** A junction that passes that test is then compared with one
+  row, or two rows one or two apart, within ``ROW_REACH`` rows of it free to move
+  (``row_gain``): a step of h'' changes every row after it, a spike one row. It is
+  refused when the rows fit better, and they are taken out as outliers.
 * **A step or a one-row rise?** Above 4.5 deg (72 rows a turn or fewer) a change of h''
   within about one row (the acceleration peak of a polynomial lobe) passes that test as
   a step, and no criterion on the rows tells the two apart (docs/limits.md lists the
