@@ -52,8 +52,10 @@ from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.lift_laws.jet_table import JetTableLift
 from cam_design.lift_table.lobe_joins import JOIN_MIN_DEG, Curve, join, lobe_edge
-from cam_design.lift_table.lobe_frame import (BASE_MIN_DEG, TWO_PI, lobe_middle, lobe_turn,
-                                              part_turn_centre, seam_frame)
+from cam_design.lift_table.lobe_frame import (BASE_MIN_DEG, BASE_OFFSET_M, TWO_PI, base_level,
+                                              lobe_middle, lobe_turn, part_turn_centre,
+                                              seam_frame)
+from cam_design.lift_table.noise import BaseNoise, base_circle_noise
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 from cam_design.lift_table.table_fit import LEVEL_CRITERION, TableFit
 
@@ -85,6 +87,9 @@ SHAPE_GROWTH = 8.0
 REPEAT_SPREAD = 0.01
 #: a table starting / ending above this share of its max lift is refused
 MID_LOBE_LIMIT = 0.5
+#: a mid-lobe join longer than this share of the lobe between the joins is refused (the
+#: table ends on a flat stretch off 0, where no join from the base circle fits)
+MID_JOIN_MAX = 1.0
 #: a lobe law whose peak |h''| exceeds this many times 2 H / (half-duration)^2 (what a
 #: constant-acceleration rise of the same lift and duration needs) is refused
 ACC_PLAUSIBLE = 100.0
@@ -109,8 +114,10 @@ class LobeInfo:
     before and after the lobe (None: the lobe runs out to the table's own rows);
     ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
     ``rows``: the rows as given (alpha, lift) for replicas; ``rec``: the engine's
-    Reconstruction when smoothed; ``fit``: how the law was fitted (``TableFit``), what
-    a replica of the table repeats."""
+    Reconstruction when smoothed; ``base_noise``: the base circle's noise when it is
+    correlated row to row (its spread is then the noise the rows were smoothed with);
+    ``base``: the base circle's lift in the rows [m], taken off them (0: at zero);
+    ``fit``: how the law was fitted (``TableFit``), what a replica repeats."""
 
     key: str
     method: str
@@ -130,6 +137,8 @@ class LobeInfo:
     first: float | None = None
     shift: float = 0.0
     middle: float | None = None
+    base_noise: BaseNoise | None = None
+    base: float = 0.0
     fit: TableFit = TableFit('interpolated')
 
     @property
@@ -280,11 +289,18 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     sigma_q = q / math.sqrt(12.0)
     span = float(np.ptp(h))
     fairing: Fairing | None = None
+    base_noise = None   # the base circle's noise, when correlated row to row
     if noise is None:
         scatter, fairing = _scatter(a0, h)
+        found = base_circle_noise(h, q)
+        if found is not None and found.correlated and found.sigma > scatter:
+            # neighbouring rows cannot see a noise they share: the base circle's spread
+            # is the rows' noise (else a noisy base circle is no base circle at all)
+            base_noise, scatter, fairing = found, found.sigma, None
         noise = scatter
     else:
         scatter = noise = float(noise)
+    whole = a0[-1] - a0[0] >= TWO_PI - 1.5 * step
     offset, periodic = seam_frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
     if (offset or periodic) and a0[-1] - a0[0] >= TWO_PI - 1e-9:
         # a closed turn (-180..180, 0..360 deg): its last row is its first row again,
@@ -301,8 +317,21 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     if offset or periodic:
         order = np.argsort(b, kind='stable')
         b, h = b[order], h[order]
+    said: list[str] = []
+    base = 0.0
     if periodic:   # lift from the lowest row: the base circle of an eccentric
         h = h - float(np.min(h))
+    elif whole and (bottom := base_level(h, step)) is not None and \
+            abs(bottom[0]) > max(3.0 * max(noise, sigma_q), 0.5 * q, BASE_OFFSET_M):
+        # lift is measured from the base circle (a probe zeroed elsewhere, a drifted
+        # trace): the lobe, its joins, every height and the dynamics' lash are there
+        base = bottom[0]
+        h = h - base
+        said.append(f'the base circle is at {base * 1e3:+.4f} mm, not 0 (median of the '
+                    f'{bottom[1]} rows at the bottom of the table: the probe zeroed '
+                    'elsewhere?): lifts are measured from the base circle, max lift above '
+                    f'it {float(np.max(h)) * 1e3:.4f} mm, and the checking heights and the '
+                    "valve train's lash are taken from it")
     floor = max(SCATTER_RATIO * sigma_q, EXACT_SCATTER_REL * span)
     steps = [w.split(':')[0] for w in
              step_warnings(find_steps(b, h, max(noise, sigma_q, 1e-9 * span)))]
@@ -341,8 +370,12 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     sigma = sigma_q if method == 'interpolated' else max(scatter, sigma_q)
     known: float | None = None
     if method == 'smoothed':
-        known = (sigma_q if scatter <= floor else None) if fit is None else fit.known
-        criterion = (fit.criterion if fit is not None else None) or LEVEL_CRITERION
+        known = ((base_noise.sigma if base_noise else sigma_q if scatter <= floor else None)
+                 if fit is None else fit.known)
+        # GCV takes noise the rows share for shape (it needs independent errors): such
+        # rows go by the acceleration risk with the base circle's spread as their noise
+        criterion = (fit.criterion if fit is not None else None) or (
+            'risk' if base_noise else LEVEL_CRITERION)
         if periodic:
             rec, curve = _periodic_smooth(b, h, known, criterion)
         else:
@@ -373,11 +406,12 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                     offset=offset, periodic=periodic, level=tau, rec=rec,
                     rows=(raw_a.copy(), raw_h.copy()), steps=steps,
                     first=lo_a if turn_from is None else float(turn_from),
+                    base_noise=base_noise, base=base,
                     fit=TableFit('smoothed', criterion, known) if rec is not None
                     else TableFit('interpolated'))
     assert curve is not None        # the interpolant, or the smoothing spline above
     law = _build(curve, b, h, info)
-    info.warnings.extend(notes_warning(notes))
+    info.warnings.extend(said + notes_warning(notes))
     return law
 
 
@@ -528,6 +562,14 @@ def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], t
                              f'rows down to the base circle at its {name} (or below '
                              f'{MID_LOBE_LIMIT * 100:.0f} % of the lift, joined to it): '
                              'give the whole lobe')
+        if mid and width > MID_JOIN_MAX * (hi - lo):
+            # a flat stretch off 0 at the table's end (h' about 0: the join to the base
+            # circle would span more than the lobe itself)
+            raise InputError(info.key, f'a table that {name}s on a flat stretch at '
+                             f'{level * 1e3:.4g} mm',
+                             'rows down to the base circle, or lifts measured from it (a '
+                             'base circle off 0 is taken off only on a whole-turn table): '
+                             'subtract the base-circle level or give the whole turn')
     info.mid_lobe = tuple(mids)
     ends = np.stack([np.asarray(curve(np.array([lo, hi]), nu), dtype=float)
                      for nu in range(4)])
@@ -597,4 +639,6 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
     other = other_lobes_warning(wrap_pi(b + info.offset), h)   # in the table frame
     if other:
         out.append(other)
+    if info.base_noise is not None:
+        out.append(info.base_noise.warning())
     return out

@@ -312,38 +312,6 @@ def step_warnings(steps: list[tuple[int, float, float, float, float]]) -> list[s
     return out
 
 
-#: a base circle this far from 0 [m] (and 0.25 % of the lift range) is not the zero
-BASE_OFFSET_M = 10e-6
-
-
-def base_circle_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
-    """A warning when the table's base circle is not at lift 0 (a probe zeroed elsewhere,
-    lifts from another datum): the median of the rows within 2 % of the lift range above
-    the lowest, when they cover at least 60 deg, off 0 by more than ``BASE_OFFSET_M``
-    and 0.25 % of the range. Lifts, max lift and checking heights are then from the
-    table's zero, not from the base circle; the warning gives the max lift above it."""
-    a = np.asarray(alpha, dtype=float)
-    h = np.asarray(lift, dtype=float)
-    ok = np.isfinite(a) & np.isfinite(h)
-    a, h = a[ok], h[ok]
-    if a.size < 8:
-        return None
-    rng = float(np.ptp(h))
-    low = h <= float(np.min(h)) + 0.02 * rng
-    step = float(np.median(np.diff(np.sort(a)))) if a.size > 1 else 0.0
-    if not rng > 0 or np.count_nonzero(low) * step < math.radians(60.0):
-        return None
-    level = float(np.median(h[low]))
-    if abs(level) <= max(BASE_OFFSET_M, 0.0025 * rng):
-        return None
-    return (f'the base circle is at {level * 1e3:+.4f} mm, not 0 (median of the '
-            f'{int(np.count_nonzero(low))} rows at the bottom of the table): the lifts are '
-            'not measured from the base circle (probe zeroed elsewhere?); max lift above '
-            f'the base circle {(float(np.max(h)) - level) * 1e3:.4f} mm; lifts and checking '
-            'heights here are from the table\'s zero: subtract the offset to use the base '
-            'circle')
-
-
 def other_lobes_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
     """A warning when a table holds more than one lobe: runs of lift above 10 % of the
     largest, around the turn, separated by base circle (below 2 %). Names the angle [deg]
