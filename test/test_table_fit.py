@@ -62,3 +62,20 @@ def test_coverage_factor_is_the_gum_t_factor(copies: int, gum: float) -> None:
     """Student's t at 99.73 % for copies - 1 degrees of freedom: the values of GUM
     (JCGM 100:2008) Table G.2 for nu = 2, 7, 15 and 20, to its two decimals."""
     assert coverage_factor(copies) == pytest.approx(gum, abs=0.006)
+
+
+def test_a_fine_noisy_table_is_smoothed_by_gcv_not_by_a_flat_risk_score() -> None:
+    """C2 lobe of the accuracy families, 0.1 deg (3600 rows), 0.5 um noise, seed 3: the
+    acceleration-risk score is flat over decades of level there, and it took edf 294
+    (h'' RMS error 0.82 mm/rad^2 over the turn); GCV takes edf 97 (measured 0.076).
+    Truth: the closed-form lobe."""
+    from cam_design.lift_table.truth_lobes import DEG, families, measured_table
+
+    c2 = next(f for f in families() if f.name == 'C2')
+    a, h = measured_table(c2.law, 0.1 * DEG, sigma=0.5e-6, seed=3)
+    law = lobe_law(a, h, key='c2.csv')
+    assert law.lobe.fit == TableFit('smoothed', LEVEL_CRITERION, None)
+    assert 60.0 < law.lobe.rec.parameter['edf'] < 150.0
+    grid = np.arange(a[0], a[-1], 0.05 * DEG)
+    err = float(np.sqrt(np.mean((law(grid, 2) - c2.law(grid, 2)) ** 2)))
+    assert err < 0.15e-3    # m/rad^2
