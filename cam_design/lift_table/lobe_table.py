@@ -374,8 +374,9 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                  if fit is None else fit.known)
         # GCV takes noise the rows share for shape (it needs independent errors): such
         # rows go by the acceleration risk with the base circle's spread as their noise
+        correlated = base_noise is not None if fit is None else fit.correlated
         criterion = (fit.criterion if fit is not None else None) or (
-            'risk' if base_noise else LEVEL_CRITERION)
+            'risk' if correlated else LEVEL_CRITERION)
         if periodic:
             rec, curve = _periodic_smooth(b, h, known, criterion)
         else:
@@ -388,9 +389,9 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             # (not after a turn: the fairing was made of the rows in their first order)
             same = (fairing is not None and known is None and not offset
                     and rows.alpha.size == b.size and bool(np.all(rows.lift == h)))
-            rec = reconstruct_spline(rows, options=SplineOptions(criterion=criterion,
-                                                                 sigma=known),
-                                     fairing=fairing if same else None)
+            rec = reconstruct_spline(rows, options=SplineOptions(
+                criterion=criterion, sigma=known, correlated_noise=correlated),
+                fairing=fairing if same else None)
             curve = _Evaluated(rec.evaluate, mid)
         sigma = max(float(rec.sigma), sigma_q)
         why += f'; smoothed by the reconstruction spline ({rec.why})'
@@ -407,7 +408,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                     rows=(raw_a.copy(), raw_h.copy()), steps=steps,
                     first=lo_a if turn_from is None else float(turn_from),
                     base_noise=base_noise, base=base,
-                    fit=TableFit('smoothed', criterion, known) if rec is not None
+                    fit=TableFit('smoothed', criterion, known, correlated) if rec is not None
                     else TableFit('interpolated'))
     assert curve is not None        # the interpolant, or the smoothing spline above
     law = _build(curve, b, h, info)
@@ -592,6 +593,23 @@ def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], t
     return pieces
 
 
+def _odd_row(b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo) -> str:
+    """'; the row at A deg (H mm) stands D mm off its neighbours' for the row farthest
+    from the median of its six neighbours, when that is more than a tenth of the lift
+    range (a typo, a spike); '' otherwise. Angles in the table's frame."""
+    if h.size < 7:
+        return ''
+    pad = np.concatenate([h[-3:], h, h[:3]]) if info.periodic else np.pad(h, 3, mode='edge')
+    near = np.stack([pad[3 + k:3 + k + h.size] for k in (-3, -2, -1, 1, 2, 3)])
+    off = h - np.median(near, axis=0)
+    j = int(np.argmax(np.abs(off)))
+    if abs(float(off[j])) <= 0.1 * float(np.ptp(h)):
+        return ''
+    at = math.degrees(float(wrap_pi(b[j] + info.offset)))
+    return (f'; the row at {at:.6g} deg ({(h[j] + info.base) * 1e3:.6g} mm) stands '
+            f'{abs(float(off[j])) * 1e3:.4g} mm off its neighbours: a typo?')
+
+
 def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
             info: LobeInfo, sampled: tuple[NDArray[np.float64], NDArray[np.float64]]
             ) -> list[str]:
@@ -619,8 +637,8 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
         raise InputError(info.key, f"peak acceleration {acc:.3g} m/rad^2",
                          f'a lobe its lift ({top * 1e3:.3g} mm) and duration '
                          f'({math.degrees(2 * half):.0f} deg) allow (at most '
-                         f'{plausible:.3g} m/rad^2): the rows are noisier than they look; '
-                         'smooth or re-measure the table')
+                         f'{plausible:.3g} m/rad^2): the rows are noisier than they look'
+                         f'{_odd_row(b, h, info)}; smooth or re-measure the table')
     for side in info.mid_lobe:
         j = info.joins[0] if side == 'start' else info.joins[1]
         assert j is not None   # a mid-lobe end is always joined

@@ -88,10 +88,17 @@ def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         raise InputError(f'{key}.lift', f'{h.size} values', f'as many as alpha ({a.size})')
     finite = np.isfinite(a) & np.isfinite(h)
     dropped = int(a.size - np.count_nonzero(finite))
+    bad = np.flatnonzero(~finite)
+    where = ''
+    if bad.size:   # name the first: its place in the input and its angle when it has one
+        j = int(bad[0])
+        where = (f' (the first: sample {j + 1}'
+                 + (f' at {math.degrees(float(a[j])):.6g} deg' if np.isfinite(a[j]) else '')
+                 + ')')
     a, h = a[finite], h[finite]
     notes = []
     if dropped:
-        notes.append(f'dropped {dropped} non-finite sample(s)')
+        notes.append(f'dropped {dropped} non-finite sample(s){where}')
     outside = (a <= -np.pi) | (a > np.pi)
     wrapped = int(np.count_nonzero(outside))
     if wrapped:

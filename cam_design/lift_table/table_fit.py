@@ -20,16 +20,20 @@ class TableFit:
     fresh draw of their noise) to be fitted the same way: ``method`` 'interpolated' or
     'smoothed'; ``criterion`` the smoothing criterion (``LEVEL_CRITERION``; None when
     interpolated); ``known`` [m] the noise the smoothing spline was given (the
-    rounding's q/sqrt(12)), None where it estimated the noise from the rows."""
+    rounding's q/sqrt(12), or the base circle's spread of noise the rows share), None
+    where it estimated the noise from the rows; ``correlated``: that noise is shared by
+    neighbouring rows (``noise.base_circle_noise``)."""
 
     method: str
     criterion: str | None = None
     known: float | None = None
+    correlated: bool = False
 
     def text(self) -> str:
         """What the fit was, in a few words (for a note)."""
         if self.method != 'smoothed':
             return 'interpolated'
         return (f'smoothed by {self.criterion}, noise '
-                + (f'{self.known * 1e6:.3g} um (the rounding)' if self.known is not None
-                   else 'estimated from the rows'))
+                + ('estimated from the rows' if self.known is None else
+                   f'{self.known * 1e6:.3g} um '
+                   + ('(shared by neighbouring rows)' if self.correlated else '(the rounding)')))

@@ -273,6 +273,13 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     if lobe is not None and lobe.lobe.base:
         # the lobe law's base circle is the fits' zero too (its warning says where)
         data = dataclasses.replace(data, lift=data.lift - lobe.lobe.base)
+    if lobe is not None and lobe.lobe.base_noise is not None and sopt.sigma is None \
+            and sopt.smoothing is None:
+        # noise the rows share (its warning says so): GCV would take it for the lobe;
+        # the spline smooths with the base circle's spread as known noise, as the lobe
+        # law does
+        sopt = dataclasses.replace(sopt, criterion='risk', sigma=lobe.lobe.base_noise.sigma,
+                                   correlated_noise=True)
     # the fits run in the lobe law's frame: rows turned so that their seam lies in the
     # base circle (a lobe across +-180 deg) or in the gap of a partial table
     turn = fit_turn(table.alpha, lobe)
