@@ -317,6 +317,33 @@ def test_windowed_hinge_columns_equal_whole_table_solves(lam):
         assert np.all(np.max(np.abs(rg - whole), axis=0) <= 1e-7 * peak), tau
 
 
+@pytest.mark.parametrize('lam', [1e3, 1e6, 1e8])
+def test_batched_windowed_columns_equal_one_solve_each(lam):
+    """The columns of several junctions solved at once (one banded solve for all
+    those on the level's interior block, the ends each alone) against each junction's
+    own windowed solve: equal within 1e-14 of the column's peak (LAPACK treats each
+    right-hand side alone; measured equal to the last digit). The windowed solve
+    against the whole-table one: the test above."""
+    n = 3600
+    system = partial_spline.LevelSystem(np.zeros(n), lam)
+    taus = (40.3, 500.25, 1700.5, 1900.75, 2500.4, 3560.6)
+    places = [(*system.window(t), t) for t in taus]
+    assert sum(0 < lo and hi < n for lo, hi, _ in places) >= 2     # a batch
+    batch = partial_spline.windowed_residuals(n, lam, places)
+    for place, got in zip(places, batch):
+        alone, = partial_spline.windowed_residuals(n, lam, [place])
+        peak = np.max(np.abs(alone), axis=0)
+        assert got.shape == alone.shape == (place[1] - place[0], 2)
+        assert np.all(np.max(np.abs(got - alone), axis=0) <= 1e-14 * peak), place
+    # a level's system solves the columns it is asked for together, the same columns
+    g, rg = system.columns(list(taus))
+    for k, (lo, hi, t) in enumerate(places):
+        alone, = partial_spline.windowed_residuals(n, lam, [(lo, hi, t)])
+        assert np.max(np.abs(rg[lo:hi, 2 * k:2 * k + 2] - alone)) <= 1e-14 * np.max(
+            np.abs(alone))
+        assert not np.any(rg[:lo, 2 * k:2 * k + 2]) and not np.any(rg[hi:, 2 * k:2 * k + 2])
+
+
 @pytest.mark.parametrize('lam', [10.0 ** 2.5, 10.0 ** 4.3, 10.0 ** 7.1])
 def test_kept_interior_grams_equal_their_own_solves(lam):
     """A level's interior hinge Grams G'R G and G'R^2 G, kept per level (one Chebyshev

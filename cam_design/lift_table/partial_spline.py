@@ -218,23 +218,50 @@ def _hinge_support(n: int, tau: float, lo: int, hi: int) -> tuple[int, int]:
     return max(a, lo), min(b, hi)
 
 
+def _windowed_rhs(n: int, lam_d: float, lo: int, hi: int, tau: float,
+                  out: NDArray[np.float64]) -> None:
+    """lam_d P g of the hinges g of the junction at node ``tau``, rows [lo, hi) of n
+    rows, written into the zeros ``out`` (hi - lo, 2). P g from the hinge's own rows
+    only: beyond them its third differences are those of a quadratic or of zero (0 but
+    for the rounding of the quadratic's values)."""
+    a, b = _hinge_support(n, tau, lo, hi)
+    out[a - lo:b - lo] = lam_d * _hinge_penalty(n, float(tau), a, b)
+
+
 def _windowed_residual(n: int, lam_d: float, lo: int, hi: int, tau: float
                        ) -> NDArray[np.float64]:
     """R g, (hi - lo, 2), of the hinges g of the junction at node ``tau`` on rows
     [lo, hi) of n rows, zero outside (the rows of I + lam_d P there: a leading block, a
     trailing one (the matrix reads the same backwards) or the Toeplitz interior)."""
-    rhs = np.zeros((hi - lo, 2))
-    # P g from the hinge's own rows only: beyond them its third differences are those of
-    # a quadratic or of zero (0 but for the rounding of the quadratic's values)
-    a, b = _hinge_support(n, tau, lo, hi)
-    rhs[a - lo:b - lo] = lam_d * _hinge_penalty(n, float(tau), a, b)
-    if lo == 0:
-        x = _solve(_factor(n, lam_d), rhs)
-    elif hi == n:
-        x = _solve(_factor(n, lam_d), rhs[::-1])[::-1]
-    else:
-        x = _solve(_interior_factor(hi - lo, lam_d), rhs)
-    return _deflate(x)
+    return windowed_residuals(n, lam_d, [(lo, hi, tau)])[0]
+
+
+def windowed_residuals(n: int, lam_d: float, places: list[tuple[int, int, float]]
+                       ) -> list[NDArray[np.float64]]:
+    """``_windowed_residual`` of each (lo, hi, tau) in ``places``; the columns on the
+    Toeplitz interior block of one length are solved in one banded solve (LAPACK's
+    solve and the deflation treat each right-hand side alone: the same numbers as one
+    solve per junction)."""
+    out: list[NDArray[np.float64] | None] = [None] * len(places)
+    interior: dict[int, list[int]] = {}
+    for k, (lo, hi, tau) in enumerate(places):
+        if lo > 0 and hi < n:
+            interior.setdefault(hi - lo, []).append(k)
+            continue
+        rhs = np.zeros((hi - lo, 2))
+        _windowed_rhs(n, lam_d, lo, hi, tau, rhs)
+        x = (_solve(_factor(n, lam_d), rhs) if lo == 0
+             else _solve(_factor(n, lam_d), rhs[::-1])[::-1])
+        out[k] = _deflate(x)
+    for m, ks in interior.items():
+        rhs = np.zeros((m, 2 * len(ks)))
+        for j, k in enumerate(ks):
+            lo, hi, tau = places[k]
+            _windowed_rhs(n, lam_d, lo, hi, tau, rhs[:, 2 * j:2 * j + 2])
+        x = _deflate(_solve(_interior_factor(m, lam_d), rhs))
+        for j, k in enumerate(ks):
+            out[k] = np.ascontiguousarray(x[:, 2 * j:2 * j + 2])   # as one solve gives it
+    return [x for x in out if x is not None]
 
 
 @lru_cache(maxsize=256)
@@ -257,6 +284,15 @@ def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
     rows[:, 0] = horner(u, quad)
     near = int(np.searchsorted(u, length, side='left'))
     rows[:near, 1] = horner(u[:near], cubic)
+    g.setflags(write=False)
+    return g
+
+
+@lru_cache(maxsize=STACKS_KEPT)
+def _hinge_stack(n: int, taus: tuple[float, ...]) -> NDArray[np.float64]:
+    """G, (n, 2J): the hinges of the junctions at node positions ``taus`` side by side
+    (read-only, cached: the level search asks for the same set at several levels)."""
+    g = np.hstack([_hinge_pair(n, t) for t in taus]) if taus else np.zeros((n, 0))
     g.setflags(write=False)
     return g
 
@@ -364,19 +400,27 @@ class LevelSystem:
     def _column(self, tau: float) -> _Column:
         col = self._cols.get(tau)
         if col is None:
-            g = _hinge_pair(self.n, tau)
-            lo, hi = _window(self.n, tau, self.lam_d)
-            rg = _windowed_residual(self.n, self.lam_d, lo, hi, tau)
-            col = self._cols[tau] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
-                                            rg.T @ self.ry[lo:hi], g[lo:hi].T @ rg,
-                                            rg.T @ rg)
+            self._solve_columns((tau,))
+            col = self._cols[tau]
         return col
+
+    def _solve_columns(self, taus: tuple[float, ...]) -> None:
+        """The columns of the junctions ``taus`` not yet solved at this level, their
+        windowed solves batched (``windowed_residuals``)."""
+        new = [t for t in dict.fromkeys(taus) if t not in self._cols]
+        if not new:
+            return
+        places = [(*_window(self.n, t, self.lam_d), t) for t in new]
+        for (lo, hi, t), rg in zip(places, windowed_residuals(self.n, self.lam_d, places)):
+            g = _hinge_pair(self.n, t)
+            self._cols[t] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
+                                    rg.T @ self.ry[lo:hi], g[lo:hi].T @ rg, rg.T @ rg)
 
     def columns(self, taus: list[float]) -> Stack:
         """(G, R G), (n, 2J), of junctions at node positions ``taus``."""
         key = tuple(float(t) for t in taus)
-        g = np.hstack([self._column(t).g for t in key]) if key else np.zeros((self.n, 0))
-        return g, self._residual_stack(key)
+        self._solve_columns(key)
+        return _hinge_stack(self.n, key), self._residual_stack(key)
 
     def _residual_stack(self, key: tuple[float, ...]) -> NDArray[np.float64]:
         """R G, (n, 2J), of the junctions ``key``, zero outside each junction's window
@@ -468,6 +512,10 @@ class LevelSystem:
         smooth = z - resid                       # S (y - G c)
         return PartialFit(smooth, s.coef, float(resid @ resid), s.edf, float(z @ resid),
                           resid)
+
+    def window(self, tau: float) -> tuple[int, int]:
+        """Rows [lo, hi) on which the column of a junction at node ``tau`` is solved."""
+        return _window(self.n, tau, self.lam_d)
 
     def interior(self, tau: float) -> bool:
         """The column of a junction at node ``tau`` is solved on the interior block (its
