@@ -27,7 +27,6 @@ from functools import lru_cache
 from typing import TypeVar
 
 import numpy as np
-from numpy.polynomial import chebyshev
 from numpy.typing import NDArray
 from scipy.linalg import lapack
 
@@ -99,8 +98,17 @@ def _factor(n: int, lam_d: float) -> NDArray[np.float64]:
 def _interior_factor(m: int, lam_d: float) -> NDArray[np.float64]:
     """Banded Cholesky factor of the m x m block of I + lam_d D3'D3 away from both
     ends (every row the full stencil 20, -15, 6, -1; Toeplitz)."""
+    return _cholesky(_lower_band(_toeplitz_penalty(m), lam_d))
+
+
+@lru_cache(maxsize=4)
+def _toeplitz_penalty(m: int) -> NDArray[np.float64]:
+    """The rows of D3'D3 away from both ends, m columns in upper banded storage (every
+    row the full stencil 20, -15, 6, -1; read-only)."""
     stencil = np.array([-1.0, 6.0, -15.0, 20.0])
-    return _cholesky(_lower_band(np.repeat(stencil[:, None], m, axis=1), lam_d))
+    out = np.repeat(stencil[:, None], m, axis=1)
+    out.setflags(write=False)
+    return out
 
 
 def _solve(factor: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -167,7 +175,7 @@ def _penalty_of(g: NDArray[np.float64]) -> NDArray[np.float64]:
 def _hinge_penalty(n: int, tau: float, a: int, b: int) -> NDArray[np.float64]:
     """P g on rows [a, b) of the hinges g of the junction at node ``tau`` on n nodes
     (read-only, kept: asked for at every level, which only scales it)."""
-    out = _penalty_of(_hinge_pair(n, tau)[a:b])
+    out = _penalty_of(_hinge_rows(n, tau, a, b))
     out.setflags(write=False)
     return out
 
@@ -189,6 +197,7 @@ def window_margin(lam_d: float) -> int:
     return int(min(reach, MAX_MARGIN))
 
 
+@lru_cache(maxsize=1024)
 def _window(n: int, tau: float, lam_d: float) -> tuple[int, int]:
     """Rows [lo, hi) on which the column R g of the junction at node ``tau`` is solved:
     P g (the hinge's third differences: its node and its taper) and a margin either
@@ -268,23 +277,30 @@ def windowed_residuals(n: int, lam_d: float, places: list[tuple[int, int, float]
 def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
     """(n, 2): g2 and g3 of one junction at node position ``tau``, opening on its
     longer side (node units; read-only, cached: the level search asks for the same
-    junctions at every level). The values of ``hinge_values``, formed on the rows
-    where the hinge is not zero only."""
+    junctions at every level)."""
+    g = _hinge_rows(n, tau, 0, n)
+    g.setflags(write=False)
+    return g
+
+
+def _hinge_rows(n: int, tau: float, lo: int, hi: int) -> NDArray[np.float64]:
+    """Rows [lo, hi) of ``_hinge_pair(n, tau)`` (the same values, each row formed alone
+    from its own u; a trial place of the refinement needs the rows of a few windows
+    only): ``hinge_values`` formed on the rows where the hinge is not zero only."""
     length = taper_nodes(n)
     quad, cubic = hinge_coefficients(length, 0)
-    g = np.zeros((n, 2))
+    g = np.zeros((hi - lo, 2))
     if side_of(tau, n) > 0:                  # rows after tau, u = row - tau rising
-        first = int(math.floor(tau)) + 1
-        u = np.arange(first, n, dtype=float) - tau
-        rows = g[first:]
+        first = max(int(math.floor(tau)) + 1, lo)
+        u = np.arange(first, hi, dtype=float) - tau
+        rows = g[first - lo:]
     else:                                    # rows before tau, backwards: u = tau - row
-        last = int(math.ceil(tau)) - 1
-        u = -(np.arange(last, -1, -1, dtype=float) - tau)
-        rows = g[last::-1]
+        last = min(int(math.ceil(tau)) - 1, hi - 1)
+        u = -(np.arange(last, lo - 1, -1, dtype=float) - tau)
+        rows = g[last - lo::-1] if last >= lo else g[:0]
     rows[:, 0] = horner(u, quad)
     near = int(np.searchsorted(u, length, side='left'))
     rows[:near, 1] = horner(u[:near], cubic)
-    g.setflags(write=False)
     return g
 
 
@@ -547,11 +563,12 @@ class LevelSystem:
                                             tau - math.floor(tau))[0].reshape(4)
         # d = g'R z = (lam P g)'S z on the hinge's own rows (R = lam P S; g'e would
         # multiply the rounding of e by the hinge's long quadratic tail)
-        g = _hinge_pair(self.n, tau)
         a, b = _hinge_support(self.n, tau, *_window(self.n, tau, self.lam_d))
         d0, d1 = (self.lam_d * _hinge_penalty(self.n, float(tau), a, b)).T @ smooth[a:b]
         if inverse is not None:
-            cross = np.concatenate([g[c.lo:c.hi].T @ c.rg for c in cols], axis=1)
+            # the trial hinge on the fixed junctions' windows only (where R X is not 0)
+            cross = np.concatenate([_hinge_rows(self.n, tau, c.lo, c.hi).T @ c.rg
+                                    for c in cols], axis=1)
             (c00, c01), (c10, c11) = cross @ inverse @ cross.T
             s00, s01, s10, s11 = s00 - c00, s01 - c01, s10 - c10, s11 - c11
         det = s00 * s11 - s01 * s10
@@ -614,7 +631,20 @@ def _interior_gram_fit(lam_d: float, length: float) -> NDArray[np.float64]:
     frac = 0.5 - 0.5 * np.cos(np.pi * (k + 0.5) / GRAM_NODES)
     grams = interior_hinge_grams(float(lam_d), float(length), tuple(float(f) for f in frac))
     values = np.array([np.concatenate([m.reshape(4), v.reshape(4)]) for m, v in grams])
-    coef = np.asarray(chebyshev.chebfit(2.0 * frac - 1.0, values, GRAM_NODES - 1),
-                      dtype=np.float64)
+    coef = _chebyshev_interpolation() @ values
     coef.setflags(write=False)
     return coef
+
+
+@lru_cache(maxsize=1)
+def _chebyshev_interpolation() -> NDArray[np.float64]:
+    """(GRAM_NODES, GRAM_NODES): the Chebyshev coefficients of the polynomial through
+    values at the Chebyshev points of ``_interior_gram_fit``, from the discrete
+    orthogonality of T_j there (the interpolant chebfit finds by least squares)."""
+    k = np.arange(GRAM_NODES)
+    theta = np.pi * (k + 0.5) / GRAM_NODES
+    # the places run from -1 up: x_k = 2 f_k - 1 = -cos(theta_k)
+    out = 2.0 / GRAM_NODES * np.cos(np.outer(k, np.pi - theta))
+    out[0] *= 0.5
+    out.setflags(write=False)
+    return out
