@@ -563,12 +563,11 @@ class LevelSystem:
                                             tau - math.floor(tau))[0].reshape(4)
         # d = g'R z = (lam P g)'S z on the hinge's own rows (R = lam P S; g'e would
         # multiply the rounding of e by the hinge's long quadratic tail)
+        g = _hinge_pair(self.n, tau)
         a, b = _hinge_support(self.n, tau, *_window(self.n, tau, self.lam_d))
         d0, d1 = (self.lam_d * _hinge_penalty(self.n, float(tau), a, b)).T @ smooth[a:b]
         if inverse is not None:
-            # the trial hinge on the fixed junctions' windows only (where R X is not 0)
-            cross = np.concatenate([_hinge_rows(self.n, tau, c.lo, c.hi).T @ c.rg
-                                    for c in cols], axis=1)
+            cross = np.concatenate([g[c.lo:c.hi].T @ c.rg for c in cols], axis=1)
             (c00, c01), (c10, c11) = cross @ inverse @ cross.T
             s00, s01, s10, s11 = s00 - c00, s01 - c01, s10 - c10, s11 - c11
         det = s00 * s11 - s01 * s10
