@@ -335,9 +335,15 @@ def test_batched_windowed_columns_equal_one_solve_each(lam):
         peak = np.max(np.abs(alone), axis=0)
         assert got.shape == alone.shape == (place[1] - place[0], 2)
         assert np.all(np.max(np.abs(got - alone), axis=0) <= 1e-14 * peak), place
-    # a level's system solves the columns it is asked for together, the same columns
+    # a level's system solves the columns it is asked for together, the same columns;
+    # the hinges G (kept across levels) are each junction's own, opening on its longer
+    # side
     g, rg = system.columns(list(taus))
+    rows = np.arange(n, dtype=float)
+    length = hinges.taper_nodes(n)
     for k, (lo, hi, t) in enumerate(places):
+        own = hinges.hinge_values(hinges.side_of(t, n) * (rows - t), length)
+        assert np.max(np.abs(g[:, 2 * k:2 * k + 2] - own)) <= 1e-12 * np.max(np.abs(own))
         alone, = partial_spline.windowed_residuals(n, lam, [(lo, hi, t)])
         assert np.max(np.abs(rg[lo:hi, 2 * k:2 * k + 2] - alone)) <= 1e-14 * np.max(
             np.abs(alone))
