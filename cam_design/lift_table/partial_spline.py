@@ -175,7 +175,7 @@ def _penalty_of(g: NDArray[np.float64]) -> NDArray[np.float64]:
 def _hinge_penalty(n: int, tau: float, a: int, b: int) -> NDArray[np.float64]:
     """P g on rows [a, b) of the hinges g of the junction at node ``tau`` on n nodes
     (read-only, kept: asked for at every level, which only scales it)."""
-    out = _penalty_of(_hinge_rows(n, tau, a, b))
+    out = _penalty_of(_hinge_pair(n, tau)[a:b])
     out.setflags(write=False)
     return out
 
@@ -277,30 +277,23 @@ def windowed_residuals(n: int, lam_d: float, places: list[tuple[int, int, float]
 def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
     """(n, 2): g2 and g3 of one junction at node position ``tau``, opening on its
     longer side (node units; read-only, cached: the level search asks for the same
-    junctions at every level)."""
-    g = _hinge_rows(n, tau, 0, n)
-    g.setflags(write=False)
-    return g
-
-
-def _hinge_rows(n: int, tau: float, lo: int, hi: int) -> NDArray[np.float64]:
-    """Rows [lo, hi) of ``_hinge_pair(n, tau)`` (the same values, each row formed alone
-    from its own u; a trial place of the refinement needs the rows of a few windows
-    only): ``hinge_values`` formed on the rows where the hinge is not zero only."""
+    junctions at every level). The values of ``hinge_values``, formed on the rows
+    where the hinge is not zero only."""
     length = taper_nodes(n)
     quad, cubic = hinge_coefficients(length, 0)
-    g = np.zeros((hi - lo, 2))
+    g = np.zeros((n, 2))
     if side_of(tau, n) > 0:                  # rows after tau, u = row - tau rising
-        first = max(int(math.floor(tau)) + 1, lo)
-        u = np.arange(first, hi, dtype=float) - tau
-        rows = g[first - lo:]
+        first = int(math.floor(tau)) + 1
+        u = np.arange(first, n, dtype=float) - tau
+        rows = g[first:]
     else:                                    # rows before tau, backwards: u = tau - row
-        last = min(int(math.ceil(tau)) - 1, hi - 1)
-        u = -(np.arange(last, lo - 1, -1, dtype=float) - tau)
-        rows = g[last - lo::-1] if last >= lo else g[:0]
+        last = int(math.ceil(tau)) - 1
+        u = -(np.arange(last, -1, -1, dtype=float) - tau)
+        rows = g[last::-1]
     rows[:, 0] = horner(u, quad)
     near = int(np.searchsorted(u, length, side='left'))
     rows[:near, 1] = horner(u[:near], cubic)
+    g.setflags(write=False)
     return g
 
 
