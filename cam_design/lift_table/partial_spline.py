@@ -237,20 +237,14 @@ def _windowed_rhs(n: int, lam_d: float, lo: int, hi: int, tau: float,
     out[a - lo:b - lo] = lam_d * _hinge_penalty(n, float(tau), a, b)
 
 
-def _windowed_residual(n: int, lam_d: float, lo: int, hi: int, tau: float
-                       ) -> NDArray[np.float64]:
-    """R g, (hi - lo, 2), of the hinges g of the junction at node ``tau`` on rows
-    [lo, hi) of n rows, zero outside (the rows of I + lam_d P there: a leading block, a
-    trailing one (the matrix reads the same backwards) or the Toeplitz interior)."""
-    return windowed_residuals(n, lam_d, [(lo, hi, tau)])[0]
-
-
 def windowed_residuals(n: int, lam_d: float, places: list[tuple[int, int, float]]
                        ) -> list[NDArray[np.float64]]:
-    """``_windowed_residual`` of each (lo, hi, tau) in ``places``; the columns on the
-    Toeplitz interior block of one length are solved in one banded solve (LAPACK's
-    solve and the deflation treat each right-hand side alone: the same numbers as one
-    solve per junction)."""
+    """R g, (hi - lo, 2), of the hinges g of the junction at node tau on rows [lo, hi)
+    of n rows (zero outside), for each (lo, hi, tau) in ``places``: the rows of
+    I + lam_d P there are a leading block, a trailing one (the matrix reads the same
+    backwards) or the Toeplitz interior. The columns on the interior block of one
+    length are solved in one banded solve (LAPACK's solve and the deflation treat each
+    right-hand side alone: the same numbers as one solve per junction)."""
     out: list[NDArray[np.float64] | None] = [None] * len(places)
     interior: dict[int, list[int]] = {}
     for k, (lo, hi, tau) in enumerate(places):
