@@ -143,11 +143,18 @@ def _trace_smoother(n: int, lam_d: float) -> float:
 
 @lru_cache(maxsize=64)
 def _quadratics(n: int) -> NDArray[np.float64]:
-    """Orthonormal basis (n, 3) of the quadratics on n nodes (read-only, cached)."""
+    """Orthonormal basis (n, 3) of the quadratics on n nodes (read-only, cached): the Q
+    of the QR factorisation of [1, x, x^2], x = linspace(-1, 1, n), by LAPACK's
+    Householder QR (numpy's ``linalg.qr`` makes the same two calls, with more overhead
+    than the work of 3 columns)."""
     x = np.linspace(-1.0, 1.0, n)
-    q, _ = np.linalg.qr(np.column_stack([np.ones(n), x, x * x]))
-    q.setflags(write=False)
-    return q
+    qr, tau, _, info = lapack.dgeqrf(np.column_stack([np.ones(n), x, x * x]))
+    q, _, info2 = lapack.dorgqr(qr, tau)
+    if info != 0 or info2 != 0:
+        raise np.linalg.LinAlgError(f'QR of the quadratics failed (info {info}, {info2})')
+    out = np.ascontiguousarray(q, dtype=np.float64)     # in numpy's layout (row-major)
+    out.setflags(write=False)
+    return out
 
 
 def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
