@@ -484,7 +484,8 @@ def card_text(cards: dict[str, dict[str, Any]]) -> str:
         lines.append(f'{name} ({card.get("source", "")}): max lift '
                      f'{_num(card.get("max_lift_mm"), ".4f")} mm at '
                      f'{_num(card.get("max_lift_alpha_deg"), ".3f")} deg'
-                     + (f', valve {card["max_valve_lift_mm"]:.4f} mm'
+                     + (f', valve {card["max_valve_lift_mm"]:.4f} mm (rocker ratio x lift, '
+                        'lash not taken off)'
                         if card.get('max_valve_lift_mm') is not None else '')
                      + f', area {_num(card.get("area_mm_deg"), ".2f")} mm deg, fullness '
                      f'{_num(card.get("fullness"), ".4f")}')

@@ -253,6 +253,27 @@ def test_unexpected_error_is_one_line_and_debug_shows_the_traceback(
     assert 'Traceback (most recent call last)' in capsys.readouterr().err
 
 
+def test_unexpected_error_names_the_input_files_not_every_option(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """The one line of a bug names the files the command read (a value such as 0.5 or
+    1e-3 is not a file; an ``--option=FILE`` is), not the whole argument string; with no
+    file among them it gives the arguments as typed."""
+    import cam_metrology.cli.card as card
+
+    def broken(_args: Any) -> int:
+        raise ZeroDivisionError('division by zero (a simulated bug)')
+
+    monkeypatch.setattr(card, 'run', broken)
+    assert main(['card', 'lobe.csv', '--heights-mm', '0.5,1e-3', '--json=out.json',
+                 '--lobe', 'in1']) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("cam-bench card: unexpected error on 'lobe.csv', 'out.json': "
+                          'ZeroDivisionError'), err
+    assert '--heights-mm' not in err and 'in1' not in err
+    assert main(['card', 'nothing', '--lobe', 'in1']) == 1
+    assert "unexpected error on 'nothing --lobe in1': " in capsys.readouterr().err
+
+
 @pytest.mark.skipif(not Path('/dev/full').exists(), reason='no /dev/full on this system')
 def test_standard_output_on_a_full_disk_is_one_line() -> None:
     """`> /dev/full`: every write fails with ENOSPC. The printed result cannot be

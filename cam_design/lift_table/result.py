@@ -78,12 +78,15 @@ class Reconstruction:
                                  f'exceeds {limit_text}')
 
     def check_shape(self, expected: int | None,
-                    still: NDArray[np.bool_] | None = None) -> None:
+                    still: NDArray[np.bool_] | None = None, above_noise: bool = False
+                    ) -> None:
         """Warn when the significant signs of h'' (|h''| > 5 % of its largest value) do
         not follow the pattern of a cam lobe: + - + for one lobe (``expected`` = 2 sign
         changes), + - + - + for 4, ...; None: no check. A table that is not a cam, a
         stepped table or angles not taken from the lobe centre show up here. ``still``
-        (on the output grid): a dwell, left out (see ``sign_pattern``)."""
+        (on the output grid): a dwell, left out (see ``sign_pattern``). ``above_noise``:
+        the extra sign changes stand above the noise of h'' (the lobe's own shape, e.g.
+        a ramp whose velocity returns to zero), which the warning then says."""
         if expected is None or self.acceleration.size < 3:
             return
         got = sign_pattern(self.acceleration, lift=self.lift, still=still)
@@ -93,11 +96,15 @@ class Reconstruction:
         shown = ' '.join(got) if len(got) <= 9 else f'{len(got) - 1} sign changes'
         what = (f'{" ".join(want)} for a lobe with {expected} sign changes'
                 if want is not None else f'{expected} sign changes')
-        self.warnings.append(
-            f"h'' has {max(len(got) - 1, 0)} significant sign changes, pattern {shown} "
+        head = f"h'' has {max(len(got) - 1, 0)} significant sign changes, pattern {shown} "
+        self.warnings.append(head + (
+            f"(a cam lobe usually has {what}), above the noise of h'': not the usual "
+            "shape of a cam lobe; the lobe's own (a ramp whose velocity returns to zero, a "
+            'second lobe), a table that is not a lobe, or angles not taken from the lobe '
+            'centre' if above_noise else
             f'(expected {what}): not the shape of a cam lobe; check that the table is a '
             'lobe measured from its centre, without steps (noise or a real feature '
-            'otherwise)')
+            'otherwise)'))
 
     def check_finite(self) -> None:
         """Raise InputError if any output is not finite (never publish silent NaN)."""

@@ -521,27 +521,54 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     lift_out = spline(out)
     expected = opt.expected_sign_changes
     # a junction fit explains the steps of h'' itself: its level is not raised for them
+    real = False   # the fit's extra sign changes of h'' are the lobe's own
     if expected is not None and opt.smoothing is None and found is None:
         raised = 0
         # more smoothing is only accepted while the fit still follows the data (RMS
         # residual within 25 % of the noise): a real feature (a second lobe) stays
         rms_limit = 1.25 * max(fair.sigma, 1e-300)
 
+        def evaluated(fitted: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+            # (h'', lift) on the output grid; the spline at hand is already evaluated
+            return (acc, lift_out) if fitted is spline else (fitted(out, 2), fitted(out))
+
         def significant_changes(fitted: Any, level: float) -> int:
-            # the spline at hand is already evaluated on the output grid
-            fit_acc, fit_lift = (acc, lift_out) if fitted is spline else (fitted(out, 2),
-                                                                          fitted(out))
+            fit_acc, fit_lift = evaluated(fitted)
             count = sign_changes(fit_acc, lift=fit_lift)
             if count <= expected:
                 return count
             return sign_changes(fit_acc, lift=fit_lift, still=dwell(fitted, level))
-        if kinked_fit and significant_changes(spline, lam_d) > expected:
+
+        def beyond_noise(fitted: Any, level: float) -> int:
+            # sign changes where |h''| also exceeds SIGN_NOISE_SIGMAS times what the
+            # noise gives at this level (the noise: the estimate, or the fit's RMS
+            # residual when more: a spike the fairing kept wiggles h'' too)
+            fit_acc, fit_lift = evaluated(fitted)
+            left = float(np.sqrt(np.mean((ylift[kept] - fitted(x[kept])) ** 2)))
+            band = SIGN_NOISE_SIGMAS * derivative_noise(max(node_sigma, left), step, level,
+                                                        grid.size, 2)
+            quiet = dwell(fitted, level) | (np.abs(fit_acc) < band)
+            return sign_changes(fit_acc, lift=fit_lift, still=quiet)
+        # the pattern to reach: the expected one, or the sign changes that stand above
+        # the noise (the lobe's own: the S of a cosine ramp, a second lobe), which more
+        # smoothing must not wipe out. Only a fit that smooths (edf at most half its
+        # rows) tells the lobe's shape; one that nearly interpolates carries every
+        # row's miss into h''.
+        target = expected
+        if significant_changes(spline, lam_d) > expected and \
+                float(np.sum(1.0 / (1.0 + lam_d * _spectrum(grid.size) ** 3))) <= \
+                0.5 * np.count_nonzero(kept):
+            target = max(expected, beyond_noise(spline, lam_d))
+            real = target > expected
+        if kinked_fit and significant_changes(spline, lam_d) > target:
             kinked, kinked_fit[:] = None, []    # only with the sign pattern (LobeEndFit)
             spline = fit_spline(lam_d)
             acc, lift_out, at_rows = spline(out, 2), spline(out), spline(x)
-        while significant_changes(spline, lam_d) > expected and raised < 5:
+        while significant_changes(spline, lam_d) > target and raised < 5:
             trial = fit_spline(lam_d * 4.0)
             if float(np.sqrt(np.mean((ylift[kept] - trial(x[kept])) ** 2))) > rms_limit:
+                break
+            if real and beyond_noise(trial, lam_d * 4.0) < target:
                 break
             lam_d *= 4.0
             raised += 1
@@ -549,9 +576,12 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             acc = spline(out, 2)
             lift_out = spline(out)
             at_rows = spline(x)
+        if real:
+            why += (f"; h'' has {target} sign changes above its noise (the lobe's own, "
+                    f'{expected} expected): kept')
         if raised:
             why += (f'; raised x{4 ** raised} to lam_d = {lam_d:.4g} for the sign '
-                    f"pattern of h'' ({expected} sign changes expected)")
+                    f"pattern of h'' ({target} sign changes expected)")
     fit = at_rows[kept]
     mu = _spectrum(grid.size)
     edf = float(np.sum(1.0 / (1.0 + lam_d * mu ** 3)))
@@ -591,6 +621,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         outliers_alpha=x[outlier], warnings=warnings, notes=notes)
     rec.outlier_mask = outlier
     rec.check_residuals()
-    rec.check_shape(opt.expected_sign_changes, still=dwell(final, lam_d, velocity))
+    rec.check_shape(opt.expected_sign_changes, still=dwell(final, lam_d, velocity),
+                    above_noise=real)
     rec.check_finite()
     return rec

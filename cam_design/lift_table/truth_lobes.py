@@ -104,6 +104,40 @@ class BumpLobe:
 
 
 @dataclass(frozen=True)
+class CosineRampLobe:
+    """A 4-5-6-7 polynomial rise to the nose of ``rise - ramp`` [m] over ``width`` [rad],
+    standing on an S-shaped cosine ramp of ``ramp`` [m] over ``ramp_width`` [rad] at each
+    end: h = ramp/2 (1 + cos(pi t / ramp_width)), t from 0 where the main rise starts to
+    ``ramp_width`` on the base circle (velocity zero at both ends of the ramp). h'' jumps
+    at the four ramp ends (by (ramp/2)(pi/ramp_width)^2) and changes sign inside each
+    ramp: six sign changes over the lobe instead of a cam's usual two."""
+
+    rise: float = 9e-3
+    ramp: float = 0.25e-3
+    width: float = 55 * DEG
+    ramp_width: float = 20 * DEG
+
+    @property
+    def junctions(self) -> tuple[float, ...]:
+        e0, e1 = self.width, self.width + self.ramp_width
+        return (-e1, -e0, e0, e1)
+
+    def __call__(self, alpha: ArrayLike, nu: int = 0) -> NDArray[np.float64]:
+        a = np.asarray(alpha, dtype=float)
+        u = np.abs(a)
+        sign = np.sign(a) ** nu if nu % 2 else 1.0
+        p = Polynomial([0.0, 0.0, 0.0, 0.0, 35.0, -84.0, 70.0, -20.0]).deriv(nu)
+        main = (self.rise - self.ramp) * p(1.0 - u / self.width) * (-1.0 / self.width) ** nu
+        k = math.pi / self.ramp_width
+        t = u - self.width
+        ramp = 0.5 * self.ramp * k ** nu * np.cos(k * t + nu * math.pi / 2)
+        if nu == 0:
+            main, ramp = main + self.ramp, ramp + 0.5 * self.ramp
+        out = np.where(t <= 0, main, np.where(t < self.ramp_width, ramp, 0.0))
+        return out * sign
+
+
+@dataclass(frozen=True)
 class Family:
     """A named truth lobe: ``law(alpha, nu)`` and the angles [rad] where h'' jumps."""
 

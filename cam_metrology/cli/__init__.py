@@ -203,13 +203,34 @@ def describe_exception(exc: BaseException) -> str:
 
 
 def input_words(args: argparse.Namespace, argv: Sequence[str] | None) -> str:
-    """The arguments after the command words, as typed (cut to 300 characters)."""
+    """The input the command was given, for the one line of an unexpected error: the
+    files among the arguments after the command words (a word naming an existing path,
+    or with a file suffix, also as ``--option=FILE``), quoted and comma-separated; when
+    none is a file, the arguments as typed (cut to 300 characters)."""
     words = list(sys.argv[1:] if argv is None else argv)
     skip = set(command_name(args).split()) | {'--debug'}
     while words and words[0] in skip:
         words.pop(0)
+    files = [w for w in (word.split('=', 1)[-1] for word in words) if _names_a_file(w)]
+    if files:
+        return ', '.join(repr(f) for f in dict.fromkeys(files))
     text = ' '.join(words) or '(no arguments)'
     return repr(text if len(text) <= 300 else text[:297] + '...')
+
+
+def _names_a_file(word: str) -> bool:
+    """Whether a command-line word names a file: not an option nor a number, and an
+    existing path or a name with a suffix (``0.5`` and ``0.5,1e-3`` are values,
+    ``lobe.csv`` a file)."""
+    if not word or word.startswith('-'):
+        return False
+    if os.path.exists(word):
+        return True
+    try:   # a number, or a list of them (``0.5,1e-3``)
+        [float(part) for part in word.split(',')]
+        return False
+    except ValueError:
+        return bool(os.path.splitext(word)[1][1:])
 
 
 def command_name(args: argparse.Namespace) -> str:
