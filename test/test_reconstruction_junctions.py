@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import make_smoothing_spline
 
-from cam_design.lift_table import hinges, junctions, partial_spline
+from cam_design.lift_table import hinges, junctions, partial_spline, smoother_band
 from cam_design.lift_table.noise import flat_rows
 from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_design.lift_table.truth_lobes import DEG, families, measured_table
@@ -348,6 +348,22 @@ def test_batched_windowed_columns_equal_one_solve_each(lam):
         assert np.max(np.abs(rg[lo:hi, 2 * k:2 * k + 2] - alone)) <= 1e-14 * np.max(
             np.abs(alone))
         assert not np.any(rg[:lo, 2 * k:2 * k + 2]) and not np.any(rg[hi:, 2 * k:2 * k + 2])
+
+
+@pytest.mark.parametrize('n', [7, 1100, 3600])
+def test_quadratics_basis_is_orthonormal_and_spans_the_quadratics(n):
+    """The deflation's basis of the quadratics (LAPACK's QR called directly): Q'Q = I
+    within 1e-14, 1, x and x^2 on linspace(-1, 1, n) reproduced from it within 1e-13
+    (unit-sized values), the same Q as numpy's linalg.qr within 1e-15; a deflated
+    vector is orthogonal to the quadratics within 1e-13 of its norm."""
+    q = smoother_band.quadratics(n)
+    assert np.max(np.abs(q.T @ q - np.eye(3))) < 1e-14
+    x = np.linspace(-1.0, 1.0, n)
+    a = np.column_stack([np.ones(n), x, x * x])
+    assert np.max(np.abs(q @ (q.T @ a) - a)) < 1e-13
+    assert np.max(np.abs(q - np.linalg.qr(a)[0])) < 1e-15
+    r = np.random.default_rng(3).normal(size=(n, 2)) + a[:, 1:]
+    assert np.max(np.abs(a.T @ smoother_band.deflate(r))) < 1e-13 * np.linalg.norm(r)
 
 
 @pytest.mark.parametrize('lam', [10.0 ** 2.5, 10.0 ** 4.3, 10.0 ** 7.1])
