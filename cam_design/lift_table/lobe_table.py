@@ -53,6 +53,7 @@ from cam_design.lift_laws.jet_table import JetTableLift
 from cam_design.lift_table.lobe_joins import JOIN_MIN_DEG, Curve, join, lobe_edge
 from cam_design.lift_table.lobe_frame import (BASE_MIN_DEG, TWO_PI, lobe_middle, lobe_turn,
                                               part_turn_centre, seam_frame)
+from cam_design.lift_table.noise import BaseNoise, base_circle_noise
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 
 if TYPE_CHECKING:
@@ -107,7 +108,8 @@ class LobeInfo:
     before and after the lobe (None: the lobe runs out to the table's own rows);
     ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
     ``rows``: the rows as given (alpha, lift) for replicas; ``rec``: the engine's
-    Reconstruction when smoothed."""
+    Reconstruction when smoothed; ``base_noise``: the base circle's noise when it is
+    correlated row to row (its spread is then the noise the rows were smoothed with)."""
 
     key: str
     method: str
@@ -127,6 +129,7 @@ class LobeInfo:
     first: float | None = None
     shift: float = 0.0
     middle: float | None = None
+    base_noise: BaseNoise | None = None
 
     @property
     def law_offset(self) -> float:
@@ -274,8 +277,14 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     sigma_q = q / math.sqrt(12.0)
     span = float(np.ptp(h))
     fairing: Fairing | None = None
+    base_noise = None   # the base circle's noise, when correlated row to row
     if noise is None:
         scatter, fairing = _scatter(a0, h)
+        found = base_circle_noise(h, q)
+        if found is not None and found.correlated and found.sigma > scatter:
+            # neighbouring rows cannot see a noise they share: the base circle's spread
+            # is the rows' noise (else a noisy base circle is no base circle at all)
+            base_noise, scatter, fairing = found, found.sigma, None
         noise = scatter
     else:
         scatter = noise = float(noise)
@@ -332,7 +341,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     rec = None
     sigma = sigma_q if method == 'interpolated' else max(scatter, sigma_q)
     if method == 'smoothed':
-        known = sigma_q if scatter <= floor else None
+        known = base_noise.sigma if base_noise else sigma_q if scatter <= floor else None
         if periodic:
             rec, curve = _periodic_smooth(b, h, known)
         else:
@@ -361,7 +370,8 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     info = LobeInfo(key=key, method=method, why=why, sigma=sigma, quantum=q, step=step,
                     offset=offset, periodic=periodic, level=tau, rec=rec,
                     rows=(raw_a.copy(), raw_h.copy()), steps=steps,
-                    first=lo_a if turn_from is None else float(turn_from))
+                    first=lo_a if turn_from is None else float(turn_from),
+                    base_noise=base_noise)
     assert curve is not None        # the interpolant, or the smoothing spline above
     law = _build(curve, b, h, info)
     info.warnings.extend(notes_warning(notes))
@@ -583,4 +593,6 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
     other = other_lobes_warning(wrap_pi(b + info.offset), h)   # in the table frame
     if other:
         out.append(other)
+    if info.base_noise is not None:
+        out.append(info.base_noise.warning())
     return out
