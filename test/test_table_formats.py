@@ -128,33 +128,59 @@ def test_gauge_row_with_commas_as_separators_is_still_two_numbers(tmp_path) -> N
 
 
 # --------------------------------------------------------------- base circle off zero
-def test_probe_zero_offset_is_flagged_with_the_lift_above_the_base_circle() -> None:
-    """A table whose base circle reads -0.05 mm (probe zeroed 0.05 mm high): the card and
-    the reconstruction say so and give the max lift above the base circle (8 mm); a
-    base circle with 15 um run-out about 0, or 0.01 mm rounding, is not flagged."""
+def test_probe_zero_offset_is_taken_off_and_said() -> None:
+    """A table whose base circle reads -0.05 mm (probe zeroed 0.05 mm high), and one at
+    +0.5 mm: the lobe is measured from its base circle on every route (card, the
+    reconstruction's fits), max lift 8 mm above it, the events at 1 mm those of the
+    table from 0, and a warning says where the base circle was. A base circle with 15
+    um run-out about 0, or 0.01 mm rounding, is left alone. (The +0.5 mm table used to
+    be refused with a max lift of 3e33 mm: its joins to a base circle at 0.)"""
     from cam_metrology.cli.card import table_card
     from cam_metrology.reconstruction.profile import reconstruct_table
-    from cam_design.lift_table.samples import LiftTable, base_circle_warning
+    from cam_design.lift_table.lobe_table import lobe_law
+    from cam_design.lift_table.samples import LiftTable
 
     a = np.radians(ANGLES)
     h = lobe_mm(ANGLES) * 1e-3
-    card = table_card(a, h - 5e-5, (1e-3,), 'offset.csv')
-    assert card['max_lift_mm'] == pytest.approx(L_MM - 0.05, abs=1e-4)
-    assert 'base circle is at -0.0500 mm' in card['warning']
-    assert f'above the base circle {L_MM:.4f} mm' in card['warning']
-    assert 'warning' not in table_card(a, h, (1e-3,), 'zero.csv')
+    zero = table_card(a, h, (1e-3,), 'zero.csv')
+    assert 'warning' not in zero
+    for shift, text in ((-5e-5, '-0.0500'), (5e-4, '+0.5000')):
+        card = table_card(a, h + shift, (1e-3,), 'offset.csv')
+        assert card['max_lift_mm'] == pytest.approx(L_MM, abs=1e-4)
+        assert f'base circle is at {text} mm' in card['warning']
+        assert f'max lift above it {L_MM:.4f} mm' in card['warning']
+        for key in ('opening_deg', 'closing_deg'):
+            assert card['heights'][0][key] == pytest.approx(zero['heights'][0][key], abs=1e-6)
+        rec = reconstruct_table(LiftTable('offset', a, h + shift), methods=('spline',))
+        spline = rec['spline'].reconstruction
+        assert any(f'base circle is at {text} mm' in w for w in spline.warnings)
+        assert float(np.max(spline.lift)) == pytest.approx(L_MM * 1e-3, abs=2e-6)
     runout = 7.5e-6 * np.sin(a) * (np.abs(ANGLES) >= BETA_DEG)
-    assert base_circle_warning(a, h + runout) is None
-    assert base_circle_warning(a, np.round(h / 1e-5) * 1e-5) is None
-    rec = reconstruct_table(LiftTable('offset', a, h - 5e-5), methods=('spline',))
-    assert any('base circle is at -0.0500 mm' in w
-               for w in rec['spline'].reconstruction.warnings)
+    for rows in (h + runout, np.round(h / 1e-5) * 1e-5):
+        assert not any('base circle is at' in w for w in lobe_law(a, rows).lobe.warnings)
+
+
+def test_part_turn_table_on_a_flat_stretch_off_zero_is_refused() -> None:
+    """Part of the turn (-120..120 deg) with the base circle at +0.5 mm: no base level
+    is taken off a part-turn table (its lower quartile may be a ramp), and no join from
+    0 fits a flat end (it spanned more than the turn, and the table was refused as a
+    lobe of '0 mm' lift): a one-line refusal naming the flat stretch and what works."""
+    from cam_design.errors import InputError
+    from cam_design.lift_table.lobe_table import lobe_law
+
+    deg = ANGLES[np.abs(ANGLES) <= 120.0]
+    with pytest.raises(InputError) as err:
+        lobe_law(np.radians(deg), lobe_mm(deg) * 1e-3 + 5e-4, key='part.csv')
+    text = str(err.value)
+    assert 'part.csv' in text and 'flat stretch at 0.5 mm' in text
+    assert 'subtract the base-circle level or give the whole turn' in text
 
 
 def test_dynamics_table_with_an_offset_base_circle_says_so(tmp_path, capsys) -> None:
     """dynamics TABLE: at 200 rpm the valve opens where k h = x0 + F0 / c (quasi-static,
-    h of the cosine lobe): within 0.05 deg for the table from 0; the table zeroed 0.05 mm
-    high opens later (the train sees more lash) and the note says why."""
+    h of the cosine lobe): within 0.05 deg for the table from 0, and for the table
+    zeroed 0.05 mm high too (the lash is set on the base circle, wherever the probe's
+    zero was), with a note saying where the base circle was."""
     import json
 
     from cam_metrology.cli import main
@@ -178,9 +204,8 @@ def test_dynamics_table_with_an_offset_base_circle_says_so(tmp_path, capsys) -> 
         opened[name] = feature
     err = capsys.readouterr().err
     assert err.count('base circle is at -0.0500 mm') == 1
-    run = opened['zero']['runs'][0]
-    assert run['opening_deg'] == pytest.approx(truth, abs=0.05)
-    assert opened['offset']['runs'][0]['opening_deg'] > truth + 0.5
+    for name in ('zero', 'offset'):
+        assert opened[name]['runs'][0]['opening_deg'] == pytest.approx(truth, abs=0.05)
 
 
 def test_harmonic_order_on_angles_in_radians_rounded_to_6_decimals() -> None:

@@ -35,7 +35,22 @@ def test_dynamics_table_says_what_was_dropped() -> None:
     h = _lobe(deg)
     h[deg == 10.0] = np.nan
     law = lobe_law(deg * D, h, key='lobe.csv')
-    assert 'rows: dropped 1 non-finite sample(s)' in '; '.join(law.lobe.warnings)
+    said = '; '.join(law.lobe.warnings)
+    assert 'rows: dropped 1 non-finite sample(s) (the first: sample 38 at 10 deg)' in said
+
+
+def test_a_typed_row_is_named_when_the_lobe_is_refused() -> None:
+    """One row typed 90 mm instead of 0.9 mm in a 1 deg table: the lobe no cam can
+    have is refused, and the refusal names that row (angle, lift, how far off its
+    neighbours) instead of only the peak acceleration."""
+    deg = np.arange(-180.0, 180.0, 1.0)
+    h = _lobe(deg)
+    h[deg == -60.0] = 90e-3
+    with pytest.raises(InputError) as err:
+        lobe_law(deg * D, h, key='lobe.csv')
+    text = str(err.value)
+    assert 'lobe.csv' in text and 'peak acceleration' in text
+    assert 'the row at -60 deg (90 mm) stands' in text and 'a typo?' in text
 
 
 def test_a_conflicting_repeat_is_named_in_the_refusal() -> None:

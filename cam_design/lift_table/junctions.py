@@ -50,7 +50,7 @@ held one, only to complete a set.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache, partial
 from typing import Callable
 
@@ -280,7 +280,9 @@ class JunctionFit:
     ``step`` [rad], ``x0`` [rad], ``nodes`` and ``coef`` (node units) for the hinges;
     ``fitted_on``: the grid values [m] of the fit, where they are kept; ``widths``
     [nodes] per junction, where h'' changes linearly over that width centred on the
-    angle instead of stepping (``ramp_hinge``; empty: every one a step)."""
+    angle instead of stepping (``ramp_hinge``; empty: every one a step); ``system``:
+    the search's level system at ``lam_d`` (its junctions' columns solved), where
+    kept."""
 
     angles: tuple[float, ...]
     jumps: tuple[float, ...]
@@ -294,6 +296,7 @@ class JunctionFit:
     coef: NDArray[np.float64]
     fitted_on: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
     widths: tuple[float, ...] = ()
+    system: LevelSystem | None = field(default=None, repr=False, compare=False)
 
     def width(self, k: int) -> float:
         """Width [nodes] of junction ``k``'s change of h'' (0: a step)."""
@@ -340,10 +343,13 @@ class JunctionFit:
         return out.reshape(x.shape) / self.step ** nu
 
 
-def _fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
-                fit: PartialFit, scores: list[float],
-                fitted_on: NDArray[np.float64] | None = None,
-                widths: tuple[float, ...] = ()) -> JunctionFit:
+def fit_result(grid: NDArray[np.float64], taus: list[float], lam_d: float,
+               fit: PartialFit, scores: list[float],
+               fitted_on: NDArray[np.float64] | None = None,
+               widths: tuple[float, ...] = ()) -> JunctionFit:
+    """The JunctionFit of the partial-spline ``fit`` with junctions at node positions
+    ``taus`` on ``grid`` [rad] (each a change of h'' over ``widths`` nodes, 0 or none:
+    steps), ordered by angle."""
     step = float(grid[1] - grid[0])
     n = grid.size
     order = np.argsort(taus)
@@ -433,7 +439,8 @@ def find_junctions(grid: NDArray[np.float64], values: NDArray[np.float64], lam0:
         lam, system, fresh = taken.lam_d, levels.at(taken.lam_d), True
     if not taus:
         return None
-    return _fit_result(grid, taus, lam, system.fit(taus), scores, values.copy())
+    return replace(fit_result(grid, taus, lam, system.fit(taus), scores, values.copy()),
+                   system=system)
 
 
 def _cleared(pos: NDArray[np.float64], stat: NDArray[np.float64], points: list[float],
@@ -582,7 +589,7 @@ def refit(grid: NDArray[np.float64], values: NDArray[np.float64],
         fit = (ramp_fit(vals, taus, widths, lam_d) if any(widths)
                else partial_fit(vals, taus, lam_d))
         vals = np.where(missing, vals - fit.resid, values)
-    return _fit_result(grid, taus, lam_d, fit, list(found.scores), widths=found.widths)
+    return fit_result(grid, taus, lam_d, fit, list(found.scores), widths=found.widths)
 
 
 def ramp_columns(n: int, taus: list[float], widths: list[float]) -> NDArray[np.float64]:

@@ -24,6 +24,13 @@ from cam_design.lift_table.samples import wrap_pi
 TWO_PI = 2.0 * math.pi
 #: a run of base-circle rows shorter than this [deg] is the bottom of an eccentric
 BASE_MIN_DEG = 20.0
+#: rows within this share of the lift range of the lower quartile are the base circle
+#: for ``base_level`` (80 um on an 8 mm lobe: noise and run-out, not the ramps)
+BASE_BAND = 0.01
+#: fewest degrees of such rows for a base level
+BASE_LEVEL_DEG = 60.0
+#: a base circle this far from 0 [m] (and above the noise) is taken off the lifts
+BASE_OFFSET_M = 10e-6
 #: a lobe whose middle lies less than this share of a row step before the end of the
 #: turn of the table's first row is placed at the first row (a nose on the seam row of
 #: a closed table, 0/360 or -180/180 deg, which the fit of rounded or measured rows
@@ -81,6 +88,22 @@ def seam_frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float,
         return 0.0, False
     mid = a[best[0]] + 0.5 * ((a[best[1]] - a[best[0]]) % TWO_PI)
     return float(wrap_pi(mid - math.pi)), False
+
+
+def base_level(h: NDArray[np.float64], step: float) -> tuple[float, int] | None:
+    """(lift [m], rows) the rows give the base circle: the median of the rows within
+    ``BASE_BAND`` of the lift range of their lower quartile, when those cover at least
+    ``BASE_LEVEL_DEG`` at ``step`` [rad]; None otherwise (an eccentric, a table of the
+    lobe alone). For a table over the whole turn (part of one may hold only the lobe and
+    its ramps, whose quartile is a ramp). The lower quartile, not the lowest row: a few
+    rows below the base circle (a valve trace reading under zero near firing TDC) do not
+    move it, and a band wide enough for a base circle's run-out keeps its median at the
+    middle of it."""
+    y = np.asarray(h, dtype=float)
+    near = np.abs(y - float(np.quantile(y, 0.25))) <= BASE_BAND * float(np.ptp(y))
+    if np.count_nonzero(near) * step < math.radians(BASE_LEVEL_DEG):
+        return None
+    return float(np.median(y[near])), int(np.count_nonzero(near))
 
 
 def lobe_middle(alpha: NDArray[np.float64], lift: NDArray[np.float64]) -> float:

@@ -51,8 +51,9 @@ from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.lift_laws.jet_table import JetTableLift
 from cam_design.lift_table.lobe_joins import JOIN_MIN_DEG, Curve, join, lobe_edge
-from cam_design.lift_table.lobe_frame import (BASE_MIN_DEG, TWO_PI, lobe_middle, lobe_turn,
-                                              part_turn_centre, seam_frame)
+from cam_design.lift_table.lobe_frame import (BASE_MIN_DEG, BASE_OFFSET_M, TWO_PI, base_level,
+                                              lobe_middle, lobe_turn, part_turn_centre,
+                                              seam_frame)
 from cam_design.lift_table.noise import BaseNoise, base_circle_noise
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
 
@@ -84,6 +85,9 @@ SHAPE_GROWTH = 8.0
 REPEAT_SPREAD = 0.01
 #: a table starting / ending above this share of its max lift is refused
 MID_LOBE_LIMIT = 0.5
+#: a mid-lobe join longer than this share of the lobe between the joins is refused (the
+#: table ends on a flat stretch off 0, where no join from the base circle fits)
+MID_JOIN_MAX = 1.0
 #: a lobe law whose peak |h''| exceeds this many times 2 H / (half-duration)^2 (what a
 #: constant-acceleration rise of the same lift and duration needs) is refused
 ACC_PLAUSIBLE = 100.0
@@ -109,7 +113,8 @@ class LobeInfo:
     ``mid_lobe``: 'start' / 'end' where the table has no base-circle row;
     ``rows``: the rows as given (alpha, lift) for replicas; ``rec``: the engine's
     Reconstruction when smoothed; ``base_noise``: the base circle's noise when it is
-    correlated row to row (its spread is then the noise the rows were smoothed with)."""
+    correlated row to row (its spread is then the noise the rows were smoothed with);
+    ``base``: the base circle's lift in the rows [m], taken off them (0: at zero)."""
 
     key: str
     method: str
@@ -130,6 +135,7 @@ class LobeInfo:
     shift: float = 0.0
     middle: float | None = None
     base_noise: BaseNoise | None = None
+    base: float = 0.0
 
     @property
     def law_offset(self) -> float:
@@ -288,6 +294,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         noise = scatter
     else:
         scatter = noise = float(noise)
+    whole = a0[-1] - a0[0] >= TWO_PI - 1.5 * step
     offset, periodic = seam_frame(a0, h, step, max(2.0 * q, 8.0 * noise, 1e-4 * span, 1e-6))
     if (offset or periodic) and a0[-1] - a0[0] >= TWO_PI - 1e-9:
         # a closed turn (-180..180, 0..360 deg): its last row is its first row again,
@@ -304,8 +311,21 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     if offset or periodic:
         order = np.argsort(b, kind='stable')
         b, h = b[order], h[order]
+    said: list[str] = []
+    base = 0.0
     if periodic:   # lift from the lowest row: the base circle of an eccentric
         h = h - float(np.min(h))
+    elif whole and (bottom := base_level(h, step)) is not None and \
+            abs(bottom[0]) > max(3.0 * max(noise, sigma_q), 0.5 * q, BASE_OFFSET_M):
+        # lift is measured from the base circle (a probe zeroed elsewhere, a drifted
+        # trace): the lobe, its joins, every height and the dynamics' lash are there
+        base = bottom[0]
+        h = h - base
+        said.append(f'the base circle is at {base * 1e3:+.4f} mm, not 0 (median of the '
+                    f'{bottom[1]} rows at the bottom of the table: the probe zeroed '
+                    'elsewhere?): lifts are measured from the base circle, max lift above '
+                    f'it {float(np.max(h)) * 1e3:.4f} mm, and the checking heights and the '
+                    "valve train's lash are taken from it")
     floor = max(SCATTER_RATIO * sigma_q, EXACT_SCATTER_REL * span)
     steps = [w.split(':')[0] for w in
              step_warnings(find_steps(b, h, max(noise, sigma_q, 1e-9 * span)))]
@@ -354,8 +374,9 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             # (not after a turn: the fairing was made of the rows in their first order)
             same = (fairing is not None and known is None and not offset
                     and rows.alpha.size == b.size and bool(np.all(rows.lift == h)))
-            rec = reconstruct_spline(rows, options=SplineOptions(criterion='risk', sigma=known),
-                                     fairing=fairing if same else None)
+            rec = reconstruct_spline(rows, options=SplineOptions(
+                criterion='risk', sigma=known, correlated_noise=base_noise is not None),
+                fairing=fairing if same else None)
             curve = _Evaluated(rec.evaluate, mid)
         sigma = max(float(rec.sigma), sigma_q)
         why += f'; smoothed by the reconstruction spline ({rec.why})'
@@ -371,10 +392,10 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                     offset=offset, periodic=periodic, level=tau, rec=rec,
                     rows=(raw_a.copy(), raw_h.copy()), steps=steps,
                     first=lo_a if turn_from is None else float(turn_from),
-                    base_noise=base_noise)
+                    base_noise=base_noise, base=base)
     assert curve is not None        # the interpolant, or the smoothing spline above
     law = _build(curve, b, h, info)
-    info.warnings.extend(notes_warning(notes))
+    info.warnings.extend(said + notes_warning(notes))
     return law
 
 
@@ -524,6 +545,14 @@ def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], t
                              f'rows down to the base circle at its {name} (or below '
                              f'{MID_LOBE_LIMIT * 100:.0f} % of the lift, joined to it): '
                              'give the whole lobe')
+        if mid and width > MID_JOIN_MAX * (hi - lo):
+            # a flat stretch off 0 at the table's end (h' about 0: the join to the base
+            # circle would span more than the lobe itself)
+            raise InputError(info.key, f'a table that {name}s on a flat stretch at '
+                             f'{level * 1e3:.4g} mm',
+                             'rows down to the base circle, or lifts measured from it (a '
+                             'base circle off 0 is taken off only on a whole-turn table): '
+                             'subtract the base-circle level or give the whole turn')
     info.mid_lobe = tuple(mids)
     ends = np.stack([np.asarray(curve(np.array([lo, hi]), nu), dtype=float)
                      for nu in range(4)])
@@ -544,6 +573,23 @@ def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], t
     if not run_hi:
         pieces.append((hi, hi + w_hi, join(hi, w_hi, ends[:, 1], 1)))
     return pieces
+
+
+def _odd_row(b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo) -> str:
+    """'; the row at A deg (H mm) stands D mm off its neighbours' for the row farthest
+    from the median of its six neighbours, when that is more than a tenth of the lift
+    range (a typo, a spike); '' otherwise. Angles in the table's frame."""
+    if h.size < 7:
+        return ''
+    pad = np.concatenate([h[-3:], h, h[:3]]) if info.periodic else np.pad(h, 3, mode='edge')
+    near = np.stack([pad[3 + k:3 + k + h.size] for k in (-3, -2, -1, 1, 2, 3)])
+    off = h - np.median(near, axis=0)
+    j = int(np.argmax(np.abs(off)))
+    if abs(float(off[j])) <= 0.1 * float(np.ptp(h)):
+        return ''
+    at = math.degrees(float(wrap_pi(b[j] + info.offset)))
+    return (f'; the row at {at:.6g} deg ({(h[j] + info.base) * 1e3:.6g} mm) stands '
+            f'{abs(float(off[j])) * 1e3:.4g} mm off its neighbours: a typo?')
 
 
 def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
@@ -573,8 +619,8 @@ def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
         raise InputError(info.key, f"peak acceleration {acc:.3g} m/rad^2",
                          f'a lobe its lift ({top * 1e3:.3g} mm) and duration '
                          f'({math.degrees(2 * half):.0f} deg) allow (at most '
-                         f'{plausible:.3g} m/rad^2): the rows are noisier than they look; '
-                         'smooth or re-measure the table')
+                         f'{plausible:.3g} m/rad^2): the rows are noisier than they look'
+                         f'{_odd_row(b, h, info)}; smooth or re-measure the table')
     for side in info.mid_lobe:
         j = info.joins[0] if side == 'start' else info.joins[1]
         assert j is not None   # a mid-lobe end is always joined

@@ -88,10 +88,17 @@ def clean_samples(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         raise InputError(f'{key}.lift', f'{h.size} values', f'as many as alpha ({a.size})')
     finite = np.isfinite(a) & np.isfinite(h)
     dropped = int(a.size - np.count_nonzero(finite))
+    bad = np.flatnonzero(~finite)
+    where = ''
+    if bad.size:   # name the first: its place in the input and its angle when it has one
+        j = int(bad[0])
+        where = (f' (the first: sample {j + 1}'
+                 + (f' at {math.degrees(float(a[j])):.6g} deg' if np.isfinite(a[j]) else '')
+                 + ')')
     a, h = a[finite], h[finite]
     notes = []
     if dropped:
-        notes.append(f'dropped {dropped} non-finite sample(s)')
+        notes.append(f'dropped {dropped} non-finite sample(s){where}')
     outside = (a <= -np.pi) | (a > np.pi)
     wrapped = int(np.count_nonzero(outside))
     if wrapped:
@@ -310,38 +317,6 @@ def step_warnings(steps: list[tuple[int, float, float, float, float]]) -> list[s
     if len(steps) > 5:
         out.append(f'{len(steps) - 5} more step(s) in the table')
     return out
-
-
-#: a base circle this far from 0 [m] (and 0.25 % of the lift range) is not the zero
-BASE_OFFSET_M = 10e-6
-
-
-def base_circle_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:
-    """A warning when the table's base circle is not at lift 0 (a probe zeroed elsewhere,
-    lifts from another datum): the median of the rows within 2 % of the lift range above
-    the lowest, when they cover at least 60 deg, off 0 by more than ``BASE_OFFSET_M``
-    and 0.25 % of the range. Lifts, max lift and checking heights are then from the
-    table's zero, not from the base circle; the warning gives the max lift above it."""
-    a = np.asarray(alpha, dtype=float)
-    h = np.asarray(lift, dtype=float)
-    ok = np.isfinite(a) & np.isfinite(h)
-    a, h = a[ok], h[ok]
-    if a.size < 8:
-        return None
-    rng = float(np.ptp(h))
-    low = h <= float(np.min(h)) + 0.02 * rng
-    step = float(np.median(np.diff(np.sort(a)))) if a.size > 1 else 0.0
-    if not rng > 0 or np.count_nonzero(low) * step < math.radians(60.0):
-        return None
-    level = float(np.median(h[low]))
-    if abs(level) <= max(BASE_OFFSET_M, 0.0025 * rng):
-        return None
-    return (f'the base circle is at {level * 1e3:+.4f} mm, not 0 (median of the '
-            f'{int(np.count_nonzero(low))} rows at the bottom of the table): the lifts are '
-            'not measured from the base circle (probe zeroed elsewhere?); max lift above '
-            f'the base circle {(float(np.max(h)) - level) * 1e3:.4f} mm; lifts and checking '
-            'heights here are from the table\'s zero: subtract the offset to use the base '
-            'circle')
 
 
 def other_lobes_warning(alpha: ArrayLike, lift: ArrayLike) -> str | None:

@@ -34,6 +34,7 @@ from scipy.interpolate import make_interp_spline
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.blas import single_thread_blas
 from cam_design.lift_table.coarse import coarse_junctions
+from cam_design.lift_table.junction_widths import with_widths
 from cam_design.lift_table.junctions import (JunctionSpline, find_junctions,
                                              lattice_minimum, refit)
 from cam_design.lift_table.lobe_ends import KinkedLobe, coarse_lobe
@@ -320,6 +321,10 @@ class SplineOptions:
     # table can make a false junction, and the fit's model choice biases a jump speed
     # beyond its stated uncertainty (docs/limits.md)
     coarse_junctions: bool = False
+    # the rows' noise is correlated row to row (a filtered trace, found on the base
+    # circle by the lobe law): the sign rule's noise band, built for independent rows,
+    # cannot tell the lobe's own sign changes of h'' from the noise's; none are kept
+    correlated_noise: bool = False
 
 
 def reconstruct_spline(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None = None,
@@ -439,6 +444,13 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         else:
             found = find_junctions(grid, values, start.lam_d, gamma=gamma,
                                    sigma_floor=floor)
+            if found is not None:
+                found = with_widths(grid, values, found, gamma)
+                ramps = [w for w in found.widths if w > 0.0]
+                if ramps:
+                    hedge = (f'; {len(ramps)} of them a change of h\'\' over '
+                             + ', '.join(f'{w:g}' for w in ramps) + ' rows (GCV: the rows '
+                             'rise there rather than step)')
         if found is not None:
             lam_d = found.lam_d
             why += (f'; {len(found.angles)} junction(s) where h\'\' jumps, smoothing '
@@ -555,7 +567,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # rows) tells the lobe's shape; one that nearly interpolates carries every
         # row's miss into h''.
         target = expected
-        if significant_changes(spline, lam_d) > expected and \
+        if not opt.correlated_noise and significant_changes(spline, lam_d) > expected and \
                 float(np.sum(1.0 / (1.0 + lam_d * _spectrum(grid.size) ** 3))) <= \
                 0.5 * np.count_nonzero(kept):
             target = max(expected, beyond_noise(spline, lam_d))

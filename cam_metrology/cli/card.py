@@ -188,14 +188,13 @@ def table_card(alpha: Any, lift: Any, heights: tuple[float, ...], name: str
     what they could not tell."""
     from cam_design.cam_card import card_from_law
     from cam_design.lift_table.lobe_table import lobe_law
-    from cam_design.lift_table.samples import base_circle_warning
 
     law = lobe_law(alpha, lift, key=name, allow_steps=True)
     card = card_from_law(law, heights, key='--heights-mm', floor=law.lobe.level,
                          joins=law_joins(law))
     card['source'] = f'table ({law.lobe.method})'
     card['note'] = law.lobe.note()
-    said = [w for w in (base_circle_warning(alpha, lift), *law.lobe.warnings) if w]
+    said = [w for w in law.lobe.warnings if w]
     if said:
         card['warning'] = '; '.join(said)
     return card

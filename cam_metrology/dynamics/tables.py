@@ -34,16 +34,12 @@ def table_input(path: Path, *, feature: str | None = None, angle_unit: str = 'de
     """(feature, law, source, note) of a TABLE given to ``cam-bench dynamics``."""
     if path.suffix.lower() == '.json':
         return _reconstruct_json(path, feature)
-    from cam_design.lift_table.samples import base_circle_warning
     from cam_metrology.inputs.lift_tables import read_table_file
 
     table = read_table_file(path, angle_unit=angle_unit, length_unit=length_unit)
     name = feature or table.feature or path.stem
     law = lobe_law(table.alpha, table.lift, key=path.name)
     note = law.lobe.note() + ''.join(f'; WARNING: {w}' for w in law.lobe.warnings)
-    offset = base_circle_warning(table.alpha, table.lift)
-    if offset:   # the train sees the offset as extra (or less) lash: say so
-        note += f'; WARNING: {offset} (the valve train sees it as a lash change)'
     return name, law, f'table:{law.lobe.method}', note
 
 

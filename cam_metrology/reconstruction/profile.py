@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from cam_design.errors import InputError
 from cam_design.lift_table.result import Reconstruction, output_grid, per_second
-from cam_design.lift_table.samples import (CleanSamples, LiftTable, base_circle_warning,
+from cam_design.lift_table.samples import (CleanSamples, LiftTable,
                                            clean_samples, find_steps, nose_warning,
                                            other_lobes_warning, step_warnings, wrap_from,
                                            wrap_pi)
@@ -270,6 +270,16 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     from cam_design.lift_table.lobe_routes import fit_turn, fit_window, lobe_warnings
     lobe, said = lobe_warnings(table.alpha, table.lift, key=table.feature,
                                design_known=design is not None)
+    if lobe is not None and lobe.lobe.base:
+        # the lobe law's base circle is the fits' zero too (its warning says where)
+        data = dataclasses.replace(data, lift=data.lift - lobe.lobe.base)
+    if lobe is not None and lobe.lobe.base_noise is not None and sopt.sigma is None \
+            and sopt.smoothing is None:
+        # noise the rows share (its warning says so): GCV would take it for the lobe;
+        # the spline smooths with the base circle's spread as known noise, as the lobe
+        # law does
+        sopt = dataclasses.replace(sopt, criterion='risk', sigma=lobe.lobe.base_noise.sigma,
+                                   correlated_noise=True)
     # the fits run in the lobe law's frame: rows turned so that their seam lies in the
     # base circle (a lobe across +-180 deg) or in the gap of a partial table
     turn = fit_turn(table.alpha, lobe)
@@ -286,9 +296,8 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
                   if design is None else None)
     if off_centre:
         table_warnings.append(off_centre)
-    table_warnings += [w for w in (base_circle_warning(data.alpha, data.lift),
-                                   None if design is not None else   # the design says
-                                   other_lobes_warning(data.alpha, data.lift)) if w]
+    table_warnings += [w for w in (None if design is not None else   # the design says
+                                   other_lobes_warning(data.alpha, data.lift),) if w]
     table_warnings += [w for w in said if w not in table_warnings
                        and not w.startswith('the table holds')]
     table_notes = []
