@@ -39,7 +39,7 @@ from cam_design.lift_table.truth_lobes import DEG, Family, families, measured_ta
 COARSE_JUNCTIONS = os.environ.get('CAM_BENCH_COARSE_JUNCTIONS', '') == '1'
 OPTIONS = SplineOptions(coarse_junctions=COARSE_JUNCTIONS)
 #: ``CAM_BENCH_ROUTE=lobe_law``: the lobe law (``lobe_table.lobe_law``: its smoothing
-#: rule, risk criterion and joins to the base circle) instead of the spline
+#: rule, its criterion and joins to the base circle) instead of the spline
 LOBE_LAW = os.environ.get('CAM_BENCH_ROUTE', '') == 'lobe_law'
 RESULT = Path(__file__).resolve().parent / 'results' / (
     'reconstruction_accuracy_lobe_law.md' if LOBE_LAW

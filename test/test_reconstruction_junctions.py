@@ -535,13 +535,17 @@ def test_lookahead_does_not_take_false_pairs(monkeypatch):
     lower by 6.6 and 4.4) and pass it together (36 for two), but the rest's level
     would rise only 1.4 times (its GCV already climbs between sqrt(10) and 10 times
     the level), where the four edges of a dwell raise it 70-90 times: no junction is
-    taken. Without the level test both are, at -27.6 and -23.1 deg."""
-    from cam_design.lift_table.rebound import rebound_fairing
+    taken. Without the level test both are, at -27.6 and -23.1 deg. The rows are those
+    a fairing that confirms spikes one at a time leaves: the lone spike (row 51)
+    replaced by its leave-one-out value, the four at -32.5, -30, -22.5 and -20 deg
+    kept (the fairing now takes them out as a group: test_reconstruction_spikes)."""
+    from cam_design.lift_table.rebound import ReboundOperator
     from cam_design.lift_table.spline import GCV_GAMMA, choose_smoothing
 
     fam = FAMILIES['C2']
     a, h = measured_table(fam.law, 2.5 * DEG, sigma=0.1e-6, outliers=5, seed=3)
-    rows = rebound_fairing(a, h).lift
+    rows = h.copy()
+    rows[51] += ReboundOperator(a).rebound(h)[51]
     start = choose_smoothing(rows, 2.5 * DEG, criterion='gcv', gamma=GCV_GAMMA)
     assert junctions.find_junctions(a, rows, start.lam_d, gamma=GCV_GAMMA) is None
     monkeypatch.setattr(junctions, 'LOOKAHEAD_LEVEL_RISE', 1.0)

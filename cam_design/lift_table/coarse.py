@@ -12,6 +12,10 @@ wrong there (docs/reconstruction.md step 9):
   within +-1.5 rows). A real step fits the rows better sharp; a stand-in for a fast
   smooth change fits better soft. A junction is kept unless the best soft alternative
   lowers N ln(GCV) by more than ``SOFT_MARGIN``.
+* **A step or spikes?** A junction that passes that test is then compared with one
+  row, or two rows one or two apart, within ``ROW_REACH`` rows of it free to move
+  (``row_gain``): a step of h'' changes every row after it, a spike one row. It is
+  refused when the rows fit better, and they are taken out as outliers.
 * **A step or a one-row rise?** Above 4.5 deg (72 rows a turn or fewer) a change of h''
   within about one row (the acceleration peak of a polynomial lobe) passes that test as
   a step, and no criterion on the rows tells the two apart (docs/limits.md lists the
@@ -68,6 +72,10 @@ SHARP_OFFSETS = tuple(np.linspace(-0.5, 0.5, 21))
 #: false junctions of the C2 and ramped lobes had -7.3 to -34.6, the steps of the dwell
 #: cam -1.8 and above
 SOFT_MARGIN = 6.0
+#: rows either side of a junction that may explain it instead as spikes, and the gain
+#: in N ln(GCV) above which they do (``row_gain``)
+ROW_REACH = 2
+ROW_MARGIN = 0.0
 #: the GCV fit's lobe residuals are structure when their lag-one correlation exceeds this
 #: (spikes make it negative: -0.22 to -0.40 on the C2 lobe with 5 spikes; the misfit at
 #: the steps of the dwell and circular-arc cams +0.03 to +0.11, of the C2 and ramped
@@ -266,16 +274,49 @@ def soft_gain(values: NDArray[np.float64], taus: list[float], j: int, lam_d: flo
                         / float(np.min(scores[len(SHARP_OFFSETS):])))
 
 
+def row_gain(values: NDArray[np.float64], missing: NDArray[np.bool_], taus: list[float],
+             j: int, lam_d: float, gamma: float) -> tuple[float, tuple[int, ...]]:
+    """N ln(GCV with junction ``j`` / GCV with, instead of it, one row or two rows (one
+    or two apart) within ``ROW_REACH`` rows of it free to move: the best of them), the
+    others kept as steps; with the rows of the best. > 0 when rows off the lobe (spikes)
+    explain the rows better than a step of h'': a step changes h'' for every row after
+    it, a spike moves one row. A free row is a column e_k, the same one degree of
+    freedom as the step's."""
+    n = values.size
+    r, trace_s = _residual_matrix(n, float(lam_d))
+    fixed = _step_columns(n, [t for i, t in enumerate(taus) if i != j], 0.0)
+    sharp = _gcv_scores(values, r, trace_s, fixed,
+                        _step_columns(n, [taus[j] + d for d in SHARP_OFFSETS], 0.0), gamma)
+    centre = int(round(taus[j]))
+    near = [k for k in range(centre - ROW_REACH, centre + ROW_REACH + 1)
+            if 0 < k < n - 1 and not missing[k]]
+    if not near:
+        return -math.inf, ()
+    eye = np.eye(n)
+    singles = _gcv_scores(values, r, trace_s, fixed, eye[:, near], gamma)
+    best: tuple[float, tuple[int, ...]] = (float(np.min(singles)),
+                                           (near[int(np.argmin(singles))],))
+    for k in near:
+        partners = [m for m in near if 0 < m - k <= 2]
+        if partners:
+            pair = _gcv_scores(values, r, trace_s, np.column_stack([fixed, eye[:, k]]),
+                               eye[:, partners], gamma)
+            best = min(best, (float(np.min(pair)), (k, partners[int(np.argmin(pair))])))
+    return n * math.log(float(np.min(sharp)) / best[0]), best[1]
+
+
 @dataclass(frozen=True)
 class CoarseJunctions:
     """The junction fit kept on a coarse table (None: none kept), the angles [rad]
     refused as stand-ins for a fast smooth change of h'', the level ``lam_d`` and what
-    to add to the fit's ``why``."""
+    to add to the fit's ``why``; ``rows``: the rows (nodes) that explain a refused
+    junction better as spikes."""
 
     found: JunctionFit | None
     refused: tuple[float, ...]
     lam_d: float
     why: str = ''
+    rows: tuple[int, ...] = ()
 
 
 def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
@@ -307,7 +348,7 @@ def coarse_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
         return tested
     fit, why = hedged_junctions(grid, values, missing, tested.found, gamma=gamma,
                                 sigma_floor=sigma_floor)
-    return CoarseJunctions(fit, tested.refused, fit.lam_d, why)
+    return CoarseJunctions(fit, tested.refused, fit.lam_d, why, tested.rows)
 
 
 def _tested_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
@@ -322,12 +363,20 @@ def _tested_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
     taus = [(t - float(grid[0])) / step for t in found.angles]
     soft = [soft_gain(values, taus, j, found.lam_d, gamma) > SOFT_MARGIN
             for j in range(len(taus))]
+    # then one row or a pair near a junction (spikes) against the junction itself
+    spikes: set[int] = set()
+    for j in range(len(taus)):
+        if not soft[j]:
+            gain, rows = row_gain(values, missing, taus, j, found.lam_d, gamma)
+            if gain > ROW_MARGIN:
+                soft[j] = True
+                spikes.update(rows)
     refused = tuple(t for t, s in zip(found.angles, soft) if s)
     if not refused:
         return CoarseJunctions(found, (), found.lam_d)
     kept = [k for k, s in enumerate(soft) if not s]
     if not kept:
-        return CoarseJunctions(None, refused, lam0)
+        return CoarseJunctions(None, refused, lam0, rows=tuple(sorted(spikes)))
     # chosen again without the refused ones, but never smoother than with them (GCV
     # without a stand-in may read the lobe's fast change as noise, as without any),
     # nor smoother than the plain fit the search started from
@@ -335,7 +384,8 @@ def _tested_junctions(grid: NDArray[np.float64], values: NDArray[np.float64],
               found.lam_d, lam0)
     pruned = replace(found, angles=tuple(found.angles[k] for k in kept),
                      scores=tuple(found.scores[k] for k in kept))
-    return CoarseJunctions(refit(grid, values, missing, pruned, lam), refused, lam)
+    return CoarseJunctions(refit(grid, values, missing, pruned, lam), refused, lam,
+                           rows=tuple(sorted(spikes)))
 
 
 def lobe_end_rows(values: NDArray[np.float64], sigma: float) -> tuple[int, int] | None:

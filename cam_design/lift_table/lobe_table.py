@@ -22,8 +22,9 @@ what the rows could not tell. The rules (docs/methods.md, "One table, one lobe")
 * **smoothing**: the rows are interpolated (quintic spline through every row) when
   their scatter about a smooth curve is no more than their rounding explains and the
   rounding, carried through the interpolant, stays below ``ROUNDING_ACC_SHARE`` of the
-  lobe's peak h''; otherwise they are smoothed by the reconstruction spline with the
-  risk criterion (noise: the rounding's q/sqrt(12), or the engine's estimate).
+  lobe's peak h''; otherwise they are smoothed by the reconstruction spline by
+  ``LEVEL_CRITERION`` (modified GCV; known noise: the rounding's q/sqrt(12), or none).
+  ``LobeInfo.fit`` keeps what was done: a replica (``fit=``) is fitted the same way.
 * **lobe ends**: the lobe is the run of the curve above the base-circle level
   ``tau`` around the highest row; at each end it is joined to the base circle by a
   degree-7 Hermite segment from (h, h', h'', h''') = 0 to the curve's values (never a
@@ -56,6 +57,7 @@ from cam_design.lift_table.lobe_frame import (BASE_MIN_DEG, BASE_OFFSET_M, TWO_P
                                               seam_frame)
 from cam_design.lift_table.noise import BaseNoise, base_circle_noise
 from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
+from cam_design.lift_table.table_fit import LEVEL_CRITERION, TableFit
 
 if TYPE_CHECKING:
     from cam_design.lift_table.rebound import Fairing
@@ -114,7 +116,8 @@ class LobeInfo:
     ``rows``: the rows as given (alpha, lift) for replicas; ``rec``: the engine's
     Reconstruction when smoothed; ``base_noise``: the base circle's noise when it is
     correlated row to row (its spread is then the noise the rows were smoothed with);
-    ``base``: the base circle's lift in the rows [m], taken off them (0: at zero)."""
+    ``base``: the base circle's lift in the rows [m], taken off them (0: at zero);
+    ``fit``: how the law was fitted (``TableFit``), what a replica repeats."""
 
     key: str
     method: str
@@ -136,6 +139,7 @@ class LobeInfo:
     middle: float | None = None
     base_noise: BaseNoise | None = None
     base: float = 0.0
+    fit: TableFit = TableFit('interpolated')
 
     @property
     def law_offset(self) -> float:
@@ -169,8 +173,8 @@ class TableLobe(LiftLaw):
     the rows: the quintic interpolant or the engine's smoothing spline, evaluated as
     they are), C3 everywhere; angles of the table = lobe frame + ``offset``. A periodic
     law (an eccentric) is one piece over the turn, its lift measured from ``floor``.
-    ``lobe`` (LobeInfo) says what was done, ``table`` (rows, q, sigma) what a replica
-    of the table needs."""
+    ``lobe`` (LobeInfo) says what was done, ``table`` (rows, q, sigma) and
+    ``lobe.fit`` what a replica of the table needs."""
 
     continuity_order = 3
     lobe: LobeInfo
@@ -243,7 +247,7 @@ def _grid_step(step: float) -> float:
 
 def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
              allow_steps: bool = False, noise: float | None = None,
-             turn_from: float | None = None) -> TableLobe:
+             turn_from: float | None = None, fit: TableFit | None = None) -> TableLobe:
     """The lobe law of a lift table, ``alpha`` [rad] (any frame), ``lift`` [m] (module
     doc for the rules). InputError naming ``key`` when the rows cannot define a lobe.
 
@@ -254,7 +258,9 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     (a replica of a table with a drawn noise), instead of the estimate. ``turn_from``
     [rad]: the start of the turn the lobe is told in (``lobe_frame.lobe_turn``), when not
     the table's first row (a scene's lobe: -pi, its angles from the lobe centreline
-    wrapped to (-180, 180] deg, whatever turn a nominal file is written in)."""
+    wrapped to (-180, 180] deg, whatever turn a nominal file is written in). ``fit``:
+    the ``TableFit`` of the table this is a replica of: the rows are fitted as it was,
+    not judged again."""
     from cam_design.lift_table.samples import find_steps, step_warnings
     from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 
@@ -334,8 +340,10 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                          f'a table without steps ({steps[0]}; a velocity step is an impact '
                          'the dynamics cannot take from a table): tabulate the ramp finer '
                          'or give the lift law')
-    method = 'interpolated'
-    if b.size < JUDGE_ROWS:
+    method = 'interpolated' if fit is None else fit.method
+    if fit is not None:
+        why = f'fitted as its table was ({fit.text()})'
+    elif b.size < JUDGE_ROWS:
         why = (f'{b.size} rows, too few to tell noise from shape (at least {JUDGE_ROWS}): '
                'quintic interpolant through every row')
     elif scatter > floor:
@@ -345,7 +353,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
     # the rows' quintic interpolant: built only for a table that may keep it (a smoothed
     # table gets the smoothing spline below)
     curve: Curve | None = _interpolant(b, h, periodic) if method == 'interpolated' else None
-    if curve is not None and b.size >= JUDGE_ROWS:
+    if curve is not None and b.size >= JUDGE_ROWS and fit is None:
         dense = np.linspace(b[0], b[-1] + (TWO_PI - (b[-1] - b[0]) if periodic else 0.0),
                             4001)
         peak_acc = float(np.max(np.abs(curve(dense, 2))))
@@ -360,10 +368,17 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                 ': quintic interpolant through every row'
     rec = None
     sigma = sigma_q if method == 'interpolated' else max(scatter, sigma_q)
+    known: float | None = None
     if method == 'smoothed':
-        known = base_noise.sigma if base_noise else sigma_q if scatter <= floor else None
+        known = ((base_noise.sigma if base_noise else sigma_q if scatter <= floor else None)
+                 if fit is None else fit.known)
+        # GCV takes noise the rows share for shape (it needs independent errors): such
+        # rows go by the acceleration risk with the base circle's spread as their noise
+        correlated = base_noise is not None if fit is None else fit.correlated
+        criterion = (fit.criterion if fit is not None else None) or (
+            'risk' if correlated else LEVEL_CRITERION)
         if periodic:
-            rec, curve = _periodic_smooth(b, h, known)
+            rec, curve = _periodic_smooth(b, h, known, criterion)
         else:
             # the engine works in (-pi, pi]: a part-turn table beyond it (118..242 deg)
             # is fitted about its own middle and moved back
@@ -375,7 +390,7 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             same = (fairing is not None and known is None and not offset
                     and rows.alpha.size == b.size and bool(np.all(rows.lift == h)))
             rec = reconstruct_spline(rows, options=SplineOptions(
-                criterion='risk', sigma=known, correlated_noise=base_noise is not None),
+                criterion=criterion, sigma=known, correlated_noise=correlated),
                 fairing=fairing if same else None)
             curve = _Evaluated(rec.evaluate, mid)
         sigma = max(float(rec.sigma), sigma_q)
@@ -392,7 +407,9 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
                     offset=offset, periodic=periodic, level=tau, rec=rec,
                     rows=(raw_a.copy(), raw_h.copy()), steps=steps,
                     first=lo_a if turn_from is None else float(turn_from),
-                    base_noise=base_noise, base=base)
+                    base_noise=base_noise, base=base,
+                    fit=TableFit('smoothed', criterion, known, correlated) if rec is not None
+                    else TableFit('interpolated'))
     assert curve is not None        # the interpolant, or the smoothing spline above
     law = _build(curve, b, h, info)
     info.warnings.extend(said + notes_warning(notes))
@@ -486,12 +503,13 @@ PERIODIC_PAD = 0.25
 PERIODIC_SCALE = 0.6
 
 
-def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: float | None
-                     ) -> tuple[Any, Curve]:
+def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: float | None,
+                     criterion: str) -> tuple[Any, Curve]:
     """(Reconstruction, curve) of a whole-turn table without a base circle: the rows
     repeated a quarter turn beyond each end (so the fit has no free end on the turn)
-    and smoothed in the variable s = PERIODIC_SCALE x alpha; the curve undoes the
-    change of variable (d^nu/dalpha^nu = PERIODIC_SCALE^nu d^nu/ds^nu)."""
+    and smoothed (by ``criterion``, known noise ``sigma`` [m] or None) in the variable
+    s = PERIODIC_SCALE x alpha; the curve undoes the change of variable
+    (d^nu/dalpha^nu = PERIODIC_SCALE^nu d^nu/ds^nu)."""
     from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 
     pad = PERIODIC_PAD * TWO_PI
@@ -500,7 +518,7 @@ def _periodic_smooth(b: NDArray[np.float64], h: NDArray[np.float64], sigma: floa
     centre = 0.5 * (x[0] + x[-1])
     k = PERIODIC_SCALE
     rec = reconstruct_spline(k * (x - centre), y,
-                             SplineOptions(criterion='risk', sigma=sigma,
+                             SplineOptions(criterion=criterion, sigma=sigma,
                                            expected_sign_changes=None))
 
     def curve(a: ArrayLike, nu: int = 0) -> NDArray[np.float64]:

@@ -13,9 +13,9 @@ it flags, and the rounding step of the rows (docs/reconstruction.md, steps 1-2).
    knots, estimated per point on uneven ones), and is the local maximum within +-2
    points, are moved by ``gain * r_i``; a point whose cumulative move would exceed
    ``cap`` noise standard deviations is declared an outlier, replaced by its
-   leave-one-out value and given zero weight. On tables coarser than 0.75 deg a local
-   quintic leave-one-out prediction must confirm each candidate. Sweeps repeat until
-   no point exceeds the tolerance.
+   leave-one-out value and given zero weight. On tables coarser than 0.75 deg local
+   quintic predictions must confirm each candidate, alone or in a group of up to four
+   nearby rows (spikes.py). Sweeps repeat until no point exceeds the tolerance.
 
 Angles in rad, lifts in m. The smoothing that follows is ``spline.reconstruct_spline``.
 """
@@ -30,6 +30,7 @@ from scipy.linalg.lapack import dpttrf, dpttrs
 
 from cam_design.errors import InputError, require_positive
 from cam_design.lift_table.noise import EXACT_NOISE_REL, rebound_sigma
+from cam_design.lift_table.spikes import confirmed_candidates, local_maxima
 
 
 def _rebound_noise_factor() -> float:
@@ -220,11 +221,6 @@ REBOUND_L1_FACTOR = _rebound_l1_factor()
 VERY_COARSE_RAD = math.radians(4.5)
 
 
-#: on such a table an outlier (a typing error) also misses by more than this multiple of
-#: the rebound floor (5 x 2e-5 = 1e-4 of the lift range: 0.8 um on an 8 mm lobe)
-EXACT_FLOOR = 5.0
-
-
 @dataclass(frozen=True)
 class Fairing:
     """Outcome of the rebound fairing: ``lift`` [m] faired values (outliers replaced by
@@ -289,6 +285,7 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
     # nor on a table coarser than VERY_COARSE_RAD, where a single row off the fit cannot
     # be told from the lobe's own shape (a junction of the law between two rows)
     keep_all = exact or float(np.median(op.h)) > VERY_COARSE_RAD
+    seen: dict[bytes, dict[int, float]] = {}
     for sweeps in range(1, 0 if keep_all else max_sweeps + 1):
         a = np.divide(np.abs(r), tol_i, out=np.zeros(n), where=interior & ~outlier)
         big = a > 1.0
@@ -297,14 +294,25 @@ def rebound_fairing(alpha: ArrayLike, lift: ArrayLike, *, threshold: float = 4.5
             break
         # candidates: local maxima of |r|/tol. On coarse tables (steps > 0.75 deg) the
         # cubic spline's own interpolation error on the flanks exceeds the noise, so
-        # each candidate must be confirmed by a local quintic leave-one-out prediction
-        # (which follows the lift); a rejected maximum is vetoed and the next tried.
-        if coarse or exact:
-            cand = _confirmed_candidates(x_arr, y, a, big, outlier, threshold * sigma,
-                                         floor, exact)
+        # the rows near each candidate are confirmed by local quintic predictions
+        # (which follow the lift), in groups of up to four (spikes one or two rows apart
+        # hide each other): a group of one is moved by its rebound as below, the rows
+        # of a larger group are outliers at once, set to their local prediction; a
+        # rejected maximum is vetoed and the next tried (spikes.py).
+        grouped = 0
+        if coarse:
+            confirmed = confirmed_candidates(x_arr, y, a, big, outlier, threshold * sigma,
+                                             floor, seen)
+            cand = confirmed.single
+            outlier[confirmed.grouped] = True
+            y[confirmed.grouped] = confirmed.fill
+            grouped = confirmed.grouped.size
         else:
-            cand = np.flatnonzero(big & _local_maxima(a))
+            cand = np.flatnonzero(big & local_maxima(a))
         if cand.size == 0:
+            if grouped:
+                r = op.rebound(y)
+                continue
             sweeps -= 1
             break
         step = gain * r[cand]
@@ -382,110 +390,3 @@ def _whole_multiples(v: NDArray[np.float64], q: float) -> bool:
     """Every value of ``v`` within 1e-6 q of a whole multiple of ``q``."""
     ratio = v / q
     return float(np.max(np.abs(ratio - np.rint(ratio)))) <= 1e-6
-
-
-def _local_maxima(a: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """a_i > 0 and a_i is the largest within +-2 samples."""
-    padded = np.concatenate([np.zeros(2), a, np.zeros(2)])
-    window = np.lib.stride_tricks.sliding_window_view(padded, 5)
-    return (a > 0) & (a >= window.max(axis=1))
-
-
-def _confirmed_candidates(x: NDArray[np.float64], y: NDArray[np.float64],
-                          a: NDArray[np.float64], big: NDArray[np.bool_],
-                          excluded: NDArray[np.bool_], tol: float,
-                          floor: float, exact: bool = False) -> NDArray[np.int64]:
-    """Indices to move this sweep: confirmed local maxima of ``a`` among ``big``."""
-    score = np.where(big, a, 0.0)
-    chosen: list[int] = []
-    for _ in range(4):
-        cand = np.flatnonzero(_local_maxima(score))
-        if cand.size == 0:
-            break
-        ok = _quintic_confirms(x, y, cand, excluded, tol, floor, exact)
-        chosen += [int(i) for i in cand[ok]]
-        score[cand] = 0.0                   # confirmed: taken; rejected: vetoed
-        if np.all(ok):
-            break
-    return np.array(sorted(chosen), dtype=np.int64)
-
-
-def _one_sided_miss(x: NDArray[np.float64], y: NDArray[np.float64],
-                    usable: NDArray[np.int64], i: int, skip: tuple[int, ...]) -> float:
-    """Smallest |y_i - p(x_i)| over the quintics through the six nearest usable samples
-    on either side of i (extrapolation; for exact tables, where a junction of the lift
-    law next to i spoils every two-sided stencil). inf if neither side has six."""
-    best = math.inf
-    pos = int(np.searchsorted(usable, i))
-    sides = (usable[max(0, pos - 12):pos][::-1], usable[pos:pos + 13])
-    for side in sides:
-        idx = np.array([int(j) for j in side if j != i and j not in skip][:6])
-        if idx.size < 6:
-            continue
-        xs = (x[idx] - x[i]) / max(float(np.ptp(x[idx])), 1e-300)
-        try:
-            w = np.linalg.solve(np.vander(xs, 6, increasing=True).T, np.eye(6)[0])
-        except np.linalg.LinAlgError:
-            continue
-        best = min(best, abs(float(y[i] - w @ y[idx])))
-    return best
-
-
-def _quintic_loo(x: NDArray[np.float64], y: NDArray[np.float64], usable: NDArray[np.int64],
-                 i: int, skip: tuple[int, ...]) -> tuple[float, float] | None:
-    """(|y_i - p(x_i)|, sqrt(1 + sum w^2)) for a degree-5 polynomial p through six of the
-    seven usable samples nearest to i other than ``skip``: the subset that predicts y_i
-    best, so that one more spike among the neighbours does not spoil the test. None if
-    there are not seven such samples."""
-    pos = int(np.searchsorted(usable, i))
-    lo = max(0, min(pos - 7, usable.size - 15))
-    near = [int(j) for j in usable[lo:lo + 15] if j not in skip]
-    idx = np.array(sorted(near, key=lambda j: abs(j - i))[:7])
-    if idx.size < 7:
-        return None
-    xs = (x[idx] - x[i]) / max(float(np.ptp(x[idx])), 1e-300)
-    subsets = np.array([[k for k in range(7) if k != drop] for drop in range(7)])
-    vander = np.vander(xs, 6, increasing=True)[subsets]          # (7, 6, 6)
-    try:
-        weights = np.linalg.solve(np.transpose(vander, (0, 2, 1)),
-                                  np.broadcast_to(np.eye(6)[0], (7, 6))[..., None])[..., 0]
-    except np.linalg.LinAlgError:
-        return None
-    resid = np.abs(y[i] - np.einsum('sk,sk->s', weights, y[idx][subsets]))
-    best = int(np.argmin(resid))
-    return float(resid[best]), math.sqrt(1.0 + float(weights[best] @ weights[best]))
-
-
-#: a confirmed outlier misses its local quintic prediction by more than these multiples
-#: of the median and of the largest miss at its +-3 neighbours (the lift's own
-#: interpolation error there); (noisy table, exact table)
-NEIGHBOUR_FACTORS = ((4.0, 2.0), (8.0, 4.0))
-
-
-def _quintic_confirms(x: NDArray[np.float64], y: NDArray[np.float64],
-                      cand: NDArray[np.int64], excluded: NDArray[np.bool_], tol: float,
-                      floor: float, exact: bool = False) -> NDArray[np.bool_]:
-    """For each candidate i: does y_i differ from the local quintic leave-one-out
-    prediction by more than ``tol`` x its noise factor, than ``floor``, and than 4 x
-    the same prediction error at its neighbours (i +- 1, i +- 2, each without i)? The
-    last test tells a spike from lift that the sampling does not resolve."""
-    ok = np.ones(cand.size, dtype=bool)
-    usable = np.flatnonzero(~excluded)
-    others = tuple(int(c) for c in cand)          # other candidates stay out of stencils
-    for k, i in enumerate(cand):
-        own = _quintic_loo(x, y, usable, int(i), others)
-        if own is None:
-            continue
-        near = [j for j in (i - 3, i - 2, i - 1, i + 1, i + 2, i + 3)
-                if 0 <= j < x.size and not excluded[j] and j not in others]
-        local = [(_quintic_loo(x, y, usable, j, (j,) + others), j) for j in near]
-        errs = [v[0] for v, _ in local if v is not None] or [0.0]
-        if exact:
-            # no noise to amplify: one-sided stencils may avoid a junction of the law
-            own = (min(own[0], _one_sided_miss(x, y, usable, int(i), others)), own[1])
-            errs = [min(v[0], _one_sided_miss(x, y, usable, j, (j,) + others))
-                    for v, j in local if v is not None] or [0.0]
-        med, top = NEIGHBOUR_FACTORS[int(exact)]
-        scale = max(med * float(np.median(errs)), top * max(errs))
-        ok[k] = own[0] > max(tol * own[1], floor * (EXACT_FLOOR if exact else 1.0), scale)
-    return ok

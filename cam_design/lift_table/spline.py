@@ -420,6 +420,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     why = choice.why
     lam_d = choice.lam_d
     found = None
+    spiked = np.zeros(x.size, dtype=bool)     # rows that explain a junction (coarse.py)
     # coarse tables (coarse.py): a few rows per segment cannot tell a step of h'' from a
     # steep smooth change by GCV alone, so above COARSE_LEVEL_RAD each junction is also
     # tested against a soft change, and above COARSE_RAD the junctions kept are fitted
@@ -437,10 +438,19 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
                                        sigma_floor=floor)
             found = outcome.found
             hedge = outcome.why
+            spiked[[k - pad for k in outcome.rows if 0 <= k - pad < x.size]] = True
+            if not step > VERY_COARSE_RAD:      # taken out (kept and named above it)
+                missing[pad:pad + x.size] |= spiked
+            if np.any(spiked):
+                notes.append('coarse table: rows at ' + ', '.join(
+                    f'{math.degrees(v):.1f}' for v in x[spiked]) + ' deg explain a step '
+                    'of h\'\' beside them better as spikes'
+                    + ('' if step > VERY_COARSE_RAD else ': taken out'))
             if outcome.refused:
                 notes.append('coarse table: no step of h\'\' at ' + ', '.join(
                     f'{math.degrees(t):.1f}' for t in outcome.refused)
-                    + ' deg (a change of h\'\' over 2-4 rows fits the rows better)')
+                    + ' deg (a change of h\'\' over 2-4 rows, or spikes, fit the rows '
+                    'better)')
         else:
             found = find_junctions(grid, values, start.lam_d, gamma=gamma,
                                    sigma_floor=floor)
@@ -483,7 +493,8 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     # second look with the smooth fit: a spike the rebound missed (two spikes in
     # adjacent rows hide each other's rebound) stands out of the fit, a point flagged
     # next to it fits; refit once with the corrected set
-    outlier = fair.outlier.copy()
+    outlier = fair.outlier | (spiked & (step <= VERY_COARSE_RAD))
+    kept = ~outlier
     at_rows = spline(x)
     resid = y0 - at_rows
     absr = np.abs(resid)
@@ -497,6 +508,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
            & (absk > 1e-9 * float(np.max(np.abs(y0))))
            & (absk > 3.0 * window.max(axis=1)))
     if exact or step > VERY_COARSE_RAD:   # every row kept; say which stand out
+        new |= spiked
         if np.any(new):
             listed = ', '.join(f'{math.degrees(v):.1f}' for v in x[new][:5])
             warnings.append(f'rows at {listed} deg stand out of the fit by up to '

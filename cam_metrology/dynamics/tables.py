@@ -8,7 +8,8 @@
   ``cam-bench reconstruct`` writes.
 * the valve train comes from ``scene.parse.load_valve_train``.
 * ``jump_uncertainty``: the jump speed's uncertainty that a table's noise or
-  quantisation carries (re-quantised replicas of the table through the same spline).
+  quantisation carries (replicas of the table with a fresh draw of that noise, each
+  fitted as the table was: ``lobe_law(..., fit=law.lobe.fit)``).
 """
 from __future__ import annotations
 
@@ -19,14 +20,23 @@ import numpy as np
 
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
-from cam_design.lift_laws.jet_table import JetTableLift
-from cam_design.lift_table.lobe_table import lobe_from_jets, lobe_law
+from cam_design.lift_table.lobe_table import TableLobe, lobe_from_jets, lobe_law
 
-#: replicas of a table for the jump-speed uncertainty, and the coverage factor on their
-#: standard deviation (the spread of one noise realisation: 3 sigma covered every
-#: lobe tried, docs/dynamics.md "Tables")
+#: replicas of a table for the jump-speed uncertainty
 REPLICAS = 8
-COVERAGE = 3.0
+#: the level of confidence of the band: that of 3 standard deviations of a normal law
+#: (99.73 %); with the standard deviation estimated from n replicas the coverage factor
+#: is Student's t for n - 1 degrees of freedom at that level (GUM, JCGM 100:2008,
+#: Annex G, Table G.2: 4.53 for 7), not 3 (docs/dynamics.md "Tables")
+CONFIDENCE = 0.9973
+
+
+def coverage_factor(replicas: int) -> float:
+    """Student's t quantile (two-sided ``CONFIDENCE``) for ``replicas`` - 1 degrees of
+    freedom: the factor on the replicas' standard deviation."""
+    from scipy.stats import t
+
+    return float(t.ppf(0.5 + 0.5 * CONFIDENCE, replicas - 1))
 
 
 def table_input(path: Path, *, feature: str | None = None, angle_unit: str = 'deg',
@@ -82,26 +92,29 @@ def _reconstruct_json(path: Path, feature: str | None) -> tuple[str, LiftLaw, st
         + ''.join(f'; WARNING: {w}' for w in law.lobe.warnings))
 
 
-def jump_uncertainty(law: JetTableLift, params: object, jump_rpm: float, step_deg: float,
+def jump_uncertainty(law: LiftLaw, params: object, jump_rpm: float, step_deg: float,
                      *, replicas: int = REPLICAS, seed: int = 0) -> tuple[float, str] | None:
     """(U [rpm], sentence) of the jump speed ``jump_rpm`` found on a table's spline law,
     or None when the law did not come from a table (``lobe_law``).
 
     The table's rows carry noise (a gauge step q: rounding, uniform of width q; else the
     noise sigma the spline estimated). ``replicas`` copies of the table with a fresh
-    draw of that noise added to the lobe rows (h > 0) go through the same spline and the
-    jump speed of each is bisected to 0.2 % near ``jump_rpm``; their spread is the
-    spread of the original table's jump speed around the cam's own (the rows are one
-    draw of the same noise). U = COVERAGE x standard deviation + |mean - jump_rpm|.
+    draw of that noise added to the lobe rows (h > 0) are each fitted as the table was
+    (``law.lobe.fit``: interpolated, or smoothed by the same criterion with the same
+    known noise or the noise re-estimated from the copy's rows) and the jump speed of
+    each is bisected to 0.2 % near ``jump_rpm``; their spread is the spread of the
+    original table's jump speed around the cam's own (the rows are one draw of the same
+    noise). U = k x standard deviation + |mean - jump_rpm|, k = ``coverage_factor``
+    (Student's t for the number of copies that gave a speed, minus one).
     """
     import math
 
     from cam_design.valve_train.sweep import CLEAN, runners
 
-    table = getattr(law, 'table', None)
-    if table is None or not jump_rpm:
+    if not isinstance(law, TableLobe) or not jump_rpm:
         return None
-    a, h, q, sigma = table
+    a, h, q, sigma = law.table
+    fit = law.lobe.fit
     rng = np.random.default_rng(seed)
     lobe = h > 0
     speeds = []
@@ -111,7 +124,7 @@ def jump_uncertainty(law: JetTableLift, params: object, jump_rpm: float, step_de
         else:
             noise = rng.normal(0.0, sigma, h.size)
         rep = lobe_law(a, h + noise * lobe, key='replica',
-                       noise=max(sigma, (q or 0.0) / math.sqrt(12.0)))
+                       noise=max(sigma, (q or 0.0) / math.sqrt(12.0)), fit=fit)
         run_at, _single = runners(rep, params, step_deg)
 
         def fails(rpm: float) -> bool:
@@ -133,13 +146,16 @@ def jump_uncertainty(law: JetTableLift, params: object, jump_rpm: float, step_de
         return None
     js = np.asarray(speeds)
     sd = float(np.std(js, ddof=1))
-    u = COVERAGE * sd + abs(float(np.mean(js)) - jump_rpm)
+    k = coverage_factor(js.size)
+    u = k * sd + abs(float(np.mean(js)) - jump_rpm)
     what = (f'gauge step {q * 1e3:g} mm' if q else f'noise {sigma * 1e6:.3g} um')
     text = (f'jump speed +-{u:.0f} rpm ({100 * u / jump_rpm:.1f} %) from the table\'s '
-            f'{what}: {len(speeds)} copies of the table with a fresh draw of that noise '
-            f'through the same spline gave {js.min():.0f}..{js.max():.0f} rpm '
-            f'(U = {COVERAGE:g} standard deviations + the mean shift); the '
-            'interpolation between rows of an exact table is not included')
+            f'{what}: {len(speeds)} copies of the table with a fresh draw of that noise, '
+            f'each {fit.text()} as the table was, gave {js.min():.0f}..{js.max():.0f} rpm '
+            f'(U = {k:.2f} standard deviations, Student\'s t for {js.size - 1} degrees of '
+            f'freedom at {CONFIDENCE * 100:g} %, + the mean shift); the interpolation '
+            'between rows of an exact table and the smoothing of a step of h\'\' are not '
+            'included')
     if not math.isfinite(u):
         return None
     return u, text
