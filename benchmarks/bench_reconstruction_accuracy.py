@@ -9,7 +9,8 @@ lobe_law`` judges the lobe law that card, dynamics and the scene routes use inst
 the reconstruction spline: written to reconstruction_accuracy_lobe_law.md).
 Truth: the closed-form lobes of ``cam_design.lift_table.truth_lobes`` (ramped C1
 with the CA+CV ramp, a C2 lobe, a dwell cam, a constant-acceleration cam, a circular-arc
-cam, the flat-tappet intake preset as a narrow acceleration peak: 6 families, 240 cases),
+cam, the flat-tappet intake preset as a narrow acceleration peak, a lobe on S-shaped
+cosine ramps whose h'' changes sign six times: 7 families, 280 cases),
 tabulated over a full revolution at 0.1-5 deg with Gaussian noise 0.1-2 um, or
 0.1 um noise then 0.01 mm rounding, without and with 5 spikes of +-10 um on the lobe.
 Error: RMS of h'' [m/rad^2] over a 0.05 deg grid of the table's range, pooled over the

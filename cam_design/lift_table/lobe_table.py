@@ -377,9 +377,11 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
         correlated = base_noise is not None if fit is None else fit.correlated
         criterion = (fit.criterion if fit is not None else None) or (
             'risk' if correlated else LEVEL_CRITERION)
-        if periodic:
-            rec, curve = _periodic_smooth(b, h, known, criterion)
-        else:
+
+        def smooth(how: str) -> tuple[Any, Curve]:
+            """(Reconstruction, curve) of the rows smoothed by the criterion ``how``."""
+            if periodic:
+                return _periodic_smooth(b, h, known, how)
             # the engine works in (-pi, pi]: a part-turn table beyond it (118..242 deg)
             # is fitted about its own middle and moved back
             mid = 0.5 * (float(b[0]) + float(b[-1]))
@@ -389,13 +391,23 @@ def lobe_law(alpha: ArrayLike, lift: ArrayLike, *, key: str = 'table',
             # (not after a turn: the fairing was made of the rows in their first order)
             same = (fairing is not None and known is None and not offset
                     and rows.alpha.size == b.size and bool(np.all(rows.lift == h)))
-            rec = reconstruct_spline(rows, options=SplineOptions(
-                criterion=criterion, sigma=known, correlated_noise=correlated),
+            fitted = reconstruct_spline(rows, options=SplineOptions(
+                criterion=how, sigma=known, correlated_noise=correlated),
                 fairing=fairing if same else None)
-            curve = _Evaluated(rec.evaluate, mid)
+            return fitted, _Evaluated(fitted.evaluate, mid)
+        rec, curve = smooth(criterion)
+        limit = max(5.0 * sigma_q, 1e-3 * span, 5.0 * noise)
+        if rec.rms_residual > limit and fit is None and criterion != 'risk':
+            # GCV's level misses the rows by more than their noise allows (a coarse
+            # table of a sharp lobe, 37 rows of a narrow peak): the level of the least
+            # estimated acceleration error with that noise, which keeps to the rows
+            missed = float(rec.rms_residual)
+            rec, curve = smooth('risk')
+            criterion = 'risk'
+            why += (f'; {LEVEL_CRITERION} missed the rows by {missed:.3g} m rms, more than '
+                    f'their noise allows ({limit:.3g} m): level by the acceleration risk')
         sigma = max(float(rec.sigma), sigma_q)
         why += f'; smoothed by the reconstruction spline ({rec.why})'
-        limit = max(5.0 * sigma_q, 1e-3 * span, 5.0 * noise)
         if rec.rms_residual > limit:
             raise InputError(key, f'{b.size} points',
                              'a table fine enough to define the lobe: the reconstruction '

@@ -163,11 +163,13 @@ def families() -> list[Family]:
     """The accuracy families: ramped C1 (CA+CV ramp and 2-6-10-14, the §1.1 ramp), a C2
     lobe, a dwell cam, a constant-acceleration cam on the same ramp, a circular-arc cam, and
     a narrow-peak lobe (the flat-tappet intake preset: its acceleration peak about two rows
-    wide at 5 deg, where a fast smooth change of h'' looks like a step)."""
+    wide at 5 deg, where a fast smooth change of h'' looks like a step), and a lobe on
+    S-shaped cosine ramps (six sign changes of h'', where a cam usually has two)."""
     ramp = {'kind': 'constant_acceleration_velocity', 'height': 3.0e-4,
             'velocity': 0.015e-3 / DEG, 'angle': 30 * DEG}
     arc = CircularArcCam()
     dwell = DwellCam()
+    cosine = CosineRampLobe()
     return [
         _registry_family('ramped C1', {'family': 'preset', 'name': 'methods_example'}),
         Family('C2', BumpLobe()),
@@ -177,6 +179,7 @@ def families() -> list[Family]:
             'half_angle': 50 * DEG, 'positive_width': 15 * DEG}),
         Family('circular arc', arc, arc.junctions),
         _registry_family('narrow peak', {'family': 'preset', 'name': 'flat_tappet_intake'}),
+        Family('cosine ramp', cosine, cosine.junctions),
     ]
 
 
