@@ -11,8 +11,12 @@ law's warnings). Best of 3 runs, CPU time (user + sys of this process) and wall 
 Then the lobe law alone of the six accuracy families (0.5 um noise): CPU time of the
 same table 7 times (best, median, worst) and of 7 new tables (seeds 11-17: nothing of
 the table cached, a user's first call; median, worst; and the median of each new table's
-first call less its second). The target is the lobe law in
-under 20 ms. Run: ``python -m benchmarks lobe_table``.
+first call less its second). Then the junction search's work on those new tables,
+counted (level systems built, hinge columns solved, scans, trial places of the
+refinements): counts do not swing with the machine's load as CPU times do (a third
+between runs on a shared machine), so a change of the search's work shows in them
+directly. The target is the lobe law in under 20 ms. Run: ``python -m benchmarks
+lobe_table``.
 """
 from __future__ import annotations
 
@@ -123,6 +127,57 @@ def family_rows() -> list[str]:
     return rows
 
 
+@contextlib.contextmanager
+def _counted(counts: dict[str, int]):
+    """Count, while inside, the level systems built, the hinge columns solved, the scans
+    and the trial places of the refinements scored without their own column (interior
+    places: nearly all), by wrappers on the search's functions taken off at the end."""
+    from cam_design.lift_table import junctions, partial_spline
+
+    def counting(owner, name, key, size=lambda *a: 1):
+        fn = getattr(owner, name)
+
+        def wrapped(*args, **kwargs):
+            counts[key] = counts.get(key, 0) + size(*args)
+            return fn(*args, **kwargs)
+        setattr(owner, name, wrapped)
+        return owner, name, fn
+
+    kept = [counting(partial_spline.LevelSystem, '__init__', 'level systems'),
+            counting(partial_spline, 'windowed_residuals', 'hinge columns solved',
+                     lambda n, lam, places: len(places)),
+            counting(junctions, 'scan', 'scans'),
+            counting(partial_spline.LevelSystem, 'moved_objective', 'trial places')]
+    try:
+        yield
+    finally:
+        for owner, name, fn in kept:
+            setattr(owner, name, fn)
+
+
+def work_rows() -> list[str]:
+    """Median counts of the junction search's work on the new tables of the families
+    whose law has junctions (seeds 11..: as in ``family_rows``)."""
+    from cam_design.lift_table.lobe_table import lobe_law
+    from cam_design.lift_table.truth_lobes import families, measured_table
+
+    keys = ('level systems', 'hinge columns solved', 'scans', 'trial places')
+    rows = ['| table | ' + ' | '.join(keys) + ' |', '|---|' + '---:|' * len(keys)]
+    for fam in families():
+        per_table: list[dict[str, int]] = []
+        for seed in range(11, 11 + FAMILY_REPEATS):
+            a, h = measured_table(fam.law, 2 * math.pi / 3600, sigma=NOISE, seed=seed)
+            counts: dict[str, int] = {}
+            with _counted(counts):
+                lobe_law(a, h, key='bench')
+            per_table.append(counts)
+        if not any(c.get('scans') for c in per_table):
+            continue
+        rows.append(f'| {fam.name}, 0.5 um noise | ' + ' | '.join(
+            f'{np.median([c.get(k, 0) for c in per_table]):g}' for k in keys) + ' |')
+    return rows
+
+
 def main() -> None:
     """Run and write benchmarks/results/lobe_table.md."""
     from cam_design.lift_laws.registry import from_spec
@@ -175,6 +230,7 @@ def main() -> None:
                 rows.append(f'| {name} | {deg.size} | {built.lobe.method} | {route} | '
                             f'{cpu * 1e3:.1f} | {wall * 1e3:.1f} |')
     rows += ['', '## The lobe law alone, the accuracy families', ''] + family_rows()
+    rows += ['', '## The junction search\'s work per new table (3600 rows)', ''] + work_rows()
     rows.append('')
     rows.append(f'load average at the end: {os.getloadavg()[0]:.2f}; the lobe law target: '
                 '< 20 ms')

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import make_smoothing_spline
 
-from cam_design.lift_table import hinges, junctions, partial_spline
+from cam_design.lift_table import hinges, junctions, partial_spline, smoother_band
 from cam_design.lift_table.noise import flat_rows
 from cam_design.lift_table.spline import SplineOptions, reconstruct_spline
 from cam_design.lift_table.truth_lobes import DEG, families, measured_table
@@ -315,6 +315,55 @@ def test_windowed_hinge_columns_equal_whole_table_solves(lam):
         whole = partial_spline.residual_operator(np.array(g), lam)
         peak = np.max(np.abs(whole), axis=0)
         assert np.all(np.max(np.abs(rg - whole), axis=0) <= 1e-7 * peak), tau
+
+
+@pytest.mark.parametrize('lam', [1e3, 1e6, 1e8])
+def test_batched_windowed_columns_equal_one_solve_each(lam):
+    """The columns of several junctions solved at once (one banded solve for all
+    those on the level's interior block, the ends each alone) against each junction's
+    own windowed solve: equal within 1e-14 of the column's peak (LAPACK treats each
+    right-hand side alone; measured equal to the last digit). The windowed solve
+    against the whole-table one: the test above."""
+    n = 3600
+    system = partial_spline.LevelSystem(np.zeros(n), lam)
+    taus = (40.3, 500.25, 1700.5, 1900.75, 2500.4, 3560.6)
+    places = [(*system.window(t), t) for t in taus]
+    assert sum(0 < lo and hi < n for lo, hi, _ in places) >= 2     # a batch
+    batch = partial_spline.windowed_residuals(n, lam, places)
+    for place, got in zip(places, batch):
+        alone, = partial_spline.windowed_residuals(n, lam, [place])
+        peak = np.max(np.abs(alone), axis=0)
+        assert got.shape == alone.shape == (place[1] - place[0], 2)
+        assert np.all(np.max(np.abs(got - alone), axis=0) <= 1e-14 * peak), place
+    # a level's system solves the columns it is asked for together, the same columns;
+    # the hinges G (kept across levels) are each junction's own, opening on its longer
+    # side
+    g, rg = system.columns(list(taus))
+    rows = np.arange(n, dtype=float)
+    length = hinges.taper_nodes(n)
+    for k, (lo, hi, t) in enumerate(places):
+        own = hinges.hinge_values(hinges.side_of(t, n) * (rows - t), length)
+        assert np.max(np.abs(g[:, 2 * k:2 * k + 2] - own)) <= 1e-12 * np.max(np.abs(own))
+        alone, = partial_spline.windowed_residuals(n, lam, [(lo, hi, t)])
+        assert np.max(np.abs(rg[lo:hi, 2 * k:2 * k + 2] - alone)) <= 1e-14 * np.max(
+            np.abs(alone))
+        assert not np.any(rg[:lo, 2 * k:2 * k + 2]) and not np.any(rg[hi:, 2 * k:2 * k + 2])
+
+
+@pytest.mark.parametrize('n', [7, 1100, 3600])
+def test_quadratics_basis_is_orthonormal_and_spans_the_quadratics(n):
+    """The deflation's basis of the quadratics (LAPACK's QR called directly): Q'Q = I
+    within 1e-14, 1, x and x^2 on linspace(-1, 1, n) reproduced from it within 1e-13
+    (unit-sized values), the same Q as numpy's linalg.qr within 1e-15; a deflated
+    vector is orthogonal to the quadratics within 1e-13 of its norm."""
+    q = smoother_band.quadratics(n)
+    assert np.max(np.abs(q.T @ q - np.eye(3))) < 1e-14
+    x = np.linspace(-1.0, 1.0, n)
+    a = np.column_stack([np.ones(n), x, x * x])
+    assert np.max(np.abs(q @ (q.T @ a) - a)) < 1e-13
+    assert np.max(np.abs(q - np.linalg.qr(a)[0])) < 1e-15
+    r = np.random.default_rng(3).normal(size=(n, 2)) + a[:, 1:]
+    assert np.max(np.abs(a.T @ smoother_band.deflate(r))) < 1e-13 * np.linalg.norm(r)
 
 
 @pytest.mark.parametrize('lam', [10.0 ** 2.5, 10.0 ** 4.3, 10.0 ** 7.1])

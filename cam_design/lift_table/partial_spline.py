@@ -27,12 +27,13 @@ from functools import lru_cache
 from typing import TypeVar
 
 import numpy as np
-from numpy.polynomial import chebyshev
 from numpy.typing import NDArray
-from scipy.linalg import lapack
 
 from cam_design.lift_table.hinges import (hinge_block, hinge_coefficients, horner, side_of,
                                           taper_nodes)
+from cam_design.lift_table.smoother_band import (apply_smoother, banded_solve, deflate,
+                                                 interior_factor, penalty_of,
+                                                 trace_smoother, whole_factor)
 
 #: fits a level's system remembers (by junction set): with their vectors, and scores
 FITS_KEPT = 4
@@ -51,123 +52,11 @@ WINDOW_BANDWIDTHS = 48.0
 MAX_MARGIN = 20_000
 
 
-def third_difference_gram(m: int) -> NDArray[np.float64]:
-    """D3^T D3 (free ends) for m >= 4 unknowns in upper banded storage (4 x m)."""
-    c = np.array([-1.0, 3.0, -3.0, 1.0])
-    ab = np.zeros((4, m))
-    for o in range(4):
-        diag = np.convolve(np.ones(m - 3), c[:4 - o] * c[o:])     # length m - o
-        ab[3 - o, o:] = diag[:m - o]
-    return ab
-
-
-@lru_cache(maxsize=16)
-def _penalty(m: int) -> NDArray[np.float64]:
-    ab = third_difference_gram(m)
-    ab.setflags(write=False)
-    return ab
-
-
-def _lower_band(upper: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
-    """I + lam_d P in lower banded storage (Fortran order) from P in upper storage."""
-    m = upper.shape[1]
-    low = np.zeros((4, m), order='F')
-    for k in range(4):
-        low[k, :m - k] = lam_d * upper[3 - k, k:]
-    low[0] += 1.0
-    return low
-
-
-def _cholesky(low: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Lower banded Cholesky factor (read-only). The lower storage: OpenBLAS's
-    factorisation of it takes about 0.4 of the upper one's time at these sizes."""
-    c, info = lapack.dpbtrf(low, lower=1, overwrite_ab=1)
-    if info != 0:
-        raise np.linalg.LinAlgError(f'banded Cholesky failed (info {info})')
-    c.setflags(write=False)
-    return c
-
-
-@lru_cache(maxsize=32)
-def _factor(n: int, lam_d: float) -> NDArray[np.float64]:
-    """Banded Cholesky factor of I + lam_d D3'D3 (free ends, n nodes; cached: the
-    search asks for the same level many times)."""
-    return _cholesky(_lower_band(_penalty(n), lam_d))
-
-
-@lru_cache(maxsize=16)
-def _interior_factor(m: int, lam_d: float) -> NDArray[np.float64]:
-    """Banded Cholesky factor of the m x m block of I + lam_d D3'D3 away from both
-    ends (every row the full stencil 20, -15, 6, -1; Toeplitz)."""
-    stencil = np.array([-1.0, 6.0, -15.0, 20.0])
-    return _cholesky(_lower_band(np.repeat(stencil[:, None], m, axis=1), lam_d))
-
-
-def _solve(factor: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(L L')^-1 rhs for a lower banded factor whose first rhs.shape[0] columns are
-    used (the leading block's factor is the leading part of the whole one)."""
-    m = rhs.shape[0]
-    x, info = lapack.dpbtrs(factor[:, :m], rhs, lower=1)
-    if info != 0:
-        raise np.linalg.LinAlgError(f'banded solve failed (info {info})')
-    return np.asarray(x, dtype=np.float64)
-
-
-def _smooth(rhs: NDArray[np.float64], lam_d: float) -> NDArray[np.float64]:
-    """(I + lam_d D3'D3)^-1 rhs (rhs (n,) or (n, k))."""
-    return _solve(_factor(rhs.shape[0], float(lam_d)), rhs)
-
-
-@lru_cache(maxsize=16)
-def _cubed_spectrum(n: int) -> NDArray[np.float64]:
-    """mu_k^3 of the reflective second difference, modes 1 .. n - 3 (read-only)."""
-    mu = 2.0 - 2.0 * np.cos(np.pi * np.arange(1, n - 2) / n)
-    m3 = mu ** 3
-    m3.setflags(write=False)
-    return m3
-
-
-def _trace_smoother(n: int, lam_d: float) -> float:
-    """tr (I + lam_d D3'D3)^-1: the three unpenalised quadratics plus the reflective
-    spectrum mu_k^3 of the other modes (boundary terms of order one left out)."""
-    return 3.0 + float(np.sum(1.0 / (1.0 + lam_d * _cubed_spectrum(n))))
-
-
-@lru_cache(maxsize=64)
-def _quadratics(n: int) -> NDArray[np.float64]:
-    """Orthonormal basis (n, 3) of the quadratics on n nodes (read-only, cached)."""
-    x = np.linspace(-1.0, 1.0, n)
-    q, _ = np.linalg.qr(np.column_stack([np.ones(n), x, x * x]))
-    q.setflags(write=False)
-    return q
-
-
-def _deflate(r: NDArray[np.float64]) -> NDArray[np.float64]:
-    """r without its quadratic part. R r is orthogonal to the quadratics (the free
-    ends reproduce them); the banded solve's rounding, amplified by the condition
-    number, is not, and a long hinge would sum it up."""
-    q = _quadratics(r.shape[0])
-    return r - q @ (q.T @ r)
-
-
-#: the stencil of the third difference
-_THIRD_DIFFERENCE = np.array([-1.0, 3.0, -3.0, 1.0])
-
-
-def _penalty_of(g: NDArray[np.float64]) -> NDArray[np.float64]:
-    """P g = D3'D3 g (free ends of ``g``'s own rows)."""
-    d3 = np.diff(g, 3, axis=0)
-    if g.ndim == 1:
-        return np.convolve(d3, _THIRD_DIFFERENCE)
-    return np.column_stack([np.convolve(d3[:, k], _THIRD_DIFFERENCE)
-                            for k in range(g.shape[1])])
-
-
 @lru_cache(maxsize=512)
 def _hinge_penalty(n: int, tau: float, a: int, b: int) -> NDArray[np.float64]:
     """P g on rows [a, b) of the hinges g of the junction at node ``tau`` on n nodes
     (read-only, kept: asked for at every level, which only scales it)."""
-    out = _penalty_of(_hinge_pair(n, tau)[a:b])
+    out = penalty_of(_hinge_pair(n, tau)[a:b])
     out.setflags(write=False)
     return out
 
@@ -176,7 +65,7 @@ def residual_operator(g: NDArray[np.float64], lam_d: float) -> NDArray[np.float6
     """R g = (I + lam_d P)^-1 lam_d P g, P = D3'D3: the same as g - S g, but formed from
     third differences, so that the long quadratic tail of a hinge (S reproduces it)
     adds no rounding."""
-    return _deflate(_smooth(lam_d * _penalty_of(g), lam_d))
+    return deflate(apply_smoother(lam_d * penalty_of(g), lam_d))
 
 
 def window_margin(lam_d: float) -> int:
@@ -189,6 +78,7 @@ def window_margin(lam_d: float) -> int:
     return int(min(reach, MAX_MARGIN))
 
 
+@lru_cache(maxsize=1024)
 def _window(n: int, tau: float, lam_d: float) -> tuple[int, int]:
     """Rows [lo, hi) on which the column R g of the junction at node ``tau`` is solved:
     P g (the hinge's third differences: its node and its taper) and a margin either
@@ -218,23 +108,44 @@ def _hinge_support(n: int, tau: float, lo: int, hi: int) -> tuple[int, int]:
     return max(a, lo), min(b, hi)
 
 
-def _windowed_residual(n: int, lam_d: float, lo: int, hi: int, tau: float
-                       ) -> NDArray[np.float64]:
-    """R g, (hi - lo, 2), of the hinges g of the junction at node ``tau`` on rows
-    [lo, hi) of n rows, zero outside (the rows of I + lam_d P there: a leading block, a
-    trailing one (the matrix reads the same backwards) or the Toeplitz interior)."""
-    rhs = np.zeros((hi - lo, 2))
-    # P g from the hinge's own rows only: beyond them its third differences are those of
-    # a quadratic or of zero (0 but for the rounding of the quadratic's values)
+def _windowed_rhs(n: int, lam_d: float, lo: int, hi: int, tau: float,
+                  out: NDArray[np.float64]) -> None:
+    """lam_d P g of the hinges g of the junction at node ``tau``, rows [lo, hi) of n
+    rows, written into the zeros ``out`` (hi - lo, 2). P g from the hinge's own rows
+    only: beyond them its third differences are those of a quadratic or of zero (0 but
+    for the rounding of the quadratic's values)."""
     a, b = _hinge_support(n, tau, lo, hi)
-    rhs[a - lo:b - lo] = lam_d * _hinge_penalty(n, float(tau), a, b)
-    if lo == 0:
-        x = _solve(_factor(n, lam_d), rhs)
-    elif hi == n:
-        x = _solve(_factor(n, lam_d), rhs[::-1])[::-1]
-    else:
-        x = _solve(_interior_factor(hi - lo, lam_d), rhs)
-    return _deflate(x)
+    out[a - lo:b - lo] = lam_d * _hinge_penalty(n, float(tau), a, b)
+
+
+def windowed_residuals(n: int, lam_d: float, places: list[tuple[int, int, float]]
+                       ) -> list[NDArray[np.float64]]:
+    """R g, (hi - lo, 2), of the hinges g of the junction at node tau on rows [lo, hi)
+    of n rows (zero outside), for each (lo, hi, tau) in ``places``: the rows of
+    I + lam_d P there are a leading block, a trailing one (the matrix reads the same
+    backwards) or the Toeplitz interior. The columns on the interior block of one
+    length are solved in one banded solve (LAPACK's solve and the deflation treat each
+    right-hand side alone: the same numbers as one solve per junction)."""
+    out: list[NDArray[np.float64] | None] = [None] * len(places)
+    interior: dict[int, list[int]] = {}
+    for k, (lo, hi, tau) in enumerate(places):
+        if lo > 0 and hi < n:
+            interior.setdefault(hi - lo, []).append(k)
+            continue
+        rhs = np.zeros((hi - lo, 2))
+        _windowed_rhs(n, lam_d, lo, hi, tau, rhs)
+        x = (banded_solve(whole_factor(n, lam_d), rhs) if lo == 0
+             else banded_solve(whole_factor(n, lam_d), rhs[::-1])[::-1])
+        out[k] = deflate(x)
+    for m, ks in interior.items():
+        rhs = np.zeros((m, 2 * len(ks)))
+        for j, k in enumerate(ks):
+            lo, hi, tau = places[k]
+            _windowed_rhs(n, lam_d, lo, hi, tau, rhs[:, 2 * j:2 * j + 2])
+        x = deflate(banded_solve(interior_factor(m, lam_d), rhs))
+        for j, k in enumerate(ks):
+            out[k] = np.ascontiguousarray(x[:, 2 * j:2 * j + 2])   # as one solve gives it
+    return [x for x in out if x is not None]
 
 
 @lru_cache(maxsize=256)
@@ -257,6 +168,15 @@ def _hinge_pair(n: int, tau: float) -> NDArray[np.float64]:
     rows[:, 0] = horner(u, quad)
     near = int(np.searchsorted(u, length, side='left'))
     rows[:near, 1] = horner(u[:near], cubic)
+    g.setflags(write=False)
+    return g
+
+
+@lru_cache(maxsize=STACKS_KEPT)
+def _hinge_stack(n: int, taus: tuple[float, ...]) -> NDArray[np.float64]:
+    """G, (n, 2J): the hinges of the junctions at node positions ``taus`` side by side
+    (read-only, cached: the level search asks for the same set at several levels)."""
+    g = np.hstack([_hinge_pair(n, t) for t in taus]) if taus else np.zeros((n, 0))
     g.setflags(write=False)
     return g
 
@@ -349,10 +269,10 @@ class LevelSystem:
         self.values = values
         self.n = int(values.size)
         self.lam_d = float(lam_d)
-        self.ry = _deflate(values - _smooth(values, self.lam_d))
+        self.ry = deflate(values - apply_smoother(values, self.lam_d))
         self.yry = float(values @ self.ry)
         self.ryry = float(self.ry @ self.ry)
-        self.trace = _trace_smoother(self.n, self.lam_d)
+        self.trace = trace_smoother(self.n, self.lam_d)
         self._cols: dict[float, _Column] = {}
         self._stacks: dict[tuple[float, ...], NDArray[np.float64]] = {}
         self._fits: dict[tuple[float, ...], PartialFit] = {}
@@ -364,19 +284,27 @@ class LevelSystem:
     def _column(self, tau: float) -> _Column:
         col = self._cols.get(tau)
         if col is None:
-            g = _hinge_pair(self.n, tau)
-            lo, hi = _window(self.n, tau, self.lam_d)
-            rg = _windowed_residual(self.n, self.lam_d, lo, hi, tau)
-            col = self._cols[tau] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
-                                            rg.T @ self.ry[lo:hi], g[lo:hi].T @ rg,
-                                            rg.T @ rg)
+            self._solve_columns((tau,))
+            col = self._cols[tau]
         return col
+
+    def _solve_columns(self, taus: tuple[float, ...]) -> None:
+        """The columns of the junctions ``taus`` not yet solved at this level, their
+        windowed solves batched (``windowed_residuals``)."""
+        new = [t for t in dict.fromkeys(taus) if t not in self._cols]
+        if not new:
+            return
+        places = [(*_window(self.n, t, self.lam_d), t) for t in new]
+        for (lo, hi, t), rg in zip(places, windowed_residuals(self.n, self.lam_d, places)):
+            g = _hinge_pair(self.n, t)
+            self._cols[t] = _Column(lo, hi, g, rg, rg.T @ self.values[lo:hi],
+                                    rg.T @ self.ry[lo:hi], g[lo:hi].T @ rg, rg.T @ rg)
 
     def columns(self, taus: list[float]) -> Stack:
         """(G, R G), (n, 2J), of junctions at node positions ``taus``."""
         key = tuple(float(t) for t in taus)
-        g = np.hstack([self._column(t).g for t in key]) if key else np.zeros((self.n, 0))
-        return g, self._residual_stack(key)
+        self._solve_columns(key)
+        return _hinge_stack(self.n, key), self._residual_stack(key)
 
     def _residual_stack(self, key: tuple[float, ...]) -> NDArray[np.float64]:
         """R G, (n, 2J), of the junctions ``key``, zero outside each junction's window
@@ -469,6 +397,10 @@ class LevelSystem:
         return PartialFit(smooth, s.coef, float(resid @ resid), s.edf, float(z @ resid),
                           resid)
 
+    def window(self, tau: float) -> tuple[int, int]:
+        """Rows [lo, hi) on which the column of a junction at node ``tau`` is solved."""
+        return _window(self.n, tau, self.lam_d)
+
     def interior(self, tau: float) -> bool:
         """The column of a junction at node ``tau`` is solved on the interior block (its
         window reaches neither end of the table)."""
@@ -535,7 +467,7 @@ def interior_hinge_grams(lam_d: float, length: float, offsets: tuple[float, ...]
     size = int(math.ceil(length)) + 12 + 2 * margin
     g = hinge_block(np.arange(size, dtype=float)[:, None]
                     - (margin + 5.0 + np.asarray(offsets, dtype=float))[None, :], length)
-    rg = _deflate(_solve(_interior_factor(size, lam_d), lam_d * _penalty_of(g)))
+    rg = deflate(banded_solve(interior_factor(size, lam_d), lam_d * penalty_of(g)))
     return tuple((g[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2],
                   rg[:, 2 * k:2 * k + 2].T @ rg[:, 2 * k:2 * k + 2])
                  for k in range(len(offsets)))
@@ -566,7 +498,20 @@ def _interior_gram_fit(lam_d: float, length: float) -> NDArray[np.float64]:
     frac = 0.5 - 0.5 * np.cos(np.pi * (k + 0.5) / GRAM_NODES)
     grams = interior_hinge_grams(float(lam_d), float(length), tuple(float(f) for f in frac))
     values = np.array([np.concatenate([m.reshape(4), v.reshape(4)]) for m, v in grams])
-    coef = np.asarray(chebyshev.chebfit(2.0 * frac - 1.0, values, GRAM_NODES - 1),
-                      dtype=np.float64)
+    coef = _chebyshev_interpolation() @ values
     coef.setflags(write=False)
     return coef
+
+
+@lru_cache(maxsize=1)
+def _chebyshev_interpolation() -> NDArray[np.float64]:
+    """(GRAM_NODES, GRAM_NODES): the Chebyshev coefficients of the polynomial through
+    values at the Chebyshev points of ``_interior_gram_fit``, from the discrete
+    orthogonality of T_j there (the interpolant chebfit finds by least squares)."""
+    k = np.arange(GRAM_NODES)
+    theta = np.pi * (k + 0.5) / GRAM_NODES
+    # the places run from -1 up: x_k = 2 f_k - 1 = -cos(theta_k)
+    out = 2.0 / GRAM_NODES * np.cos(np.outer(k, np.pi - theta))
+    out[0] *= 0.5
+    out.setflags(write=False)
+    return out
