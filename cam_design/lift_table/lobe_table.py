@@ -33,7 +33,8 @@ what the rows could not tell. The rules (docs/methods.md, "One table, one lobe")
   is joined the same way, with a warning; above ``MID_LOBE_LIMIT`` of the max lift it
   is refused. Several lobes: the highest is taken, the others named in a warning.
 * results no cam can have are refused: a max lift above every row by more than the
-  noise, a peak acceleration far above what the lobe's lift and duration allow.
+  noise, a peak acceleration far above what the lobe's lift and duration allow
+  (``lobe_checks``, which also gives the law's warnings).
 
 The engine (``reconstruction.spline``) is called through its public entry points only.
 This module belongs with the engine; both should move to a pure-numerics package of
@@ -51,12 +52,13 @@ from numpy.typing import ArrayLike, NDArray
 from cam_design.errors import InputError
 from cam_design.lift_laws.base import LiftLaw
 from cam_design.lift_laws.jet_table import JetTableLift
+from cam_design.lift_table.lobe_checks import law_checks
 from cam_design.lift_table.lobe_joins import JOIN_MIN_DEG, Curve, join, lobe_edge
 from cam_design.lift_table.lobe_frame import (BASE_MIN_DEG, BASE_OFFSET_M, TWO_PI, base_level,
                                               lobe_middle, lobe_turn, part_turn_centre,
                                               seam_frame)
 from cam_design.lift_table.noise import BaseNoise, base_circle_noise
-from cam_design.lift_table.samples import clean_samples, other_lobes_warning, wrap_pi
+from cam_design.lift_table.samples import clean_samples, wrap_pi
 from cam_design.lift_table.table_fit import LEVEL_CRITERION, TableFit
 
 if TYPE_CHECKING:
@@ -90,11 +92,6 @@ MID_LOBE_LIMIT = 0.5
 #: a mid-lobe join longer than this share of the lobe between the joins is refused (the
 #: table ends on a flat stretch off 0, where no join from the base circle fits)
 MID_JOIN_MAX = 1.0
-#: a lobe law whose peak |h''| exceeds this many times 2 H / (half-duration)^2 (what a
-#: constant-acceleration rise of the same lift and duration needs) is refused
-ACC_PLAUSIBLE = 100.0
-#: a cam-angle lobe wider than this [deg] seat to seat is probably in crank degrees
-CRANK_SUSPECT_DEG = 200.0
 #: inch gauges round to 0.0001 in: a quantum in inches [m per in]
 INCH = 0.0254
 
@@ -477,7 +474,7 @@ def _build(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], info: L
     law.lobe = info
     rows = info.rows or (b, h)
     law.table = (rows[0], rows[1], info.quantum or None, info.sigma)
-    info.warnings.extend(_checks(law, b, h, info, (grid + info.shift, lift)))
+    info.warnings.extend(law_checks(law, b, h, info, (grid + info.shift, lift)))
     return law
 
 
@@ -603,72 +600,3 @@ def _lobe_pieces(curve: Curve, b: NDArray[np.float64], h: NDArray[np.float64], t
     if not run_hi:
         pieces.append((hi, hi + w_hi, join(hi, w_hi, ends[:, 1], 1)))
     return pieces
-
-
-def _odd_row(b: NDArray[np.float64], h: NDArray[np.float64], info: LobeInfo) -> str:
-    """'; the row at A deg (H mm) stands D mm off its neighbours' for the row farthest
-    from the median of its six neighbours, when that is more than a tenth of the lift
-    range (a typo, a spike); '' otherwise. Angles in the table's frame."""
-    if h.size < 7:
-        return ''
-    pad = np.concatenate([h[-3:], h, h[:3]]) if info.periodic else np.pad(h, 3, mode='edge')
-    near = np.stack([pad[3 + k:3 + k + h.size] for k in (-3, -2, -1, 1, 2, 3)])
-    off = h - np.median(near, axis=0)
-    j = int(np.argmax(np.abs(off)))
-    if abs(float(off[j])) <= 0.1 * float(np.ptp(h)):
-        return ''
-    at = math.degrees(float(wrap_pi(b[j] + info.offset)))
-    return (f'; the row at {at:.6g} deg ({(h[j] + info.base) * 1e3:.6g} mm) stands '
-            f'{abs(float(off[j])) * 1e3:.4g} mm off its neighbours: a typo?')
-
-
-def _checks(law: TableLobe, b: NDArray[np.float64], h: NDArray[np.float64],
-            info: LobeInfo, sampled: tuple[NDArray[np.float64], NDArray[np.float64]]
-            ) -> list[str]:
-    """Warnings on the law; InputError for a lobe no cam can have. ``sampled``: the
-    law's lift [m] on 8001 points over its support [rad] (``_build`` has them)."""
-    out: list[str] = []
-    grid, lift = sampled
-    top = float(np.max(lift))
-    # between rows a lobe rises above its highest row by up to |h''| (step/2)^2 / 2
-    acc = float(np.max(np.abs(law(grid, 2))))
-    rise = 0.125 * acc * info.step ** 2
-    allowed = float(np.max(h)) + 2.0 * rise + max(3.0 * info.sigma, info.quantum, 1e-6)
-    if top > allowed:
-        raise InputError(info.key, f'max lift {top * 1e3:.4f} mm from rows up to '
-                         f'{float(np.max(h)) * 1e3:.4f} mm',
-                         'rows that define the lobe (the curve leaves the rows\' range: '
-                         'a gap in the table?): tabulate the whole lobe')
-    if float(np.min(lift)) < -max(3.0 * info.sigma, info.quantum, 1e-6):
-        out.append(f'the lobe law dips to {float(np.min(lift)) * 1e6:.3g} um below the base '
-                   'circle: the rows are too coarse for their shape')
-    on = np.flatnonzero(lift > 0.01 * top)
-    half = 0.5 * float(grid[on[-1]] - grid[on[0]]) if on.size > 1 else math.pi
-    plausible = ACC_PLAUSIBLE * 2.0 * top / max(half, 1e-6) ** 2
-    if acc > plausible:
-        raise InputError(info.key, f"peak acceleration {acc:.3g} m/rad^2",
-                         f'a lobe its lift ({top * 1e3:.3g} mm) and duration '
-                         f'({math.degrees(2 * half):.0f} deg) allow (at most '
-                         f'{plausible:.3g} m/rad^2): the rows are noisier than they look'
-                         f'{_odd_row(b, h, info)}; smooth or re-measure the table')
-    for side in info.mid_lobe:
-        j = info.joins[0] if side == 'start' else info.joins[1]
-        assert j is not None   # a mid-lobe end is always joined
-        at = j[1] if side == 'start' else j[0]
-        level = float(law(np.array([at + info.law_offset]), 0)[0])
-        out.append(f'the table {side}s mid-lobe ({level * 1e3:.4g} mm, '
-                   f'{level / top * 100:.2g} % of the max lift, no base-circle row): joined '
-                   f'to the base circle over {math.degrees(j[1] - j[0]):.2f} deg; events '
-                   f'below {level * 1e3:.4g} mm are the join\'s, not the cam\'s')
-    seat = np.flatnonzero(lift > max(info.level, 1e-4 * top))   # seat to seat
-    width = math.degrees(float(grid[seat[-1]] - grid[seat[0]])) if seat.size > 1 else 0.0
-    if not info.periodic and width > CRANK_SUSPECT_DEG:
-        out.append(f'the lobe is {width:.0f} cam deg wide seat to seat (more than '
-                   f'{CRANK_SUSPECT_DEG:.0f}): are the angles crank degrees? name the '
-                   'column crank_deg (or halve the angles)')
-    other = other_lobes_warning(wrap_pi(b + info.offset), h)   # in the table frame
-    if other:
-        out.append(other)
-    if info.base_noise is not None:
-        out.append(info.base_noise.warning())
-    return out
