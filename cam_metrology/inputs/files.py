@@ -276,6 +276,12 @@ class atomic_dir(atomic_file):
             self.holder.mkdir()
         except OSError as err:
             raise write_error(self.key, self.target, err, self.what) from None
+        except BaseException as exc:
+            # a signal handled as the mkdir returns is raised here, before the with
+            # statement would call __exit__: the holder may exist, remove it and say so
+            discard(self.holder)
+            interrupted_note(exc, self.key, self.target)
+            raise
         return self.tmp
 
     def _commit(self) -> None:
