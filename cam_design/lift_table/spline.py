@@ -86,6 +86,12 @@ def derivative_noise(sigma: float, step: float, lam_d: float, n: int, nu: int) -
     return sigma / step ** nu * math.sqrt(float(np.mean(mu ** nu * gain ** 2)))
 
 
+def grid_edf(lam_d: float, n: int) -> float:
+    """Effective degrees of freedom of the smoother of ``n`` uniform values at the
+    discrete level ``lam_d``: the sum of its DCT gains 1 / (1 + lam_d mu_k^3)."""
+    return float(np.sum(1.0 / (1.0 + lam_d * _spectrum(n) ** 3)))
+
+
 def _spectrum(n: int) -> NDArray[np.float64]:
     """Eigenvalues mu_k = 2 - 2 cos(pi k / n) of the reflective second difference."""
     return 2.0 - 2.0 * np.cos(np.pi * np.arange(n) / n)
@@ -414,8 +420,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
     else:
         lam = require_positive('smoothing', opt.smoothing, allow_zero=True)
         lam_d = lam / step ** 5
-        mu = _spectrum(grid.size)
-        choice = SmoothingChoice(lam_d, lam, float(np.sum(1.0 / (1.0 + lam_d * mu ** 3))),
+        choice = SmoothingChoice(lam_d, lam, grid_edf(lam_d, grid.size),
                                  fair.sigma, f'set by the caller: lam = {lam:.4g} rad^5')
     why = choice.why
     lam_d = choice.lam_d
@@ -580,8 +585,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
         # row's miss into h''.
         target = expected
         if not opt.correlated_noise and significant_changes(spline, lam_d) > expected and \
-                float(np.sum(1.0 / (1.0 + lam_d * _spectrum(grid.size) ** 3))) <= \
-                0.5 * np.count_nonzero(kept):
+                grid_edf(lam_d, grid.size) <= 0.5 * np.count_nonzero(kept):
             target = max(expected, beyond_noise(spline, lam_d))
             real = target > expected
         if kinked_fit and significant_changes(spline, lam_d) > target:
@@ -607,8 +611,7 @@ def _reconstruct(alpha: ArrayLike | CleanSamples, lift: ArrayLike | None,
             why += (f'; raised x{4 ** raised} to lam_d = {lam_d:.4g} for the sign '
                     f"pattern of h'' ({target} sign changes expected)")
     fit = at_rows[kept]
-    mu = _spectrum(grid.size)
-    edf = float(np.sum(1.0 / (1.0 + lam_d * mu ** 3)))
+    edf = grid_edf(lam_d, grid.size)
     parameter: dict[str, Any] = {
         'smoothing': lam_d * step ** 5, 'smoothing_discrete': lam_d, 'edf': edf,
         'criterion': opt.criterion if opt.smoothing is None else 'manual',
