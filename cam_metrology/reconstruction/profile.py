@@ -273,13 +273,13 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
     if lobe is not None and lobe.lobe.base:
         # the lobe law's base circle is the fits' zero too (its warning says where)
         data = dataclasses.replace(data, lift=data.lift - lobe.lobe.base)
-    if lobe is not None and lobe.lobe.base_noise is not None and sopt.sigma is None \
+    if lobe is not None and lobe.lobe.fit.correlated and sopt.sigma is None \
             and sopt.smoothing is None:
         # noise the rows share (its warning says so): GCV would take it for the lobe;
-        # the spline smooths with the base circle's spread as known noise, as the lobe
-        # law does
-        sopt = dataclasses.replace(sopt, criterion='risk', sigma=lobe.lobe.base_noise.sigma,
-                                   correlated_noise=True)
+        # the spline is smoothed as the lobe law was (its criterion and known noise)
+        law_fit = lobe.lobe.fit
+        sopt = dataclasses.replace(sopt, criterion=law_fit.criterion or sopt.criterion,
+                                   sigma=law_fit.known, correlated_noise=True)
     # the fits run in the lobe law's frame: rows turned so that their seam lies in the
     # base circle (a lobe across +-180 deg) or in the gap of a partial table
     turn = fit_turn(table.alpha, lobe)
@@ -296,8 +296,9 @@ def reconstruct_table(table: LiftTable, *, methods: tuple[str, ...] = METHODS,
                   if design is None else None)
     if off_centre:
         table_warnings.append(off_centre)
-    table_warnings += [w for w in (None if design is not None else   # the design says
-                                   other_lobes_warning(data.alpha, data.lift),) if w]
+    other = None if design is not None else other_lobes_warning(data.alpha, data.lift)
+    if other:   # (a design says how many lobes there are)
+        table_warnings.append(other)
     table_warnings += [w for w in said if w not in table_warnings
                        and not w.startswith('the table holds')]
     table_notes = []
