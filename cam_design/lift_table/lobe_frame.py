@@ -19,14 +19,12 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cam_design.lift_table.noise import BASE_SHARE
 from cam_design.lift_table.samples import wrap_pi
 
 TWO_PI = 2.0 * math.pi
 #: a run of base-circle rows shorter than this [deg] is the bottom of an eccentric
 BASE_MIN_DEG = 20.0
-#: rows within this share of the lift range of the lower quartile are the base circle
-#: for ``base_level`` (80 um on an 8 mm lobe: noise and run-out, not the ramps)
-BASE_BAND = 0.01
 #: fewest degrees of such rows for a base level
 BASE_LEVEL_DEG = 60.0
 #: a base circle this far from 0 [m] (and above the noise) is taken off the lifts
@@ -92,15 +90,16 @@ def seam_frame(a: NDArray[np.float64], h: NDArray[np.float64], step: float,
 
 def base_level(h: NDArray[np.float64], step: float) -> tuple[float, int] | None:
     """(lift [m], rows) the rows give the base circle: the median of the rows within
-    ``BASE_BAND`` of the lift range of their lower quartile, when those cover at least
-    ``BASE_LEVEL_DEG`` at ``step`` [rad]; None otherwise (an eccentric, a table of the
-    lobe alone). For a table over the whole turn (part of one may hold only the lobe and
-    its ramps, whose quartile is a ramp). The lower quartile, not the lowest row: a few
-    rows below the base circle (a valve trace reading under zero near firing TDC) do not
-    move it, and a band wide enough for a base circle's run-out keeps its median at the
-    middle of it."""
+    ``noise.BASE_SHARE`` of the lift range of their lower quartile (80 um on an 8 mm
+    lobe: noise and run-out, not the ramps; the band of the base-circle noise test),
+    when those cover at least ``BASE_LEVEL_DEG`` at ``step`` [rad]; None otherwise (an
+    eccentric, a table of the lobe alone). For a table over the whole turn (part of one
+    may hold only the lobe and its ramps, whose quartile is a ramp). The lower quartile,
+    not the lowest row: a few rows below the base circle (a valve trace reading under
+    zero near firing TDC) do not move it, and a band wide enough for a base circle's
+    run-out keeps its median at the middle of it."""
     y = np.asarray(h, dtype=float)
-    near = np.abs(y - float(np.quantile(y, 0.25))) <= BASE_BAND * float(np.ptp(y))
+    near = np.abs(y - float(np.quantile(y, 0.25))) <= BASE_SHARE * float(np.ptp(y))
     if np.count_nonzero(near) * step < math.radians(BASE_LEVEL_DEG):
         return None
     return float(np.median(y[near])), int(np.count_nonzero(near))
